@@ -1,0 +1,41 @@
+import subprocess
+import sys
+
+import trimesh
+
+from texcad.cli import main
+
+
+def test_textures_lists_names_first(capsys):
+    assert main(["textures"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert len(lines) >= 3
+    assert lines[0].split()[0] == "stones"
+
+
+def test_demo_writes_files_and_summary(tmp_path, capsys):
+    assert main(["demo", "--out", str(tmp_path), "--size", "20", "--pitch", "0.5"]) == 0
+    out = capsys.readouterr()
+    for f in ("demo.stl", "demo.3mf", "demo_heightmap.png"):
+        assert (tmp_path / f).stat().st_size > 0
+    assert "watertight   True" in out.out and "triangles" in out.out and "seconds" in out.out
+    assert "%]" in out.err  # progress lines
+    assert trimesh.load(tmp_path / "demo.stl").is_watertight
+
+
+def test_errors_are_one_line_without_traceback(tmp_path):
+    r = subprocess.run(
+        [sys.executable, "-m", "texcad", "demo", "--out", str(tmp_path), "--texture", "nope"],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode != 0
+    assert "Traceback" not in r.stderr
+    assert r.stderr.strip().splitlines()[-1].startswith("texcad: error: unknown built-in texture 'nope'")
+    assert not (tmp_path / "demo.stl").exists()
+
+
+def test_help_lists_every_command():
+    r = subprocess.run([sys.executable, "-m", "texcad", "--help"], capture_output=True, text=True)
+    for cmd in ("demo", "textures"):
+        assert cmd in r.stdout

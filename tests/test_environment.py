@@ -1,0 +1,24 @@
+"""The pinned CAD stack imports together and each kernel builds a solid."""
+
+import importlib.metadata as md
+
+
+def test_build123d_and_cadquery_share_one_ocp():
+    import build123d
+    import cadquery as cq
+    import manifold3d
+    import trimesh
+
+    assert md.version("build123d").startswith("0.12.")
+    assert md.version("cadquery").startswith("2.8.")
+    assert md.version("cadquery-ocp").startswith("7.9.3")
+    b = build123d.Box(10, 20, 30)
+    assert abs(b.volume - 6000) < 1e-6
+    w = cq.Workplane("XY").box(10, 20, 30)
+    assert abs(w.val().Volume() - 6000) < 1e-6
+    # One OCP module backs both wrappers (two copies would give two TopoDS_Shape classes).
+    from OCP.TopoDS import TopoDS_Shape
+
+    assert isinstance(b.wrapped, TopoDS_Shape) and isinstance(w.val().wrapped, TopoDS_Shape)
+    assert manifold3d.Manifold.cube([1, 2, 3]).volume() == 6
+    assert trimesh.creation.box([1, 2, 3]).volume == 6

@@ -1,0 +1,59 @@
+import os
+import zipfile
+
+import numpy as np
+import pytest
+import trimesh
+
+import texcad
+from texcad import GeometryError, ParameterError, export
+
+
+@pytest.fixture
+def part(small_hm):
+    return texcad.textured_plate(small_hm, size=small_hm.size, thickness=3).mesh
+
+
+def test_binary_stl_round_trip(tmp_path, part):
+    p = tmp_path / "p.stl"
+    export(part, p)
+    assert os.path.getsize(p) == 84 + 50 * part.num_triangles
+    tm = trimesh.load(p)
+    assert tm.is_watertight and tm.is_winding_consistent
+    assert np.isclose(tm.volume, part.volume, rtol=1e-6)
+
+
+def test_3mf_millimetres_and_watertight(tmp_path, part):
+    p = tmp_path / "p.3mf"
+    export(part, p)
+    with zipfile.ZipFile(p) as z:
+        assert 'unit="millimeter"' in z.read("3D/3dmodel.model").decode()
+    scene = trimesh.load(p)
+    assert scene.units == "millimeter"
+    (g,) = scene.geometry.values()
+    assert g.is_watertight
+    assert np.isclose(g.volume, part.volume, rtol=1e-5)
+
+
+def test_3mf_two_objects_one_build_item(tmp_path, small_hm):
+    tp = texcad.textured_plate(small_hm, size=small_hm.size, thickness=3)
+    p = tmp_path / "two.3mf"
+    texcad.write_3mf([("base", tp.base), ("texture", tp.texture)], p)
+    scene = trimesh.load(p)
+    assert len(scene.geometry) == 2
+
+
+def test_failed_export_leaves_no_file(tmp_path, part, monkeypatch):
+    broken = texcad.Mesh(part.vertices, part.faces[:-1])
+    with pytest.raises(GeometryError, match="not watertight"):
+        export(broken, tmp_path / "broken.stl")
+    with pytest.raises(ParameterError, match=".obj"):
+        export(part, tmp_path / "p.obj")
+
+    def boom(*a, **k):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(zipfile.ZipFile, "writestr", boom)
+    with pytest.raises(OSError, match="disk full"):
+        export(part, tmp_path / "p.3mf")
+    assert list(tmp_path.iterdir()) == []

@@ -1,0 +1,35 @@
+import numpy as np
+import pytest
+
+import texcad
+from texcad import GeometryError
+
+
+def test_textured_plate_builtin(tmp_path):
+    tp = texcad.textured_plate("builtin:diamond_knurl", size=(20, 10), thickness=4, height=1.0, pitch=0.25)
+    m = tp.mesh
+    assert m.is_watertight
+    lo, hi = m.bounds
+    assert np.allclose(lo, [0, 0, -4], atol=1e-4) and np.allclose(hi[:2], [20, 10], atol=1e-4)
+    assert np.isclose(hi[2], 1.0, atol=1e-3)
+    assert len(texcad.to_manifold(m).decompose()) == 1
+
+
+def test_texture_larger_than_plate_is_rejected(small_hm):
+    with pytest.raises(GeometryError, match="larger"):
+        texcad.textured_plate(small_hm, size=(10, 10))
+
+
+def test_slab_deeper_than_plate_is_rejected(small_hm):
+    with pytest.raises(GeometryError, match="reach"):
+        texcad.textured_plate(small_hm, size=small_hm.size, thickness=1.0, depth=2.0)
+
+
+def test_same_inputs_same_bytes(tmp_path):
+    for run in ("a", "b"):
+        (tmp_path / run).mkdir()
+        tp = texcad.textured_plate("builtin:stones", size=(12, 12), thickness=2, pitch=0.25)
+        texcad.export(tp.mesh, tmp_path / run / "part.stl")
+        texcad.export(tp.mesh, tmp_path / run / "part.3mf")
+    for f in ("part.stl", "part.3mf"):
+        assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes()

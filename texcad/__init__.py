@@ -1,0 +1,50 @@
+"""texcad: support-free textured solids for additive manufacturing.
+
+Turn a texture sample (an image, a scan, or a built-in) into a watertight textured
+solid on a build123d or CadQuery part, exported as STL/3MF. Units are millimetres
+and degrees everywhere.
+
+Pipeline (one module per stage)::
+
+    Heightmap (heightmap, imageio, textures) -> mesh -> solid (fuse) -> export / render
+"""
+
+from __future__ import annotations
+
+from .errors import GeometryError, InputError, ParameterError, ResourceError, TexcadError
+from .export import export, write_3mf, write_stl
+from .heightmap import Heightmap
+from .mesh import Mesh, edge_report, grid_solid, heightfield_slab
+from .pipeline import TexturedPart, plate_base, textured_plate
+from .render import render_heightmap
+from .solid import fuse, shape_to_mesh, to_manifold
+from .textures import DEFAULT_TEXTURE, builtin, builtin_names, load_texture
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "TexcadError",
+    "InputError",
+    "ParameterError",
+    "GeometryError",
+    "ResourceError",
+    "Heightmap",
+    "builtin",
+    "builtin_names",
+    "load_texture",
+    "DEFAULT_TEXTURE",
+    "Mesh",
+    "heightfield_slab",
+    "grid_solid",
+    "edge_report",
+    "shape_to_mesh",
+    "to_manifold",
+    "fuse",
+    "TexturedPart",
+    "plate_base",
+    "textured_plate",
+    "write_stl",
+    "write_3mf",
+    "export",
+    "render_heightmap",
+]

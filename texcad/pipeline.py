@@ -1,0 +1,113 @@
+"""Whole jobs composed from the stages: the flat textured plate (paper, section 2.2).
+
+These functions hold no numerics of their own; they call the stages in order
+(texture -> slab mesh -> base body -> union) and report progress.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from .errors import GeometryError, ParameterError
+from .heightmap import Heightmap
+from .mesh import Mesh, heightfield_slab
+from .progress import Progress, report
+from .solid import fuse, shape_to_mesh
+from .textures import load_texture
+
+__all__ = ["TexturedPart", "plate_base", "textured_plate"]
+
+
+@dataclass(frozen=True, eq=False)
+class TexturedPart:
+    """The result of a texturing job.
+
+    Attributes:
+        mesh: the fused, watertight solid (base plus texture), mm.
+        texture: the texture slab alone (watertight), mm.
+        base: the base body's mesh, mm.
+        heightmap: the texture that was applied.
+    """
+
+    mesh: Mesh
+    texture: Mesh
+    base: Mesh
+    heightmap: Heightmap
+
+
+def plate_base(size: Sequence[float], thickness: float):
+    """A build123d box ``size[0] x size[1] x thickness`` mm with its top face at z = 0
+    and its corner at the origin (x, y >= 0)."""
+    from build123d import Align, Box
+
+    return Box(size[0], size[1], thickness, align=(Align.MIN, Align.MIN, Align.MAX))
+
+
+def textured_plate(
+    texture: "str | os.PathLike | Heightmap",
+    *,
+    size: Sequence[float] = (100.0, 100.0),
+    thickness: float = 5.0,
+    height: float = 2.0,
+    pitch: float = 0.125,
+    depth: float | None = None,
+    base: Any = None,
+    progress: Progress = None,
+) -> TexturedPart:
+    """Texture the top face of a plate: the paper's flat sample (section 2.2).
+
+    The texture lies on the plate's top face (z = 0), centred; one mesh vertex per
+    pixel; the slab reaches ``depth`` mm into the plate and is unioned onto it with
+    manifold3d.
+
+    Args:
+        texture: ``"builtin:NAME"``, an image path, or a Heightmap (used as is).
+        size: ``(width, depth)`` of the plate in mm (x, y).
+        thickness: plate thickness in mm (z from ``-thickness`` to 0).
+        height: maximum texture height in mm (for built-ins and images).
+        pitch: mm per pixel for built-ins (images: ``size / pixels``).
+        depth: how far in mm the slab reaches into the plate (default: half the
+            thickness, at most 0.5 mm).
+        base: optional build123d/CadQuery solid to use instead of the plain plate;
+            its top face must be the rectangle ``[0, w] x [0, d]`` at z = 0.
+        progress: optional ``progress(fraction, message)`` callback.
+
+    Returns:
+        :class:`TexturedPart` with the fused mesh.
+
+    Raises:
+        ParameterError: non-positive size, thickness, height or depth.
+        GeometryError: the texture is larger than the plate, or the slab would
+            reach through the plate.
+    """
+    w, d = (float(s) for s in size)
+    for label, v in (("plate width", w), ("plate depth", d), ("thickness", thickness), ("height", height)):
+        if not (np.isfinite(v) and v > 0):
+            raise ParameterError(f"{label} must be a positive number of mm, got {v!r}")
+    depth = min(0.5, thickness / 2) if depth is None else float(depth)
+    if not (0 < depth < thickness):
+        raise GeometryError(
+            f"the texture slab would reach {depth} mm into a {thickness} mm plate; "
+            f"use a depth between 0 and {thickness} mm"
+        )
+    report(progress, 0.0, "loading texture")
+    hm = texture if isinstance(texture, Heightmap) else load_texture(texture, size=(w, d), pitch=pitch, height=height)
+    tw, td = hm.size
+    if tw > w + 1e-6 or td > d + 1e-6:
+        raise GeometryError(
+            f"the texture covers {tw:g} x {td:g} mm but the plate is only {w:g} x {d:g} mm; "
+            "crop the texture or make the plate larger"
+        )
+    report(progress, 0.15, f"meshing {hm.shape[0]} x {hm.shape[1]} px heightmap")
+    slab = heightfield_slab(hm, depth=depth, origin=((w - tw) / 2, (d - td) / 2, 0.0))
+    report(progress, 0.35, "building base body")
+    base_shape = plate_base((w, d), thickness) if base is None else base
+    base_mesh = base_shape if isinstance(base_shape, Mesh) else shape_to_mesh(base_shape)
+    report(progress, 0.45, f"fusing {slab.num_triangles} texture triangles onto the base (manifold3d)")
+    fused = fuse(base_mesh, slab)
+    report(progress, 1.0, "fused")
+    return TexturedPart(fused, slab, base_mesh, hm)
