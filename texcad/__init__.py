@@ -11,7 +11,7 @@ Pipeline (one module per stage)::
 
 from __future__ import annotations
 
-from .errors import GeometryError, InputError, ParameterError, ResourceError, TexcadError
+from .errors import GeometryError, InputError, ParameterError, ResourceError, TexcadError, TexcadWarning
 from .export import export, write_3mf, write_stl
 from .heightmap import Heightmap
 from .mesh import Mesh, edge_report, grid_solid, heightfield_slab
@@ -28,6 +28,7 @@ __all__ = [
     "ParameterError",
     "GeometryError",
     "ResourceError",
+    "TexcadWarning",
     "Heightmap",
     "builtin",
     "builtin_names",

@@ -13,6 +13,7 @@ __all__ = [
     "ParameterError",
     "GeometryError",
     "ResourceError",
+    "TexcadWarning",
 ]
 
 
@@ -34,3 +35,8 @@ class GeometryError(TexcadError):
 
 class ResourceError(TexcadError):
     """The job would need more memory (or disk) than this machine has."""
+
+
+class TexcadWarning(UserWarning):
+    """texcad changed something to make the geometry possible (e.g. limited the
+    texture height where it would fold); the message says what and where."""
