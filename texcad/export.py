@@ -41,13 +41,14 @@ def write_stl(mesh: Mesh, path: str | os.PathLike, *, header: str = "texcad bina
             ``solid``, which would make readers think the file is ASCII).
     """
     _require_watertight(mesh, path)
-    v = mesh.vertices
     f = mesh.faces
-    rec = np.empty(len(f), dtype=_STL_DTYPE)
-    tri = v[f]  # (M, 3, 3)
-    rec["v"] = tri
-    rec["normal"] = mesh.face_normals()
-    rec["attr"] = 0
+    rec = np.zeros(len(f), dtype=_STL_DTYPE)
+    tri = rec["v"]  # (M, 3, 3) view into the records: gather the corners once
+    np.take(mesh.vertices, f, axis=0, out=tri)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.sqrt(np.einsum("ij,ij->i", n, n))[:, None]
+    np.divide(n, length, out=n, where=length > 0)
+    rec["normal"] = n
     head = header.encode("ascii", "replace")[:80].ljust(80, b" ")
     if head.lower().startswith(b"solid"):
         raise ParameterError("an STL header must not start with 'solid'")
