@@ -39,3 +39,24 @@ def test_help_lists_every_command():
     r = subprocess.run([sys.executable, "-m", "texcad", "--help"], capture_output=True, text=True)
     for cmd in ("demo", "textures"):
         assert cmd in r.stdout
+
+
+def test_scan_command_turns_points_into_png(tmp_path, capsys):
+    import numpy as np
+
+    import texcad
+
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(0, 20, (40000, 2))
+    z = 0.5 * np.sin(xy[:, 0]) * np.cos(xy[:, 1]) + 0.05 * xy[:, 0]  # relief on a tilted plane
+    np.savetxt(tmp_path / "scan.xyz", np.column_stack([xy, z]), fmt="%.5f")
+    out = tmp_path / "scan.png"
+    assert main(["scan", str(tmp_path / "scan.xyz"), "-o", str(out), "--pitch", "0.5"]) == 0
+    assert "noise" in capsys.readouterr().out
+    hm = texcad.Heightmap.from_image(out, pitch=0.5, height=1.0)
+    assert min(hm.shape) > 30
+
+
+def test_textures_contact_sheet(tmp_path, capsys):
+    assert main(["textures", "--sheet", str(tmp_path / "sheet.png")]) == 0
+    assert (tmp_path / "sheet.png").stat().st_size > 1000

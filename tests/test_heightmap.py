@@ -96,3 +96,91 @@ def test_size_too_large_for_memory(tmp_path):
     Image.fromarray(np.zeros((4, 4), np.uint8)).save(tmp_path / "z.png")
     with pytest.raises(ResourceError, match="GiB"):
         Heightmap.from_image(tmp_path / "z.png", size=(1e5, 1e5), pitch=0.01, height=1)
+
+
+# -- image input options -----------------------------------------------------------------
+def test_sixteen_bit_ramp_survives_exactly(tmp_path):
+    levels = np.arange(65536, dtype=np.uint16).reshape(256, 256)  # every 16-bit level
+    Image.fromarray(levels).save(tmp_path / "ramp.png")
+    hm = Heightmap.from_image(tmp_path / "ramp.png", pitch=0.1, height=1.0)
+    # y-up: image row 0 (levels 0..255) is the top, i.e. the last heightmap row.
+    assert np.abs(hm.heights[::-1].ravel() - np.arange(65536) / 65535).max() < 0.5 / 65535
+    hm.to_png(tmp_path / "back.png", height=1.0)
+    with Image.open(tmp_path / "back.png") as im:
+        back = np.asarray(im).astype(np.int64)
+    assert np.array_equal(back, levels.astype(np.int64))
+
+
+def test_alpha_and_palette_images(tmp_path):
+    la = np.zeros((4, 6, 2), np.uint8)
+    la[..., 0] = 200  # grey level
+    la[:, :3, 1] = 255  # left half opaque, right half transparent
+    Image.fromarray(la, mode="LA").save(tmp_path / "la.png")
+    black = Heightmap.from_image(tmp_path / "la.png", pitch=1.0, height=1.0)
+    assert np.allclose(black.heights[:, :3], 200 / 255, atol=1e-6) and np.all(black.heights[:, 3:] == 0)
+    white = Heightmap.from_image(tmp_path / "la.png", pitch=1.0, height=1.0, alpha="white")
+    assert np.allclose(white.heights[:, 3:], 1.0)
+    ignore = Heightmap.from_image(tmp_path / "la.png", pitch=1.0, height=1.0, alpha="ignore")
+    assert np.allclose(ignore.heights, 200 / 255, atol=1e-6)
+    # Palette image with a transparent index.
+    p = Image.new("P", (4, 4))
+    p.putpalette([0, 0, 0, 255, 255, 255] + [0] * 762)
+    p.putdata([1, 1, 0, 0] * 4)
+    p.info["transparency"] = 0
+    p.save(tmp_path / "p.png", transparency=0)
+    hp = Heightmap.from_image(tmp_path / "p.png", pitch=1.0, height=2.0)
+    assert np.allclose(hp.heights[:, :2], 2.0) and np.allclose(hp.heights[:, 2:], 0.0)
+    with pytest.raises(ParameterError, match="alpha"):
+        Heightmap.from_image(tmp_path / "p.png", pitch=1.0, alpha="grey")
+
+
+def test_crop_in_pixels_and_mm(tmp_path):
+    img = np.zeros((10, 20), np.uint8)
+    img[:4, :5] = 255  # white block at the image's top-left
+    Image.fromarray(img).save(tmp_path / "c.png")
+    px = Heightmap.from_image(tmp_path / "c.png", pitch=0.5, height=1.0, crop=(0, 0, 5, 4))
+    assert px.shape == (4, 5) and np.all(px.heights == 1.0)
+    mm = Heightmap.from_image(tmp_path / "c.png", pitch=0.5, height=1.0, crop=(0, 0, 2.5, 2.0), crop_units="mm")
+    assert mm.heights.tobytes() == px.heights.tobytes()
+    # size describes the whole image; a crop keeps its scale.
+    sized = Heightmap.from_image(tmp_path / "c.png", size=(10, 5), height=1.0, crop=(0, 0, 10, 4))
+    assert np.allclose(sized.size, (5.0, 2.0))
+    # Bottom-left of the image is y = 0 (row 0): crop the bottom two image rows.
+    bottom = Heightmap.from_image(tmp_path / "c.png", pitch=1.0, height=1.0, crop=(0, 8, 20, 10))
+    assert bottom.shape == (2, 20) and np.all(bottom.heights == 0)
+    for bad in [(0, 0, 25, 4), (5, 0, 5, 4), (0, 0, 1, 1), (-1, 0, 4, 4)]:
+        with pytest.raises(ParameterError, match="crop box"):
+            Heightmap.from_image(tmp_path / "c.png", pitch=1.0, crop=bad)
+
+
+def test_normalize_gamma_and_smooth(tmp_path):
+    a = np.full((20, 40), 100, np.uint8)
+    a[:, 20:] = 150
+    a[0, 0] = 255  # one bright speck
+    Image.fromarray(a).save(tmp_path / "n.png")
+    plain = Heightmap.from_image(tmp_path / "n.png", pitch=0.5, height=2.0)
+    assert np.isclose(plain.heights.max(), 2.0) and np.isclose(np.median(plain.heights), 2.0 * 125 / 255, atol=0.2)
+    full = Heightmap.from_image(tmp_path / "n.png", pitch=0.5, height=2.0, normalize=True)
+    assert np.isclose(full.heights.min(), 0.0) and np.isclose(full.heights.max(), 2.0)
+    clipped = Heightmap.from_image(tmp_path / "n.png", pitch=0.5, height=2.0, normalize=(1, 99))
+    # The speck is clipped; the two halves span the whole height.
+    assert np.allclose(clipped.heights[:, :20][:-1], 0.0) and np.allclose(clipped.heights[:, 20:], 2.0)
+    g = Heightmap.from_image(tmp_path / "n.png", pitch=0.5, height=1.0, gamma=2.0)
+    assert np.allclose(g.heights, plain.heights.astype(np.float64) ** 2 / 4.0, atol=1e-6)
+    s = Heightmap.from_image(tmp_path / "n.png", pitch=0.5, height=2.0, normalize=(1, 99), smooth=1.0)
+    row = s.heights[10]
+    # A Gaussian of sigma 1 mm = 2 px: the step spreads over about +-3 sigma = 12 px.
+    ramp = np.flatnonzero((row > 0.05) & (row < 1.95))
+    assert 6 <= len(ramp) <= 14 and abs(row[19] + row[20] - 2.0) < 0.1
+    with pytest.raises(ParameterError, match="gamma"):
+        Heightmap.from_image(tmp_path / "n.png", pitch=1.0, gamma=0)
+    with pytest.raises(ParameterError, match="smooth"):
+        Heightmap.from_image(tmp_path / "n.png", pitch=1.0, smooth=-1)
+    with pytest.raises(ParameterError, match="percentile"):
+        Heightmap.from_image(tmp_path / "n.png", pitch=1.0, normalize=(50, 10))
+
+
+def test_no_contrast_is_an_error_when_normalizing(tmp_path):
+    Image.fromarray(np.full((8, 8), 77, np.uint8)).save(tmp_path / "flat.png")
+    with pytest.raises(InputError, match="flat.png.*no contrast"):
+        Heightmap.from_image(tmp_path / "flat.png", pitch=1.0, normalize=True)

@@ -18,7 +18,8 @@ from .mesh import Mesh, edge_report, grid_solid, heightfield_slab
 from .pipeline import TexturedPart, plate_base, textured_plate
 from .render import render_heightmap
 from .solid import fuse, shape_to_mesh, to_manifold
-from .textures import DEFAULT_TEXTURE, builtin, builtin_names, load_texture
+from .scan import ScanReport, read_scan, scan_to_heightmap, scan_to_png
+from .textures import DEFAULT_TEXTURE, builtin, builtin_names, contact_sheet, load_texture
 
 __version__ = "0.1.0"
 
@@ -34,6 +35,11 @@ __all__ = [
     "builtin_names",
     "load_texture",
     "DEFAULT_TEXTURE",
+    "contact_sheet",
+    "scan_to_heightmap",
+    "scan_to_png",
+    "read_scan",
+    "ScanReport",
     "Mesh",
     "heightfield_slab",
     "grid_solid",

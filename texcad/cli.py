@@ -19,10 +19,37 @@ __all__ = ["main"]
 
 
 def _cmd_textures(args: argparse.Namespace) -> int:
-    from .textures import BUILTINS
+    from .textures import BUILTINS, contact_sheet
 
     for name, tex in BUILTINS.items():
         print(f"{name}\t{tex.description}")
+    if args.sheet:
+        contact_sheet(args.sheet, field=args.field)
+        print(f"wrote {args.sheet}", file=sys.stderr)  # stderr keeps stdout parseable
+    return 0
+
+
+def _cmd_scan(args: argparse.Namespace) -> int:
+    from .scan import scan_to_png
+
+    t0 = time.perf_counter()
+    hm, report = scan_to_png(
+        args.scan,
+        args.out,
+        pitch=args.pitch,
+        preview=args.preview,
+        form_degree=args.form_degree,
+        outlier_sigma=args.outlier_sigma,
+        crop=not args.no_crop,
+        fill_holes=not args.no_fill,
+        base_percentile=args.base_percentile,
+    )
+    print(report.summary())
+    print(f"seconds      {time.perf_counter() - t0:.2f}")
+    print(
+        f"wrote        {args.out} (16-bit grey: black 0 mm, white {hm.max_height:.4f} mm, pitch {args.pitch:g} mm)"
+        + (f", {args.preview}" if args.preview else "")
+    )
     return 0
 
 
@@ -90,7 +117,21 @@ def build_parser() -> argparse.ArgumentParser:
     d.set_defaults(func=_cmd_demo)
 
     t = sub.add_parser("textures", help="list the built-in textures, one per line, name first")
+    t.add_argument("--sheet", metavar="OUT.png", default=None, help="also write a labelled contact sheet of all textures")
+    t.add_argument("--field", type=_positive_float, default=24.0, help="side in mm of the square shown per texture (default 24)")
     t.set_defaults(func=_cmd_textures)
+
+    s = sub.add_parser("scan", help="turn a 3-D scan (PLY, STL, OBJ, XYZ, CSV, PCD) into a 16-bit heightmap PNG")
+    s.add_argument("scan", help="point cloud or scanned mesh, coordinates in mm")
+    s.add_argument("-o", "--out", required=True, metavar="OUT.png", help="heightmap PNG to write")
+    s.add_argument("--pitch", type=_positive_float, required=True, help="mm per pixel (aim for >= 2 scan points per pixel)")
+    s.add_argument("--form-degree", type=int, default=1, help="0 keep z, 1 remove the plane (default), 2..6 also a polynomial form")
+    s.add_argument("--outlier-sigma", type=_positive_float, default=3.5, help="outlier threshold in robust sigmas (default 3.5)")
+    s.add_argument("--base-percentile", type=float, default=0.5, help="height percentile put at 0 mm (default 0.5)")
+    s.add_argument("--no-crop", action="store_true", help="keep the bounding rectangle instead of the largest covered one")
+    s.add_argument("--no-fill", action="store_true", help="let the crop avoid holes instead of filling them")
+    s.add_argument("--preview", metavar="PREVIEW.png", default=None, help="also write a hill-shaded picture")
+    s.set_defaults(func=_cmd_scan)
     return p
 
 
