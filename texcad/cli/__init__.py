@@ -1,0 +1,53 @@
+"""The ``texcad`` command line: a thin layer over the public API.
+
+One module per command (``demo``, ``textures``, ``scan``, ...), each with ``add(sub)``
+that registers its parser and ``run(args)`` that does the work. Every command prints
+errors as one line (``texcad: error: ...``) and exits non-zero; numerics live in the
+library, not here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from typing import Callable, Sequence
+
+from ..errors import TexcadError
+
+__all__ = ["main", "build_parser"]
+
+#: Command modules in the order ``texcad --help`` lists them.
+COMMANDS = ("demo", "textures", "scan")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with every subcommand."""
+    p = argparse.ArgumentParser(
+        prog="texcad",
+        description="Support-free textured solids for 3D printing (units: mm, degrees).",
+    )
+    p.add_argument("--version", action="version", version=f"texcad {__import__('texcad').__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name in COMMANDS:
+        importlib.import_module(f"{__name__}.{name}").add(sub)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    func: Callable[[argparse.Namespace], int] = args.func
+    try:
+        return func(args)
+    except TexcadError as exc:
+        print(f"texcad: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("texcad: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
