@@ -10,15 +10,23 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import pkgutil
 import sys
 from typing import Callable, Sequence
 
 from ..errors import TexcadError
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "commands"]
 
-#: Command modules in the order ``texcad --help`` lists them.
-COMMANDS = ("demo", "textures", "scan")
+#: Commands listed first by ``texcad --help``; every other public module of this
+#: package is a command too and follows in alphabetical order.
+FIRST = ("demo", "make", "texture", "synth", "check", "render", "textures", "scan")
+
+
+def commands() -> list[str]:
+    """Names of the command modules in ``texcad/cli/``, in ``--help`` order."""
+    found = {m.name for m in pkgutil.iter_modules(__path__) if not m.name.startswith("_")}
+    return [n for n in FIRST if n in found] + sorted(found.difference(FIRST))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -29,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--version", action="version", version=f"texcad {__import__('texcad').__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for name in COMMANDS:
+    for name in commands():
         importlib.import_module(f"{__name__}.{name}").add(sub)
     return p
 
