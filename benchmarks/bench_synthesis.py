@@ -1,0 +1,211 @@
+"""Benchmark of texcad.synthesis: speed, memory and quality figures.
+
+Run from the repository root:
+
+    python benchmarks/bench_synthesis.py            # everything (~1-2 min)
+    python benchmarks/bench_synthesis.py --quick    # skip 4000 x 4000
+
+Prints the median wall time of several runs and the peak memory (tracemalloc peak of
+one run, and the process's peak resident set size), then quality measures of the
+output against the sample and against random patch pasting (naive_quilt), and the
+wrap seam of the torus closure against the paper's closing cut (M-II, section 2.1.4).
+The sample is a 200 x 200 px photograph-like height field (filtered noise at two
+scales with a network of grooves), the paper's patch 45 px and overlap 25 px.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import statistics
+import sys
+import time
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+from scipy import ndimage
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from texcad import quality as Q  # noqa: E402
+from texcad.synthesis import _min_error_paths, naive_quilt, patch_grid, seam_bands, synthesize  # noqa: E402
+from texcad.textures import builtin  # noqa: E402
+
+PATCH, OVERLAP = 45, 25
+
+
+def photo_like(rows: int = 200, cols: int = 200, seed: int = 1) -> np.ndarray:
+    """A photograph-like stochastic height field in mm (0..1)."""
+    rng = np.random.default_rng(seed)
+    a = 4 * ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 4, mode="wrap")
+    a += ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 1.2, mode="wrap")
+    r = ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 6, mode="wrap")
+    a -= 1.5 * np.exp(-0.5 * (r / 0.01) ** 2)
+    return ((a - a.min()) / (a.max() - a.min())).astype(np.float32)
+
+
+CPU: list[float] = []  # process CPU seconds of the runs of the last timed() call
+
+
+def timed(fn, runs: int) -> tuple[float, list[float]]:  # noqa: ANN001
+    """Median wall seconds and all runs; the CPU seconds of each run go to CPU (on
+    a machine shared with other work, wall time overstates the cost, CPU time not)."""
+    times = []
+    CPU.clear()
+    for _ in range(runs):
+        t, c = time.perf_counter(), time.process_time()
+        fn()
+        times.append(time.perf_counter() - t)
+        CPU.append(time.process_time() - c)
+    return statistics.median(times), times
+
+
+def peak_traced(fn) -> float:  # noqa: ANN001
+    """Peak bytes allocated (numpy included) during one call, MiB."""
+    tracemalloc.start()
+    fn()
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    return peak / 2**20
+
+
+def paper_closing_cut(h: np.ndarray, extra: int) -> tuple[np.ndarray, float]:
+    """The paper's M-II: from a texture ``extra`` px wider than needed, overlay its
+    last ``extra`` columns on its first ones and cut along the minimum-error path
+    (eq. 1). Returns the closed texture and the RMS mismatch ``right - left`` along
+    the cut relative to the typical neighbour difference."""
+    w = h.shape[1] - extra
+    right, left = h[:, w:].astype(float), h[:, :extra].astype(float)
+    path = _min_error_paths([(right - left) ** 2], [None])[0]
+    cols = np.arange(extra)[None, :]
+    merged = np.where(cols <= path[:, None], right, left)
+    out = np.concatenate([merged, h[:, extra:w]], axis=1)
+    rows = np.arange(h.shape[0])
+    mismatch = np.sqrt(np.mean((right[rows, path] - left[rows, path]) ** 2))
+    typical = np.sqrt(np.mean(np.diff(out, axis=1) ** 2))
+    return out, float(mismatch / typical)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--quick", action="store_true", help="skip the 4000 x 4000 px runs")
+    args = ap.parse_args()
+
+    sample = photo_like()
+    print(f"sample {sample.shape[0]} x {sample.shape[1]} px, patch {PATCH}, overlap {OVERLAP}")
+    print()
+    print(f"speed (median of runs, wall clock and process CPU; load average now {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
+    cases = [((800, 800), "feather", None, 7), ((800, 800), "cut", None, 5), ((800, 800), "feather", "xy", 5)]
+    if not args.quick:
+        cases += [((4000, 4000), "feather", None, 3), ((4000, 4000), "cut", None, 1)]
+    for shape, blend, wrap, runs in cases:
+        fn = lambda: synthesize(sample, shape, patch=PATCH, overlap=OVERLAP, blend=blend, wrap=wrap)  # noqa: E731
+        fn()  # warm up (imports, caches)
+        med, times = timed(fn, runs)
+        mem = peak_traced(fn) if shape[0] <= 800 or blend == "feather" else float("nan")
+        print(
+            f"  {shape[0]} x {shape[1]} {blend:7s} wrap={str(wrap):4s}: median {med:6.3f} s, "
+            f"CPU {statistics.median(CPU):6.3f} s (runs {', '.join(f'{t:.3f}' for t in times)}), "
+            f"traced peak {mem:6.1f} MiB"
+        )
+    # What `texcad demo` runs: a 25 mm built-in sample grown to the 100 mm plate.
+    stones = builtin("stones", size=(25, 25), pitch=0.125, height=2.0)
+    fn = lambda: synthesize(stones, (800, 800), wrap="xy", seed=0)  # noqa: E731
+    fn()
+    med, times = timed(fn, 5)
+    print(
+        f"  demo: builtin('stones', size=(25, 25), pitch=0.125, height=2) {stones.shape[0]} x {stones.shape[1]} px "
+        f"-> 800 x 800 wrap=xy: median {med:6.3f} s, CPU {statistics.median(CPU):.3f} s "
+        f"(runs {', '.join(f'{t:.3f}' for t in times)})"
+    )
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"  process peak resident set size so far: {rss:.0f} MiB")
+
+    print()
+    print("quality, 800 x 800 px, mean of seeds 0..2 (synthesize | naive_quilt)")
+    shape = (800, 800)
+    bands = seam_bands(shape, PATCH, OVERLAP)
+    for blend in ("feather", "cut"):
+        rs, rn = [], []
+        for seed in range(3):
+            s = synthesize(sample, shape, patch=PATCH, overlap=OVERLAP, blend=blend, seed=seed)
+            n = naive_quilt(sample, shape, patch=PATCH, overlap=OVERLAP, blend=blend, seed=seed)
+            rs.append(Q.report(s, sample, bands))
+            rn.append(Q.report(n, sample, bands))
+        for key in ("histogram", "spectrum", "blur"):
+            a = np.mean([r[key] for r in rs])
+            b = np.mean([r[key] for r in rn])
+            print(f"  {blend:7s} {key:9s}: {a:.3f} | {b:.3f}")
+
+    print()
+    print("seamless closure along x, 800 x 790 px, mean of seeds 0..4")
+    print("  S_x: RMS jump across the wrap / typical neighbour difference (1 = no seam)")
+    print("  J_max: worst column of the closure region (RMS jump across a column boundary /")
+    print("  typical), against the 99th percentile of all other columns")
+    shape = (800, 790)
+    cols_t = patch_grid(shape, PATCH, OVERLAP, "x")[1]
+    last = int(cols_t[-1])
+    torus_region = np.r_[last: shape[1], 0: last + PATCH - shape[1]]  # closing patch
+    extra = 100  # the paper's 2 x 50 px
+    for blend in ("feather", "cut"):
+        rows = []
+        for seed in range(5):
+            w = synthesize(sample, shape, patch=PATCH, overlap=OVERLAP, blend=blend, wrap="x", seed=seed)
+            p = synthesize(sample, shape, patch=PATCH, overlap=OVERLAP, blend=blend, seed=seed)
+            wide = synthesize(sample, (shape[0], shape[1] + extra), patch=PATCH, overlap=OVERLAP, blend=blend, seed=seed)
+            m2, step = paper_closing_cut(wide.heights, extra)
+            jt, jm = column_jumps(w.heights), column_jumps(m2)
+            rows.append([
+                Q.wrap_seam_error(w, "x"), jt[torus_region].max(), np.percentile(np.delete(jt, torus_region), 99),
+                Q.wrap_seam_error(p, "x"),
+                jm[:extra].max(), np.percentile(jm[extra:], 99), step,
+            ])
+        r = np.mean(rows, axis=0)
+        print(
+            f"  {blend:7s} torus (wrap='x'): S_x {r[0]:.2f}, J_max {r[1]:.2f} vs {r[2]:.2f}; "
+            f"no wrap: S_x {r[3]:.2f}"
+        )
+        print(
+            f"  {blend:7s} paper M-II cut : J_max {r[4]:.2f} vs {r[5]:.2f}; RMS mismatch along its cut {r[6]:.2f}"
+        )
+    inner = np.mean([interior_cut_mismatch(sample, (800, 800), seed) for seed in range(3)])
+    print(f"  for scale: RMS mismatch (old - new) along the interior cuts of blend='cut': {inner:.2f}")
+
+
+def interior_cut_mismatch(sample: np.ndarray, shape: tuple[int, int], seed: int) -> float:
+    """RMS of (old - new) along every eq. 1 cut that synthesize(blend="cut") makes,
+    divided by the output's typical neighbour difference: the same measure as the
+    paper M-II's step along its cut."""
+    import texcad.synthesis as syn
+
+    found: list[float] = []
+    original = syn._min_error_paths
+
+    def recording(errs, starts, work=None):  # noqa: ANN001, ANN202
+        paths = original(errs, starts, work)
+        for e, p in zip(errs, paths):
+            found.append(float(np.mean(e[np.arange(len(p)), p])))
+        return paths
+
+    syn._min_error_paths = recording
+    try:
+        out = synthesize(sample, shape, patch=PATCH, overlap=OVERLAP, blend="cut", seed=seed)
+    finally:
+        syn._min_error_paths = original
+    typical = np.sqrt(np.mean(np.diff(out.heights.astype(float), axis=1) ** 2))
+    return float(np.sqrt(np.mean(found)) / typical)
+
+
+def column_jumps(h: np.ndarray) -> np.ndarray:
+    """``(cols,)`` RMS jump across the boundary after each column of the tiled texture
+    (the last is the wrap), divided by the typical neighbour difference."""
+    h = h.astype(float)
+    t = np.concatenate([h, h[:, :1]], axis=1)
+    j = np.sqrt(np.mean(np.diff(t, axis=1) ** 2, axis=0))
+    return j / np.sqrt(np.mean(np.diff(h, axis=1) ** 2))
+
+
+if __name__ == "__main__":
+    main()

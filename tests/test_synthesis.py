@@ -1,0 +1,407 @@
+"""Tests of texcad.synthesis: patch-based sampling (Liang 2001), eq. 1 cuts, wrap.
+
+Samples are small (<= 150 px) and outputs a few hundred px so the file runs in seconds.
+Quality is asserted with the measures of texcad.quality against random patch pasting
+(naive_quilt) on the same grid.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from scipy import ndimage
+
+from texcad import quality as Q
+from texcad.errors import InputError, ParameterError, TexcadError
+from texcad.heightmap import Heightmap
+from texcad.synthesis import (
+    BLENDS,
+    WRAPS,
+    _min_error_paths,
+    naive_quilt,
+    patch_grid,
+    seam_bands,
+    synthesize,
+)
+
+P, O = 32, 14  # patch and overlap used with the 128 px samples (step 18)
+
+
+def natural_sample(rows: int = 128, cols: int = 128, seed: int = 1) -> np.ndarray:
+    """A photograph-like stochastic height field in mm: two scales of filtered
+    noise and a network of grooves (zero crossings of a smooth field)."""
+    rng = np.random.default_rng(seed)
+    a = 4 * ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 4, mode="wrap")
+    a += ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 1.2, mode="wrap")
+    r = ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 6, mode="wrap")
+    a -= 1.5 * np.exp(-0.5 * (r / 0.01) ** 2)
+    return ((a - a.min()) / (a.max() - a.min())).astype(np.float32)
+
+
+def periodic_sample(rows: int = 128, cols: int = 128) -> np.ndarray:
+    """A structured texture: ribs of period 8 px along x, grooves every 16 px along y."""
+    y, x = np.mgrid[:rows, :cols].astype(float)
+    a = np.sin(2 * np.pi * x / 16) ** 2 * np.cos(np.pi * y / 16) ** 2 + 0.5 * ((y % 16) < 3)
+    return (a / a.max()).astype(np.float32)
+
+
+@pytest.fixture(scope="module")
+def natural() -> Heightmap:
+    return Heightmap(natural_sample(), (0.125, 0.125))
+
+
+# -- contract ------------------------------------------------------------------------
+@pytest.mark.parametrize("blend", BLENDS)
+@pytest.mark.parametrize("wrap", WRAPS)
+def test_shape_pitch_range(natural: Heightmap, blend: str, wrap: str | None) -> None:
+    hm = Heightmap(natural.heights, (0.2, 0.25))
+    out = synthesize(hm, (131, 97), patch=P, overlap=O, blend=blend, wrap=wrap)
+    assert isinstance(out, Heightmap)
+    assert out.shape == (131, 97)
+    assert out.pitch == (0.2, 0.25)
+    assert out.heights.dtype == np.float32
+    # Convex combinations of sample heights stay in the sample's range.
+    lo, hi = float(hm.heights.min()), float(hm.heights.max())
+    assert out.heights.min() >= lo - 1e-6 and out.heights.max() <= hi + 1e-6
+
+
+def test_array_sample_gets_unit_pitch() -> None:
+    out = synthesize(natural_sample(), (60, 70), patch=P, overlap=O)
+    assert out.pitch == (1.0, 1.0) and out.shape == (60, 70)
+    out = synthesize(natural_sample().tolist(), (40, 40), patch=P, overlap=O)
+    assert out.shape == (40, 40)
+
+
+@pytest.mark.parametrize("blend", BLENDS)
+def test_same_seed_same_bytes(natural: Heightmap, blend: str) -> None:
+    kw = dict(patch=P, overlap=O, blend=blend, wrap="xy")
+    a = synthesize(natural, (120, 150), seed=7, **kw)
+    b = synthesize(natural, (120, 150), seed=7, **kw)
+    c = synthesize(natural, (120, 150), seed=8, **kw)
+    assert a.heights.tobytes() == b.heights.tobytes()
+    assert a.heights.tobytes() != c.heights.tobytes()
+    # A Generator is accepted as the seed and gives the same stream as its seed.
+    d = synthesize(natural, (120, 150), seed=np.random.default_rng(7), **kw)
+    assert d.heights.tobytes() == a.heights.tobytes()
+
+
+def test_paper_parameters_non_square_sample() -> None:
+    # Paper, Table 1: a 150 x 100 px sample with patch 25 and overlap 10; an output
+    # size that is not a multiple of the step (15 px) is covered and cropped.
+    sample = natural_sample(100, 150, seed=3)
+    out = synthesize(sample, (203, 241), patch=25, overlap=10)
+    assert out.shape == (203, 241)
+    assert Q.histogram_distance(out, sample) < 0.05
+
+
+def test_output_smaller_than_sample_and_patch(natural: Heightmap) -> None:
+    out = synthesize(natural, (50, 40), patch=P, overlap=O)
+    assert out.shape == (50, 40)
+    tiny = synthesize(natural, (5, 3), patch=P, overlap=O, seed=2)
+    assert tiny.shape == (5, 3)
+    # A single patch is a crop of the sample.
+    s = natural.heights
+    hit = [
+        np.array_equal(tiny.heights, s[y: y + 5, x: x + 3])
+        for y in range(s.shape[0] - P + 1)
+        for x in range(s.shape[1] - P + 1)
+    ]
+    assert any(hit)
+
+
+def test_patch_equal_to_sample() -> None:
+    s = natural_sample(40, 50)
+    out = synthesize(s, (90, 90), patch=40, overlap=15)  # a single candidate column
+    assert out.shape == (90, 90)
+
+
+def test_flat_sample_gives_flat_output() -> None:
+    out = synthesize(np.full((60, 60), 0.7), (100, 100), patch=20, overlap=8, blend="cut")
+    assert np.allclose(out.heights, 0.7)
+
+
+def test_progress_is_called_per_patch_row(natural: Heightmap) -> None:
+    calls: list[tuple[float, str]] = []
+    synthesize(natural, (100, 80), patch=P, overlap=O, progress=lambda f, m: calls.append((f, m)))
+    rows, _ = patch_grid((100, 80), P, O)
+    assert len(calls) == len(rows)
+    fr = [f for f, _ in calls]
+    assert fr == sorted(fr) and fr[-1] == 1.0 and 0 < fr[0]
+    assert all(isinstance(m, str) and m for _, m in calls)
+
+
+# -- errors ---------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "kwargs, words",
+    [
+        (dict(patch=200), ["patch 200", "128 x 128", "patch <= 128"]),
+        (dict(patch=32, overlap=32), ["overlap 32", "smaller than patch 32"]),
+        (dict(patch=32, overlap=40), ["overlap 40"]),
+        (dict(overlap=0), ["overlap", "at least 1"]),
+        (dict(patch=1), ["patch", "at least 2"]),
+        (dict(patch=32.0), ["whole number"]),
+        (dict(blend="smooth"), ["'smooth'", "'feather'", "'cut'"]),
+        (dict(wrap="z"), ["'z'", "'x'", "'xy'"]),
+        (dict(tolerance=-0.1), ["tolerance", "-0.1"]),
+        (dict(tolerance=float("nan")), ["tolerance"]),
+        (dict(shape=(1, 50)), ["shape[0]", "at least 2"]),
+        (dict(shape=(50,)), ["shape", "(rows, cols)"]),
+        (dict(shape=(20, 100), wrap="y"), ["20 px along y", "at least 32"]),
+        (dict(progress="yes"), ["progress", "callable"]),
+        (dict(seed=-1), ["seed", "-1"]),
+        (dict(seed="abc"), ["seed", "'abc'"]),
+    ],
+)
+def test_bad_parameters_raise_parameter_error(natural: Heightmap, kwargs: dict, words: list[str]) -> None:
+    args = dict(shape=(100, 100), patch=P, overlap=O)
+    args.update(kwargs)
+    shape = args.pop("shape")
+    with pytest.raises(ParameterError) as e:
+        synthesize(natural, shape, **args)
+    for w in words:
+        assert w in str(e.value), (w, str(e.value))
+
+
+def test_sample_smaller_than_patch_names_the_fix() -> None:
+    with pytest.raises(ParameterError, match=r"patch 45 px is larger than the sample \(30 x 60 px\); use patch <= 30"):
+        synthesize(np.zeros((30, 60)), (100, 100))
+
+
+@pytest.mark.parametrize("bad", [np.zeros(10), np.full((40, 40), np.nan), "sample.png", np.zeros((40, 40), bool)])
+def test_bad_samples_raise_texcad_errors(bad: object) -> None:
+    with pytest.raises(TexcadError):
+        synthesize(bad, (50, 50), patch=20, overlap=8)  # type: ignore[arg-type]
+    with pytest.raises((InputError, ParameterError)):
+        synthesize(bad, (50, 50), patch=20, overlap=8)  # type: ignore[arg-type]
+
+
+# -- quality against random patch pasting ---------------------------------------------
+@pytest.mark.parametrize("blend", BLENDS)
+def test_beats_naive_quilt(natural: Heightmap, blend: str) -> None:
+    shape = (220, 220)
+    bands = seam_bands(shape, P, O)
+    seeds = (0, 1, 2, 3)  # the histogram of a 220 px output varies from seed to seed
+    syn = [synthesize(natural, shape, patch=P, overlap=O, blend=blend, seed=s) for s in seeds]
+    naive = [naive_quilt(natural, shape, patch=P, overlap=O, blend=blend, seed=s) for s in seeds]
+
+    def mean(f, outs):  # noqa: ANN001
+        return float(np.mean([f(o) for o in outs]))
+
+    hist = lambda o: Q.histogram_distance(o, natural)  # noqa: E731
+    spec = lambda o: Q.spectrum_distance(o, natural)  # noqa: E731
+    blur = lambda o: abs(1.0 - Q.blur_ratio(o, bands))  # noqa: E731
+    if blend == "feather":
+        # Feathering unrelated content blurs (ratio ~0.6) and pulls heights to the
+        # mean; matched content much less.
+        assert mean(spec, syn) < 0.75 * mean(spec, naive)
+        assert mean(blur, syn) < 0.8 * mean(blur, naive)
+        assert mean(hist, syn) < 0.7 * mean(hist, naive)
+    else:
+        # Cuts through unrelated content leave steps (excess high frequencies);
+        # cuts keep heights unmixed, so the histograms are alike for both.
+        assert mean(spec, syn) < 0.9 * mean(spec, naive)
+        assert mean(hist, syn) < 1.2 * mean(hist, naive) + 1e-3
+        assert mean(blur, syn) < 0.1
+
+
+def test_cut_is_sharper_than_feather(natural: Heightmap) -> None:
+    # Feathering matched patches still averages two textures in the overlaps
+    # (blur ratio ~0.75 here); the eq. 1 cut keeps them nearly as sharp as the rest
+    # (~0.93; 1 = as sharp as the patch interiors).
+    shape = (220, 220)
+    bands = seam_bands(shape, P, O)
+    rf, rc = [], []
+    for seed in (0, 1, 2):
+        f = synthesize(natural, shape, patch=P, overlap=O, blend="feather", seed=seed)
+        c = synthesize(natural, shape, patch=P, overlap=O, blend="cut", seed=seed)
+        rf.append(Q.blur_ratio(f, bands))
+        rc.append(Q.blur_ratio(c, bands))
+        assert rc[-1] > rf[-1] + 0.1
+    assert np.mean(rf) < 0.85
+    assert abs(1 - np.mean(rc)) < 0.12
+
+
+def test_periodic_structure_is_continued() -> None:
+    s = periodic_sample()
+    out = synthesize(s, (200, 200), patch=P, overlap=O, blend="cut").heights.astype(float)
+    # The output keeps the sample's periods (16 px along x, 16 px along y).
+    ex = np.sqrt(np.mean((out[:, 16:] - out[:, :-16]) ** 2))
+    ey = np.sqrt(np.mean((out[16:, :] - out[:-16, :]) ** 2))
+    assert ex < 0.02 * np.ptp(s) and ey < 0.02 * np.ptp(s)
+    naive = naive_quilt(s, (200, 200), patch=P, overlap=O).heights.astype(float)
+    assert np.sqrt(np.mean((naive[16:, :] - naive[:-16, :]) ** 2)) > 10 * ey
+
+
+def test_builtin_texture_sample() -> None:
+    textures = pytest.importorskip("texcad.textures")
+    stones = textures.builtin("stones", size=(16, 16), pitch=0.125)  # 128 x 128 px
+    out = synthesize(stones, (200, 200), patch=40, overlap=16, blend="cut")
+    naive = naive_quilt(stones, (200, 200), patch=40, overlap=16, blend="cut")
+    assert out.pitch == stones.pitch
+    assert Q.spectrum_distance(out, stones) < Q.spectrum_distance(naive, stones)
+
+
+# -- seamless closure (paper M-II, done on a torus) ------------------------------------
+def _column_jumps(h: np.ndarray) -> np.ndarray:
+    """RMS jump across every column boundary of the tiled texture; the last is the wrap."""
+    t = np.concatenate([h, h[:, :1]], axis=1).astype(float)
+    return np.sqrt(np.mean(np.diff(t, axis=1) ** 2, axis=0))
+
+
+@pytest.mark.parametrize("blend", BLENDS)
+@pytest.mark.parametrize("width", [180, 187])  # a multiple of the step, and not
+def test_wrap_x_tiles(natural: Heightmap, blend: str, width: int) -> None:
+    shape = (150, width)
+    seams, plain = [], []
+    for seed in (0, 1, 2):
+        out = synthesize(natural, shape, patch=P, overlap=O, blend=blend, wrap="x", seed=seed)
+        no = synthesize(natural, shape, patch=P, overlap=O, blend=blend, seed=seed)
+        seams.append(Q.wrap_seam_error(out, "x"))
+        plain.append(Q.wrap_seam_error(no, "x"))
+        j = _column_jumps(out.heights)
+        # The wrap seam is no worse than the worst interior column of the same output.
+        assert j[-1] <= 1.05 * j[:-1].max()
+    assert np.mean(seams) < 1.25  # like any pair of neighbouring columns (~1)
+    assert np.mean(seams) < 0.4 * np.mean(plain)  # unwrapped outputs do not tile
+
+
+@pytest.mark.parametrize("blend", BLENDS)
+def test_wrap_y_and_xy_tile(natural: Heightmap, blend: str) -> None:
+    shape = (171, 160)
+    ys, xys_x, xys_y, plain = [], [], [], []
+    for seed in (0, 1, 2):
+        y = synthesize(natural, shape, patch=P, overlap=O, blend=blend, wrap="y", seed=seed)
+        xy = synthesize(natural, shape, patch=P, overlap=O, blend=blend, wrap="xy", seed=seed)
+        no = synthesize(natural, shape, patch=P, overlap=O, blend=blend, seed=seed)
+        ys.append(Q.wrap_seam_error(y, "y"))
+        xys_x.append(Q.wrap_seam_error(xy, "x"))
+        xys_y.append(Q.wrap_seam_error(xy, "y"))
+        plain.append(Q.wrap_seam_error(no, "y"))
+        # Each wrap seam is no worse than the worst interior row (column) boundary,
+        # which lies on an interior patch seam.
+        for h in (y.heights.T, xy.heights, xy.heights.T):
+            j = _column_jumps(h)
+            assert j[-1] <= 1.05 * j[:-1].max()
+    for seam in (ys, xys_x, xys_y):
+        assert np.mean(seam) < 1.35  # ~1: like any pair of neighbouring rows
+        assert np.mean(seam) < 0.4 * np.mean(plain)
+
+
+@pytest.mark.parametrize("blend", BLENDS)
+def test_wrap_closing_bands_are_as_sharp_as_interior_ones(natural: Heightmap, blend: str) -> None:
+    # The closing patches' overlaps across the wrap lie at the start of the output;
+    # rolled to mid-image, their blend bands must be as sharp as the interior ones.
+    shape = (150, 187)
+    ratios = []
+    for seed in (0, 1, 2):
+        out = synthesize(natural, shape, patch=P, overlap=O, blend=blend, wrap="x", seed=seed)
+        h = np.roll(out.heights, 60, axis=1)
+        bands = np.roll(seam_bands(shape, P, O, "x"), 60, axis=1)
+        closing = np.zeros(shape, bool)
+        closing[:, 60: 60 + P] = True  # columns 0 .. P-1 before the roll
+        gy, gx = np.gradient(h.astype(float))
+        e = gx**2 + gy**2
+        r_close = e[bands & closing].mean() / e[~bands].mean()
+        r_int = e[bands & ~closing].mean() / e[~bands].mean()
+        ratios.append(r_close / r_int)
+    assert np.mean(ratios) > 0.85
+
+
+def test_periodic_sample_wraps_exactly() -> None:
+    # A size that holds whole periods (16 px) tiles exactly: the 2 x 2 tiling keeps
+    # the period everywhere, across both wrap seams.
+    s = periodic_sample()
+    out = synthesize(s, (128, 176), patch=P, overlap=O, wrap="xy", blend="cut").heights
+    t = np.tile(out.astype(float), (2, 2))
+    assert np.sqrt(np.mean((t[:, 16:] - t[:, :-16]) ** 2)) < 1e-3
+    assert np.sqrt(np.mean((t[16:, :] - t[:-16, :]) ** 2)) < 1e-3
+
+
+# -- grid and helpers -----------------------------------------------------------------
+def test_patch_grid_covers_the_output() -> None:
+    rows, cols = patch_grid((203, 241), 25, 10)
+    assert rows[0] == 0 and np.all(np.diff(rows) == 15)
+    assert rows[-1] + 25 >= 203 and rows[-1] - 15 + 25 < 203
+    assert cols[-1] + 25 >= 241
+    # On a torus the last patch passes the end by at least the overlap.
+    _, wc = patch_grid((203, 241), 25, 10, wrap="x")
+    assert wc[-1] + 25 - 241 >= 10 and len(wc) == -(-241 // 15)
+
+
+def test_seam_bands_lie_in_overlaps() -> None:
+    m = seam_bands((100, 100), 30, 10)
+    col = m[50]  # a row inside a patch: bands along x only where columns overlap
+    assert not col[:20].any()
+    assert col[22:27].all() and not col[27:42].any()  # middle half of cols 20..29
+    assert m.mean() < 0.6
+
+
+def _brute_force_cost(e: np.ndarray, start: int | None) -> float:
+    n, w = e.shape
+    best = np.inf
+    for j0 in range(w) if start is None else [start]:
+        for steps in itertools.product((-1, 0, 1), repeat=n - 1):
+            path = np.cumsum((j0,) + steps)
+            if path.min() >= 0 and path.max() < w:
+                best = min(best, float(e[np.arange(n), path].sum()))
+    return best
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    arrays(np.float64, st.tuples(st.integers(1, 5), st.integers(1, 4)), elements=st.floats(0, 10)),
+    st.booleans(),
+)
+def test_min_error_path_is_optimal(e: np.ndarray, fix_start: bool) -> None:
+    # Eq. 1 dynamic programming finds the cheapest 8-connected top-to-bottom path.
+    start = e.shape[1] // 2 if fix_start else None
+    e2 = e[:, ::-1].copy()
+    paths = _min_error_paths([e, e2], [start, None])
+    for err, path, s in zip((e, e2), paths, (start, None)):
+        assert path.shape == (e.shape[0],)
+        assert np.all(np.abs(np.diff(path)) <= 1)
+        assert path.min() >= 0 and path.max() < e.shape[1]
+        if s is not None:
+            assert path[0] == s
+        cost = float(err[np.arange(e.shape[0]), path].sum())
+        assert cost == pytest.approx(_brute_force_cost(err, s), abs=1e-9)
+
+
+def test_large_sample_candidates_are_thinned(monkeypatch: pytest.MonkeyPatch, natural: Heightmap) -> None:
+    import texcad.synthesis as syn
+
+    monkeypatch.setattr(syn, "_MAX_CANDIDATES", 500)
+    out = synthesize(natural, (100, 100), patch=P, overlap=O)
+    assert out.shape == (100, 100)
+    assert Q.histogram_distance(out, natural) < 0.1
+
+
+@pytest.mark.parametrize("key", [(0, O, 0, 0), (O, 0, 0, 0), (O, O, 0, 0), (O, O, 20, 0), (O, O, 20, 20)])
+def test_fft_features_match_projection_and_bound_the_distance(natural: Heightmap, key: tuple) -> None:
+    # The features of every candidate, computed at once by FFT correlation, equal
+    # the projection of its boundary zone used for the query. For the three base
+    # zones their distances never exceed the exact zone distance (QTP weighting +
+    # orthonormal PCA): the k-d tree's coarse level bounds the fine level. (The
+    # torus's closing zones concatenate parts that share their corners.)
+    import texcad.synthesis as syn
+
+    s = syn._Synthesizer(natural.heights, P, O, np.random.default_rng(0), True)
+    z = s.zone(key)
+    feats = z.feats if z.tree is None else z.tree.data
+    rng = np.random.default_rng(1)
+    pick = rng.choice(len(s.cy), 300, replace=False)
+    zones = s.S_flat.take(s.offsets[pick][:, None] + z.sflat).astype(np.float64)
+    proj = zones @ z.kernels.T.astype(np.float64)
+    scale = np.abs(feats[pick]).max()
+    assert np.abs(proj - feats[pick]).max() < 1e-4 * scale
+    a, b = pick[:150], pick[150:]
+    d_feat = np.linalg.norm(feats[a] - feats[b], axis=1)
+    d_exact = np.linalg.norm(zones[:150] - zones[150:], axis=1)
+    if key[2:] == (0, 0):
+        assert np.all(d_feat <= d_exact * (1 + 1e-4) + 1e-6)
+    assert np.mean(d_feat / d_exact) > 0.3  # and not a trivial bound
