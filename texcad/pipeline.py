@@ -31,12 +31,16 @@ class TexturedPart:
         texture: the texture slab alone (watertight), mm.
         base: the base body's mesh, mm.
         heightmap: the texture that was applied.
+        limits: what the overhang limiter changed (a
+            :class:`texcad.printability.LimitReport`), or None when no build
+            direction was given.
     """
 
     mesh: Mesh
     texture: Mesh
     base: Mesh
     heightmap: Heightmap
+    limits: Any = None
 
 
 def plate_base(size: Sequence[float], thickness: float):
@@ -56,6 +60,8 @@ def textured_plate(
     pitch: float = 0.125,
     depth: float | None = None,
     base: Any = None,
+    build_dir: Any = None,
+    critical_angle: float = 45.0,
     progress: Progress = None,
 ) -> TexturedPart:
     """Texture the top face of a plate: the paper's flat sample (section 2.2).
@@ -74,10 +80,19 @@ def textured_plate(
             thickness, at most 0.5 mm).
         base: optional build123d/CadQuery solid to use instead of the plain plate;
             its top face must be the rectangle ``[0, w] x [0, d]`` at z = 0.
+        build_dir: make the texture print without support for this build
+            direction ``(3,)`` (plate frame: z is the face normal; see
+            :func:`texcad.printability.orientation`) or every direction of a
+            ``(K, 3)`` set: M-I ramps at the borders that would overhang and the
+            slope limiter (:func:`texcad.printability.limit_overhangs`) lower the
+            texture as little as needed. None: the texture is used as is.
+        critical_angle: critical overhang angle in degrees (default 45; paper,
+            section 2.1.3), used with ``build_dir``.
         progress: optional ``progress(fraction, message)`` callback.
 
     Returns:
-        :class:`TexturedPart` with the fused mesh.
+        :class:`TexturedPart` with the fused mesh (``limits`` says what the
+        overhang limiter removed).
 
     Raises:
         ParameterError: non-positive size, thickness, height or depth.
@@ -102,6 +117,12 @@ def textured_plate(
             f"the texture covers {tw:g} x {td:g} mm but the plate is only {w:g} x {d:g} mm; "
             "crop the texture or make the plate larger"
         )
+    limits = None
+    if build_dir is not None:
+        from .printability import limit_overhangs
+
+        report(progress, 0.1, f"limiting overhangs to {critical_angle:g} deg")
+        hm, limits = limit_overhangs(hm, build_dir, critical_angle)
     report(progress, 0.15, f"meshing {hm.shape[0]} x {hm.shape[1]} px heightmap")
     slab = heightfield_slab(hm, depth=depth, origin=((w - tw) / 2, (d - td) / 2, 0.0))
     report(progress, 0.35, "building base body")
@@ -110,4 +131,4 @@ def textured_plate(
     report(progress, 0.45, f"fusing {slab.num_triangles} texture triangles onto the base (manifold3d)")
     fused = fuse(base_mesh, slab)
     report(progress, 1.0, "fused")
-    return TexturedPart(fused, slab, base_mesh, hm)
+    return TexturedPart(fused, slab, base_mesh, hm, limits)
