@@ -21,6 +21,24 @@ from .solid import fuse, shape_to_mesh, to_manifold
 from .scan import ScanReport, read_scan, scan_to_heightmap, scan_to_png
 from .textures import DEFAULT_TEXTURE, builtin, builtin_names, contact_sheet, load_texture
 
+from . import brep, quality
+from .brep import read_step, write_step
+from .cad import Textured, display_shape, load_mesh, show, texture, textured
+from .cad import render as render_part
+from .check import CheckReport, check, read_part
+from .mapping import MAPPINGS, HeightLimit, MappedSurface, TexturedSurface, fit_texture, map_texture, slab_mesh, textured_surface
+from .printability import (
+    LimitReport,
+    edge_ramp,
+    limit_overhangs,
+    limit_overhangs_mapped,
+    orientation,
+    overhang_area,
+    thin_features,
+)
+from .surface import SURFACE_KINDS, Profile, Surface
+from .synthesis import naive_quilt, synthesize
+
 __version__ = "0.1.0"
 
 __all__ = [
@@ -54,4 +72,38 @@ __all__ = [
     "write_3mf",
     "export",
     "render_heightmap",
+    "synthesize",
+    "naive_quilt",
+    "quality",
+    "check",
+    "CheckReport",
+    "read_part",
+    "LimitReport",
+    "edge_ramp",
+    "limit_overhangs",
+    "limit_overhangs_mapped",
+    "orientation",
+    "overhang_area",
+    "thin_features",
+    "Profile",
+    "Surface",
+    "SURFACE_KINDS",
+    "MAPPINGS",
+    "HeightLimit",
+    "MappedSurface",
+    "TexturedSurface",
+    "fit_texture",
+    "map_texture",
+    "slab_mesh",
+    "textured_surface",
+    "brep",
+    "Textured",
+    "texture",
+    "textured",
+    "show",
+    "display_shape",
+    "load_mesh",
+    "render_part",
+    "read_step",
+    "write_step",
 ]

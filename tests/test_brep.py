@@ -1,0 +1,133 @@
+"""B-rep stage: degree-1 B-spline faces through texture grids, slabs, volumes, STEP."""
+
+import numpy as np
+import pytest
+
+from texcad import brep
+from texcad.errors import InputError, ParameterError
+from texcad.mesh import grid_solid as mesh_grid_solid
+
+
+def _heightfield(rows=12, cols=17, seed=3, lift=1.0):
+    """(R, C, 3) grid over [0, 8] x [0, 5] mm with random heights, corners at z = lift."""
+    rng = np.random.default_rng(seed)
+    x, y = np.linspace(0, 8, cols), np.linspace(0, 5, rows)
+    z = lift + rng.uniform(0, 1, (rows, cols))
+    z[[0, 0, -1, -1], [0, -1, 0, -1]] = lift
+    return np.stack(np.broadcast_arrays(x[None, :], y[:, None], z), axis=-1)
+
+
+def test_grid_surface_interpolates_every_vertex():
+    from OCP.BRep import BRep_Tool
+
+    g = _heightfield()
+    face = brep.grid_face(g, g[0, :, 0], g[:, 0, 1])  # knots = the x and y in mm
+    surf = BRep_Tool.Surface_s(face)
+    assert surf.UDegree() == 1 and surf.VDegree() == 1
+    for r, c in [(0, 0), (3, 7), (11, 16), (6, 2)]:
+        p = np.array(surf.Value(float(g[0, c, 0]), float(g[r, 0, 1])).Coord())
+        assert np.abs(p - g[r, c]).max() < 1e-9
+    back, uk, vk = brep.surface_grid(surf)  # the inverse, through the .brep text
+    assert np.abs(back - g).max() < 1e-9 and np.allclose(uk, g[0, :, 0]) and np.allclose(vk, g[:, 0, 1])
+
+
+def test_grid_solid_matches_mesh_volume_exactly():
+    top = _heightfield()
+    bottom = top.copy()
+    bottom[..., 2] = 0.0
+    solid = brep.grid_solid(top, bottom)
+    chk = brep.check_shape(solid)
+    assert chk == {"valid": True, "solids": 1, "faces": 6, "closed": True}
+    mesh = mesh_grid_solid(top.astype(np.float32), bottom.astype(np.float32))
+    # Same corner heights: the bilinear and the triangle volume are identical (the
+    # difference telescopes to the corners, see texcad.brep).
+    assert brep.volume(solid) == pytest.approx(mesh.volume, rel=1e-6)
+    # ... and a ruled (2-row) bottom gives the same solid.
+    ruled = brep.grid_solid(top, bottom[[0, -1]])
+    assert brep.check_shape(ruled)["valid"]
+    assert brep.volume(ruled) == pytest.approx(brep.volume(solid), rel=1e-12)
+
+
+def test_closed_band_slab_and_fuse_with_cylinder():
+    from build123d import Cylinder
+
+    th = np.linspace(0, 2 * np.pi, 90, endpoint=False)
+    z = np.linspace(-8, 8, 20)
+    r_top = 10.4 + 0.3 * np.sin(6 * th)[None, :] * np.cos(z)[:, None]
+    top = np.stack([r_top * np.cos(th), r_top * np.sin(th), np.broadcast_to(z[:, None], r_top.shape)], axis=-1)
+    bottom = np.stack([9.5 * np.cos(th) + 0 * z[:, None], 9.5 * np.sin(th) + 0 * z[:, None], np.broadcast_to(z[:, None], r_top.shape)], axis=-1)
+    slab = brep.grid_solid(top, bottom, wrap_x=True)
+    assert brep.check_shape(slab)["valid"]
+    ring = mesh_grid_solid(top.astype(np.float32), bottom.astype(np.float32), wrap_x=True)
+    assert brep.volume(slab) == pytest.approx(ring.volume, rel=2e-3)  # bilinear vs triangles
+    cyl = Cylinder(10, 20)
+    fused = brep.fuse_solids(cyl, slab)
+    assert brep.check_shape(fused)["valid"]
+    # Volume of the union: cylinder + slab - the part of the slab inside (r 9.5..10).
+    inside = np.pi * (10**2 - 9.5**2) * 16
+    assert brep.volume(fused) == pytest.approx(cyl.volume + brep.volume(slab) - inside, rel=1e-3)
+
+
+def test_volume_is_exact_on_analytic_and_trimmed_faces():
+    from build123d import Box, Cylinder, Location
+
+    part = Box(60, 40, 10).moved(Location((3, 4, 5))) - Cylinder(5, 20)
+    # planes with circular holes: the outline is sampled (second order): 1e-7
+    assert brep.volume(part) == pytest.approx(60 * 40 * 10 - np.pi * 25 * 10, rel=1e-7)
+
+
+def test_textured_plane_face_replaces_face_in_place():
+    from build123d import Axis, Box
+
+    box = Box(20, 10, 4)
+    top = box.faces().sort_by(Axis.Z)[-1]
+    x, y = np.linspace(-11, 11, 45), np.linspace(-6, 6, 25)
+    X, Y = np.meshgrid(x, y)
+    h = np.where((np.abs(X) < 8) & (np.abs(Y) < 3), 1 + np.sin(X) * np.cos(Y), 0.0)  # 0 near the outline
+    face = brep.textured_plane_face(top, h, x, y, origin=(0, 0, 2), xdir=(1, 0, 0), normal=(0, 0, 1))
+    solid = brep.replace_face(box, top, face)
+    assert brep.check_shape(solid) == {"valid": True, "solids": 1, "faces": 6, "closed": True}
+    # Exact: box + bilinear volume under the heights (cells of 0.5 x 0.5 mm; corner
+    # heights are 0, so triangles and bilinear patches agree).
+    cell = (x[1] - x[0]) * (y[1] - y[0])
+    bump = cell * (h[:-1, :-1] + h[1:, :-1] + h[:-1, 1:] + h[1:, 1:]).sum() / 4
+    assert brep.volume(solid) == pytest.approx(800 + bump, rel=1e-9)
+
+
+def test_inside_square_with_hole():
+    sq = np.array([[0, 0], [10, 0], [10, 10], [0, 10]], float)
+    hole = np.array([[4, 4], [6, 4], [6, 6], [4, 6]], float)
+    segs = np.concatenate([np.stack([p, np.roll(p, -1, 0)], 1) for p in (sq, hole)])
+    xs = ys = np.arange(-0.5, 11, 1.0)
+    m = brep.inside(segs, xs, ys)
+    X, Y = np.meshgrid(xs, ys)
+    want = (X > 0) & (X < 10) & (Y > 0) & (Y < 10) & ~((X > 4) & (X < 6) & (Y > 4) & (Y < 6))
+    assert np.array_equal(m, want)
+
+
+def test_step_round_trip_is_reproducible(tmp_path):
+    top = _heightfield(rows=30, cols=40)
+    bottom = top.copy()
+    bottom[..., 2] = 0.0
+    solid = brep.grid_solid(top, bottom)
+    a, b = tmp_path / "a.step", tmp_path / "b.step"
+    brep.write_step(solid, a, name="slab")
+    brep.write_step(solid, b, name="slab")
+    assert a.read_bytes() == b.read_bytes()
+    assert b"FILE_DESCRIPTION" in a.read_bytes() and b"'slab'" in a.read_bytes()
+    back = brep.read_step(a)
+    assert brep.check_shape(back)["valid"] and brep.check_shape(back)["solids"] == 1
+    assert brep.volume(back) == pytest.approx(brep.volume(solid), rel=1e-9)
+    m = brep.shape_mesh(back)  # viewing mesh: grid faces from their poles
+    assert m.num_triangles >= 2 * 29 * 39
+    with pytest.raises(InputError, match="does not exist"):
+        brep.read_step(tmp_path / "missing.step")
+
+
+def test_bad_grids_are_refused():
+    with pytest.raises(ParameterError, match="R >= 2"):
+        brep.grid_surface(np.zeros((1, 5, 3)))
+    with pytest.raises(ParameterError, match="strictly increasing"):
+        brep.grid_surface(_heightfield(), u=np.zeros(17))
+    with pytest.raises(ParameterError, match="cannot use"):
+        brep.to_topods(42)
