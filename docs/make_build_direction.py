@@ -73,7 +73,7 @@ def _rule_panel(alpha: float) -> Image.Image:
         if theta == alpha:
             colour = (0, 0, 0)
         d.line([(px, py), end], fill=colour, width=5 if theta != alpha else 3)
-        label = f"{theta}\u00b0 " + ("overhang" if over else (f"= \u03b1, critical" if theta == alpha else "prints"))
+        label = f"{theta}\u00b0 " + ("overhang" if over else ("= \u03b1, critical" if theta == alpha else "prints"))
         d.text((end[0] + 6, end[1] - 10), label, fill=colour, font=small)
     # The critical angle as an arc between the horizontal and the 45 degree face.
     d.line([(px, py), (px + 300, py)], fill=(150, 150, 150), width=1)

@@ -44,13 +44,16 @@ from __future__ import annotations
 import io
 import os
 import re
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
 from ._atomic import atomic_path
 from ._resources import require_memory
 from .errors import GeometryError, InputError, ParameterError
+
+if TYPE_CHECKING:
+    from .mesh import Mesh
 
 __all__ = [
     "grid_surface",

@@ -310,8 +310,6 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def _dir(d) -> np.ndarray:
-    return np.array(d.Coord(), dtype=np.float64)
 
 
 # ------------------------------------------------------------------------------------------
@@ -330,8 +328,8 @@ def _plane_frame(face, rotation: float):
 
     ad = BRepAdaptor_Surface(face)
     pln = ad.Plane()
-    p0 = _dir(pln.Location())
-    n = _dir(pln.Axis().Direction())
+    p0 = _brep._dir(pln.Location())
+    n = _brep._dir(pln.Axis().Direction())
     if face.Orientation() == TopAbs_REVERSED:
         n = -n
     if abs(n[2]) > 0.999:
@@ -545,9 +543,9 @@ def _extrusion_frame(face):
     kind = ad.GetType()
     if kind == GeomAbs_Cylinder:
         ax = ad.Cylinder().Position()
-        o, ey, ex = _dir(ax.Location()), _dir(ax.Direction()), _dir(ax.XDirection())
+        o, ey, ex = _brep._dir(ax.Location()), _brep._dir(ax.Direction()), _brep._dir(ax.XDirection())
     elif kind == GeomAbs_SurfaceOfExtrusion:
-        ey = _unit(_dir(ad.Direction()))
+        ey = _unit(_brep._dir(ad.Direction()))
         ref = np.array([0.0, 0.0, 1.0]) if abs(ey[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
         ex = _unit(np.cross(ey, ref))
         o = np.zeros(3)
@@ -912,11 +910,12 @@ def texture(
 # Export, render, show
 # ------------------------------------------------------------------------------------------
 def load_mesh(path: str | os.PathLike, *, tolerance: float = 0.01) -> Mesh:
-    """Read an STL or 3MF (trimesh; all objects merged, mm) or a STEP file as a Mesh.
+    """Read an STL or 3MF (all objects merged, mm) or a STEP file as a Mesh.
 
-    STEP: texcad's texture faces (degree-1 B-spline grids) are meshed from their
-    poles, every other face by OCCT with ``tolerance`` mm (see
-    :func:`texcad.brep.shape_mesh`): a mesh for looking at, not for printing."""
+    STL and 3MF go through :func:`texcad.check.read_part`. STEP: texcad's texture
+    faces (degree-1 B-spline grids) are meshed from their poles, every other face by
+    OCCT with ``tolerance`` mm (see :func:`texcad.brep.shape_mesh`): a mesh for
+    looking at, not for printing."""
     p = Path(path)
     if not p.is_file():
         raise InputError(f"{str(p)!r} does not exist")
@@ -925,15 +924,18 @@ def load_mesh(path: str | os.PathLike, *, tolerance: float = 0.01) -> Mesh:
         return _brep.shape_mesh(_brep.read_step(p), tolerance=tolerance)
     if suffix not in (".stl", ".3mf"):
         raise ParameterError(f"cannot read {p.suffix!r} files; use .stl, .3mf or .step")
-    import trimesh
+    from .check import read_part
 
-    try:
-        loaded = trimesh.load(p, force="mesh")
-    except Exception as exc:  # trimesh raises many kinds
-        raise InputError(f"cannot read {str(p)!r}: {exc}") from None
-    if len(loaded.faces) == 0:
+    meshes = [m for _, m in read_part(p)]
+    if not meshes or sum(m.num_triangles for m in meshes) == 0:
         raise InputError(f"{str(p)!r} holds no triangles")
-    return Mesh(np.asarray(loaded.vertices, np.float32), np.asarray(loaded.faces, np.uint32))
+    if len(meshes) == 1:
+        return meshes[0]
+    offsets = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])
+    return Mesh(
+        np.concatenate([m.vertices for m in meshes]),
+        np.concatenate([m.faces + np.uint32(o) for m, o in zip(meshes, offsets)]),
+    )
 
 
 def _mesh_of(obj: Any) -> Mesh:

@@ -17,20 +17,13 @@ from typing import Sequence
 
 import numpy as np
 
+from ._checks import positive
 from ._resources import require_memory
 from .errors import InputError, ParameterError
 
 __all__ = ["Heightmap"]
 
 
-def _positive(name: str, value: float) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number in mm, got {value!r}") from None
-    if not np.isfinite(v) or v <= 0:
-        raise ParameterError(f"{name} must be a positive number of mm, got {value!r}")
-    return v
 
 
 def _nonnegative(name: str, value: float) -> float:
@@ -84,12 +77,12 @@ def _crop(gray: np.ndarray, box: Sequence[float], units: str, src: tuple[float, 
 
 def _pair(name: str, value: float | Sequence[float]) -> tuple[float, float]:
     if np.ndim(value) == 0:
-        v = _positive(name, value)  # type: ignore[arg-type]
+        v = positive(name, value)  # type: ignore[arg-type]
         return (v, v)
     vals = list(value)  # type: ignore[arg-type]
     if len(vals) != 2:
         raise ParameterError(f"{name} must be one number or (x, y) in mm, got {value!r}")
-    return (_positive(f"{name}[0]", vals[0]), _positive(f"{name}[1]", vals[1]))
+    return (positive(f"{name}[0]", vals[0]), positive(f"{name}[1]", vals[1]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,7 +143,7 @@ class Heightmap:
             raise ParameterError(f"values must be a 2-D array (rows, cols), got shape {a.shape}")
         p = _resolve_pitch(a.shape, pitch, size)
         if height is not None:
-            hmax = _positive("height", height)
+            hmax = positive("height", height)
             lo, hi = float(np.nanmin(a)), float(np.nanmax(a))
             a = (a - lo) / (hi - lo) * hmax if hi > lo else np.zeros_like(a)
         return cls(a.astype(np.float32), p)
@@ -223,8 +216,8 @@ class Heightmap:
         """
         from .imageio import read_gray
 
-        hmax = _positive("height", height)
-        g_exp = _positive("gamma", gamma)
+        hmax = positive("height", height)
+        g_exp = positive("gamma", gamma)
         sigma = _nonnegative("smooth", smooth)
         if size is None and pitch is None:
             raise ParameterError(
@@ -335,7 +328,7 @@ class Heightmap:
         maximum height) is white. The write is atomic."""
         from .imageio import write_gray16
 
-        top = self.max_height if height is None else _positive("height", height)
+        top = self.max_height if height is None else positive("height", height)
         write_gray16(path, self.heights / top if top > 0 else np.zeros(self.shape))
 
     def __repr__(self) -> str:

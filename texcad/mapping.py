@@ -82,6 +82,7 @@ from typing import Any
 import numpy as np
 
 from ._resources import require_memory
+from ._checks import positive
 from .errors import GeometryError, ParameterError, TexcadWarning
 from .heightmap import Heightmap
 from .mesh import Mesh
@@ -296,14 +297,6 @@ def _smoothstep(t: np.ndarray) -> np.ndarray:
     return t * t * (3.0 - 2.0 * t)
 
 
-def _positive(name: str, v: Any) -> float:
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number of mm, got {v!r}") from None
-    if not (np.isfinite(f) and f > 0):
-        raise ParameterError(f"{name} must be a positive number of mm, got {v!r}")
-    return f
 
 
 # -- texture fitting -----------------------------------------------------------------------
@@ -341,12 +334,12 @@ def fit_texture(
     """
     from .textures import PREFIX, builtin, load_texture
 
-    ln = _positive("length", length)
+    ln = positive("length", length)
     if isinstance(texture, Heightmap):
         return texture, bool(periodic_x)
     spec = os.fspath(texture)
     if spec.startswith(PREFIX):
-        _positive("pitch", pitch)
+        positive("pitch", pitch)
         if profile.closed:
             L = profile.length
             tile = builtin(spec, pitch=pitch, height=height).size[0]
@@ -558,7 +551,7 @@ def map_texture(
     """
     if mapping not in MAPPINGS:
         raise ParameterError(f"unknown mapping {mapping!r}; use 'distance' (algorithm 1) or 'angle' (algorithm 2)")
-    depth = _positive("depth", depth)
+    depth = positive("depth", depth)
     rows, cols = heightmap.shape
     px, py = heightmap.pitch
     L = profile.length
@@ -612,7 +605,7 @@ def map_texture(
         s_cols = (L - cols * px) / 2 + (np.arange(cols) + 0.5) * px
     if length is None:
         length = rows * py
-    length = _positive("length", length)
+    length = positive("length", length)
     if (rows - 1) * py > length + 1e-9:
         raise GeometryError(
             f"the texture spans {(rows - 1) * py:.2f} mm along y but the surface is only {length:.2f} mm long; "
@@ -620,7 +613,7 @@ def map_texture(
         )
     y = (length - rows * py) / 2 + (np.arange(rows) + 0.5) * py
     hmax = float(heights.max()) if heights.size else 0.0
-    trans = max(2.0 * hmax, 4.0 * px) if transition is None else _positive("transition", transition)
+    trans = max(2.0 * hmax, 4.0 * px) if transition is None else positive("transition", transition)
 
     # Extra columns at corners (exact corner vertex; height interpolated in x).
     corners = np.array([c.s for c in profile.corners])

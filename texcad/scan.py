@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from ._resources import require_memory
+from ._checks import positive
 from .errors import InputError, ParameterError
 from .heightmap import Heightmap
 
@@ -659,7 +660,7 @@ def scan_to_heightmap(
             min_coverage.
         ResourceError: the grid would not fit in memory.
     """
-    pitch = _positive("pitch", pitch)
+    pitch = positive("pitch", pitch)
     if isinstance(form_degree, bool) or not isinstance(form_degree, (int, np.integer)) or not 0 <= form_degree <= 6:
         raise ParameterError(f"form_degree must be a whole number from 0 to 6, got {form_degree!r}")
     form_degree = int(form_degree)
@@ -870,11 +871,3 @@ def scan_to_png(
     return hm, report
 
 
-def _positive(name: str, value: Any) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number of mm, got {value!r}") from None
-    if not (np.isfinite(v) and v > 0):
-        raise ParameterError(f"{name} must be a positive number of mm, got {value!r}")
-    return v

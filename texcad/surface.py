@@ -49,6 +49,7 @@ from typing import Any, Callable, NamedTuple, Sequence
 
 import numpy as np
 
+from ._checks import positive
 from .errors import GeometryError, InputError, ParameterError
 
 __all__ = ["Profile", "ProfileSample", "FunctionPiece", "Corner", "Surface", "SURFACE_KINDS"]
@@ -66,14 +67,6 @@ _VERTICAL_TOL = 1e-9
 _GAP_TOL = 1e-5
 
 
-def _finite_positive(name: str, value: Any) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number of mm, got {value!r}") from None
-    if not (np.isfinite(v) and v > 0):
-        raise ParameterError(f"{name} must be a positive number of mm, got {value!r}")
-    return v
 
 
 # -- cubic Hermite on one interval ---------------------------------------------------
@@ -338,17 +331,17 @@ class Profile:
         def curve(t):
             return t, fv(t)
 
-        der = None
-        if dv is not None:
-            def der(t):
-                return np.ones_like(t), dv(t)
+        def slope(t):
+            return np.ones_like(t), dv(t)
+
+        der = slope if dv is not None else None
 
         return cls.parametric(curve, x0, x1, derivative=der, samples=samples, name=name)
 
     @classmethod
     def plane(cls, width: float, *, z: float = 0.0) -> "Profile":
         """The straight line from ``(0, z)`` to ``(width, z)`` mm: a plate's top face."""
-        w = _finite_positive("width", width)
+        w = positive("width", width)
         t = np.array([0.0, w])
         pos = np.array([[0.0, z], [w, z]])
         der = np.array([[1.0, 0.0], [1.0, 0.0]])
@@ -361,7 +354,7 @@ class Profile:
         Starts at ``(p + R, q)`` and runs clockwise in the XZ view (outward normal), so
         that ``s = R (theta_0 - theta)``: the arc length of eq. (8) measured clockwise.
         """
-        r = _finite_positive("radius", radius)
+        r = positive("radius", radius)
         p, q = (float(c) for c in center)
         return cls.parametric(
             lambda th: (p + r * np.cos(th), q + r * np.sin(th)),
@@ -379,7 +372,7 @@ class Profile:
         """A circular arc of ``radius`` mm spanning ``angle`` degrees, symmetric about
         +z over ``center`` (the top of a cylinder), clockwise so the texture is on the
         convex side (eq. 7, 8: ``s = R (theta_0 - theta)``)."""
-        r = _finite_positive("radius", radius)
+        r = positive("radius", radius)
         a = float(angle)
         if not (0 < a <= 360):
             raise ParameterError(f"angle must be in (0, 360] degrees, got {angle!r}")
@@ -410,8 +403,8 @@ class Profile:
         amp = float(amplitude)
         if not (np.isfinite(amp) and amp >= 0):
             raise ParameterError(f"amplitude must be >= 0 mm, got {amplitude!r}")
-        lp = _finite_positive("period", period)
-        w = _finite_positive("width", width)
+        lp = positive("period", period)
+        w = positive("width", width)
         ph = np.radians(float(phase))
         k = 2 * np.pi / lp
         n = samples if samples is not None else max(2048, int(np.ceil(256 * w / lp)))
@@ -589,7 +582,7 @@ class Profile:
             s = self._s[:-1] if self.closed else self._s
             pts = self._p0 if self.closed else np.concatenate([self._p0, self._p1[-1:]])
             return s.copy(), pts.copy()
-        sp = _finite_positive("spacing", spacing)
+        sp = positive("spacing", spacing)
         n = max(2, int(np.ceil(self.length / sp)))
         s = np.linspace(0.0, self.length, n, endpoint=not self.closed) if self.closed else np.linspace(0.0, self.length, n + 1)
         return s, self.point(s)
@@ -693,18 +686,18 @@ class Profile:
 
         from .solid import from_manifold
 
-        ln = _finite_positive("length", length)
+        ln = positive("length", length)
         s, pts = self.sample()
         if self.closed:
             poly = pts if self.signed_area > 0 else pts[::-1]
             cs = m3d.CrossSection([poly], m3d.FillRule.NonZero)
             if thickness is not None:
-                t = _finite_positive("thickness", thickness)
+                t = positive("thickness", thickness)
                 # The inner side of the wall is the offset away from the normal.
                 inner = cs.offset(-t if self.signed_area < 0 else t, m3d.JoinType.Round, 2.0, 64)
                 cs = cs - inner if self.signed_area < 0 else inner - cs
         else:
-            t = _finite_positive("thickness", 5.0 if thickness is None else thickness)
+            t = positive("thickness", 5.0 if thickness is None else thickness)
             smp = self.at(s)
             nrm = _smooth_unit(smp.normal, s, max(4 * t, 1e-3), False)
             inner = pts - t * nrm
@@ -825,15 +818,6 @@ def _topods(obj: Any):
     )
 
 
-def _explore(shape, kind) -> list:
-    from OCP.TopExp import TopExp_Explorer
-
-    out = []
-    exp = TopExp_Explorer(shape, kind)
-    while exp.More():  # one per face / wire / edge of the input
-        out.append(exp.Current())
-        exp.Next()
-    return out
 
 
 def _cad_wire(obj: Any):
@@ -843,6 +827,8 @@ def _cad_wire(obj: Any):
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_WIRE
     from OCP.TopExp import TopExp
     from OCP.TopoDS import TopoDS, TopoDS_Vertex
+
+    from .brep import _explore
 
     shape = _topods(obj)
     faces = _explore(shape, TopAbs_FACE)
@@ -988,7 +974,7 @@ class Surface:
         at ``z = 0`` over ``[0, width] x [0, length]``."""
         from build123d import Align, Box
 
-        w, ln, t = (_finite_positive(n, v) for n, v in (("width", width), ("length", length), ("thickness", thickness)))
+        w, ln, t = (positive(n, v) for n, v in (("width", width), ("length", length), ("thickness", thickness)))
         base = Box(w, ln, t, align=(Align.MIN, Align.MIN, Align.MAX))
         return cls(Profile.plane(w), ln, base, t, {"kind": "plate", "width": w})
 
@@ -998,8 +984,8 @@ class Surface:
         ``thickness`` makes it a tube with that wall (mm); None or >= radius: solid."""
         from build123d import Circle, Plane, extrude
 
-        r, ln = _finite_positive("radius", radius), _finite_positive("length", length)
-        t = None if thickness is None else _finite_positive("thickness", thickness)
+        r, ln = positive("radius", radius), positive("length", length)
+        t = None if thickness is None else positive("thickness", thickness)
         face = Circle(r) if (t is None or t >= r) else Circle(r) - Circle(r - t)
         base = extrude(Plane.XZ * face, amount=-ln)
         return cls(Profile.circle(r), ln, base, t if (t is not None and t < r) else r, {"kind": "cylinder", "radius": r})
@@ -1010,7 +996,7 @@ class Surface:
         symmetric about +z, wall ``thickness`` mm, along +Y (the paper's curved sample)."""
         from build123d import CenterArc, Line, Plane, extrude, make_face
 
-        r, ln, t = (_finite_positive(n, v) for n, v in (("radius", radius), ("length", length), ("thickness", thickness)))
+        r, ln, t = (positive(n, v) for n, v in (("radius", radius), ("length", length), ("thickness", thickness)))
         a = float(angle)
         if not (0 < a < 360):
             raise ParameterError(f"arc angle must be in (0, 360) degrees, got {angle!r}; use cylinder for 360")
@@ -1034,7 +1020,7 @@ class Surface:
         if not (np.isfinite(amp) and amp >= 0):
             raise ParameterError(f"amplitude must be >= 0 mm, got {amplitude!r}")
         lp, w, ln, t = (
-            _finite_positive(n, v) for n, v in (("period", period), ("width", width), ("length", length), ("thickness", thickness))
+            positive(n, v) for n, v in (("period", period), ("width", width), ("length", length), ("thickness", thickness))
         )
         prof = Profile.sine(amp, lp, w)
         # The base's top face: a spline through 64 points per period (error < 1e-5 mm
@@ -1059,7 +1045,7 @@ class Surface:
         Without ``base``, :meth:`Profile.base_body` makes one (``thickness`` mm band
         under an open profile, default 5 mm; the filled region of a closed one)."""
         prof = profile if isinstance(profile, Profile) else Profile.from_cad(profile)
-        ln = _finite_positive("length", length)
+        ln = positive("length", length)
         if base is None:
             base = prof.base_body(ln, thickness)
             if thickness is None and not prof.closed:

@@ -31,6 +31,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from ._resources import require_memory
+from ._checks import positive
 from .errors import ParameterError
 from .heightmap import Heightmap
 
@@ -102,7 +103,7 @@ class BuiltinTexture:
         Raises:
             ParameterError: unknown parameter or value out of range.
         """
-        scale = _positive_number(f"scale of texture {self.name!r}", scale)
+        scale = positive(f"scale of texture {self.name!r}", scale, unit="")
         unknown = sorted(set(params) - set(self.params))
         if unknown:
             known = ", ".join(self.params) or "none"
@@ -123,14 +124,6 @@ class BuiltinTexture:
         return (float(tile[0]), float(tile[1])), func
 
 
-def _positive_number(label: str, value: Any) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{label} must be a number, got {value!r}") from None
-    if not (np.isfinite(v) and v > 0):
-        raise ParameterError(f"{label} must be a positive number, got {value!r}")
-    return v
 
 
 def _check_param(tex: str, name: str, p: Param, value: Any) -> float:
@@ -618,7 +611,7 @@ def builtin(
         )
     tex = BUILTINS[key]
     merged = {**spec_params, **params}
-    scale = float(merged.pop("scale", 1.0)) * _positive_number("scale", scale)
+    scale = float(merged.pop("scale", 1.0)) * positive("scale", scale, unit="")
     for label, v in (("pitch", pitch), ("height", height)):
         if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
             raise ParameterError(f"{label} must be a positive number of mm, got {v!r}")
@@ -716,7 +709,7 @@ def contact_sheet(
     names = list(builtin_names() if names is None else names)
     if not names:
         raise ParameterError("names is empty; give at least one built-in texture name")
-    field = _positive_number("field (mm)", field)
+    field = positive("field", field)
     if not (isinstance(cell, (int, np.integer)) and 32 <= cell <= 1024):
         raise ParameterError(f"cell must be a whole number of pixels from 32 to 1024, got {cell!r}")
     if not (isinstance(columns, (int, np.integer)) and columns >= 1):

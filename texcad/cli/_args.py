@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-__all__ = ["positive_float", "shape"]
+__all__ = ["positive_float", "shape", "vector"]
 
 
 def positive_float(text: str) -> float:
@@ -27,3 +27,14 @@ def shape(text: str) -> tuple[int, int]:
     if r <= 0 or c <= 0:
         raise argparse.ArgumentTypeError(f"expected positive ROWSxCOLS, got {text!r}")
     return r, c
+
+
+def vector(text: str) -> tuple[float, float, float]:
+    """``X,Y,Z``: a direction, any length, not zero (:func:`texcad.check.parse_vector`)."""
+    from ..check import parse_vector
+    from ..errors import ParameterError
+
+    try:
+        return tuple(float(c) for c in parse_vector(text))
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None

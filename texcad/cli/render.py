@@ -5,16 +5,7 @@ from __future__ import annotations
 import argparse
 import time
 
-
-def vector3(text: str) -> tuple[float, float, float]:
-    """``X,Y,Z``: a direction (any length, not zero)."""
-    try:
-        x, y, z = (float(t) for t in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a direction X,Y,Z such as -1,2,-1.2, got {text!r}") from None
-    if x == y == z == 0:
-        raise argparse.ArgumentTypeError("the view direction must not be 0,0,0")
-    return x, y, z
+from ._args import vector
 
 
 def run(args: argparse.Namespace) -> int:
@@ -36,10 +27,10 @@ def add(sub: argparse._SubParsersAction) -> None:
     r.add_argument("-o", "--out", required=True, metavar="OUT.png", help="picture to write")
     r.add_argument("--width", type=int, default=1200, help="image width in pixels (default 1200)")
     r.add_argument(
-        "--view", type=vector3, default=(-1.0, 2.0, -1.2), metavar="X,Y,Z",
+        "--view", type=vector, default=(-1.0, 2.0, -1.2), metavar="X,Y,Z",
         help="direction the camera looks along (default -1,2,-1.2: from the front left, above)",
     )
-    r.add_argument("--up", type=vector3, default=(0.0, 0.0, 1.0), metavar="X,Y,Z", help="direction shown as up (default 0,0,1)")
+    r.add_argument("--up", type=vector, default=(0.0, 0.0, 1.0), metavar="X,Y,Z", help="direction shown as up (default 0,0,1)")
     r.add_argument("--supersample", type=int, default=2, help="anti-aliasing factor (default 2)")
     r.add_argument(
         "--tolerance", type=float, default=0.01,
