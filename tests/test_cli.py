@@ -3,6 +3,8 @@ import sys
 
 import trimesh
 
+import texcad
+
 from texcad.cli import main
 
 
@@ -13,14 +15,27 @@ def test_textures_lists_names_first(capsys):
     assert lines[0].split()[0] == "stones"
 
 
-def test_demo_writes_files_and_summary(tmp_path, capsys):
+def test_demo_grows_a_sample_and_writes_files(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path), "--size", "20", "--pitch", "0.5"]) == 0
     out = capsys.readouterr()
-    for f in ("demo.stl", "demo.3mf", "demo_heightmap.png"):
+    for f in ("demo.stl", "demo.3mf", "demo.step", "demo.png", "demo_heightmap.png", "demo_sample.png"):
         assert (tmp_path / f).stat().st_size > 0
     assert "watertight   True" in out.out and "triangles" in out.out and "seconds" in out.out
+    assert "synthesized  40 x 40 px" in out.out  # grown from the 20 mm (40 px) sample
     assert "%]" in out.err  # progress lines
-    assert trimesh.load(tmp_path / "demo.stl").is_watertight
+    stl = trimesh.load(tmp_path / "demo.stl")
+    assert stl.is_watertight and stl.body_count == 1
+    step = texcad.load_mesh(tmp_path / "demo.step")
+    assert abs(step.volume - stl.volume) < 1e-3 * stl.volume
+
+
+def test_demo_is_reproducible_and_can_skip_step(tmp_path, capsys):
+    args = ["demo", "--size", "20", "--pitch", "0.5", "--no-step", "--texture", "leather"]
+    assert main(args + ["--out", str(tmp_path / "a")]) == 0
+    assert main(args + ["--out", str(tmp_path / "b")]) == 0
+    assert not (tmp_path / "a" / "demo.step").exists()
+    for f in ("demo.stl", "demo.3mf", "demo.png"):
+        assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes()
 
 
 def test_errors_are_one_line_without_traceback(tmp_path):

@@ -117,10 +117,8 @@ def rasterize(
     i1 = np.minimum(np.floor(hi[:, 0] - 0.5), W - 1).astype(np.int64)
     j0 = np.maximum(np.ceil(lo[:, 1] - 0.5), 0).astype(np.int64)
     j1 = np.minimum(np.floor(hi[:, 1] - 0.5), H - 1).astype(np.int64)
-    nx = np.maximum(i1 - i0 + 1, 0)
-    ny = np.maximum(j1 - j0 + 1, 0)
-    count = np.where(keep, nx * ny, 0)
-    ids = np.flatnonzero(count)
+    ny = np.where(keep, np.maximum(j1 - j0 + 1, 0), 0)
+    ids = np.flatnonzero(ny * (i1 >= i0))
     if len(ids) == 0:
         return zbuf.reshape(H, W), fbuf.reshape(H, W)
     # Per-face edge functions, normalised: w1 = (A1 x + B1 y + C1), likewise w2;
@@ -131,22 +129,45 @@ def rasterize(
     A2, B2 = (a[:, 1] - b[:, 1]) * inv, (b[:, 0] - a[:, 0]) * inv  # weight of c: area(a, b, p)
     C2 = -(A2 * a[:, 0] + B2 * a[:, 1])
     za, zb, zc = z[f[:, 0]], z[f[:, 1]], z[f[:, 2]]
-    csum = np.cumsum(count[ids])
-    start = 0
     eps = -1e-7
-    while start < len(ids):
+    # Scan-line spans: one (face, pixel row) pair per row of each face's bounding box,
+    # with the exact column range where all three edge functions are >= eps, so that
+    # large triangles cost their area, not their bounding box.
+    rows_per = ny[ids]
+    fr = np.repeat(ids, rows_per)
+    first = np.concatenate([[0], np.cumsum(rows_per)[:-1]])
+    row = j0[fr] + np.arange(len(fr), dtype=np.int64) - np.repeat(first, rows_per)
+    y = row + 0.5
+    xl = i0[fr].astype(np.float64) + 0.5
+    xr = i1[fr].astype(np.float64) + 0.5
+    for A, rest in (
+        (A1[fr], B1[fr] * y + C1[fr]),
+        (A2[fr], B2[fr] * y + C2[fr]),
+        (-(A1[fr] + A2[fr]), 1.0 - (B1[fr] + B2[fr]) * y - C1[fr] - C2[fr]),
+    ):  # A x + rest >= eps
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = (eps - rest) / A
+        xl = np.where(A > 0, np.maximum(xl, bound), xl)
+        xr = np.where(A < 0, np.minimum(xr, bound), xr)
+        xr = np.where((A == 0) & (rest < eps), -np.inf, xr)
+    # Widen by one pixel each side for rounding; the exact test below decides.
+    c0 = np.maximum(np.ceil(xl - 0.5) - 1, i0[fr]).astype(np.int64)
+    c1 = np.minimum(np.floor(xr - 0.5) + 1, i1[fr]).astype(np.int64)
+    count = np.maximum(c1 - c0 + 1, 0)
+    span = np.flatnonzero(count)
+    fr, row, c0, count = fr[span], row[span], c0[span], count[span]
+    csum = np.cumsum(count)
+    start = 0
+    while start < len(fr):
         base = csum[start - 1] if start else 0
         stop = int(np.searchsorted(csum, base + chunk, side="right"))
         stop = max(stop, start + 1)
-        sel = ids[start:stop]
-        cnt = count[sel]
-        rep = np.repeat(np.arange(len(sel)), cnt)
+        cnt = count[start:stop]
         first = np.concatenate([[0], np.cumsum(cnt)[:-1]])
         local = np.arange(int(cnt.sum()), dtype=np.int64) - np.repeat(first, cnt)
-        fi = sel[rep]
-        nxf = nx[fi]
-        ix = i0[fi] + local % nxf
-        iy = j0[fi] + local // nxf
+        fi = np.repeat(fr[start:stop], cnt)
+        ix = np.repeat(c0[start:stop], cnt) + local
+        iy = np.repeat(row[start:stop], cnt)
         px, py = ix + 0.5, iy + 0.5
         w1 = A1[fi] * px + B1[fi] * py + C1[fi]
         w2 = A2[fi] * px + B2[fi] * py + C2[fi]
@@ -155,15 +176,9 @@ def rasterize(
             fi, w1, w2 = fi[inside], w1[inside], w2[inside]
             pix = iy[inside] * W + ix[inside]
             zz = za[fi] + w1 * (zb[fi] - za[fi]) + w2 * (zc[fi] - za[fi])
-            order = np.lexsort((-zz, pix))
-            ps = pix[order]
-            head = np.ones(len(ps), dtype=bool)
-            head[1:] = ps[1:] != ps[:-1]
-            o = order[head]
-            p, zn = pix[o], zz[o]
-            better = zn > zbuf[p]
-            zbuf[p[better]] = zn[better]
-            fbuf[p[better]] = fi[o][better]
+            np.maximum.at(zbuf, pix, zz)  # z-buffer: nearest depth per pixel
+            won = zz == zbuf[pix]
+            fbuf[pix[won]] = fi[won]  # ties: the last face in order, deterministic
         start = stop
     return zbuf.reshape(H, W), fbuf.reshape(H, W)
 
