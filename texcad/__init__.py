@@ -36,6 +36,7 @@ from .printability import (
     overhang_area,
     thin_features,
 )
+from .seams import SeamGap, seam_gap
 from .surface import SURFACE_KINDS, Profile, Surface
 from .synthesis import naive_quilt, synthesize
 
@@ -96,6 +97,8 @@ __all__ = [
     "map_texture",
     "slab_mesh",
     "textured_surface",
+    "SeamGap",
+    "seam_gap",
     "brep",
     "Textured",
     "texture",
