@@ -90,6 +90,29 @@ def test_same_seed_same_bytes(natural: Heightmap, blend: str) -> None:
     assert d.heights.tobytes() == a.heights.tobytes()
 
 
+@pytest.mark.parametrize("blend", BLENDS)
+@pytest.mark.parametrize("wrap", WRAPS)
+def test_wavefront_equals_scan_line_order(
+    natural: Heightmap, blend: str, wrap: str | None, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Patches are matched and pasted a diagonal front at a time (_levels); every
+    # patch must still see exactly what scan-line order (Liang 2001) shows it, so
+    # the output is byte-identical to pasting one patch at a time in scan-line order.
+    import texcad.synthesis as syn
+
+    shape = (150, 203)  # 8 x 11 patches, the last ones cropped (or closing the torus)
+    w = wrap or ""
+    levels = syn._levels(syn._axis(shape[0], P, O, "y" in w), syn._axis(shape[1], P, O, "x" in w), P)
+    if wrap in (None, "y"):
+        assert levels.max() + 1 < levels.size // 2  # the front holds several patches
+    front = synthesize(natural, shape, patch=P, overlap=O, blend=blend, wrap=wrap, seed=4)
+    monkeypatch.setattr(
+        syn, "_levels", lambda ay, ax, p: np.arange(len(ay.starts) * len(ax.starts)).reshape(len(ay.starts), -1)
+    )
+    scan = synthesize(natural, shape, patch=P, overlap=O, blend=blend, wrap=wrap, seed=4)
+    assert front.heights.tobytes() == scan.heights.tobytes()
+
+
 def test_paper_parameters_non_square_sample() -> None:
     # Paper, Table 1: a 150 x 100 px sample with patch 25 and overlap 10; an output
     # size that is not a multiple of the step (15 px) is covered and cropped.
@@ -405,3 +428,16 @@ def test_fft_features_match_projection_and_bound_the_distance(natural: Heightmap
     if key[2:] == (0, 0):
         assert np.all(d_feat <= d_exact * (1 + 1e-4) + 1e-6)
     assert np.mean(d_feat / d_exact) > 0.3  # and not a trivial bound
+
+
+def test_min_error_paths_of_many_strips_match_one_at_a_time() -> None:
+    # Many strips (a front of patches) are backtracked by one vectorized step per
+    # row; each path must be the one found for its strip alone.
+    rng = np.random.default_rng(3)
+    errs = [rng.random((45, int(w))) ** 3 for w in rng.integers(1, 24, size=40)]
+    errs[5][:] = 1.0  # ties everywhere: the same tie-breaking
+    starts = [None if k % 3 else int(e.shape[1] // 2) for k, e in enumerate(errs)]
+    together = _min_error_paths(errs, starts)
+    for e, s, path in zip(errs, starts, together):
+        alone = _min_error_paths([e], [s])[0]
+        assert np.array_equal(path, alone)

@@ -45,6 +45,21 @@ decide among them (the fine level). The candidate set is therefore the members o
 ``Psi_B`` among those 10 approximate nearest neighbours: with ``tolerance`` 0.1 it
 rarely holds more.
 
+Scan-line order, a front at a time
+----------------------------------
+A patch's zone is the output of the patches it overlaps that come before it in scan
+line order, and nothing else. So patch ``(i, j)`` may be pasted as soon as those are:
+at step ``1 + max(step of the earlier patches it overlaps)`` (``j + 3 i`` for patch 45,
+overlap 25, a diagonal front; see ``_levels``). The patches of one step share no
+pixel, and every pair of overlapping patches is pasted in scan-line order, so the
+output is byte-identical to pasting one patch at a time (tested), while the patches
+of a front (about a third of a patch row) are matched together: one k-d tree query,
+one matrix product for their features, one gather of their neighbours' zones, one
+dynamic programme for their cuts. Each patch's random pick is drawn before the run
+(a uniform number per patch), so it does not depend on the schedule. With wrap
+along x the first patch of a row overlaps the last one of the row above, which
+makes the schedule plain scan-line order (one patch per step).
+
 Blending
 --------
 ``blend="feather"`` (Liang 2001, section 3.3): in the overlap the new patch gets the
@@ -130,6 +145,8 @@ _MAX_COARSE_PIXELS = 320
 #: Kernels correlated with the sample per FFT batch (bounds the memory: each holds
 #: about 12 bytes per sample pixel).
 _FFT_CHUNK = 8
+#: Rows of the feature matrix products (see _Synthesizer.query).
+_MATMUL_ROWS = 32
 #: Candidates used to fit the PCA.
 _PCA_SUBSET = 1024
 #: More candidate windows than this are thinned to a regular grid of positions.
@@ -376,6 +393,24 @@ def _top_components(cov: np.ndarray, kmax: int) -> np.ndarray:
 # ------------------------------------------------------------------------------------
 # Zone types: which strips of a patch are already synthesized
 # ------------------------------------------------------------------------------------
+def _rectangles(mask: np.ndarray) -> list[tuple[int, int, int, int]]:
+    """Disjoint rectangles ``(row, col, rows, cols)`` in px whose union is ``mask``.
+
+    Runs of identical mask rows, each split into its runs of True columns: a few
+    rectangles for a boundary zone (the L: the top strip and the left strip below it).
+    """
+    rects = []
+    r0 = 0
+    n = mask.shape[0]
+    for r in range(1, n + 1):
+        if r < n and np.array_equal(mask[r], mask[r0]):
+            continue
+        edges = np.flatnonzero(np.diff(np.r_[0, mask[r0].astype(np.int8), 0]))
+        rects += [(r0, int(a), r - r0, int(b - a)) for a, b in zip(edges[::2], edges[1::2])]
+        r0 = r
+    return rects
+
+
 @dataclass
 class _Zone:
     """Everything about one boundary-zone type ``(top, left, right, bottom)`` widths.
@@ -398,11 +433,12 @@ class _Zone:
     pflat: np.ndarray  # (A,) indices of the zone in a flattened patch
     sflat: np.ndarray  # (A,) indices of the zone in the flattened sample, patch at (0, 0)
     alpha: np.ndarray  # (p, p) float32 feathering weight of the new patch
+    rects: list[tuple[int, int, int, int]]  # (row, col, rows, cols) px: the zone as rectangles
     tree: cKDTree | None = None  # over the QTP + PCA features of every candidate
     kernels: np.ndarray | None = None  # (K, A) float32
     feats: np.ndarray | None = None  # (candidates, K) float64, features of each candidate
     shifted: np.ndarray | None = None  # (candidates, K): of the strip at the far side
-    uses: int = 0  # queries so far (a closing zone builds its tree at its second)
+    uses: int = 0  # patches it serves in this run (one: a linear scan, no tree)
 
 
 class _Synthesizer:
@@ -426,6 +462,15 @@ class _Synthesizer:
         self.search = search
         self.zones: dict[tuple[int, int, int, int], _Zone] = {}
         self.S_hat: np.ndarray | None = None
+        self._windows: dict[tuple[int, int], np.ndarray] = {}
+
+    def windows(self, h: int, w: int) -> np.ndarray:
+        """``(rows - h + 1, cols - w + 1, h, w)`` read-only view: every ``h x w`` window
+        of the sample (mm)."""
+        v = self._windows.get((h, w))
+        if v is None:
+            v = self._windows[(h, w)] = np.lib.stride_tricks.sliding_window_view(self.S, (h, w))
+        return v
 
     def zone(self, key: tuple[int, int, int, int]) -> _Zone:
         z = self.zones.get(key)
@@ -458,6 +503,7 @@ class _Synthesizer:
             pflat=(uu * p + vv).astype(np.intp),
             sflat=(uu * self.S.shape[1] + vv).astype(np.intp),
             alpha=alpha.astype(np.float32),
+            rects=_rectangles(mask),
         )
         if self.search and mask.any():
             parts = []  # (base zone, row shift, col shift) whose features make this zone's
@@ -479,8 +525,8 @@ class _Synthesizer:
                     kp.reshape(len(kp), p * p)[:, base.pflat] = base.kernels
                     kp = np.roll(kp, (dy, dx), axis=(1, 2))
                     proj.append(kp.reshape(len(kp), p * p)[:, z.pflat])
-                z.kernels = np.concatenate(proj, axis=0)
-                z.feats = np.concatenate(feats, axis=1)  # the tree comes at the 2nd query
+                z.kernels = np.ascontiguousarray(np.concatenate(proj, axis=0), dtype=np.float32)
+                z.feats = np.concatenate(feats, axis=1)  # the tree: at its first query (see uses)
         return z
 
     def _fit(self, z: _Zone) -> None:
@@ -532,36 +578,70 @@ class _Synthesizer:
             z.feats[:, k0:k1] = C[:, self.cy, self.cx].T  # (candidates, K)
             if z.shifted is not None:
                 z.shifted[:, k0:k1] = C[:, self.cy + dy, self.cx + dx].T
-        z.kernels = kernels.astype(np.float32)
+        z.kernels = np.ascontiguousarray(kernels, dtype=np.float32)
         z.tree = cKDTree(z.feats, leafsize=16, balanced_tree=False, compact_nodes=False)
 
-    def query(self, zone: _Zone, old: np.ndarray, tolerance: float) -> int:
-        """Index of the candidate chosen for the output ``old`` (p, p, mm) under ``zone``.
+    def query(self, zone: _Zone, old: np.ndarray, tolerance: float, u: np.ndarray) -> np.ndarray:
+        """Candidates chosen for ``b`` patches under ``zone`` (Liang 2001, sections 3.2, 4).
+
+        Args:
+            zone: the boundary-zone type the ``b`` patches share.
+            old: ``(b, p, p)`` float32, the output (mm) under each patch's footprint.
+            tolerance: relative tolerance of the candidate set.
+            u: ``(b,)`` uniform numbers in [0, 1), the random pick of each patch.
 
         Coarse level: the k-d tree returns the ``_NEIGHBOURS`` approximate nearest
-        candidates in QTP + PCA feature space. Fine level: their exact zone distances
-        ``d`` at full resolution; one of those with ``d <= (1 + tolerance) d_min`` is
-        drawn uniformly (Liang 2001, section 3.2).
+        candidates in QTP + PCA feature space (one batched query for the ``b``
+        patches). Fine level: their exact zone distances ``d`` at full resolution;
+        the ``floor(u m)``-th of the ``m`` candidates with ``d <= (1 + tolerance)
+        d_min`` (in order of feature distance) is taken, a uniform random pick.
+
+        Returns:
+            ``(b,)`` int, indices into the candidate windows (``cy``, ``cx``).
         """
-        e_out = old.ravel().take(zone.pflat)
-        f = zone.kernels @ e_out  # type: ignore[operator]
-        zone.uses += 1
-        if zone.tree is None and zone.uses == 1:
-            # A closing zone may serve a single patch (the corner of a torus): a
-            # linear scan of the features costs less than building its tree.
-            d = np.einsum("ij,ij->i", zone.feats - f, zone.feats - f)  # type: ignore[operator]
-            k = min(_NEIGHBOURS, len(d))
-            nn = np.argpartition(d, k - 1)[:k]
-            nn = nn[np.argsort(d[nn], kind="stable")]
+        b = len(old)
+        e_out = old.reshape(b, -1).take(zone.pflat, axis=1)  # (b, A) mm
+        # Features, (b, K): matrix products of at most _MATMUL_ROWS patches, which
+        # OpenBLAS runs single-threaded (a multithreaded one stalls on a busy machine).
+        f = np.empty((b, len(zone.kernels)), dtype=np.float32)  # type: ignore[arg-type]
+        for s in range(0, b, _MATMUL_ROWS):
+            np.matmul(e_out[s: s + _MATMUL_ROWS], zone.kernels.T, out=f[s: s + _MATMUL_ROWS])  # type: ignore[union-attr]
+        f = f.astype(np.float64)
+        if zone.tree is None and zone.uses <= 1:
+            # A closing zone serving a single patch (the corner of a torus): a linear
+            # scan of the features costs less than building its tree.
+            d = np.einsum("ik,ik->i", zone.feats - f, zone.feats - f)[None, :]  # type: ignore[operator]
+            k = min(_NEIGHBOURS, d.shape[1])
+            nn = np.argpartition(d, k - 1, axis=1)[:, :k]
+            order = np.argsort(np.take_along_axis(d, nn, axis=1), axis=1, kind="stable")
+            nn = np.take_along_axis(nn, order, axis=1)
         else:
             if zone.tree is None:
                 zone.tree = cKDTree(zone.feats, leafsize=16, balanced_tree=False, compact_nodes=False)
+            # (One thread: scipy's ``workers`` starts threads per call, which cost
+            # more than they save on a front of ~30-70 patches on a busy 2-core machine.)
             _, nn = zone.tree.query(f, k=self.k, eps=_KD_EPS)
-        diff = self.S_flat.take(self.offsets.take(nn)[:, None] + zone.sflat)
-        diff -= e_out
-        d2 = np.einsum("ij,ij->i", diff, diff)
-        ok = np.flatnonzero(d2 <= d2.min() * (1.0 + tolerance) ** 2)
-        return int(nn[ok[self.rng.integers(len(ok))]] if len(ok) > 1 else nn[ok[0]])
+        nn = nn.reshape(b, -1)
+        # Exact distances of the approximate neighbours, (b, m) in mm^2 * A: the
+        # zone's rectangles of each neighbour, copied out of the sample's windows.
+        cy, cx = self.cy.take(nn), self.cx.take(nn)
+        d2 = None
+        for dy, dx, h, w in zone.rects:
+            g = self.windows(h, w)[cy + dy, cx + dx]  # (b, m, h, w)
+            g -= old[:, None, dy: dy + h, dx: dx + w]
+            g = g.reshape(b, nn.shape[1], h * w)
+            if d2 is None:
+                d2 = np.einsum("bmi,bmi->bm", g, g)
+            else:
+                d2 += np.einsum("bmi,bmi->bm", g, g)
+        if b == 1:  # the same pick with less bookkeeping (serial schedules: wrap along x)
+            d = d2[0]
+            eligible = np.flatnonzero(d <= d.min() * (1.0 + tolerance) ** 2)
+            return nn[0, eligible[int(u[0] * len(eligible))]].reshape(1)
+        ok = d2 <= d2.min(axis=1, keepdims=True) * (1.0 + tolerance) ** 2
+        r = (u * ok.sum(axis=1)).astype(np.intp)  # the r-th eligible candidate
+        pos = (np.cumsum(ok, axis=1) > r[:, None]).argmax(axis=1)
+        return nn[np.arange(b), pos]
 
 
 # ------------------------------------------------------------------------------------
@@ -581,28 +661,30 @@ def _min_error_paths(
 
     (Efros and Freeman 2001), then backtracks from the smallest ``E_nj``. The strips
     are laid side by side with infinite error between them, so one vectorized step
-    per row serves all of them. ``starts[s]``, if not None, fixes the path's column in
-    the first row. ``work``, a dict kept by the caller, caches the buffers and row
-    views of each strip layout (half the cost of the per-row loop is slicing).
+    per row serves all of them (all the strips of a batch of patches: see
+    :func:`_cut_alphas`), and so does one vectorized backtracking step when there
+    are many strips. ``starts[s]``, if not None, fixes the path's column in the
+    first row. ``work``, a dict kept by the caller, caches the buffers and row views
+    of each table size (half the cost of the per-row loop is slicing).
 
     Returns:
         One ``(n,)`` int array per strip: the path's column in each row.
     """
     n = errs[0].shape[0]
-    widths = tuple(e.shape[1] for e in errs)
-    layout = (n, widths)
-    ws = work.get(layout) if work is not None else None
+    widths = [e.shape[1] for e in errs]
+    offsets = np.cumsum([1] + [w + 1 for w in widths[:-1]])
+    total = sum(widths) + len(widths) + 1
+    ws = work.get((n, total)) if work is not None else None
     if ws is None:
-        total = sum(widths) + len(widths) + 1
-        E = np.full((n, total), np.inf)
-        offsets = list(np.cumsum((1,) + tuple(w + 1 for w in widths[:-1])))
+        E = np.empty((n, total))
         buf = np.empty(total - 2)
         steps = [(E[i - 1, :-2], E[i - 1, 1:-1], E[i - 1, 2:], E[i, 1:-1]) for i in range(1, n)]
-        ws = (E, offsets, buf, steps)
+        ws = (E, buf, steps)
         if work is not None:
-            work[layout] = ws
-    E, offsets, buf, steps = ws
-    for off, err, st in zip(offsets, errs, starts):
+            work[(n, total)] = ws
+    E, buf, steps = ws
+    E.fill(np.inf)
+    for off, err, st in zip(offsets.tolist(), errs, starts):
         E[:, off: off + err.shape[1]] = err
         if st is not None:
             keep = E[0, off + st]
@@ -613,81 +695,107 @@ def _min_error_paths(
         minimum(a, b, out=buf)
         minimum(buf, c, out=buf)
         add(row, buf, out=row)
-    rows = E.tolist()
-    paths = []
-    for off, w in zip(offsets, widths):
-        last = rows[-1]
-        j = min(range(off, off + w), key=last.__getitem__)
-        path = [j] * n
+    # Backtrack from the smallest E_nj: each step moves to the first of (j-1, j, j+1)
+    # with the least cumulative error.
+    last = E[-1]
+    if len(errs) > _VECTOR_BACKTRACK:
+        # First column of each strip where the last row reaches the strip's minimum.
+        lowest = np.minimum.reduceat(last, offsets)
+        at = np.flatnonzero(last[1:] == np.repeat(lowest, np.diff(np.r_[offsets, total]))) + 1
+        j = at[np.searchsorted(at, offsets)]
+        # The step of every cell at once (column j - 1 of `step` is column j of E),
+        # then one gather per row for all the strips.
+        a, b, c = E[:-1, :-2], E[:-1, 1:-1], E[:-1, 2:]
+        step = np.where((a <= b) & (a <= c), np.int8(-1), (c < b).astype(np.int8))
+        paths = np.empty((len(errs), n), dtype=np.intp)
+        paths[:, -1] = j
         for i in range(n - 2, -1, -1):
-            # The first of (j-1, j, j+1) with the least cumulative error.
+            j = j + step[i].take(j - 1)
+            paths[:, i] = j
+        return list(paths - offsets[:, None])
+    j = np.array([off + int(np.argmin(last[off: off + w])) for off, w in zip(offsets.tolist(), widths)])
+    rows = E.tolist()
+    out = []
+    for jj, off in zip(j.tolist(), offsets.tolist()):
+        path = [jj] * n
+        for i in range(n - 2, -1, -1):
             r = rows[i]
-            a, b, c = r[j - 1], r[j], r[j + 1]
+            a, b, c = r[jj - 1], r[jj], r[jj + 1]
             if a <= b and a <= c:
-                j -= 1
+                jj -= 1
             elif c < b:
-                j += 1
-            path[i] = j
-        paths.append(np.asarray(path) - off)
-    return paths
+                jj += 1
+            path[i] = jj
+        out.append(np.asarray(path) - off)
+    return out
 
 
+#: More strips than this are backtracked by one numpy step per row for all of them.
+_VECTOR_BACKTRACK = 6
 #: Width in px of the ramp that softens each minimum-error cut (0 = hard cut).
 _CUT_RAMP = 2
 
 
-def _cut_alpha(
+def _cut_alphas(
     old: np.ndarray,
     new: np.ndarray,
     key: tuple[int, int, int, int],
-    anchor: bool = False,
+    anchor: np.ndarray,
     work: dict | None = None,
 ) -> np.ndarray:
-    """``(p, p)`` float32 weight of the new patch from minimum-error boundary cuts.
+    """``(b, p, p)`` float32 weights of ``b`` new patches from minimum-error boundary cuts.
 
-    One cut (eq. 1) per synthesized strip of the zone ``key`` = ``(top, left, right,
-    bottom)`` widths in px, through the squared difference ``(old - new)^2`` in mm^2.
+    ``old``, ``new``: ``(b, p, p)`` float32 heights in mm of the output under each
+    patch and of the patch; all share the zone ``key`` = ``(top, left, right,
+    bottom)`` widths in px. One cut (eq. 1) per synthesized strip of the zone,
+    through the squared difference ``(old - new)^2`` in mm^2; the cuts of all ``b``
+    patches are found by one dynamic programme (:func:`_min_error_paths`).
     The old output is kept up to the path; the new patch takes over within
     ``_CUT_RAMP`` px after it (weights ``1/3, 2/3`` for 2 px), which removes the small
     step a hard cut leaves without blurring detail. Paths are confined so that the
     ramps stay inside their strips; the weights of the strips combine by ``min``
     (in the corner of the L the old output stays where either cut keeps it).
 
-    ``anchor`` (the first patch of a row on a torus wrapped along x): the output left
-    of the patch is already synthesized in the top (and bottom) strip's rows, so those
-    cuts start at the strip's inner edge in the first column, keeping the old output
-    along the patch's left edge there; the closing patch of the row later cuts
-    against this patch as its right neighbour. ``work``: see :func:`_min_error_paths`.
+    ``anchor`` (``(b,)`` bool; the first patch of a row on a torus wrapped along x):
+    the output left of the patch is already synthesized in the top (and bottom)
+    strip's rows, so those cuts start at the strip's inner edge in the first column,
+    keeping the old output along the patch's left edge there; the closing patch of
+    the row later cuts against this patch as its right neighbour. ``work``: see
+    :func:`_min_error_paths`.
     """
-    p = old.shape[0]
+    nb, p = old.shape[0], old.shape[1]
     t, l, r, b = key
     g = [max(0, min(_CUT_RAMP, w - 1)) for w in key]
     err = old - new
     err *= err
-    errT = err.T
+    errT = err.transpose(0, 2, 1)
     strips: list[np.ndarray] = []
     starts: list[int | None] = []
     kinds: list[tuple[bool, bool, int, int]] = []  # (transposed, leading, offset, ramp)
+    free = [None] * nb
     if l:
-        strips.append(err[:, : l - g[1]])
-        starts.append(None)
+        strips += [e[:, : l - g[1]] for e in err]
+        starts += free
         kinds.append((False, True, 0, g[1]))
     if r:
         c0 = min(max(p - r + g[2], l), p - 1)
-        strips.append(err[:, c0:])
-        starts.append(None)
+        strips += [e[:, c0:] for e in err]
+        starts += free
         kinds.append((False, False, c0, g[2]))
     if t:
-        strips.append(errT[:, : t - g[0]])
-        starts.append(t - g[0] - 1 if anchor else None)
+        strips += [e[:, : t - g[0]] for e in errT]
+        starts += [t - g[0] - 1 if a else None for a in anchor.tolist()]
         kinds.append((True, True, 0, g[0]))
     if b:
         c0 = min(max(p - b + g[3], t), p - 1)
-        strips.append(errT[:, c0:])
-        starts.append(0 if anchor else None)
+        strips += [e[:, c0:] for e in errT]
+        starts += [0 if a else None for a in anchor.tolist()]
         kinds.append((True, False, c0, g[3]))
+    if not kinds:
+        return np.ones((nb, p, p), dtype=np.float32)
+    paths = _min_error_paths(strips, starts, work)
     alpha: np.ndarray | None = None
-    for path, (transposed, leading, off, ramp) in zip(_min_error_paths(strips, starts, work), kinds):
+    for s, (transposed, leading, off, ramp) in enumerate(kinds):
         # Row q of the table: the weight along a row whose cut lies at column q.
         tkey = ("ramp", p, leading, ramp)
         table = work.get(tkey) if work is not None else None
@@ -697,25 +805,53 @@ def _cut_alpha(
             table = np.clip(d / np.float32(ramp + 1.0), 0.0, 1.0).astype(np.float32)
             if work is not None:
                 work[tkey] = table
-        a = table[path + off]
+        a = table[np.stack(paths[s * nb: (s + 1) * nb]) + off]  # (b, p, p)
         if transposed:
-            a = a.T
+            a = a.transpose(0, 2, 1)
         alpha = a if alpha is None else np.minimum(alpha, a)
-    return alpha if alpha is not None else np.ones((p, p), dtype=np.float32)
+    return alpha  # type: ignore[return-value]
 
 
 # ------------------------------------------------------------------------------------
 # Driver
 # ------------------------------------------------------------------------------------
-def _span(start: int, p: int, length: int) -> slice | np.ndarray:
-    """Pixels ``start .. start + p - 1`` of an axis of ``length`` px, wrapped past the end."""
-    if start + p <= length:
-        return slice(start, start + p)
-    return (start + np.arange(p)) % length
+def _overlaps(ax: _Axis, p: int) -> np.ndarray:
+    """``(n, n)`` bool: do patches ``j`` and ``j'`` of the axis share pixels (cyclically
+    on a wrapped axis)?"""
+    d = np.abs(ax.starts[:, None] - ax.starts[None, :])
+    if ax.wrap:
+        d = np.minimum(d, ax.canvas - d)
+    return d < p
 
 
-def _indices(span: slice | np.ndarray) -> np.ndarray:
-    return np.arange(span.start, span.stop) if isinstance(span, slice) else span
+def _levels(ay: _Axis, ax: _Axis, p: int) -> np.ndarray:
+    """``(rows, cols)`` int: the wavefront step at which each patch is pasted.
+
+    A patch must come after every patch that precedes it in scan-line order and shares
+    pixels with it (its zone is their output), and the patches of one step must not
+    share pixels; the earliest such schedule is ``level = 1 + max(level of the earlier
+    patches it overlaps)``. Every pair of overlapping patches is then pasted in
+    scan-line order, so each patch sees exactly the output it would see in scan-line
+    order, and the result is the scan-line result (Liang 2001, section 3.2), while
+    the patches of a step (about ``cols / ceil(patch / step)`` of them for a large
+    output without wrap along x, a diagonal front) are matched and pasted together.
+    With wrap along x the first patch of a row overlaps the last one of the row
+    above: the schedule is then plain scan-line order.
+    """
+    oy, ox = _overlaps(ay, p), _overlaps(ax, p)
+    n = len(ax.starts)
+    # Overlaps of column j, grouped by j, for a max over each group (reduceat).
+    jj, jp = np.nonzero(ox)
+    first = np.flatnonzero(np.r_[True, jj[1:] != jj[:-1]])
+    ramp = np.arange(n)
+    lev = np.zeros((len(ay.starts), n), dtype=np.int64)
+    for i in range(len(ay.starts)):
+        need = np.zeros(n, dtype=np.int64)
+        for i2 in np.flatnonzero(oy[i, :i]):
+            np.maximum(need, np.maximum.reduceat(lev[i2].take(jp), first) + 1, out=need)
+        # Along the row each patch follows its left neighbour.
+        lev[i] = np.maximum.accumulate(need - ramp) + ramp
+    return lev
 
 
 def _quilt(
@@ -754,46 +890,115 @@ def _quilt(
     )
     S = hm.heights  # float32 (rows, cols), read-only
     syn = _Synthesizer(S, p, o, rng, search)
-    canvas = np.zeros((ay.canvas, ax.canvas), dtype=np.float32)
-    n_rows = len(ay.starts)
+    n_rows, n_cols = len(ay.starts), len(ax.starts)
     ncand = len(syn.cy)
-    row_idx = [_span(int(s0), p, ay.canvas) for s0 in ay.starts]
-    col_idx = [_span(int(s0), p, ax.canvas) for s0 in ax.starts]
-    feather = blend == "feather"
-    anchor = wrap_x  # first patch of a row: see _cut_alpha
-    cut_work: dict = {}
-    buf = np.empty((p, p), dtype=np.float32)
 
+    # Zone type of every patch: (top, left, right, bottom) strip widths in px.
+    rkind, rtype = np.unique(np.stack([ay.before, ay.after], axis=1), axis=0, return_inverse=True)
+    ckind, ctype = np.unique(np.stack([ax.before, ax.after], axis=1), axis=0, return_inverse=True)
+    code = rtype.reshape(-1, 1) * len(ckind) + ctype.reshape(1, -1)  # (rows, cols)
+    codes, first_at, counts = np.unique(code, return_index=True, return_counts=True)
+    zone_keys: dict[int, tuple[int, int, int, int]] = {}
+    for c, at, m in sorted(zip(codes.tolist(), first_at.tolist(), counts.tolist()), key=lambda x: x[1]):
+        (t, b), (l, r) = rkind[c // len(ckind)].tolist(), ckind[c % len(ckind)].tolist()
+        zone_keys[c] = (t, l, r, b)
+        if (t, l, r, b) != (0, 0, 0, 0):
+            syn.zone((t, l, r, b)).uses = m  # fitted in scan-line order of first use
+    # The random pick of each patch (same seed, same picks, whatever the schedule).
+    u = rng.random((n_rows, n_cols))
+
+    canvas = np.zeros((ay.canvas, ax.canvas), dtype=np.float32)
+    windows = np.lib.stride_tricks.sliding_window_view(canvas, (p, p))
+    Swin = syn.windows(p, p)
+    ys0, xs0 = ay.starts, ax.starts
+    row_wraps = ys0 + p > ay.canvas
+    col_wraps = xs0 + p > ax.canvas
+    rows_px = (ys0[:, None] + np.arange(p)) % ay.canvas  # (rows, p) for wrapped patches
+    cols_px = (xs0[:, None] + np.arange(p)) % ax.canvas
+    feather = blend == "feather"
+    cut_work: dict = {}
+
+    levels = _levels(ay, ax, p)
+    flat = levels.ravel()
+    order = np.argsort(flat, kind="stable")
+    bounds = np.flatnonzero(np.diff(flat[order])) + 1
+    row_done = levels.max(axis=1)  # rows finish in order
+    next_row = 0
     # One message for the whole run, so that reporters may throttle repeated lines.
     message = f"synthesizing {out_shape[0]} x {out_shape[1]} px ({n_rows} patch rows)"
-    for i in range(n_rows):
-        t, b = int(ay.before[i]), int(ay.after[i])
-        ri = row_idx[i]
-        for j, cj in enumerate(col_idx):
-            key = (t, int(ax.before[j]), int(ax.after[j]), b)
-            if isinstance(ri, slice) and isinstance(cj, slice):
-                idx: tuple = (ri, cj)
+    def _paste_batch(batch: np.ndarray) -> None:
+        """Match and paste the patches of one wavefront step, a zone type at a time."""
+        bi, bj = np.divmod(batch, n_cols)
+        bcode = code[bi, bj]
+        groups = [slice(None)] if (bcode == bcode[0]).all() else [bcode == c for c in np.unique(bcode)]
+        for sel in groups:
+            gi, gj = bi[sel], bj[sel]
+            key = zone_keys[int(code[gi[0], gj[0]])]
+            wrapped = row_wraps[gi] | col_wraps[gj]
+            plain = ~wrapped
+            if wrapped.any():
+                old = np.empty((len(gi), p, p), dtype=np.float32)
+                old[plain] = windows[ys0[gi[plain]], xs0[gj[plain]]]
+                for k in np.flatnonzero(wrapped).tolist():
+                    old[k] = canvas[np.ix_(rows_px[gi[k]], cols_px[gj[k]])]
             else:
-                idx = np.ix_(_indices(ri), _indices(cj))
-            if key == (0, 0, 0, 0):  # the first patch: anywhere in the sample
-                c = int(rng.integers(ncand))
-                y, x = int(syn.cy[c]), int(syn.cx[c])
-                canvas[idx] = S[y: y + p, x: x + p]
-                continue
-            zone = syn.zone(key)
-            old = canvas[idx]
-            c = syn.query(zone, old, tolerance) if search else int(rng.integers(ncand))
-            y, x = int(syn.cy[c]), int(syn.cx[c])
-            new = S[y: y + p, x: x + p]
-            alpha = zone.alpha if feather else _cut_alpha(old, new, key, anchor and j == 0, cut_work)
-            step = np.subtract(new, old, out=buf)
-            step *= alpha
-            if isinstance(idx[0], slice):
-                old += step  # a view: blends in place
+                old = windows[ys0[gi], xs0[gj]]
+            gu = u[gi, gj]
+            if key == (0, 0, 0, 0) or not search:  # the first patch: anywhere in the sample
+                c = np.minimum((gu * ncand).astype(np.intp), ncand - 1)
             else:
-                canvas[idx] = old + step
+                c = syn.query(syn.zone(key), old, tolerance, gu)
+            new = Swin[syn.cy[c], syn.cx[c]]  # (b, p, p) float32 copy
+            if key != (0, 0, 0, 0):
+                if feather:
+                    alpha = syn.zone(key).alpha
+                else:
+                    alpha = _cut_alphas(old, new, key, wrap_x & (gj == 0), cut_work)
+                new -= old
+                new *= alpha
+                new += old
+            # (One slice assignment per patch: a fancy assignment through the
+            # overlapping windows costs several times more.)
+            for k, (y, x, w) in enumerate(zip(ys0[gi].tolist(), xs0[gj].tolist(), wrapped.tolist())):
+                if w:
+                    canvas[np.ix_(rows_px[gi[k]], cols_px[gj[k]])] = new[k]
+                else:
+                    canvas[y: y + p, x: x + p] = new[k]
+
+    code_rows = code.tolist()
+    for batch in np.split(order, bounds):
+        if len(batch) == 1:
+            # One patch (a serial schedule): the same arithmetic on views and scalars.
+            i, j = divmod(int(batch[0]), n_cols)
+            key = zone_keys[code_rows[i][j]]
+            if row_wraps[i] or col_wraps[j]:
+                idx: tuple = np.ix_(rows_px[i], cols_px[j])
+            else:
+                y0, x0 = int(ys0[i]), int(xs0[j])
+                idx = (slice(y0, y0 + p), slice(x0, x0 + p))
+            old = canvas[idx][None]  # (1, p, p)
+            if key == (0, 0, 0, 0) or not search:
+                c0 = min(int(u[i, j] * ncand), ncand - 1)
+            else:
+                c0 = int(syn.query(syn.zone(key), old, tolerance, u[i, j].reshape(1))[0])
+            y0, x0 = int(syn.cy[c0]), int(syn.cx[c0])
+            new = S[y0: y0 + p, x0: x0 + p][None].copy()
+            if key != (0, 0, 0, 0):
+                if feather:
+                    alpha = syn.zone(key).alpha
+                else:
+                    alpha = _cut_alphas(old, new, key, np.array([wrap_x and j == 0]), cut_work)
+                new -= old
+                new *= alpha
+                new += old
+            canvas[idx] = new[0]
+        else:
+            _paste_batch(batch)
         if progress is not None:
-            progress((i + 1) / n_rows, message)
+            lev = int(flat[batch[0]])
+            while next_row < n_rows and row_done[next_row] == lev:
+                next_row += 1
+                progress(next_row / n_rows, message)
 
     out = canvas[: out_shape[0], : out_shape[1]]
     return Heightmap(np.ascontiguousarray(out), hm.pitch)
