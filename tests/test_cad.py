@@ -267,21 +267,6 @@ def test_show_sends_texcads_mesh(made, monkeypatch):
     assert np.allclose(verts.min(axis=0), tx.mesh.bounds[0], atol=1e-3)
 
 
-def test_recipe_handle_flange(tmp_path):
-    recipe = Path(__file__).resolve().parent.parent / "recipes" / "handle_flange.py"
-    env = dict(os.environ, TEXCAD_OUT=str(tmp_path), TEXCAD_PITCH="1.0")
-    r = subprocess.run([sys.executable, str(recipe)], env=env, capture_output=True, text=True, timeout=600)
-    assert r.returncode == 0, r.stderr
-    stl = trimesh.load(tmp_path / "handle_flange.stl")
-    assert stl.is_watertight
-    shape = brep.read_step(tmp_path / "handle_flange.step")
-    chk = brep.check_shape(shape)
-    assert chk["valid"] and chk["solids"] == 1
-    assert brep.volume(shape) == pytest.approx(stl.volume, rel=1e-3)
-    assert trimesh.load(tmp_path / "handle_flange.3mf").units == "millimeter"
-    assert (tmp_path / "handle_flange.png").stat().st_size > 1000
-
-
 def test_cli_texture_step_part(tmp_path):
     from build123d import Cylinder, export_step
 

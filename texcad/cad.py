@@ -77,6 +77,9 @@ __all__ = ["Textured", "texture", "textured", "export", "render", "show", "displ
 LIFT = 0.01
 #: Largest relative difference between the B-rep's and the mesh's volume accepted.
 VOLUME_TOLERANCE = 1e-3
+#: mm: planar faces: the texture is at least this high inside its ramp, so that it
+#: never touches the face along isolated lines or points (see _texture_plane).
+FLOOR = 1e-3
 
 
 # ------------------------------------------------------------------------------------------
@@ -123,8 +126,11 @@ def _make_textured_class():
             mesh: fused, watertight :class:`~texcad.mesh.Mesh` (base + texture), mm.
             texture_mesh: the texture alone (watertight, touching the base), mm.
             base_mesh: the base body's mesh, mm.
-            heightmap: the texture as applied (clipped and ramped on planar faces),
-                heights in mm.
+            heightmap: the texture as applied (clipped and ramped on planar faces,
+                lowered by the overhang limiter with ``build_dir``), heights in mm.
+            limits: what the overhang limiter changed for ``build_dir`` (a
+                :class:`texcad.printability.LimitReport`, as ``TexturedPart.limits``),
+                or None when no build direction was given.
             info: dict with what was done (face kind, frame, grid size, mapping...).
         """
 
@@ -136,6 +142,7 @@ def _make_textured_class():
             texture_mesh: "Mesh | Callable[[], Mesh] | None" = None,
             base_mesh: Mesh | None = None,
             heightmap: Heightmap | None = None,
+            limits: Any = None,
             info: dict | None = None,
             label: str = "textured",
             **kwargs: Any,
@@ -145,6 +152,7 @@ def _make_textured_class():
             self._tx_texture = texture_mesh
             self._tx_base = base_mesh
             self.heightmap = heightmap
+            self.limits = limits
             self.info = dict(info or {})
             self._tx_home = _trsf_matrix(self.wrapped) if self.wrapped is not None else np.eye(3, 4)
 
@@ -389,6 +397,8 @@ def _texture_plane(
     rotation: float,
     offset: Sequence[float],
     make_brep: bool,
+    build_dir: np.ndarray | None,
+    critical_angle: float,
     progress: Progress,
 ) -> dict:
     from scipy.ndimage import distance_transform_edt
@@ -454,11 +464,26 @@ def _texture_plane(
         ramp = np.where(dist > margin, np.inf, 0.0)
     else:
         ramp = np.tan(np.radians(edge_angle)) * np.maximum(dist - margin, 0.0)
-    h = np.where(mask, np.minimum(h, ramp), 0.0).astype(np.float32)
+    h = np.where(mask, np.minimum(h, ramp), 0.0)
+    # A FLOOR (1 um) under the texture inside the ramp: where the texture reaches 0 mm
+    # inside the face (the valleys of a knurl) the relief would touch the face along
+    # lines and points, which the union keeps as pinched (duplicated) vertices; an STL
+    # reader that welds by position then sees non-manifold edges. max() keeps the M-I
+    # ramp and the difference bounds of the overhang limiter below.
+    h = np.where(mask, np.maximum(h, np.minimum(FLOOR, ramp)), 0.0).astype(np.float32)
+    limits = None
+    if build_dir is not None:
+        from .printability import limit_overhangs
+
+        # The world build direction(s) in the face frame (ex, ey, n); the limiter only
+        # lowers heights, so the outline band stays at 0 mm.
+        report(progress, 0.2, f"limiting overhangs to {critical_angle:g} deg")
+        lowered, limits = limit_overhangs(Heightmap(h, (px, py)), build_dir @ axes.T, critical_angle)
+        h = lowered.heights
     if not (h > 0).any():
         raise GeometryError(
             f"no texture is left on the face: it is too small or narrow for a {margin:.2f} mm border band "
-            "at this pitch; use a smaller pitch or a larger face"
+            "at this pitch (or the overhang limiter removed it all); use a smaller pitch or a larger face"
         )
     _check_flat_outline(h, xs, ys, _brep.sample_segments(segs, spacing))
 
@@ -488,6 +513,7 @@ def _texture_plane(
         "texture_mesh": texture_only,
         "base_mesh": base_mesh,
         "heightmap": Heightmap(h, (px, py)),
+        "limits": limits,
         "info": {
             "face": "plane",
             "origin": origin.tolist(),
@@ -572,6 +598,8 @@ def _texture_extrusion(
     periodic_x: bool | None,
     transition: float | None,
     make_brep: bool,
+    build_dir: np.ndarray | None,
+    critical_angle: float,
     progress: Progress,
 ) -> dict:
     from build123d import Compound, Edge
@@ -618,6 +646,15 @@ def _texture_extrusion(
     report(progress, 0.05, f"mapping the texture onto the {profile.length:.1f} x {length:.1f} mm face ({mapping})")
     hm, periodic = fit_texture(profile, tex, length=length, pitch=pitch, height=height, periodic_x=periodic_x)
     _require_relief(hm, tex)
+    limits = None
+    d_local = None
+    if build_dir is not None:
+        from ._profile_limit import limit_on_profile
+
+        # The world build direction(s) in the profile's frame (ex, ey, ez).
+        d_local = build_dir @ axes.T
+        report(progress, 0.05, f"limiting overhangs to {critical_angle:g} deg")
+        hm, limits = limit_on_profile(profile, hm, d_local, critical_angle, mapping=mapping, periodic=periodic)
     mapped = map_texture(
         profile,
         hm,
@@ -629,6 +666,10 @@ def _texture_extrusion(
         progress=subrange(progress, 0.05, 0.3),
     )
     top = _lift(mapped.top.astype(np.float64), profile, mapped.s, closed=mapped.closed)
+    # The mesh keeps the borders the overhang limiter sank into the body below the
+    # surface (no sliver of wall above it); the B-rep lifts them like the rest (OCCT's
+    # union of a grid face crossing a curved face is unreliable).
+    top_mesh = _lift(mapped.top.astype(np.float64), profile, mapped.s, closed=mapped.closed, keep_sunk=True) if limits is not None else top
     # The bottom: (2, C, 3) first and last row of a ruled surface (extrusion of the
     # offset profile), or a full (R, C, 3) grid.
     bottom = np.asarray(mapped.bottom, dtype=np.float64)
@@ -636,6 +677,7 @@ def _texture_extrusion(
     # walls by 1e-7 mm: OCCT then intersects them as wiggly strips, not planes).
     y_rows = np.asarray(mapped.y, np.float64)
     top[..., 1] = y_rows[:, None]
+    top_mesh[..., 1] = y_rows[:, None]
     if bottom.shape[0] == top.shape[0]:
         bottom[..., 1] = y_rows[:, None]
     else:
@@ -646,7 +688,11 @@ def _texture_extrusion(
 
     top_w = world(top)
     report(progress, 0.35, "meshing and fusing (manifold3d)")
-    slab_local = slab_mesh(top.astype(np.float32), bottom.astype(np.float32), closed=mapped.closed)
+    slab_local = slab_mesh(top_mesh.astype(np.float32), bottom.astype(np.float32), closed=mapped.closed)
+    if limits is not None:
+        from ._profile_limit import measured
+
+        limits = measured(limits, slab_local, d_local, critical_angle)
     slab = Mesh(world(slab_local.vertices.astype(np.float64)).astype(np.float32), slab_local.faces)
     base_mesh = shape_to_mesh(topo)
     fused = fuse(base_mesh, slab)
@@ -659,6 +705,7 @@ def _texture_extrusion(
         "texture_mesh": texture_only,
         "base_mesh": base_mesh,
         "heightmap": mapped.heightmap,
+        "limits": limits,
         "info": {
             "face": "extrusion",
             "origin": o.tolist(),
@@ -703,7 +750,7 @@ def _fuse_keep_count(topo, tool):
     return fu.Shape()
 
 
-def _lift(top: np.ndarray, profile, s: np.ndarray, *, closed: bool) -> np.ndarray:
+def _lift(top: np.ndarray, profile, s: np.ndarray, *, closed: bool, keep_sunk: bool = False) -> np.ndarray:
     """Keep every top vertex at least ``LIFT`` mm plus the grid's chord sag outside
     the profile (along its normal): ``d_n >= LIFT + max(kappa, 0) ds^2 / 8``.
 
@@ -711,7 +758,9 @@ def _lift(top: np.ndarray, profile, s: np.ndarray, *, closed: bool) -> np.ndarra
     by the sag ``kappa ds^2 / 8`` (and touches a concave one along lines); either way
     OCCT's boolean would have to resolve thousands of tangential contacts. The lift
     (10 um, a tenth of a layer) moves the texture's zero level just off the surface,
-    for the mesh and the B-rep alike.
+    for the mesh and the B-rep alike. With ``keep_sunk``, vertices placed below the
+    surface on purpose (borders the overhang limiter sank into the body, see
+    :data:`texcad._profile_limit.SINK`) stay there.
     """
     p = profile.point(s)  # (C, 2): x, z
     nrm = profile.normal(s)
@@ -727,6 +776,8 @@ def _lift(top: np.ndarray, profile, s: np.ndarray, *, closed: bool) -> np.ndarra
     need = LIFT + np.maximum(kappa, 0.0) * np.maximum(left, right) ** 2 / 8.0
     dn = (top[..., 0] - p[None, :, 0]) * nrm[None, :, 0] + (top[..., 2] - p[None, :, 1]) * nrm[None, :, 1]
     add = np.maximum(need[None, :] - dn, 0.0)
+    if keep_sunk:
+        add[dn < -0.5 * LIFT] = 0.0
     out = top.copy()
     out[..., 0] += add * nrm[None, :, 0]
     out[..., 2] += add * nrm[None, :, 1]
@@ -775,6 +826,8 @@ def texture(
     periodic_x: bool | None = None,
     transition: float | None = None,
     brep: bool = True,
+    build_dir: Any = None,
+    critical_angle: float = 45.0,
     progress: Progress = None,
 ):
     """Texture one face of a build123d or CadQuery part.
@@ -805,13 +858,30 @@ def texture(
             :func:`texcad.mapping.map_texture`).
         brep: also build the B-rep (for STEP); ``False`` keeps the part's own shape
             and only makes the meshes (STL/3MF).
+        build_dir: make the texture print without support for this build direction
+            ``(3,)`` (or every direction of a ``(K, 3)`` set), given in **world**
+            coordinates, i.e. the frame the part is in (``(0, 0, 1)``: printed as
+            placed; ``texcad.orientation(30, "+x")``: tilted 30 degrees so that +x
+            rises). texcad turns it into the face's own frame: planar faces ->
+            :func:`texcad.printability.limit_overhangs` in the face frame (x, y in
+            the face, z its outward normal); faces of extruded profiles ->
+            :func:`texcad.printability.limit_overhangs_mapped` with the surface tilt
+            per texture column from the profile's tangent (offset ``"normal"`` for
+            ``mapping="angle"``, ``"vertical"`` for ``"distance"``), borders whose
+            walls would overhang ramped down (M-I) into the body. The texture is
+            lowered as little as needed; ``.limits`` says how much. Move the part
+            after texturing and the direction no longer matches: texture it where it
+            is printed, or rotate ``build_dir`` with it. None: texture as is.
+        critical_angle: critical overhang angle in degrees (default 45; paper,
+            section 2.1.3), used with ``build_dir``.
         progress: optional ``progress(fraction, message)`` callback.
 
     Returns:
         build123d input: a :class:`Textured` (a build123d ``Part``). CadQuery input:
         the same kind of object (``Workplane`` or ``Shape``) holding the textured
         solid, with the :class:`Textured` as its ``.texcad`` attribute. Raw OCP input:
-        a :class:`Textured`.
+        a :class:`Textured`. ``Textured.limits`` is the overhang limiter's
+        :class:`~texcad.printability.LimitReport` (None without ``build_dir``).
 
     Raises:
         ParameterError: the face is not a face of the part, or a bad parameter.
@@ -829,6 +899,12 @@ def texture(
         raise ParameterError(f"edge_angle must be in (0, 90] degrees, got {edge_angle!r}")
     if np.shape(offset) != (2,):
         raise ParameterError(f"offset must be (dx, dy) in mm, got {offset!r}")
+    dirs = None
+    if build_dir is not None:
+        from .printability import _critical, build_directions
+
+        dirs = build_directions(build_dir)
+        critical_angle = _critical(critical_angle)
     from OCP.BRepAdaptor import BRepAdaptor_Surface
     from OCP.GeomAbs import GeomAbs_Plane
 
@@ -847,6 +923,8 @@ def texture(
             rotation=rotation,
             offset=offset,
             make_brep=brep,
+            build_dir=dirs,
+            critical_angle=critical_angle,
             progress=progress,
         )
     else:
@@ -861,9 +939,14 @@ def texture(
             periodic_x=periodic_x,
             transition=transition,
             make_brep=brep,
+            build_dir=dirs,
+            critical_angle=critical_angle,
             progress=progress,
         )
     res["info"]["brep"] = bool(brep)
+    if dirs is not None:
+        res["info"]["build_dir"] = dirs.tolist()
+        res["info"]["critical_angle"] = float(critical_angle)
     if brep:
         report(progress, 0.95, "checking the B-rep")
         chk = _brep.check_shape(res["shape"])  # the module, not the flag
@@ -888,6 +971,7 @@ def texture(
         texture_mesh=res["texture_mesh"],
         base_mesh=res["base_mesh"],
         heightmap=res["heightmap"],
+        limits=res["limits"],
         info=res["info"],
     )
     report(progress, 1.0, "textured")

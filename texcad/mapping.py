@@ -968,6 +968,8 @@ def textured_surface(
     thickness: float | None = None,
     periodic_x: bool | None = None,
     transition: float | None = None,
+    build_dir: Any = None,
+    critical_angle: float = 45.0,
     progress: Progress = None,
 ):
     """Texture a 2.5D surface and fuse it onto its base body: a watertight solid.
@@ -993,13 +995,32 @@ def textured_surface(
         thickness: base thickness in mm for profiles without a base (default 5 mm).
         periodic_x: closed profiles: the (image or Heightmap) texture tiles in x.
         transition: fade length in mm (see :func:`map_texture`).
+        build_dir: make the texture print without support for this build direction
+            ``(3,)``, or every direction of a ``(K, 3)`` set, given in the surface's
+            frame (x across the profile, y along the extrusion, z up: the frame of
+            the returned mesh; e.g. ``texcad.orientation(60, "+x")``). The surface's
+            tilt under every texture column comes from the profile's tangent
+            (``Profile.at(s)``) and adds to the texture's slope (paper, section
+            3.1); :func:`texcad.printability.limit_overhangs_mapped` lowers the
+            texture as little as needed (offset ``"normal"`` for ``mapping="angle"``,
+            ``"vertical"`` for ``"distance"``) and ramps the borders whose walls
+            would overhang (M-I, section 2.1.3) down to 0.02 mm inside the base.
+            None: the texture is used as is.
+        critical_angle: critical overhang angle in degrees (default 45; paper,
+            section 2.1.3), used with ``build_dir``.
         progress: optional ``progress(fraction, message)`` callback.
 
     Returns:
         :class:`TexturedSurface`: a :class:`texcad.pipeline.TexturedPart` (fused mesh,
         texture slab, base mesh, heightmap as mapped) that also holds the
         :class:`MappedSurface` (``.mapped``: grids, height ``limits``, ``x_scale``);
-        ``.height_limits`` lists where the height was limited.
+        ``.height_limits`` lists where the height was limited; ``.limits`` is the
+        overhang limiter's :class:`~texcad.printability.LimitReport` (None without
+        ``build_dir``), its ``remaining_overhang_mm2`` measured on the mapped slab.
+
+    Raises:
+        ParameterError: ``build_dir`` with ``mapping="distance"`` on a profile that
+            looks both up and down (use ``mapping="angle"``).
     """
     from .progress import subrange
     from .solid import fuse, shape_to_mesh
@@ -1017,6 +1038,12 @@ def textured_surface(
         depth = min(0.5, surf.thickness / 2) if surf.thickness else 0.5
     report(progress, 0.05, "loading texture")
     hm, periodic = fit_texture(surf.profile, texture, length=surf.length, pitch=pitch, height=height, periodic_x=periodic_x)
+    overhang = None
+    if build_dir is not None:
+        from ._profile_limit import limit_on_profile
+
+        report(progress, 0.08, f"limiting overhangs to {critical_angle:g} deg")
+        hm, overhang = limit_on_profile(surf.profile, hm, build_dir, critical_angle, mapping=mapping, periodic=periodic)
     mapped = map_texture(
         surf.profile,
         hm,
@@ -1029,9 +1056,13 @@ def textured_surface(
     )
     report(progress, 0.3, f"closing the {mapped.top.shape[0]} x {mapped.top.shape[1]} texture slab")
     slab = mapped.solid()
+    if overhang is not None:
+        from ._profile_limit import measured
+
+        overhang = measured(overhang, slab, build_dir, critical_angle)
     report(progress, 0.4, "meshing the base body")
     base_mesh = surf.base if isinstance(surf.base, Mesh) else shape_to_mesh(surf.base)
     report(progress, 0.5, f"fusing {slab.num_triangles} texture triangles onto the base (manifold3d)")
     fused = fuse(base_mesh, slab)
     report(progress, 1.0, "fused")
-    return TexturedSurface(mesh=fused, texture=slab, base=base_mesh, heightmap=mapped.heightmap, mapped=mapped)
+    return TexturedSurface(mesh=fused, texture=slab, base=base_mesh, heightmap=mapped.heightmap, limits=overhang, mapped=mapped)
