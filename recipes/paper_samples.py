@@ -10,8 +10,9 @@ paper_samples.json with the table it prints.
 $TEXCAD_PITCH sets the pixel pitch in mm (default 0.125: the paper's 800 px per
 100 mm); the tests run it coarser. The STEP of the curved and sine samples is made at
 0.25 mm at most (OCCT's union of finer grid faces with curved faces is slow and, on
-the sine at 0.125 mm, fails); STL and 3MF are always at $TEXCAD_PITCH. Choose rows by name on the command line or in
-$TEXCAD_SAMPLES (comma-separated), e.g.  python recipes/paper_samples.py T1-flat T3-curved
+the sine at 0.125 mm, fails); STL and 3MF are always at $TEXCAD_PITCH. Choose rows by
+name on the command line or in $TEXCAD_SAMPLES (comma-separated), e.g.
+python recipes/paper_samples.py T1-flat T3-curved
 
 The samples (paper, section 2.2.4): flat; curved, a circular arc of radius 80 mm
 bulging up (eq. 5-8) on a concentric 5 mm shell; sinusoidal, z = 5 sin(2 pi x / 50)

@@ -951,7 +951,7 @@ class TexturedSurface(TexturedPart):
     @property
     def height_limits(self) -> list[HeightLimit]:
         """Where the texture height was limited to avoid self-intersection (the
-        inherited ``limits`` field is the overhang limiter's report, unused here)."""
+        inherited ``limits`` field is the overhang limiter's report, set with ``build_dir``)."""
         return list(self.mapped.limits) if self.mapped is not None else []
 
 
