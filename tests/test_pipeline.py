@@ -33,3 +33,20 @@ def test_same_inputs_same_bytes(tmp_path):
         texcad.export(tp.mesh, tmp_path / run / "part.3mf")
     for f in ("part.stl", "part.3mf"):
         assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes()
+
+
+def test_stl_of_a_fused_plate_reads_back_exactly(tmp_path):
+    """More than one STL chunk (65536 triangles): records in order, corners exact,
+    unit outward normals."""
+    tp = texcad.textured_plate("builtin:stones", size=(50, 50), thickness=2, pitch=0.25)
+    m = tp.mesh
+    assert m.num_triangles > 65536
+    texcad.write_stl(m, tmp_path / "p.stl")
+    raw = (tmp_path / "p.stl").read_bytes()
+    dt = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
+    assert np.frombuffer(raw[80:84], "<u4")[0] == m.num_triangles and len(raw) == 84 + 50 * m.num_triangles
+    rec = np.frombuffer(raw[84:], dt)
+    assert np.array_equal(rec["v"], m.vertices[m.faces]) and not rec["attr"].any()
+    n = rec["normal"].astype(np.float64)
+    assert np.allclose(np.linalg.norm(n, axis=1), 1, atol=1e-6)
+    assert np.allclose(n, m.face_normals(), atol=1e-6)

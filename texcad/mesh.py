@@ -169,10 +169,18 @@ def heightfield_slab(
     """The paper's flat mapping (section 2.2) as a closed slab.
 
     One vertex per pixel: vertex ``(r, c)`` sits at ``origin + ((c + 1/2) px,
-    (r + 1/2) py, h[r, c])`` in mm. The boundary ring of the top grid is joined by
-    vertical walls to a flat bottom at ``z = origin_z - depth``; the bottom is the
-    ring polygon itself (no interior vertices), so the slab costs hardly more than
-    its top surface. The top faces are named ``"texture"`` in ``Mesh.groups``.
+    (r + 1/2) py, h[r, c])`` in mm. Each side of the top grid is closed by a vertical
+    wall down to a flat bottom at ``z = origin_z - depth``. A wall is one planar
+    polygon, the side's row (or column) of top vertices plus the two bottom corners
+    below its ends, triangulated as such; the bottom is a rectangle of two triangles.
+    So the slab adds only four vertices to its top surface, and only a few of its
+    edges cross the base body's face at ``z = origin_z``: the union with the base
+    (:func:`texcad.solid.fuse`) has little to cut and nothing to re-triangulate but
+    a handful of faces. The top faces are named ``"texture"`` in ``Mesh.groups``.
+
+    Where a wall polygon would be degenerate (a boundary height reaches down to the
+    bottom, e.g. heights of ``-depth`` mm), the walls are instead quads from every
+    boundary vertex down to a bottom ring below it.
 
     Args:
         heightmap: the texture.
@@ -181,8 +189,10 @@ def heightfield_slab(
         origin: ``(x, y, z)`` in mm of the surface point under the texture's corner.
 
     Returns:
-        A watertight :class:`Mesh` of ``2 (R-1)(C-1) + 2 P + (P - 2)`` triangles,
-        ``P = 2 (R + C) - 4`` boundary vertices.
+        A watertight :class:`Mesh` with ``R C + 4`` vertices and
+        ``2 (R-1)(C-1) + 2 (R + C) + 2`` triangles for an ``R x C`` px heightmap
+        (walls on a bottom ring: ``R C + P`` vertices and ``2 (R-1)(C-1) + 3 P - 2``
+        triangles, ``P = 2 (R + C) - 4``).
     """
     if not (np.isfinite(depth) and depth > 0):
         raise ParameterError(f"depth must be a positive number of mm, got {depth!r}")
@@ -190,28 +200,89 @@ def heightfield_slab(
     require_memory(rows * cols * 60.0, f"a {rows} x {cols} px slab", "use a larger pitch")
     ox, oy, oz = (float(o) for o in origin)
     n = rows * cols
-    ring = _ring(rows, cols)
-    p = len(ring)
-    verts = np.empty((n + p, 3), dtype=np.float32)
+    verts = np.empty((n + 4, 3), dtype=np.float32)
     top = verts[:n].reshape(rows, cols, 3)
     top[..., 0] = (ox + heightmap.x).astype(np.float32)[None, :]
     top[..., 1] = (oy + heightmap.y).astype(np.float32)[:, None]
     top[..., 2] = heightmap.heights + np.float32(oz)
-    verts[n:, :2] = verts[ring, :2]
-    verts[n:, 2] = np.float32(oz - depth)
-
     top_faces = grid_faces(rows, cols)
+    groups = {"texture": np.arange(len(top_faces), dtype=np.uint32)}
+    zb = np.float32(oz - depth)
+    walls = _polygon_walls(verts[:n], rows, cols, float(zb), depth)
+    if walls is None:
+        return _ring_walls_slab(verts[:n], rows, cols, zb, top_faces, groups)
+    idx = np.arange(n, dtype=np.uint32).reshape(rows, cols)
+    corners = [idx[0, 0], idx[0, -1], idx[-1, -1], idx[-1, 0]]  # counter-clockwise from +z
+    verts[n:, :2] = verts[corners, :2]
+    verts[n:, 2] = zb
+    # Bottom rectangle, facing -z: clockwise seen from +z.
+    bottom = np.array([[n, n + 2, n + 1], [n, n + 3, n + 2]], dtype=np.uint32)
+    return Mesh(verts, np.concatenate([top_faces, walls, bottom]), groups)
+
+
+def _polygon_walls(top: np.ndarray, rows: int, cols: int, zb: float, depth: float) -> "np.ndarray | None":
+    """Triangles closing the four sides of a top grid down to ``z = zb`` (mm).
+
+    Side ``k`` (counter-clockwise from +z, starting along row 0) is the planar polygon
+    of its top vertices plus bottom corners ``N + k`` and ``N + (k+1) % 4`` (``N`` =
+    number of top vertices), triangulated by manifold3d in the wall's plane. Returns
+    ``None`` when a polygon is degenerate or its triangulation is not a valid,
+    counter-clockwise (outward) cover of it.
+    """
+    import manifold3d
+
+    n = rows * cols
+    # A boundary vertex (almost) on the bottom would pinch its wall polygon.
+    if float(top[_ring(rows, cols), 2].min()) - zb < max(1e-3 * depth, 1e-4):
+        return None
+    idx = np.arange(n, dtype=np.uint32).reshape(rows, cols)
+    sides = (idx[0, :], idx[:, -1], idx[-1, ::-1], idx[::-1, 0])
+    out = []
+    for k, chain in enumerate(sides):  # one polygon per side
+        p = top[chain].astype(np.float64)
+        u = np.abs(p[:, k % 2] - p[0, k % 2])  # distance along the side, increasing
+        # Seen from outside, u runs to the right on every side (the ring is counter-
+        # clockwise from +z): counter-clockwise = bottom left to right, then the top
+        # vertices from right to left. Counter-clockwise triangles face outwards.
+        poly = np.empty((len(chain) + 2, 2))
+        poly[0] = (0.0, zb)
+        poly[1] = (u[-1], zb)
+        poly[2:, 0] = u[::-1]
+        poly[2:, 1] = p[::-1, 2]
+        tri = np.asarray(manifold3d.triangulate([poly]), dtype=np.int64).reshape(-1, 3)
+        a, b, c = poly[tri[:, 0]], poly[tri[:, 1]], poly[tri[:, 2]]
+        area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+        x, y = poly[:, 0], poly[:, 1]
+        poly_area2 = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+        if len(tri) != len(poly) - 2 or not np.all(area2 > 0) or not np.isclose(area2.sum(), poly_area2, rtol=1e-9):
+            return None
+        ids = np.concatenate([np.array([n + k, n + (k + 1) % 4], dtype=np.uint32), chain[::-1]])
+        out.append(ids[tri])
+    return np.concatenate(out)
+
+
+def _ring_walls_slab(
+    top: np.ndarray, rows: int, cols: int, zb: np.float32, top_faces: np.ndarray, groups: dict
+) -> Mesh:
+    """A slab whose walls are quads from every boundary vertex down to a bottom ring at
+    ``z = zb`` mm, and whose bottom is the ring polygon (triangulated by manifold3d)."""
+    import manifold3d
+
+    n = rows * cols
+    ring = _ring(rows, cols)
+    p = len(ring)
+    verts = np.empty((n + p, 3), dtype=np.float32)
+    verts[:n] = top
+    verts[n:, :2] = top[ring, :2]
+    verts[n:, 2] = zb
     bi = np.arange(n, n + p, dtype=np.uint32)
     t0, t1 = ring, np.roll(ring, -1)
     b0, b1 = bi, np.roll(bi, -1)
     walls = np.concatenate([np.stack([t0, b0, b1], 1), np.stack([t0, b1, t1], 1)])
     # The ring runs counter-clockwise seen from +z; the bottom faces -z, so reverse.
-    import manifold3d
-
     tri = np.asarray(manifold3d.triangulate([verts[n:, :2].astype(np.float64)]), dtype=np.uint32)
     bottom = bi[tri[:, ::-1]]
-    faces = np.concatenate([top_faces, walls, bottom])
-    return Mesh(verts, faces, {"texture": np.arange(len(top_faces), dtype=np.uint32)})
+    return Mesh(verts, np.concatenate([top_faces, walls, bottom]), groups)
 
 
 def grid_solid(top: np.ndarray, bottom: np.ndarray, *, wrap_x: bool = False) -> Mesh:

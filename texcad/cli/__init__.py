@@ -16,7 +16,7 @@ from typing import Callable, Sequence
 
 from ..errors import TexcadError
 
-__all__ = ["main", "build_parser", "commands"]
+__all__ = ["main", "entry", "build_parser", "commands"]
 
 #: Commands listed first by ``texcad --help``; every other public module of this
 #: package is a command too and follows in alphabetical order.
@@ -57,5 +57,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
 
 
-if __name__ == "__main__":  # pragma: no cover
+def entry() -> None:
+    """The ``texcad`` program (console script and ``python -m texcad``): a one-shot
+    process, so glibc is told to reuse freed memory instead of returning it to the
+    system (:func:`texcad.solid.retain_freed_memory`: 0.3-0.5 s less per 800 x 800 px
+    job). ``main()`` alone leaves the host process's allocator as it is."""
+    from ..solid import retain_freed_memory
+
+    retain_freed_memory()
     sys.exit(main())
+
+
+if __name__ == "__main__":  # pragma: no cover
+    entry()
