@@ -1,11 +1,7 @@
 """texcad.texture on build123d and CadQuery parts: meshes, B-rep STEP, 3MF, previews."""
 
-import os
-import subprocess
-import sys
 import warnings
 import zipfile
-from pathlib import Path
 
 import numpy as np
 import pytest
