@@ -1,6 +1,8 @@
 """The pinned CAD stack imports together and each kernel builds a solid."""
 
 import importlib.metadata as md
+import subprocess
+import sys
 
 
 def test_build123d_and_cadquery_share_one_ocp():
@@ -22,3 +24,14 @@ def test_build123d_and_cadquery_share_one_ocp():
     assert isinstance(b.wrapped, TopoDS_Shape) and isinstance(w.val().wrapped, TopoDS_Shape)
     assert manifold3d.Manifold.cube([1, 2, 3]).volume() == 6
     assert trimesh.creation.box([1, 2, 3]).volume == 6
+
+
+def test_import_texcad_leaves_the_cad_stack_for_later():
+    # build123d/OCP take seconds to import; the CAD layer loads on first use.
+    code = (
+        "import sys, texcad; assert 'build123d' not in sys.modules and 'OCP' not in sys.modules; "
+        "texcad.texture; assert 'build123d' in sys.modules; print(texcad.render_part.__module__)"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "texcad.cad"

@@ -23,8 +23,6 @@ from .textures import DEFAULT_TEXTURE, builtin, builtin_names, contact_sheet, lo
 
 from . import brep, quality
 from .brep import read_step, write_step
-from .cad import Textured, display_shape, load_mesh, show, texture, textured
-from .cad import render as render_part
 from .check import CheckReport, check, read_part
 from .mapping import MAPPINGS, HeightLimit, MappedSurface, TexturedSurface, fit_texture, map_texture, slab_mesh, textured_surface
 from .printability import (
@@ -41,6 +39,33 @@ from .surface import SURFACE_KINDS, Profile, Surface
 from .synthesis import naive_quilt, synthesize
 
 __version__ = "0.1.0"
+
+# The CAD layer (texcad.cad) imports build123d and OCP, about 4 s; it is loaded on
+# first use of one of these names, so that `import texcad` and the CLI's light
+# commands (textures, synth, scan, check) start fast.
+_CAD_NAMES = {
+    "Textured": "Textured",
+    "texture": "texture",
+    "textured": "textured",
+    "show": "show",
+    "display_shape": "display_shape",
+    "load_mesh": "load_mesh",
+    "render_part": "render",
+}
+
+
+def __getattr__(name: str):
+    if name in _CAD_NAMES:
+        from . import cad
+
+        value = getattr(cad, _CAD_NAMES[name])
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'texcad' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_CAD_NAMES))
 
 __all__ = [
     "TexcadError",
