@@ -75,3 +75,24 @@ def test_scan_command_turns_points_into_png(tmp_path, capsys):
 def test_textures_contact_sheet(tmp_path, capsys):
     assert main(["textures", "--sheet", str(tmp_path / "sheet.png")]) == 0
     assert (tmp_path / "sheet.png").stat().st_size > 1000
+
+
+def test_make_and_texture_take_a_build_direction(tmp_path, capsys):
+    d = "0.866,0,0.5"  # tilted 60 deg, +x rising
+    common = ["make", "--surface", "arc", "--texture", "builtin:sand", "--mapping", "angle", "--pitch", "1"]
+    assert main(common + ["-o", str(tmp_path / "free.stl")]) == 0
+    assert "overhangs" not in capsys.readouterr().out
+    assert main(common + ["--build-dir", d, "-o", str(tmp_path / "limited.stl")]) == 0
+    out = capsys.readouterr().out
+    assert "overhangs    limited to 45 deg for 1 direction(s)" in out and "0.00 mm2 still overhanging" in out
+    free = texcad.check(tmp_path / "free.stl", build_dir=(0.866, 0, 0.5)).overhang_area_mm2
+    limited = texcad.check(tmp_path / "limited.stl", build_dir=(0.866, 0, 0.5)).overhang_area_mm2
+    assert limited < free - 100  # the texture's overhangs are gone; the shell's underside remains
+
+    from build123d import Box, export_step
+
+    export_step(Box(20, 20, 5), str(tmp_path / "box.step"))
+    argv = ["texture", str(tmp_path / "box.step"), "--pitch", "0.5", "--build-dir", "0,1,1", "-o", str(tmp_path / "b.3mf")]
+    assert main(argv + ["--separate-texture", "-q"]) == 0
+    assert "overhangs    limited" in capsys.readouterr().out
+    assert texcad.check(tmp_path / "b.3mf", build_dir=(0, 1, 1)).texture_overhang_area_mm2 == 0.0

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-__all__ = ["positive_float", "shape", "vector"]
+__all__ = ["positive_float", "shape", "vector", "add_orientation", "limits_line"]
 
 
 def positive_float(text: str) -> float:
@@ -38,3 +38,33 @@ def vector(text: str) -> tuple[float, float, float]:
         return tuple(float(c) for c in parse_vector(text))
     except ParameterError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_orientation(parser: argparse.ArgumentParser) -> None:
+    """``--build-dir X,Y,Z`` and ``--critical-angle DEG``: make the texture print
+    without support in that orientation (texcad.printability)."""
+    parser.add_argument(
+        "--build-dir",
+        type=vector,
+        default=None,
+        metavar="X,Y,Z",
+        help="print the texture support-free along this build direction (up in the printer, any length; "
+        "see texcad.orientation); default: texture as is",
+    )
+    parser.add_argument(
+        "--critical-angle",
+        type=positive_float,
+        default=45.0,
+        metavar="DEG",
+        help="with --build-dir: smallest printable angle between a downward face and the build plate (default 45)",
+    )
+
+
+def limits_line(limits) -> str | None:
+    """One summary line for a LimitReport (None when no limiter ran)."""
+    if limits is None:
+        return None
+    return (
+        f"overhangs    limited to {limits.critical_angle_deg:g} deg for {len(limits.directions)} direction(s): "
+        f"{limits.removed_volume_mm3:.1f} mm3 removed, {limits.remaining_overhang_mm2:.2f} mm2 still overhanging"
+    )

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from ..errors import ParameterError
 from ..progress import StageReporter, subrange
-from ._args import positive_float
+from ._args import add_orientation, limits_line, positive_float
 
 SUFFIXES = (".stl", ".3mf")
 
@@ -52,6 +52,8 @@ def run(args: argparse.Namespace) -> int:
             mapping=args.mapping,
             pitch=args.pitch,
             depth=args.depth,
+            build_dir=args.build_dir,
+            critical_angle=args.critical_angle,
             progress=subrange(progress, 0.02, 0.85),
         )
     notes = [str(w.message) for w in caught if issubclass(w.category, TexcadWarning)]
@@ -70,6 +72,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"volume       {m.volume:.1f} mm3")
     print(f"size         {hi[0] - lo[0]:.2f} x {hi[1] - lo[1]:.2f} x {hi[2] - lo[2]:.2f} mm")
     print(f"seconds      {secs:.2f}")
+    line = limits_line(part.limits)
+    if line:
+        print(line)
     limits = part.height_limits
     print(f"limits       {len(limits) if limits else 'none'}")
     for lim in limits:
@@ -109,5 +114,6 @@ def add(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--period", type=positive_float, help="sine: period (default 50)")
     g.add_argument("--thickness", type=positive_float, help="base wall thickness (default 5; a cylinder with thickness >= radius is solid)")
     d.add_argument("--pitch", type=positive_float, default=0.125, help="mm per texture pixel (default 0.125)")
+    add_orientation(d)
     d.add_argument("--depth", type=positive_float, default=None, help="how far the slab reaches into the base, mm")
     d.set_defaults(func=run)

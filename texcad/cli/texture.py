@@ -7,7 +7,7 @@ import time
 import warnings
 from pathlib import Path
 
-from ._args import positive_float
+from ._args import add_orientation, limits_line, positive_float
 
 #: ``--face`` words: the planar face whose outward normal points that way (largest
 #: if several), or the largest cylindrical / extruded face.
@@ -63,6 +63,8 @@ def run(args: argparse.Namespace) -> int:
             pitch=args.pitch,
             mapping=args.mapping,
             rotation=args.rotation,
+            build_dir=args.build_dir,
+            critical_angle=args.critical_angle,
             brep=any(Path(o).suffix.lower() in (".step", ".stp") for o in args.out),
             progress=None if args.quiet else StageReporter(),
         )
@@ -72,6 +74,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"face         {args.face} ({tx.info['face']}, grid {tx.info['grid'][0]} x {tx.info['grid'][1]})")
     print(f"triangles    {m.num_triangles}, watertight {m.is_watertight}")
     print(f"volume       {m.volume:.1f} mm3")
+    line = limits_line(tx.limits)
+    if line:
+        print(line)
     print(f"seconds      {time.perf_counter() - t0:.2f}")
     print(f"wrote        {', '.join(args.out)}")
     return 0
@@ -86,6 +91,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--pitch", type=positive_float, default=0.25, help="mm per pixel (default 0.25)")
     t.add_argument("--mapping", choices=("angle", "distance"), default="angle", help="curved faces: algorithm 2 (angle) or 1 (distance)")
     t.add_argument("--rotation", type=float, default=0.0, help="planar faces: turn the texture, degrees")
+    add_orientation(t)
     t.add_argument("--separate-texture", action="store_true", help="3MF: the texture as its own object of the build item")
     t.add_argument("-o", "--out", action="append", required=True, metavar="OUT", help="OUT.stl, .3mf, .step or .png (repeatable)")
     t.add_argument("-q", "--quiet", action="store_true", help="no progress or warnings")
