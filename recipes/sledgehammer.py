@@ -59,7 +59,7 @@ grip = texcad.Heightmap(grown.heights, (p, PITCH))
 # -- the part: the grip face textured in one piece, printable upright (+y).
 part = texcad.texture(handle, grip_face, grip, mapping="angle", periodic_x=True, build_dir=(0, 1, 0))
 t1 = time.perf_counter()
-report = texcad.check([("base", part.base_mesh), ("texture", part.texture_mesh)], build_dir=(0, 1, 0))
+report = texcad.check(part, build_dir=(0, 1, 0))
 part.export_stl(OUT / "sledgehammer.stl")
 part.export_3mf(OUT / "sledgehammer.3mf", separate_texture=True)
 t2 = time.perf_counter()

@@ -251,3 +251,20 @@ def test_3mf_other_layouts(tmp_path):
     write_3mf(slab, tmp_path / "own.3mf")
     (_, own), = read_part(tmp_path / "own.3mf")
     assert np.array_equal(own.faces, slab.faces) and np.allclose(own.vertices, slab.vertices, atol=6e-5)
+
+
+def test_check_a_texture_result_uses_its_fused_mesh():
+    from build123d import Axis, Box
+
+    box = Box(20, 20, 5)
+    top = box.faces().sort_by(Axis.Z)[-1]
+    d = texcad.orientation(60, "+x")
+    free = texcad.texture(box, top, "builtin:pins", height=1.0, pitch=0.25, brep=False)
+    limited = texcad.texture(box, top, "builtin:pins", height=1.0, pitch=0.25, brep=False, build_dir=d)
+    r_free, r_lim = texcad.check(free, build_dir=d), texcad.check(limited, build_dir=d)
+    assert r_free.source == "<textured part>" and r_free.triangles == free.mesh.num_triangles
+    assert r_free.watertight and r_free.shells == 1
+    assert r_free.texture_overhang_area_mm2 > 1.0 and r_lim.texture_overhang_area_mm2 == 0.0
+    # The texture faces lie on the top face (the pins' flanks and tops), not on the sides.
+    assert 0.0 < r_free.texture_area_mm2 < 3 * 400.0
+    assert r_free.overhang_area_mm2 < r_free.texture_overhang_area_mm2 + 20 * 5 + 1e-6  # + the -x side wall

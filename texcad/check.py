@@ -496,6 +496,13 @@ def _items(part: Any) -> tuple[str, list[tuple[str, Mesh]], Heightmap | None]:
     return "<meshes>", items, None
 
 
+def _is_textured(part: Any) -> bool:
+    """A :func:`texcad.texture` result (fused mesh plus base and texture meshes)."""
+    if isinstance(part, (str, os.PathLike, Mesh, list, tuple)):
+        return False
+    return all(hasattr(type(part), a) for a in ("mesh", "texture_mesh", "base_mesh"))
+
+
 def _is_texture(name: str) -> bool:
     return name.strip().lower().startswith("texture")
 
@@ -646,8 +653,10 @@ def check(
     Args:
         part: ``.stl`` / ``.3mf`` path, a :class:`~texcad.mesh.Mesh` (its
             ``"texture"`` group, if any, is the textured surface), a
-            :class:`~texcad.pipeline.TexturedPart` (base and texture slab), or a list
-            of ``(name, Mesh)`` (names starting with ``texture`` are texture).
+            :class:`~texcad.pipeline.TexturedPart` (base and texture slab), a
+            :func:`texcad.texture` result (its fused mesh; texture faces found on its
+            texture mesh), or a list of ``(name, Mesh)`` (names starting with
+            ``texture`` are texture).
         build_dir: build direction ``(x, y, z)`` in the part's frame (any length;
             default +z, the part as placed); see :func:`texcad.printability.orientation`.
         critical_angle: critical overhang angle in degrees between face and build
@@ -673,7 +682,14 @@ def check(
     crit = _critical(critical_angle)
     if nozzle is not None and not (np.isfinite(float(nozzle)) and float(nozzle) > 0):
         raise ParameterError(f"nozzle must be a positive width in mm (e.g. 0.4), got {nozzle!r}")
-    source, items, hm_from_part = _items(part)
+    textured_part = _is_textured(part)
+    if textured_part:
+        # A texture() result: check the fused mesh it prints from. Its texture faces
+        # are those on the texture's surface and not on the base's (re-uniting the two
+        # touching bodies would only add rounding slivers along their contact).
+        source, items, hm_from_part = "<textured part>", [("part", part.mesh)], part.heightmap
+    else:
+        source, items, hm_from_part = _items(part)
     heightmap = heightmap if heightmap is not None else hm_from_part
     notes: list[str] = []
     mans, ids = _manifolds([m for _, m in items])
@@ -683,7 +699,11 @@ def check(
     # are counted edge by edge.
     water = [ok or bool(edge_report(m.faces)["watertight"]) for ok, (_, m) in zip(manif, items)]
     texture_mask: np.ndarray | None = None
-    if len(items) == 1:
+    if textured_part:
+        mesh = items[0][1]
+        cen = mesh.vertices[mesh.faces].astype(np.float64).mean(axis=1)
+        texture_mask = _on_surface(cen, [part.texture_mesh]) & ~_on_surface(cen, [part.base_mesh])
+    elif len(items) == 1:
         mesh = items[0][1]
         if "texture" in mesh.groups:
             texture_mask = np.zeros(mesh.num_triangles, dtype=bool)
