@@ -622,6 +622,37 @@ def _on_surface(points: np.ndarray, meshes: Sequence[Mesh], tol: float | None = 
     return out
 
 
+def _shared_faces(mesh: Mesh, other: Mesh) -> np.ndarray:
+    """``(M,)`` bool: which faces of ``mesh`` are also faces of ``other`` (the same
+    three vertex positions, bit for bit, in any order). Sorting, no geometry."""
+    verts = np.concatenate([mesh.vertices, other.vertices]).astype(np.float32)
+    verts = verts + np.float32(0.0)  # -0.0 -> 0.0, so equal positions have equal bytes
+    key = np.ascontiguousarray(verts).view(np.dtype((np.void, 12))).ravel()
+    _, vid = np.unique(key, return_inverse=True)
+    fa = np.sort(vid[mesh.faces.astype(np.int64)], axis=1)
+    fb = np.sort(vid[other.faces.astype(np.int64) + len(mesh.vertices)], axis=1)
+    _, fid = np.unique(np.concatenate([fa, fb]), axis=0, return_inverse=True)
+    fid = fid.ravel()
+    return np.isin(fid[: len(fa)], fid[len(fa) :])
+
+
+def _texture_faces(fused: Mesh, texture: Mesh, base: Mesh) -> np.ndarray:
+    """``(M,)`` bool: the faces of a fused part that belong to its texture.
+
+    A face shared with the texture mesh and not with the base mesh is texture; the
+    few faces the union re-triangulated (along the contact) are decided by where
+    they lie: on the texture's surface and not on the base's.
+    """
+    on_tex = _shared_faces(fused, texture)
+    on_base = _shared_faces(fused, base)
+    mask = on_tex & ~on_base
+    rest = np.flatnonzero(~on_tex & ~on_base)
+    if len(rest):
+        cen = fused.vertices[fused.faces[rest]].astype(np.float64).mean(axis=1)
+        mask[rest] = _on_surface(cen, [texture]) & ~_on_surface(cen, [base])
+    return mask
+
+
 def _shells(mesh: Mesh) -> int:
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
@@ -701,8 +732,7 @@ def check(
     texture_mask: np.ndarray | None = None
     if textured_part:
         mesh = items[0][1]
-        cen = mesh.vertices[mesh.faces].astype(np.float64).mean(axis=1)
-        texture_mask = _on_surface(cen, [part.texture_mesh]) & ~_on_surface(cen, [part.base_mesh])
+        texture_mask = _texture_faces(mesh, part.texture_mesh, part.base_mesh)
     elif len(items) == 1:
         mesh = items[0][1]
         if "texture" in mesh.groups:
