@@ -591,8 +591,10 @@ def fuse_solids(base: Any, tool: Any, *, parallel: bool = True):
     sols = solids_of(fu.Shape())
     if len(sols) != 1:
         raise GeometryError(
-            f"OCCT's union of texture and base gave {len(sols)} solids instead of one; "
-            "does the texture slab reach into the base (depth)?"
+            f"OCCT's union of texture and base gave {len(sols)} solids instead of one: its boolean found no "
+            "(or too little) intersection between the texture slab and the base, which happens with fine "
+            "grids on curved B-spline faces; build the STEP at a coarser pitch (e.g. 0.25 mm) or use "
+            "brep=False. The mesh (STL/3MF) does not depend on OCCT and is valid"
         )
     return sols[0]
 
