@@ -41,6 +41,7 @@ import numpy as np
 
 from .errors import ParameterError, TexcadWarning
 from .heightmap import Heightmap
+from .mapping import column_positions
 from .mesh import Mesh
 from .printability import LimitReport, build_directions, limit_overhangs_mapped, overhang_area
 from .surface import Profile
@@ -55,20 +56,6 @@ _MAX_PASSES = 12
 #: Degrees added to the critical angle for the facets: mapped meshes are cut by the
 #: base surface into slivers whose float32 normals scatter by a few tenths of a degree.
 MARGIN = 0.5
-
-
-def _columns(profile: Profile, hm: Heightmap, periodic: bool) -> tuple[np.ndarray, Heightmap]:
-    """Arc lengths ``(C,)`` mm of the texture columns as :func:`map_texture` places
-    them, and the heightmap at that pitch (closed profiles: repeated and fitted)."""
-    rows, cols = hm.shape
-    px, py = hm.pitch
-    L = profile.length
-    if not profile.closed:
-        return (L - cols * px) / 2 + (np.arange(cols) + 0.5) * px, hm
-    n_rep = max(1, int(round(L / (cols * px)))) if periodic else 1
-    heights = np.tile(hm.heights, (1, n_rep)) if n_rep > 1 else hm.heights
-    px_fit = L / heights.shape[1]
-    return (np.arange(heights.shape[1]) + 0.5) * px_fit, Heightmap(heights, (px_fit, py))
 
 
 def limit_on_profile(
@@ -98,7 +85,7 @@ def limit_on_profile(
         ParameterError: distance mapping on a profile that looks both up and down.
     """
     dirs = build_directions(build_dir)
-    s, fitted = _columns(profile, hm, periodic)
+    s, fitted = column_positions(profile, hm, periodic_x=periodic)
     fr = profile.at(np.clip(s, 0.0, profile.length) if not profile.closed else s)
     tilt = np.degrees(np.unwrap(np.arctan2(fr.tangent[:, 1], fr.tangent[:, 0])))
     offset = "normal" if mapping == "angle" else "vertical"

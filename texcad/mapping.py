@@ -97,6 +97,7 @@ __all__ = [
     "TexturedSurface",
     "fit_texture",
     "map_texture",
+    "column_positions",
     "slab_mesh",
     "textured_surface",
 ]
@@ -505,6 +506,35 @@ def _runs(mask: np.ndarray, closed: bool) -> list[tuple[int, int]]:
 
 
 # -- the mapping ---------------------------------------------------------------------------
+def column_positions(profile: Profile, heightmap: Heightmap, *, periodic_x: bool = False) -> tuple[np.ndarray, Heightmap]:
+    """Where :func:`map_texture` puts the texture's columns (eq. 4: arc length).
+
+    Open profiles: the texture is centred, column ``c`` at ``s_c = (L - C p_x) / 2 +
+    (c + 1/2) p_x``. Closed profiles: a texture that tiles in x (``periodic_x``) is
+    repeated ``N = round(L / (C p_x))`` times, and the x pitch becomes ``L / (N C)`` so
+    that the repeats fill the perimeter ``L`` exactly; column ``c`` at ``(c + 1/2)
+    p_x``.
+
+    Args:
+        profile: the surface's profile (mm).
+        heightmap: the texture (heights mm, pitch mm/px).
+        periodic_x: closed profiles: the texture tiles in x.
+
+    Returns:
+        ``(s, heightmap')``: ``(C',)`` float64 arc lengths in mm and the texture as
+        laid (closed profiles: repeated, x pitch fitted; else ``heightmap`` itself).
+    """
+    rows, cols = heightmap.shape
+    px, py = heightmap.pitch
+    L = profile.length
+    if not profile.closed:
+        return (L - cols * px) / 2 + (np.arange(cols) + 0.5) * px, heightmap
+    n_rep = max(1, int(round(L / (cols * px)))) if periodic_x else 1
+    heights = np.tile(heightmap.heights, (1, n_rep)) if n_rep > 1 else heightmap.heights
+    px_fit = L / heights.shape[1]
+    return (np.arange(heights.shape[1]) + 0.5) * px_fit, Heightmap(heights, (px_fit, py))
+
+
 def map_texture(
     profile: Profile,
     heightmap: Heightmap,
@@ -562,9 +592,7 @@ def map_texture(
     # -- columns along s (eq. 4) -----------------------------------------------------
     if profile.closed:
         width = cols * px
-        n_rep = max(1, int(round(L / width)))
         if not periodic_x:
-            n_rep = 1
             if abs(width - L) > 0.1 * L:
                 raise ParameterError(
                     f"the texture is {width:.1f} mm wide but the closed profile is {L:.1f} mm around; give a "
@@ -580,29 +608,24 @@ def map_texture(
                 TexcadWarning,
                 stacklevel=2,
             )
-        if n_rep > 1:
-            heights = np.tile(heights, (1, n_rep))
-        cols_t = heights.shape[1]
-        px_fit = L / cols_t
-        x_scale = px_fit / px
-        px = px_fit
-        heightmap = Heightmap(heights, (px, py))
+    elif (cols - 1) * px > L + 1e-9:
+        raise GeometryError(
+            f"the texture spans {(cols - 1) * px:.2f} mm along the profile but the profile is only {L:.2f} mm long; "
+            "crop the texture or lengthen the profile"
+        )
+    s_cols, heightmap = column_positions(profile, heightmap, periodic_x=periodic_x)
+    heights = heightmap.heights
+    cols_t = heights.shape[1]
+    if profile.closed:
+        x_scale = heightmap.pitch[0] / px
+        px = heightmap.pitch[0]
         if abs(x_scale - 1.0) > 0.005:
             warnings.warn(
-                f"the texture ({width:.3f} mm wide, repeated {n_rep} time(s)) was stretched by "
+                f"the texture ({width:.3f} mm wide, repeated {cols_t // cols} time(s)) was stretched by "
                 f"{100 * (x_scale - 1):+.2f} % along the profile to fill its {L:.3f} mm perimeter exactly",
                 TexcadWarning,
                 stacklevel=2,
             )
-        s_cols = (np.arange(cols_t) + 0.5) * px
-    else:
-        cols_t = cols
-        if (cols - 1) * px > L + 1e-9:
-            raise GeometryError(
-                f"the texture spans {(cols - 1) * px:.2f} mm along the profile but the profile is only {L:.2f} mm long; "
-                "crop the texture or lengthen the profile"
-            )
-        s_cols = (L - cols * px) / 2 + (np.arange(cols) + 0.5) * px
     if length is None:
         length = rows * py
     length = positive("length", length)
