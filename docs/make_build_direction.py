@@ -18,9 +18,11 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, ImageDraw, ImageFont
+from _figure import font
+from PIL import Image, ImageDraw
 
 import texcad
+from texcad.imageio import rgb8_image
 from texcad.check import check
 from texcad.printability import limit_overhangs, orientation, overhang_mask
 from texcad.raster import render_mesh
@@ -31,17 +33,8 @@ GREY = (0.70, 0.73, 0.78)
 W, H = 470, 470
 
 
-def _font(size: int):
-    for name in ("DejaVuSans.ttf", "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf"):
-        try:
-            return ImageFont.truetype(name, size)
-        except OSError:
-            continue
-    return ImageFont.load_default()
 
 
-def _to_pil(rgb: np.ndarray) -> Image.Image:
-    return Image.fromarray((np.clip(rgb[::-1], 0, 1) * 255 + 0.5).astype(np.uint8))  # y-up -> rows down
 
 
 def _arrow(d: ImageDraw.ImageDraw, x: float, y0: float, y1: float, colour, width: int = 4) -> None:
@@ -53,12 +46,12 @@ def _rule_panel(alpha: float) -> Image.Image:
     """The overhang rule as a side view: faces hanging out of a wall at several angles."""
     img = Image.new("RGB", (W, H), "white")
     d = ImageDraw.Draw(img)
-    small = _font(14)
+    small = font(14)
     plate_y = H - 60
     d.rectangle([20, plate_y, W - 20, plate_y + 14], fill=(90, 90, 90))
     d.text((24, plate_y + 18), "build plate (layers are added upwards)", fill=(60, 60, 60), font=small)
     _arrow(d, 40, plate_y - 10, 110, (20, 60, 160))
-    d.text((50, 110), "d", fill=(20, 60, 160), font=_font(22))
+    d.text((50, 110), "d", fill=(20, 60, 160), font=font(22))
     d.text((50, 136), "build\ndirection", fill=(20, 60, 160), font=small)
     # A wall with faces hanging out of it, at theta degrees below the horizontal.
     px, py = 140, 190
@@ -79,7 +72,7 @@ def _rule_panel(alpha: float) -> Image.Image:
     d.line([(px, py), (px + 300, py)], fill=(150, 150, 150), width=1)
     r = 80
     d.arc([px - r, py - r, px + r, py + r], start=0, end=alpha, fill=(0, 0, 0), width=2)
-    d.text((20, 12), "The rule", fill=(0, 0, 0), font=_font(20))
+    d.text((20, 12), "The rule", fill=(0, 0, 0), font=font(20))
     d.text(
         (20, 38),
         "A face looking down makes the angle \u03b8 with the\nbuild plate. \u03b8 < \u03b1 (critical angle): overhang, needs\n"
@@ -103,17 +96,17 @@ def _part_panel(hm: texcad.Heightmap, build_dir: np.ndarray, title: str, caption
         mesh, face_colors=cols, view=view, up=build_dir, width=W, height=H - 90, supersample=2, margin=0.08, return_info=True
     )
     img = Image.new("RGB", (W, H), "white")
-    img.paste(_to_pil(rgb), (0, 60))
+    img.paste(rgb8_image(rgb), (0, 60))
     d = ImageDraw.Draw(img)
     # Build plate: the lowest level of the part along d, on screen.
     scr = mesh.vertices.astype(np.float64) @ info["basis"].T
     y_img = (H - 90) - (scr[:, 1].min() * info["scale"] + info["offset"][1]) + 60
     d.rectangle([20, y_img, W - 20, y_img + 8], fill=(90, 90, 90))
     _arrow(d, W - 40, y_img - 10, 90, (20, 60, 160))
-    d.text((W - 60, 64), "d", fill=(20, 60, 160), font=_font(22))
-    d.text((20, 12), title, fill=(0, 0, 0), font=_font(20))
-    d.text((20, 38), caption, fill=(60, 60, 60), font=_font(14))
-    d.text((20, y_img + 14), "standing on its y = 0 border", fill=(60, 60, 60), font=_font(14))
+    d.text((W - 60, 64), "d", fill=(20, 60, 160), font=font(22))
+    d.text((20, 12), title, fill=(0, 0, 0), font=font(20))
+    d.text((20, 38), caption, fill=(60, 60, 60), font=font(14))
+    d.text((20, y_img + 14), "standing on its y = 0 border", fill=(60, 60, 60), font=font(14))
     return img
 
 

@@ -15,8 +15,10 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, ImageDraw, ImageFont
+from _figure import font
+from PIL import Image, ImageDraw
 
+from texcad.imageio import rgb8_image
 from texcad.mapping import textured_surface
 from texcad.raster import render_mesh
 from texcad.surface import Surface
@@ -24,17 +26,8 @@ from texcad.surface import Surface
 PANEL_W = 640
 
 
-def _font(size: int):
-    for name in ("DejaVuSans.ttf", "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf"):
-        try:
-            return ImageFont.truetype(name, size)
-        except OSError:
-            continue
-    return ImageFont.load_default()
 
 
-def _to_pil(rgb: np.ndarray) -> Image.Image:
-    return Image.fromarray((np.clip(rgb[::-1], 0, 1) * 255 + 0.5).astype(np.uint8))  # y-up -> rows down
 
 
 def _section(part, profile, width: int, height: int, x_range, z_range) -> Image.Image:
@@ -72,11 +65,11 @@ def main() -> None:
             warnings.simplefilter("ignore")
             parts[mode] = textured_surface(surf, texture, height=2.5, mapping=mode, pitch=args.pitch)
 
-    title_font, label, small = _font(22), _font(18), _font(15)
+    title_font, label, small = font(22), font(18), font(15)
     renders, sections = [], []
     for mode, part in parts.items():
         rgb = render_mesh(part.mesh, view=(0.35, 1.0, -0.45), width=PANEL_W, supersample=2)
-        renders.append(_to_pil(rgb))
+        renders.append(rgb8_image(rgb))
     # The sections zoom on a trough and a flank of the sine (x 45..75 mm).
     for mode, part in parts.items():
         sections.append(_section(part, surf.profile, PANEL_W, 260, (45.0, 75.0), (-7.0, 9.0)))

@@ -18,7 +18,8 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, ImageDraw, ImageFont
+from _figure import font
+from PIL import Image, ImageDraw
 from scipy import ndimage
 
 from texcad import quality as Q
@@ -32,13 +33,6 @@ PATCH, OVERLAP = 45, 25
 GAP, TOP, BELOW = 16, 30, 42
 
 
-def _font(size: int):
-    for name in ("DejaVuSans.ttf", "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf"):
-        try:
-            return ImageFont.truetype(name, size)
-        except OSError:
-            continue
-    return ImageFont.load_default()
 
 
 def scan_like(rows: int = 200, cols: int = 200, seed: int = 4) -> Heightmap:
@@ -79,7 +73,7 @@ def main() -> None:
         ("built-in 'stones'", builtin("stones", size=(25, 25), pitch=0.125, height=1.0)),
         ("scan-like height field", scan_like()),
     ]
-    font, small = _font(17), _font(14)
+    big, small = font(17), font(14)
     width = 200 + 3 * OUT + 4 * GAP
     height = len(rows) * (TOP + OUT + BELOW) + GAP
     sheet = Image.new("RGB", (width, height), "white")
@@ -100,7 +94,7 @@ def main() -> None:
         ]
         x = GAP
         for title, hm, caption in panels:
-            d.text((x, y0), title, fill="black", font=font)
+            d.text((x, y0), title, fill="black", font=big)
             sheet.paste(shaded(hm, lo, hi), (x, y0 + TOP))
             if caption:
                 d.multiline_text((x, y0 + TOP + hm.shape[0] + 6), caption, fill=(60, 60, 60), font=small)

@@ -148,16 +148,7 @@ def write_gray16(path: str | os.PathLike, values: np.ndarray) -> None:
 
 def write_rgb8(path: str | os.PathLike, rgb: np.ndarray) -> None:
     """Write a ``(rows, cols, 3)`` float array in [0, 1] (y-up) as an 8-bit RGB PNG."""
-    from PIL import Image
-
-    from ._atomic import atomic_path
-
-    a = np.asarray(rgb, dtype=np.float64)
-    if a.ndim != 3 or a.shape[2] != 3:
-        raise ParameterError(f"an RGB image needs shape (rows, cols, 3), got {a.shape}")
-    q = np.round(np.clip(a[::-1], 0.0, 1.0) * 255.0).astype(np.uint8)
-    with atomic_path(path) as tmp:
-        Image.fromarray(q, mode="RGB").save(tmp, format="PNG")
+    save_image(rgb8_image(rgb), path)
 
 
 def rgb8_image(rgb: np.ndarray):
