@@ -25,7 +25,6 @@ import tracemalloc
 from pathlib import Path
 
 import numpy as np
-from scipy import ndimage
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -34,16 +33,6 @@ from texcad.synthesis import _min_error_paths, naive_quilt, patch_grid, seam_ban
 from texcad.textures import builtin  # noqa: E402
 
 PATCH, OVERLAP = 45, 25
-
-
-def photo_like(rows: int = 200, cols: int = 200, seed: int = 1) -> np.ndarray:
-    """A photograph-like stochastic height field in mm (0..1)."""
-    rng = np.random.default_rng(seed)
-    a = 4 * ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 4, mode="wrap")
-    a += ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 1.2, mode="wrap")
-    r = ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 6, mode="wrap")
-    a -= 1.5 * np.exp(-0.5 * (r / 0.01) ** 2)
-    return ((a - a.min()) / (a.max() - a.min())).astype(np.float32)
 
 
 CPU: list[float] = []  # process CPU seconds of the runs of the last timed() call
@@ -93,7 +82,7 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="skip the 4000 x 4000 px runs")
     args = ap.parse_args()
 
-    sample = photo_like()
+    sample = Q.natural_sample()
     print(f"sample {sample.shape[0]} x {sample.shape[1]} px, patch {PATCH}, overlap {OVERLAP}")
     print()
     print(f"speed (median of runs, wall clock and process CPU; load average now {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")

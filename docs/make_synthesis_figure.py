@@ -20,7 +20,6 @@ from pathlib import Path
 import numpy as np
 from _figure import font
 from PIL import Image, ImageDraw
-from scipy import ndimage
 
 from texcad import quality as Q
 from texcad.heightmap import Heightmap
@@ -38,14 +37,7 @@ GAP, TOP, BELOW = 16, 30, 42
 def scan_like(rows: int = 200, cols: int = 200, seed: int = 4) -> Heightmap:
     """A non-procedural sample: two scales of filtered noise, a network of grooves
     and white 'sensor' noise, 0..1 mm at 0.125 mm/px (a stand-in for a scan)."""
-    rng = np.random.default_rng(seed)
-    a = 4 * ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 4)
-    a += ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 1.2)
-    r = ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 6)
-    a -= 1.5 * np.exp(-0.5 * (r / 0.01) ** 2)
-    a += 0.05 * rng.standard_normal((rows, cols))
-    a = (a - a.min()) / (a.max() - a.min())
-    return Heightmap(a.astype(np.float32), (0.125, 0.125))
+    return Heightmap(Q.natural_sample(rows, cols, seed, periodic=False, sensor_noise=0.05), (0.125, 0.125))
 
 
 def shaded(hm: Heightmap, lo: float, hi: float) -> Image.Image:

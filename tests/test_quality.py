@@ -120,3 +120,12 @@ def test_report() -> None:
     assert set(r) == {"histogram", "spectrum", "blur", "seam_x", "seam_y"}
     assert r["histogram"] == pytest.approx(0.0, abs=1e-12) and r["spectrum"] < 1e-9
     assert "blur" not in Q.report(a, a)
+
+
+def test_natural_sample_is_seeded_normalized_and_tiles_when_periodic():
+    a = Q.natural_sample(64, 80, seed=2)
+    assert a.shape == (64, 80) and a.dtype == np.float32 and a.min() == 0.0 and a.max() == 1.0
+    assert np.array_equal(a, Q.natural_sample(64, 80, seed=2)) and not np.array_equal(a, Q.natural_sample(64, 80, seed=3))
+    # Periodic: the jump across the wrap is like any neighbour step; reflected: not.
+    assert Q.wrap_seam_error(a, axis="x") < 1.5
+    assert Q.wrap_seam_error(Q.natural_sample(64, 80, seed=2, periodic=False), axis="x") > 1.5

@@ -14,7 +14,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
-from scipy import ndimage
 
 from texcad import quality as Q
 from texcad.errors import InputError, ParameterError, TexcadError
@@ -33,14 +32,8 @@ P, O = 32, 14  # patch and overlap used with the 128 px samples (step 18)
 
 
 def natural_sample(rows: int = 128, cols: int = 128, seed: int = 1) -> np.ndarray:
-    """A photograph-like stochastic height field in mm: two scales of filtered
-    noise and a network of grooves (zero crossings of a smooth field)."""
-    rng = np.random.default_rng(seed)
-    a = 4 * ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 4, mode="wrap")
-    a += ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 1.2, mode="wrap")
-    r = ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 6, mode="wrap")
-    a -= 1.5 * np.exp(-0.5 * (r / 0.01) ** 2)
-    return ((a - a.min()) / (a.max() - a.min())).astype(np.float32)
+    """A photograph-like stochastic height field in mm (:func:`texcad.quality.natural_sample`)."""
+    return Q.natural_sample(rows, cols, seed)
 
 
 def periodic_sample(rows: int = 128, cols: int = 128) -> np.ndarray:
