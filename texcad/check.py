@@ -622,18 +622,19 @@ def _on_surface(points: np.ndarray, meshes: Sequence[Mesh], tol: float | None = 
     return out
 
 
-def _shared_faces(mesh: Mesh, other: Mesh) -> np.ndarray:
-    """``(M,)`` bool: which faces of ``mesh`` are also faces of ``other`` (the same
-    three vertex positions, bit for bit, in any order). Sorting, no geometry."""
-    verts = np.concatenate([mesh.vertices, other.vertices]).astype(np.float32)
-    verts = verts + np.float32(0.0)  # -0.0 -> 0.0, so equal positions have equal bytes
-    key = np.ascontiguousarray(verts).view(np.dtype((np.void, 12))).ravel()
-    _, vid = np.unique(key, return_inverse=True)
-    fa = np.sort(vid[mesh.faces.astype(np.int64)], axis=1)
-    fb = np.sort(vid[other.faces.astype(np.int64) + len(mesh.vertices)], axis=1)
-    _, fid = np.unique(np.concatenate([fa, fb]), axis=0, return_inverse=True)
+def _shared_faces(mesh: Mesh, *others: Mesh) -> list[np.ndarray]:
+    """For each of ``others``, ``(M,)`` bool: which faces of ``mesh`` are also its faces
+    (the same three vertex positions, bit for bit, in any order). Sorting, no geometry."""
+    meshes = (mesh, *others)
+    verts = np.concatenate([m.vertices for m in meshes]).astype(np.float32) + np.float32(0.0)  # -0.0 -> 0.0
+    _, vid = np.unique(np.ascontiguousarray(verts).view(np.dtype((np.void, 12))).ravel(), return_inverse=True)
+    offsets = np.cumsum([0] + [len(m.vertices) for m in meshes])
+    keys = [np.sort(vid[m.faces.astype(np.int64) + off], axis=1) for m, off in zip(meshes, offsets)]
+    _, fid = np.unique(np.concatenate(keys), axis=0, return_inverse=True)
+    bounds = np.cumsum([0] + [len(k) for k in keys])
     fid = fid.ravel()
-    return np.isin(fid[: len(fa)], fid[len(fa) :])
+    own = fid[: bounds[1]]
+    return [np.isin(own, fid[lo:hi]) for lo, hi in zip(bounds[1:-1], bounds[2:])]
 
 
 def _texture_faces(fused: Mesh, texture: Mesh, base: Mesh) -> np.ndarray:
@@ -643,8 +644,7 @@ def _texture_faces(fused: Mesh, texture: Mesh, base: Mesh) -> np.ndarray:
     few faces the union re-triangulated (along the contact) are decided by where
     they lie: on the texture's surface and not on the base's.
     """
-    on_tex = _shared_faces(fused, texture)
-    on_base = _shared_faces(fused, base)
+    on_tex, on_base = _shared_faces(fused, texture, base)
     mask = on_tex & ~on_base
     rest = np.flatnonzero(~on_tex & ~on_base)
     if len(rest):
