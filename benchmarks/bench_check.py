@@ -16,8 +16,9 @@ import time
 from pathlib import Path
 
 import texcad
-from texcad.check import check, read_part
-from texcad.export import write_3mf, write_stl
+from texcad.report import check
+from texcad.io import read_part
+from texcad.io import write_3mf, write_stl
 
 
 def main() -> None:
@@ -26,12 +27,12 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
     t = time.perf_counter()
-    part = texcad.textured_plate("builtin:stones", size=(100, 100), pitch=args.pitch)
+    part = texcad.pipeline.textured_plate("builtin:stones", size=(100, 100), pitch=args.pitch)
     print(f"demo plate   {part.mesh.num_triangles} triangles, built in {time.perf_counter() - t:.1f} s")
     with tempfile.TemporaryDirectory() as tmp:
         stl, tmf = Path(tmp) / "demo.stl", Path(tmp) / "demo.3mf"
         write_stl(part.mesh, stl)
-        write_3mf([("base", part.base), ("texture", part.texture)], tmf)
+        write_3mf([("base", part.base_mesh), ("texture", part.texture_mesh)], tmf)
         for label, path, extra in (
             ("stl", stl, {}),
             ("3mf", tmf, {}),

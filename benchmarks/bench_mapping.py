@@ -25,7 +25,7 @@ from pathlib import Path
 import texcad
 import texcad.mapping as texcad_mapping
 from texcad.mapping import fit_texture, map_texture
-from texcad.surface import Profile, Surface
+from texcad.mapping import Profile, Surface
 
 
 def bench_spline(repeat: int) -> None:
@@ -77,11 +77,11 @@ def bench_cylinder(repeat: int, pitch: float, out: Path) -> None:
         t3 = time.perf_counter()
         slab = ms.solid()
         t4 = time.perf_counter()
-        base = texcad.shape_to_mesh(surf.base)
+        base = texcad.solid.shape_to_mesh(surf.base)
         t5 = time.perf_counter()
-        fused = texcad.fuse(base, slab)
+        fused = texcad.solid.fuse(base, slab)
         t6 = time.perf_counter()
-        texcad.write_stl(fused, out / "cylinder.stl")
+        texcad.io.write_stl(fused, out / "cylinder.stl")
         t7 = time.perf_counter()
         t["surface (build123d tube + profile)"] = t1 - t0
         t["texture (not counted)"] = t2 - t1
@@ -103,7 +103,7 @@ def bench_cylinder(repeat: int, pitch: float, out: Path) -> None:
             part = texcad_mapping.textured_surface(
                 Surface.cylinder(20.0, 100.0, 5.0), "builtin:stones", height=2.0, mapping="angle", pitch=pitch
             )
-        texcad.write_stl(part.mesh, out / "cylinder_api.stl")
+        texcad.io.write_stl(part.mesh, out / "cylinder_api.stl")
         ends.append(time.perf_counter() - t0)
     r0 = runs[0]
     print(

@@ -23,7 +23,8 @@ import warnings
 from pathlib import Path
 
 import texcad
-from texcad import brep, cad
+from texcad.solid import brep
+import texcad
 
 
 def run_plate(pixels: int, out: Path) -> dict[str, float]:
@@ -31,12 +32,12 @@ def run_plate(pixels: int, out: Path) -> dict[str, float]:
 
     t: dict[str, float] = {}
     pitch = 100.0 / pixels
-    plate = texcad.plate_base((100, 100), 5)
+    plate = texcad.pipeline.plate_base((100, 100), 5)
     top = plate.faces().sort_by(Axis.Z)[-1]
     t0 = time.perf_counter()
-    mesh_only = cad.texture(plate, top, "builtin:stones", height=2.0, pitch=pitch, brep=False)
+    mesh_only = texcad.texture(plate, top, "builtin:stones", height=2.0, pitch=pitch, brep=False)
     t1 = time.perf_counter()
-    part = cad.texture(plate, top, "builtin:stones", height=2.0, pitch=pitch)
+    part = texcad.texture(plate, top, "builtin:stones", height=2.0, pitch=pitch)
     t2 = time.perf_counter()
     part.export_step(out / "bench.step")
     t3 = time.perf_counter()
@@ -44,7 +45,7 @@ def run_plate(pixels: int, out: Path) -> dict[str, float]:
     t4 = time.perf_counter()
     part.export_3mf(out / "bench.3mf")
     t5 = time.perf_counter()
-    shape = brep.read_step(out / "bench.step")
+    shape = texcad.io.read_step(out / "bench.step")
     t6 = time.perf_counter()
     chk = brep.check_shape(shape)
     vol_step = brep.volume(shape)
@@ -73,7 +74,7 @@ def run_cylinder(pixels: int, out: Path) -> dict[str, float]:
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", texcad.TexcadWarning)
-        part = cad.texture(cyl, side, "builtin:stones", height=1.0, pitch=100.0 / pixels)
+        part = texcad.texture(cyl, side, "builtin:stones", height=1.0, pitch=100.0 / pixels)
     t1 = time.perf_counter()
     part.export_step(out / "cyl.step")
     t2 = time.perf_counter()

@@ -28,9 +28,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from texcad import quality as Q  # noqa: E402
+from texcad.synthesis import quality as Q  # noqa: E402
 from texcad.synthesis import _min_error_paths, naive_quilt, patch_grid, seam_bands, synthesize  # noqa: E402
-from texcad.textures import builtin  # noqa: E402
+from texcad.sources import builtin  # noqa: E402
 
 PATCH, OVERLAP = 45, 25
 
@@ -172,7 +172,7 @@ def builtin_quality(synth, naive, names: list[str] | None = None) -> None:  # no
     """Print the quality measures of every built-in texture (or ``names``) grown from
     a 200 x 200 px sample to 400 x 400 px by ``synth`` and by ``naive``, and their
     means over the textures."""
-    from texcad.textures import builtin_names
+    from texcad.sources import builtin_names
 
     shape = (400, 400)
     bands = seam_bands(shape, PATCH, OVERLAP)

@@ -8,7 +8,7 @@ and overhangs (needs support) when theta < alpha, the critical angle (45 degrees
 default). Middle: a textured plate printed upright, standing on its y = 0 border
 (build direction +y), texture as designed: overhang faces red. Right: the same after
 ``limit_overhangs`` (M-I edge ramp at the downward border plus the slope limiter):
-no red on the texture. Numbers in the captions come from :func:`texcad.check.check`.
+no red on the texture. Numbers in the captions come from :func:`texcad.check`.
 Deterministic: same inputs, same bytes.
 """
 
@@ -22,10 +22,10 @@ from _figure import font
 from PIL import Image, ImageDraw
 
 import texcad
-from texcad.imageio import rgb8_image
-from texcad.check import check
+from texcad.sources import rgb8_image
+from texcad.report import check
 from texcad.printability import limit_overhangs, orientation, overhang_mask
-from texcad.raster import render_mesh
+from texcad.render import render_mesh
 
 RED = (0.86, 0.12, 0.10)
 SAND = (0.83, 0.76, 0.62)
@@ -84,7 +84,7 @@ def _rule_panel(alpha: float) -> Image.Image:
 
 
 def _part_panel(hm: texcad.Heightmap, build_dir: np.ndarray, title: str, caption: str) -> Image.Image:
-    part = texcad.textured_plate(hm, size=hm.size, thickness=4.0)
+    part = texcad.pipeline.textured_plate(hm, size=hm.size, thickness=4.0)
     mesh = part.mesh
     over = overhang_mask(mesh, build_dir)
     cen_z = mesh.vertices[mesh.faces].astype(np.float64)[:, :, 2].mean(axis=1)
@@ -120,8 +120,8 @@ def main() -> None:
     d = orientation(90, "+y")  # upright: the paper's figure 4
 
     def measure(h):
-        part = texcad.textured_plate(h, size=h.size, thickness=4.0)
-        return check([("base", part.base), ("texture", part.texture)], build_dir=d, critical_angle=alpha)
+        part = texcad.pipeline.textured_plate(h, size=h.size, thickness=4.0)
+        return check([("base", part.base_mesh), ("texture", part.texture_mesh)], build_dir=d, critical_angle=alpha)
 
     off = measure(hm)
     fixed, rep = limit_overhangs(hm, d, alpha)

@@ -18,10 +18,10 @@ import numpy as np
 from _figure import font
 from PIL import Image, ImageDraw
 
-from texcad.imageio import rgb8_image
-from texcad.mapping import textured_surface
-from texcad.raster import render_mesh
-from texcad.surface import Surface
+from texcad.sources import rgb8_image
+from texcad.pipeline import textured_surface
+from texcad.render import render_mesh
+from texcad.mapping import Surface
 
 PANEL_W = 640
 

@@ -19,7 +19,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 import texcad
-from texcad.raster import render_mesh
+from texcad.render import render_mesh
 
 SIDE, PITCH, N = 40.0, 0.1, 640_000
 PANEL = 400  # px
@@ -59,11 +59,11 @@ def main(argv=None) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "scan.xyz"
         np.savetxt(path, pts, fmt="%.5f")
-        hm, report = texcad.scan_to_heightmap(path, pitch=PITCH)
-        texcad.render_heightmap(hm, Path(tmp) / "hm.png")
+        hm, report = texcad.sources.scan_to_heightmap(path, pitch=PITCH)
+        texcad.render.render_heightmap(hm, Path(tmp) / "hm.png")
         rec = Image.open(Path(tmp) / "hm.png").convert("RGB").resize((PANEL, PANEL))
     print(report)
-    part = texcad.textured_plate(hm, size=(45, 45), thickness=3)
+    part = texcad.pipeline.textured_plate(hm, size=(45, 45), thickness=3)
     img = render_mesh(part.mesh, view=(-1.0, 2.0, -1.2), up=(0, 0, 1), width=PANEL + 100, supersample=2)
     rend = Image.fromarray((img[::-1] * 255).astype(np.uint8))
 

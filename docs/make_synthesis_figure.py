@@ -9,7 +9,7 @@ a 240 x 240 px output made with wrap="xy" and blend="cut", shown tiled 2 x 2 so 
 seam would cross its middle. Top: the built-in "stones"; bottom: a scan-like,
 non-procedural height field (filtered noise with grooves and sensor noise). All
 panels are hill-shaded (texcad.render.hillshade) at the same pitch; the quality
-figures of texcad.quality are printed under each output. Deterministic.
+figures of texcad.synthesis.quality are printed under each output. Deterministic.
 """
 
 from __future__ import annotations
@@ -21,11 +21,11 @@ import numpy as np
 from _figure import font
 from PIL import Image, ImageDraw
 
-from texcad import quality as Q
-from texcad.heightmap import Heightmap
+from texcad.synthesis import quality as Q
+from texcad.sources import Heightmap
 from texcad.render import hillshade
 from texcad.synthesis import naive_quilt, seam_bands, synthesize
-from texcad.textures import builtin
+from texcad.sources import builtin
 
 OUT = 400  # output panels, px (1 px of texture = 1 px of picture)
 PATCH, OVERLAP = 45, 25

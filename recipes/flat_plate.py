@@ -10,7 +10,7 @@ the paper); the tests run it coarser.
 import os
 from pathlib import Path
 
-from build123d import Align, Box
+from build123d import Align, Axis, Box
 
 import texcad
 
@@ -24,10 +24,11 @@ plate = Box(100, 100, 5, align=(Align.MIN, Align.MIN, Align.MAX))
 # The texture: irregular stones, 2 mm high (white = 2 mm, black = on the surface).
 texture = texcad.builtin("stones", size=(100, 100), pitch=PITCH, height=2.0)
 
-part = texcad.textured_plate(texture, size=(100, 100), thickness=5, base=plate)
+# Texture the top face: clipped to the outline with 45-degree M-I ramps at its borders.
+part = texcad.texture(plate, plate.faces().sort_by(Axis.Z)[-1], texture)
 
-texcad.export(part.mesh, OUT / "flat_plate.stl")
-texcad.export(part.mesh, OUT / "flat_plate.3mf")
-texcad.render_heightmap(part.heightmap, OUT / "flat_plate.png")
-texcad.render_part(part.mesh, OUT / "flat_plate_part.png", width=900)
+part.export(OUT / "flat_plate.stl")
+part.export(OUT / "flat_plate.3mf")
+texcad.render.render_heightmap(part.heightmap, OUT / "flat_plate.png")
+part.render(OUT / "flat_plate_part.png", width=900)
 print(f"{part.mesh.num_triangles} triangles, watertight={part.mesh.is_watertight}, volume={part.mesh.volume:.1f} mm3")

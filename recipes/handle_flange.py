@@ -15,7 +15,6 @@ from pathlib import Path
 from build123d import Axis, BuildPart, BuildSketch, Circle, GeomType, Hole, Locations, PolarLocations, SortBy, extrude, fillet
 
 import texcad
-from texcad import cad
 
 PITCH = float(os.environ.get("TEXCAD_PITCH", "0.25"))  # mm per pixel
 OUT = Path(os.environ.get("TEXCAD_OUT", "out"))
@@ -41,12 +40,12 @@ grip = handle.faces().filter_by(GeomType.CYLINDER).sort_by(SortBy.AREA)[-1]
 t0 = time.perf_counter()
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", texcad.TexcadWarning)  # the knurl is stretched to close around
-    part = cad.texture(handle, grip, "builtin:diamond_knurl:period=3", height=0.8, pitch=PITCH, mapping="angle")
+    part = texcad.texture(handle, grip, "builtin:diamond_knurl:period=3", height=0.8, pitch=PITCH, mapping="angle")
 t1 = time.perf_counter()
 
-part.export_stl(OUT / "handle_flange.stl")
-part.export_3mf(OUT / "handle_flange.3mf", separate_texture=True)
-part.export_step(OUT / "handle_flange.step")
+part.export(OUT / "handle_flange.stl")
+part.export(OUT / "handle_flange.3mf", separate_texture=True)
+part.export(OUT / "handle_flange.step")
 t2 = time.perf_counter()
 part.render(OUT / "handle_flange.png", width=900, view=(-1.0, 1.6, -0.9))
 t3 = time.perf_counter()

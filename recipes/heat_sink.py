@@ -40,9 +40,9 @@ part = texcad.texture(sink, top, "builtin:pins:period=3,diameter=1.4", height=4.
 t1 = time.perf_counter()
 
 report = texcad.check(part.mesh, build_dir=(0, 0, 1))
-part.export_stl(OUT / "heat_sink.stl")
-part.export_3mf(OUT / "heat_sink.3mf", separate_texture=True)
-part.export_step(OUT / "heat_sink.step")
+part.export(OUT / "heat_sink.stl")
+part.export(OUT / "heat_sink.3mf", separate_texture=True)
+part.export(OUT / "heat_sink.step")
 t2 = time.perf_counter()
 part.render(OUT / "heat_sink.png", width=900, view=(-1.0, 1.4, -1.1))
 

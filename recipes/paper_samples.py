@@ -136,12 +136,12 @@ def make_sample(tex: str, kind: str, tilt: float) -> dict:
         t0 = time.perf_counter()
         textured = texcad.texture(part, face, hm, mapping=mapping, build_dir=d, brep=not coarse_step)
         t1 = time.perf_counter()
-        textured.export_stl(OUT / f"{name}.stl")
-        textured.export_3mf(OUT / f"{name}.3mf", separate_texture=True)
+        textured.export(OUT / f"{name}.stl")
+        textured.export(OUT / f"{name}.3mf", separate_texture=True)
         for_step = textured
         if coarse_step:  # the same texture, sampled at STEP_PITCH, as a B-rep
             for_step = texcad.texture(part, face, hm.resampled(STEP_PITCH), mapping=mapping, build_dir=d)
-        for_step.export_step(OUT / f"{name}.step")
+        for_step.export(OUT / f"{name}.step")
         t2 = time.perf_counter()
     textured.render(OUT / f"{name}.png", width=900)
 
@@ -151,7 +151,7 @@ def make_sample(tex: str, kind: str, tilt: float) -> dict:
     body = texcad.check(OUT / f"{name}.stl", build_dir=d)
     after = texcad.check(OUT / f"{name}.3mf", build_dir=d)
     with tempfile.TemporaryDirectory() as scratch:
-        plain.export_3mf(Path(scratch) / "plain.3mf", separate_texture=True)
+        plain.export(Path(scratch) / "plain.3mf", separate_texture=True)
         before = texcad.check(Path(scratch) / "plain.3mf", build_dir=d)
     return {
         "sample": name,

@@ -60,10 +60,10 @@ grip = texcad.Heightmap(grown.heights, (p, PITCH))
 part = texcad.texture(handle, grip_face, grip, mapping="angle", periodic_x=True, build_dir=(0, 1, 0))
 t1 = time.perf_counter()
 report = texcad.check(part, build_dir=(0, 1, 0))
-part.export_stl(OUT / "sledgehammer.stl")
-part.export_3mf(OUT / "sledgehammer.3mf", separate_texture=True)
+part.export(OUT / "sledgehammer.stl")
+part.export(OUT / "sledgehammer.3mf", separate_texture=True)
 t2 = time.perf_counter()
-part.export_step(OUT / "sledgehammer.step")
+part.export(OUT / "sledgehammer.step")
 t3 = time.perf_counter()
 view = dict(width=1400, view=(0.55, 0.35, -0.75), up=(0, 0, 1))
 part.render(OUT / "sledgehammer.png", **view)
@@ -88,10 +88,10 @@ pieces = {}
 for mapping in ("angle", "distance"):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", texcad.TexcadWarning)  # distance mode fades at the joints
-        a = texcad.map_texture(upper, half_a, mapping=mapping, length=GRIP, depth=0.5)
-        b = texcad.map_texture(lower, half_b, mapping=mapping, length=GRIP, depth=0.5)
+        a = texcad.mapping.map_texture(upper, half_a, mapping=mapping, length=GRIP, depth=0.5)
+        b = texcad.mapping.map_texture(lower, half_b, mapping=mapping, length=GRIP, depth=0.5)
     pieces[mapping] = (a, b)
-    right, left = texcad.seam_gap(a, b), texcad.seam_gap(b, a)
+    right, left = texcad.report.seam_gap(a, b), texcad.report.seam_gap(b, a)
     worst = max(right, left, key=lambda g: g.max_um)
     bare = float(np.mean(np.concatenate([a.factor, b.factor]) < 0.5))
     results[mapping] = {"seam_gap_max_um": worst.max_um, "seam_gap_rms_um": max(right.rms_um, left.rms_um), "bare_fraction": bare}
@@ -110,17 +110,17 @@ print(f"distance  paper's algorithm 1 without texcad's fade: gap up to {2 * join
 # for the picture of figure 15.
 body = {"A": split(handle, Plane.XY, keep=Keep.TOP), "B": split(handle, Plane.XY, keep=Keep.BOTTOM)}
 halves = {
-    mapping: [(f"half {k}", texcad.fuse(texcad.shape_to_mesh(body[k]), piece.solid())) for k, piece in zip("AB", pair)]
+    mapping: [(f"half {k}", texcad.solid.fuse(texcad.solid.shape_to_mesh(body[k]), piece.solid())) for k, piece in zip("AB", pair)]
     for mapping, pair in pieces.items()
 }
-texcad.write_3mf(halves["angle"], OUT / "sledgehammer_halves.3mf", name="sledgehammer halves")
+texcad.io.write_3mf(halves["angle"], OUT / "sledgehammer_halves.3mf", name="sledgehammer halves")
 for mapping, suffix in (("angle", ""), ("distance", "_distance")):
     both = texcad.Mesh(
         np.concatenate([halves[mapping][0][1].vertices, halves[mapping][1][1].vertices]),
         np.concatenate([halves[mapping][0][1].faces, halves[mapping][1][1].faces + len(halves[mapping][0][1].vertices)]),
     )
     # Seen from the side (-x), where the joint at (-R, 0) faces the camera.
-    texcad.render_part(both, OUT / f"sledgehammer_halves{suffix}.png", width=1400, view=(1.0, 0.35, -0.12), up=(0, 0, 1))
+    texcad.render.render_part(both, OUT / f"sledgehammer_halves{suffix}.png", width=1400, view=(1.0, 0.35, -0.12), up=(0, 0, 1))
 
 m = part.mesh
 step_mb = (OUT / "sledgehammer.step").stat().st_size / 1e6
@@ -130,7 +130,7 @@ results.update(
     triangles=m.num_triangles,
     watertight=bool(m.is_watertight),
     volume_mm3=m.volume,
-    step_volume_mm3=texcad.brep.volume(part),
+    step_volume_mm3=texcad.solid.volume(part.shape),
     step_mb=step_mb,
     halves_watertight=all(h.is_watertight for _, h in halves["angle"]),
     halves_volume_mm3=sum(h.volume for _, h in halves["angle"]),

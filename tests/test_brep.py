@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
-from texcad import brep
+from texcad.solid import brep
+import texcad.io
 from texcad.errors import InputError, ParameterError
-from texcad.mesh import grid_solid as mesh_grid_solid
+from texcad.solid import grid_solid as mesh_grid_solid
 
 
 def _heightfield(rows=12, cols=17, seed=3, lift=1.0):
@@ -35,7 +36,7 @@ def test_grid_solid_matches_mesh_volume_exactly():
     top = _heightfield()
     bottom = top.copy()
     bottom[..., 2] = 0.0
-    solid = brep.grid_solid(top, bottom)
+    solid = brep.grid_brep(top, bottom)
     chk = brep.check_shape(solid)
     assert chk == {"valid": True, "solids": 1, "faces": 6, "closed": True}
     mesh = mesh_grid_solid(top.astype(np.float32), bottom.astype(np.float32))
@@ -43,7 +44,7 @@ def test_grid_solid_matches_mesh_volume_exactly():
     # difference telescopes to the corners, see texcad.brep).
     assert brep.volume(solid) == pytest.approx(mesh.volume, rel=1e-6)
     # ... and a ruled (2-row) bottom gives the same solid.
-    ruled = brep.grid_solid(top, bottom[[0, -1]])
+    ruled = brep.grid_brep(top, bottom[[0, -1]])
     assert brep.check_shape(ruled)["valid"]
     assert brep.volume(ruled) == pytest.approx(brep.volume(solid), rel=1e-12)
 
@@ -56,7 +57,7 @@ def test_closed_band_slab_and_fuse_with_cylinder():
     r_top = 10.4 + 0.3 * np.sin(6 * th)[None, :] * np.cos(z)[:, None]
     top = np.stack([r_top * np.cos(th), r_top * np.sin(th), np.broadcast_to(z[:, None], r_top.shape)], axis=-1)
     bottom = np.stack([9.5 * np.cos(th) + 0 * z[:, None], 9.5 * np.sin(th) + 0 * z[:, None], np.broadcast_to(z[:, None], r_top.shape)], axis=-1)
-    slab = brep.grid_solid(top, bottom, wrap_x=True)
+    slab = brep.grid_brep(top, bottom, wrap_x=True)
     assert brep.check_shape(slab)["valid"]
     ring = mesh_grid_solid(top.astype(np.float32), bottom.astype(np.float32), wrap_x=True)
     assert brep.volume(slab) == pytest.approx(ring.volume, rel=2e-3)  # bilinear vs triangles
@@ -109,19 +110,19 @@ def test_step_round_trip_is_reproducible(tmp_path):
     top = _heightfield(rows=30, cols=40)
     bottom = top.copy()
     bottom[..., 2] = 0.0
-    solid = brep.grid_solid(top, bottom)
+    solid = brep.grid_brep(top, bottom)
     a, b = tmp_path / "a.step", tmp_path / "b.step"
-    brep.write_step(solid, a, name="slab")
-    brep.write_step(solid, b, name="slab")
+    texcad.io.write_step(solid, a, name="slab")
+    texcad.io.write_step(solid, b, name="slab")
     assert a.read_bytes() == b.read_bytes()
     assert b"FILE_DESCRIPTION" in a.read_bytes() and b"'slab'" in a.read_bytes()
-    back = brep.read_step(a)
+    back = texcad.io.read_step(a)
     assert brep.check_shape(back)["valid"] and brep.check_shape(back)["solids"] == 1
     assert brep.volume(back) == pytest.approx(brep.volume(solid), rel=1e-9)
     m = brep.shape_mesh(back)  # viewing mesh: grid faces from their poles
     assert m.num_triangles >= 2 * 29 * 39
     with pytest.raises(InputError, match="does not exist"):
-        brep.read_step(tmp_path / "missing.step")
+        texcad.io.read_step(tmp_path / "missing.step")
 
 
 def test_bad_grids_are_refused():

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from texcad import brep, cad
+from texcad.solid import brep
+import texcad
 from texcad.errors import GeometryError, ParameterError, TexcadWarning
 
 PITCH = 1.0  # mm per pixel: coarse, for speed
@@ -89,8 +90,8 @@ def made():
             part, face = maker(kind)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", TexcadWarning)  # the cylinder's texture is stretched to fit
-                res = cad.texture(part, face, TEX, height=1.0, pitch=PITCH)
-            out[lib, kind] = (res, cad.textured(res), part)
+                res = texcad.texture(part, face, TEX, height=1.0, pitch=PITCH)
+            out[lib, kind] = (res, res, part)
     return out
 
 
@@ -103,11 +104,11 @@ def test_step_stl_3mf(made, tmp_path, lib, kind):
     if lib == "cadquery":
         import cadquery as cq
 
-        assert isinstance(res, cq.Workplane) and res.val().isValid()
+        assert isinstance(res.workplane, cq.Workplane) and res.workplane.val().isValid()
     stl, mf, step = tx.export_stl(tmp_path / "p.stl"), tx.export_3mf(tmp_path / "p.3mf", separate_texture=True), tx.export_step(tmp_path / "p.step")
     m = trimesh.load(stl)
     assert m.is_watertight and m.is_winding_consistent
-    shape = brep.read_step(step)
+    shape = texcad.io.read_step(step)
     chk = brep.check_shape(shape)
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
     assert brep.volume(shape) == pytest.approx(m.volume, rel=1e-3)
@@ -143,7 +144,8 @@ def test_planar_face_of_any_outline(tmp_path):
 
     part = Box(50, 30, 6) - Cylinder(6, 10) - Pos(25, 15, 0) * Box(20, 10, 10)
     top = part.faces().sort_by(Axis.Z)[-1]
-    tx = cad.texture(part, top, "builtin:stones", height=0.8, pitch=0.5)
+    tx = texcad.texture(part, top, "builtin:stones", height=0.8, pitch=0.5)
+    assert "brep_volume" not in tx.info  # the B-rep is made on first use
     chk = brep.check_shape(tx)
     assert chk["valid"] and chk["solids"] == 1 and chk["faces"] == len(part.faces())
     # (the mesh's hole is OCCT's 10 um tessellation of the circle: 3e-5 smaller)
@@ -163,25 +165,33 @@ def test_builder_mode_and_further_use():
 
     with BuildPart() as bp:
         Box(40, 30, 8)
-    tx = cad.texture(bp, bp.faces().sort_by(Axis.Z)[-1], TEX, height=1.0, pitch=PITCH)
-    assert isinstance(tx, Part) and isinstance(tx, cad.Textured)
+    tx = texcad.texture(bp, bp.faces().sort_by(Axis.Z)[-1], TEX, height=1.0, pitch=PITCH)
+    assert isinstance(tx, texcad.Textured) and isinstance(tx.part, Part)
     lo, hi = tx.mesh.bounds
     assert hi[2] == pytest.approx(5.0, abs=1e-4) and lo[2] == pytest.approx(-4.0)
     # Location: the meshes follow the part.
     moved = Pos(10, 0, 0) * tx
-    assert isinstance(moved, cad.Textured)
+    assert isinstance(moved, texcad.Textured)
     assert moved.mesh.bounds[0][0] == pytest.approx(lo[0] + 10, abs=1e-4)
     turned = tx.moved(Location((0, 0, 0), (0, 0, 90)))
     assert turned.mesh.bounds[1][1] == pytest.approx(20, abs=1e-4)
     rot = Rot(0, 0, 90) * tx
     assert np.allclose(rot.mesh.bounds, turned.mesh.bounds, atol=1e-4)
-    # Further booleans give plain, valid build123d parts.
+    # Further booleans give textured parts whose mesh and B-rep agree.
     cut = tx - Cylinder(3, 50)
-    assert cut.is_valid and len(cut.solids()) == 1
+    assert cut.mesh.is_watertight
+    removed = tx.volume - cut.volume  # the hole: 8 mm of body and up to 1 mm of texture
+    assert np.pi * 9 * 8 < removed < np.pi * 9 * 9
+    # The B-rep is OCCT's boolean, checked against the mesh: right, or an error (OCCT's
+    # cut through a large B-spline face can keep material: never silently).
+    try:
+        shape = cut.shape
+    except GeometryError as e:
+        assert "write STL or 3MF" in str(e)
+    else:
+        assert brep.check_shape(shape)["valid"] and brep.volume(shape) == pytest.approx(cut.volume, rel=2e-3)
     with BuildPart() as bp2:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", DeprecationWarning)
-            add(tx)
+        add(tx.part)
         Hole(2)
     assert bp2.part.is_valid and bp2.part.volume < tx.volume
 
@@ -190,9 +200,11 @@ def test_cadquery_shape_in_shape_out():
     import cadquery as cq
 
     box = cq.Solid.makeBox(20, 20, 10)
-    out = cad.texture(box, box.faces(">Z"), "builtin:stones", height=0.5, pitch=0.5)
-    assert isinstance(out, cq.Solid) and out.isValid()
-    assert isinstance(out.texcad, cad.Textured) and out.texcad.mesh.is_watertight
+    out = texcad.texture(box, box.faces(">Z"), "builtin:stones", height=0.5, pitch=0.5)
+    assert isinstance(out, texcad.Textured) and out.mesh.is_watertight
+    wp = out.workplane
+    assert isinstance(wp, cq.Workplane) and wp.val().isValid()
+    assert wp.val().Volume() == pytest.approx(out.volume, rel=1e-3)
 
 
 def test_errors_name_the_problem():
@@ -201,23 +213,23 @@ def test_errors_name_the_problem():
     box = Box(10, 10, 10)
     other = Box(5, 5, 5).faces().sort_by(Axis.Z)[-1]
     with pytest.raises(ParameterError, match="not a face of this part"):
-        cad.texture(box, other, TEX)
+        texcad.texture(box, other, TEX)
     with pytest.raises(ParameterError, match="select one face, got 6"):
-        cad.texture(box, box.faces(), TEX)
+        texcad.texture(box, box.faces(), TEX)
     with pytest.raises(ParameterError, match="flat"):
-        cad.texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:pins", pitch=1.0)
+        texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:pins", pitch=1.0)
     ball = Sphere(5)
     with pytest.raises(GeometryError, match="planar faces and faces of extruded profiles"):
-        cad.texture(ball, ball.faces()[0], TEX)
+        texcad.texture(ball, ball.faces()[0], TEX)
     with pytest.raises(ParameterError, match="mapping"):
-        cad.texture(box, box.faces()[0], TEX, mapping="bent")
+        texcad.texture(box, box.faces()[0], TEX, mapping="bent")
 
 
 def test_brep_false_is_mesh_only(tmp_path):
     from build123d import Axis, Box
 
     box = Box(20, 20, 5)
-    tx = cad.texture(box, box.faces().sort_by(Axis.Z)[-1], TEX, height=1.0, pitch=PITCH, brep=False)
+    tx = texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], TEX, height=1.0, pitch=PITCH, brep=False)
     assert tx.mesh.is_watertight and tx.volume > box.volume
     with pytest.raises(GeometryError, match="brep=True"):
         tx.export_step(tmp_path / "x.step")
@@ -227,7 +239,7 @@ def test_render_and_cli_render(made, tmp_path):
     from PIL import Image
 
     _, tx, _ = made["build123d", "cylinder"]
-    png = cad.render(tx, tmp_path / "a.png", width=160)
+    png = texcad.render.render_part(tx, tmp_path / "a.png", width=160)
     img = np.asarray(Image.open(png))
     assert img.shape[1] == 160 and img.std() > 10  # a picture, not a blank
     tx.export_step(tmp_path / "c.step")
@@ -251,7 +263,7 @@ def test_show_sends_texcads_mesh(made, monkeypatch):
     sent = {}
     monkeypatch.setattr(ocp_vscode, "show", lambda *objs, **kw: sent.setdefault("objs", objs))
     _, tx, _ = made["build123d", "plate"]
-    cad.show(tx)
+    texcad.show(tx)
     (face,) = sent["objs"]
     tri = BRep_Tool.Triangulation_s(face, TopLoc_Location())
     assert tri.NbTriangles() == tx.mesh.num_triangles and tri.HasNormals()
@@ -275,6 +287,6 @@ def test_cli_texture_step_part(tmp_path):
     assert main(argv + sum((["-o", str(o)] for o in outs), [])) == 0
     stl = trimesh.load(outs[1])
     assert stl.is_watertight and stl.bounds[1][0] > 10.5  # the texture is on the side
-    assert brep.volume(brep.read_step(outs[0])) == pytest.approx(stl.volume, rel=1e-3)
+    assert brep.volume(texcad.io.read_step(outs[0])) == pytest.approx(stl.volume, rel=1e-3)
     assert main(["texture", str(src), "--face", "top", "-o", str(tmp_path / "x.stl")]) == 0
     assert main(["texture", str(src), "--face", "up", "-o", str(tmp_path / "x.stl")]) == 2

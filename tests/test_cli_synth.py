@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from texcad import quality as Q
+from texcad.synthesis import quality as Q
 from texcad.cli import main
-from texcad.heightmap import Heightmap
+from texcad.sources import Heightmap
 
 SMALL = ["--patch", "32", "--overlap", "14"]
 

@@ -30,8 +30,10 @@ def test_import_texcad_leaves_the_cad_stack_for_later():
     # build123d/OCP take seconds to import; the CAD layer loads on first use.
     code = (
         "import sys, texcad; assert 'build123d' not in sys.modules and 'OCP' not in sys.modules; "
-        "texcad.texture; assert 'build123d' in sys.modules; print(texcad.render_part.__module__)"
+        "from build123d import Box; b = Box(20, 20, 4); "
+        "tx = texcad.texture(b, b.faces().sort_by()[-1], 'builtin:ridges', height=0.3, pitch=0.5); "
+        "print(type(tx).__module__, tx.mesh.is_watertight)"
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
-    assert r.stdout.strip() == "texcad.cad"
+    assert r.stdout.strip() == "texcad.pipeline.result True"

@@ -38,7 +38,7 @@ def test_3mf_millimetres_and_watertight(tmp_path, part):
 def test_3mf_two_objects_one_build_item(tmp_path, small_hm):
     tp = texcad.textured_plate(small_hm, size=small_hm.size, thickness=3)
     p = tmp_path / "two.3mf"
-    texcad.write_3mf([("base", tp.base), ("texture", tp.texture)], p)
+    texcad.write_3mf([("base", tp.base_mesh), ("texture", tp.texture_mesh)], p)
     scene = trimesh.load(p)
     assert len(scene.geometry) == 2
 

@@ -27,9 +27,10 @@ from scipy.special import ellipeinc
 
 from texcad import Heightmap, TexcadWarning
 from texcad.errors import GeometryError, ParameterError
-from texcad.mapping import fit_texture, map_texture, slab_mesh, textured_surface
+from texcad.mapping import fit_texture, map_texture, slab_mesh
+from texcad.pipeline import textured_surface
 from texcad.solid import to_manifold
-from texcad.surface import Profile, Surface
+from texcad.mapping import Profile, Surface
 
 # -- independent checks ------------------------------------------------------------------
 
@@ -292,7 +293,7 @@ def test_fused_on_curved_base_is_watertight_and_volume_consistent(surfaces, kind
         warnings.simplefilter("ignore", TexcadWarning)
         part = textured_surface(surf, "builtin:pins", height=1.0, mapping=mapping, pitch=0.5)
     assert_watertight(part.mesh)
-    assert_watertight(part.texture)
+    assert_watertight(part.texture_mesh)
     ms = part.mapped
     # Texture volume above the profile from the grids: the area of every row's
     # cross-section between the textured polyline and the profile polyline
@@ -309,11 +310,11 @@ def test_fused_on_curved_base_is_watertight_and_volume_consistent(surfaces, kind
             a = abs(_shoelace(np.concatenate([t, base[::-1]])))
         areas.append(a)
     v_tex = float(np.trapezoid(areas, ms.y)) if hasattr(np, "trapezoid") else float(np.trapz(areas, ms.y))
-    base_v = part.base.volume
+    base_v = part.base_mesh.volume
     assert part.mesh.volume == pytest.approx(base_v + v_tex, rel=0.01, abs=0.02 * v_tex)
     # Inclusion-exclusion with the slab (the slab's bottom lies inside the base).
-    overlap = (to_manifold(part.texture) ^ to_manifold(part.base)).volume()
-    assert part.mesh.volume == pytest.approx(base_v + part.texture.volume - overlap, rel=1e-3)
+    overlap = (to_manifold(part.texture_mesh) ^ to_manifold(part.base_mesh)).volume()
+    assert part.mesh.volume == pytest.approx(base_v + part.texture_mesh.volume - overlap, rel=1e-3)
     # The overlap is the band the slab reaches into the base: depth x width x length.
     band = 0.5 * (ms.s[-1] - ms.s[0] if not prof.closed else prof.length) * (ms.y[-1] - ms.y[0])
     assert overlap == pytest.approx(band, rel=0.15)
@@ -369,9 +370,9 @@ def test_tight_concave_fillet_is_limited_with_a_warning(mapping):
     with pytest.warns(TexcadWarning, match="limited") if mapping == "angle" else warnings.catch_warnings():
         part = textured_surface(prof, "builtin:pins", length=6.0, height=2.0, mapping=mapping, pitch=0.25)
     ms = part.mapped
-    assert_watertight(part.texture)
+    assert_watertight(part.texture_mesh)
     assert_watertight(part.mesh)
-    assert_no_self_intersection(part.texture, ms.y)
+    assert_no_self_intersection(part.texture_mesh, ms.y)
     if mapping == "angle":
         lim = part.height_limits
         assert lim, "the fold at h kappa >= 1 must be detected"
@@ -398,7 +399,7 @@ def test_pieces_facing_each_other_do_not_collide(mapping):
     with pytest.warns(TexcadWarning, match="limited"):
         part = textured_surface(prof, "builtin:pins", length=4.0, height=2.0, mapping=mapping, pitch=0.2)
     assert_watertight(part.mesh)
-    assert_no_self_intersection(part.texture, part.mapped.y)
+    assert_no_self_intersection(part.texture_mesh, part.mapped.y)
     assert part.height_limits and max(L.height for L in part.height_limits) <= 1.5 + 1e-9
     # The two textures keep clear of each other: in every section, the highest
     # point of the lower texture stays below the lowest point of the upper one.

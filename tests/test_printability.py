@@ -15,9 +15,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import texcad
-from texcad.check import check
+from texcad.report import check
 from texcad.errors import ParameterError, TexcadWarning
-from texcad.mesh import grid_solid
+from texcad.solid import grid_solid
 from texcad.printability import (
     edge_ramp,
     face_angles,

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from texcad import quality as Q
+from texcad.synthesis import quality as Q
 from texcad.errors import InputError, ParameterError
-from texcad.heightmap import Heightmap
+from texcad.sources import Heightmap
 
 
 def field(rows: int = 128, cols: int = 128, sigma: float = 2.0, seed: int = 0, wrap: bool = True) -> np.ndarray:

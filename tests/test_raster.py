@@ -8,7 +8,7 @@ from PIL import Image
 
 import texcad
 from texcad.errors import ParameterError
-from texcad.raster import camera, height_image, rasterize, render_mesh, write_png
+from texcad.render import camera, height_image, rasterize, render_mesh, write_png
 
 
 def test_camera_is_orthonormal_and_right_handed():

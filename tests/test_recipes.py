@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 import trimesh
 
-from texcad import brep
+from texcad.solid import brep
+import texcad.io
 
 RECIPES = Path(__file__).resolve().parent.parent / "recipes"
 
@@ -31,7 +32,7 @@ def test_flat_plate(tmp_path):
 
 def check_step(path: Path, mesh_volume: float) -> None:
     """The STEP re-imports as one valid solid enclosing the mesh's volume (0.1 %)."""
-    shape = brep.read_step(path)
+    shape = texcad.io.read_step(path)
     chk = brep.check_shape(shape)
     assert chk["valid"] and chk["solids"] == 1
     assert brep.volume(shape) == pytest.approx(mesh_volume, rel=1e-3)

@@ -6,9 +6,9 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 import texcad
-import texcad.scan
+import texcad.sources
 from texcad import Heightmap, InputError, ParameterError
-from texcad.scan import ScanData, fit_plane, largest_rectangle, read_scan, scan_to_heightmap
+from texcad.sources import ScanData, fit_plane, largest_rectangle, read_scan, scan_to_heightmap
 
 SIGMA = 0.02  # mm, sensor noise of the synthetic scans
 
@@ -211,7 +211,7 @@ def test_point_cloud_readers(tmp_path, cloud, fmt):
 
 
 def _surface_mesh(n=61, size=12.0):
-    from texcad.mesh import grid_faces
+    from texcad.solid import grid_faces
 
     xs = np.linspace(0, size, n)
     X, Y = np.meshgrid(xs, xs)
@@ -303,15 +303,15 @@ def test_scan_to_png_writes_heightmap_and_preview(tmp_path):
     rng = np.random.default_rng(9)
     pts, *_ = synthetic_scan(rng, n=20_000, outliers=0.01)
     np.savetxt(tmp_path / "s.xyz", pts, fmt="%.6f")
-    hm, rep = texcad.scan.scan_to_png(tmp_path / "s.xyz", tmp_path / "h.png", pitch=0.4, preview=tmp_path / "p.png")
+    hm, rep = texcad.pipeline.scan_to_png(tmp_path / "s.xyz", tmp_path / "h.png", pitch=0.4, preview=tmp_path / "p.png")
     back = Heightmap.from_image(tmp_path / "h.png", pitch=0.4, height=rep.max_height)
     assert np.abs(back.heights - hm.heights).max() <= rep.max_height / 65535 + 1e-6
     assert (tmp_path / "p.png").stat().st_size > 0
     # A bad scan or a missing folder: nothing is written.
     with pytest.raises(InputError):
-        texcad.scan.scan_to_png(np.ones((9, 3)), tmp_path / "x.png", pitch=0.4, preview=tmp_path / "xp.png")
+        texcad.pipeline.scan_to_png(np.ones((9, 3)), tmp_path / "x.png", pitch=0.4, preview=tmp_path / "xp.png")
     with pytest.raises(InputError, match="does not exist"):
-        texcad.scan.scan_to_png(tmp_path / "s.xyz", tmp_path / "x.png", pitch=0.4, preview=tmp_path / "no" / "xp.png")
+        texcad.pipeline.scan_to_png(tmp_path / "s.xyz", tmp_path / "x.png", pitch=0.4, preview=tmp_path / "no" / "xp.png")
     assert not (tmp_path / "x.png").exists() and not (tmp_path / "xp.png").exists()
 
 

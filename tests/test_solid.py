@@ -51,7 +51,7 @@ def test_fuse_is_a_manifold3d_union_whatever_the_wall_layout(small_hm):
     the same slab: the union has the same volume, checked independently by trimesh."""
     import trimesh
 
-    from texcad.mesh import _ring_walls_slab, grid_faces
+    from texcad.solid.mesh import _ring_walls_slab, grid_faces
 
     w, d = small_hm.size
     base = shape_to_mesh(texcad.plate_base((w, d), 3))

@@ -8,7 +8,7 @@ import pytest
 from scipy.special import ellipeinc
 
 from texcad.errors import InputError, ParameterError
-from texcad.surface import Profile, Surface
+from texcad.mapping import Profile, Surface
 
 UM = 1e-3  # one micrometre in mm
 

@@ -15,18 +15,18 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from texcad import quality as Q
+from texcad.synthesis import quality as Q
 from texcad.errors import InputError, ParameterError, TexcadError
-from texcad.heightmap import Heightmap
+from texcad.sources import Heightmap
 from texcad.synthesis import (
     BLENDS,
     WRAPS,
-    _min_error_paths,
     naive_quilt,
     patch_grid,
     seam_bands,
     synthesize,
 )
+from texcad.synthesis.quilt import _min_error_paths
 
 P, O = 32, 14  # patch and overlap used with the 128 px samples (step 18)
 
@@ -91,7 +91,7 @@ def test_wavefront_equals_scan_line_order(
     # Patches are matched and pasted a diagonal front at a time (_levels); every
     # patch must still see exactly what scan-line order (Liang 2001) shows it, so
     # the output is byte-identical to pasting one patch at a time in scan-line order.
-    import texcad.synthesis as syn
+    import texcad.synthesis.quilt as syn
 
     shape = (150, 203)  # 8 x 11 patches, the last ones cropped (or closing the torus)
     w = wrap or ""
@@ -389,7 +389,7 @@ def test_min_error_path_is_optimal(e: np.ndarray, fix_start: bool) -> None:
 
 
 def test_large_sample_candidates_are_thinned(monkeypatch: pytest.MonkeyPatch, natural: Heightmap) -> None:
-    import texcad.synthesis as syn
+    import texcad.synthesis.quilt as syn
 
     monkeypatch.setattr(syn, "_MAX_CANDIDATES", 500)
     out = synthesize(natural, (100, 100), patch=P, overlap=O)
@@ -404,7 +404,7 @@ def test_fft_features_match_projection_and_bound_the_distance(natural: Heightmap
     # zones their distances never exceed the exact zone distance (QTP weighting +
     # orthonormal PCA): the k-d tree's coarse level bounds the fine level. (The
     # torus's closing zones concatenate parts that share their corners.)
-    import texcad.synthesis as syn
+    import texcad.synthesis.quilt as syn
 
     s = syn._Synthesizer(natural.heights, P, O, np.random.default_rng(0), True)
     z = s.zone(key)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 import texcad
-from texcad.textures import BUILTINS
+from texcad.sources import BUILTINS
 
 
 def test_at_least_three_builtins_default_first():
@@ -127,7 +127,7 @@ def test_random_textures_are_seeded(name):
 def test_contact_sheet_renders_every_texture(tmp_path):
     from PIL import Image
 
-    from texcad.textures import contact_sheet
+    from texcad.render import contact_sheet
 
     path = contact_sheet(tmp_path / "sheet.png", cell=64, columns=5)
     with Image.open(path) as im:

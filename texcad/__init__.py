@@ -1,137 +1,121 @@
 """texcad: support-free textured solids for additive manufacturing.
 
 Turn a texture sample (an image, a scan, or a built-in) into a watertight textured
-solid on a build123d or CadQuery part, exported as STL/3MF. Units are millimetres
-and degrees everywhere.
+solid on a build123d or CadQuery part, exported as STL/3MF for slicers and STEP for
+CAD. Units are millimetres and degrees everywhere.
 
-Pipeline (one module per stage)::
+One verb and one result::
 
-    Heightmap (heightmap, imageio, textures) -> mesh -> solid (fuse) -> export / render
+    import texcad
+    result = texcad.texture(part, part.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=1.0)
+    result.export("part.stl")       # or .3mf, .step, .png
+
+The pipeline's stages are subpackages, in the order data flows through them::
+
+    sources (images, built-ins, scans -> Heightmap) -> synthesis -> printability
+      -> mapping (surfaces, faces) -> solid (meshes, union, B-rep)
+      -> io (STL, 3MF, STEP) / render (PNG, viewer) / report (check)
+
+:mod:`texcad.pipeline` runs them; :mod:`texcad.cli` is the ``texcad`` command.
 """
 
 from __future__ import annotations
 
+import importlib
+import warnings
+
 from .errors import GeometryError, InputError, ParameterError, ResourceError, TexcadError, TexcadWarning
-from .export import export, write_3mf, write_stl
-from .heightmap import Heightmap
-from .mesh import Mesh, edge_report, grid_solid, heightfield_slab
-from .pipeline import TexturedPart, plate_base, textured_plate
-from .render import render_heightmap
-from .solid import fuse, shape_to_mesh, to_manifold
-from .scan import ScanReport, read_scan, scan_to_heightmap, scan_to_png
-from .textures import DEFAULT_TEXTURE, builtin, builtin_names, contact_sheet, load_texture
+from .sources import Heightmap, builtin, load_texture
+from .mapping import Profile, Surface
+from .solid import Mesh
+from .synthesis import synthesize
+from .printability import orientation
+from .io import export, load_mesh
+from .render import show
+from .report import check
+from .pipeline import Textured, texture
 
-from . import brep, quality
-from .brep import read_step, write_step
-from .check import CheckReport, check, read_part
-from .mapping import MAPPINGS, HeightLimit, MappedSurface, TexturedSurface, fit_texture, map_texture, slab_mesh, textured_surface
-from .printability import (
-    LimitReport,
-    edge_ramp,
-    limit_overhangs,
-    limit_overhangs_mapped,
-    orientation,
-    overhang_area,
-    thin_features,
-)
-from .seams import SeamGap, seam_gap
-from .surface import SURFACE_KINDS, Profile, Surface
-from .synthesis import naive_quilt, synthesize
-
-__version__ = "0.1.0"
-
-# The CAD layer (texcad.cad) imports build123d and OCP, about 4 s; it is loaded on
-# first use of one of these names, so that `import texcad` and the CLI's light
-# commands (textures, synth, scan, check) start fast.
-_CAD_NAMES = {
-    "Textured": "Textured",
-    "texture": "texture",
-    "textured": "textured",
-    "show": "show",
-    "display_shape": "display_shape",
-    "load_mesh": "load_mesh",
-    "render_part": "render",
-}
-
-
-def __getattr__(name: str):
-    if name in _CAD_NAMES:
-        from . import cad
-
-        value = getattr(cad, _CAD_NAMES[name])
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'texcad' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_CAD_NAMES))
+__version__ = "0.2.0"
 
 __all__ = [
+    "texture",
+    "Textured",
+    "Heightmap",
+    "Surface",
+    "Profile",
+    "Mesh",
+    "builtin",
+    "load_texture",
+    "synthesize",
+    "orientation",
+    "check",
+    "export",
+    "load_mesh",
+    "show",
     "TexcadError",
     "InputError",
     "ParameterError",
     "GeometryError",
     "ResourceError",
     "TexcadWarning",
-    "Heightmap",
-    "builtin",
-    "builtin_names",
-    "load_texture",
-    "DEFAULT_TEXTURE",
-    "contact_sheet",
-    "scan_to_heightmap",
-    "scan_to_png",
-    "read_scan",
-    "ScanReport",
-    "Mesh",
-    "heightfield_slab",
-    "grid_solid",
-    "edge_report",
-    "shape_to_mesh",
-    "to_manifold",
-    "fuse",
-    "TexturedPart",
-    "plate_base",
-    "textured_plate",
-    "write_stl",
-    "write_3mf",
-    "export",
-    "render_heightmap",
-    "synthesize",
-    "naive_quilt",
-    "quality",
-    "check",
-    "CheckReport",
-    "read_part",
-    "LimitReport",
-    "edge_ramp",
-    "limit_overhangs",
-    "limit_overhangs_mapped",
-    "orientation",
-    "overhang_area",
-    "thin_features",
-    "Profile",
-    "Surface",
-    "SURFACE_KINDS",
-    "MAPPINGS",
-    "HeightLimit",
-    "MappedSurface",
-    "TexturedSurface",
-    "fit_texture",
-    "map_texture",
-    "slab_mesh",
-    "textured_surface",
-    "SeamGap",
-    "seam_gap",
-    "brep",
-    "Textured",
-    "texture",
-    "textured",
-    "show",
-    "display_shape",
-    "load_mesh",
-    "render_part",
-    "read_step",
-    "write_step",
 ]
+
+#: Names of texcad 0.1, kept for one release: ``old name -> (subpackage, new name)``.
+ALIASES = {
+    "textured_plate": ("pipeline", "textured_plate"),
+    "textured_surface": ("pipeline", "textured_surface"),
+    "plate_base": ("pipeline", "plate_base"),
+    "textured": ("pipeline", "as_textured"),
+    "render_part": ("render", "render_part"),
+    "render_heightmap": ("render", "render_heightmap"),
+    "display_shape": ("render", "display_shape"),
+    "contact_sheet": ("render", "contact_sheet"),
+    "write_stl": ("io", "write_stl"),
+    "write_3mf": ("io", "write_3mf"),
+    "read_step": ("io", "read_step"),
+    "write_step": ("io", "write_step"),
+    "read_part": ("io", "read_part"),
+    "builtin_names": ("sources", "builtin_names"),
+    "DEFAULT_TEXTURE": ("sources", "DEFAULT_TEXTURE"),
+    "scan_to_heightmap": ("sources", "scan_to_heightmap"),
+    "read_scan": ("sources", "read_scan"),
+    "ScanReport": ("sources", "ScanReport"),
+    "scan_to_png": ("pipeline", "scan_to_png"),
+    "naive_quilt": ("synthesis", "naive_quilt"),
+    "quality": ("synthesis", "quality"),
+    "heightfield_slab": ("solid", "heightfield_slab"),
+    "grid_solid": ("solid", "grid_solid"),
+    "edge_report": ("solid", "edge_report"),
+    "shape_to_mesh": ("solid", "shape_to_mesh"),
+    "to_manifold": ("solid", "to_manifold"),
+    "fuse": ("solid", "fuse"),
+    "brep": ("solid", "brep"),
+    "CheckReport": ("report", "CheckReport"),
+    "seam_gap": ("report", "seam_gap"),
+    "SeamGap": ("report", "SeamGap"),
+    "LimitReport": ("printability", "LimitReport"),
+    "edge_ramp": ("printability", "edge_ramp"),
+    "limit_overhangs": ("printability", "limit_overhangs"),
+    "limit_overhangs_mapped": ("printability", "limit_overhangs_mapped"),
+    "overhang_area": ("printability", "overhang_area"),
+    "thin_features": ("printability", "thin_features"),
+    "SURFACE_KINDS": ("mapping", "SURFACE_KINDS"),
+    "MAPPINGS": ("mapping", "MAPPINGS"),
+    "HeightLimit": ("mapping", "HeightLimit"),
+    "MappedSurface": ("mapping", "MappedSurface"),
+    "fit_texture": ("mapping", "fit_texture"),
+    "map_texture": ("mapping", "map_texture"),
+    "slab_mesh": ("mapping", "slab_mesh"),
+}
+
+
+def __getattr__(name: str):
+    if name in ALIASES:
+        pkg, new = ALIASES[name]
+        warnings.warn(
+            f"texcad.{name} is deprecated and goes in the next release; use texcad.{pkg}.{new}",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return getattr(importlib.import_module(f"{__name__}.{pkg}"), new)
+    raise AttributeError(f"module 'texcad' has no attribute {name!r}")

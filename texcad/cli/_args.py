@@ -30,8 +30,8 @@ def shape(text: str) -> tuple[int, int]:
 
 
 def vector(text: str) -> tuple[float, float, float]:
-    """``X,Y,Z``: a direction, any length, not zero (:func:`texcad.check.parse_vector`)."""
-    from ..check import parse_vector
+    """``X,Y,Z``: a direction, any length, not zero (:func:`texcad.util.parse_vector`)."""
+    from ..util import parse_vector
     from ..errors import ParameterError
 
     try:

@@ -12,7 +12,8 @@ from ._args import positive_float
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..check import check, parse_vector
+    from ..report import check
+    from ..util import parse_vector
 
     rep = check(
         args.part,

@@ -14,7 +14,7 @@ import argparse
 import time
 from pathlib import Path
 
-from ..progress import StageReporter, subrange
+from ..util import StageReporter, subrange
 from ._args import positive_float
 
 SAMPLE_MM = 25.0  # side of the built-in sample the demo grows its texture from
@@ -23,9 +23,10 @@ SAMPLE_MM = 25.0  # side of the built-in sample the demo grows its texture from
 def run(args: argparse.Namespace) -> int:
     from build123d import Axis
 
-    from .. import builtin, render_heightmap, synthesize, texture
+    from .. import builtin, synthesize, texture
+    from ..render import render_heightmap
     from ..pipeline import plate_base
-    from ..textures import DEFAULT_TEXTURE
+    from ..sources import DEFAULT_TEXTURE
 
     name = args.texture or DEFAULT_TEXTURE
     side, pitch = float(args.size), float(args.pitch)

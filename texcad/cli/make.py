@@ -16,7 +16,7 @@ import warnings
 from pathlib import Path
 
 from ..errors import ParameterError
-from ..progress import StageReporter, subrange
+from ..util import StageReporter, subrange
 from ._args import add_orientation, limits_line, positive_float
 
 SUFFIXES = (".stl", ".3mf")
@@ -25,8 +25,8 @@ SUFFIXES = (".stl", ".3mf")
 def run(args: argparse.Namespace) -> int:
     from .. import export
     from ..errors import TexcadWarning
-    from ..mapping import textured_surface
-    from ..surface import Surface
+    from ..pipeline import textured_surface
+    from ..mapping import Surface
 
     out = Path(args.out)
     if out.suffix.lower() not in SUFFIXES:
@@ -88,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
 
 def add(sub: argparse._SubParsersAction) -> None:
     from ..mapping import MAPPINGS
-    from ..surface import SURFACE_KINDS
+    from ..mapping import SURFACE_KINDS
 
     d = sub.add_parser(
         "make",

@@ -9,7 +9,8 @@ from ._args import vector
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..cad import load_mesh, render
+    from ..io import load_mesh
+    from ..render import render_part as render
 
     t0 = time.perf_counter()
     mesh = load_mesh(args.part, tolerance=args.tolerance)

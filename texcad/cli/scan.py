@@ -9,7 +9,7 @@ from ._args import positive_float
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..scan import scan_to_png
+    from ..pipeline import scan_to_png
 
     t0 = time.perf_counter()
     hm, report = scan_to_png(

@@ -14,12 +14,12 @@ REPORT_PIXELS = 1024
 
 
 def run(args: argparse.Namespace) -> int:
-    from .. import quality
+    from ..synthesis import quality
     from ..errors import ParameterError
-    from ..progress import StageReporter
+    from ..util import StageReporter
     from ..render import render_heightmap
     from ..synthesis import seam_bands, synthesize
-    from ..textures import PREFIX, load_texture
+    from ..sources import PREFIX, load_texture
 
     if not str(args.out).lower().endswith(".png"):
         raise ParameterError(f"the output must be a .png file, got {args.out!r}; e.g. -o texture.png")

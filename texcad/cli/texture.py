@@ -45,17 +45,18 @@ def pick_face(shape, which: str):
 def run(args: argparse.Namespace) -> int:
     from build123d import Compound
 
-    from .. import brep, cad
+    from .. import texture
+    from ..io import read_step
     from ..errors import TexcadWarning
-    from ..progress import StageReporter
+    from ..util import StageReporter
 
     t0 = time.perf_counter()
-    part = Compound(brep.read_step(args.part))
+    part = Compound(read_step(args.part))
     face = pick_face(part, args.face)
     with warnings.catch_warnings():
         if args.quiet:
             warnings.simplefilter("ignore", TexcadWarning)
-        tx = cad.texture(
+        tx = texture(
             part,
             face,
             args.texture,
@@ -65,11 +66,10 @@ def run(args: argparse.Namespace) -> int:
             rotation=args.rotation,
             build_dir=args.build_dir,
             critical_angle=args.critical_angle,
-            brep=any(Path(o).suffix.lower() in (".step", ".stp") for o in args.out),
             progress=None if args.quiet else StageReporter(),
         )
     for out in args.out:
-        cad.export(tx, out, separate_texture=args.separate_texture)
+        tx.export(out, separate_texture=args.separate_texture)
     m = tx.mesh
     print(f"face         {args.face} ({tx.info['face']}, grid {tx.info['grid'][0]} x {tx.info['grid'][1]})")
     print(f"triangles    {m.num_triangles}, watertight {m.is_watertight}")

@@ -9,7 +9,8 @@ from ._args import positive_float
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..textures import BUILTINS, contact_sheet
+    from ..render import contact_sheet
+    from ..sources import BUILTINS
 
     for name, tex in BUILTINS.items():
         print(f"{name}\t{tex.description}")

@@ -1,0 +1,115 @@
+"""STEP (AP214, mm) for CAD programs: written atomically, silently and reproducibly,
+read back as one OCP shape.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+from typing import Any
+
+from ..errors import GeometryError, InputError
+from ..solid import to_topods
+from ..util import atomic_path
+
+__all__ = ["write_step", "read_step"]
+
+
+# -- STEP ----------------------------------------------------------------------------------------
+class _Quiet:
+    """Detach OCCT's message printers (the STEP translator prints banners to stdout)
+    for the duration of a ``with`` block."""
+
+    def __enter__(self):
+        from OCP.Message import Message
+
+        self.messenger = Message.DefaultMessenger_s()
+        printers = self.messenger.Printers()
+        self.saved = [printers.Value(i) for i in range(1, printers.Length() + 1)]  # one per printer
+        for p in self.saved:
+            self.messenger.RemovePrinter(p)
+        return self
+
+    def __exit__(self, *exc):
+        for p in self.saved:
+            self.messenger.AddPrinter(p)
+        return False
+
+
+_PRODUCT = re.compile(rb"PRODUCT\('[^']*',\s*'[^']*'")
+
+
+def _ascii(text: str) -> str:
+    return re.sub(r"[^ -~]", "_", str(text)).replace("'", "_")
+
+
+def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part") -> None:
+    """Write a shape as an AP214 STEP file in mm (atomic, silent, reproducible).
+
+    The header's time stamp is fixed (1980-01-01, as in texcad's 3MF) and the product
+    is named ``name`` instead of OCCT's per-session counter, so the same shape gives
+    the same bytes.
+
+    Args:
+        shape: build123d / CadQuery object or ``TopoDS_Shape``.
+        path: output ``.step`` / ``.stp`` file.
+        name: product name shown by CAD programs (ASCII).
+
+    Raises:
+        GeometryError: OCCT could not translate or write the shape.
+    """
+    from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
+    from OCP.IFSelect import IFSelect_RetDone
+    from OCP.Interface import Interface_Static
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Controller, STEPControl_Writer
+    from OCP.TCollection import TCollection_HAsciiString
+
+    topo = to_topods(shape)
+    label = _ascii(name)
+    with _Quiet():
+        STEPControl_Controller.Init_s()
+        Interface_Static.SetCVal_s("write.step.unit", "MM")
+        writer = STEPControl_Writer()
+        if writer.Transfer(topo, STEPControl_AsIs) != IFSelect_RetDone:
+            raise GeometryError("OCCT could not translate the shape to STEP")
+        header = APIHeaderSection_MakeHeader(writer.Model())
+        header.SetName(TCollection_HAsciiString(label))
+        header.SetTimeStamp(TCollection_HAsciiString("1980-01-01T00:00:00"))
+        header.SetOriginatingSystem(TCollection_HAsciiString("texcad"))
+        header.SetAuthorValue(1, TCollection_HAsciiString(""))
+        header.SetOrganizationValue(1, TCollection_HAsciiString(""))
+        header.Apply(writer.Model())
+        buf = io.BytesIO()
+        if writer.WriteStream(buf) != IFSelect_RetDone:
+            raise GeometryError(f"OCCT could not write the STEP data for {os.fspath(path)!r}")
+    data = buf.getvalue()
+    head, tail = data[:8192], data[8192:]
+    head = _PRODUCT.sub(f"PRODUCT('{label}','{label}'".encode("ascii"), head, count=1)
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            fh.write(head)
+            fh.write(tail)
+
+
+def read_step(path: str | os.PathLike):
+    """Read a STEP file (silently) into one ``TopoDS_Shape`` (mm).
+
+    Raises:
+        InputError: missing or unreadable file.
+    """
+    from OCP.IFSelect import IFSelect_RetDone
+    from OCP.STEPControl import STEPControl_Reader
+
+    p = os.fspath(path)
+    if not os.path.isfile(p):
+        raise InputError(f"STEP file {p!r} does not exist")
+    with _Quiet():
+        reader = STEPControl_Reader()
+        if reader.ReadFile(p) != IFSelect_RetDone:
+            raise InputError(f"cannot read {p!r} as STEP")
+        reader.TransferRoots()
+        shape = reader.OneShape()
+    if shape.IsNull():
+        raise InputError(f"{p!r} holds no shape")
+    return shape

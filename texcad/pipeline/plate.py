@@ -1,0 +1,122 @@
+"""Whole jobs composed from the stages: the flat textured plate (paper, section 2.2).
+
+These functions hold no numerics of their own; they call the stages in order
+(texture -> slab mesh -> base body -> union) and report progress.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..errors import GeometryError, ParameterError
+from ..sources import Heightmap
+from ..solid import Mesh, heightfield_slab
+from ..util import Progress, report
+from ..solid import fuse, shape_to_mesh
+from ..sources import load_texture
+from .result import Textured
+
+__all__ = ["plate_base", "textured_plate"]
+
+
+def plate_base(size: Sequence[float], thickness: float):
+    """A build123d box ``size[0] x size[1] x thickness`` mm with its top face at z = 0
+    and its corner at the origin (x, y >= 0)."""
+    from build123d import Align, Box
+
+    return Box(size[0], size[1], thickness, align=(Align.MIN, Align.MIN, Align.MAX))
+
+
+def textured_plate(
+    texture: "str | os.PathLike | Heightmap",
+    *,
+    size: Sequence[float] = (100.0, 100.0),
+    thickness: float = 5.0,
+    height: float = 2.0,
+    pitch: float = 0.125,
+    depth: float | None = None,
+    base: Any = None,
+    build_dir: Any = None,
+    critical_angle: float = 45.0,
+    progress: Progress = None,
+) -> Textured:
+    """Texture the top face of a plate: the paper's flat sample (section 2.2).
+
+    The texture lies on the plate's top face (z = 0), centred; one mesh vertex per
+    pixel; the slab reaches ``depth`` mm into the plate and is unioned onto it with
+    manifold3d.
+
+    Args:
+        texture: ``"builtin:NAME"``, an image path, or a Heightmap (used as is).
+        size: ``(width, depth)`` of the plate in mm (x, y).
+        thickness: plate thickness in mm (z from ``-thickness`` to 0).
+        height: maximum texture height in mm (for built-ins and images).
+        pitch: mm per pixel for built-ins (images: ``size / pixels``).
+        depth: how far in mm the slab reaches into the plate (default: half the
+            thickness, at most 0.5 mm).
+        base: optional build123d/CadQuery solid to use instead of the plain plate;
+            its top face must be the rectangle ``[0, w] x [0, d]`` at z = 0.
+        build_dir: make the texture print without support for this build
+            direction ``(3,)`` (plate frame: z is the face normal; see
+            :func:`texcad.printability.orientation`) or every direction of a
+            ``(K, 3)`` set: M-I ramps at the borders that would overhang and the
+            slope limiter (:func:`texcad.printability.limit_overhangs`) lower the
+            texture as little as needed. None: the texture is used as is.
+        critical_angle: critical overhang angle in degrees (default 45; paper,
+            section 2.1.3), used with ``build_dir``.
+        progress: optional ``progress(fraction, message)`` callback.
+
+    Returns:
+        :class:`texcad.Textured` with the fused mesh, the texture slab as
+        ``texture_mesh`` (it reaches ``depth`` mm into the plate), ``limits`` (what
+        the overhang limiter removed).
+
+    Raises:
+        ParameterError: non-positive size, thickness, height or depth.
+        GeometryError: the texture is larger than the plate, or the slab would
+            reach through the plate.
+    """
+    w, d = (float(s) for s in size)
+    for label, v in (("plate width", w), ("plate depth", d), ("thickness", thickness), ("height", height)):
+        if not (np.isfinite(v) and v > 0):
+            raise ParameterError(f"{label} must be a positive number of mm, got {v!r}")
+    depth = min(0.5, thickness / 2) if depth is None else float(depth)
+    if not (0 < depth < thickness):
+        raise GeometryError(
+            f"the texture slab would reach {depth} mm into a {thickness} mm plate; "
+            f"use a depth between 0 and {thickness} mm"
+        )
+    report(progress, 0.0, "loading texture")
+    hm = texture if isinstance(texture, Heightmap) else load_texture(texture, size=(w, d), pitch=pitch, height=height)
+    tw, td = hm.size
+    if tw > w + 1e-6 or td > d + 1e-6:
+        raise GeometryError(
+            f"the texture covers {tw:g} x {td:g} mm but the plate is only {w:g} x {d:g} mm; "
+            "crop the texture or make the plate larger"
+        )
+    limits = None
+    if build_dir is not None:
+        from ..printability import limit_overhangs
+
+        report(progress, 0.1, f"limiting overhangs to {critical_angle:g} deg")
+        hm, limits = limit_overhangs(hm, build_dir, critical_angle)
+    report(progress, 0.15, f"meshing {hm.shape[0]} x {hm.shape[1]} px heightmap")
+    slab = heightfield_slab(hm, depth=depth, origin=((w - tw) / 2, (d - td) / 2, 0.0))
+    report(progress, 0.35, "building base body")
+    base_shape = plate_base((w, d), thickness) if base is None else base
+    base_mesh = base_shape if isinstance(base_shape, Mesh) else shape_to_mesh(base_shape)
+    report(progress, 0.45, f"fusing {slab.num_triangles} texture triangles onto the base (manifold3d)")
+    fused = fuse(base_mesh, slab)
+    report(progress, 1.0, "fused")
+    return Textured(
+        mesh=fused,
+        texture_mesh=slab,
+        base_mesh=base_mesh,
+        heightmap=hm,
+        limits=limits,
+        info={"face": "plate", "grid": hm.shape, "size": (w, d), "thickness": float(thickness)},
+        kind="plate",
+    )

@@ -1,0 +1,136 @@
+"""A 2.5D surface (a profile extruded, paper section 2.2) textured and fused onto its
+base body: stages fit -> map -> slab -> union."""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+from ..errors import ParameterError
+from ..mapping import Surface, fit_texture, map_texture
+from ..solid import Mesh, fuse, shape_to_mesh
+from ..sources import Heightmap
+from ..util import Progress, report, subrange
+from .result import Textured
+
+__all__ = ["textured_surface"]
+
+
+def textured_surface(
+    surface: Any,
+    texture: "str | os.PathLike | Heightmap",
+    *,
+    length: float | None = None,
+    height: float = 2.0,
+    mapping: str = "distance",
+    pitch: float = 0.125,
+    depth: float | None = None,
+    base: Any = None,
+    thickness: float | None = None,
+    periodic_x: bool | None = None,
+    transition: float | None = None,
+    build_dir: Any = None,
+    critical_angle: float = 45.0,
+    progress: Progress = None,
+):
+    """Texture a 2.5D surface and fuse it onto its base body: a watertight solid.
+
+    Stages: fit the texture to the surface (:func:`fit_texture`) -> map it
+    (:func:`map_texture`, algorithm 1 or 2) -> close the slab
+    (:func:`texcad.mesh.grid_solid`) -> mesh the base -> union with manifold3d
+    (:func:`texcad.fuse`).
+
+    Args:
+        surface: a :class:`~texcad.surface.Surface` (e.g. ``Surface.cylinder(20, 100)``),
+            a :class:`~texcad.surface.Profile`, or a build123d curve or sketch (then
+            ``length`` is required).
+        texture: ``"builtin:NAME"``, an image path, or a Heightmap (used as is).
+        length: extrusion length in mm (profiles only).
+        height: maximum texture height in mm (built-ins and images).
+        mapping: ``"distance"`` (algorithm 1, texture along z, support-free flanks) or
+            ``"angle"`` (algorithm 2, texture along the normal).
+        pitch: mm per pixel for built-ins (images: their own pixels over the surface).
+        depth: how far the slab reaches into the base in mm (default: half the base's
+            wall thickness, at most 0.5 mm).
+        base: a build123d / CadQuery solid, Mesh or Manifold replacing the surface's base.
+        thickness: base thickness in mm for profiles without a base (default 5 mm).
+        periodic_x: closed profiles: the (image or Heightmap) texture tiles in x.
+        transition: fade length in mm (see :func:`map_texture`).
+        build_dir: make the texture print without support for this build direction
+            ``(3,)``, or every direction of a ``(K, 3)`` set, given in the surface's
+            frame (x across the profile, y along the extrusion, z up: the frame of
+            the returned mesh; e.g. ``texcad.orientation(60, "+x")``). The surface's
+            tilt under every texture column comes from the profile's tangent
+            (``Profile.at(s)``) and adds to the texture's slope (paper, section
+            3.1); :func:`texcad.printability.limit_overhangs_mapped` lowers the
+            texture as little as needed (offset ``"normal"`` for ``mapping="angle"``,
+            ``"vertical"`` for ``"distance"``) and ramps the borders whose walls
+            would overhang (M-I, section 2.1.3) down to 0.02 mm inside the base.
+            None: the texture is used as is.
+        critical_angle: critical overhang angle in degrees (default 45; paper,
+            section 2.1.3), used with ``build_dir``.
+        progress: optional ``progress(fraction, message)`` callback.
+
+    Returns:
+        :class:`texcad.Textured` (fused mesh, texture slab, base mesh, heightmap as
+        mapped) that also holds the :class:`texcad.mapping.MappedSurface`
+        (``.mapped``: grids, height ``limits``, ``x_scale``);
+        ``.height_limits`` lists where the height was limited; ``.limits`` is the
+        overhang limiter's :class:`~texcad.printability.LimitReport` (None without
+        ``build_dir``), its ``remaining_overhang_mm2`` measured on the mapped slab.
+
+    Raises:
+        ParameterError: ``build_dir`` with ``mapping="distance"`` on a profile that
+            looks both up and down (use ``mapping="angle"``).
+    """
+    report(progress, 0.0, "building the surface")
+    if isinstance(surface, Surface):
+        surf = surface
+        if base is not None:
+            surf = Surface(surf.profile, surf.length, base, thickness if thickness is not None else surf.thickness, surf.params)
+    else:
+        if length is None:
+            raise ParameterError("give the extrusion length in mm (length=...) when texturing a profile")
+        surf = Surface.from_profile(surface, length, base=base, thickness=thickness)
+    if depth is None:
+        depth = min(0.5, surf.thickness / 2) if surf.thickness else 0.5
+    report(progress, 0.05, "loading texture")
+    hm, periodic = fit_texture(surf.profile, texture, length=surf.length, pitch=pitch, height=height, periodic_x=periodic_x)
+    overhang = None
+    if build_dir is not None:
+        from ..printability import limit_on_profile
+
+        report(progress, 0.08, f"limiting overhangs to {critical_angle:g} deg")
+        hm, overhang = limit_on_profile(surf.profile, hm, build_dir, critical_angle, mapping=mapping, periodic=periodic)
+    mapped = map_texture(
+        surf.profile,
+        hm,
+        mapping=mapping,
+        length=surf.length,
+        depth=depth,
+        periodic_x=periodic,
+        transition=transition,
+        progress=subrange(progress, 0.1, 0.3),
+    )
+    report(progress, 0.3, f"closing the {mapped.top.shape[0]} x {mapped.top.shape[1]} texture slab")
+    slab = mapped.solid()
+    if overhang is not None:
+        from ..printability import measured
+
+        overhang = measured(overhang, slab, build_dir, critical_angle)
+    report(progress, 0.4, "meshing the base body")
+    base_mesh = surf.base if isinstance(surf.base, Mesh) else shape_to_mesh(surf.base)
+    report(progress, 0.5, f"fusing {slab.num_triangles} texture triangles onto the base (manifold3d)")
+    fused = fuse(base_mesh, slab)
+    report(progress, 1.0, "fused")
+    return Textured(
+        mesh=fused,
+        texture_mesh=slab,
+        base_mesh=base_mesh,
+        heightmap=mapped.heightmap,
+        limits=overhang,
+        height_limits=list(mapped.limits),
+        mapped=mapped,
+        info={"face": "surface", "mapping": mapping, "grid": tuple(mapped.top.shape[:2]), "closed": mapped.closed},
+        kind="surface",
+    )

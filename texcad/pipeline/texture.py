@@ -1,0 +1,107 @@
+"""The one verb: ``texcad.texture(target, where, texture, **options)``.
+
+The target says which pipeline runs:
+
+* a build123d / CadQuery part (or an OCP shape holding solids): ``where`` picks the
+  face(s), chosen with the CAD library's selectors
+  (:func:`texcad.pipeline.cad.texture_faces`);
+* a :class:`texcad.Surface` or :class:`texcad.Profile` (a 2.5D surface, paper section
+  2.2): the whole surface, ``where`` is None
+  (:func:`texcad.pipeline.surface.textured_surface`).
+
+Every target gives a :class:`texcad.Textured`.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+from ..errors import ParameterError
+from ..mapping import Profile, Surface
+from ..sources import DEFAULT_TEXTURE, Heightmap
+from .result import Textured
+
+__all__ = ["texture"]
+
+#: Options every target takes (mm and degrees); the rest depend on the target.
+COMMON = ("height", "pitch", "mapping", "depth", "periodic_x", "transition", "build_dir", "critical_angle", "progress")
+FACE_OPTIONS = COMMON + ("edge_angle", "rotation", "offset", "brep")
+SURFACE_OPTIONS = COMMON + ("length", "base", "thickness")
+
+
+def _only(options: dict, allowed: tuple[str, ...], target: str) -> dict:
+    bad = sorted(set(options) - set(allowed))
+    if bad:
+        raise ParameterError(
+            f"{', '.join(bad)}: not an option when texturing {target}; the options are {', '.join(sorted(allowed))}"
+        )
+    return options
+
+
+def texture(
+    target: Any,
+    where: Any = None,
+    texture: "str | os.PathLike | Heightmap" = f"builtin:{DEFAULT_TEXTURE}",
+    **options: Any,
+) -> Textured:
+    """Texture a part: the one verb of texcad.
+
+    Args:
+        target: what to texture: a build123d ``Part``/``Solid``/``Compound`` or
+            ``BuildPart``, a CadQuery ``Workplane`` or ``Shape``, an OCP
+            ``TopoDS_Shape`` holding solids; or a 2.5D :class:`~texcad.Surface` /
+            :class:`~texcad.Profile`.
+        where: CAD parts: the face to texture, chosen with selectors, e.g.
+            ``part.faces().sort_by(Axis.Z)[-1]`` or ``wp.faces(">Z")``. Surfaces:
+            None (the whole surface).
+        texture: ``"builtin:NAME[:key=value,...]"``, an image path (white = ``height``
+            mm, black = on the surface; stretched over the face), or a
+            :class:`~texcad.Heightmap` (used at its own pitch, centred).
+        **options: all lengths in mm, angles in degrees:
+
+            * ``height`` (2.0): maximum texture height, mm (built-ins and images);
+            * ``pitch`` (0.125): mm per pixel for built-ins: one mesh vertex per pixel;
+            * ``mapping`` (``"angle"``): curved faces and surfaces: ``"angle"``
+              (algorithm 2, heights along the normal) or ``"distance"`` (algorithm 1,
+              heights along z);
+            * ``depth``: how far the texture slab reaches into the body, mm;
+            * ``build_dir`` / ``critical_angle`` (45): make the texture print without
+              support for this build direction ``(3,)`` (or each of a ``(K, 3)`` set),
+              in the part's frame (:func:`texcad.printability.orientation`);
+            * ``periodic_x``, ``transition``: closed profiles, fades (see
+              :func:`texcad.mapping.map_texture`);
+            * planar CAD faces: ``edge_angle`` (45: the M-I ramp at the outline),
+              ``rotation`` (degrees about the normal), ``offset`` (``(dx, dy)`` mm);
+            * CAD parts: ``brep`` (True: ``.shape`` can be made; it is made on first
+              use either way);
+            * surfaces: ``length`` (extrusion length of a profile, mm), ``base``,
+              ``thickness`` (mm);
+            * ``progress``: a ``progress(fraction, message)`` callback.
+
+    Returns:
+        A :class:`texcad.Textured`: ``mesh`` (fused, watertight), ``texture_mesh``,
+        ``base_mesh``, ``heightmap``, ``limits``; ``export(path)`` by extension
+        (``.stl``, ``.3mf``, ``.step``, ``.png``), ``render``, ``show``, ``check``;
+        ``shape`` / ``part`` / ``workplane`` for the B-rep.
+
+    Raises:
+        ParameterError: the face is not on the part, an unknown option, a bad value.
+        GeometryError: the face cannot be textured or a boolean failed.
+    """
+    if isinstance(target, (Surface, Profile)):
+        if where is not None:
+            raise ParameterError("a Surface is textured whole: pass where=None")
+        from .surface import textured_surface
+
+        opts = _only(options, SURFACE_OPTIONS, "a Surface")
+        opts.setdefault("mapping", "angle")
+        return textured_surface(target, texture, **opts)
+    if where is None:
+        raise ParameterError(
+            "say which face to texture: texcad.texture(part, part.faces().sort_by(Axis.Z)[-1], texture) "
+            "(build123d) or texcad.texture(wp, wp.faces('>Z'), texture) (CadQuery)"
+        )
+    from .cad import texture_faces
+
+    return texture_faces(target, where, texture, **_only(options, FACE_OPTIONS, "a CAD part"))

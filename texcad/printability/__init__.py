@@ -1,0 +1,48 @@
+"""Stage 3, AM constraints: build direction, overhang measurement, the M-I edge
+modification and the overhang limiter (paper section 2.1.3), thin features.
+"""
+
+
+from .overhang import (
+    orientation,
+    check_critical_angle,
+    unit_normals,
+    face_areas,
+    build_directions,
+    LimitReport,
+    edge_ramp,
+    limit_overhangs,
+    limit_overhangs_mapped,
+    face_angles,
+    overhang_mask,
+    overhang_area,
+    ThinFeatures,
+    thin_features,
+    DEFAULT_CRITICAL_ANGLE,
+    ANGLE_TOLERANCE,
+)
+from .profile import (
+    limit_on_profile,
+    measured,
+)
+
+__all__ = [
+    'orientation',
+    'check_critical_angle',
+    'unit_normals',
+    'face_areas',
+    'build_directions',
+    'LimitReport',
+    'edge_ramp',
+    'limit_overhangs',
+    'limit_overhangs_mapped',
+    'face_angles',
+    'overhang_mask',
+    'overhang_area',
+    'ThinFeatures',
+    'thin_features',
+    'DEFAULT_CRITICAL_ANGLE',
+    'ANGLE_TOLERANCE',
+    'limit_on_profile',
+    'measured',
+]

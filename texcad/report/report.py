@@ -1,0 +1,564 @@
+"""``texcad check``: is a part printable? Watertight, manifold, overhangs, thin features.
+
+A part is read from STL or 3MF (or given as meshes) and measured:
+
+* **watertight**: every edge is shared by exactly two faces in opposite directions
+  (:func:`texcad.mesh.edge_report`), for every object in the file;
+* **manifold**: manifold3d accepts every object as a closed, oriented solid;
+* **shells, volume, bounding box, triangles** of the whole part (several objects
+  are united with manifold3d first, as a slicer would);
+* **overhang area** (mm^2) for a build direction and critical angle, by the rule of
+  :func:`texcad.printability.overhang_mask` (downward faces flatter than the
+  critical angle, not counting faces on the build plate), for the whole part and
+  for the textured surface alone when the input says which faces are texture;
+* **thin features** (optional, ``nozzle``): texture features narrower than the nozzle,
+  :func:`texcad.printability.thin_features`;
+* optionally a **PNG** of the part in print orientation, overhang faces in red.
+
+Which faces are texture: a :class:`~texcad.mesh.Mesh` with a ``"texture"`` group
+(e.g. :func:`texcad.mesh.heightfield_slab`), or several named objects, e.g. a 3MF
+written as ``write_3mf([("base", base), ("texture", slab)], path)``: objects whose
+name starts with ``texture`` are texture. The objects are united with manifold3d,
+which records for every output triangle the object it came from, so the texture's
+share is the texture slab's exposed surface (its top and any border walls
+standing above the base). Where the slab touches the base's own surface (its buried
+border walls lie in the plane of the base's side walls, zero-height areas on the
+base's top) the union may attribute the coincident faces to either object; faces of
+the texture object that lie on a base triangle (within a few um) are counted as
+base, so a base wall that overhangs is never reported as texture. An STL carries no
+such information: whole-part numbers only.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..errors import InputError, ParameterError
+from ..sources import Heightmap
+from ..io import read_part
+from ..solid import Mesh, edge_report
+from ..printability import (
+    DEFAULT_CRITICAL_ANGLE,
+    ThinFeatures,
+    check_critical_angle,
+    face_areas,
+    build_directions,
+    overhang_mask,
+    thin_features,
+)
+
+__all__ = ["CheckReport", "check", "render_check"]
+
+_RED = np.array([0.86, 0.12, 0.10])
+_TEXTURE = np.array([0.83, 0.76, 0.62])
+_BODY = np.array([0.70, 0.73, 0.78])
+
+
+# ---------------------------------------------------------------------------------
+# The report
+# ---------------------------------------------------------------------------------
+@dataclass
+class CheckReport:
+    """What :func:`check` measured. Units: mm, mm^2, mm^3, degrees.
+
+    Attributes:
+        source: file path or ``"<mesh>"``.
+        objects: names of the objects read.
+        watertight: every object is closed (each edge used twice, opposite ways).
+        manifold: manifold3d accepts every object as a solid.
+        shells: connected pieces of the whole part.
+        volume_mm3: enclosed volume of the whole part.
+        bounds_mm: ``[[xmin, ymin, zmin], [xmax, ymax, zmax]]``.
+        triangles: triangles of the whole part.
+        build_dir: unit build direction used.
+        critical_angle_deg: critical overhang angle used.
+        overhang_area_mm2: area of overhanging faces of the whole part.
+        overhang_faces: how many faces overhang.
+        texture_area_mm2: area of the textured surface (None if unknown).
+        texture_overhang_area_mm2: overhang area on the textured surface alone
+            (None if the input does not say which faces are texture).
+        nozzle_mm: nozzle width checked (None if not asked).
+        thin_features: :class:`~texcad.printability.ThinFeatures` as a dict, or None.
+        png: picture written, if any.
+        notes: remarks (e.g. why a number is missing).
+    """
+
+    source: str
+    objects: list[str]
+    watertight: bool
+    manifold: bool
+    shells: int
+    volume_mm3: float
+    bounds_mm: list[list[float]]
+    triangles: int
+    build_dir: list[float]
+    critical_angle_deg: float
+    overhang_area_mm2: float
+    overhang_faces: int
+    texture_area_mm2: float | None = None
+    texture_overhang_area_mm2: float | None = None
+    nozzle_mm: float | None = None
+    thin_features: dict | None = None
+    png: str | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """Watertight, manifold, and no overhang on the textured surface (or the
+        whole part, if the texture is unknown)."""
+        over = self.texture_overhang_area_mm2 if self.texture_overhang_area_mm2 is not None else self.overhang_area_mm2
+        return self.watertight and self.manifold and over == 0.0
+
+    def to_dict(self) -> dict:
+        """The report as plain JSON types."""
+        return {
+            "source": self.source,
+            "objects": list(self.objects),
+            "watertight": bool(self.watertight),
+            "manifold": bool(self.manifold),
+            "shells": int(self.shells),
+            "volume_mm3": float(self.volume_mm3),
+            "bounds_mm": [[float(x) for x in r] for r in self.bounds_mm],
+            "triangles": int(self.triangles),
+            "build_dir": [float(x) for x in self.build_dir],
+            "critical_angle_deg": float(self.critical_angle_deg),
+            "overhang_area_mm2": float(self.overhang_area_mm2),
+            "overhang_faces": int(self.overhang_faces),
+            "texture_area_mm2": None if self.texture_area_mm2 is None else float(self.texture_area_mm2),
+            "texture_overhang_area_mm2": None
+            if self.texture_overhang_area_mm2 is None
+            else float(self.texture_overhang_area_mm2),
+            "nozzle_mm": self.nozzle_mm,
+            "thin_features": self.thin_features,
+            "png": self.png,
+            "notes": list(self.notes),
+        }
+
+    def to_json(self) -> str:
+        """One JSON object (one line)."""
+        return json.dumps(self.to_dict())
+
+    def summary(self) -> str:
+        """Human-readable lines for the terminal."""
+        lo, hi = np.asarray(self.bounds_mm)
+        size = hi - lo
+        d = self.build_dir
+        lines = [
+            f"part          {self.source} ({len(self.objects)} object{'s' if len(self.objects) != 1 else ''}: {', '.join(self.objects)})",
+            f"watertight    {'yes' if self.watertight else 'NO'}",
+            f"manifold      {'yes' if self.manifold else 'NO'}",
+            f"shells        {self.shells}",
+            f"triangles     {self.triangles}",
+            f"volume        {self.volume_mm3:.1f} mm3",
+            f"bbox          ({lo[0]:.2f}, {lo[1]:.2f}, {lo[2]:.2f}) .. ({hi[0]:.2f}, {hi[1]:.2f}, {hi[2]:.2f}) mm, "
+            f"size {size[0]:.2f} x {size[1]:.2f} x {size[2]:.2f} mm",
+            f"build dir     ({d[0]:.4g}, {d[1]:.4g}, {d[2]:.4g}), critical angle {self.critical_angle_deg:g} deg",
+            f"overhang      {self.overhang_area_mm2:.2f} mm2 whole part ({self.overhang_faces} faces)",
+        ]
+        if self.texture_overhang_area_mm2 is not None:
+            lines.append(
+                f"texture       {self.texture_overhang_area_mm2:.2f} mm2 overhang of {self.texture_area_mm2:.1f} mm2 textured surface"
+            )
+        if self.thin_features is not None:
+            t = self.thin_features
+            lines.append(
+                f"thin features {t['thin_area_mm2']:.2f} mm2 ({100 * t['thin_fraction']:.1f} % of features) narrower than "
+                f"the {t['nozzle_mm']:g} mm nozzle at {t['level_mm']:.2f} mm; narrow grooves {t['narrow_gap_area_mm2']:.2f} mm2"
+            )
+        if self.png:
+            lines.append(f"picture       {self.png}")
+        lines += [f"note          {n}" for n in self.notes]
+        return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------
+# Checking
+# ---------------------------------------------------------------------------------
+def _items(part: Any) -> tuple[str, list[tuple[str, Mesh]], Heightmap | None]:
+    if isinstance(part, (str, os.PathLike)):
+        return os.fspath(part), read_part(part), None
+    if isinstance(part, Mesh):
+        return "<mesh>", [("part", part)], None
+    if hasattr(part, "texture") and hasattr(part, "base") and isinstance(getattr(part, "texture"), Mesh):
+        return "<part>", [("base", part.base), ("texture", part.texture)], getattr(part, "heightmap", None)
+    try:
+        items = [(str(n), m) for n, m in part]
+    except (TypeError, ValueError):
+        items = []
+    if not items or not all(isinstance(m, Mesh) for _, m in items):
+        raise ParameterError(
+            f"check() takes a .stl/.3mf path, a Mesh, a TexturedPart or a list of (name, Mesh); got {type(part).__name__}"
+        )
+    return "<meshes>", items, None
+
+
+def _is_textured(part: Any) -> bool:
+    """A :func:`texcad.texture` result (fused mesh plus base and texture meshes)."""
+    if isinstance(part, (str, os.PathLike, Mesh, list, tuple)):
+        return False
+    return all(hasattr(type(part), a) for a in ("mesh", "texture_mesh", "base_mesh"))
+
+
+def _is_texture(name: str) -> bool:
+    return name.strip().lower().startswith("texture")
+
+
+def _manifolds(meshes: list[Mesh]) -> tuple[list, np.ndarray]:
+    """One ``manifold3d.Manifold`` per mesh (None where manifold3d refuses it: not a
+    closed oriented 2-manifold, or empty), each tagged with a fresh original ID (its triangles' provenance
+    in a union), and those IDs."""
+    import manifold3d as m3d
+
+    first = int(m3d.Manifold.reserve_ids(len(meshes)))
+    ids = np.arange(first, first + len(meshes), dtype=np.int64)
+    out = []
+    for m, oid in zip(meshes, ids):  # per object
+        if m.num_triangles == 0:
+            out.append(None)
+            continue
+        try:
+            man = m3d.Manifold(
+                m3d.Mesh(
+                    vert_properties=np.ascontiguousarray(m.vertices, dtype=np.float32),
+                    tri_verts=np.ascontiguousarray(m.faces, dtype=np.uint32),
+                    run_index=np.array([0, 3 * m.num_triangles], dtype=np.uint32),
+                    run_original_id=np.array([oid], dtype=np.uint32),
+                )
+            )
+        except Exception:  # noqa: BLE001 - any refusal means "not a manifold solid"
+            man = None
+        out.append(man if man is not None and man.status() == m3d.Error.NoError else None)
+    return out, ids
+
+
+def _union_with_provenance(mans: list, ids: np.ndarray):
+    """Unite manifolds (from :func:`_manifolds`); returns (mesh, per-face object index)."""
+    import manifold3d as m3d
+
+    result = m3d.Manifold.batch_boolean(mans, m3d.OpType.Add)
+    if result.status() != m3d.Error.NoError or result.is_empty():
+        return None, None
+    gl = result.to_mesh()
+    mesh = Mesh(np.array(np.asarray(gl.vert_properties)[:, :3], dtype=np.float32), np.array(gl.tri_verts, dtype=np.uint32))
+    mesh.__dict__["is_watertight"] = True  # manifold3d output is an oriented closed manifold
+    run_index = np.asarray(gl.run_index, dtype=np.int64) // 3
+    run_ids = np.asarray(gl.run_original_id, dtype=np.int64)
+    owner_of_run = np.full(len(run_ids), -1, dtype=np.int64)
+    for k, oid in enumerate(ids):  # per object
+        owner_of_run[run_ids == oid] = k
+    owner = np.repeat(owner_of_run, np.diff(run_index))
+    return mesh, owner
+
+
+def _on_surface(points: np.ndarray, meshes: Sequence[Mesh], tol: float | None = None) -> np.ndarray:
+    """Which ``points`` ``(P, 3)`` (mm) lie on a triangle of ``meshes`` (within ``tol`` mm).
+
+    Exact point-on-triangle tests (plane distance and barycentric coordinates) on
+    candidate pairs found with one sort of the points per axis: each triangle is
+    matched against the points inside its bounding box (grown by ``tol``), searched
+    along the axis where that box is thinnest, so a wall or a flat face only meets
+    the points near its plane. Work is chunked to a few million pairs at a time.
+
+    Returns:
+        ``(P,)`` bool.
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    out = np.zeros(len(pts), dtype=bool)
+    tris = [m.vertices.astype(np.float64)[m.faces.astype(np.int64)] for m in meshes if m.num_triangles]
+    if not len(pts) or not tris:
+        return out
+    tri = np.concatenate(tris)
+    if tol is None:
+        span = np.ptp(np.concatenate([tri.reshape(-1, 3), pts]), axis=0)
+        tol = max(1e-5, 2e-6 * float(np.linalg.norm(span)))
+    a, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    n = np.cross(e1, e2)
+    ln = np.linalg.norm(n, axis=1)
+    keep = ln > 1e-12
+    a, e1, e2, n, ln = a[keep], e1[keep], e2[keep], n[keep] / ln[keep, None], ln[keep]
+    lo = np.minimum(a, np.minimum(a + e1, a + e2)) - tol
+    hi = np.maximum(a, np.maximum(a + e1, a + e2)) + tol
+    thin = np.argmin(hi - lo, axis=1)
+    d00, d01, d11 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+    den = d00 * d11 - d01 * d01
+    budget = 4_000_000
+    for ax in range(3):  # per axis
+        tsel = np.flatnonzero(thin == ax)
+        if not len(tsel):
+            continue
+        order = np.argsort(pts[:, ax], kind="stable")
+        sv = pts[order, ax]
+        start = np.searchsorted(sv, lo[tsel, ax], side="left")
+        count = np.searchsorted(sv, hi[tsel, ax], side="right") - start
+        csum = np.cumsum(count)
+        first = 0
+        while first < len(tsel):  # per chunk of a few million pairs
+            base = csum[first - 1] if first else 0
+            last = max(first + 1, int(np.searchsorted(csum, base + budget, side="right")))
+            last = min(last, len(tsel))
+            cnt = count[first:last]
+            total = int(cnt.sum())
+            if total:
+                t = np.repeat(tsel[first:last], cnt)
+                offs = np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+                p = order[np.repeat(start[first:last], cnt) + offs]
+                q = pts[p]
+                inbox = np.all((q >= lo[t]) & (q <= hi[t]), axis=1)
+                t, p, q = t[inbox], p[inbox], q[inbox]
+                w = q - a[t]
+                near = np.abs((w * n[t]).sum(1)) <= tol
+                t, p, w = t[near], p[near], w[near]
+                d20, d21 = (w * e1[t]).sum(1), (w * e2[t]).sum(1)
+                v = (d11[t] * d20 - d01[t] * d21) / den[t]
+                u = (d00[t] * d21 - d01[t] * d20) / den[t]
+                eps = tol / np.sqrt(np.maximum(d00[t], d11[t]))  # tol in mm, as a fraction
+                inside = (v >= -eps) & (u >= -eps) & (u + v <= 1.0 + eps)
+                out[p[inside]] = True
+            first = last
+    return out
+
+
+def _shared_faces(mesh: Mesh, *others: Mesh) -> list[np.ndarray]:
+    """For each of ``others``, ``(M,)`` bool: which faces of ``mesh`` are also its faces
+    (the same three vertex positions, bit for bit, in any order). Sorting, no geometry."""
+    meshes = (mesh, *others)
+    verts = np.concatenate([m.vertices for m in meshes]).astype(np.float32) + np.float32(0.0)  # -0.0 -> 0.0
+    _, vid = np.unique(np.ascontiguousarray(verts).view(np.dtype((np.void, 12))).ravel(), return_inverse=True)
+    offsets = np.cumsum([0] + [len(m.vertices) for m in meshes])
+    keys = [np.sort(vid[m.faces.astype(np.int64) + off], axis=1) for m, off in zip(meshes, offsets)]
+    _, fid = np.unique(np.concatenate(keys), axis=0, return_inverse=True)
+    bounds = np.cumsum([0] + [len(k) for k in keys])
+    fid = fid.ravel()
+    own = fid[: bounds[1]]
+    return [np.isin(own, fid[lo:hi]) for lo, hi in zip(bounds[1:-1], bounds[2:])]
+
+
+def _texture_faces(fused: Mesh, texture: Mesh, base: Mesh) -> np.ndarray:
+    """``(M,)`` bool: the faces of a fused part that belong to its texture.
+
+    A face shared with the texture mesh and not with the base mesh is texture; the
+    few faces the union re-triangulated (along the contact) are decided by where
+    they lie: on the texture's surface and not on the base's.
+    """
+    on_tex, on_base = _shared_faces(fused, texture, base)
+    mask = on_tex & ~on_base
+    rest = np.flatnonzero(~on_tex & ~on_base)
+    if len(rest):
+        cen = fused.vertices[fused.faces[rest]].astype(np.float64).mean(axis=1)
+        mask[rest] = _on_surface(cen, [texture]) & ~_on_surface(cen, [base])
+    return mask
+
+
+def _shells(mesh: Mesh) -> int:
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    f = mesh.faces.astype(np.int64)
+    if len(f) == 0:
+        return 0
+    n = len(mesh.vertices)
+    i = np.concatenate([f[:, 0], f[:, 1]])
+    j = np.concatenate([f[:, 1], f[:, 2]])
+    g = coo_matrix((np.ones(len(i), dtype=np.int8), (i, j)), shape=(n, n))
+    _, lab = connected_components(g, directed=False)
+    return int(np.count_nonzero(np.bincount(lab[f[:, 0]])))  # components that own a face
+
+
+def check(
+    part: Any,
+    *,
+    build_dir=(0.0, 0.0, 1.0),
+    critical_angle: float = DEFAULT_CRITICAL_ANGLE,
+    nozzle: float | None = None,
+    heightmap: Heightmap | None = None,
+    png: str | os.PathLike | None = None,
+    plate_tolerance: float = 0.01,
+    png_width: int = 900,
+) -> CheckReport:
+    """Check a part for printing (module docstring lists what is measured).
+
+    Args:
+        part: ``.stl`` / ``.3mf`` path, a :class:`~texcad.mesh.Mesh` (its
+            ``"texture"`` group, if any, is the textured surface), a
+            :class:`~texcad.pipeline.TexturedPart` (base and texture slab), a
+            :func:`texcad.texture` result (its fused mesh; texture faces found on its
+            texture mesh), or a list of ``(name, Mesh)`` (names starting with
+            ``texture`` are texture).
+        build_dir: build direction ``(x, y, z)`` in the part's frame (any length;
+            default +z, the part as placed); see :func:`texcad.printability.orientation`.
+        critical_angle: critical overhang angle in degrees between face and build
+            plate (0..90, default 45; paper, section 2.1.3).
+        nozzle: nozzle width in mm to look for thin texture features (None: skip).
+            Uses ``heightmap`` if given, else the texture faces rasterised along
+            their mean normal (flat textures), else nothing (noted).
+        heightmap: the texture's heightmap, for the thin-feature check.
+        png: write a picture (print orientation, seen from above and from below;
+            overhangs red, texture sand, rest grey).
+        plate_tolerance: mm; faces this close to the lowest point along the build
+            direction lie on the build plate and are not overhangs.
+        png_width: width of the picture in pixels.
+
+    Returns:
+        :class:`CheckReport`.
+
+    Raises:
+        InputError: unreadable file.
+        ParameterError: bad direction, angle or nozzle.
+    """
+    d = build_directions(build_dir)[0]
+    crit = check_critical_angle(critical_angle)
+    if nozzle is not None and not (np.isfinite(float(nozzle)) and float(nozzle) > 0):
+        raise ParameterError(f"nozzle must be a positive width in mm (e.g. 0.4), got {nozzle!r}")
+    textured_part = _is_textured(part)
+    if textured_part:
+        # A texture() result: check the fused mesh it prints from. Its texture faces
+        # are those on the texture's surface and not on the base's (re-uniting the two
+        # touching bodies would only add rounding slivers along their contact).
+        source, items, hm_from_part = "<textured part>", [("part", part.mesh)], part.heightmap
+    else:
+        source, items, hm_from_part = _items(part)
+    heightmap = heightmap if heightmap is not None else hm_from_part
+    notes: list[str] = []
+    mans, ids = _manifolds([m for _, m in items])
+    manif = [man is not None for man in mans]
+    # manifold3d accepts only closed, consistently oriented 2-manifolds (every edge
+    # shared by exactly two faces, opposite ways): those are watertight; the others
+    # are counted edge by edge.
+    water = [ok or bool(edge_report(m.faces)["watertight"]) for ok, (_, m) in zip(manif, items)]
+    texture_mask: np.ndarray | None = None
+    if textured_part:
+        mesh = items[0][1]
+        texture_mask = _texture_faces(mesh, part.texture_mesh, part.base_mesh)
+    elif len(items) == 1:
+        mesh = items[0][1]
+        if "texture" in mesh.groups:
+            texture_mask = np.zeros(mesh.num_triangles, dtype=bool)
+            texture_mask[np.asarray(mesh.groups["texture"], dtype=np.int64)] = True
+        elif _is_texture(items[0][0]):
+            texture_mask = np.ones(mesh.num_triangles, dtype=bool)
+    else:
+        mesh, owner = (None, None)
+        if all(manif):
+            mesh, owner = _union_with_provenance(mans, ids)
+        if mesh is None:
+            notes.append("objects could not be united; whole-part numbers are for the objects side by side")
+            mesh = Mesh(
+                np.concatenate([m.vertices for _, m in items]),
+                np.concatenate([m.faces.astype(np.int64) + off for (_, m), off in zip(items, np.cumsum([0] + [len(m.vertices) for _, m in items[:-1]]))]),
+            )
+            owner = np.repeat(np.arange(len(items)), [m.num_triangles for _, m in items])
+        tex_objects = [k for k, (n, _) in enumerate(items) if _is_texture(n)]
+        if tex_objects:
+            texture_mask = np.isin(owner, tex_objects)
+            others = [m for k, (_, m) in enumerate(items) if k not in tex_objects]
+            if others and texture_mask.any():
+                # Where the slab's buried walls (or zero-height areas) coincide with the
+                # base's own surface, the union attributes the coplanar faces to either
+                # object; they belong to the base (e.g. its end walls), not the texture.
+                idx = np.flatnonzero(texture_mask)
+                cen = mesh.vertices[mesh.faces[idx]].astype(np.float64).mean(axis=1)
+                texture_mask[idx[_on_surface(cen, others)]] = False
+    if texture_mask is None:
+        notes.append("the input does not say which faces are texture (use a texcad 3MF with a 'texture' object); whole-part numbers only")
+    over = overhang_mask(mesh, d, crit, plate_tolerance=plate_tolerance)
+    area = face_areas(mesh)
+    lo, hi = mesh.bounds
+    rep = CheckReport(
+        source=source,
+        objects=[n for n, _ in items],
+        watertight=all(water),
+        manifold=all(manif),
+        shells=_shells(mesh),
+        volume_mm3=float(mesh.volume),
+        bounds_mm=[lo.tolist(), hi.tolist()],
+        triangles=mesh.num_triangles,
+        build_dir=d.tolist(),
+        critical_angle_deg=crit,
+        overhang_area_mm2=float(area[over].sum()),
+        overhang_faces=int(over.sum()),
+        notes=notes,
+    )
+    if texture_mask is not None:
+        rep.texture_area_mm2 = float(area[texture_mask].sum())
+        rep.texture_overhang_area_mm2 = float(area[over & texture_mask].sum())
+    if nozzle is not None:
+        rep.nozzle_mm = float(nozzle)
+        tf = _thin(mesh, texture_mask, heightmap, float(nozzle), notes)
+        rep.thin_features = None if tf is None else tf.to_dict()
+    if png is not None:
+        render_check(mesh, d, over, texture_mask, png, width=png_width)
+        rep.png = os.fspath(png)
+    return rep
+
+
+def _thin(mesh: Mesh, texture_mask, heightmap, nozzle: float, notes: list[str]) -> ThinFeatures | None:
+    if heightmap is not None:
+        return thin_features(heightmap, nozzle)
+    if texture_mask is None or not texture_mask.any():
+        notes.append("thin features need the texture: pass its heightmap or a 3MF with a 'texture' object")
+        return None
+    from ..printability import unit_normals
+    from ..render import height_image
+
+    idx = np.flatnonzero(texture_mask)
+    n = (unit_normals(mesh)[idx] * face_areas(mesh)[idx, None]).sum(axis=0)
+    if not np.linalg.norm(n) > 0:
+        notes.append("thin features: the texture has no dominant direction; skipped")
+        return None
+    n /= np.linalg.norm(n)
+    heights, mask, pitch = height_image(mesh, n, nozzle / 4.0, faces=idx)
+    if mask.sum() < 4 or heights.shape[0] < 2 or heights.shape[1] < 2:
+        notes.append("thin features: texture too small to measure")
+        return None
+    notes.append(
+        "thin features measured on the texture seen along its mean normal (exact for flat textures, "
+        "widths foreshortened on curved ones)"
+    )
+    return thin_features(Heightmap(heights.astype(np.float32), (pitch, pitch)), nozzle, mask=mask)
+
+
+def render_check(
+    mesh: Mesh,
+    build_dir,
+    overhang: np.ndarray,
+    texture_mask: np.ndarray | None,
+    path: str | os.PathLike,
+    *,
+    width: int = 900,
+) -> np.ndarray:
+    """Picture of a part in print orientation: from above (left) and below (right).
+
+    The build direction points up in both views (elevation +30 and -30 degrees);
+    overhang faces are red, texture faces sand, other faces grey.
+
+    Returns:
+        The ``(H, W, 3)`` image written (y-up).
+    """
+    from ..render import render_mesh, write_png
+
+    d = build_directions(build_dir)[0]
+    cols = np.tile(_BODY, (mesh.num_triangles, 1))
+    if texture_mask is not None:
+        cols[texture_mask] = _TEXTURE
+    cols[overhang] = _RED
+    # Horizontal reference: the part's y axis (or x) seen from 35 degrees aside.
+    ref = np.array([0.0, -1.0, 0.0]) if abs(d[1]) < 0.95 else np.array([-1.0, 0.0, 0.0])
+    h = ref - (ref @ d) * d
+    h /= np.linalg.norm(h)
+    side = np.cross(d, h)
+    az, el = np.radians(35.0), np.radians(30.0)
+    hz = np.cos(az) * h + np.sin(az) * side
+    half = max(1, width // 2)
+    panels = []
+    for sign in (1.0, -1.0):  # from above, from below
+        eye = np.cos(el) * hz + sign * np.sin(el) * d
+        panels.append(render_mesh(mesh, face_colors=cols, view=-eye, up=d, width=half, height=int(half * 0.8), supersample=2))
+    img = np.concatenate(panels, axis=1)
+    write_png(path, img)
+    return img

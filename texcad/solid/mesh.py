@@ -1,0 +1,329 @@
+"""Triangle meshes of textured slabs.
+
+A :class:`Mesh` is plain data: ``vertices`` ``(N, 3)`` float32 in mm and ``faces``
+``(M, 3)`` uint32 vertex indices, counter-clockwise seen from outside (outward
+normals). The builders here make closed (watertight) meshes from vertex grids:
+
+* :func:`heightfield_slab` - the paper's flat mapping (section 2.2): one vertex per
+  pixel on top, vertical side walls, a flat bottom with no interior vertices.
+* :func:`grid_solid` - the general case used by the curved mappings: a top grid and
+  a bottom grid of the same shape joined by walls, optionally closed in x (tubes).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Sequence
+
+import numpy as np
+
+from ..util import require_memory
+from ..errors import GeometryError, ParameterError
+from ..sources import Heightmap
+
+__all__ = ["Mesh", "grid_faces", "heightfield_slab", "grid_solid", "edge_report"]
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """A triangle mesh in mm.
+
+    Attributes:
+        vertices: ``(N, 3)`` float32 vertex positions in mm.
+        faces: ``(M, 3)`` uint32 vertex indices, counter-clockwise from outside.
+        groups: optional ``{name: (M_k,) face indices}``, e.g. ``{"texture": ...}``
+            naming the faces that carry the texture.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    groups: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        v = np.ascontiguousarray(self.vertices, dtype=np.float32)
+        f = np.ascontiguousarray(self.faces, dtype=np.uint32)
+        if v.ndim != 2 or v.shape[1] != 3:
+            raise ParameterError(f"vertices must have shape (N, 3), got {v.shape}")
+        if f.ndim != 2 or f.shape[1] != 3:
+            raise ParameterError(f"faces must have shape (M, 3), got {f.shape}")
+        if f.size and int(f.max()) >= len(v):
+            raise ParameterError(f"faces index vertex {int(f.max())} but there are only {len(v)} vertices")
+        object.__setattr__(self, "vertices", v)
+        object.__setattr__(self, "faces", f)
+
+    @property
+    def num_triangles(self) -> int:
+        """Number of triangles."""
+        return int(len(self.faces))
+
+    @cached_property
+    def volume(self) -> float:
+        """Enclosed volume in mm^3 (divergence theorem, accumulated in float64)."""
+        v = self.vertices.astype(np.float64)
+        a, b, c = v[self.faces[:, 0]], v[self.faces[:, 1]], v[self.faces[:, 2]]
+        return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+
+    @cached_property
+    def bounds(self) -> np.ndarray:
+        """``(2, 3)`` float64 min and max corner in mm."""
+        v = self.vertices
+        return np.array([v.min(axis=0), v.max(axis=0)], dtype=np.float64)
+
+    @cached_property
+    def area(self) -> float:
+        """Surface area in mm^2."""
+        v = self.vertices.astype(np.float64)
+        a, b, c = v[self.faces[:, 0]], v[self.faces[:, 1]], v[self.faces[:, 2]]
+        return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
+
+    @cached_property
+    def is_watertight(self) -> bool:
+        """True if every edge is shared by exactly two faces with opposite directions."""
+        return edge_report(self.faces)["watertight"]
+
+    def face_normals(self) -> np.ndarray:
+        """``(M, 3)`` float32 unit outward face normals (zero for degenerate faces)."""
+        v = self.vertices
+        n = np.cross(v[self.faces[:, 1]] - v[self.faces[:, 0]], v[self.faces[:, 2]] - v[self.faces[:, 0]])
+        ln = np.linalg.norm(n, axis=1, keepdims=True)
+        return np.divide(n, ln, out=np.zeros_like(n), where=ln > 0)
+
+    def translated(self, offset: Sequence[float]) -> "Mesh":
+        """A copy moved by ``offset`` ``(dx, dy, dz)`` in mm."""
+        return Mesh(self.vertices + np.asarray(offset, dtype=np.float32), self.faces, self.groups)
+
+    def __repr__(self) -> str:
+        lo, hi = self.bounds
+        ext = " x ".join(f"{e:g}" for e in np.round(hi - lo, 3))
+        return f"Mesh({len(self.vertices)} vertices, {self.num_triangles} triangles, {ext} mm)"
+
+
+def edge_report(faces: np.ndarray) -> dict:
+    """Count boundary and non-manifold edges of a triangle soup (vectorized).
+
+    An edge is *manifold* when exactly two faces use it, once in each direction.
+
+    Returns:
+        ``{"edges": E, "boundary": B, "nonmanifold": N, "misoriented": O,
+        "watertight": B == N == O == 0}``.
+    """
+    f = np.asarray(faces, dtype=np.int64)
+    if len(f) == 0:
+        return {"edges": 0, "boundary": 0, "nonmanifold": 0, "misoriented": 0, "watertight": False}
+    directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    n = int(f.max()) + 1
+    key = directed[:, 0] * n + directed[:, 1]
+    key.sort()
+    dup_directed = int(np.count_nonzero(key[1:] == key[:-1]))
+    und = np.sort(directed, axis=1)
+    ukey = und[:, 0] * n + und[:, 1]
+    _, counts = np.unique(ukey, return_counts=True)
+    boundary = int(np.count_nonzero(counts == 1))
+    nonmanifold = int(np.count_nonzero(counts > 2))
+    return {
+        "edges": int(len(counts)),
+        "boundary": boundary,
+        "nonmanifold": nonmanifold,
+        "misoriented": dup_directed,
+        "watertight": boundary == 0 and nonmanifold == 0 and dup_directed == 0,
+    }
+
+
+def grid_faces(rows: int, cols: int, *, wrap_x: bool = False, flip: bool = False) -> np.ndarray:
+    """Triangles of a ``rows x cols`` vertex grid (row-major indices).
+
+    Each cell ``(r, c)`` becomes two triangles, counter-clockwise when the grid is
+    seen with x (columns) to the right and y (rows) up. With ``wrap_x`` the last
+    column connects back to the first (a closed band).
+
+    Returns:
+        ``(2 (rows-1) cols', 3)`` uint32 indices, ``cols' = cols`` if ``wrap_x``
+        else ``cols - 1``.
+    """
+    idx = np.arange(rows * cols, dtype=np.uint32).reshape(rows, cols)
+    right = np.roll(idx, -1, axis=1) if wrap_x else idx[:, 1:]
+    left = idx if wrap_x else idx[:, :-1]
+    a, b = left[:-1], right[:-1]  # bottom-left, bottom-right of each cell
+    d, c = left[1:], right[1:]  # top-left, top-right
+    tri = np.empty((a.size * 2, 3), dtype=np.uint32)
+    tri[0::2, 0], tri[0::2, 1], tri[0::2, 2] = a.ravel(), b.ravel(), c.ravel()
+    tri[1::2, 0], tri[1::2, 1], tri[1::2, 2] = a.ravel(), c.ravel(), d.ravel()
+    if flip:
+        tri[:, [1, 2]] = tri[:, [2, 1]]
+    return tri
+
+
+def _ring(rows: int, cols: int) -> np.ndarray:
+    """Indices of a grid's boundary vertices, counter-clockwise from (0, 0)."""
+    idx = np.arange(rows * cols, dtype=np.uint32).reshape(rows, cols)
+    return np.concatenate([idx[0, :], idx[1:, -1], idx[-1, -2::-1], idx[-2:0:-1, 0]])
+
+
+def heightfield_slab(
+    heightmap: Heightmap,
+    *,
+    depth: float = 0.5,
+    origin: Sequence[float] = (0.0, 0.0, 0.0),
+) -> Mesh:
+    """The paper's flat mapping (section 2.2) as a closed slab.
+
+    One vertex per pixel: vertex ``(r, c)`` sits at ``origin + ((c + 1/2) px,
+    (r + 1/2) py, h[r, c])`` in mm. Each side of the top grid is closed by a vertical
+    wall down to a flat bottom at ``z = origin_z - depth``. A wall is one planar
+    polygon, the side's row (or column) of top vertices plus the two bottom corners
+    below its ends, triangulated as such; the bottom is a rectangle of two triangles.
+    So the slab adds only four vertices to its top surface, and only a few of its
+    edges cross the base body's face at ``z = origin_z``: the union with the base
+    (:func:`texcad.solid.fuse`) has little to cut and nothing to re-triangulate but
+    a handful of faces. The top faces are named ``"texture"`` in ``Mesh.groups``.
+
+    Where a wall polygon would be degenerate (a boundary height reaches down to the
+    bottom, e.g. heights of ``-depth`` mm), the walls are instead quads from every
+    boundary vertex down to a bottom ring below it.
+
+    Args:
+        heightmap: the texture.
+        depth: how far in mm the slab reaches below the surface (into the base body,
+            so that the union with the base is one solid). > 0.
+        origin: ``(x, y, z)`` in mm of the surface point under the texture's corner.
+
+    Returns:
+        A watertight :class:`Mesh` with ``R C + 4`` vertices and
+        ``2 (R-1)(C-1) + 2 (R + C) + 2`` triangles for an ``R x C`` px heightmap
+        (walls on a bottom ring: ``R C + P`` vertices and ``2 (R-1)(C-1) + 3 P - 2``
+        triangles, ``P = 2 (R + C) - 4``).
+    """
+    if not (np.isfinite(depth) and depth > 0):
+        raise ParameterError(f"depth must be a positive number of mm, got {depth!r}")
+    rows, cols = heightmap.shape
+    require_memory(rows * cols * 60.0, f"a {rows} x {cols} px slab", "use a larger pitch")
+    ox, oy, oz = (float(o) for o in origin)
+    n = rows * cols
+    verts = np.empty((n + 4, 3), dtype=np.float32)
+    top = verts[:n].reshape(rows, cols, 3)
+    top[..., 0] = (ox + heightmap.x).astype(np.float32)[None, :]
+    top[..., 1] = (oy + heightmap.y).astype(np.float32)[:, None]
+    top[..., 2] = heightmap.heights + np.float32(oz)
+    top_faces = grid_faces(rows, cols)
+    groups = {"texture": np.arange(len(top_faces), dtype=np.uint32)}
+    zb = np.float32(oz - depth)
+    walls = _polygon_walls(verts[:n], rows, cols, float(zb), depth)
+    if walls is None:
+        return _ring_walls_slab(verts[:n], rows, cols, zb, top_faces, groups)
+    idx = np.arange(n, dtype=np.uint32).reshape(rows, cols)
+    corners = [idx[0, 0], idx[0, -1], idx[-1, -1], idx[-1, 0]]  # counter-clockwise from +z
+    verts[n:, :2] = verts[corners, :2]
+    verts[n:, 2] = zb
+    # Bottom rectangle, facing -z: clockwise seen from +z.
+    bottom = np.array([[n, n + 2, n + 1], [n, n + 3, n + 2]], dtype=np.uint32)
+    return Mesh(verts, np.concatenate([top_faces, walls, bottom]), groups)
+
+
+def _polygon_walls(top: np.ndarray, rows: int, cols: int, zb: float, depth: float) -> "np.ndarray | None":
+    """Triangles closing the four sides of a top grid down to ``z = zb`` (mm).
+
+    Side ``k`` (counter-clockwise from +z, starting along row 0) is the planar polygon
+    of its top vertices plus bottom corners ``N + k`` and ``N + (k+1) % 4`` (``N`` =
+    number of top vertices), triangulated by manifold3d in the wall's plane. Returns
+    ``None`` when a polygon is degenerate or its triangulation is not a valid,
+    counter-clockwise (outward) cover of it.
+    """
+    import manifold3d
+
+    n = rows * cols
+    # A boundary vertex (almost) on the bottom would pinch its wall polygon.
+    if float(top[_ring(rows, cols), 2].min()) - zb < max(1e-3 * depth, 1e-4):
+        return None
+    idx = np.arange(n, dtype=np.uint32).reshape(rows, cols)
+    sides = (idx[0, :], idx[:, -1], idx[-1, ::-1], idx[::-1, 0])
+    out = []
+    for k, chain in enumerate(sides):  # one polygon per side
+        p = top[chain].astype(np.float64)
+        u = np.abs(p[:, k % 2] - p[0, k % 2])  # distance along the side, increasing
+        # Seen from outside, u runs to the right on every side (the ring is counter-
+        # clockwise from +z): counter-clockwise = bottom left to right, then the top
+        # vertices from right to left. Counter-clockwise triangles face outwards.
+        poly = np.empty((len(chain) + 2, 2))
+        poly[0] = (0.0, zb)
+        poly[1] = (u[-1], zb)
+        poly[2:, 0] = u[::-1]
+        poly[2:, 1] = p[::-1, 2]
+        tri = np.asarray(manifold3d.triangulate([poly]), dtype=np.int64).reshape(-1, 3)
+        a, b, c = poly[tri[:, 0]], poly[tri[:, 1]], poly[tri[:, 2]]
+        area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+        x, y = poly[:, 0], poly[:, 1]
+        poly_area2 = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+        if len(tri) != len(poly) - 2 or not np.all(area2 > 0) or not np.isclose(area2.sum(), poly_area2, rtol=1e-9):
+            return None
+        ids = np.concatenate([np.array([n + k, n + (k + 1) % 4], dtype=np.uint32), chain[::-1]])
+        out.append(ids[tri])
+    return np.concatenate(out)
+
+
+def _ring_walls_slab(
+    top: np.ndarray, rows: int, cols: int, zb: np.float32, top_faces: np.ndarray, groups: dict
+) -> Mesh:
+    """A slab whose walls are quads from every boundary vertex down to a bottom ring at
+    ``z = zb`` mm, and whose bottom is the ring polygon (triangulated by manifold3d)."""
+    import manifold3d
+
+    n = rows * cols
+    ring = _ring(rows, cols)
+    p = len(ring)
+    verts = np.empty((n + p, 3), dtype=np.float32)
+    verts[:n] = top
+    verts[n:, :2] = top[ring, :2]
+    verts[n:, 2] = zb
+    bi = np.arange(n, n + p, dtype=np.uint32)
+    t0, t1 = ring, np.roll(ring, -1)
+    b0, b1 = bi, np.roll(bi, -1)
+    walls = np.concatenate([np.stack([t0, b0, b1], 1), np.stack([t0, b1, t1], 1)])
+    # The ring runs counter-clockwise seen from +z; the bottom faces -z, so reverse.
+    tri = np.asarray(manifold3d.triangulate([verts[n:, :2].astype(np.float64)]), dtype=np.uint32)
+    bottom = bi[tri[:, ::-1]]
+    return Mesh(verts, np.concatenate([top_faces, walls, bottom]), groups)
+
+
+def grid_solid(top: np.ndarray, bottom: np.ndarray, *, wrap_x: bool = False) -> Mesh:
+    """Close the space between two vertex grids into a watertight solid.
+
+    ``top`` is the textured surface and ``bottom`` the surface it stands on, pushed
+    into the base body; both are ``(R, C, 3)`` float arrays in mm with matching
+    ``(r, c)``. The grids must be oriented so that ``d(top)/dc x d(top)/dr`` (column
+    direction cross row direction) points out of the solid; flip the column order
+    if it points in. With ``wrap_x`` the
+    grids close on themselves in x (column ``C-1`` joins column 0 on shared
+    vertices: a seam gap of exactly zero) and only the two end rows get walls.
+
+    Returns:
+        Watertight :class:`Mesh`; faces of the top grid are the group ``"texture"``.
+    """
+    top = np.asarray(top, dtype=np.float32)
+    bottom = np.asarray(bottom, dtype=np.float32)
+    if top.shape != bottom.shape or top.ndim != 3 or top.shape[2] != 3:
+        raise ParameterError(f"top and bottom must both be (R, C, 3); got {top.shape} and {bottom.shape}")
+    rows, cols = top.shape[:2]
+    if rows < 2 or cols < 2:
+        raise GeometryError(f"a grid solid needs at least 2 x 2 vertices, got {rows} x {cols}")
+    n = rows * cols
+    verts = np.concatenate([top.reshape(-1, 3), bottom.reshape(-1, 3)])
+    ftop = grid_faces(rows, cols, wrap_x=wrap_x)
+    fbot = grid_faces(rows, cols, wrap_x=wrap_x, flip=True) + np.uint32(n)
+    idx = np.arange(n, dtype=np.uint32).reshape(rows, cols)
+    if wrap_x:
+        # End walls at y = first row and y = last row (closed loops).
+        # End walls at the first and last row, each a closed loop running the same
+        # way as the boundary ring of an open grid.
+        loops = [idx[0, :], idx[-1, ::-1]]
+    else:
+        loops = [_ring(rows, cols)]
+    walls = []
+    for loop in loops:
+        loop = np.concatenate([loop, loop[:1]])
+        t0, t1 = loop[:-1], loop[1:]
+        b0, b1 = t0 + np.uint32(n), t1 + np.uint32(n)
+        walls.append(np.stack([t0, b0, b1], 1))
+        walls.append(np.stack([t0, b1, t1], 1))
+    faces = np.concatenate([ftop, fbot, *walls])
+    return Mesh(verts, faces, {"texture": np.arange(len(ftop), dtype=np.uint32)})

@@ -1,0 +1,100 @@
+"""The one adapter between texcad and OCCT: build123d, CadQuery and OCP objects to
+``TopoDS_Shape``, sub-shape exploration and OCP vectors as numpy arrays.
+
+Every part of texcad that takes a CAD object goes through :func:`to_topods`, so a
+build123d ``Part``/``Solid``/``Face``/``ShapeList``, a ``BuildPart`` builder, a
+CadQuery ``Workplane`` (all the objects on its stack) or ``Shape``, a list of shapes
+and a raw ``TopoDS_Shape`` are read the same way everywhere.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError
+
+__all__ = ["to_topods", "explore", "solids_of", "faces_of", "as_array", "compound"]
+
+
+def compound(shapes: list):
+    """A ``TopoDS_Compound`` of OCP shapes (one ``Add`` per shape)."""
+    from OCP.BRep import BRep_Builder
+    from OCP.TopoDS import TopoDS_Compound
+
+    comp, builder = TopoDS_Compound(), BRep_Builder()
+    builder.MakeCompound(comp)
+    for s in shapes:  # one per shape
+        builder.Add(comp, s)
+    return comp
+
+
+def to_topods(obj: Any):
+    """The OCP ``TopoDS_Shape`` behind a build123d or CadQuery object.
+
+    A ``BuildPart`` gives its part; a CadQuery ``Workplane`` the shapes on its stack
+    (one shape itself, several as a compound); a list, tuple or ``ShapeList`` a
+    compound of its items.
+
+    Raises:
+        ParameterError: the object holds no shape.
+    """
+    from OCP.TopoDS import TopoDS_Shape
+
+    if isinstance(obj, TopoDS_Shape):
+        return obj
+    if hasattr(obj, "part") and type(obj).__name__ == "BuildPart":
+        obj = obj.part
+    vals = getattr(obj, "vals", None)
+    if callable(vals) and hasattr(obj, "objects"):  # CadQuery Workplane
+        items = [v.wrapped for v in vals() if isinstance(getattr(v, "wrapped", None), TopoDS_Shape)]
+        if not items:
+            raise ParameterError("the CadQuery Workplane holds no shape; end the chain with a solid, e.g. .box(...)")
+        return items[0] if len(items) == 1 else compound(items)
+    if isinstance(obj, (list, tuple)) or type(obj).__name__ == "ShapeList":
+        if not obj:
+            raise ParameterError("an empty list holds no shape; select at least one")
+        items = [to_topods(o) for o in obj]  # one per shape
+        return items[0] if len(items) == 1 else compound(items)
+    wrapped = getattr(obj, "wrapped", None)
+    if isinstance(wrapped, TopoDS_Shape):
+        return wrapped
+    raise ParameterError(
+        f"cannot use a {type(obj).__name__} as a CAD shape; pass a build123d Part/Solid/Face, "
+        "a CadQuery Workplane/Shape or an OCP TopoDS_Shape"
+    )
+
+
+def explore(shape, kind) -> list:
+    """The sub-shapes of ``kind`` (``TopAbs_FACE``, ``TopAbs_EDGE``...) of an OCP shape,
+    in OCCT's order (shared sub-shapes once per use)."""
+    from OCP.TopExp import TopExp_Explorer
+
+    out = []
+    exp = TopExp_Explorer(shape, kind)
+    while exp.More():  # one per sub-shape (faces, edges, solids), never per vertex
+        out.append(exp.Current())
+        exp.Next()
+    return out
+
+
+def solids_of(shape: Any) -> list:
+    """The ``TopoDS_Solid`` objects in a shape."""
+    from OCP.TopAbs import TopAbs_SOLID
+    from OCP.TopoDS import TopoDS
+
+    return [TopoDS.Solid_s(s) for s in explore(to_topods(shape), TopAbs_SOLID)]
+
+
+def faces_of(shape: Any) -> list:
+    """The ``TopoDS_Face`` objects in a shape."""
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+
+    return [TopoDS.Face_s(s) for s in explore(to_topods(shape), TopAbs_FACE)]
+
+
+def as_array(v) -> np.ndarray:
+    """An OCP ``gp_Pnt``/``gp_Dir``/``gp_Vec``/``gp_XYZ`` as a ``(3,)`` float64 array."""
+    return np.array(v.Coord(), dtype=np.float64)

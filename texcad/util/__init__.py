@@ -1,0 +1,36 @@
+"""Shared plumbing for every stage: atomic file writes, parameter checks, memory
+estimates before big allocations, progress reporting.
+"""
+
+
+from .atomic import (
+    atomic_path,
+)
+from .checks import (
+    positive,
+)
+from .progress import (
+    Progress,
+    StageReporter,
+    report,
+    subrange,
+)
+from .resources import (
+    available_memory,
+    require_memory,
+)
+from .vectors import (
+    parse_vector,
+)
+
+__all__ = [
+    'atomic_path',
+    'positive',
+    'Progress',
+    'StageReporter',
+    'report',
+    'subrange',
+    'available_memory',
+    'require_memory',
+    'parse_vector',
+]
