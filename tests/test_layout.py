@@ -4,6 +4,7 @@ cycles between them and no private names used across them (read with ``ast``).""
 from __future__ import annotations
 
 import ast
+import importlib
 import subprocess
 import sys
 from pathlib import Path
@@ -151,3 +152,15 @@ def test_import_is_light():
     code = "import sys, texcad; print(sorted(m for m in ('build123d', 'OCP', 'cadquery') if m in sys.modules))"
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert r.stdout.strip() == "[]"
+
+
+def test_api_reference_builds_with_a_chapter_per_stage(tmp_path):
+    pytest.importorskip("pdoc")
+    r = subprocess.run([sys.executable, str(ROOT.parent / "docs" / "make_api.py"), str(tmp_path)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr[-2000:]
+    for stage in ("sources", "synthesis", "printability", "mapping", "solid", "io", "render", "report", "pipeline"):
+        page = (tmp_path / "texcad" / f"{stage}.html").read_text()
+        first = importlib.import_module(f"texcad.{stage}").__doc__.split("\n")[0].split(":")[0]
+        assert first.split()[0] in page
+    top = (tmp_path / "texcad.html").read_text()
+    assert "One verb and one result" in top and 'id="texture"' in top and 'id="Textured"' in top
