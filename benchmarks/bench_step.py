@@ -24,7 +24,6 @@ from pathlib import Path
 
 import texcad
 from texcad.solid import brep
-import texcad
 
 
 def run_plate(pixels: int, out: Path) -> dict[str, float]:

@@ -6,6 +6,7 @@ import trimesh
 import texcad
 
 from texcad.cli import main
+from conftest import assert_heightmap_picture, assert_picture
 
 
 def test_textures_lists_names_first(capsys):
@@ -18,13 +19,17 @@ def test_textures_lists_names_first(capsys):
 def test_demo_grows_a_sample_and_writes_files(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path), "--size", "20", "--pitch", "0.5"]) == 0
     out = capsys.readouterr()
-    for f in ("demo.stl", "demo.3mf", "demo.step", "demo.png", "demo_heightmap.png", "demo_sample.png"):
-        assert (tmp_path / f).stat().st_size > 0
+    assert_picture(tmp_path / "demo.png")
+    for f in ("demo_heightmap.png", "demo_sample.png"):
+        assert_heightmap_picture(tmp_path / f)
+    (_, m3), = texcad.io.read_part(tmp_path / "demo.3mf")
+    assert m3.is_watertight
     assert "watertight   True" in out.out and "triangles" in out.out and "seconds" in out.out
     assert "synthesized  40 x 40 px" in out.out  # grown from the 20 mm (40 px) sample
     assert "%]" in out.err  # progress lines
     stl = trimesh.load(tmp_path / "demo.stl")
     assert stl.is_watertight and stl.body_count == 1
+    assert abs(m3.volume - stl.volume) < 1e-6 * stl.volume
     step = texcad.load_mesh(tmp_path / "demo.step")
     assert abs(step.volume - stl.volume) < 1e-3 * stl.volume
 
@@ -74,7 +79,8 @@ def test_scan_command_turns_points_into_png(tmp_path, capsys):
 
 def test_textures_contact_sheet(tmp_path, capsys):
     assert main(["textures", "--sheet", str(tmp_path / "sheet.png")]) == 0
-    assert (tmp_path / "sheet.png").stat().st_size > 1000
+    img = assert_picture(tmp_path / "sheet.png", min_part=0.3)
+    assert img.shape[1] > 5 * 200  # five columns of 200 px pictures
 
 
 def test_make_and_texture_take_a_build_direction(tmp_path, capsys):

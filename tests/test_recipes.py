@@ -11,6 +11,7 @@ import trimesh
 
 from texcad.solid import brep
 import texcad.io
+from conftest import assert_heightmap_picture, assert_picture
 
 RECIPES = Path(__file__).resolve().parent.parent / "recipes"
 
@@ -27,7 +28,11 @@ def test_flat_plate(tmp_path):
     stl = trimesh.load(tmp_path / "flat_plate.stl")
     assert stl.is_watertight
     assert stl.bounds[1][2] == pytest.approx(2.0, abs=1e-3)
-    assert (tmp_path / "flat_plate.3mf").exists() and (tmp_path / "flat_plate.png").exists()
+    (_, m3), = texcad.io.read_part(tmp_path / "flat_plate.3mf")
+    assert m3.is_watertight and m3.volume == pytest.approx(stl.volume, rel=1e-6)
+    assert stl.volume > 100 * 100 * 5 + 0.2 * 100 * 100  # the plate plus a real relief
+    assert_heightmap_picture(tmp_path / "flat_plate.png")  # the heightmap fills it
+    assert_picture(tmp_path / "flat_plate_part.png")
 
 
 def check_step(path: Path, mesh_volume: float) -> None:
@@ -44,7 +49,7 @@ def test_handle_flange(tmp_path):
     assert stl.is_watertight
     check_step(tmp_path / "handle_flange.step", stl.volume)
     assert trimesh.load(tmp_path / "handle_flange.3mf").units == "millimeter"
-    assert (tmp_path / "handle_flange.png").stat().st_size > 1000
+    assert_picture(tmp_path / "handle_flange.png")
 
 
 def test_sledgehammer(tmp_path):
@@ -64,7 +69,7 @@ def test_sledgehammer(tmp_path):
     assert fig["halves_volume_mm3"] == pytest.approx(stl.volume, rel=1e-3)
     check_step(tmp_path / "sledgehammer.step", stl.volume)
     for name in ("sledgehammer.png", "sledgehammer_halves.png", "sledgehammer_halves_distance.png"):
-        assert (tmp_path / name).stat().st_size > 1000
+        assert_picture(tmp_path / name)
 
 
 def test_heat_sink(tmp_path):
@@ -86,6 +91,6 @@ def test_gallery_collects_the_renders(tmp_path):
         timeout=600,
     )
     assert r.returncode == 0, r.stderr
-    assert (tmp_path / "flat_plate.png").stat().st_size > 1000
+    assert_heightmap_picture(tmp_path / "flat_plate.png")
     bad = subprocess.run([sys.executable, str(RECIPES / "gallery.py"), "nope"], capture_output=True, text=True)
     assert bad.returncode != 0 and "unknown recipe" in bad.stderr

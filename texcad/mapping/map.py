@@ -77,7 +77,6 @@ from __future__ import annotations
 import os
 import warnings
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -87,7 +86,7 @@ from ..errors import GeometryError, ParameterError, TexcadWarning
 from ..sources import Heightmap
 from ..solid import Mesh
 from ..util import Progress, report
-from .surface import Profile, Surface
+from .surface import Profile
 
 __all__ = [
     "MAPPINGS",

@@ -57,14 +57,13 @@ on curved faces when you need STEP. Planar faces need no boolean and stay fast.
 from __future__ import annotations
 
 import os
-from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import numpy as np
 
 from ..solid import brep as _brep
 from ..solid import as_array, explore, solids_of, to_topods
-from ..errors import GeometryError, InputError, ParameterError
+from ..errors import GeometryError, ParameterError
 from ..sources import Heightmap
 from ..solid import Mesh, heightfield_slab
 from ..util import Progress, report, subrange

@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..errors import GeometryError, ParameterError
-from ..solid import Mesh, check_shape, from_manifold, shape_to_mesh, solids_of, to_manifold, to_topods, volume
+from ..solid import Mesh, check_shape, from_manifold, shape_to_mesh, to_manifold, to_topods, volume
 
 __all__ = ["cad_op", "OPS", "OP_VOLUME_TOLERANCE"]
 

@@ -34,12 +34,11 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
-from ..errors import InputError, ParameterError
+from ..errors import ParameterError
 from ..sources import Heightmap
 from ..io import read_part
 from ..solid import Mesh, edge_report

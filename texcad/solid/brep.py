@@ -42,15 +42,12 @@ its adaptive variant, which follows the knots.
 from __future__ import annotations
 
 import io
-import os
-import re
 from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
-from ..util import atomic_path
 from ..util import require_memory
-from ..errors import GeometryError, InputError, ParameterError
+from ..errors import GeometryError, ParameterError
 from .occt import as_array, explore, solids_of, to_topods
 
 if TYPE_CHECKING:
