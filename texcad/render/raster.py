@@ -99,8 +99,28 @@ def rasterize(
     f = np.asarray(faces, dtype=np.int64)
     if len(f) == 0:
         return zbuf.reshape(H, W), fbuf.reshape(H, W)
-    xy = np.asarray(xy, dtype=np.float64)
     z = np.asarray(depth, dtype=np.float64)
+    f, edges, box, keep = _edge_functions(np.asarray(xy, dtype=np.float64), f, W, H, cull)
+    i0, i1, j0, j1 = box
+    ny = np.where(keep, np.maximum(j1 - j0 + 1, 0), 0)
+    ids = np.flatnonzero(ny * (i1 >= i0))
+    if len(ids) == 0:
+        return zbuf.reshape(H, W), fbuf.reshape(H, W)
+    fr, row, c0, count = _spans(ids, ny[ids], edges, box)
+    zabc = (z[f[:, 0]], z[f[:, 1]], z[f[:, 2]])
+    _draw_spans(zbuf, fbuf, W, fr, row, c0, count, edges, zabc, chunk)
+    return zbuf.reshape(H, W), fbuf.reshape(H, W)
+
+
+#: Edge-function slack: pixel centres on an edge belong to both triangles (no gaps).
+_EPS = -1e-7
+
+
+def _edge_functions(xy: np.ndarray, f: np.ndarray, W: int, H: int, cull: bool):
+    """Per face: the normalised edge functions ``w1 = A1 x + B1 y + C1`` (weight of
+    vertex b) and ``w2`` (of c), ``w0 = 1 - w1 - w2``; its pixel bounding box; and
+    which faces are drawn (counter-clockwise, or all with ``cull=False``, whose
+    clockwise faces are flipped)."""
     a, b, c = xy[f[:, 0]], xy[f[:, 1]], xy[f[:, 2]]
     area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
     keep = area2 > 0 if cull else area2 != 0
@@ -117,23 +137,21 @@ def rasterize(
     i1 = np.minimum(np.floor(hi[:, 0] - 0.5), W - 1).astype(np.int64)
     j0 = np.maximum(np.ceil(lo[:, 1] - 0.5), 0).astype(np.int64)
     j1 = np.minimum(np.floor(hi[:, 1] - 0.5), H - 1).astype(np.int64)
-    ny = np.where(keep, np.maximum(j1 - j0 + 1, 0), 0)
-    ids = np.flatnonzero(ny * (i1 >= i0))
-    if len(ids) == 0:
-        return zbuf.reshape(H, W), fbuf.reshape(H, W)
-    # Per-face edge functions, normalised: w1 = (A1 x + B1 y + C1), likewise w2;
-    # w0 = 1 - w1 - w2. Depth is interpolated with the same weights.
     inv = np.divide(1.0, area2, out=np.zeros_like(area2), where=area2 != 0)  # degenerate: never drawn
     A1, B1 = (c[:, 1] - a[:, 1]) * inv, (a[:, 0] - c[:, 0]) * inv  # weight of b: area(a, p, c)
     C1 = -(A1 * a[:, 0] + B1 * a[:, 1])
     A2, B2 = (a[:, 1] - b[:, 1]) * inv, (b[:, 0] - a[:, 0]) * inv  # weight of c: area(a, b, p)
     C2 = -(A2 * a[:, 0] + B2 * a[:, 1])
-    za, zb, zc = z[f[:, 0]], z[f[:, 1]], z[f[:, 2]]
-    eps = -1e-7
-    # Scan-line spans: one (face, pixel row) pair per row of each face's bounding box,
-    # with the exact column range where all three edge functions are >= eps, so that
-    # large triangles cost their area, not their bounding box.
-    rows_per = ny[ids]
+    return f, (A1, B1, C1, A2, B2, C2), (i0, i1, j0, j1), keep
+
+
+def _spans(ids: np.ndarray, rows_per: np.ndarray, edges, box):
+    """Scan-line spans: one (face, pixel row) pair per row of each face's bounding
+    box, with the column range where all three edge functions are >= eps (widened by
+    a pixel for rounding; the exact test decides), so that large triangles cost their
+    area, not their bounding box. Returns ``(face, row, first column, count)``."""
+    A1, B1, C1, A2, B2, C2 = edges
+    i0, i1, j0, _ = box
     fr = np.repeat(ids, rows_per)
     first = np.concatenate([[0], np.cumsum(rows_per)[:-1]])
     row = j0[fr] + np.arange(len(fr), dtype=np.int64) - np.repeat(first, rows_per)
@@ -146,22 +164,27 @@ def rasterize(
         (-(A1[fr] + A2[fr]), 1.0 - (B1[fr] + B2[fr]) * y - C1[fr] - C2[fr]),
     ):  # A x + rest >= eps
         with np.errstate(divide="ignore", invalid="ignore"):
-            bound = (eps - rest) / A
+            bound = (_EPS - rest) / A
         xl = np.where(A > 0, np.maximum(xl, bound), xl)
         xr = np.where(A < 0, np.minimum(xr, bound), xr)
-        xr = np.where((A == 0) & (rest < eps), -np.inf, xr)
-    # Widen by one pixel each side for rounding; the exact test below decides.
+        xr = np.where((A == 0) & (rest < _EPS), -np.inf, xr)
     c0 = np.maximum(np.ceil(xl - 0.5) - 1, i0[fr]).astype(np.int64)
     c1 = np.minimum(np.floor(xr - 0.5) + 1, i1[fr]).astype(np.int64)
     count = np.maximum(c1 - c0 + 1, 0)
     span = np.flatnonzero(count)
-    fr, row, c0, count = fr[span], row[span], c0[span], count[span]
+    return fr[span], row[span], c0[span], count[span]
+
+
+def _draw_spans(zbuf, fbuf, W: int, fr, row, c0, count, edges, zabc, chunk: int) -> None:
+    """Test every pixel of the spans (``chunk`` pixels at a time) and keep the
+    nearest depth per pixel (``np.maximum.at``); ties go to the last face in order."""
+    A1, B1, C1, A2, B2, C2 = edges
+    za, zb, zc = zabc
     csum = np.cumsum(count)
     start = 0
-    while start < len(fr):
+    while start < len(fr):  # per chunk of pixels
         base = csum[start - 1] if start else 0
-        stop = int(np.searchsorted(csum, base + chunk, side="right"))
-        stop = max(stop, start + 1)
+        stop = max(int(np.searchsorted(csum, base + chunk, side="right")), start + 1)
         cnt = count[start:stop]
         first = np.concatenate([[0], np.cumsum(cnt)[:-1]])
         local = np.arange(int(cnt.sum()), dtype=np.int64) - np.repeat(first, cnt)
@@ -171,7 +194,7 @@ def rasterize(
         px, py = ix + 0.5, iy + 0.5
         w1 = A1[fi] * px + B1[fi] * py + C1[fi]
         w2 = A2[fi] * px + B2[fi] * py + C2[fi]
-        inside = (w1 >= eps) & (w2 >= eps) & (w1 + w2 <= 1.0 - eps)
+        inside = (w1 >= _EPS) & (w2 >= _EPS) & (w1 + w2 <= 1.0 - _EPS)
         if inside.any():
             fi, w1, w2 = fi[inside], w1[inside], w2[inside]
             pix = iy[inside] * W + ix[inside]
@@ -180,7 +203,6 @@ def rasterize(
             won = zz == zbuf[pix]
             fbuf[pix[won]] = fi[won]  # ties: the last face in order, deterministic
         start = stop
-    return zbuf.reshape(H, W), fbuf.reshape(H, W)
 
 
 def _fit(points2: np.ndarray, width: int, height: int | None, margin: float):

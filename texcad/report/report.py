@@ -430,39 +430,11 @@ def check(
     # shared by exactly two faces, opposite ways): those are watertight; the others
     # are counted edge by edge.
     water = [ok or bool(edge_report(m.faces)["watertight"]) for ok, (_, m) in zip(manif, items)]
-    texture_mask: np.ndarray | None = None
     if textured_part:
         mesh = items[0][1]
         texture_mask = _texture_faces(mesh, part.texture_mesh, part.base_mesh)
-    elif len(items) == 1:
-        mesh = items[0][1]
-        if "texture" in mesh.groups:
-            texture_mask = np.zeros(mesh.num_triangles, dtype=bool)
-            texture_mask[np.asarray(mesh.groups["texture"], dtype=np.int64)] = True
-        elif _is_texture(items[0][0]):
-            texture_mask = np.ones(mesh.num_triangles, dtype=bool)
     else:
-        mesh, owner = (None, None)
-        if all(manif):
-            mesh, owner = _union_with_provenance(mans, ids)
-        if mesh is None:
-            notes.append("objects could not be united; whole-part numbers are for the objects side by side")
-            mesh = Mesh(
-                np.concatenate([m.vertices for _, m in items]),
-                np.concatenate([m.faces.astype(np.int64) + off for (_, m), off in zip(items, np.cumsum([0] + [len(m.vertices) for _, m in items[:-1]]))]),
-            )
-            owner = np.repeat(np.arange(len(items)), [m.num_triangles for _, m in items])
-        tex_objects = [k for k, (n, _) in enumerate(items) if _is_texture(n)]
-        if tex_objects:
-            texture_mask = np.isin(owner, tex_objects)
-            others = [m for k, (_, m) in enumerate(items) if k not in tex_objects]
-            if others and texture_mask.any():
-                # Where the slab's buried walls (or zero-height areas) coincide with the
-                # base's own surface, the union attributes the coplanar faces to either
-                # object; they belong to the base (e.g. its end walls), not the texture.
-                idx = np.flatnonzero(texture_mask)
-                cen = mesh.vertices[mesh.faces[idx]].astype(np.float64).mean(axis=1)
-                texture_mask[idx[_on_surface(cen, others)]] = False
+        mesh, texture_mask = _mesh_and_texture(items, mans, ids, manif, notes)
     if texture_mask is None:
         notes.append("the input does not say which faces are texture (use a texcad 3MF with a 'texture' object); whole-part numbers only")
     over = overhang_mask(mesh, d, crit, plate_tolerance=plate_tolerance)
@@ -494,6 +466,42 @@ def check(
         render_check(mesh, d, over, texture_mask, png, width=png_width)
         rep.png = os.fspath(png)
     return rep
+
+
+def _mesh_and_texture(items, mans, ids, manif, notes: list[str]) -> tuple[Mesh, np.ndarray | None]:
+    """The whole part as one mesh (several objects united with manifold3d, which
+    records each output face's object) and its texture faces (or None: unknown)."""
+    if len(items) == 1:
+        mesh = items[0][1]
+        if "texture" in mesh.groups:
+            mask = np.zeros(mesh.num_triangles, dtype=bool)
+            mask[np.asarray(mesh.groups["texture"], dtype=np.int64)] = True
+            return mesh, mask
+        return mesh, (np.ones(mesh.num_triangles, dtype=bool) if _is_texture(items[0][0]) else None)
+    mesh, owner = (None, None)
+    if all(manif):
+        mesh, owner = _union_with_provenance(mans, ids)
+    if mesh is None:
+        notes.append("objects could not be united; whole-part numbers are for the objects side by side")
+        offsets = np.cumsum([0] + [len(m.vertices) for _, m in items[:-1]])
+        mesh = Mesh(
+            np.concatenate([m.vertices for _, m in items]),
+            np.concatenate([m.faces.astype(np.int64) + off for (_, m), off in zip(items, offsets)]),
+        )
+        owner = np.repeat(np.arange(len(items)), [m.num_triangles for _, m in items])
+    tex_objects = [k for k, (n, _) in enumerate(items) if _is_texture(n)]
+    if not tex_objects:
+        return mesh, None
+    mask = np.isin(owner, tex_objects)
+    others = [m for k, (_, m) in enumerate(items) if k not in tex_objects]
+    if others and mask.any():
+        # Where the slab's buried walls (or zero-height areas) coincide with the base's
+        # own surface, the union attributes the coplanar faces to either object; they
+        # belong to the base (e.g. its end walls), not the texture.
+        idx = np.flatnonzero(mask)
+        cen = mesh.vertices[mesh.faces[idx]].astype(np.float64).mean(axis=1)
+        mask[idx[_on_surface(cen, others)]] = False
+    return mesh, mask
 
 
 def _thin(mesh: Mesh, texture_mask, heightmap, nozzle: float, notes: list[str]) -> ThinFeatures | None:

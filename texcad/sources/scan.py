@@ -660,9 +660,52 @@ def scan_to_heightmap(
         ResourceError: the grid would not fit in memory.
     """
     pitch = positive("pitch", pitch)
+    form_degree, k_out = _check_options(form_degree, outlier_sigma, base_percentile, min_coverage)
+    data = _as_scan(scan)
+    pts = _usable_points(data)
+    # Step 2: level.
+    origin, axes, tilt = _level(pts.fit, form_degree, seed, data.source)
+    L = (pts.P - origin) @ axes.T  # (x, y, h) in the plane frame, mm
+    grid = _grid(L[pts.used_v] if pts.is_mesh else L, pitch, data.source)
+    require_memory(grid.rows * grid.cols * 8.0 * 12 + len(L) * 8.0 * 12, f"a {grid.rows} x {grid.cols} px scan grid", "use a larger pitch")
+    # Step 3: bin (points) or rasterize (mesh); step 4: remove the form.
+    G, ref, n_out = _bin(L, pts, grid, k_out)
+    if form_degree >= 2:
+        G, ref = _remove_form(G, ref, grid, form_degree)
+    # Step 5: crop; step 6: fill.
+    (r0, r1, c0, c1), coverage = _crop(G, ref, grid, crop, fill_holes, min_coverage)
+    F = _fill(G[r0:r1, c0:c1])
+    noise, used = _noise(F, ref, grid, r0, r1, c0, c1)
+    # Step 7: base.
+    base = float(np.percentile(F, base_percentile))
+    hm = Heightmap(np.clip(F - base, 0.0, None).astype(np.float32), (pitch, pitch))
+    x0, y0 = grid.u0 + c0 * pitch, grid.v0 + r0 * pitch
+    corner = origin + x0 * axes[0] + y0 * axes[1] + base * axes[2]
+    report = ScanReport(
+        source=data.source,
+        kind=data.kind,
+        points_read=pts.n_read,
+        points_used=used if not pts.is_mesh else int(len(pts.used_v)),
+        nonfinite_dropped=pts.nonfinite,
+        outliers_dropped=n_out,
+        plane_tilt=tilt,
+        form_degree=form_degree,
+        coverage=coverage,
+        noise_rms=noise,
+        crop_box=(x0, y0, grid.u0 + c1 * pitch, grid.v0 + r1 * pitch),
+        shape=hm.shape,
+        pitch=pitch,
+        max_height=hm.max_height,
+        base_offset=base,
+        origin=tuple(float(v) for v in corner),  # type: ignore[arg-type]
+        axes=tuple(tuple(float(v) for v in a) for a in axes),
+    )
+    return hm, report
+
+
+def _check_options(form_degree: Any, outlier_sigma: Any, base_percentile: Any, min_coverage: Any) -> tuple[int, float]:
     if isinstance(form_degree, bool) or not isinstance(form_degree, (int, np.integer)) or not 0 <= form_degree <= 6:
         raise ParameterError(f"form_degree must be a whole number from 0 to 6, got {form_degree!r}")
-    form_degree = int(form_degree)
     try:
         k_out = float(outlier_sigma)
     except (TypeError, ValueError):
@@ -673,15 +716,35 @@ def scan_to_heightmap(
         raise ParameterError(f"base_percentile must be a number from 0 to 50, got {base_percentile!r}")
     if not (isinstance(min_coverage, (int, float)) and 0.0 < min_coverage <= 1.0):
         raise ParameterError(f"min_coverage must be a fraction in (0, 1], got {min_coverage!r}")
+    return int(form_degree), k_out
 
-    data = _as_scan(scan)
+
+@dataclass(frozen=True)
+class _Points:
+    """Step 1's result: the scan's points (``P``, mm; all of them for a mesh, the
+    finite ones for a cloud), the ones the plane is fitted to, and for a mesh its
+    usable faces, used vertices and whether it is closed."""
+
+    P: np.ndarray
+    fit: np.ndarray
+    faces: np.ndarray | None
+    used_v: np.ndarray | None
+    closed: bool
+    n_read: int
+    nonfinite: int
+
+    @property
+    def is_mesh(self) -> bool:
+        return self.faces is not None
+
+
+def _usable_points(data: "ScanData") -> _Points:
     P = np.asarray(data.points, dtype=np.float64)
     n_read = len(P)
     finite = np.isfinite(P).all(axis=1)
     nonfinite = int(n_read - np.count_nonzero(finite))
-    faces = data.faces
-    is_mesh = faces is not None
-    if is_mesh:
+    faces, used_v, closed = data.faces, None, False
+    if faces is not None:
         if faces.size and (faces.min() < 0 or faces.max() >= n_read):
             raise InputError(f"mesh {data.source!r} has faces indexing missing vertices; repair it and export again")
         faces = faces[finite[faces].all(axis=1)]
@@ -707,131 +770,121 @@ def scan_to_heightmap(
         fit_pts = P
     if len(fit_pts) < 3:
         raise InputError(f"scan {data.source!r} has {len(fit_pts)} usable points; a surface needs many more")
+    return _Points(P, fit_pts, faces, used_v, closed, n_read, nonfinite)
 
-    # Step 2: level.
+
+def _level(fit_pts: np.ndarray, form_degree: int, seed: int, source: str) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(origin, axes (3, 3), tilt degrees)`` of the plane frame (step 2)."""
     if form_degree >= 1:
         origin, normal = fit_plane(fit_pts, seed=seed)
-        axes = _frame(normal)
-        tilt = float(np.degrees(np.arccos(np.clip(normal[2], -1.0, 1.0))))
-    else:
-        if len(np.unique(fit_pts, axis=0)) < 3:  # still reject degenerate input
-            raise InputError(f"scan {data.source!r} has fewer than 3 distinct points; there is no surface to read")
-        origin, axes, tilt = np.zeros(3), np.eye(3), 0.0
-    L = (P - origin) @ axes.T  # (x, y, h) in the plane frame, mm
-    ext = L[used_v] if is_mesh else L
+        return origin, _frame(normal), float(np.degrees(np.arccos(np.clip(normal[2], -1.0, 1.0))))
+    if len(np.unique(fit_pts, axis=0)) < 3:  # still reject degenerate input
+        raise InputError(f"scan {source!r} has fewer than 3 distinct points; there is no surface to read")
+    return np.zeros(3), np.eye(3), 0.0
+
+
+@dataclass(frozen=True)
+class _Grid:
+    """The pixel grid in the plane frame: corner ``(u0, v0)`` mm, ``pitch``, shape,
+    and the scan's extent ``width x depth`` mm."""
+
+    u0: float
+    v0: float
+    pitch: float
+    rows: int
+    cols: int
+    width: float
+    depth: float
+
+
+def _grid(ext: np.ndarray, pitch: float, source: str) -> _Grid:
     umin, vmin = float(ext[:, 0].min()), float(ext[:, 1].min())
     width, depth = float(ext[:, 0].max()) - umin, float(ext[:, 1].max()) - vmin
     cols, rows = int(np.floor(width / pitch + 1e-3)) + 1, int(np.floor(depth / pitch + 1e-3)) + 1
+    if rows < 2 or cols < 2:
+        raise InputError(
+            f"scan {source!r} spans only {width:.4g} x {depth:.4g} mm, less than 2 x 2 pixels at pitch {pitch:g} mm; "
+            "use a smaller pitch"
+        )
     # Centre the grid on the scan: it overhangs by at most half a pixel per side, and
     # every pixel centre lies within the scan's extent.
     u0 = umin - (cols * pitch - width) / 2
     v0 = vmin - (rows * pitch - depth) / 2
-    if rows < 2 or cols < 2:
-        raise InputError(
-            f"scan {data.source!r} spans only {width:.4g} x {depth:.4g} mm, less than 2 x 2 pixels at pitch {pitch:g} mm; "
-            "use a smaller pitch"
-        )
-    require_memory(rows * cols * 8.0 * 12 + len(L) * 8.0 * 12, f"a {rows} x {cols} px scan grid", "use a larger pitch")
+    return _Grid(u0, v0, pitch, rows, cols, width, depth)
 
-    # Step 3: bin (points) or rasterize (mesh).
-    if is_mesh:
-        G = _rasterize_top(L, faces, u0, v0, pitch, (rows, cols))
-        ref = L[used_v]
-        if closed:  # the top surface's vertices, not the sides' and bottom's
-            T = L[faces]
+
+def _bin(L: np.ndarray, pts: _Points, g: _Grid, k_out: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """Step 3: ``(G (rows, cols) heights with NaN where no data, reference points,
+    outliers dropped)``."""
+    if pts.is_mesh:
+        G = _rasterize_top(L, pts.faces, g.u0, g.v0, g.pitch, (g.rows, g.cols))
+        ref = L[pts.used_v]
+        if pts.closed:  # the top surface's vertices, not the sides' and bottom's
+            T = L[pts.faces]
             up = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])[:, 2] > 0
-            ref = L[np.unique(faces[up])]
-        n_out = 0
-    else:
-        col = np.clip(((L[:, 0] - u0) / pitch).astype(np.int64), 0, cols - 1)
-        row = np.clip(((L[:, 1] - v0) / pitch).astype(np.int64), 0, rows - 1)
-        cell = row * cols + col
-        keep = _reject_outliers(cell, L[:, 2], (rows, cols), k_out) if np.isfinite(k_out) else np.ones(len(L), bool)
-        n_out = int(len(L) - np.count_nonzero(keep))
-        med, _ = _cell_medians(cell[keep], L[keep, 2], rows * cols)
-        G = med.reshape(rows, cols)
-        ref = L[keep]
+            ref = L[np.unique(pts.faces[up])]
+        return G, ref, 0
+    col = np.clip(((L[:, 0] - g.u0) / g.pitch).astype(np.int64), 0, g.cols - 1)
+    row = np.clip(((L[:, 1] - g.v0) / g.pitch).astype(np.int64), 0, g.rows - 1)
+    cell = row * g.cols + col
+    keep = _reject_outliers(cell, L[:, 2], (g.rows, g.cols), k_out) if np.isfinite(k_out) else np.ones(len(L), bool)
+    med, _ = _cell_medians(cell[keep], L[keep, 2], g.rows * g.cols)
+    return med.reshape(g.rows, g.cols), L[keep], int(len(L) - np.count_nonzero(keep))
 
-    # Step 4: form.
-    if form_degree >= 2:
-        coef, form = _fit_form(G, form_degree)
-        G = G - form
-        # Grid x spans pixel centres 0..cols-1 -> [-1, 1]; map point positions alike.
-        fx = ((ref[:, 0] - u0) / pitch - 0.5) / max(cols - 1, 1) * 2 - 1
-        fy = ((ref[:, 1] - v0) / pitch - 0.5) / max(rows - 1, 1) * 2 - 1
-        ref = np.column_stack([ref[:, 0], ref[:, 1], ref[:, 2] - _poly_design(fx, fy, form_degree) @ coef])
 
-    # Step 5: crop.
+def _remove_form(G: np.ndarray, ref: np.ndarray, g: _Grid, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """Step 4: subtract the robust polynomial form from the grid and the points."""
+    coef, form = _fit_form(G, degree)
+    # Grid x spans pixel centres 0..cols-1 -> [-1, 1]; map point positions alike.
+    fx = ((ref[:, 0] - g.u0) / g.pitch - 0.5) / max(g.cols - 1, 1) * 2 - 1
+    fy = ((ref[:, 1] - g.v0) / g.pitch - 0.5) / max(g.rows - 1, 1) * 2 - 1
+    return G - form, np.column_stack([ref[:, 0], ref[:, 1], ref[:, 2] - _poly_design(fx, fy, degree) @ coef])
+
+
+def _crop(G: np.ndarray, ref: np.ndarray, g: _Grid, crop: bool, fill_holes: bool, min_coverage: float):
+    """Step 5: ``((r0, r1, c0, c1), coverage)`` of the largest covered rectangle."""
     from scipy import ndimage
 
     have = np.isfinite(G)
     if not have.any():
-        raise InputError(f"no pixel of the {rows} x {cols} grid at pitch {pitch:g} mm received scan data; use a larger pitch")
+        raise InputError(f"no pixel of the {g.rows} x {g.cols} grid at pitch {g.pitch:g} mm received scan data; use a larger pitch")
     pad = 3
     closed_mask = ndimage.binary_closing(np.pad(have, pad), structure=np.ones((3, 3), bool), iterations=2)[pad:-pad, pad:-pad] | have
     if fill_holes:
         closed_mask = ndimage.binary_fill_holes(closed_mask)
-    if crop:
-        box = largest_rectangle(closed_mask)
-        assert box is not None
-        r0, r1, c0, c1 = box
-    else:
-        r0, r1, c0, c1 = 0, rows, 0, cols
-    area_mm2 = max(width * depth, pitch * pitch)
-    density = len(ref) / area_mm2
-    suggest = max(pitch * 1.5, float(np.sqrt(2.0 / max(density, 1e-300))))
+    box = largest_rectangle(closed_mask) if crop else (0, g.rows, 0, g.cols)
+    if box is None:  # pragma: no cover - have.any() above
+        raise InputError(f"no covered rectangle in the scan at pitch {g.pitch:g} mm; use a larger pitch")
+    r0, r1, c0, c1 = box
+    density = len(ref) / max(g.width * g.depth, g.pitch * g.pitch)
+    suggest = max(g.pitch * 1.5, float(np.sqrt(2.0 / max(density, 1e-300))))
     if r1 - r0 < 2 or c1 - c0 < 2:
         raise InputError(
-            f"the scan's {len(ref)} points are too sparse for pitch {pitch:g} mm: the largest covered rectangle is only "
+            f"the scan's {len(ref)} points are too sparse for pitch {g.pitch:g} mm: the largest covered rectangle is only "
             f"{c1 - c0} x {r1 - r0} px; use pitch >= {suggest:.3g} mm"
         )
     sub = G[r0:r1, c0:c1]
     coverage = float(np.count_nonzero(np.isfinite(sub))) / sub.size
     if coverage < min_coverage:
         raise InputError(
-            f"only {100 * coverage:.1f} % of the {r1 - r0} x {c1 - c0} px at pitch {pitch:g} mm hold scan data "
+            f"only {100 * coverage:.1f} % of the {r1 - r0} x {c1 - c0} px at pitch {g.pitch:g} mm hold scan data "
             f"(need {100 * min_coverage:.0f} %): {len(ref)} points are fewer than this grid needs; "
             f"use pitch >= {suggest:.3g} mm"
         )
+    return (r0, r1, c0, c1), coverage
 
-    # Step 6: fill.
-    F = _fill(sub)
 
-    # Noise: used points inside the crop about the (bilinear) heightmap.
-    cx = (ref[:, 0] - u0) / pitch - 0.5 - c0
-    cy = (ref[:, 1] - v0) / pitch - 0.5 - r0
+def _noise(F: np.ndarray, ref: np.ndarray, g: _Grid, r0: int, r1: int, c0: int, c1: int) -> tuple[float, int]:
+    """RMS of the used points inside the crop about the (bilinear) heightmap, mm, and
+    how many points that is."""
+    from scipy import ndimage
+
+    cx = (ref[:, 0] - g.u0) / g.pitch - 0.5 - c0
+    cy = (ref[:, 1] - g.v0) / g.pitch - 0.5 - r0
     inside = (cx >= -0.5) & (cx <= c1 - c0 - 0.5) & (cy >= -0.5) & (cy <= r1 - r0 - 0.5)
-    if inside.any():
-        at = ndimage.map_coordinates(F, [cy[inside], cx[inside]], order=1, mode="nearest")
-        noise = float(np.sqrt(np.mean((ref[inside, 2] - at) ** 2)))
-    else:  # pragma: no cover - the crop always holds points
-        noise = 0.0
-
-    # Step 7: base.
-    base = float(np.percentile(F, base_percentile))
-    H = np.clip(F - base, 0.0, None)
-    hm = Heightmap(H.astype(np.float32), (pitch, pitch))
-    x0, y0 = u0 + c0 * pitch, v0 + r0 * pitch
-    corner = origin + x0 * axes[0] + y0 * axes[1] + base * axes[2]
-    report = ScanReport(
-        source=data.source,
-        kind=data.kind,
-        points_read=n_read,
-        points_used=int(np.count_nonzero(inside)) if not is_mesh else int(len(used_v)),
-        nonfinite_dropped=nonfinite,
-        outliers_dropped=n_out,
-        plane_tilt=tilt,
-        form_degree=form_degree,
-        coverage=coverage,
-        noise_rms=noise,
-        crop_box=(x0, y0, u0 + c1 * pitch, v0 + r1 * pitch),
-        shape=hm.shape,
-        pitch=pitch,
-        max_height=hm.max_height,
-        base_offset=base,
-        origin=tuple(float(v) for v in corner),  # type: ignore[arg-type]
-        axes=tuple(tuple(float(v) for v in a) for a in axes),
-    )
-    return hm, report
+    if not inside.any():  # pragma: no cover - the crop always holds points
+        return 0.0, 0
+    at = ndimage.map_coordinates(F, [cy[inside], cx[inside]], order=1, mode="nearest")
+    return float(np.sqrt(np.mean((ref[inside, 2] - at) ** 2))), int(np.count_nonzero(inside))
 
 
