@@ -76,6 +76,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from typing import Any
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -579,15 +580,53 @@ def map_texture(
         raise ParameterError(f"unknown mapping {mapping!r}; use 'distance' (algorithm 1) or 'angle' (algorithm 2)")
     depth = positive("depth", depth)
     rows, cols = heightmap.shape
+    report(progress, 0.0, f"fitting {cols} x {rows} px texture to the {profile.length:.1f} mm profile")
+    s_cols, heightmap, x_scale, y = _fit_columns(profile, heightmap, periodic_x, length)
+    px = heightmap.pitch[0]
+    hmax = float(heightmap.heights.max()) if heightmap.heights.size else 0.0
+    trans = max(2.0 * hmax, 4.0 * px) if transition is None else positive("transition", transition)
+    s_all, h_all = _corner_columns(profile, s_cols, heightmap.heights, px)
+    ncol = len(s_all)
+    require_memory(rows * ncol * 40.0, f"a {rows} x {ncol} vertex mapped grid", "use a larger pitch")
+    report(progress, 0.2, "intersection analysis")
+    an = _analyse(profile, px, hmax, trans, mapping)
+    n_smooth_a, d_a = _bottom_depth(profile, an, depth)
+    report(progress, 0.5, f"mapping {rows} x {ncol} vertices ({mapping}-preserving)")
+    fc = profile.at(s_all)
+    w_lim = np.minimum(_interp(s_all, an.s, an.w_lim, an.period), 1.0)
+    w, direction = _column_weights(profile, fc, s_all, w_lim, mapping, trans)
+    v = direction * w[:, None]
+    u_c = _unit(_interp(s_all, an.s, n_smooth_a, an.period))
+    d_c = _interp(s_all, an.s, d_a, an.period)
+    if not profile.closed:
+        _end_wall_bottoms(fc, s_all, direction, w, u_c, d_c, depth, px)
+    _bottom_into_material(profile, fc, s_all, u_c, px, an.period)
+    base_b = _resolve_bottom(fc.point, u_c, d_c, profile.closed, depth, px)
+    top, bottom = _grids(h_all, v, fc.point, y, base_b)
+    _check_cells(profile, fc, np.asarray(h_all, dtype=np.float32), v, base_b, mapping, w)
+    limits = _limits(profile, s_all, w_lim, fc, an.s, an.raw, an.clearance, hmax, mapping)
+    if limits:
+        shown = "; ".join(str(lim) for lim in limits[:5])
+        more = f" (and {len(limits) - 5} more)" if len(limits) > 5 else ""
+        warnings.warn(
+            f"texture height limited in {len(limits)} place(s) to keep the {mapping}-preserving mapping free of "
+            f"self-intersection: {shown}{more}. Lower the height or enlarge the radius/gap to keep it all",
+            TexcadWarning,
+            stacklevel=2,
+        )
+    report(progress, 1.0, "mapped")
+    return MappedSurface(top, bottom, profile.closed, s_all, y, w, heightmap, mapping, x_scale, limits)
+
+
+def _fit_columns(profile: Profile, heightmap: Heightmap, periodic_x: bool, length: float | None):
+    """Columns along ``s`` (eq. 4): ``(s_cols, heightmap (repeated and stretched
+    around closed profiles), x_scale, y rows (mm))``."""
+    rows, cols = heightmap.shape
     px, py = heightmap.pitch
     L = profile.length
     heights = heightmap.heights
-    x_scale = 1.0
-    report(progress, 0.0, f"fitting {cols} x {rows} px texture to the {L:.1f} mm profile")
-
-    # -- columns along s (eq. 4) -----------------------------------------------------
+    width = cols * px
     if profile.closed:
-        width = cols * px
         if not periodic_x:
             if abs(width - L) > 0.1 * L:
                 raise ParameterError(
@@ -602,7 +641,7 @@ def map_texture(
                 f"(x, z) = ({profile.start[0]:.2f}, {profile.start[1]:.2f}) mm with height steps up to {step:.3g} mm "
                 f"(largest step elsewhere {typical:.3g} mm); synthesize it with wrap='x' and pass periodic_x=True",
                 TexcadWarning,
-                stacklevel=2,
+                stacklevel=3,
             )
     elif (cols - 1) * px > L + 1e-9:
         raise GeometryError(
@@ -610,159 +649,170 @@ def map_texture(
             "crop the texture or lengthen the profile"
         )
     s_cols, heightmap = column_positions(profile, heightmap, periodic_x=periodic_x)
-    heights = heightmap.heights
-    cols_t = heights.shape[1]
+    x_scale = 1.0
     if profile.closed:
         x_scale = heightmap.pitch[0] / px
-        px = heightmap.pitch[0]
         if abs(x_scale - 1.0) > 0.005:
             warnings.warn(
-                f"the texture ({width:.3f} mm wide, repeated {cols_t // cols} time(s)) was stretched by "
+                f"the texture ({width:.3f} mm wide, repeated {heightmap.shape[1] // cols} time(s)) was stretched by "
                 f"{100 * (x_scale - 1):+.2f} % along the profile to fill its {L:.3f} mm perimeter exactly",
                 TexcadWarning,
-                stacklevel=2,
+                stacklevel=3,
             )
-    if length is None:
-        length = rows * py
-    length = positive("length", length)
+    length = positive("length", rows * py if length is None else length)
     if (rows - 1) * py > length + 1e-9:
         raise GeometryError(
             f"the texture spans {(rows - 1) * py:.2f} mm along y but the surface is only {length:.2f} mm long; "
             "crop the texture or lengthen the extrusion"
         )
     y = (length - rows * py) / 2 + (np.arange(rows) + 0.5) * py
-    hmax = float(heights.max()) if heights.size else 0.0
-    trans = max(2.0 * hmax, 4.0 * px) if transition is None else positive("transition", transition)
+    return s_cols, heightmap, x_scale, y
 
-    # Extra columns at corners (exact corner vertex; height interpolated in x).
+
+def _corner_columns(profile: Profile, s_cols: np.ndarray, heights: np.ndarray, px: float):
+    """Extra columns at the profile's corners (exact corner vertex; height
+    interpolated in x): ``(s_all, h_all)``."""
+    cols_t = heights.shape[1]
     corners = np.array([c.s for c in profile.corners])
     if corners.size and not profile.closed:
         corners = corners[(corners > s_cols[0]) & (corners < s_cols[-1])]
     if corners.size:
         near = np.min(np.abs(corners[:, None] - s_cols[None, :]), axis=1) < 1e-6 * px
         corners = corners[~near]
-    if corners.size:
-        pos = np.searchsorted(s_cols, corners)
-        f = (corners - s_cols[0]) / px
-        i0 = np.floor(f).astype(np.int64)
-        frac = (f - i0).astype(np.float32)
-        i0 = np.mod(i0, cols_t)
-        i1 = np.mod(i0 + 1, cols_t)
-        hins = heights[:, i0] * (1 - frac) + heights[:, i1] * frac
-        s_all = np.insert(s_cols, pos, corners)
-        h_all = np.insert(heights, pos, hins, axis=1)
-    else:
-        s_all, h_all = s_cols, heights
-    ncol = len(s_all)
-    require_memory(rows * ncol * 40.0, f"a {rows} x {ncol} vertex mapped grid", "use a larger pitch")
+    if not corners.size:
+        return s_cols, heights
+    pos = np.searchsorted(s_cols, corners)
+    f = (corners - s_cols[0]) / px
+    i0 = np.floor(f).astype(np.int64)
+    frac = (f - i0).astype(np.float32)
+    i0 = np.mod(i0, cols_t)
+    i1 = np.mod(i0 + 1, cols_t)
+    hins = heights[:, i0] * (1 - frac) + heights[:, i1] * frac
+    return np.insert(s_cols, pos, corners), np.insert(heights, pos, hins, axis=1)
 
-    # -- dense analysis grid ---------------------------------------------------------
-    report(progress, 0.2, "intersection analysis")
+
+@dataclass(frozen=True)
+class _Analysis:
+    """The dense analysis grid along the profile: samples ``s`` every ``delta`` mm,
+    their frame ``fa``, the profile's segments, the raw and smoothed height factor
+    (self-intersection limit) and the clearance it came from."""
+
+    s: np.ndarray
+    delta: float
+    fa: Any
+    period: float | None
+    segs: tuple[np.ndarray, np.ndarray, np.ndarray]
+    raw: np.ndarray
+    w_lim: np.ndarray
+    clearance: np.ndarray
+
+
+def _analyse(profile: Profile, px: float, hmax: float, trans: float, mapping: str) -> _Analysis:
+    L = profile.length
     delta = max(px / 2, L / 20000)
     na = max(8, int(np.ceil(L / delta)))
     s_a = np.linspace(0.0, L, na, endpoint=False) if profile.closed else np.linspace(0.0, L, na + 1)
     delta = L / na
     fa = profile.at(s_a)
     period = L if profile.closed else None
-    segs_a = fa.point
+    segs_a = fa.point if profile.closed else fa.point[:-1]
     segs_b = np.roll(fa.point, -1, axis=0) if profile.closed else fa.point[1:]
-    if not profile.closed:
-        segs_a = fa.point[:-1]
     own = np.arange(len(s_a))
     if hmax > 0:
         if mapping == "angle":
-            cap = hmax / FOLD_SHARE
-            reach = _normal_reach(fa.point, fa.normal, cap)
-            raw = np.minimum(1.0, FOLD_SHARE * reach / hmax)
-            clearance = reach
+            reach = _normal_reach(fa.point, fa.normal, hmax / FOLD_SHARE)
+            raw, clearance = np.minimum(1.0, FOLD_SHARE * reach / hmax), reach
         else:
-            cap = hmax / GAP_SHARE
             up = np.stack([np.zeros(len(s_a)), fa.facing.astype(np.float64)], axis=1)
-            gap = _ray_clearance(fa.point, up, segs_a, segs_b, own, cap, profile.closed)
+            gap = _ray_clearance(fa.point, up, segs_a, segs_b, own, hmax / GAP_SHARE, profile.closed)
             # Vertical stretches get no texture (the fade below); no limit from them.
-            raw = np.where(fa.facing == 0, 1.0, np.minimum(1.0, GAP_SHARE * gap / hmax))
-            clearance = gap
+            raw, clearance = np.where(fa.facing == 0, 1.0, np.minimum(1.0, GAP_SHARE * gap / hmax)), gap
         w_lim_a = _erode_smooth(raw, int(np.ceil(trans / 2 / delta)), profile.closed)
     else:
         raw = w_lim_a = np.ones(len(s_a))
         clearance = np.full(len(s_a), np.inf)
+    return _Analysis(s_a, delta, fa, period, (segs_a, segs_b, own), raw, w_lim_a, clearance)
 
-    # Fades (section 2.2.1: remove texture near division planes, smooth transition).
+
+def _bottom_depth(profile: Profile, an: _Analysis, depth: float) -> tuple[np.ndarray, np.ndarray]:
+    """The bottom along the smoothed inward normal (box-smoothed twice over 2 depth:
+    its turning rate stays below 1 / depth even at convex corners, so the bottom
+    cannot fold), depth limited to 0.4 of the inward gap to the profile:
+    ``(smoothed normals, depth per analysis sample)``."""
+    segs_a, segs_b, own = an.segs
+    rad_n = int(np.ceil(2 * depth / an.delta))
+    n_smooth_a = _unit(_box_smooth(an.fa.normal, rad_n, profile.closed))
+    gap_in = _ray_clearance(an.fa.point, -n_smooth_a, segs_a, segs_b, own, depth / GAP_SHARE, profile.closed)
+    d_a = _erode_smooth(np.minimum(depth, GAP_SHARE * gap_in), int(np.ceil(depth / an.delta)), profile.closed)
+    # Locally thin material (a sharp tip, a sliver) only makes the slab thin there;
+    # a profile whose material is thin almost everywhere cannot take this depth.
+    if np.median(d_a) < 0.1 * depth or d_a.min() <= 0:
+        k = int(np.argmin(d_a))
+        x, z = an.fa.point[k]
+        raise GeometryError(
+            f"the profile's material is only about {gap_in[k]:.3g} mm thick at s = {an.s[k]:.2f} mm, "
+            f"(x, z) = ({x:.2f}, {z:.2f}) mm: too thin for a {depth:g} mm deep texture slab; use a smaller depth"
+        )
+    return n_smooth_a, d_a
+
+
+def _column_weights(profile: Profile, fc, s_all: np.ndarray, w_lim: np.ndarray, mapping: str, trans: float):
+    """Per column: the height factor ``w`` (limit times the fades of section 2.2.1:
+    no texture near division planes, smooth transitions) and the offset direction
+    (the normal, or +-z by the piece's facing)."""
+    period = profile.length if profile.closed else None
     if mapping == "distance":
         iv = [(a, b) for a, b, f in profile.function_pieces() if f == 0]
         iv += [(d, d) for d in profile.division_points()]
     else:
         iv = [(c.s, c.s) for c in profile.corners]
     iv_arr = np.array(iv, dtype=np.float64).reshape(-1, 2)
-
-    def fade(s: np.ndarray) -> np.ndarray:
-        return _smoothstep(_distance_to_intervals(s, iv_arr, period) / trans)
-
-    # -- bottom: along the smoothed inward normal (box-smoothed twice over 2 depth:
-    # its turning rate stays below 1 / depth even at convex corners, so the bottom
-    # cannot fold), depth limited to 0.4 of the inward gap to the profile.
-    rad_n = int(np.ceil(2 * depth / delta))
-    n_smooth_a = _unit(_box_smooth(fa.normal, rad_n, profile.closed))
-    gap_in = _ray_clearance(fa.point, -n_smooth_a, segs_a, segs_b, own, depth / GAP_SHARE, profile.closed)
-    d_a = _erode_smooth(np.minimum(depth, GAP_SHARE * gap_in), int(np.ceil(depth / delta)), profile.closed)
-    # Locally thin material (a sharp tip, a sliver) only makes the slab thin there;
-    # a profile whose material is thin almost everywhere cannot take this depth.
-    if np.median(d_a) < 0.1 * depth or d_a.min() <= 0:
-        k = int(np.argmin(d_a))
-        x, z = fa.point[k]
-        raise GeometryError(
-            f"the profile's material is only about {gap_in[k]:.3g} mm thick at s = {s_a[k]:.2f} mm, "
-            f"(x, z) = ({x:.2f}, {z:.2f}) mm: too thin for a {depth:g} mm deep texture slab; use a smaller depth"
-        )
-
-    # -- per-column frame --------------------------------------------------------------
-    report(progress, 0.5, f"mapping {rows} x {ncol} vertices ({mapping}-preserving)")
-    fc = profile.at(s_all)
-    w_lim = np.minimum(_interp(s_all, s_a, w_lim_a, period), 1.0)
-    w = w_lim * fade(s_all)
+    w = w_lim * _smoothstep(_distance_to_intervals(s_all, iv_arr, period) / trans)
     if mapping == "angle":
-        direction = fc.normal
-    else:
-        direction = np.stack([np.zeros(ncol), fc.facing.astype(np.float64)], axis=1)
-        w = np.where(fc.facing == 0, 0.0, w)
-        if not profile.closed:
-            # An open end where the profile is steep (|n_z| < 0.5: the vertical is
-            # within 60 degrees of the tangent) cannot take a vertical end wall: it
-            # would run along the surface. Fade the texture out towards that end
-            # like towards a division point; the wall then follows the normal.
-            for k, dist in ((0, s_all - s_all[0]), (ncol - 1, s_all[-1] - s_all)):  # the two ends
-                if abs(float(fc.normal[k, 1])) < 0.5:
-                    w = w * _smoothstep(dist / trans)
-    v = direction * w[:, None]
-    u_c = _unit(_interp(s_all, s_a, n_smooth_a, period))
-    d_c = _interp(s_all, s_a, d_a, period)
+        return w, fc.normal
+    ncol = len(s_all)
+    direction = np.stack([np.zeros(ncol), fc.facing.astype(np.float64)], axis=1)
+    w = np.where(fc.facing == 0, 0.0, w)
     if not profile.closed:
-        # The end walls of an open slab: bottom straight below the top's own
-        # direction (vertical, or the normal), so each end wall is one plane that
-        # the texture and bottom lie on one side of. Depth: `depth` along the normal,
-        # at most 2 depth along that direction. The bottom's direction turns from the
-        # smoothed normal to the end's direction over `ramp` mm (smoothstep), so
-        # neighbouring bottom points never swap places (a sudden turn by a steep
-        # angle at the end column would fold the bottom).
-        ramp = max(4.0 * depth, 8.0 * px)
-        from_start = s_all - s_all[0]
-        from_end = s_all[-1] - s_all
-        for k, dist in ((0, from_start), (ncol - 1, from_end)):  # the two ends
-            dk = direction[k] if (np.any(direction[k]) and w[k] > 0) else u_c[k]
-            near = dist < min(ramp, 0.5 * (s_all[-1] - s_all[0]) + 1e-9)
-            if k == ncol - 1:
-                near &= from_start > from_end  # each column belongs to its nearer end
-            else:
-                near &= from_start <= from_end
-            b = _smoothstep(dist[near] / ramp)[:, None]
-            uu = _unit((1.0 - b) * dk[None, :] + b * u_c[near])
-            cosn = np.maximum(np.einsum("ij,ij->i", uu, fc.normal[near]), 0.5)
-            d_c[near] = d_c[near] * ((1.0 - b[:, 0]) / cosn + b[:, 0])
-            u_c[near] = uu
-    # The bottom must leave every column into the material: at a corner inside the
-    # normal cone (else along the bisector of the two sides' normals; the smoothed
-    # normal turns fast at a sharp tip), elsewhere within 78 degrees of the local
-    # normal. The end columns of an open profile keep their end-wall direction.
+        # An open end where the profile is steep (|n_z| < 0.5: the vertical is within
+        # 60 degrees of the tangent) cannot take a vertical end wall: it would run
+        # along the surface. Fade the texture out towards that end like towards a
+        # division point; the wall then follows the normal.
+        for k, dist in ((0, s_all - s_all[0]), (ncol - 1, s_all[-1] - s_all)):  # the two ends
+            if abs(float(fc.normal[k, 1])) < 0.5:
+                w = w * _smoothstep(dist / trans)
+    return w, direction
+
+
+def _end_wall_bottoms(fc, s_all, direction, w, u_c, d_c, depth: float, px: float) -> None:
+    """The end walls of an open slab (in place on ``u_c``, ``d_c``): the bottom
+    straight below the top's own direction (vertical, or the normal), so each end
+    wall is one plane that the texture and bottom lie on one side of. Depth: `depth`
+    along the normal, at most 2 depth along that direction. The bottom's direction
+    turns from the smoothed normal to the end's direction over `ramp` mm
+    (smoothstep), so neighbouring bottom points never swap places."""
+    ncol = len(s_all)
+    ramp = max(4.0 * depth, 8.0 * px)
+    from_start = s_all - s_all[0]
+    from_end = s_all[-1] - s_all
+    for k, dist in ((0, from_start), (ncol - 1, from_end)):  # the two ends
+        dk = direction[k] if (np.any(direction[k]) and w[k] > 0) else u_c[k]
+        near = dist < min(ramp, 0.5 * (s_all[-1] - s_all[0]) + 1e-9)
+        near &= (from_start > from_end) if k == ncol - 1 else (from_start <= from_end)  # the nearer end
+        b = _smoothstep(dist[near] / ramp)[:, None]
+        uu = _unit((1.0 - b) * dk[None, :] + b * u_c[near])
+        cosn = np.maximum(np.einsum("ij,ij->i", uu, fc.normal[near]), 0.5)
+        d_c[near] = d_c[near] * ((1.0 - b[:, 0]) / cosn + b[:, 0])
+        u_c[near] = uu
+
+
+def _bottom_into_material(profile: Profile, fc, s_all, u_c, px: float, period: float | None) -> None:
+    """The bottom must leave every column into the material (in place on ``u_c``): at
+    a corner inside the normal cone (else along the bisector of the two sides'
+    normals; the smoothed normal turns fast at a sharp tip), elsewhere within 78
+    degrees of the local normal. The end columns of an open profile keep their
+    end-wall direction."""
+    ncol = len(s_all)
     inner = np.ones(ncol, bool)
     if not profile.closed:
         inner[[0, -1]] = False
@@ -773,42 +823,31 @@ def map_texture(
             gap_s = np.minimum(gap_s, period - gap_s)
         k = int(np.argmin(gap_s))
         if gap_s[k] < 1e-6 * max(px, 1e-9) and inner[k]:
-            before = profile.at(np.array([corner.s - 1e-7 * L])).normal[0]
+            before = profile.at(np.array([corner.s - 1e-7 * profile.length])).normal[0]
             at_corner[k] = True
             if min(float(u_c[k] @ before), float(u_c[k] @ fc.normal[k])) < 0.05:
                 u_c[k] = _unit((before + fc.normal[k])[None, :])[0]
     off = (np.einsum("ij,ij->i", u_c, fc.normal) < 0.2) & ~at_corner & inner
     if off.any():
         u_c[off] = _unit(u_c[off] + 2.0 * fc.normal[off])
-    base_b = _resolve_bottom(fc.point, u_c, d_c, profile.closed, depth, px)
 
-    # -- the grids (float32, vectorized over all vertices) ---------------------------------
+
+def _grids(h_all, v: np.ndarray, point: np.ndarray, y: np.ndarray, base_b: np.ndarray):
+    """The top grid ``(R, C, 3)`` (profile point + h v) and the bottom's first and
+    last row ``(2, C, 3)`` (the offset profile extruded along y), float32."""
+    rows, ncol = np.shape(h_all)
     top = np.empty((rows, ncol, 3), dtype=np.float32)
     hf = np.asarray(h_all, dtype=np.float32)
     top[..., 0] = hf * v[:, 0].astype(np.float32)
-    top[..., 0] += fc.point[:, 0].astype(np.float32)
+    top[..., 0] += point[:, 0].astype(np.float32)
     top[..., 1] = y.astype(np.float32)[:, None]
     top[..., 2] = hf * v[:, 1].astype(np.float32)
-    top[..., 2] += fc.point[:, 1].astype(np.float32)
-    # The bottom is the offset profile extruded along y: its first and last row.
+    top[..., 2] += point[:, 1].astype(np.float32)
     bottom = np.empty((2, ncol, 3), dtype=np.float32)
     bottom[..., 0] = base_b[:, 0].astype(np.float32)[None, :]
     bottom[..., 1] = np.float32(y[[0, -1]])[:, None]
     bottom[..., 2] = base_b[:, 1].astype(np.float32)[None, :]
-
-    _check_cells(profile, fc, hf, v, base_b, mapping, w)
-    limits = _limits(profile, s_all, w_lim, fc, s_a, raw, clearance, hmax, mapping)
-    if limits:
-        shown = "; ".join(str(lim) for lim in limits[:5])
-        more = f" (and {len(limits) - 5} more)" if len(limits) > 5 else ""
-        warnings.warn(
-            f"texture height limited in {len(limits)} place(s) to keep the {mapping}-preserving mapping free of "
-            f"self-intersection: {shown}{more}. Lower the height or enlarge the radius/gap to keep it all",
-            TexcadWarning,
-            stacklevel=2,
-        )
-    report(progress, 1.0, "mapped")
-    return MappedSurface(top, bottom, profile.closed, s_all, y, w, heightmap, mapping, x_scale, limits)
+    return top, bottom
 
 
 def _segment_crossings(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray, *, same: bool) -> tuple[np.ndarray, np.ndarray]:
