@@ -254,7 +254,7 @@ def test_periodic_structure_is_continued() -> None:
 
 
 def test_builtin_texture_sample() -> None:
-    textures = pytest.importorskip("texcad.textures")
+    from texcad import sources as textures
     stones = textures.builtin("stones", size=(16, 16), pitch=0.125)  # 128 x 128 px
     out = synthesize(stones, (200, 200), patch=40, overlap=16, blend="cut")
     naive = naive_quilt(stones, (200, 200), patch=40, overlap=16, blend="cut")
