@@ -227,8 +227,9 @@ def test_beats_naive_quilt(natural: Heightmap, blend: str) -> None:
 
 def test_cut_is_sharper_than_feather(natural: Heightmap) -> None:
     # Feathering matched patches still averages two textures in the overlaps
-    # (blur ratio ~0.75 here); the eq. 1 cut keeps them nearly as sharp as the rest
-    # (~0.93; 1 = as sharp as the patch interiors).
+    # (blur ratio ~0.83 here: where a patch continues its neighbour's source the two
+    # agree); the eq. 1 cut keeps them nearly as sharp as the rest (~0.96; 1 = as
+    # sharp as the patch interiors).
     shape = (220, 220)
     bands = seam_bands(shape, P, O)
     rf, rc = [], []
@@ -237,8 +238,9 @@ def test_cut_is_sharper_than_feather(natural: Heightmap) -> None:
         c = synthesize(natural, shape, patch=P, overlap=O, blend="cut", seed=seed)
         rf.append(Q.blur_ratio(f, bands))
         rc.append(Q.blur_ratio(c, bands))
-        assert rc[-1] > rf[-1] + 0.1
-    assert np.mean(rf) < 0.85
+        assert rc[-1] > rf[-1] + 0.05
+    assert np.mean(rc) > np.mean(rf) + 0.1
+    assert np.mean(rf) < 0.9
     assert abs(1 - np.mean(rc)) < 0.12
 
 
@@ -406,7 +408,7 @@ def test_fft_features_match_projection_and_bound_the_distance(natural: Heightmap
     # torus's closing zones concatenate parts that share their corners.)
     import texcad.synthesis as syn
 
-    s = syn._Synthesizer(natural.heights, P, O, np.random.default_rng(0), True)
+    s = syn._Synthesizer(natural.heights, P, O, np.random.default_rng(0), "approximate")
     z = s.zone(key)
     feats = z.feats if z.tree is None else z.tree.data
     rng = np.random.default_rng(1)

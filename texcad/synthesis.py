@@ -116,10 +116,13 @@ from ._resources import require_memory
 from .errors import InputError, ParameterError
 from .heightmap import Heightmap
 
-__all__ = ["BLENDS", "WRAPS", "synthesize", "naive_quilt", "seam_bands", "patch_grid"]
+__all__ = ["BLENDS", "SEARCHES", "WRAPS", "synthesize", "naive_quilt", "seam_bands", "patch_grid"]
 
 #: Valid values of ``blend``.
 BLENDS: tuple[str, ...] = ("feather", "cut")
+#: Valid values of ``search``: Liang 2001's accelerated search (section 4) or the
+#: exhaustive one (section 3.2), the baseline it is measured against.
+SEARCHES: tuple[str, ...] = ("approximate", "exact")
 #: Valid values of ``wrap``.
 WRAPS: tuple[str | None, ...] = (None, "x", "y", "xy")
 
@@ -129,6 +132,13 @@ ProgressFn = Callable[[float, str], None]
 # -- search constants (Liang 2001, section 4) ----------------------------------------
 #: Approximate nearest neighbours returned by the k-d tree and refined exactly.
 _NEIGHBOURS = 10
+#: Add the coherent candidates (continuations of the neighbours' sources).
+_COHERENT = True
+#: Also continue the diagonal neighbours (top-left, top-right) of each patch.
+_COHERENT_DIAGONALS = True
+#: Match the closing patches of a torus (zones with a right or bottom strip) by the
+#: exhaustive search.
+_EXACT_CLOSING = True
 #: k-d tree approximation factor: returned neighbours are within (1 + eps) of the
 #: true k-th neighbour distance in feature space (Arya et al.), refined exactly after.
 _KD_EPS = 2.0
@@ -439,12 +449,18 @@ class _Zone:
     feats: np.ndarray | None = None  # (candidates, K) float64, features of each candidate
     shifted: np.ndarray | None = None  # (candidates, K): of the strip at the far side
     uses: int = 0  # patches it serves in this run (one: a linear scan, no tree)
+    s2: np.ndarray | None = None  # (candidates,) float64 sum of S^2 over each candidate's zone
+
+
+def _tree(z: _Zone) -> cKDTree:
+    """k-d tree over the principal-component features of every candidate."""
+    return cKDTree(z.feats, leafsize=16, balanced_tree=False, compact_nodes=False)
 
 
 class _Synthesizer:
     """State of one synthesis run: sample, candidates, zone PCAs and k-d trees."""
 
-    def __init__(self, S: np.ndarray, p: int, o: int, rng: np.random.Generator, search: bool):
+    def __init__(self, S: np.ndarray, p: int, o: int, rng: np.random.Generator, search: str | None):
         self.S = S
         self.S_flat = S.ravel()
         self.p, self.o = p, o
@@ -457,11 +473,15 @@ class _Synthesizer:
         gy, gx = np.meshgrid(np.arange(0, ny, stride), np.arange(0, nx, stride), indexing="ij")
         self.cy, self.cx = gy.ravel(), gx.ravel()
         self.offsets = self.cy * cols + self.cx
+        # Candidate index of each window position (-1 off the thinned grid).
+        self.lookup = np.full((ny, nx), -1, dtype=np.intp)
+        self.lookup[self.cy, self.cx] = np.arange(len(self.cy))
         n_near = max(1, min(_NEIGHBOURS, len(self.cy)))
         self.k: int | list[int] = n_near if n_near > 1 else [1]  # a list keeps arrays
         self.search = search
         self.zones: dict[tuple[int, int, int, int], _Zone] = {}
         self.S_hat: np.ndarray | None = None
+        self.S_hat64: np.ndarray | None = None
         self._windows: dict[tuple[int, int], np.ndarray] = {}
 
     def windows(self, h: int, w: int) -> np.ndarray:
@@ -505,7 +525,7 @@ class _Synthesizer:
             alpha=alpha.astype(np.float32),
             rects=_rectangles(mask),
         )
-        if self.search and mask.any():
+        if self.search == "approximate" and mask.any():
             parts = []  # (base zone, row shift, col shift) whose features make this zone's
             if t or l:
                 parts.append(((t, l, 0, 0), 0, 0))
@@ -579,9 +599,55 @@ class _Synthesizer:
             if z.shifted is not None:
                 z.shifted[:, k0:k1] = C[:, self.cy + dy, self.cx + dx].T
         z.kernels = np.ascontiguousarray(kernels, dtype=np.float32)
-        z.tree = cKDTree(z.feats, leafsize=16, balanced_tree=False, compact_nodes=False)
+        z.tree = _tree(z)
 
-    def query(self, zone: _Zone, old: np.ndarray, tolerance: float, u: np.ndarray) -> np.ndarray:
+    def query_exact(self, zone: _Zone, old: np.ndarray, tolerance: float, u: np.ndarray) -> np.ndarray:
+        """Exhaustive search: the candidate set ``Psi_B`` over *every* candidate window.
+
+        The straightforward Liang 2001 (section 3.2) without the acceleration of its
+        section 4, the baseline that the approximate search is measured against. The
+        zone distance of all candidates ``B`` at once, in mm^2 times ``A``:
+
+            A d^2(B) = sum_E S_B^2 - 2 sum_E S_B E_out + sum_E E_out^2,
+
+        the first term a correlation of ``S^2`` with the zone's mask (once per zone
+        type), the cross term the correlation of the sample with the masked output
+        (FFT, float64), for the ``b`` patches of a front together. The
+        ``floor(u m)``-th of the ``m`` candidates with ``d <= (1 + tolerance) d_min``
+        (in candidate order) is taken.
+
+        Returns:
+            ``(b,)`` int, indices into the candidate windows (``cy``, ``cx``).
+        """
+        S, p = self.S, self.p
+        b = len(old)
+        shape = S.shape
+        if self.S_hat64 is None:
+            self.S_hat64 = _fft.rfft2(S.astype(np.float64))
+        if zone.s2 is None:
+            m = np.zeros(shape)
+            m[:p, :p] = zone.mask
+            c = _fft.irfft2(_fft.rfft2(S.astype(np.float64) ** 2) * np.conj(_fft.rfft2(m)), s=shape)
+            zone.s2 = c[self.cy, self.cx]
+        e = np.zeros((b,) + shape)
+        e[:, :p, :p] = old
+        e[:, :p, :p] *= zone.mask
+        e2 = np.einsum("bij,bij->b", e[:, :p, :p], e[:, :p, :p])
+        spec = _fft.rfft2(e, axes=(1, 2))
+        np.conjugate(spec, out=spec)
+        spec *= self.S_hat64
+        cross = _fft.irfft2(spec, s=shape, axes=(1, 2))[:, self.cy, self.cx]  # (b, candidates)
+        d2 = zone.s2[None, :] - 2.0 * cross + e2[:, None]
+        np.maximum(d2, 0.0, out=d2)
+        # Round-off of the FFT (~1e-12 of the sums) must not split ties.
+        slack = 1e-9 * (float(zone.s2.max()) + e2[:, None])
+        ok = d2 <= d2.min(axis=1, keepdims=True) * (1.0 + tolerance) ** 2 + slack
+        r = (u * ok.sum(axis=1)).astype(np.intp)
+        return (np.cumsum(ok, axis=1) > r[:, None]).argmax(axis=1)
+
+    def query(
+        self, zone: _Zone, old: np.ndarray, tolerance: float, u: np.ndarray, extra: np.ndarray | None = None
+    ) -> np.ndarray:
         """Candidates chosen for ``b`` patches under ``zone`` (Liang 2001, sections 3.2, 4).
 
         Args:
@@ -589,6 +655,9 @@ class _Synthesizer:
             old: ``(b, p, p)`` float32, the output (mm) under each patch's footprint.
             tolerance: relative tolerance of the candidate set.
             u: ``(b,)`` uniform numbers in [0, 1), the random pick of each patch.
+            extra: ``(b, m')`` int or None: more candidates of each patch (-1 for
+                none), the coherent candidates of :func:`_coherent_candidates`,
+                refined exactly with the tree's (duplicates count once).
 
         Coarse level: the k-d tree returns the ``_NEIGHBOURS`` approximate nearest
         candidates in QTP + PCA feature space (one batched query for the ``b``
@@ -617,11 +686,23 @@ class _Synthesizer:
             nn = np.take_along_axis(nn, order, axis=1)
         else:
             if zone.tree is None:
-                zone.tree = cKDTree(zone.feats, leafsize=16, balanced_tree=False, compact_nodes=False)
+                zone.tree = _tree(zone)
             # (One thread: scipy's ``workers`` starts threads per call, which cost
             # more than they save on a front of ~30-70 patches on a busy 2-core machine.)
             _, nn = zone.tree.query(f, k=self.k, eps=_KD_EPS)
         nn = nn.reshape(b, -1)
+        invalid = None
+        if extra is not None and extra.shape[1]:
+            # Coherent candidates join the exact refinement; those missing (-1) or
+            # already present are marked invalid (infinite distance) so every
+            # candidate counts once in the uniform pick.
+            dup = (extra[:, :, None] == nn[:, None, :]).any(axis=2)
+            dup |= np.triu(extra[:, :, None] == extra[:, None, :], 1).any(axis=1)
+            bad = dup | (extra < 0)
+            keep = ~bad.all(axis=0)  # (the neighbours that no patch of the batch has)
+            extra, bad = extra[:, keep], bad[:, keep]
+            nn = np.concatenate([nn, np.where(bad, nn[:, :1], extra)], axis=1)
+            invalid = np.concatenate([np.zeros((b, nn.shape[1] - extra.shape[1]), bool), bad], axis=1)
         # Exact distances of the approximate neighbours, (b, m) in mm^2 * A: the
         # zone's rectangles of each neighbour, copied out of the sample's windows.
         cy, cx = self.cy.take(nn), self.cx.take(nn)
@@ -634,6 +715,8 @@ class _Synthesizer:
                 d2 = np.einsum("bmi,bmi->bm", g, g)
             else:
                 d2 += np.einsum("bmi,bmi->bm", g, g)
+        if invalid is not None:
+            d2[invalid] = np.inf
         if b == 1:  # the same pick with less bookkeeping (serial schedules: wrap along x)
             d = d2[0]
             eligible = np.flatnonzero(d <= d.min() * (1.0 + tolerance) ** 2)
@@ -854,6 +937,75 @@ def _levels(ay: _Axis, ax: _Axis, p: int) -> np.ndarray:
     return lev
 
 
+def _neighbour_table(ay: _Axis, ax: _Axis) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The earlier neighbours of every patch, for its coherent candidates.
+
+    For patch ``(i, j)``, the patches ``(i + di, j + dj)``, ``di, dj`` in ``{-1, 0, 1}``
+    (cyclically along a wrapped axis), that come before it in scan-line order: the
+    ones whose output forms its boundary zone.
+
+    Returns:
+        ``(nb, dy, dx)``, each ``(rows * cols, 8)`` int: the flat index of each
+        neighbour (-1 for none) and its top-left pixel relative to the patch's, in px
+        (across the wrap: as the torus places it).
+    """
+    n_rows, n_cols = len(ay.starts), len(ax.starts)
+    i, j = np.divmod(np.arange(n_rows * n_cols), n_cols)
+    cols_nb, cols_dy, cols_dx = [], [], []
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            if (di == 0 and dj == 0) or (di and dj and not _COHERENT_DIAGONALS):
+                continue
+            i2, j2 = i + di, j + dj
+            ok = np.ones(len(i), bool)
+            dy = np.zeros(len(i), np.int64)
+            dx = np.zeros(len(i), np.int64)
+            for a, a2, d, step, axis in ((i, i2, dy, di, ay), (j, j2, dx, dj, ax)):
+                n = len(axis.starts)
+                if axis.wrap:
+                    a2 %= n
+                else:
+                    ok &= (a2 >= 0) & (a2 < n)
+                a2c = np.clip(a2, 0, n - 1)
+                d[:] = axis.starts[a2c] - axis.starts[a]
+                if axis.wrap:  # the neighbour across the wrap sits past the end
+                    d[(step > 0) & (a2c < a)] += axis.canvas
+                    d[(step < 0) & (a2c > a)] -= axis.canvas
+            i2c, j2c = np.clip(i2 % n_rows, 0, n_rows - 1), np.clip(j2 % n_cols, 0, n_cols - 1)
+            flat2 = i2c * n_cols + j2c
+            ok &= flat2 < i * n_cols + j  # earlier in scan-line order (not itself)
+            cols_nb.append(np.where(ok, flat2, -1))
+            cols_dy.append(dy)
+            cols_dx.append(dx)
+    return np.stack(cols_nb, 1), np.stack(cols_dy, 1), np.stack(cols_dx, 1)
+
+
+def _coherent_candidates(
+    flat: np.ndarray,
+    chosen: np.ndarray,
+    table: tuple[np.ndarray, np.ndarray, np.ndarray],
+    syn: "_Synthesizer",
+) -> np.ndarray:
+    """``(b, 8)`` candidate indices (-1 for none) that continue the neighbours' sources.
+
+    If an earlier neighbour of a patch was copied from the sample window at
+    ``(y, x)`` and sits ``(dy, dx)`` px from the patch, the window at ``(y - dy,
+    x - dx)`` continues it: its boundary zone equals the output wherever that
+    neighbour alone made it (the "coherent" candidates of Ashikhmin 2001 and
+    Tong et al. 2002's k-coherence, here added to Liang 2001's approximate nearest
+    neighbours). These are the matches an exhaustive search finds first and a
+    k-d tree over a few principal components tends to miss.
+    """
+    nb, dy, dx = (t[flat] for t in table)
+    c2 = np.where(nb >= 0, chosen[np.maximum(nb, 0)], -1)
+    y = syn.cy[np.maximum(c2, 0)] - dy
+    x = syn.cx[np.maximum(c2, 0)] - dx
+    ny, nx = syn.lookup.shape
+    ok = (c2 >= 0) & (y >= 0) & (y < ny) & (x >= 0) & (x < nx)
+    idx = syn.lookup[np.where(ok, y, 0), np.where(ok, x, 0)]
+    return np.where(ok, idx, -1)
+
+
 def _quilt(
     sample: Heightmap | np.ndarray,
     shape: tuple[int, int],
@@ -864,7 +1016,7 @@ def _quilt(
     blend: str,
     wrap: str | None,
     progress: ProgressFn | None,
-    search: bool,
+    search: str | None,
 ) -> Heightmap:
     hm = _as_sample(sample)
     out_shape = _shape(shape)
@@ -918,6 +1070,8 @@ def _quilt(
     feather = blend == "feather"
     cut_work: dict = {}
 
+    table = _neighbour_table(ay, ax) if search == "approximate" and _COHERENT else None
+    chosen = np.full(n_rows * n_cols, -1, dtype=np.intp)  # candidate pasted at each patch
     levels = _levels(ay, ax, p)
     flat = levels.ravel()
     order = np.argsort(flat, kind="stable")
@@ -929,6 +1083,7 @@ def _quilt(
     def _paste_batch(batch: np.ndarray) -> None:
         """Match and paste the patches of one wavefront step, a zone type at a time."""
         bi, bj = np.divmod(batch, n_cols)
+        batch_ids = batch
         bcode = code[bi, bj]
         groups = [slice(None)] if (bcode == bcode[0]).all() else [bcode == c for c in np.unique(bcode)]
         for sel in groups:
@@ -946,8 +1101,12 @@ def _quilt(
             gu = u[gi, gj]
             if key == (0, 0, 0, 0) or not search:  # the first patch: anywhere in the sample
                 c = np.minimum((gu * ncand).astype(np.intp), ncand - 1)
+            elif search == "exact" or (_EXACT_CLOSING and (key[2] or key[3])):
+                c = syn.query_exact(syn.zone(key), old, tolerance, gu)
             else:
-                c = syn.query(syn.zone(key), old, tolerance, gu)
+                extra = None if table is None else _coherent_candidates(batch_ids[sel], chosen, table, syn)
+                c = syn.query(syn.zone(key), old, tolerance, gu, extra)
+            chosen[batch_ids[sel]] = c
             new = Swin[syn.cy[c], syn.cx[c]]  # (b, p, p) float32 copy
             if key != (0, 0, 0, 0):
                 if feather:
@@ -979,8 +1138,12 @@ def _quilt(
             old = canvas[idx][None]  # (1, p, p)
             if key == (0, 0, 0, 0) or not search:
                 c0 = min(int(u[i, j] * ncand), ncand - 1)
+            elif search == "exact" or (_EXACT_CLOSING and (key[2] or key[3])):
+                c0 = int(syn.query_exact(syn.zone(key), old, tolerance, u[i, j].reshape(1))[0])
             else:
-                c0 = int(syn.query(syn.zone(key), old, tolerance, u[i, j].reshape(1))[0])
+                extra = None if table is None else _coherent_candidates(batch, chosen, table, syn)
+                c0 = int(syn.query(syn.zone(key), old, tolerance, u[i, j].reshape(1), extra)[0])
+            chosen[batch[0]] = c0
             y0, x0 = int(syn.cy[c0]), int(syn.cx[c0])
             new = S[y0: y0 + p, x0: x0 + p][None].copy()
             if key != (0, 0, 0, 0):
@@ -1015,6 +1178,7 @@ def synthesize(
     blend: str = "feather",
     wrap: str | None = None,
     progress: ProgressFn | None = None,
+    search: str = "approximate",
 ) -> Heightmap:
     """Grow a texture sample into a larger heightmap (paper section 2.1.2; Liang 2001).
 
@@ -1067,6 +1231,10 @@ def synthesize(
         progress: optional ``callable(fraction, message)``, called after each patch
             row with the fraction of rows done in (0, 1] (the message is the same
             for every call, so reporters can throttle it).
+        search: ``"approximate"`` (default; Liang 2001 section 4: QTP + PCA k-d tree,
+            exact re-ranking of the nearest candidates) or ``"exact"`` (the
+            exhaustive zone distance to every sample window by FFT correlation,
+            Liang's section 3.2; tens of times slower, the quality baseline).
 
     Returns:
         Heightmap of exactly ``shape`` px with the sample's pitch (mm/px); heights are
@@ -1079,7 +1247,9 @@ def synthesize(
         ResourceError: the output would not fit in memory.
     """
     tol = _tolerance(tolerance)
-    return _quilt(sample, shape, patch, overlap, tol, seed, blend, wrap, progress, search=True)
+    if search not in SEARCHES:
+        raise ParameterError(f"unknown search {search!r}; use one of {', '.join(map(repr, SEARCHES))}")
+    return _quilt(sample, shape, patch, overlap, tol, seed, blend, wrap, progress, search=search)
 
 
 def naive_quilt(
@@ -1103,7 +1273,7 @@ def naive_quilt(
     Returns:
         Heightmap of ``shape`` px at the sample's pitch.
     """
-    return _quilt(sample, shape, patch, overlap, 0.0, seed, blend, wrap, None, search=False)
+    return _quilt(sample, shape, patch, overlap, 0.0, seed, blend, wrap, None, search=None)
 
 
 def _tolerance(tolerance: object) -> float:
