@@ -39,11 +39,25 @@ below) and principal component analysis (PCA, up to 8 components per strip of th
 zone, fitted to 1024 random candidates); every principal component, pulled back to
 full resolution, is a ``patch x patch`` kernel, so the features of *all* candidates
 are computed at once by FFT correlation of the sample with the kernels; a k-d tree
-over those features returns the ``_NEIGHBOURS`` (10) approximate nearest candidates
+over those features returns the ``_NEIGHBOURS`` (16) approximate nearest candidates
 (the coarse level of the QTP search) and their exact full-resolution distances ``d``
-decide among them (the fine level). The candidate set is therefore the members of
-``Psi_B`` among those 10 approximate nearest neighbours: with ``tolerance`` 0.1 it
-rarely holds more.
+decide among them (the fine level).
+
+Coherent candidates. Besides the tree's neighbours, the fine level gets, for every
+earlier neighbour patch (left, top-left, top, top-right, and across the wrap) copied
+from the sample window at ``(y, x)`` and placed ``(dy, dx)`` px from the new patch,
+the window ``(y - dy, x - dx)`` that continues it (Ashikhmin 2001; Tong et al. 2002's
+k-coherence). Its zone equals the output wherever that neighbour alone made it, so
+it is the match an exhaustive search finds first, and one that a k-d tree over 8-16
+principal components of block means often misses. The candidate set is the members
+of ``Psi_B`` among these (at most 16 + 4, each counted once).
+
+Measured (benchmarks/bench_synthesis.py, 200 x 200 px crops of CC0 photographs from
+scikit-image grown to 800 x 800 px) with :func:`texcad.quality.coherence`: without
+the coherent candidates the approximate search was 10-30 % worse than the
+exhaustive one (``search="exact"``, Liang's straightforward algorithm, by FFT);
+more neighbours (40) or more components (16 per strip) closed part of the gap at
+1.5-8 times the time; the coherent candidates close it at about 1.1-1.3 times.
 
 Scan-line order, a front at a time
 ----------------------------------
@@ -82,12 +96,14 @@ Seamless closure (paper M-II, section 2.1.4)
 With ``wrap`` the output is synthesized on a torus: along a wrapped axis of ``L`` px
 there are ``n = ceil(L / step)`` patches and those that pass the end continue at pixel
 0. Their boundary zone then includes a right (bottom) strip, the first patches of the
-row (column) across the wrap, which enters the k-d tree search (its features are the
-left (top) zone's PCA applied to that strip) and the exact distance, and they are
-feathered or cut on both sides. Every seam of the torus is thus an ordinary patch
-seam: measured, the wrap seam's RMS height jump is 0.96-1.05 times a typical
-neighbour difference (an unwrapped output: 3-4 times), and the worst column of the
-closing region matches the interior seams (benchmarks/bench_synthesis.py). The
+row (column) across the wrap, and they are feathered or cut on both sides. Every seam
+of the torus is thus an ordinary patch seam. The closing patches are the hardest to
+match (their zone holds both neighbours, whose phases a structured texture such as
+a brick wall need not reconcile), and there are only ``rows + cols`` of them, so they
+are matched by the exhaustive search (:meth:`_Synthesizer.query_exact`, one FFT
+correlation each) rather than the k-d tree. The wrap seam's squared height jump is
+then about the mean squared jump between neighbouring columns (rows) on irregular
+and structured photographs alike (benchmarks/bench_synthesis.py). The
 paper instead synthesizes 100 px extra and joins the two unrelated ends with one
 eq. 1 cut; the mismatch along that cut is 1.3-1.5 times the mismatch along the
 interior cuts (0.79-0.89 vs 0.59 neighbour differences), so it is not used.
@@ -131,7 +147,7 @@ ProgressFn = Callable[[float, str], None]
 
 # -- search constants (Liang 2001, section 4) ----------------------------------------
 #: Approximate nearest neighbours returned by the k-d tree and refined exactly.
-_NEIGHBOURS = 10
+_NEIGHBOURS = 16
 #: Add the coherent candidates (continuations of the neighbours' sources).
 _COHERENT = True
 #: Also continue the diagonal neighbours (top-left, top-right) of each patch.
@@ -1213,7 +1229,9 @@ def synthesize(
             eligible (Efros and Freeman's 0.1; Liang's ``d_max`` rule with the bound
             relative to the best match). 0 always takes the best match (least
             variety); larger values trade matching quality for randomness. Among the
-            ``10`` approximate nearest neighbours of the k-d tree.
+            ``16`` approximate nearest neighbours of the k-d tree and the coherent
+            candidates (``search="approximate"``), or among all sample windows
+            (``"exact"``).
         seed: seed of ``numpy.random.default_rng`` (or a Generator), which chooses the
             first patch, the PCA subset and each patch among its candidates. Same
             inputs and seed give byte-identical output.
