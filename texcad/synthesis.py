@@ -50,12 +50,13 @@ the window ``(y - dy, x - dx)`` that continues it (Ashikhmin 2001; Tong et al. 2
 k-coherence). Its zone equals the output wherever that neighbour alone made it, so
 it is the match an exhaustive search finds first, and one that a k-d tree over 8-16
 principal components of block means often misses. The candidate set is the members
-of ``Psi_B`` among these (at most 16 + 4, each counted once).
+of ``Psi_B`` among these (at most 16 + 8, each counted once).
 
 Measured (benchmarks/bench_synthesis.py, 200 x 200 px crops of CC0 photographs from
 scikit-image grown to 800 x 800 px) with :func:`texcad.quality.coherence`: without
-the coherent candidates the approximate search was 10-30 % worse than the
-exhaustive one (``search="exact"``, Liang's straightforward algorithm, by FFT);
+the coherent candidates the approximate search was 25-27 % worse than the
+exhaustive one (``search="exact"``, Liang's straightforward algorithm, by FFT) on
+gravel, 14-98 % on grass and on par on a brick wall;
 more neighbours (40) or more components (16 per strip) closed only part of the gap
 at up to 5 times the time; the coherent candidates close it (gravel, brick wall) or
 reverse it (grass: 0.76 of the exhaustive search's distance on one crop, still 1.17
@@ -104,7 +105,8 @@ of the torus is thus an ordinary patch seam. The closing patches are the hardest
 match (their zone holds both neighbours, whose phases a structured texture such as
 a brick wall need not reconcile), and there are only ``rows + cols`` of them, so they
 are matched by the exhaustive search (:meth:`_Synthesizer.query_exact`, one FFT
-correlation each) rather than the k-d tree. The wrap seam's squared height jump is
+correlation each) rather than the k-d tree, and take the best match (tolerance
+``_CLOSING_TOLERANCE`` = 0: variety is not at stake in so few patches). The wrap seam's squared height jump is
 then about the mean squared jump between neighbouring columns (rows) on irregular
 and structured photographs alike (benchmarks/bench_synthesis.py). The
 paper instead synthesizes 100 px extra and joins the two unrelated ends with one
