@@ -2,8 +2,10 @@
 
 Run from the repository root:
 
-    python benchmarks/bench_synthesis.py            # everything (~1-2 min)
+    python benchmarks/bench_synthesis.py            # everything (~10 min)
     python benchmarks/bench_synthesis.py --quick    # skip 4000 x 4000
+    python benchmarks/bench_synthesis.py --photos   # only the photographs' figures
+    python benchmarks/bench_synthesis.py --speed    # only the timings
 
 Prints the median wall time of several runs and the peak memory (tracemalloc peak of
 one run, and the process's peak resident set size), then quality measures of the
@@ -11,6 +13,14 @@ output against the sample and against random patch pasting (naive_quilt), and th
 wrap seam of the torus closure against the paper's closing cut (M-II, section 2.1.4).
 The sample is a 200 x 200 px photograph-like height field (filtered noise at two
 scales with a network of grooves), the paper's patch 45 px and overlap 25 px.
+
+Then, on real photographs (scikit-image's CC0 gravel, brick wall and grass, 200 x 200
+px crops at two places each, grey level / 255 as heights in mm): coherence
+(texcad.synthesis.quality.coherence) and time of the approximate search (and of variants of
+it) against the exhaustive search (search="exact", straightforward Liang 2001), and
+the wrap seam (squared jump across the wrap over the mean squared jump between
+neighbouring columns, i.e. wrap_seam_error**2) for wrap "x", "y" and "xy", with the
+torus's closing patches matched exhaustively (default) or by the k-d tree.
 """
 
 from __future__ import annotations
@@ -29,7 +39,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from texcad.synthesis import quality as Q  # noqa: E402
-from texcad.synthesis import _min_error_paths, naive_quilt, patch_grid, seam_bands, synthesize  # noqa: E402
+from texcad.synthesis import naive_quilt, patch_grid, seam_bands, synthesize  # noqa: E402
+from texcad.synthesis.quilt import _min_error_paths  # noqa: E402
 from texcad.sources import builtin  # noqa: E402
 
 PATCH, OVERLAP = 45, 25
@@ -77,16 +88,109 @@ def paper_closing_cut(h: np.ndarray, extra: int) -> tuple[np.ndarray, float]:
     return out, float(mismatch / typical)
 
 
+def photos() -> dict[str, np.ndarray]:
+    """200 x 200 px crops of scikit-image's texture photographs (CC0: brick "Bricks25",
+    gravel "Gravel04" from cc0textures.com, grass from DeviantArt's linolafett, as
+    skimage.data's docstrings state), grey level / 255 as heights in mm."""
+    import skimage.data as data
+
+    out = {}
+    for name in ("gravel", "brick", "grass"):
+        img = getattr(data, name)().astype(np.float32) / 255.0
+        for y, x in ((0, 0), (300, 300)):
+            out[f"{name}@{y},{x}"] = np.ascontiguousarray(img[y: y + 200, x: x + 200])
+    return out
+
+
+#: Variants of the approximate search measured against the exhaustive one.
+VARIANTS = {
+    "before (10 nn, no coherent)": dict(_NEIGHBOURS=10, _COHERENT=False),
+    "40 nn, no coherent": dict(_NEIGHBOURS=40, _COHERENT=False),
+    "16 comps/strip, no coherent": dict(_COMPONENTS_PER_STRIP=16, _VARIANCE_KEPT=0.9999, _COHERENT=False),
+    "default (16 nn + coherent)": {},
+}
+
+
+def _with(settings: dict, fn):  # noqa: ANN001, ANN202
+    import texcad.synthesis.quilt as syn
+
+    old = {k: getattr(syn, k) for k in settings}
+    for k, v in settings.items():
+        setattr(syn, k, v)
+    try:
+        return fn()
+    finally:
+        for k, v in old.items():
+            setattr(syn, k, v)
+
+
+def photo_coherence(seeds: int) -> None:
+    print(f"coherence on photographs, 200 x 200 px crop -> 800 x 800 px, patch {PATCH}, overlap {OVERLAP},")
+    print(f"mean of seeds 0..{seeds - 1} (lower is better; ratio = approximate / exact; median wall s;")
+    print(f"load average now {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
+    for name, s in photos().items():
+        line = f"  {name:15s}"
+        res = {}
+        for label, mode, settings in [("exact", "exact", {})] + [(k, "approximate", v) for k, v in VARIANTS.items()]:
+            cs, ts = [], []
+            for seed in range(seeds):
+                t = time.perf_counter()
+                o = _with(settings, lambda: synthesize(s, (800, 800), patch=PATCH, overlap=OVERLAP, seed=seed, search=mode))  # noqa: B023
+                ts.append(time.perf_counter() - t)
+                cs.append(Q.coherence(o, s))
+            res[label] = (float(np.mean(cs)), statistics.median(ts))
+        e = res["exact"][0]
+        print(line + f" exact {e:.4f} ({res['exact'][1]:.2f} s)")
+        for label in VARIANTS:
+            c, t = res[label]
+            print(f"      {label:30s} {c:.4f} ratio {c / e:.3f} ({t:.2f} s)")
+
+
+def photo_wrap_seams(seeds: int) -> None:
+    print(f"wrap seams on photographs, 800 x 800 px, mean over seeds 0..{seeds - 1} of the squared jump across")
+    print("the wrap / mean squared jump between neighbouring columns (rows) (= wrap_seam_error**2; the")
+    print("interior boundaries average 1 by definition); +- standard error of the mean over seeds")
+    for name, s in photos().items():
+        if not name.endswith("@0,0"):
+            continue
+        for blend in ("feather", "cut"):
+            for exact_closing in (True, False):
+                parts = []
+                for wrap in ("x", "y", "xy"):
+                    v = np.array([
+                        [Q.wrap_seam_error(o, a) ** 2 for a in "xy" if a in wrap]
+                        for o in (
+                            _with(dict(_EXACT_CLOSING=exact_closing), lambda: synthesize(  # noqa: B023
+                                s, (800, 800), patch=PATCH, overlap=OVERLAP, blend=blend, wrap=wrap, seed=seed))  # noqa: B023
+                            for seed in range(seeds)
+                        )
+                    ])
+                    m, se = v.mean(axis=0), v.std(axis=0) / np.sqrt(len(v))
+                    parts.append(f"{wrap}: " + "/".join(f"{a:.2f}+-{b:.2f}" for a, b in zip(m, se)))
+                how = "exact closing" if exact_closing else "k-d closing  "
+                print(f"  {name:12s} {blend:7s} {how}: " + ", ".join(parts), flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="skip the 4000 x 4000 px runs")
+    ap.add_argument("--photos", action="store_true", help="only the photographs' coherence and wrap seams")
+    ap.add_argument("--speed", action="store_true", help="only the timings")
+    ap.add_argument("--seeds", type=int, default=3, help="seeds of the photographs' coherence")
+    ap.add_argument("--wrap-seeds", type=int, default=12, help="seeds of the photographs' wrap seams")
     args = ap.parse_args()
+    if args.photos:
+        photo_coherence(args.seeds)
+        print()
+        photo_wrap_seams(args.wrap_seeds)
+        return
 
     sample = Q.natural_sample()
     print(f"sample {sample.shape[0]} x {sample.shape[1]} px, patch {PATCH}, overlap {OVERLAP}")
     print()
     print(f"speed (median of runs, wall clock and process CPU; load average now {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
-    cases = [((800, 800), "feather", None, 7), ((800, 800), "cut", None, 5), ((800, 800), "feather", "xy", 5)]
+    cases = [((800, 800), "feather", None, 7), ((800, 800), "cut", None, 5), ((800, 800), "feather", "x", 5),
+             ((800, 800), "feather", "xy", 5)]
     if not args.quick:
         cases += [((4000, 4000), "feather", None, 3), ((4000, 4000), "cut", None, 1)]
     for shape, blend, wrap, runs in cases:
@@ -111,6 +215,9 @@ def main() -> None:
     )
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"  process peak resident set size so far: {rss:.0f} MiB")
+    print(f"  load average after the timings: {', '.join(f'{x:.1f}' for x in os.getloadavg())}")
+    if args.speed:
+        return
 
     print()
     print("quality, 800 x 800 px, mean of seeds 0..2 (synthesize | naive_quilt)")
@@ -167,6 +274,11 @@ def main() -> None:
     inner = np.mean([interior_cut_mismatch(sample, (800, 800), seed) for seed in range(3)])
     print(f"  for scale: RMS mismatch (old - new) along the interior cuts of blend='cut': {inner:.2f}")
 
+    print()
+    photo_coherence(args.seeds)
+    print()
+    photo_wrap_seams(args.wrap_seeds)
+
 
 def builtin_quality(synth, naive, names: list[str] | None = None) -> None:  # noqa: ANN001
     """Print the quality measures of every built-in texture (or ``names``) grown from
@@ -198,7 +310,7 @@ def interior_cut_mismatch(sample: np.ndarray, shape: tuple[int, int], seed: int)
     """RMS of (old - new) along every eq. 1 cut that synthesize(blend="cut") makes,
     divided by the output's typical neighbour difference: the same measure as the
     paper M-II's step along its cut."""
-    import texcad.synthesis as syn
+    import texcad.synthesis.quilt as syn
 
     found: list[float] = []
     original = syn._min_error_paths

@@ -1,7 +1,7 @@
 """Tests of texcad.synthesis: patch-based sampling (Liang 2001), eq. 1 cuts, wrap.
 
 Samples are small (<= 150 px) and outputs a few hundred px so the file runs in seconds.
-Quality is asserted with the measures of texcad.quality against random patch pasting
+Quality is asserted with the measures of texcad.synthesis.quality against random patch pasting
 (naive_quilt) on the same grid.
 """
 
@@ -32,7 +32,7 @@ P, O = 32, 14  # patch and overlap used with the 128 px samples (step 18)
 
 
 def natural_sample(rows: int = 128, cols: int = 128, seed: int = 1) -> np.ndarray:
-    """A photograph-like stochastic height field in mm (:func:`texcad.quality.natural_sample`)."""
+    """A photograph-like stochastic height field in mm (:func:`texcad.synthesis.quality.natural_sample`)."""
     return Q.natural_sample(rows, cols, seed)
 
 
@@ -171,6 +171,7 @@ def test_progress_is_called_per_patch_row(natural: Heightmap) -> None:
         (dict(progress="yes"), ["progress", "callable"]),
         (dict(seed=-1), ["seed", "-1"]),
         (dict(seed="abc"), ["seed", "'abc'"]),
+        (dict(search="fast"), ["'fast'", "'approximate'", "'exact'"]),
     ],
 )
 def test_bad_parameters_raise_parameter_error(natural: Heightmap, kwargs: dict, words: list[str]) -> None:
@@ -227,8 +228,9 @@ def test_beats_naive_quilt(natural: Heightmap, blend: str) -> None:
 
 def test_cut_is_sharper_than_feather(natural: Heightmap) -> None:
     # Feathering matched patches still averages two textures in the overlaps
-    # (blur ratio ~0.75 here); the eq. 1 cut keeps them nearly as sharp as the rest
-    # (~0.93; 1 = as sharp as the patch interiors).
+    # (blur ratio ~0.83 here: where a patch continues its neighbour's source the two
+    # agree); the eq. 1 cut keeps them nearly as sharp as the rest (~0.96; 1 = as
+    # sharp as the patch interiors).
     shape = (220, 220)
     bands = seam_bands(shape, P, O)
     rf, rc = [], []
@@ -237,8 +239,9 @@ def test_cut_is_sharper_than_feather(natural: Heightmap) -> None:
         c = synthesize(natural, shape, patch=P, overlap=O, blend="cut", seed=seed)
         rf.append(Q.blur_ratio(f, bands))
         rc.append(Q.blur_ratio(c, bands))
-        assert rc[-1] > rf[-1] + 0.1
-    assert np.mean(rf) < 0.85
+        assert rc[-1] > rf[-1] + 0.05
+    assert np.mean(rc) > np.mean(rf) + 0.1
+    assert np.mean(rf) < 0.9
     assert abs(1 - np.mean(rc)) < 0.12
 
 
@@ -406,7 +409,7 @@ def test_fft_features_match_projection_and_bound_the_distance(natural: Heightmap
     # torus's closing zones concatenate parts that share their corners.)
     import texcad.synthesis.quilt as syn
 
-    s = syn._Synthesizer(natural.heights, P, O, np.random.default_rng(0), True)
+    s = syn._Synthesizer(natural.heights, P, O, np.random.default_rng(0), "approximate")
     z = s.zone(key)
     feats = z.feats if z.tree is None else z.tree.data
     rng = np.random.default_rng(1)
@@ -434,3 +437,97 @@ def test_min_error_paths_of_many_strips_match_one_at_a_time() -> None:
     for e, s, path in zip(errs, starts, together):
         alone = _min_error_paths([e], [s])[0]
         assert np.array_equal(path, alone)
+
+
+# -- exhaustive search, coherent candidates, quality against exact matching -----------
+def test_exact_search_is_exhaustive(natural: Heightmap) -> None:
+    # query_exact (FFT correlation) returns the r-th window, in candidate order, of
+    # {B : d(B) <= (1 + tol) d_min} over *all* windows, d by brute force here.
+    import texcad.synthesis.quilt as syn
+
+    s = syn._Synthesizer(natural.heights, P, O, np.random.default_rng(0), "exact")
+    rng = np.random.default_rng(5)
+    for key in [(O, 0, 0, 0), (0, O, 0, 0), (O, O, 0, 0), (O, O, 20, 0), (O, O, 20, 20)]:
+        z = s.zone(key)
+        ys, xs = rng.integers(0, 128 - P + 1, 2), rng.integers(0, 128 - P + 1, 2)
+        old = np.stack([natural.heights[y: y + P, x: x + P] for y, x in zip(ys, xs)])
+        old = (old + 0.05 * rng.standard_normal(old.shape)).astype(np.float32)
+        zones = s.S_flat.take(s.offsets[:, None] + z.sflat).astype(np.float64)
+        for tol in (0.0, 0.3):
+            u = rng.random(2)
+            got = s.query_exact(z, old, tol, u)
+            for k in range(2):
+                d2 = ((zones - old[k].reshape(-1)[z.pflat]) ** 2).sum(axis=1)
+                eligible = np.flatnonzero(d2 <= d2.min() * (1 + tol) ** 2 * (1 + 1e-9))
+                assert got[k] == eligible[int(u[k] * len(eligible))]
+
+
+def test_neighbour_table_and_coherent_candidates() -> None:
+    import texcad.synthesis.quilt as syn
+
+    ay, ax = syn._axis(100, P, O, False), syn._axis(150, P, O, True)  # 5 x 9 patches, x wraps
+    nb, dy, dx = syn._neighbour_table(ay, ax)
+    n_cols = len(ax.starts)
+    step = P - O
+    got = {(int(f) // n_cols, int(f) % n_cols, int(a), int(b)) for f, a, b in zip(nb[1 * n_cols + 3], dy[1 * n_cols + 3], dx[1 * n_cols + 3]) if f >= 0}
+    assert got == {(0, 2, -step, -step), (0, 3, -step, 0), (0, 4, -step, step), (1, 2, 0, -step)}
+    # The closing patch of a row also continues patch 0 of its row, across the wrap.
+    last = 2 * n_cols + n_cols - 1
+    got = {(int(f) // n_cols, int(f) % n_cols, int(b)) for f, b in zip(nb[last], dx[last]) if f >= 0}
+    assert (2, 0, ax.canvas - int(ax.starts[-1])) in got and (1, 0, ax.canvas - int(ax.starts[-1])) in got
+    assert (2, n_cols - 2, -step) in got
+    # The first patch has none.
+    assert (nb[0] < 0).all()
+    # Coherent candidates: the window continuing each neighbour's source window.
+    s = syn._Synthesizer(natural_sample(), P, O, np.random.default_rng(0), "approximate")
+    chosen = np.full(len(ay.starts) * n_cols, -1, dtype=np.intp)
+    chosen[1 * n_cols + 2] = int(s.lookup[50, 60])  # left neighbour from window (50, 60)
+    chosen[0 * n_cols + 3] = int(s.lookup[10, 5])  # top neighbour from window (10, 5)
+    chosen[0 * n_cols + 4] = int(s.lookup[90, 2])  # top-right: its continuation leaves the sample
+    c = syn._coherent_candidates(np.array([1 * n_cols + 3]), chosen, (nb, dy, dx), s)[0]
+    pos = {(int(s.cy[k]), int(s.cx[k])) for k in c if k >= 0}
+    assert pos == {(50, 60 + step), (10 + step, 5)}
+
+
+def _photo(name: str, y: int = 0, x: int = 0) -> np.ndarray:
+    """A 200 x 200 px crop of one of scikit-image's CC0 texture photographs (grey / 255
+    as heights in mm): gravel and grass are irregular, the brick wall structured."""
+    import skimage.data  # the `test` extra of pyproject.toml
+
+    return np.ascontiguousarray(getattr(skimage.data, name)()[y: y + 200, x: x + 200].astype(np.float32) / 255.0)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name, y, x", [("gravel", 0, 0), ("brick", 0, 0), ("grass", 0, 0), ("brick", 300, 300)])
+def test_coherence_within_2_percent_of_exact_matching(name: str, y: int, x: int) -> None:
+    # The issue's criterion: on real photographs the approximate search (k-d tree +
+    # coherent candidates) is within 2 % of exhaustive matching or better, by the
+    # mean distance of output windows to their nearest sample window.
+    s = _photo(name, y, x)
+    kw = dict(patch=45, overlap=25)
+    seeds = (0, 1, 2)
+    approx = np.mean([Q.coherence(synthesize(s, (400, 400), seed=k, **kw), s) for k in seeds])
+    exact = np.mean([Q.coherence(synthesize(s, (400, 400), seed=k, search="exact", **kw), s) for k in seeds])
+    naive = np.mean([Q.coherence(naive_quilt(s, (400, 400), seed=k, **kw), s) for k in seeds])
+    assert exact < 0.8 * naive  # the measure sees matching at all
+    assert approx <= 1.02 * exact, (approx, exact)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("blend", BLENDS)
+def test_wrap_seams_of_a_structured_photograph(blend: str) -> None:
+    # Brick wall: the closing patches must reconcile the phases of both neighbours.
+    # The squared jump across each wrap seam, pooled over seeds, is at most 1.2 times
+    # the mean squared jump between neighbouring columns (rows). (A single seam of
+    # a brick wall varies several-fold with where the mortar lines fall, so the
+    # figure is a mean over 12 seeds.)
+    s = _photo("brick")
+    seams: dict[str, list[float]] = {"x": [], "y": [], "xy-x": [], "xy-y": []}
+    for seed in range(12):
+        for wrap in ("x", "y", "xy"):
+            out = synthesize(s, (400, 400), patch=45, overlap=25, wrap=wrap, blend=blend, seed=seed)
+            for a in "xy":
+                if a in wrap:
+                    seams[wrap if len(wrap) == 1 else f"xy-{a}"].append(Q.wrap_seam_error(out, a) ** 2)
+    for key, v in seams.items():
+        assert np.mean(v) <= 1.2, (key, np.mean(v))

@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     if args.preview:
         render_heightmap(out, args.preview)
 
-    # Quality against the sample (texcad.quality), on the first REPORT_PIXELS^2 px.
+    # Quality against the sample (texcad.synthesis.quality), on the first REPORT_PIXELS^2 px.
     r, c = min(rows, REPORT_PIXELS), min(cols, REPORT_PIXELS)
     crop = out.heights[:r, :c]
     bands = seam_bands((r, c), args.patch, args.overlap)
