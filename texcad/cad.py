@@ -65,6 +65,7 @@ import numpy as np
 from . import brep as _brep
 from .errors import GeometryError, InputError, ParameterError
 from .heightmap import Heightmap
+from .lean import DEFAULT_TOLERANCE
 from .mesh import Mesh, heightfield_slab
 from .progress import Progress, report, subrange
 from .solid import from_manifold, fuse, shape_to_mesh, to_manifold
@@ -132,6 +133,9 @@ def _make_textured_class():
                 :class:`texcad.printability.LimitReport`, as ``TexturedPart.limits``),
                 or None when no build direction was given.
             info: dict with what was done (face kind, frame, grid size, mapping...).
+            max_error: the measured largest height error in mm of the texture
+                surface at any pixel centre (see :func:`texcad.lean.mesh_error`),
+                computed on first use.
         """
 
         def __init__(
@@ -145,6 +149,7 @@ def _make_textured_class():
             limits: Any = None,
             info: dict | None = None,
             label: str = "textured",
+            max_error: "float | Callable[[], float] | None" = None,
             **kwargs: Any,
         ) -> None:
             super().__init__(obj, label=label, **kwargs)
@@ -154,6 +159,7 @@ def _make_textured_class():
             self.heightmap = heightmap
             self.limits = limits
             self.info = dict(info or {})
+            self._tx_error = max_error
             self._tx_home = _trsf_matrix(self.wrapped) if self.wrapped is not None else np.eye(3, 4)
 
         # -- meshes that follow the part's location -------------------------------------
@@ -183,6 +189,14 @@ def _make_textured_class():
             if callable(self._tx_texture):
                 self._tx_texture = self._tx_texture()
             return self._need(self._tx_texture, "texture mesh")
+
+        @property
+        def max_error(self) -> "float | None":
+            """Measured largest height error in mm of the texture surface at any pixel
+            centre (computed on first use; None if unknown)."""
+            if callable(self._tx_error):
+                self._tx_error = float(self._tx_error())
+            return self._tx_error
 
         @property
         def base_mesh(self) -> Mesh:
@@ -400,6 +414,7 @@ def _texture_plane(
     build_dir: np.ndarray | None,
     critical_angle: float,
     progress: Progress,
+    tolerance: float = 0.0,
 ) -> dict:
     from scipy.ndimage import distance_transform_edt
 
@@ -492,7 +507,8 @@ def _texture_plane(
     # near and outside the outline go to -1 mm so that the trim also removes the flat
     # (zero-thickness) part there: what is left lies inside the outline, on the face.
     h_mesh = np.where(dist > 1.75 * float(np.hypot(px, py)), h, np.float32(-1.0))
-    slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=(xs[0] - px / 2, ys[0] - py / 2, 0.0))
+    slab_origin = (xs[0] - px / 2, ys[0] - py / 2, 0.0)
+    slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin, tolerance=tolerance)
     relief = to_manifold(slab).trim_by_plane((0.0, 0.0, 1.0), 0.0)
     report(progress, 0.4, f"fusing {slab.num_triangles} texture triangles onto the part (manifold3d)")
     fused_local = fuse(base_local, relief)
@@ -508,7 +524,13 @@ def _texture_plane(
         # plane consistently this way round).
         return world(from_manifold(to_manifold(fused_local) - to_manifold(base_local)))
 
+    def max_error() -> float:
+        from .lean import mesh_error
+
+        return mesh_error(h_mesh, (px, py), slab_origin, slab.vertices, slab.faces[slab.groups["texture"]])
+
     result = {
+        "max_error": max_error,
         "mesh": world(fused_local),
         "texture_mesh": texture_only,
         "base_mesh": base_mesh,
@@ -524,6 +546,9 @@ def _texture_plane(
             "x": xs,
             "y": ys,
             "obstructed": obst is not None,
+            "tolerance": float(tolerance),
+            # the lean surface may enclose up to tolerance x area more or less than the B-rep
+            "volume_slack": float(tolerance) * px * py * h_mesh.size,
         },
     }
     if make_brep:
@@ -828,6 +853,7 @@ def texture(
     brep: bool = True,
     build_dir: Any = None,
     critical_angle: float = 45.0,
+    tolerance: float = DEFAULT_TOLERANCE,
     progress: Progress = None,
 ):
     """Texture one face of a build123d or CadQuery part.
@@ -874,6 +900,11 @@ def texture(
             is printed, or rotate ``build_dir`` with it. None: texture as is.
         critical_angle: critical overhang angle in degrees (default 45; paper,
             section 2.1.3), used with ``build_dir``.
+        tolerance: planar faces: largest height error in mm of the texture surface
+            at any pixel centre (default 0.02 mm; a lean mesh by
+            :func:`texcad.lean.triangulate`); 0 keeps one vertex per pixel. The
+            measured error is ``Textured.max_error``. Curved faces keep one vertex
+            per pixel for now (their ``max_error`` is 0).
         progress: optional ``progress(fraction, message)`` callback.
 
     Returns:
@@ -888,8 +919,10 @@ def texture(
         GeometryError: the face cannot be textured (not planar nor extruded, too
             small for the pitch) or a boolean failed.
     """
+    from .lean import check_tolerance
     from .mapping import MAPPINGS
 
+    check_tolerance(tolerance)
     if mapping not in MAPPINGS:
         raise ParameterError(f"unknown mapping {mapping!r}; use 'angle' (algorithm 2) or 'distance' (algorithm 1)")
     for label, v in (("height", height), ("pitch", pitch), ("depth", depth)):
@@ -926,6 +959,7 @@ def texture(
             build_dir=dirs,
             critical_angle=critical_angle,
             progress=progress,
+            tolerance=check_tolerance(tolerance),
         )
     else:
         res = _texture_extrusion(
@@ -960,7 +994,7 @@ def texture(
         # triangle term of texcad.brep and float32 rounding).
         vb, vm = _brep.volume(res["shape"]), float(res["mesh"].volume)
         res["info"]["brep_volume"] = vb
-        if abs(vb - vm) > VOLUME_TOLERANCE * abs(vm):
+        if abs(vb - vm) > VOLUME_TOLERANCE * abs(vm) + res["info"].get("volume_slack", 0.0):
             raise GeometryError(
                 f"the textured B-rep encloses {vb:.1f} mm3 but the mesh {vm:.1f} mm3 (OCCT's union went wrong); "
                 "the meshes are fine: texture with brep=False for STL/3MF only"
@@ -973,6 +1007,7 @@ def texture(
         heightmap=res["heightmap"],
         limits=res["limits"],
         info=res["info"],
+        max_error=res.get("max_error", 0.0),
     )
     report(progress, 1.0, "textured")
     if kind == "workplane":

@@ -14,6 +14,7 @@ import numpy as np
 
 from .errors import GeometryError, ParameterError
 from .heightmap import Heightmap
+from .lean import DEFAULT_TOLERANCE, mesh_error
 from .mesh import Mesh, heightfield_slab
 from .progress import Progress, report
 from .solid import fuse, shape_to_mesh
@@ -34,6 +35,9 @@ class TexturedPart:
         limits: what the overhang limiter changed (a
             :class:`texcad.printability.LimitReport`), or None when no build
             direction was given.
+        max_error: the measured largest height error in mm of the texture
+            surface at any pixel centre (:func:`texcad.lean.mesh_error`; 0 up to
+            float32 rounding with ``tolerance=0``).
     """
 
     mesh: Mesh
@@ -41,6 +45,7 @@ class TexturedPart:
     base: Mesh
     heightmap: Heightmap
     limits: Any = None
+    max_error: float | None = None
 
 
 def plate_base(size: Sequence[float], thickness: float):
@@ -62,12 +67,13 @@ def textured_plate(
     base: Any = None,
     build_dir: Any = None,
     critical_angle: float = 45.0,
+    tolerance: float = DEFAULT_TOLERANCE,
     progress: Progress = None,
 ) -> TexturedPart:
     """Texture the top face of a plate: the paper's flat sample (section 2.2).
 
-    The texture lies on the plate's top face (z = 0), centred; one mesh vertex per
-    pixel; the slab reaches ``depth`` mm into the plate and is unioned onto it with
+    The texture lies on the plate's top face (z = 0), centred; mesh vertices at
+    pixel centres (all of them with ``tolerance=0``); the slab reaches ``depth`` mm into the plate and is unioned onto it with
     manifold3d.
 
     Args:
@@ -88,6 +94,9 @@ def textured_plate(
             texture as little as needed. None: the texture is used as is.
         critical_angle: critical overhang angle in degrees (default 45; paper,
             section 2.1.3), used with ``build_dir``.
+        tolerance: largest height error in mm of the texture surface at any pixel
+            centre (default 0.02 mm; :func:`texcad.lean.triangulate`); 0 keeps one
+            vertex per pixel. The measured error is ``TexturedPart.max_error``.
         progress: optional ``progress(fraction, message)`` callback.
 
     Returns:
@@ -124,11 +133,14 @@ def textured_plate(
         report(progress, 0.1, f"limiting overhangs to {critical_angle:g} deg")
         hm, limits = limit_overhangs(hm, build_dir, critical_angle)
     report(progress, 0.15, f"meshing {hm.shape[0]} x {hm.shape[1]} px heightmap")
-    slab = heightfield_slab(hm, depth=depth, origin=((w - tw) / 2, (d - td) / 2, 0.0))
+    origin = ((w - tw) / 2, (d - td) / 2, 0.0)
+    slab = heightfield_slab(hm, depth=depth, origin=origin, tolerance=tolerance)
     report(progress, 0.35, "building base body")
     base_shape = plate_base((w, d), thickness) if base is None else base
     base_mesh = base_shape if isinstance(base_shape, Mesh) else shape_to_mesh(base_shape)
     report(progress, 0.45, f"fusing {slab.num_triangles} texture triangles onto the base (manifold3d)")
     fused = fuse(base_mesh, slab)
+    report(progress, 0.9, "measuring the surface error at every pixel centre")
+    err = mesh_error(hm.heights, hm.pitch, origin, slab.vertices, slab.faces[slab.groups["texture"]])
     report(progress, 1.0, "fused")
-    return TexturedPart(fused, slab, base_mesh, hm, limits)
+    return TexturedPart(fused, slab, base_mesh, hm, limits, err)
