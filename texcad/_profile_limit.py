@@ -54,8 +54,9 @@ SINK = 0.02
 #: Passes over the three copies of a closed texture before giving up (each pass only lowers).
 _MAX_PASSES = 12
 #: Degrees added to the critical angle for the facets: mapped meshes are cut by the
-#: base surface into slivers whose float32 normals scatter by a few tenths of a degree.
-MARGIN = 0.5
+#: base surface into slivers whose float32 normals scatter by a few tenths of a degree
+#: (0.5), on top of the slicer's own degree (texcad.printability.SLICER_MARGIN).
+MARGIN = 2.0
 
 
 def limit_on_profile(

@@ -508,7 +508,15 @@ def _texture_plane(
     # (zero-thickness) part there: what is left lies inside the outline, on the face.
     h_mesh = np.where(dist > 1.75 * float(np.hypot(px, py)), h, np.float32(-1.0))
     slab_origin = (xs[0] - px / 2, ys[0] - py / 2, 0.0)
-    slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin, tolerance=tolerance)
+    if build_dir is not None and tolerance > 0:
+        from .printability import printable_lean_slab
+
+        # lean facets keep the limiter's angle too (else a finer tolerance, down to 0)
+        slab, tolerance = printable_lean_slab(
+            Heightmap(h_mesh, (px, py)), build_dir @ axes.T, critical_angle, tolerance=tolerance, depth=1.0, origin=slab_origin
+        )
+    else:
+        slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin, tolerance=tolerance)
     relief = to_manifold(slab).trim_by_plane((0.0, 0.0, 1.0), 0.0)
     report(progress, 0.4, f"fusing {slab.num_triangles} texture triangles onto the part (manifold3d)")
     fused_local = fuse(base_local, relief)

@@ -134,7 +134,13 @@ def textured_plate(
         hm, limits = limit_overhangs(hm, build_dir, critical_angle)
     report(progress, 0.15, f"meshing {hm.shape[0]} x {hm.shape[1]} px heightmap")
     origin = ((w - tw) / 2, (d - td) / 2, 0.0)
-    slab = heightfield_slab(hm, depth=depth, origin=origin, tolerance=tolerance)
+    if build_dir is not None and tolerance > 0:
+        from .printability import printable_lean_slab
+
+        # lean facets keep the limiter's angle too (else a finer tolerance, down to 0)
+        slab, _ = printable_lean_slab(hm, build_dir, critical_angle, tolerance=tolerance, depth=depth, origin=origin)
+    else:
+        slab = heightfield_slab(hm, depth=depth, origin=origin, tolerance=tolerance)
     report(progress, 0.35, "building base body")
     base_shape = plate_base((w, d), thickness) if base is None else base
     base_mesh = base_shape if isinstance(base_shape, Mesh) else shape_to_mesh(base_shape)
