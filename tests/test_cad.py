@@ -148,8 +148,10 @@ def test_planar_face_of_any_outline(tmp_path):
     tx = cad.texture(part, top, "builtin:stones", height=0.8, pitch=0.5)
     chk = brep.check_shape(tx)
     assert chk["valid"] and chk["solids"] == 1 and chk["faces"] == len(part.faces())
-    # (the mesh's hole is OCCT's 10 um tessellation of the circle: 3e-5 smaller)
-    assert tx.info["brep_volume"] == pytest.approx(tx.mesh.volume, rel=1e-4)
+    # (the mesh's hole is OCCT's 10 um tessellation of the circle: 3e-5 smaller; the
+    # B-rep has one pole per pixel, the lean mesh is within 0.02 mm of it)
+    assert abs(tx.info["brep_volume"] - tx.mesh.volume) <= 1e-4 * tx.mesh.volume + 0.02 * 50 * 30
+    assert tx.max_error <= 0.02 + 1e-6
     v = tx.mesh.vertices.astype(np.float64)
     up = v[:, 2] > 3 + 1e-4
     r = np.hypot(v[up, 0], v[up, 1])
