@@ -35,7 +35,7 @@ def _brute_error(h, rc, z, faces):
 def test_surface_error_matches_a_brute_force_measurement(seed):
     rng = np.random.default_rng(seed)
     h = (rng.random((23, 31)) * rng.random()).astype(np.float32)
-    rc, f = lean.triangulate(h, 0.1)
+    rc, f = lean.triangulate(h, 0.1, max_fraction=1.0)
     z = h[rc[:, 0], rc[:, 1]].astype(np.float64)
     assert np.isclose(lean.surface_error(h, rc, z, f), _brute_error(h, rc, z, f), rtol=0, atol=1e-12)
 
@@ -44,7 +44,7 @@ def test_surface_error_matches_a_brute_force_measurement(seed):
 @pytest.mark.parametrize("tol", [0.01, 0.05])
 def test_error_bound_at_every_pixel_centre(name, tol):
     hm = texcad.builtin(name, size=(20, 15), pitch=0.125, height=1.5)
-    rc, f = lean.triangulate(hm.heights, tol)
+    rc, f = lean.triangulate(hm.heights, tol, max_fraction=1.0)
     err = lean.surface_error(hm.heights, rc, hm.heights[rc[:, 0], rc[:, 1]], f)
     assert err <= tol * (1 + 1e-6)
     rows, cols = hm.shape
@@ -78,7 +78,7 @@ def _slab_checks(hm, tol, origin=(1.5, -2.0, 0.25), depth=0.5):
     return slab, dense
 
 
-@pytest.mark.parametrize("name", ["stones", "diamond_knurl", "sand"])
+@pytest.mark.parametrize("name", ["stones", "diamond_knurl", "pins"])
 def test_lean_slab_is_watertight_bounded_and_keeps_volume(name):
     hm = texcad.builtin(name, size=(25, 20), pitch=0.125, height=2.0)
     _slab_checks(hm, 0.02)
@@ -140,3 +140,15 @@ def test_texture_on_a_planar_face_is_lean_and_bounded():
     assert tm.is_watertight and tm.is_volume
     assert abs(a.mesh.volume - b.mesh.volume) <= 0.02 * 30 * 20
     assert a.mesh.num_triangles < b.mesh.num_triangles
+
+
+def test_noisy_texture_keeps_the_pixel_grid():
+    # sand needs ~0.8 of the grid's triangles at 0.02 mm: more than MAX_FRACTION,
+    # so the slab is the pixel grid itself (exact), not a slower lean mesh
+    hm = texcad.builtin("sand", size=(20, 15), pitch=0.125, height=1.0)
+    assert lean.triangulate(hm.heights, 0.02) is None
+    a = heightfield_slab(hm, tolerance=0.02)
+    b = heightfield_slab(hm)
+    assert a.faces.tobytes() == b.faces.tobytes() and a.vertices.tobytes() == b.vertices.tobytes()
+    rc, f = lean.triangulate(hm.heights, 0.02, max_fraction=1.0)
+    assert len(f) > lean.MAX_FRACTION * 2 * (hm.shape[0] - 1) * (hm.shape[1] - 1)

@@ -27,7 +27,7 @@ import numpy as np
 
 from .errors import GeometryError, ParameterError
 
-__all__ = ["DEFAULT_TOLERANCE", "check_tolerance", "triangulate", "surface_error", "mesh_error", "boundary_chains"]
+__all__ = ["DEFAULT_TOLERANCE", "MAX_FRACTION", "check_tolerance", "triangulate", "surface_error", "mesh_error", "boundary_chains"]
 
 #: Default largest height error in mm of a lean mesh at any pixel centre: a tenth of
 #: a fine 0.2 mm layer, far below what an FDM or resin printer resolves.
@@ -46,7 +46,16 @@ def check_tolerance(tolerance: float) -> float:
     return t
 
 
-def triangulate(heights: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+#: Largest share of the pixel grid's triangles a lean mesh may keep; beyond it the
+#: grid itself is used: noisy textures (leather, sand: 0.82 of the grid at 0.02 mm)
+#: gain little, and greedy insertion and manifold3d's union were slower on the
+#: lean mesh than on the grid (benchmarks/bench_lean.py).
+MAX_FRACTION = 0.5
+
+
+def triangulate(
+    heights: np.ndarray, tolerance: float, *, max_fraction: float = MAX_FRACTION
+) -> "tuple[np.ndarray, np.ndarray] | None":
     """Triangulate a heightfield so that it stays within ``tolerance`` mm of every
     grid point (greedy insertion, pydelatin).
 
@@ -54,7 +63,12 @@ def triangulate(heights: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.n
         heights: ``(R, C)`` heights in mm, one per pixel centre; finite; R, C >= 2.
         tolerance: largest height error in mm at a grid point, > 0.
 
+        max_fraction: stop when the triangulation reaches this share of the
+            pixel grid's ``2 (R-1)(C-1)`` triangles without meeting the tolerance.
+
     Returns:
+        None if the tolerance needs more than ``max_fraction`` of the grid's
+        triangles (use the grid), else
         ``(rc, faces)``: ``rc`` ``(N, 2)`` int64 ``(row, col)`` of the kept grid
         points, sorted row-major (so the same heights give the same arrays), and
         ``faces`` ``(M, 3)`` uint32 indices into ``rc``, counter-clockwise with
@@ -80,7 +94,10 @@ def triangulate(heights: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.n
     from ._resources import require_memory
 
     require_memory(rows * cols * 80.0, f"a lean triangulation of {rows} x {cols} px", "use a larger pitch")
-    d = Delatin(h, max_error=t)
+    budget = max(2, int(max_fraction * 2 * (rows - 1) * (cols - 1)))
+    d = Delatin(h, max_error=t, max_triangles=budget)
+    if d.error > t:
+        return None
     v = d.vertices
     tri = d.triangles.astype(np.int64)
     # pydelatin's x is the column and y counts rows from the bottom (y = R - 1 - row).

@@ -193,7 +193,9 @@ def heightfield_slab(
             surface (:func:`texcad.lean.triangulate`): only the pixel centres
             needed to stay within ``tolerance`` mm, at their exact heights; the walls
             are built on the boundary vertices it keeps, so the slab stays
-            watertight. Measure the result with :func:`texcad.lean.mesh_error`.
+            watertight; where that would keep more than half of the grid's
+            triangles (:data:`texcad.lean.MAX_FRACTION`: noisy textures), the grid
+            is used. Measure the result with :func:`texcad.lean.mesh_error`.
 
     Returns:
         A watertight :class:`Mesh` with ``R C + 4`` vertices and
@@ -209,7 +211,9 @@ def heightfield_slab(
     from .lean import check_tolerance
 
     if check_tolerance(tolerance) > 0:
-        return _lean_slab(heightmap, depth, (ox, oy, oz), float(tolerance))
+        lean = _lean_slab(heightmap, depth, (ox, oy, oz), float(tolerance))
+        if lean is not None:
+            return lean
     n = rows * cols
     verts = np.empty((n + 4, 3), dtype=np.float32)
     top = verts[:n].reshape(rows, cols, 3)
@@ -231,14 +235,18 @@ def heightfield_slab(
     return Mesh(verts, np.concatenate([top_faces, walls, bottom]), groups)
 
 
-def _lean_slab(heightmap: Heightmap, depth: float, origin: tuple, tolerance: float) -> Mesh:
+def _lean_slab(heightmap: Heightmap, depth: float, origin: tuple, tolerance: float) -> "Mesh | None":
     """:func:`heightfield_slab` with a lean top (``tolerance`` mm > 0): the kept pixel
-    centres, walls on the kept boundary chains, the same bottom."""
+    centres, walls on the kept boundary chains, the same bottom. None where the lean
+    top would keep more than :data:`texcad.lean.MAX_FRACTION` of the grid."""
     from .lean import boundary_chains, triangulate
 
     ox, oy, oz = origin
     rows, cols = heightmap.shape
-    rc, top_faces = triangulate(heightmap.heights, tolerance)
+    lean = triangulate(heightmap.heights, tolerance)
+    if lean is None:
+        return None
+    rc, top_faces = lean
     n = len(rc)
     verts = np.empty((n + 4, 3), dtype=np.float32)
     verts[:n, 0] = (ox + heightmap.x).astype(np.float32)[rc[:, 1]]
