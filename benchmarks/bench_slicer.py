@@ -132,9 +132,12 @@ def perimeters(args) -> None:
 
     side = args.side
     hm = texcad.builtin("stones", size=(side, side), pitch=0.125, height=2.0)
-    for tol in (0.0, 0.02, 0.05, 0.1):
+    for tol in args.tolerances:
         tp = texcad.textured_plate(hm, size=(side, side), thickness=3, tolerance=tol)
-        for cfg, what in (({}, "defaults"), ({"overhangs": False}, "overhangs off")):
+        # PrusaSlicer's "resolution" simplifies the slice contours (0 = off): if the
+        # time goes with the contours' vertex count, it goes down with it.
+        cfgs = [({}, "defaults"), ({"overhangs": False}, "overhangs off"), ({"resolution": args.resolution}, f"resolution {args.resolution:g}")]
+        for cfg, what in cfgs:
             print(f"  load {load()}", flush=True)
             row(f"stones {side:g} mm tol {tol:g} ({tp.mesh.num_triangles} tri), {what}", sliced(tp.mesh, args.timeout, config=cfg))
 
@@ -146,6 +149,9 @@ def main() -> None:
     ap.add_argument("--pitch", type=float, default=0.25, help="support: texture pitch in mm (default 0.25)")
     ap.add_argument("--side", type=float, default=40.0, help="perimeters: plate side in mm (default 40)")
     ap.add_argument("--sledgehammer", action="store_true", help="support: also the sledgehammer recipe (slow)")
+    ap.add_argument("--tolerances", type=lambda t: [float(x) for x in t.split(",")], default=[0.0, 0.02, 0.05, 0.1],
+                    help="perimeters: tolerances in mm (default 0,0.02,0.05,0.1)")
+    ap.add_argument("--resolution", type=float, default=0.05, help="perimeters: PrusaSlicer resolution row, mm (default 0.05)")
     args = ap.parse_args()
     from texcad.slicer import find_slicer
 
