@@ -68,3 +68,18 @@ def test_limiter_margin_is_what_the_slicer_needs():
     assert bare.support_mm == 0.0
     assert out[0.1].support_mm > 100.0
     assert out[SLICER_MARGIN].support_mm == 0.0
+
+
+def test_prusaslicer_keeps_base_and_texture_as_one_object(tmp_path, box_side):
+    import subprocess
+    import zipfile
+
+    box, side = box_side
+    tx = texcad.texture(box, side, "builtin:stones", height=1.0, pitch=0.5, brep=False)
+    src, out = tmp_path / "part.3mf", tmp_path / "resaved.3mf"
+    tx.export_3mf(src, separate_texture=True)
+    r = subprocess.run([slicer.find_slicer(), "--export-3mf", "--output", str(out), str(src)], capture_output=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    cfg = zipfile.ZipFile(out).read("Metadata/Slic3r_PE_model.config").decode()
+    assert cfg.count("<object ") == 1 and cfg.count("<volume ") == 2
+    assert 'key="name" value="base"' in cfg and 'key="name" value="texture"' in cfg
