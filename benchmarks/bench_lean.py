@@ -112,7 +112,7 @@ def main() -> None:
                 r = one(plate, face, hm, tol, out, args.repeat)
                 rows.append(r)
                 dl = ds = ""
-                if tol > 0:
+                if tol > 0 and r["max_error"] > 0:  # (0: the grid was kept, MAX_FRACTION)
                     # pydelatin alone on the texture itself, at the error texcad measured
                     n_dl, s_dl = delatin_count(hm.heights, max(r["max_error"], 1e-6))
                     dl, ds = f"{n_dl:9d}", f"{s_dl:9.2f}"
