@@ -2,7 +2,7 @@
 
     python docs/make_mapping_figure.py [--out docs/mapping.png] [--pitch 0.2]
 
-Top: the fused parts rendered (texcad.raster). Bottom: one cross-section of each,
+Top: the fused parts rendered (texcad.render.raster). Bottom: one cross-section of each,
 with the profile (grey) and the textured surface (black): pins stand along z in the
 distance-preserving mapping and along the surface normal in the angle-preserving one.
 Deterministic: same inputs, same bytes.

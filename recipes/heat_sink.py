@@ -7,7 +7,8 @@ prints flat on the bed without any support.
 
 Run it as a plain script:  python recipes/heat_sink.py
 It writes heat_sink.stl, .3mf (pins as their own object), .step and .png into
-$TEXCAD_OUT (default ./out). $TEXCAD_PITCH sets the pixel pitch in mm (default 0.1);
+$TEXCAD_OUT (default ./out). $TEXCAD_TOLERANCE the lean mesh's height error in mm
+(default texcad's, 0.02; 0 = one vertex per pixel). $TEXCAD_PITCH sets the pixel pitch in mm (default 0.1);
 the tests run it coarser.
 """
 
@@ -21,6 +22,7 @@ from build123d import Axis, BuildPart, BuildSketch, GridLocations, Hole, Locatio
 import texcad
 
 PITCH = float(os.environ.get("TEXCAD_PITCH", "0.1"))  # mm per pixel
+LEAN = {"tolerance": float(os.environ["TEXCAD_TOLERANCE"])} if "TEXCAD_TOLERANCE" in os.environ else {}
 OUT = Path(os.environ.get("TEXCAD_OUT", "out"))
 OUT.mkdir(parents=True, exist_ok=True)
 
@@ -36,7 +38,7 @@ with BuildPart() as sink:
 
 t0 = time.perf_counter()
 top = sink.faces().sort_by(Axis.Z)[-1]
-part = texcad.texture(sink, top, "builtin:pins:period=3,diameter=1.4", height=4.0, pitch=PITCH)
+part = texcad.texture(sink, top, "builtin:pins:period=3,diameter=1.4", height=4.0, pitch=PITCH, **LEAN)
 t1 = time.perf_counter()
 
 report = texcad.check(part.mesh, build_dir=(0, 0, 1))

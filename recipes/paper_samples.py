@@ -55,7 +55,7 @@ RADIUS = 80.0  # mm, curved sample (eq. 5)
 AMPLITUDE, PERIOD = 5.0, 50.0  # mm, sinusoidal sample (eq. 9)
 PAPER_PITCH = 0.125  # mm per pixel of the paper's textures (800 px per 100 mm)
 # OCCT's union of a finer grid face with a curved face is slow and can fail (see
-# texcad.cad): the STEP of the curved and sine samples is made at this pitch at most.
+# texcad.pipeline): the STEP of the curved and sine samples is made at this pitch at most.
 STEP_PITCH = 0.25  # mm
 
 # Table 1: texture -> (built-in to cut the sample from, its parameters,

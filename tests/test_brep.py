@@ -41,7 +41,7 @@ def test_grid_solid_matches_mesh_volume_exactly():
     assert chk == {"valid": True, "solids": 1, "faces": 6, "closed": True}
     mesh = mesh_grid_solid(top.astype(np.float32), bottom.astype(np.float32))
     # Same corner heights: the bilinear and the triangle volume are identical (the
-    # difference telescopes to the corners, see texcad.brep).
+    # difference telescopes to the corners, see texcad.solid.brep).
     assert brep.volume(solid) == pytest.approx(mesh.volume, rel=1e-6)
     # ... and a ruled (2-row) bottom gives the same solid.
     ruled = brep.grid_brep(top, bottom[[0, -1]])

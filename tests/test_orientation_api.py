@@ -135,7 +135,7 @@ def test_texture_top_face_tilted(tmp_path):
     fixed = texcad.texture(box, top, hm, build_dir=d)  # with the B-rep
     assert check_3mf(plain, d, tmp_path / "plain.3mf") > 0.0
     assert check_3mf(fixed, d, tmp_path / "fixed.3mf") == 0.0
-    assert texcad.brep.check_shape(fixed.wrapped)["valid"]
+    assert texcad.solid.brep.check_shape(fixed.wrapped)["valid"]
 
 
 def test_texture_curved_face_world_build_dir(tmp_path):
@@ -155,7 +155,7 @@ def test_texture_curved_face_world_build_dir(tmp_path):
     # STEP: one valid solid.
     fixed.export_step(tmp_path / "fixed.step")
     shape = texcad.read_step(tmp_path / "fixed.step")
-    chk = texcad.brep.check_shape(shape)
+    chk = texcad.solid.brep.check_shape(shape)
     assert chk["valid"] and chk["solids"] == 1
 
 

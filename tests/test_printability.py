@@ -1,6 +1,6 @@
 """Overhang-aware textures: M-I edge ramp, slope limiter, paper Table 2.
 
-Curved and sine samples are built here from our own grids (texcad.mesh.grid_solid),
+Curved and sine samples are built here from our own grids (texcad.solid.grid_solid),
 independent of the mapping module: the profile is parametrised by arc length, texture
 x runs along it, heights are offset along the surface normal (angle-preserving,
 paper Algorithm 2) or along z (distance-preserving, Algorithm 1).
@@ -184,12 +184,12 @@ def test_limiter_no_facet_overhangs_on_mesh(textures, tilt, toward):
 
 def test_limiter_is_tight_along_an_axis(textures):
     # Upright along +y with 45 deg critical: facets may rise at most 45 deg along +y,
-    # and the limiter uses that budget (up to the 0.1 deg margin).
+    # and the limiter uses that budget up to its margin (SLICER_MARGIN, 1.5 deg).
     hm = textures[3]
     out, _ = limit_overhangs(hm, orientation(90, "+y"), edges=False)
     dy = np.diff(out.heights.astype(np.float64), axis=0) / hm.pitch[1]
-    assert dy.max() <= np.tan(np.radians(44.9)) + 1e-5
-    assert dy.max() > np.tan(np.radians(44.8))
+    assert dy.max() <= np.tan(np.radians(43.5)) + 1e-5
+    assert dy.max() > np.tan(np.radians(43.4))
 
 
 def test_limiter_for_a_set_of_directions(textures):

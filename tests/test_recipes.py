@@ -35,12 +35,14 @@ def test_flat_plate(tmp_path):
     assert_picture(tmp_path / "flat_plate_part.png")
 
 
-def check_step(path: Path, mesh_volume: float) -> None:
-    """The STEP re-imports as one valid solid enclosing the mesh's volume (0.1 %)."""
+def check_step(path: Path, mesh_volume: float, slack: float = 0.0) -> None:
+    """The STEP re-imports as one valid solid enclosing the mesh's volume (0.1 %, plus
+    ``slack`` mm3: a lean mesh's tolerance times the textured area, as the B-rep keeps
+    one pole per pixel)."""
     shape = texcad.io.read_step(path)
     chk = brep.check_shape(shape)
     assert chk["valid"] and chk["solids"] == 1
-    assert brep.volume(shape) == pytest.approx(mesh_volume, rel=1e-3)
+    assert abs(brep.volume(shape) - mesh_volume) <= 1e-3 * mesh_volume + slack
 
 
 def test_handle_flange(tmp_path):
@@ -64,8 +66,11 @@ def test_sledgehammer(tmp_path):
     assert fig["texture_overhang_mm2"] == 0.0  # printed upright, support-free
     stl = trimesh.load(tmp_path / "sledgehammer.stl")
     assert stl.is_watertight and stl.body_count == 1
-    halves = trimesh.load(tmp_path / "sledgehammer_halves.3mf")
-    assert len(halves.geometry) == 2 and all(g.is_watertight for g in halves.geometry.values())
+    # one object of two parts (write_3mf), read back part by part
+    from texcad.io import read_part
+
+    halves = read_part(tmp_path / "sledgehammer_halves.3mf")
+    assert len(halves) == 2 and all(m.is_watertight for _, m in halves)
     assert fig["halves_volume_mm3"] == pytest.approx(stl.volume, rel=1e-3)
     check_step(tmp_path / "sledgehammer.step", stl.volume)
     for name in ("sledgehammer.png", "sledgehammer_halves.png", "sledgehammer_halves_distance.png"):
@@ -78,9 +83,12 @@ def test_heat_sink(tmp_path):
     assert fig["overhang_mm2"] == 0.0 and fig["wetted_area_mm2"] > 1.3 * fig["flat_area_mm2"]
     stl = trimesh.load(tmp_path / "heat_sink.stl")
     assert stl.is_watertight and stl.body_count == 1
-    check_step(tmp_path / "heat_sink.step", stl.volume)
+    check_step(tmp_path / "heat_sink.step", stl.volume, slack=0.02 * 60 * 60)  # default tolerance 0.02 mm
     scene = trimesh.load(tmp_path / "heat_sink.3mf")
-    assert scene.units == "millimeter" and len(scene.geometry) == 2
+    assert scene.units == "millimeter" and len(scene.geometry) == 1  # one object: base and texture parts
+    from texcad.io import read_part
+
+    assert [n for n, _ in read_part(tmp_path / "heat_sink.3mf")] == ["base", "texture"]
 
 
 def test_gallery_collects_the_renders(tmp_path):

@@ -57,11 +57,11 @@ def test_step_one_valid_solid(run):
     out, _, table = run
     for r in table["samples"]:
         shape = texcad.read_step(out / f"{r['sample']}.step")
-        chk = texcad.brep.check_shape(shape)
+        chk = texcad.solid.brep.check_shape(shape)
         assert chk["valid"] and chk["solids"] == 1, (r["sample"], chk)
         # Same body as the STL (the B-rep and the mesh differ only by the bilinear term).
         vol = trimesh.load(out / f"{r['sample']}.stl").volume
-        assert texcad.brep.volume(shape) == pytest.approx(vol, rel=2e-3)
+        assert texcad.solid.brep.volume(shape) == pytest.approx(vol, rel=2e-3)
 
 
 def test_texture_overhang_zero_at_table2_orientation(run):

@@ -117,7 +117,8 @@ def test_texture_border_wall_counts_until_ramped():
     d = orientation(90, "+y")
 
     def texture_overhang(h):
-        part = texcad.textured_plate(h, size=hm.size, thickness=2.0)
+        # one vertex per pixel: the wall's area is the trapezoid of the pixel heights
+        part = texcad.textured_plate(h, size=hm.size, thickness=2.0, tolerance=0)
         rep = check([("base", part.base_mesh), ("texture", part.texture_mesh)], build_dir=d)
         top = overhang_area(part.texture_mesh, d, faces=part.texture_mesh.groups["texture"])
         return rep.texture_overhang_area_mm2, top

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-__all__ = ["positive_float", "shape", "vector", "add_orientation", "limits_line"]
+__all__ = ["positive_float", "shape", "vector", "add_orientation", "limits_line", "nonnegative_float", "add_tolerance"]
 
 
 def positive_float(text: str) -> float:
@@ -16,6 +16,31 @@ def positive_float(text: str) -> float:
     if not v > 0:
         raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
     return v
+
+
+def nonnegative_float(text: str) -> float:
+    """A number >= 0 (mm)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not v >= 0:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}")
+    return v
+
+
+def add_tolerance(parser: argparse.ArgumentParser) -> None:
+    """``--tolerance MM``: largest height error of the lean texture mesh (texcad.solid.lean)."""
+    from ..solid import DEFAULT_TOLERANCE
+
+    parser.add_argument(
+        "--tolerance",
+        type=nonnegative_float,
+        default=DEFAULT_TOLERANCE,
+        metavar="MM",
+        help=f"largest height error of the texture mesh at any pixel centre, mm (default {DEFAULT_TOLERANCE:g}; "
+        "0 = one vertex per pixel)",
+    )
 
 
 def shape(text: str) -> tuple[int, int]:

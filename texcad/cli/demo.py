@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 from ..util import StageReporter, subrange
-from ._args import positive_float
+from ._args import add_tolerance, positive_float
 
 SAMPLE_MM = 25.0  # side of the built-in sample the demo grows its texture from
 
@@ -53,6 +53,7 @@ def run(args: argparse.Namespace) -> int:
         plate.faces().sort_by(Axis.Z)[-1],
         grown,
         brep=not args.no_step,
+        tolerance=args.tolerance,
         progress=subrange(progress, 0.15, 0.7),
     )
 
@@ -75,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"sample       builtin:{name}, {sample.shape[1]} x {sample.shape[0]} px ({sample_mm:g} mm, pitch {pitch:g} mm)")
     print(f"synthesized  {grown.shape[1]} x {grown.shape[0]} px (patch {patch}, seed {args.seed})")
     print(f"triangles    {m.num_triangles}")
+    print(f"max error    {part.max_error:.4f} mm at the pixel centres (tolerance {args.tolerance:g} mm)")
     print(f"watertight   {m.is_watertight}")
     print(f"volume       {m.volume:.1f} mm3")
     print(f"size         {hi[0] - lo[0]:.2f} x {hi[1] - lo[1]:.2f} x {hi[2] - lo[2]:.2f} mm")
@@ -101,4 +103,5 @@ def add(sub: argparse._SubParsersAction) -> None:
     d.add_argument("--pitch", type=positive_float, default=0.125, help="mm per pixel (default 0.125: 800 x 800 px)")
     d.add_argument("--seed", type=int, default=0, help="synthesis seed (default 0; same seed, same bytes)")
     d.add_argument("--no-step", action="store_true", help="skip the B-rep and demo.step (faster)")
+    add_tolerance(d)
     d.set_defaults(func=run)

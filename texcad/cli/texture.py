@@ -6,7 +6,7 @@ import argparse
 import time
 import warnings
 
-from ._args import add_orientation, limits_line, positive_float
+from ._args import add_orientation, add_tolerance, limits_line, positive_float
 
 #: ``--face`` words: the planar face whose outward normal points that way (largest
 #: if several), or the largest cylindrical / extruded face.
@@ -65,6 +65,7 @@ def run(args: argparse.Namespace) -> int:
             rotation=args.rotation,
             build_dir=args.build_dir,
             critical_angle=args.critical_angle,
+            tolerance=args.tolerance,
             progress=None if args.quiet else StageReporter(),
         )
     for out in args.out:
@@ -72,6 +73,7 @@ def run(args: argparse.Namespace) -> int:
     m = tx.mesh
     print(f"face         {args.face} ({tx.info['face']}, grid {tx.info['grid'][0]} x {tx.info['grid'][1]})")
     print(f"triangles    {m.num_triangles}, watertight {m.is_watertight}")
+    print(f"max error    {tx.max_error:.4f} mm at the pixel centres (tolerance {args.tolerance:g} mm)")
     print(f"volume       {m.volume:.1f} mm3")
     line = limits_line(tx.limits)
     if line:
@@ -91,6 +93,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--mapping", choices=("angle", "distance"), default="angle", help="curved faces: algorithm 2 (angle) or 1 (distance)")
     t.add_argument("--rotation", type=float, default=0.0, help="planar faces: turn the texture, degrees")
     add_orientation(t)
+    add_tolerance(t)
     t.add_argument("--separate-texture", action="store_true", help="3MF: the texture as its own object of the build item")
     t.add_argument("-o", "--out", action="append", required=True, metavar="OUT", help="OUT.stl, .3mf, .step or .png (repeatable)")
     t.add_argument("-q", "--quiet", action="store_true", help="no progress or warnings")

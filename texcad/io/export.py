@@ -128,46 +128,76 @@ def write_3mf(
     *,
     name: str = "texcad part",
 ) -> None:
-    """Write a 3MF package (3MF core spec, ``unit="millimeter"``).
+    """Write a 3MF package (3MF core spec, ``unit="millimeter"``), zip-deflated.
 
     Args:
-        mesh: a watertight mesh, or a list of ``(name, mesh)`` to write several
-            objects as components of one build item (e.g. base and texture, so a
-            slicer can give the texture another colour or material).
+        mesh: a watertight mesh, or a list of ``(name, mesh)`` parts (e.g. base and
+            texture) to write as **one object made of several parts**, the way
+            slicers read multi-part objects: one ``<object>`` whose mesh holds the
+            parts' triangles one after the other (each part keeps its own
+            vertices, so each stays a closed shell), and
+            ``Metadata/Slic3r_PE_model.config`` naming the triangle range of each
+            part (PrusaSlicer's, SuperSlicer's and OrcaSlicer's convention). The
+            slicer then loads one object with the parts placed together, each of
+            which can get its own extruder, colour or settings. (3MF
+            ``<components>`` of separate objects are loaded by PrusaSlicer 2.5 as
+            separate objects, which it arranges apart.)
         path: output ``.3mf`` file.
-        name: object name shown by slicers (single mesh).
+        name: object name shown by slicers.
     """
     items = [(name, mesh)] if isinstance(mesh, Mesh) else list(mesh)
+    if not items:
+        raise ParameterError("write_3mf needs a mesh or at least one (name, mesh) part")
     for _, m in items:
         _require_watertight(m, path)
-    objs = [_object_xml(i + 1, _xml_escape(n), m) for i, (n, m) in enumerate(items)]
-    build: bytes
+    config = None
     if len(items) == 1:
-        build = b'<build><item objectid="1"/></build>\n'
+        obj = _object_xml(1, _xml_escape(name if isinstance(mesh, Mesh) else items[0][0]), items[0][1])
     else:
-        comp_id = len(items) + 1
-        comps = "".join(f'<component objectid="{i + 1}"/>' for i in range(len(items)))
-        objs.append(f'<object id="{comp_id}" type="model" name="{_xml_escape(name)}"><components>{comps}</components></object>\n'.encode())
-        build = f'<build><item objectid="{comp_id}"/></build>\n'.encode()
+        v_off = np.cumsum([0] + [len(m.vertices) for _, m in items])
+        t_off = np.cumsum([0] + [len(m.faces) for _, m in items])
+        merged = Mesh(
+            np.concatenate([m.vertices for _, m in items]),
+            np.concatenate([m.faces.astype(np.int64) + int(o) for (_, m), o in zip(items, v_off)]),
+        )
+        obj = _object_xml(1, _xml_escape(name), merged)
+        vols = "".join(
+            f'  <volume firstid="{int(t_off[i])}" lastid="{int(t_off[i + 1]) - 1}">\n'
+            f'   <metadata type="volume" key="name" value="{_xml_escape(n)}"/>\n'
+            '   <metadata type="volume" key="volume_type" value="ModelPart"/>\n'
+            "  </volume>\n"
+            for i, (n, _) in enumerate(items)
+        )
+        config = (
+            '<?xml version="1.0" encoding="UTF-8"?>\n<config>\n <object id="1" instances_count="1">\n'
+            f'  <metadata type="object" key="name" value="{_xml_escape(name)}"/>\n{vols} </object>\n</config>\n'
+        ).encode()
     model = b"".join(
         [
             b'<?xml version="1.0" encoding="UTF-8"?>\n'
             b'<model unit="millimeter" xml:lang="en-US" '
             b'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02">\n'
             b'<metadata name="Application">texcad</metadata>\n<resources>\n',
-            *objs,
+            obj,
             b"</resources>\n",
-            build,
+            b'<build><item objectid="1"/></build>\n',
             b"</model>\n",
         ]
     )
+    files = [("[Content_Types].xml", _CT), ("_rels/.rels", _RELS), ("3D/3dmodel.model", model)]
+    if config is not None:
+        files.append((SLIC3R_CONFIG, config))
     with atomic_path(path) as tmp:
         with zipfile.ZipFile(tmp, "w") as z:
-            for arcname, data in (("[Content_Types].xml", _CT), ("_rels/.rels", _RELS), ("3D/3dmodel.model", model)):
+            for arcname, data in files:
                 # A fixed timestamp keeps the bytes identical for identical inputs.
                 info = zipfile.ZipInfo(arcname, date_time=(1980, 1, 1, 0, 0, 0))
                 info.compress_type = zipfile.ZIP_DEFLATED
                 z.writestr(info, data, compresslevel=1)
+
+
+#: The part list of a multi-part object (PrusaSlicer's 3MF metadata).
+SLIC3R_CONFIG = "Metadata/Slic3r_PE_model.config"
 
 
 def _xml_escape(s: str) -> str:

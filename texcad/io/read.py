@@ -245,6 +245,10 @@ def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
             xml = z.read(target)
         except KeyError:
             raise InputError(f"{str(path)!r} has no 3D model part ({target}); is it a 3MF file?") from None
+        try:  # multi-part objects (texcad.io.write_3mf, PrusaSlicer): triangle ranges per part
+            volumes = _slic3r_volumes(z.read("Metadata/Slic3r_PE_model.config"))
+        except KeyError:
+            volumes = {}
     scale = _unit_scale(xml, path)
     objects: dict[str, dict[str, Any]] = {}
     for head, body in _elements(xml, b"object"):  # per object
@@ -277,7 +281,13 @@ def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
             v, t = e["mesh"]
             vv = v if np.array_equal(tf, np.eye(4)) else v @ tf[:3, :3] + tf[3, :3]
             vv = vv if scale == 1.0 else vv * scale
-            out.append((e["name"], Mesh(vv.astype(np.float32), t.astype(np.uint32))))
+            parts = volumes.get(oid) if depth == 0 else None
+            if parts and parts[-1][2] == len(t) - 1 and all(a <= b for _, a, b in parts):
+                for vname, first, last in parts:  # each part with its own vertices
+                    used, tt = np.unique(t[first : last + 1], return_inverse=True)
+                    out.append((vname, Mesh(vv[used].astype(np.float32), tt.reshape(-1, 3).astype(np.uint32))))
+            else:
+                out.append((e["name"], Mesh(vv.astype(np.float32), t.astype(np.uint32))))
         for cid, ctf in e["components"]:
             walk(cid, ctf @ tf, depth + 1)
 
@@ -288,12 +298,34 @@ def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
     return out
 
 
+def _slic3r_volumes(xml: bytes) -> dict[str, list[tuple[str, int, int]]]:
+    """``{object id: [(part name, first triangle, last triangle), ...]}`` from a
+    ``Metadata/Slic3r_PE_model.config`` (multi-part objects)."""
+    out: dict[str, list[tuple[str, int, int]]] = {}
+    for head, body in _elements(xml, b"object"):
+        oid = _attrs(head).get("id")
+        parts = []
+        for k, (vhead, vbody) in enumerate(_elements(body, b"volume")):
+            va = _attrs(vhead)
+            try:
+                first, last = int(va.get("firstid", "")), int(va.get("lastid", ""))
+            except ValueError:
+                continue
+            m = re.search(rb'key="name"\s+value="([^"]*)"', vbody)
+            parts.append((_xml_unescape(m.group(1).decode()) if m else f"part {k + 1}", first, last))
+        if oid is not None and parts:
+            out[oid] = parts
+    return out
+
+
 def read_part(path: str | os.PathLike) -> list[tuple[str, Mesh]]:
     """Read an STL (binary or ASCII) or a 3MF into named meshes (mm).
 
     STL: one mesh named after the file, vertices welded where bit-identical.
     3MF: every mesh object reached from the build items (components and
-    ``transform`` attributes applied), named by its ``name`` attribute.
+    ``transform`` attributes applied), named by its ``name`` attribute; a
+    multi-part object (``Metadata/Slic3r_PE_model.config``, as
+    :func:`texcad.io.write_3mf` and PrusaSlicer write) gives one mesh per part.
 
     Raises:
         InputError: missing, empty or unreadable file, or unknown suffix.

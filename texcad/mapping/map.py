@@ -1,7 +1,7 @@
 """Mapping a texture onto a 2.5D surface (paper, section 2.2, algorithms 1 and 2).
 
-A :class:`~texcad.heightmap.Heightmap` ``h[row, col]`` (mm) is laid on a
-:class:`~texcad.surface.Profile` extruded along +Y: texture x runs along the
+A :class:`~texcad.sources.Heightmap` ``h[row, col]`` (mm) is laid on a
+:class:`~texcad.mapping.Profile` extruded along +Y: texture x runs along the
 profile's arc length ``s``, texture y along the extrusion. Pixel column ``c`` sits at
 ``s_c = s_0 + (c + 1/2) p_x`` and row ``r`` at ``y_r = y_0 + (r + 1/2) p_y``, so the
 distances between texture points along the surface are the texture's own (eq. 4:
@@ -68,7 +68,7 @@ periodic in x). Built-ins are synthesized to the exact perimeter by
 periodic texture of width ``W`` is repeated ``N = round(L / W)`` times and its x pitch
 rescaled by ``L / (N W)`` so that the repeats fill the perimeter exactly (reported as
 ``x_scale``; a warning when it differs from 1 by more than 0.5 %). Column ``C - 1``
-connects to column 0 on shared vertices (:func:`texcad.mesh.grid_solid` with
+connects to column 0 on shared vertices (:func:`texcad.solid.grid_solid` with
 ``wrap_x``): the seam gap is exactly zero.
 """
 
@@ -142,7 +142,7 @@ class MappedSurface:
         top: ``(R, C, 3)`` float32 textured surface in mm (row along +y, column along s).
         bottom: ``(2, C, 3)`` float32: the first and last row of the bottom surface
             ``depth`` mm inside the base, an extrusion along y (:attr:`bottom_grid`
-            gives all ``R`` rows, e.g. for :func:`texcad.mesh.grid_solid`).
+            gives all ``R`` rows, e.g. for :func:`texcad.solid.grid_solid`).
         closed: columns wrap around (closed profile).
         s: ``(C,)`` float64 arc length of every column in mm.
         y: ``(R,)`` float64 y of every row in mm.
@@ -182,7 +182,7 @@ def slab_mesh(top: np.ndarray, bottom: np.ndarray, *, closed: bool = False) -> M
     """Close a top vertex grid and a bottom surface (mm) into a watertight slab.
 
     ``top`` is ``(R, C, 3)``. ``bottom`` is either ``(R, C, 3)`` (a full grid, as for
-    :func:`texcad.mesh.grid_solid`) or ``(2, C, 3)``: a *ruled* bottom given by its
+    :func:`texcad.solid.grid_solid`) or ``(2, C, 3)``: a *ruled* bottom given by its
     first and last row only, for a bottom that is an extrusion along y (the offset
     profile), so its interior rows would be collinear points. The ruled bottom costs
     ``2 C`` vertices instead of ``R C`` (like the flat slab's polygon bottom), which
@@ -200,7 +200,7 @@ def slab_mesh(top: np.ndarray, bottom: np.ndarray, *, closed: bool = False) -> M
     ``closed``: the seam gap is exactly zero.
 
     Returns:
-        Watertight :class:`~texcad.mesh.Mesh`.
+        Watertight :class:`~texcad.solid.Mesh`.
     """
     import manifold3d as m3d
 

@@ -679,7 +679,7 @@ class Profile:
         thick inside the profile (outside it for ``side="inside"``). Open profiles: a
         band ``thickness`` mm thick on the inner side (opposite the outward normal).
         Helper profiles give build123d solids through :class:`Surface`; this generic
-        version returns a :class:`~texcad.mesh.Mesh` made with manifold3d from the
+        version returns a :class:`~texcad.solid.Mesh` made with manifold3d from the
         dense polygon (chord error below 1 um).
         """
         import manifold3d as m3d
@@ -929,7 +929,7 @@ class Surface:
         profile: the :class:`Profile` in the XZ plane.
         length: extrusion length along +Y in mm.
         base: the body the texture is fused onto: a build123d ``Part`` (helpers), a
-            :class:`~texcad.mesh.Mesh`, or anything :func:`texcad.fuse` accepts. Its
+            :class:`~texcad.solid.Mesh`, or anything :func:`texcad.fuse` accepts. Its
             surface must contain the extruded profile.
         thickness: the base's wall thickness under the profile in mm, if known (the
             texture slab reaches at most half of it into the base).

@@ -7,6 +7,11 @@ from .cad import (
     texture_faces,
     LIFT,
 )
+from .ops import (
+    cad_op,
+    OPS,
+    OP_VOLUME_TOLERANCE,
+)
 from .plate import (
     plate_base,
     textured_plate,
@@ -28,6 +33,9 @@ from .texture import (
 __all__ = [
     'texture_faces',
     'LIFT',
+    'cad_op',
+    'OPS',
+    'OP_VOLUME_TOLERANCE',
     'plate_base',
     'textured_plate',
     'Textured',

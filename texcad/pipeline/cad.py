@@ -35,10 +35,10 @@ Which faces
   border). The texture therefore lies on the selected face only, and the textured
   surface meets the face's own edges at height 0: the B-rep keeps the body's edges
   and simply swaps the face's plane for the textured B-spline surface
-  (:func:`texcad.brep.textured_plane_face`), and the mesh is the body's mesh united
+  (:func:`texcad.solid.brep.textured_plane_face`), and the mesh is the body's mesh united
   (manifold3d) with the relief above the face.
 * **Faces of extruded profiles** (cylinders, extrusions of lines, arcs and splines:
-  the 2.5D surfaces of :mod:`texcad.surface`). The profile is recovered from the
+  the 2.5D surfaces of :mod:`texcad.mapping`). The profile is recovered from the
   face's cross-section, the texture is mapped with :func:`texcad.mapping.map_texture`
   (``mapping="distance"``, algorithm 1, or ``"angle"``, algorithm 2), the slab is
   unioned with manifold3d for the mesh and with OCCT's boolean for the B-rep (the
@@ -46,7 +46,7 @@ Which faces
 
 Checks: the B-rep must be one valid solid (``BRepCheck``) per input solid and must
 enclose the mesh's volume within 0.1 % (:data:`VOLUME_TOLERANCE`; they differ only by
-the bilinear-vs-triangle term of :mod:`texcad.brep`); OCCT's boolean occasionally
+the bilinear-vs-triangle term of :mod:`texcad.solid.brep`); OCCT's boolean occasionally
 returns a "valid" solid that lost material, and then :func:`texture` raises
 ``GeometryError`` (``brep=False`` still gives the meshes). OCCT's boolean of a fine
 grid face with a curved base face is slow (about 1 s for 60 x 124 poles on a
@@ -65,7 +65,7 @@ from ..solid import brep as _brep
 from ..solid import as_array, explore, solids_of, to_topods
 from ..errors import GeometryError, ParameterError
 from ..sources import Heightmap
-from ..solid import Mesh, heightfield_slab
+from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, heightfield_slab, mesh_error
 from ..util import Progress, report, subrange
 from ..solid import from_manifold, fuse, shape_to_mesh, to_manifold
 
@@ -203,6 +203,7 @@ def _texture_plane(
     build_dir: np.ndarray | None,
     critical_angle: float,
     progress: Progress,
+    tolerance: float = 0.0,
 ) -> dict:
     from scipy.ndimage import distance_transform_edt
 
@@ -295,7 +296,16 @@ def _texture_plane(
     # near and outside the outline go to -1 mm so that the trim also removes the flat
     # (zero-thickness) part there: what is left lies inside the outline, on the face.
     h_mesh = np.where(dist > 1.75 * float(np.hypot(px, py)), h, np.float32(-1.0))
-    slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=(xs[0] - px / 2, ys[0] - py / 2, 0.0))
+    slab_origin = (xs[0] - px / 2, ys[0] - py / 2, 0.0)
+    if build_dir is not None and tolerance > 0:
+        from ..printability import printable_lean_slab
+
+        # lean facets keep the limiter's angle too (else a finer tolerance, down to 0)
+        slab, tolerance = printable_lean_slab(
+            Heightmap(h_mesh, (px, py)), build_dir @ axes.T, critical_angle, tolerance=tolerance, depth=1.0, origin=slab_origin
+        )
+    else:
+        slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin, tolerance=tolerance)
     relief = to_manifold(slab).trim_by_plane((0.0, 0.0, 1.0), 0.0)
     report(progress, 0.4, f"fusing {slab.num_triangles} texture triangles onto the part (manifold3d)")
     fused_local = fuse(base_local, relief)
@@ -311,7 +321,11 @@ def _texture_plane(
         # plane consistently this way round).
         return world(from_manifold(to_manifold(fused_local) - to_manifold(base_local)))
 
+    def max_error() -> float:
+        return mesh_error(h_mesh, (px, py), slab_origin, slab.vertices, slab.faces[slab.groups["texture"]])
+
     result = {
+        "max_error": max_error,
         "mesh": world(fused_local),
         "texture_mesh": texture_only,
         "base_mesh": base_mesh,
@@ -327,6 +341,9 @@ def _texture_plane(
             "x": xs,
             "y": ys,
             "obstructed": obst is not None,
+            "tolerance": float(tolerance),
+            # the lean surface may enclose up to tolerance x area more or less than the B-rep
+            "volume_slack": float(tolerance) * px * py * h_mesh.size,
         },
     }
     def make_shape():
@@ -358,7 +375,7 @@ def _check_flat_outline(h: np.ndarray, xs: np.ndarray, ys: np.ndarray, pts: np.n
 
 
 # ------------------------------------------------------------------------------------------
-# Faces of extruded profiles (texcad.surface / texcad.mapping)
+# Faces of extruded profiles (texcad.mapping / texcad.mapping)
 # ------------------------------------------------------------------------------------------
 def _extrusion_frame(face):
     """``(origin, ex, ey, ez, y_length)``: ``ey`` is the extrusion direction, the
@@ -561,7 +578,7 @@ def _lift(top: np.ndarray, profile, s: np.ndarray, *, closed: bool, keep_sunk: b
     (10 um, a tenth of a layer) moves the texture's zero level just off the surface,
     for the mesh and the B-rep alike. With ``keep_sunk``, vertices placed below the
     surface on purpose (borders the overhang limiter sank into the body, see
-    :data:`texcad._profile_limit.SINK`) stay there.
+    :data:`texcad.printability.profile.SINK`) stay there.
     """
     p = profile.point(s)  # (C, 2): x, z
     nrm = profile.normal(s)
@@ -630,7 +647,8 @@ def checked_brep(make_shape: Callable[[], Any], topo, mesh: Mesh, info: dict | N
     """Build a B-rep with ``make_shape()`` and check it against the mesh: one valid
     solid (``BRepCheck_Analyzer``) per solid of ``topo``, enclosing the mesh's volume
     within :data:`VOLUME_TOLERANCE` (OCCT's booleans can return a "valid" solid that
-    lost part of the body); the B-rep's volume goes to ``info["brep_volume"]``.
+    lost part of the body; a lean mesh may differ by ``info["volume_slack"]`` mm3, its
+    tolerance times the area); the B-rep's volume goes to ``info["brep_volume"]``.
 
     Raises:
         GeometryError: the B-rep is invalid or encloses another volume.
@@ -643,7 +661,7 @@ def checked_brep(make_shape: Callable[[], Any], topo, mesh: Mesh, info: dict | N
             f"the textured B-rep is not valid ({chk}); the meshes are fine: write STL or 3MF, and please report this"
         )
     vb, vm = _brep.volume(shape), float(mesh.volume)
-    if abs(vb - vm) > VOLUME_TOLERANCE * abs(vm):
+    if abs(vb - vm) > VOLUME_TOLERANCE * abs(vm) + (info or {}).get("volume_slack", 0.0):
         raise GeometryError(
             f"the textured B-rep encloses {vb:.1f} mm3 but the mesh {vm:.1f} mm3 (OCCT's union went wrong); "
             "the meshes are fine: write STL or 3MF"
@@ -671,6 +689,7 @@ def texture_faces(
     brep: bool = True,
     build_dir: Any = None,
     critical_angle: float = 45.0,
+    tolerance: float = DEFAULT_TOLERANCE,
     progress: Progress = None,
 ):
     """Texture a face of a build123d or CadQuery part: see :func:`texcad.texture`
@@ -682,6 +701,7 @@ def texture_faces(
     from .result import Textured
 
     _check_options(mapping, height, pitch, depth, edge_angle, offset)
+    tolerance = check_tolerance(tolerance)
     dirs = None
     if build_dir is not None:
         from ..printability import build_directions, check_critical_angle
@@ -694,7 +714,7 @@ def texture_faces(
         texture = os.fspath(texture)
     common = dict(height=height, pitch=pitch, make_brep=brep, build_dir=dirs, critical_angle=critical_angle, progress=progress)
     if BRepAdaptor_Surface(f).GetType() == GeomAbs_Plane:
-        res = _texture_plane(topo, f, texture, edge_angle=float(edge_angle), rotation=rotation, offset=offset, **common)
+        res = _texture_plane(topo, f, texture, edge_angle=float(edge_angle), rotation=rotation, offset=offset, tolerance=tolerance, **common)
     else:
         res = _texture_extrusion(topo, f, texture, mapping=mapping, depth=depth, periodic_x=periodic_x, transition=transition, **common)
     info = res["info"]
@@ -718,6 +738,7 @@ def texture_faces(
         heightmap=res["heightmap"],
         limits=res["limits"],
         height_limits=res.get("height_limits"),
+        max_error=res.get("max_error", 0.0),
         info=info,
         kind="face",
     )

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import GeometryError, ParameterError
 from ..sources import Heightmap
-from ..solid import Mesh, heightfield_slab
+from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, heightfield_slab, mesh_error
 from ..util import Progress, report
 from ..solid import fuse, shape_to_mesh
 from ..sources import load_texture
@@ -41,12 +41,13 @@ def textured_plate(
     base: Any = None,
     build_dir: Any = None,
     critical_angle: float = 45.0,
+    tolerance: float = DEFAULT_TOLERANCE,
     progress: Progress = None,
 ) -> Textured:
     """Texture the top face of a plate: the paper's flat sample (section 2.2).
 
-    The texture lies on the plate's top face (z = 0), centred; one mesh vertex per
-    pixel; the slab reaches ``depth`` mm into the plate and is unioned onto it with
+    The texture lies on the plate's top face (z = 0), centred; mesh vertices at
+    pixel centres (all of them with ``tolerance=0``); the slab reaches ``depth`` mm into the plate and is unioned onto it with
     manifold3d.
 
     Args:
@@ -67,6 +68,9 @@ def textured_plate(
             texture as little as needed. None: the texture is used as is.
         critical_angle: critical overhang angle in degrees (default 45; paper,
             section 2.1.3), used with ``build_dir``.
+        tolerance: largest height error in mm of the texture surface at any pixel
+            centre (default 0.02 mm; :func:`texcad.solid.lean.triangulate`); 0 keeps
+            one vertex per pixel. The measured error is ``Textured.max_error``.
         progress: optional ``progress(fraction, message)`` callback.
 
     Returns:
@@ -104,12 +108,22 @@ def textured_plate(
         report(progress, 0.1, f"limiting overhangs to {critical_angle:g} deg")
         hm, limits = limit_overhangs(hm, build_dir, critical_angle)
     report(progress, 0.15, f"meshing {hm.shape[0]} x {hm.shape[1]} px heightmap")
-    slab = heightfield_slab(hm, depth=depth, origin=((w - tw) / 2, (d - td) / 2, 0.0))
+    tolerance = check_tolerance(tolerance)
+    origin = ((w - tw) / 2, (d - td) / 2, 0.0)
+    if build_dir is not None and tolerance > 0:
+        from ..printability import printable_lean_slab
+
+        # lean facets keep the limiter's angle too (else a finer tolerance, down to 0)
+        slab, _ = printable_lean_slab(hm, build_dir, critical_angle, tolerance=tolerance, depth=depth, origin=origin)
+    else:
+        slab = heightfield_slab(hm, depth=depth, origin=origin, tolerance=tolerance)
     report(progress, 0.35, "building base body")
     base_shape = plate_base((w, d), thickness) if base is None else base
     base_mesh = base_shape if isinstance(base_shape, Mesh) else shape_to_mesh(base_shape)
     report(progress, 0.45, f"fusing {slab.num_triangles} texture triangles onto the base (manifold3d)")
     fused = fuse(base_mesh, slab)
+    report(progress, 0.9, "measuring the surface error at every pixel centre")
+    err = mesh_error(hm.heights, hm.pitch, origin, slab.vertices, slab.faces[slab.groups["texture"]])
     report(progress, 1.0, "fused")
     return Textured(
         mesh=fused,
@@ -117,6 +131,7 @@ def textured_plate(
         base_mesh=base_mesh,
         heightmap=hm,
         limits=limits,
+        max_error=err,
         info={"face": "plate", "grid": hm.shape, "size": (w, d), "thickness": float(thickness)},
         kind="plate",
     )

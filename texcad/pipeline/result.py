@@ -64,6 +64,10 @@ class Textured:
             (:class:`texcad.mapping.Distortion`), or None on planar faces.
         mapped: the :class:`texcad.mapping.MappedSurface` of a 2.5D surface (vertex
             grids in mm), or None.
+        max_error: the measured largest height error in mm of the texture surface
+            at any pixel centre (:func:`texcad.solid.mesh_error`, sampled
+            independently of the triangulation; 0 with ``tolerance=0``), computed on
+            first use.
         info: what was done (face kind, frame, grid size, mapping...).
     """
 
@@ -79,6 +83,7 @@ class Textured:
         height_limits: list | None = None,
         distortion: Any = None,
         mapped: Any = None,
+        max_error: "float | Callable[[], float] | None" = None,
         info: dict | None = None,
         kind: str = "mesh",
     ) -> None:
@@ -92,6 +97,7 @@ class Textured:
         self.height_limits = list(height_limits or [])
         self.distortion = distortion
         self.mapped = mapped
+        self._max_error = max_error
         self.info = info if info is not None else {}
         self.kind = kind
 
@@ -129,6 +135,14 @@ class Textured:
     def volume(self) -> float:
         """Volume of the fused mesh in mm^3."""
         return float(self.mesh.volume)
+
+    @property
+    def max_error(self) -> "float | None":
+        """Measured largest height error in mm of the texture surface at any pixel
+        centre (computed on first use; None if unknown)."""
+        if callable(self._max_error):
+            self._max_error = float(self._max_error())
+        return self._max_error
 
     # -- B-rep ---------------------------------------------------------------------------
     @property

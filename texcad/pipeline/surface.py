@@ -37,12 +37,12 @@ def textured_surface(
 
     Stages: fit the texture to the surface (:func:`fit_texture`) -> map it
     (:func:`map_texture`, algorithm 1 or 2) -> close the slab
-    (:func:`texcad.mesh.grid_solid`) -> mesh the base -> union with manifold3d
+    (:func:`texcad.solid.grid_solid`) -> mesh the base -> union with manifold3d
     (:func:`texcad.fuse`).
 
     Args:
-        surface: a :class:`~texcad.surface.Surface` (e.g. ``Surface.cylinder(20, 100)``),
-            a :class:`~texcad.surface.Profile`, or a build123d curve or sketch (then
+        surface: a :class:`~texcad.mapping.Surface` (e.g. ``Surface.cylinder(20, 100)``),
+            a :class:`~texcad.mapping.Profile`, or a build123d curve or sketch (then
             ``length`` is required).
         texture: ``"builtin:NAME"``, an image path, or a Heightmap (used as is).
         length: extrusion length in mm (profiles only).

@@ -20,6 +20,8 @@ from .overhang import (
     thin_features,
     DEFAULT_CRITICAL_ANGLE,
     ANGLE_TOLERANCE,
+    SLICER_MARGIN,
+    printable_lean_slab,
 )
 from .profile import (
     limit_on_profile,
@@ -43,6 +45,8 @@ __all__ = [
     'thin_features',
     'DEFAULT_CRITICAL_ANGLE',
     'ANGLE_TOLERANCE',
+    'SLICER_MARGIN',
+    'printable_lean_slab',
     'limit_on_profile',
     'measured',
 ]

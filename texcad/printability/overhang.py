@@ -39,7 +39,7 @@ The fixes
   ``beta_max``; borders that face up keep their texture.
 * **Slope limiter** (beyond the paper): the largest heightmap ``h' <= h`` whose
   *triangulated* facets (texcad splits cell ``(r, c)`` into ``(a, b, c)`` and
-  ``(a, c, d)``, see :func:`texcad.mesh.grid_faces`) none overhang, for one build
+  ``(a, c, d)``, see :func:`texcad.solid.grid_faces`) none overhang, for one build
   direction or for every direction of a set. The per-facet condition
   ``grad h . e <= tan(beta_max)`` (``e`` the unit in-plane direction of ``d``; a slope
   across ``e`` only turns the facet away from ``-d``, so this half-plane is exact for
@@ -88,6 +88,8 @@ __all__ = [
     "thin_features",
     "DEFAULT_CRITICAL_ANGLE",
     "ANGLE_TOLERANCE",
+    "SLICER_MARGIN",
+    "printable_lean_slab",
 ]
 
 #: Default critical overhang angle in degrees (paper, section 2.1.3).
@@ -96,6 +98,14 @@ DEFAULT_CRITICAL_ANGLE = 45.0
 #: a face at exactly ``alpha_crit`` (e.g. a wall of a plate tilted by 45 degrees) is
 #: not flagged by floating-point noise.
 ANGLE_TOLERANCE = 1e-3
+#: Degrees the limiter adds to the critical angle for the facets by default. Slicers
+#: flag a face as overhanging *below* their threshold plus about one degree
+#: (PrusaSlicer 2.5, measured with texcad's slicer check, benchmarks/bench_slicer.py:
+#: a 45-degree face gets support at threshold 45, not at 44), so facets limited to
+#: exactly the critical angle still got support under the texture. With 1.5 degrees
+#: (1 for the slicer, 0.5 for float32 rounding and the union's slivers) the slicer's
+#: threshold set to the critical angle gives no support under the texture.
+SLICER_MARGIN = 1.5
 
 _TOWARD = {"+x": 0.0, "x": 0.0, "+y": 90.0, "y": 90.0, "-x": 180.0, "-y": 270.0}
 
@@ -343,7 +353,7 @@ def edge_ramp(
     Returns:
         ``(heightmap', report)``.
     """
-    return _limit(heightmap, build_dir, critical_angle, tilt=tilt, offset=offset, edges=True, facets=False, margin=0.1)
+    return _limit(heightmap, build_dir, critical_angle, tilt=tilt, offset=offset, edges=True, facets=False, margin=SLICER_MARGIN)
 
 
 def limit_overhangs(
@@ -352,12 +362,12 @@ def limit_overhangs(
     critical_angle: float = DEFAULT_CRITICAL_ANGLE,
     *,
     edges: bool = True,
-    margin: float = 0.1,
+    margin: float = SLICER_MARGIN,
 ) -> tuple[Heightmap, LimitReport]:
     """Lower a flat texture as little as possible so that no facet overhangs.
 
     Returns the largest heightmap ``h' <= h`` whose triangulated facets (as meshed
-    by :func:`texcad.mesh.heightfield_slab`) make at least ``critical_angle +
+    by :func:`texcad.solid.heightfield_slab`) make at least ``critical_angle +
     margin`` degrees with the build plate whenever they face down, for every
     build direction given (module docstring: difference bounds along the mesh's
     edge directions, solved by running-minimum erosion). With ``edges`` the
@@ -372,8 +382,11 @@ def limit_overhangs(
             print in (e.g. ``[orientation(a) for a in (0, 15, 30, 45, 60)]``).
         critical_angle: critical overhang angle in degrees (0..90, default 45).
         edges: also apply M-I at the borders.
-        margin: degrees added to ``critical_angle`` for the facets, so that float32
-            rounding in the exported mesh cannot bring a facet below it.
+        margin: degrees added to ``critical_angle`` for the facets (default
+            :data:`SLICER_MARGIN`, 1.5), so that a slicer whose overhang threshold
+            is set to ``critical_angle`` puts no support under the texture and float32
+            rounding in the exported mesh cannot bring a facet below it. The result
+            is verified to keep ``critical_angle + max(margin / 2, margin - 0.25)``.
 
     Returns:
         ``(heightmap', report)``; ``report.removed_volume_mm3``,
@@ -393,7 +406,7 @@ def limit_overhangs_mapped(
     *,
     offset: str = "normal",
     edges: bool = True,
-    margin: float = 0.1,
+    margin: float = SLICER_MARGIN,
 ) -> tuple[Heightmap, LimitReport]:
     """The slope limiter for a texture mapped on a 2.5D surface (paper, section 3.1).
 
@@ -430,7 +443,8 @@ def limit_overhangs_mapped(
         edges: also apply M-I at the borders whose walls would overhang (walls
             along ``nu`` at the profile's ends for ``"normal"``, vertical for
             ``"vertical"``).
-        margin: degrees added to the critical angle for the facets.
+        margin: degrees added to the critical angle for the facets (default
+            :data:`SLICER_MARGIN`; see :func:`limit_overhangs`).
 
     Returns:
         ``(heightmap', report)``.
@@ -677,7 +691,7 @@ def _limit(hm, build_dir, critical_angle, *, tilt, offset, edges, facets, margin
     iterations = 1
     remaining = 0.0
     if facets:
-        cos_check = np.cos(np.radians(crit + 0.5 * margin))
+        cos_check = np.cos(np.radians(crit + max(0.5 * margin, margin - 0.25)))
         while True:  # verify on the triangulated facets; tighten where needed
             P = _grid_points(out.astype(np.float64), psi, px, py, offset)
             viol, area = _facet_violations(P, dirs, cos_check)
@@ -814,3 +828,48 @@ def thin_features(
     ta = float(thin(feat).sum() * pa)
     ga = float(thin(gaps).sum() * pa)
     return ThinFeatures(w, lvl, fa, ta, ta / fa if fa > 0 else 0.0, ga)
+
+
+def printable_lean_slab(
+    heightmap: Heightmap,
+    build_dir,
+    critical_angle: float = DEFAULT_CRITICAL_ANGLE,
+    *,
+    tolerance: float,
+    depth: float,
+    origin: Sequence[float],
+    margin: float = SLICER_MARGIN,
+) -> tuple[Mesh, float]:
+    """A :func:`texcad.solid.heightfield_slab` with a lean top (``tolerance`` mm) whose
+    texture facets above the base (any vertex above ``origin_z``) keep
+    ``critical_angle + margin - 0.5`` degrees from the build plate for every
+    build direction, for a heightmap already limited by :func:`limit_overhangs`.
+
+    The limiter bounds the one-vertex-per-pixel facets; a lean triangle's slope is
+    only within about ``tolerance / width`` of theirs, so small lean triangles at
+    sharp features can overhang where the pixel facets do not (measured: a stones
+    texture limited for a 60-degree tilt keeps facets at 46.5 degrees on the pixel
+    grid but down to 30 degrees in its lean mesh at 0.02 mm, and still 30 degrees
+    at 0.00125 mm). So the lean slab is checked and, where a facet overhangs, the
+    pixel grid (tolerance 0, which the limiter guarantees) is used instead.
+
+    Returns:
+        ``(slab, tolerance_used)`` (mm).
+    """
+    from ..solid import heightfield_slab
+
+    dirs = build_directions(build_dir)
+    limit = check_critical_angle(critical_angle) + float(margin) - 0.5
+    oz = float(origin[2])
+    tol = float(tolerance)
+    while True:
+        slab = heightfield_slab(heightmap, depth=depth, origin=origin, tolerance=tol)
+        if tol <= 0:
+            return slab, 0.0
+        f = slab.faces[slab.groups["texture"]]
+        f = f[slab.vertices[f, 2].max(axis=1) > oz + 1e-6]
+        top = Mesh(slab.vertices, f)
+        # plate_tolerance < 0: no texture facet rests on the build plate.
+        if not any(overhang_mask(top, d, min(limit, 89.9), plate_tolerance=-1.0).any() for d in dirs):
+            return slab, tol
+        tol = 0.0

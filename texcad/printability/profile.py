@@ -1,7 +1,7 @@
 """Print orientation for mapped textures: the slope limiter on a profile's columns.
 
-Shared by :func:`texcad.mapping.textured_surface` and :func:`texcad.cad.texture`
-(curved faces). Given a :class:`~texcad.surface.Profile`, the texture about to be
+Shared by :func:`texcad.mapping.textured_surface` and :func:`texcad.pipeline.texture`
+(curved faces). Given a :class:`~texcad.mapping.Profile`, the texture about to be
 mapped onto it and a build direction in the profile's frame (x across the profile, y
 along the extrusion, z up in the profile), it finds the surface tilt under every
 texture column from the profile's tangent (``Profile.at(s)``, paper eq. 4: column
@@ -54,8 +54,9 @@ SINK = 0.02
 #: Passes over the three copies of a closed texture before giving up (each pass only lowers).
 _MAX_PASSES = 12
 #: Degrees added to the critical angle for the facets: mapped meshes are cut by the
-#: base surface into slivers whose float32 normals scatter by a few tenths of a degree.
-MARGIN = 0.5
+#: base surface into slivers whose float32 normals scatter by a few tenths of a degree
+#: (0.5), on top of the slicer's own degree (texcad.printability.SLICER_MARGIN).
+MARGIN = 2.0
 
 
 def limit_on_profile(

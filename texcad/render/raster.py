@@ -22,7 +22,7 @@ How it works
    ambient) max(0, n . l))``, looked up through the per-pixel face index.
 
 Images are y-up arrays (row 0 at the bottom), texcad's convention; they are
-flipped once when written (:func:`texcad.imageio.write_rgb8`).
+flipped once when written (:func:`texcad.sources.image.write_rgb8`).
 """
 
 from __future__ import annotations

@@ -11,6 +11,14 @@ from .seams import (
     SeamGap,
     seam_gap,
 )
+from .slicer import (
+    find_slicer,
+    SliceReport,
+    slice_mesh,
+    read_gcode,
+    support_near,
+    SUPPORT_TYPES,
+)
 
 __all__ = [
     'CheckReport',
@@ -18,4 +26,10 @@ __all__ = [
     'render_check',
     'SeamGap',
     'seam_gap',
+    'find_slicer',
+    'SliceReport',
+    'slice_mesh',
+    'read_gcode',
+    'support_near',
+    'SUPPORT_TYPES',
 ]

@@ -3,7 +3,7 @@
 A part is read from STL or 3MF (or given as meshes) and measured:
 
 * **watertight**: every edge is shared by exactly two faces in opposite directions
-  (:func:`texcad.mesh.edge_report`), for every object in the file;
+  (:func:`texcad.solid.edge_report`), for every object in the file;
 * **manifold**: manifold3d accepts every object as a closed, oriented solid;
 * **shells, volume, bounding box, triangles** of the whole part (several objects
   are united with manifold3d first, as a slicer would);
@@ -15,8 +15,8 @@ A part is read from STL or 3MF (or given as meshes) and measured:
   :func:`texcad.printability.thin_features`;
 * optionally a **PNG** of the part in print orientation, overhang faces in red.
 
-Which faces are texture: a :class:`~texcad.mesh.Mesh` with a ``"texture"`` group
-(e.g. :func:`texcad.mesh.heightfield_slab`), or several named objects, e.g. a 3MF
+Which faces are texture: a :class:`~texcad.solid.Mesh` with a ``"texture"`` group
+(e.g. :func:`texcad.solid.heightfield_slab`), or several named objects, e.g. a 3MF
 written as ``write_3mf([("base", base), ("texture", slab)], path)``: objects whose
 name starts with ``texture`` are texture. The objects are united with manifold3d,
 which records for every output triangle the object it came from, so the texture's
@@ -383,7 +383,7 @@ def check(
     """Check a part for printing (module docstring lists what is measured).
 
     Args:
-        part: ``.stl`` / ``.3mf`` path, a :class:`~texcad.mesh.Mesh` (its
+        part: ``.stl`` / ``.3mf`` path, a :class:`~texcad.solid.Mesh` (its
             ``"texture"`` group, if any, is the textured surface), a
             :class:`~texcad.pipeline.TexturedPart` (base and texture slab), a
             :func:`texcad.texture` result (its fused mesh; texture faces found on its

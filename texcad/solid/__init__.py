@@ -28,6 +28,15 @@ from .brep import (
     inside,
     sample_segments,
 )
+from .lean import (
+    DEFAULT_TOLERANCE,
+    MAX_FRACTION,
+    check_tolerance,
+    triangulate,
+    surface_error,
+    mesh_error,
+    boundary_chains,
+)
 from .mesh import (
     Mesh,
     grid_faces,
@@ -66,6 +75,13 @@ __all__ = [
     'face_segments',
     'inside',
     'sample_segments',
+    'DEFAULT_TOLERANCE',
+    'MAX_FRACTION',
+    'check_tolerance',
+    'triangulate',
+    'surface_error',
+    'mesh_error',
+    'boundary_chains',
     'Mesh',
     'grid_faces',
     'heightfield_slab',

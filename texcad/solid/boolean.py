@@ -1,12 +1,12 @@
 """Solids: CAD shapes to meshes, and the manifold3d union of texture and base.
 
 This stage replaces the paper's Rhino/Grasshopper sweep (section 2.3): the textured
-slab from :mod:`texcad.mesh` is unioned onto the base body with manifold3d, whose
+slab from :mod:`texcad.solid` is unioned onto the base body with manifold3d, whose
 booleans are guaranteed to return an oriented 2-manifold.
 
 A *base* can be a build123d ``Shape`` (``Part``, ``Solid``, ``Compound``), a CadQuery
 ``Workplane`` or ``Shape`` (both wrap the same OCP ``TopoDS_Shape``), a raw
-``TopoDS_Shape``, a :class:`~texcad.mesh.Mesh`, or a ``manifold3d.Manifold``.
+``TopoDS_Shape``, a :class:`~texcad.solid.Mesh`, or a ``manifold3d.Manifold``.
 """
 
 from __future__ import annotations
@@ -140,7 +140,7 @@ def fuse(base: Any, *textures: Any) -> Mesh:
 
     Most of the time of a large union goes to manifold3d building its half-edge
     structure for the slab and for the result (an 800 x 800 px slab: about 1.3 s on
-    two cores); slabs from :func:`texcad.mesh.heightfield_slab` cross the base's face
+    two cores); slabs from :func:`texcad.solid.heightfield_slab` cross the base's face
     with only a few edges, so the boolean itself cuts little. One-shot processes save
     a further ~0.3 s with :func:`retain_freed_memory`.
     """

@@ -12,7 +12,7 @@ CAD model generation that the paper did in Rhino/Grasshopper), with OCCT (OCP):
       S(u, v) = sum_ij N_i(u) N_j(v) P_ij,   N_i the hat function on [u_{i-1}, u_{i+1}]
 
   texcad's meshes split each cell into the two triangles ``(a, b, c)``, ``(a, c, d)``
-  (:func:`texcad.mesh.grid_faces`). Over a flat grid the volume under the bilinear
+  (:func:`texcad.solid.grid_faces`). Over a flat grid the volume under the bilinear
   patch is ``A (z_a + z_b + z_c + z_d) / 4`` and under the two triangles
   ``A (2 z_a + z_b + 2 z_c + z_d) / 6``; they differ by ``A (z_a + z_c - z_b - z_d)
   / 12``, which **telescopes** over the grid to the four corner heights: the B-rep
@@ -30,7 +30,7 @@ CAD model generation that the paper did in Rhino/Grasshopper), with OCCT (OCP):
   construction.
 * :func:`grid_brep` / :func:`fuse_solids` - the general case (textures mapped onto
   curved faces): the slab between a top and a bottom grid (the B-rep twin of
-  :func:`texcad.mesh.grid_solid`), sewn, and fused onto the base with OCCT's boolean.
+  :func:`texcad.solid.grid_solid`), sewn, and fused onto the base with OCCT's boolean.
 * :func:`write_step` / :func:`read_step` - AP214 STEP in mm, silent, with a fixed
   header (time stamp, product name) so the same shape gives the same bytes.
 
@@ -109,7 +109,7 @@ def grid_surface(grid: np.ndarray, u: Sequence[float] | None = None, v: Sequence
 
     Pole ``(i, j)`` is ``grid[j, i]``: ``u`` runs along the columns (texture x) and
     ``v`` along the rows (texture y), so the surface normal ``S_u x S_v`` points the
-    way :func:`texcad.mesh.grid_faces` orients its triangles. The surface passes
+    way :func:`texcad.solid.grid_faces` orients its triangles. The surface passes
     through every vertex: ``S(u_i, v_j) = grid[j, i]``.
 
     Args:
@@ -169,7 +169,7 @@ def grid_face(grid: np.ndarray, u: Sequence[float] | None = None, v: Sequence[fl
 
 # -- the slab solid (general case) ----------------------------------------------------------
 def grid_brep(top: np.ndarray, bottom: np.ndarray, *, wrap_x: bool = False):
-    """The B-rep slab between two vertex grids: the twin of :func:`texcad.mesh.grid_solid`.
+    """The B-rep slab between two vertex grids: the twin of :func:`texcad.solid.grid_solid`.
 
     Faces: the top grid surface, the bottom grid surface, and one wall per boundary
     between the top's and the bottom's boundary rows/columns: a plane bounded by the

@@ -165,6 +165,7 @@ def heightfield_slab(
     *,
     depth: float = 0.5,
     origin: Sequence[float] = (0.0, 0.0, 0.0),
+    tolerance: float = 0.0,
 ) -> Mesh:
     """The paper's flat mapping (section 2.2) as a closed slab.
 
@@ -187,6 +188,14 @@ def heightfield_slab(
         depth: how far in mm the slab reaches below the surface (into the base body,
             so that the union with the base is one solid). > 0.
         origin: ``(x, y, z)`` in mm of the surface point under the texture's corner.
+        tolerance: largest height error in mm of the top surface at any pixel centre.
+            0 (default here): one vertex per pixel, as above. > 0: a lean top
+            surface (:func:`texcad.solid.lean.triangulate`): only the pixel centres
+            needed to stay within ``tolerance`` mm, at their exact heights; the walls
+            are built on the boundary vertices it keeps, so the slab stays
+            watertight; where that would keep more than half of the grid's
+            triangles (:data:`texcad.solid.lean.MAX_FRACTION`: noisy textures), the grid
+            is used. Measure the result with :func:`texcad.solid.lean.mesh_error`.
 
     Returns:
         A watertight :class:`Mesh` with ``R C + 4`` vertices and
@@ -199,6 +208,12 @@ def heightfield_slab(
     rows, cols = heightmap.shape
     require_memory(rows * cols * 60.0, f"a {rows} x {cols} px slab", "use a larger pitch")
     ox, oy, oz = (float(o) for o in origin)
+    from .lean import check_tolerance
+
+    if check_tolerance(tolerance) > 0:
+        lean = _lean_slab(heightmap, depth, (ox, oy, oz), float(tolerance))
+        if lean is not None:
+            return lean
     n = rows * cols
     verts = np.empty((n + 4, 3), dtype=np.float32)
     top = verts[:n].reshape(rows, cols, 3)
@@ -220,23 +235,58 @@ def heightfield_slab(
     return Mesh(verts, np.concatenate([top_faces, walls, bottom]), groups)
 
 
-def _polygon_walls(top: np.ndarray, rows: int, cols: int, zb: float, depth: float) -> "np.ndarray | None":
+def _lean_slab(heightmap: Heightmap, depth: float, origin: tuple, tolerance: float) -> "Mesh | None":
+    """:func:`heightfield_slab` with a lean top (``tolerance`` mm > 0): the kept pixel
+    centres, walls on the kept boundary chains, the same bottom. None where the lean
+    top would keep more than :data:`texcad.solid.lean.MAX_FRACTION` of the grid."""
+    from .lean import boundary_chains, triangulate
+
+    ox, oy, oz = origin
+    rows, cols = heightmap.shape
+    lean = triangulate(heightmap.heights, tolerance)
+    if lean is None:
+        return None
+    rc, top_faces = lean
+    n = len(rc)
+    verts = np.empty((n + 4, 3), dtype=np.float32)
+    verts[:n, 0] = (ox + heightmap.x).astype(np.float32)[rc[:, 1]]
+    verts[:n, 1] = (oy + heightmap.y).astype(np.float32)[rc[:, 0]]
+    verts[:n, 2] = heightmap.heights[rc[:, 0], rc[:, 1]] + np.float32(oz)
+    groups = {"texture": np.arange(len(top_faces), dtype=np.uint32)}
+    zb = np.float32(oz - depth)
+    sides = tuple(s.astype(np.uint32) for s in boundary_chains(rc, rows, cols))
+    walls = _polygon_walls(verts[:n], rows, cols, float(zb), depth, sides=sides)
+    if walls is None:
+        ring = np.concatenate([s[:-1] for s in sides])
+        return _ring_walls_slab(verts[:n], rows, cols, zb, top_faces, groups, ring=ring)
+    verts[n:, :2] = verts[[s[0] for s in sides], :2]  # the four corners, counter-clockwise
+    verts[n:, 2] = zb
+    bottom = np.array([[n, n + 2, n + 1], [n, n + 3, n + 2]], dtype=np.uint32)
+    return Mesh(verts, np.concatenate([top_faces, walls, bottom]), groups)
+
+
+def _polygon_walls(
+    top: np.ndarray, rows: int, cols: int, zb: float, depth: float, sides: "tuple | None" = None
+) -> "np.ndarray | None":
     """Triangles closing the four sides of a top grid down to ``z = zb`` (mm).
 
     Side ``k`` (counter-clockwise from +z, starting along row 0) is the planar polygon
     of its top vertices plus bottom corners ``N + k`` and ``N + (k+1) % 4`` (``N`` =
     number of top vertices), triangulated by manifold3d in the wall's plane. Returns
     ``None`` when a polygon is degenerate or its triangulation is not a valid,
-    counter-clockwise (outward) cover of it.
+    counter-clockwise (outward) cover of it. ``sides``: the four chains of top vertex
+    indices (a lean top's kept boundary vertices), default the full grid's.
     """
     import manifold3d
 
-    n = rows * cols
+    n = len(top)
+    ring = _ring(rows, cols) if sides is None else np.concatenate([s[:-1] for s in sides])
     # A boundary vertex (almost) on the bottom would pinch its wall polygon.
-    if float(top[_ring(rows, cols), 2].min()) - zb < max(1e-3 * depth, 1e-4):
+    if float(top[ring, 2].min()) - zb < max(1e-3 * depth, 1e-4):
         return None
-    idx = np.arange(n, dtype=np.uint32).reshape(rows, cols)
-    sides = (idx[0, :], idx[:, -1], idx[-1, ::-1], idx[::-1, 0])
+    if sides is None:
+        idx = np.arange(n, dtype=np.uint32).reshape(rows, cols)
+        sides = (idx[0, :], idx[:, -1], idx[-1, ::-1], idx[::-1, 0])
     out = []
     for k, chain in enumerate(sides):  # one polygon per side
         p = top[chain].astype(np.float64)
@@ -262,14 +312,15 @@ def _polygon_walls(top: np.ndarray, rows: int, cols: int, zb: float, depth: floa
 
 
 def _ring_walls_slab(
-    top: np.ndarray, rows: int, cols: int, zb: np.float32, top_faces: np.ndarray, groups: dict
+    top: np.ndarray, rows: int, cols: int, zb: np.float32, top_faces: np.ndarray, groups: dict, ring=None
 ) -> Mesh:
     """A slab whose walls are quads from every boundary vertex down to a bottom ring at
-    ``z = zb`` mm, and whose bottom is the ring polygon (triangulated by manifold3d)."""
+    ``z = zb`` mm, and whose bottom is the ring polygon (triangulated by manifold3d).
+    ``ring``: the boundary vertices counter-clockwise (default: the full grid's)."""
     import manifold3d
 
-    n = rows * cols
-    ring = _ring(rows, cols)
+    n = len(top)
+    ring = _ring(rows, cols) if ring is None else ring
     p = len(ring)
     verts = np.empty((n + p, 3), dtype=np.float32)
     verts[:n] = top

@@ -269,7 +269,7 @@ class Heightmap:
     def from_scan(cls, path: "str | os.PathLike | np.ndarray", *, pitch: float, **options) -> "Heightmap":
         """Heightmap of a 3-D scan (point cloud or mesh) at ``pitch`` mm per pixel.
 
-        A thin wrapper over :func:`texcad.scan.scan_to_heightmap` (see there for the
+        A thin wrapper over :func:`texcad.sources.scan_to_heightmap` (see there for the
         steps and ``options``: ``form_degree``, ``outlier_sigma``, ``crop``,
         ``fill_holes``, ``base_percentile``, ...) that drops the report.
         """

@@ -1,6 +1,6 @@
 """Texture synthesis by patch-based sampling (paper section 2.1; Liang et al. 2001).
 
-A small texture sample (a :class:`~texcad.heightmap.Heightmap`) is grown into a larger
+A small texture sample (a :class:`~texcad.sources.Heightmap`) is grown into a larger
 heightmap with the same local statistics, following
 
     L. Liang, C. Liu, Y.-Q. Xu, B. Guo, H.-Y. Shum, "Real-time texture synthesis by

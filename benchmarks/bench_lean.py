@@ -1,0 +1,133 @@
+"""Benchmark: lean meshes (texcad.solid.lean, issue 15). For the demo plate (800 x 800 px
+of stones grown by synthesis from a 25 mm sample, as ``texcad demo`` makes it, on a
+100 x 100 mm plate) and for built-ins on the same plate: triangles, measured maximum
+height error at every pixel centre, seconds texture-to-STL and STL size in MB, for
+tolerance 0 (one vertex per pixel) and the default tolerance; and pydelatin's own
+triangle count for the same heightmap at the same error.
+
+    python benchmarks/bench_lean.py [--repeat 3] [--tolerance 0.02] [--builtins stones,pins]
+
+Targets (issue 15, demo plate, default tolerance): triangles no more than
+pydelatin's at the same error, texture-to-STL <= 0.6 s, STL <= 1/3 of the
+one-vertex-per-pixel STL. Seconds are the median of ``--repeat`` runs in one
+process (after one warm-up), with glibc's allocator told to keep freed memory
+(:func:`texcad.solid.retain_freed_memory`, as the CLI does). "texture-to-STL" is
+``texcad.texture(..., brep=False)`` plus ``write_stl``; measuring the error
+(``Textured.max_error``) is timed on its own. Other processes slow every figure:
+the load average is printed with them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+
+def load() -> str:
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def demo_heightmap(pitch: float = 0.125, side: float = 100.0):
+    """The demo's texture: a 25 mm sample of builtin:stones grown to the plate
+    (texcad/cli/demo.py, seed 0)."""
+    from texcad import builtin, synthesize
+
+    sample = builtin("stones", size=(25.0, 25.0), pitch=pitch, height=2.0)
+    px = round(side / pitch)
+    patch = min(45, px, *sample.shape)
+    return synthesize(sample, (px, px), patch=patch, overlap=max(1, patch * 5 // 9), seed=0)
+
+
+def one(plate, face, hm, tol: float, out: Path, repeat: int) -> dict:
+    from texcad import texture
+    from texcad.io import write_stl
+
+    secs = []
+    for _ in range(repeat + 1):  # first run warms up
+        t0 = time.perf_counter()
+        part = texture(plate, face, hm, brep=False, tolerance=tol)
+        write_stl(part.mesh, out)
+        secs.append(time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    err = part.max_error
+    t_err = time.perf_counter() - t0
+    return {
+        "triangles": part.mesh.num_triangles,
+        "max_error": err,
+        "seconds": statistics.median(secs[1:]) if repeat else secs[0],
+        "range": (min(secs[1:] or secs), max(secs[1:] or secs)),
+        "error_seconds": t_err,
+        "MB": out.stat().st_size / 1e6,
+        "info": part.info,
+    }
+
+
+def delatin_count(heights, err: float) -> tuple[int, float]:
+    from pydelatin import Delatin
+
+    t0 = time.perf_counter()
+    d = Delatin(heights.astype("float32"), max_error=err)
+    return len(d.triangles), time.perf_counter() - t0
+
+
+def main() -> None:
+    from texcad.solid import DEFAULT_TOLERANCE
+
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE)
+    ap.add_argument("--builtins", default="stones,diamond_knurl,pins,leather,sand")
+    ap.add_argument("--pitch", type=float, default=0.125)
+    args = ap.parse_args()
+
+    from build123d import Axis
+
+    from texcad import builtin
+    from texcad.pipeline import plate_base
+    from texcad.solid import retain_freed_memory
+
+    retain_freed_memory()
+    plate = plate_base((100.0, 100.0), 5.0)
+    face = plate.faces().sort_by(Axis.Z)[-1]
+    jobs = [("demo (stones, grown)", demo_heightmap(args.pitch))]
+    for name in [n for n in args.builtins.split(",") if n]:
+        jobs.append((f"builtin:{name}", builtin(name, size=(100.0, 100.0), pitch=args.pitch, height=2.0)))
+    print(f"load average before: {load()}   (2-core machine; figures are noisy under load)")
+    print(
+        f"{'texture':22s} {'tol mm':>6s} {'triangles':>10s} {'max err mm':>10s} {'s tex->STL':>10s} "
+        f"{'range':>11s} {'s err':>6s} {'STL MB':>7s} {'pydelatin':>9s} {'s delatin':>9s}"
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "part.stl"
+        for label, hm in jobs:
+            rows = []
+            for tol in (0.0, args.tolerance):
+                r = one(plate, face, hm, tol, out, args.repeat)
+                rows.append(r)
+                dl = ds = ""
+                if tol > 0 and r["max_error"] > 0:  # (0: the grid was kept, MAX_FRACTION)
+                    # pydelatin alone on the texture itself, at the error texcad measured
+                    n_dl, s_dl = delatin_count(hm.heights, max(r["max_error"], 1e-6))
+                    dl, ds = f"{n_dl:9d}", f"{s_dl:9.2f}"
+                lo, hi = r["range"]
+                print(
+                    f"{label:22s} {tol:6.3f} {r['triangles']:10d} {r['max_error']:10.4f} {r['seconds']:10.2f} "
+                    f"{lo:5.2f}-{hi:5.2f} {r['error_seconds']:6.2f} {r['MB']:7.1f} {dl:>9s} {ds:>9s}"
+                )
+            d, lean_r = rows
+            print(
+                f"{'':22s} lean/grid: triangles {lean_r['triangles'] / d['triangles']:.3f}, "
+                f"STL {lean_r['MB'] / d['MB']:.3f}, seconds {lean_r['seconds'] / d['seconds']:.2f}"
+            )
+    print(f"load average after: {load()}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,169 @@
+"""Slicer check (issue 15): slice texcad's outputs with PrusaSlicer's CLI
+(texcad.report.slicer) and read the G-code.
+
+    python benchmarks/bench_slicer.py demo        [--timeout 900]
+    python benchmarks/bench_slicer.py support     [--pitch 0.25]
+    python benchmarks/bench_slicer.py perimeters  [--side 40]
+
+* ``demo``: the demo plate (800 x 800 px stones, 100 x 100 mm, as ``texcad demo``
+  makes it) with one vertex per pixel (tolerance 0) and lean (default tolerance),
+  side by side: slicing time and peak memory with PrusaSlicer's defaults, and with
+  "detect bridging perimeters" (``overhangs``) off. A slice that runs past
+  ``--timeout`` is reported as such.
+* ``support``: parts limited for their build direction, sliced with
+  ``support_material = 1, support_material_threshold = 45`` (the critical angle):
+  support path length in total, next to the texture (support points below a
+  texture face, within 1 mm across), and for the bare part (what it needs anyway);
+  the old limiter margin (0.1 deg) next to the new one (SLICER_MARGIN).
+* ``perimeters``: what makes the default perimeter analysis slow: a smaller stones
+  plate at several tolerances, ``overhangs`` on and off, with the G-code's
+  perimeter and overhang-perimeter lengths.
+
+Other processes slow every figure: the load average is printed with them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+SUPPORT = {"support-material": True, "support-material-threshold": 45}
+
+
+def load() -> str:
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def row(label: str, rep, extra: str = "") -> None:
+    if rep is None:
+        print(f"{label:44s} timed out")
+        return
+    ov = rep.lengths.get("Overhang perimeter", 0.0) / 1000
+    print(
+        f"{label:44s} {rep.seconds:8.1f} s {rep.peak_mb:8.0f} MB  support {rep.support_mm / 1000:8.2f} m  "
+        f"overhang perimeter {ov:7.2f} m  layers {rep.layers:4d}  rc {rep.returncode} {extra}"
+    )
+
+
+def sliced(mesh, timeout: float, **kw):
+    from texcad.errors import ResourceError
+    from texcad.report.slicer import slice_mesh
+
+    try:
+        return slice_mesh(mesh, timeout=timeout, **kw)
+    except ResourceError:
+        return None
+
+
+def demo(args) -> None:
+    from build123d import Axis
+
+    from bench_lean import demo_heightmap
+    from texcad import texture
+    from texcad.solid import DEFAULT_TOLERANCE
+    from texcad.pipeline import plate_base
+
+    plate = plate_base((100.0, 100.0), 5.0)
+    face = plate.faces().sort_by(Axis.Z)[-1]
+    hm = demo_heightmap()
+    for tol in (0.0, DEFAULT_TOLERANCE):
+        part = texture(plate, face, hm, brep=False, tolerance=tol)
+        m = part.mesh
+        for cfg, what in (({}, "defaults"), ({"overhangs": False}, "overhangs off")):
+            print(f"  load {load()}", flush=True)
+            row(f"demo tol {tol:g} ({m.num_triangles} tri), {what}", sliced(m, args.timeout, config=cfg))
+
+
+def support(args) -> None:
+    import numpy as np
+    from build123d import Align, Axis, Box
+
+    import texcad
+    from texcad.printability import SLICER_MARGIN, limit_overhangs, orientation
+    from texcad.report.slicer import support_near
+
+    def report(label, mesh, tex, d, bare):
+        r = sliced(mesh, args.timeout, build_dir=d, config=SUPPORT)
+        if r is None:
+            row(label, None)
+            return
+        near = support_near(r.support_points, tex, np.arange(tex.num_triangles), d)
+        rb = sliced(bare, args.timeout, build_dir=d, config=SUPPORT)
+        bare_m = rb.support_mm / 1000 if rb else float("nan")
+        row(label, r, f" near texture {near} pts  bare part {bare_m:.2f} m")
+
+    pitch = args.pitch
+    hm = texcad.builtin("diamond_knurl", size=(20, 20), pitch=pitch, height=1.0)
+    for tilt in (90, 60):
+        d = orientation(tilt, "+y")
+        for margin in (0.1, SLICER_MARGIN):
+            lim, _ = limit_overhangs(hm, d, margin=margin)
+            tp = texcad.textured_plate(lim, size=(20, 20), thickness=4, tolerance=0)
+            report(f"knurl plate tilt {tilt}, margin {margin:g}", tp.mesh, tp.texture_mesh, d, tp.base_mesh)
+        tp = texcad.textured_plate(hm, size=(20, 20), thickness=4, tolerance=0)
+        report(f"knurl plate tilt {tilt}, not limited", tp.mesh, tp.texture_mesh, d, tp.base_mesh)
+    box = Box(20, 16, 12, align=(Align.MIN, Align.MIN, Align.MIN))
+    side = box.faces().sort_by(Axis.X)[-1]
+    up = (0.0, 0.0, 1.0)
+    bare = texcad.solid.shape_to_mesh(box)
+    for name in ("diamond_knurl", "stones"):
+        t = texcad.builtin(name, size=(16, 12), pitch=pitch, height=1.0)
+        for bd in (None, up):
+            tx = texcad.texture(box, side, t, brep=False, build_dir=bd)
+            label = f"box side wall {name}, {'limited' if bd else 'not limited'}"
+            report(label, tx.mesh, tx.texture_mesh, up, bare)
+    if args.sledgehammer:
+        os.environ.setdefault("TEXCAD_PITCH", str(pitch))
+        os.environ.setdefault("TEXCAD_OUT", "/tmp/texcad-bench-sledgehammer")
+        import runpy
+
+        g = runpy.run_path(str(Path(__file__).resolve().parents[1] / "recipes" / "sledgehammer.py"))
+        part = g["part"]
+        report("sledgehammer (recipe), +y", part.mesh, part.texture_mesh, (0, 1, 0), texcad.solid.shape_to_mesh(g["handle"]))
+
+
+def perimeters(args) -> None:
+    import texcad
+
+    side = args.side
+    hm = texcad.builtin("stones", size=(side, side), pitch=0.125, height=2.0)
+    for tol in args.tolerances:
+        tp = texcad.textured_plate(hm, size=(side, side), thickness=3, tolerance=tol)
+        # PrusaSlicer's "resolution" simplifies the slice contours (0 = off): if the
+        # time goes with the contours' vertex count, it goes down with it.
+        cfgs = [({}, "defaults"), ({"overhangs": False}, "overhangs off"), ({"resolution": args.resolution}, f"resolution {args.resolution:g}")]
+        for cfg, what in cfgs:
+            print(f"  load {load()}", flush=True)
+            row(f"stones {side:g} mm tol {tol:g} ({tp.mesh.num_triangles} tri), {what}", sliced(tp.mesh, args.timeout, config=cfg))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("what", choices=("demo", "support", "perimeters"))
+    ap.add_argument("--timeout", type=float, default=900.0, help="seconds per slice (default 900)")
+    ap.add_argument("--pitch", type=float, default=0.25, help="support: texture pitch in mm (default 0.25)")
+    ap.add_argument("--side", type=float, default=40.0, help="perimeters: plate side in mm (default 40)")
+    ap.add_argument("--sledgehammer", action="store_true", help="support: also the sledgehammer recipe (slow)")
+    ap.add_argument("--tolerances", type=lambda t: [float(x) for x in t.split(",")], default=[0.0, 0.02, 0.05, 0.1],
+                    help="perimeters: tolerances in mm (default 0,0.02,0.05,0.1)")
+    ap.add_argument("--resolution", type=float, default=0.05, help="perimeters: PrusaSlicer resolution row, mm (default 0.05)")
+    args = ap.parse_args()
+    from texcad.report.slicer import find_slicer
+
+    exe = find_slicer()
+    if exe is None:
+        sys.exit("prusa-slicer is not installed (Debian: apt-get install prusa-slicer)")
+    print(f"slicer {exe}; load average {load()} (2-core machine)")
+    t0 = time.perf_counter()
+    {"demo": demo, "support": support, "perimeters": perimeters}[args.what](args)
+    print(f"done in {time.perf_counter() - t0:.0f} s; load average {load()}")
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    main()

@@ -1,0 +1,154 @@
+"""Lean meshes (texcad.solid.lean): error bound at every pixel centre, watertight slabs,
+volume within tolerance x area, tolerance=0 unchanged."""
+
+import numpy as np
+import pytest
+
+import texcad
+from texcad.solid import lean
+from texcad.errors import ParameterError
+from texcad.sources import Heightmap
+from texcad.solid import edge_report, heightfield_slab
+
+
+def _brute_error(h, rc, z, faces):
+    """Max |surface - h| over the pixel centres, one triangle at a time (float64
+    barycentric solve; independent of lean.surface_error's scanlines)."""
+    rows, cols = h.shape
+    P = np.stack(np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij"), -1).reshape(-1, 2).astype(float)
+    worst, seen = 0.0, np.zeros(len(P), bool)
+    for tri in faces:
+        a, b, c = rc[tri].astype(float)
+        M = np.array([[b[1] - a[1], c[1] - a[1]], [b[0] - a[0], c[0] - a[0]]])
+        uv = np.linalg.solve(M, (P[:, [1, 0]] - a[[1, 0]]).T).T
+        ins = (uv[:, 0] >= -1e-12) & (uv[:, 1] >= -1e-12) & (uv.sum(1) <= 1 + 1e-12)
+        s = z[tri[0]] + uv[ins, 0] * (z[tri[1]] - z[tri[0]]) + uv[ins, 1] * (z[tri[2]] - z[tri[0]])
+        p = P[ins].astype(int)
+        seen |= ins
+        if len(s):
+            worst = max(worst, float(np.abs(s - h[p[:, 0], p[:, 1]]).max()))
+    assert seen.all()
+    return worst
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_surface_error_matches_a_brute_force_measurement(seed):
+    rng = np.random.default_rng(seed)
+    h = (rng.random((23, 31)) * rng.random()).astype(np.float32)
+    rc, f = lean.triangulate(h, 0.1, max_fraction=1.0)
+    z = h[rc[:, 0], rc[:, 1]].astype(np.float64)
+    assert np.isclose(lean.surface_error(h, rc, z, f), _brute_error(h, rc, z, f), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["stones", "diamond_knurl", "pins", "leather"])
+@pytest.mark.parametrize("tol", [0.01, 0.05])
+def test_error_bound_at_every_pixel_centre(name, tol):
+    hm = texcad.builtin(name, size=(20, 15), pitch=0.125, height=1.5)
+    rc, f = lean.triangulate(hm.heights, tol, max_fraction=1.0)
+    err = lean.surface_error(hm.heights, rc, hm.heights[rc[:, 0], rc[:, 1]], f)
+    assert err <= tol * (1 + 1e-6)
+    rows, cols = hm.shape
+    assert len(f) < 2 * (rows - 1) * (cols - 1)
+    # the corners are kept, every vertex is a grid point
+    assert {(0, 0), (0, cols - 1), (rows - 1, 0), (rows - 1, cols - 1)} <= set(map(tuple, rc.tolist()))
+
+
+def test_surface_error_sees_a_wrong_vertex():
+    hm = texcad.builtin("stones", size=(10, 10), pitch=0.125, height=1.0)
+    rc, f = lean.triangulate(hm.heights, 0.02)
+    z = hm.heights[rc[:, 0], rc[:, 1]].astype(np.float64)
+    z[len(z) // 2] += 0.3
+    assert lean.surface_error(hm.heights, rc, z, f) >= 0.3 - 1e-9
+
+
+def _slab_checks(hm, tol, origin=(1.5, -2.0, 0.25), depth=0.5):
+    import manifold3d
+    import trimesh
+
+    dense = heightfield_slab(hm, depth=depth, origin=origin)
+    slab = heightfield_slab(hm, depth=depth, origin=origin, tolerance=tol)
+    assert edge_report(slab.faces)["watertight"]
+    assert manifold3d.Manifold(manifold3d.Mesh(slab.vertices, slab.faces)).status() == manifold3d.Error.NoError
+    assert trimesh.Trimesh(slab.vertices, slab.faces, process=True).is_watertight
+    err = lean.mesh_error(hm.heights, hm.pitch, origin, slab.vertices, slab.faces[slab.groups["texture"]])
+    assert err <= tol + 1e-6  # + float32 rounding of the vertex heights
+    area = hm.size[0] * hm.size[1]
+    assert abs(slab.volume - dense.volume) <= tol * area
+    assert slab.num_triangles < dense.num_triangles
+    return slab, dense
+
+
+@pytest.mark.parametrize("name", ["stones", "diamond_knurl", "pins"])
+def test_lean_slab_is_watertight_bounded_and_keeps_volume(name):
+    hm = texcad.builtin(name, size=(25, 20), pitch=0.125, height=2.0)
+    _slab_checks(hm, 0.02)
+
+
+def test_lean_slab_with_boundary_down_to_the_bottom_uses_ring_walls():
+    # heights within 0.5 um of -depth on the border would pinch the wall polygons:
+    # ring walls instead
+    hm = texcad.builtin("stones", size=(10, 10), pitch=0.125, height=1.0)
+    h = hm.heights.copy()
+    h[:, :3] = -0.4999
+    _slab_checks(Heightmap(h, hm.pitch), 0.02, depth=0.5)
+
+
+def test_tolerance_zero_is_the_pixel_grid_byte_for_byte():
+    hm = texcad.builtin("diamond_knurl", size=(12, 9), pitch=0.25, height=1.0)
+    a = heightfield_slab(hm, depth=0.4, origin=(1, 2, 3))
+    b = heightfield_slab(hm, depth=0.4, origin=(1, 2, 3), tolerance=0)
+    assert a.vertices.tobytes() == b.vertices.tobytes() and a.faces.tobytes() == b.faces.tobytes()
+    rows, cols = hm.shape
+    assert len(a.vertices) == rows * cols + 4
+
+
+def test_same_heights_same_lean_bytes():
+    hm = texcad.builtin("stones", size=(15, 15), pitch=0.125, height=1.0)
+    a = heightfield_slab(hm, tolerance=0.02)
+    b = heightfield_slab(hm, tolerance=0.02)
+    assert a.vertices.tobytes() == b.vertices.tobytes() and a.faces.tobytes() == b.faces.tobytes()
+
+
+@pytest.mark.parametrize("bad", [-0.01, float("nan"), "x"])
+def test_bad_tolerance_is_a_parameter_error(bad):
+    hm = texcad.builtin("stones", size=(5, 5), pitch=0.25, height=1.0)
+    with pytest.raises(ParameterError, match="tolerance"):
+        heightfield_slab(hm, tolerance=bad)
+
+
+def test_textured_plate_reports_its_measured_error():
+    kw = dict(size=(30, 20), thickness=3, height=1.5, pitch=0.125)
+    lean_part = texcad.textured_plate("builtin:stones", tolerance=0.02, **kw)
+    dense = texcad.textured_plate("builtin:stones", tolerance=0, **kw)
+    assert lean_part.mesh.is_watertight and lean_part.texture_mesh.is_watertight
+    assert 0 < lean_part.max_error <= 0.02 + 1e-6
+    assert dense.max_error <= 1e-6
+    assert abs(lean_part.mesh.volume - dense.mesh.volume) <= 0.02 * 30 * 20
+    assert lean_part.mesh.num_triangles < 0.6 * dense.mesh.num_triangles
+
+
+def test_texture_on_a_planar_face_is_lean_and_bounded():
+    import trimesh
+    from build123d import Axis, Box, Cylinder
+
+    part = Box(30, 20, 6) - Cylinder(4, 10)  # a hole: an outline the M-I ramp follows
+    face = part.faces().sort_by(Axis.Z)[-1]
+    a = texcad.texture(part, face, "builtin:diamond_knurl", height=1.0, pitch=0.125, brep=False, tolerance=0.02)
+    b = texcad.texture(part, face, "builtin:diamond_knurl", height=1.0, pitch=0.125, brep=False, tolerance=0)
+    assert a.max_error <= 0.02 + 1e-6 and b.max_error <= 1e-6
+    tm = trimesh.Trimesh(a.mesh.vertices, a.mesh.faces, process=True)
+    assert tm.is_watertight and tm.is_volume
+    assert abs(a.mesh.volume - b.mesh.volume) <= 0.02 * 30 * 20
+    assert a.mesh.num_triangles < b.mesh.num_triangles
+
+
+def test_noisy_texture_keeps_the_pixel_grid():
+    # sand needs ~0.8 of the grid's triangles at 0.02 mm: more than MAX_FRACTION,
+    # so the slab is the pixel grid itself (exact), not a slower lean mesh
+    hm = texcad.builtin("sand", size=(20, 15), pitch=0.125, height=1.0)
+    assert lean.triangulate(hm.heights, 0.02) is None
+    a = heightfield_slab(hm, tolerance=0.02)
+    b = heightfield_slab(hm)
+    assert a.faces.tobytes() == b.faces.tobytes() and a.vertices.tobytes() == b.vertices.tobytes()
+    rc, f = lean.triangulate(hm.heights, 0.02, max_fraction=1.0)
+    assert len(f) > lean.MAX_FRACTION * 2 * (hm.shape[0] - 1) * (hm.shape[1] - 1)

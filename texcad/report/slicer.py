@@ -1,0 +1,219 @@
+"""Slicer check: slice a part with PrusaSlicer's command line and read the G-code.
+
+:func:`slice_mesh` writes a mesh as it would be printed (build direction turned to
++z, resting on the bed, centred on a 200 x 200 mm bed), runs ``prusa-slicer
+--export-gcode`` under ``/usr/bin/time -v`` (wall time and peak memory), and reads
+the G-code back: the length of every extrusion path by its ``;TYPE:`` section, and
+where the support material went (its extrusion points, mapped back to the part's
+own coordinates). PrusaSlicer is an external program (Debian: ``apt-get install
+prusa-slicer``); :func:`find_slicer` says whether it is installed.
+
+Every length here is in mm, every time in seconds, memory in MB (10^6 bytes).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, ResourceError
+
+__all__ = ["find_slicer", "SliceReport", "slice_mesh", "read_gcode", "support_near", "SUPPORT_TYPES"]
+
+#: The ``;TYPE:`` sections PrusaSlicer writes for support material.
+SUPPORT_TYPES = ("Support material", "Support material interface")
+BED_CENTRE = (100.0, 100.0)  # PrusaSlicer's default bed: 0..200 mm in x and y
+
+
+def find_slicer() -> str | None:
+    """Path of ``prusa-slicer`` (or ``PrusaSlicer``) on PATH, or None."""
+    return shutil.which("prusa-slicer") or shutil.which("PrusaSlicer")
+
+
+@dataclass
+class SliceReport:
+    """What slicing a part gave.
+
+    Attributes:
+        seconds: wall time of the slicer process, s.
+        peak_mb: its peak resident memory, MB.
+        lengths: ``{type: extrusion path length in mm}`` per ``;TYPE:`` section.
+        support_mm: total support path length (both support types), mm.
+        support_points: ``(K, 3)`` float64 end points of the support extrusions in
+            the part's own frame (mm), for mapping support back to the part.
+        layers: number of layer changes.
+        gcode_mb: size of the G-code, MB.
+        returncode: the slicer's exit status.
+        log: the tail of its stderr (for errors).
+    """
+
+    seconds: float
+    peak_mb: float
+    lengths: dict = field(default_factory=dict)
+    support_mm: float = 0.0
+    support_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)), repr=False)
+    layers: int = 0
+    gcode_mb: float = 0.0
+    returncode: int = 0
+    log: str = field(default="", repr=False)
+
+
+_MOVE = re.compile(rb"^G1 (?:X(-?[\d.]+) ?)?(?:Y(-?[\d.]+) ?)?(?:Z(-?[\d.]+) ?)?(?:E(-?[\d.]+) ?)?", re.M)
+_TYPE = re.compile(rb"^;TYPE:([^\r\n]*)", re.M)
+
+
+def read_gcode(path: str | os.PathLike) -> tuple[dict, np.ndarray, int]:
+    """Extrusion path lengths per ``;TYPE:`` section of a G-code with **relative**
+    E (``use_relative_e_distances``), and the support extrusion end points.
+
+    Moves are read with one regular expression over the whole file; the position
+    is carried forward with numpy (a coordinate a move leaves out keeps its last
+    value), so nothing loops per move in Python.
+
+    Returns:
+        ``(lengths, support_points, layers)``: ``{type: mm}``, ``(K, 3)`` G-code
+        coordinates (mm) of the support extrusions' end points, layer count.
+    """
+    data = Path(path).read_bytes()
+    if not data:
+        raise InputError(f"the G-code {os.fspath(path)!r} is empty")
+    moves = [(m.start(), m.groups()) for m in _MOVE.finditer(data) if any(g is not None for g in m.groups())]
+    if not moves:
+        return {}, np.zeros((0, 3)), 0
+    pos = np.array([p for p, _ in moves], dtype=np.int64)
+    vals = np.array([[np.nan if g is None else float(g) for g in gs] for _, gs in moves], dtype=np.float64)
+    e = np.nan_to_num(vals[:, 3], nan=0.0)
+    has_xy = ~np.isnan(vals[:, 0]) | ~np.isnan(vals[:, 1])
+    xyz = vals[:, :3].copy()
+    for k in range(3):  # carry each coordinate forward from the last move that set it
+        col = xyz[:, k]
+        idx = np.where(~np.isnan(col), np.arange(len(col)), 0)
+        np.maximum.accumulate(idx, out=idx)
+        col[:] = col[idx]
+        col[np.isnan(col)] = 0.0
+    seg = np.zeros(len(xyz))
+    seg[1:] = np.hypot(np.diff(xyz[:, 0]), np.diff(xyz[:, 1]))
+    extruding = has_xy & (e > 0)
+    tmarks = [(m.start(), m.group(1).decode("ascii", "replace").strip()) for m in _TYPE.finditer(data)]
+    names = ["(none)"] + [t for _, t in tmarks]
+    tpos = np.array([p for p, _ in tmarks], dtype=np.int64)
+    kind = np.searchsorted(tpos, pos, side="right")  # 0 = before any ;TYPE:
+    lengths: dict[str, float] = {}
+    sums = np.bincount(kind[extruding], weights=seg[extruding], minlength=len(names))
+    for i, s in enumerate(sums):
+        if s > 0:
+            lengths[names[i]] = lengths.get(names[i], 0.0) + float(s)
+    is_support = np.isin(np.array(names, dtype=object), SUPPORT_TYPES)
+    sup = extruding & is_support[kind]
+    layers = data.count(b";LAYER_CHANGE")
+    return lengths, xyz[sup], layers
+
+
+def _oriented(mesh, build_dir) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation ``R`` (3x3) taking ``build_dir`` to +z, and the vertices turned by it."""
+    d = np.asarray(build_dir, dtype=np.float64)
+    d = d / np.linalg.norm(d)
+    z = np.array([0.0, 0.0, 1.0])
+    v = np.cross(d, z)
+    c = float(d @ z)
+    if np.linalg.norm(v) < 1e-12:
+        R = np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    else:
+        vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+        R = np.eye(3) + vx + vx @ vx / (1 + c)
+    return R, mesh.vertices.astype(np.float64) @ R.T
+
+
+def slice_mesh(
+    mesh,
+    *,
+    build_dir=(0.0, 0.0, 1.0),
+    config: dict | None = None,
+    timeout: float = 1800.0,
+    keep: str | os.PathLike | None = None,
+) -> SliceReport:
+    """Slice ``mesh`` (a :class:`texcad.solid.Mesh`, mm) with PrusaSlicer's CLI.
+
+    The mesh is turned so that ``build_dir`` points up (+z), put on the bed (lowest
+    point at z = 0) with its bounding box centred on the default bed, written as a
+    binary STL and sliced with ``--dont-arrange`` and relative E (which only
+    changes how E is written, not what is sliced). ``config`` adds options, e.g.
+    ``{"support-material": True, "support-material-threshold": 45}`` or
+    ``{"overhangs": False}`` (PrusaSlicer's "detect bridging perimeters"); True /
+    False become ``--key`` / ``--no-key``. Everything else is PrusaSlicer's default.
+
+    Returns:
+        :class:`SliceReport` (support points mapped back to the mesh's own frame).
+
+    Raises:
+        ResourceError: prusa-slicer is not installed, or it ran past ``timeout`` s.
+    """
+    from ..io import write_stl
+    from ..solid import Mesh
+
+    exe = find_slicer()
+    if exe is None:
+        raise ResourceError("prusa-slicer is not installed; install it (Debian: apt-get install prusa-slicer)")
+    R, v = _oriented(mesh, build_dir)
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    shift = np.array([BED_CENTRE[0] - (lo[0] + hi[0]) / 2, BED_CENTRE[1] - (lo[1] + hi[1]) / 2, -lo[2]])
+    placed = Mesh((v + shift).astype(np.float32), mesh.faces)
+    placed.__dict__["is_watertight"] = mesh.is_watertight
+    args = ["--use-relative-e-distances"]
+    for k, val in (config or {}).items():
+        if val is True:
+            args.append(f"--{k}")
+        elif val is False:
+            args.append(f"--no-{k}")
+        else:
+            args += [f"--{k}", str(val)]
+    with tempfile.TemporaryDirectory() as tmp:
+        stl = Path(tmp) / "part.stl"
+        gcode = Path(tmp) / "part.gcode"
+        write_stl(placed, stl)
+        cmd = [exe, "--export-gcode", "--dont-arrange", *args, "--output", str(gcode), str(stl)]
+        full = (["/usr/bin/time", "-v"] if os.path.exists("/usr/bin/time") else []) + cmd
+        try:
+            proc = subprocess.run(full, capture_output=True, timeout=timeout, env={**os.environ, "LC_ALL": "C"})
+        except subprocess.TimeoutExpired:
+            raise ResourceError(f"prusa-slicer ran past {timeout:g} s; slice a leaner mesh (larger tolerance)") from None
+        err = proc.stderr.decode("utf-8", "replace")
+        wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (?:(\d+):)?(\d+):([\d.]+)", err)
+        secs = (int(wall.group(1) or 0) * 3600 + int(wall.group(2)) * 60 + float(wall.group(3))) if wall else float("nan")
+        rss = re.search(r"Maximum resident set size \(kbytes\): (\d+)", err)
+        peak = int(rss.group(1)) * 1024 / 1e6 if rss else float("nan")
+        rep = SliceReport(seconds=secs, peak_mb=peak, returncode=proc.returncode, log=err[-2000:])
+        if proc.returncode == 0 and gcode.exists():
+            rep.lengths, pts, rep.layers = read_gcode(gcode)
+            rep.gcode_mb = gcode.stat().st_size / 1e6
+            rep.support_mm = float(sum(rep.lengths.get(t, 0.0) for t in SUPPORT_TYPES))
+            rep.support_points = (pts - shift) @ R  # back to the mesh's frame
+            if keep is not None:
+                shutil.copy(gcode, keep)
+    return rep
+
+
+def support_near(points: np.ndarray, mesh, faces: np.ndarray, build_dir=(0.0, 0.0, 1.0), radius: float = 1.0) -> int:
+    """How many support points lie below (along ``-build_dir``) and within
+    ``radius`` mm across of the given faces of ``mesh`` (e.g. its texture faces):
+    support the texture causes, as opposed to support elsewhere on the part.
+    Uses a KD-tree on the faces' centroids in the plane normal to ``build_dir``."""
+    from scipy.spatial import cKDTree
+
+    if len(points) == 0 or len(faces) == 0:
+        return 0
+    R, v = _oriented(mesh, build_dir)
+    c = v[mesh.faces[faces]].mean(axis=1)
+    p = np.asarray(points, dtype=np.float64) @ R.T
+    pairs = cKDTree(c[:, :2]).sparse_distance_matrix(cKDTree(p[:, :2]), radius, output_type="ndarray")
+    under = np.zeros(len(p), dtype=bool)
+    above = c[pairs["i"], 2] > p[pairs["j"], 2]
+    under[pairs["j"][above]] = True
+    return int(np.count_nonzero(under))

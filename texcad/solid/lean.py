@@ -1,0 +1,263 @@
+"""Lean meshes: error-bounded adaptive triangulation of a heightfield.
+
+A texture of ``R x C`` pixels is a surface through ``R C`` points, one per pixel
+centre (the one-vertex-per-pixel mesh of :func:`texcad.solid.heightfield_slab`). Most
+of those points carry nothing a printer can resolve: flat ground, straight ramps,
+smooth stones. :func:`triangulate` keeps only the grid points needed so that the
+triangulated surface stays within ``tolerance`` mm of every pixel centre's height,
+by greedy insertion (Garland and Heckbert's algorithm, as implemented by fogleman's
+``hmm`` and wrapped by pydelatin). Every kept vertex is a grid point at its exact
+height, so M-I ramps and borders are approximated like any other part of the
+heightfield; the grid's four corners are always kept and the boundary is a chain
+of grid points on the grid's outer rows and columns, from which the slab's walls
+are built (so the slab stays watertight).
+
+:func:`surface_error` measures the error independently of the triangulation: it
+rasterizes every triangle onto the pixel grid (exact integer barycentric tests,
+vectorized) and compares the interpolated height with the heightmap at every pixel
+centre. That number, not the triangulator's own estimate, is what texcad reports.
+
+Functions here are pure: arrays in, arrays out (numpy, pydelatin); units are mm for
+heights and tolerances, pixels for the ``(row, col)`` grid indices.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import GeometryError, ParameterError
+
+__all__ = ["DEFAULT_TOLERANCE", "MAX_FRACTION", "check_tolerance", "triangulate", "surface_error", "mesh_error", "boundary_chains"]
+
+#: Default largest height error in mm of a lean mesh at any pixel centre: a tenth of
+#: a fine 0.2 mm layer, far below what an FDM or resin printer resolves.
+DEFAULT_TOLERANCE = 0.02
+
+
+def check_tolerance(tolerance: float) -> float:
+    """``tolerance`` as a float, or :class:`ParameterError` if it is not a number
+    of mm >= 0 (0 = one vertex per pixel)."""
+    try:
+        t = float(tolerance)
+    except (TypeError, ValueError):
+        raise ParameterError(f"tolerance must be a number of mm >= 0, got {tolerance!r}") from None
+    if not (np.isfinite(t) and t >= 0):
+        raise ParameterError(f"tolerance must be a number of mm >= 0 (0 = one vertex per pixel), got {tolerance!r}")
+    return t
+
+
+#: Largest share of the pixel grid's triangles a lean mesh may keep; beyond it the
+#: grid itself is used: noisy textures (leather, sand: 0.82 of the grid at 0.02 mm)
+#: gain little, and greedy insertion and manifold3d's union were slower on the
+#: lean mesh than on the grid (benchmarks/bench_lean.py).
+MAX_FRACTION = 0.5
+
+
+def triangulate(
+    heights: np.ndarray, tolerance: float, *, max_fraction: float = MAX_FRACTION
+) -> "tuple[np.ndarray, np.ndarray] | None":
+    """Triangulate a heightfield so that it stays within ``tolerance`` mm of every
+    grid point (greedy insertion, pydelatin).
+
+    Args:
+        heights: ``(R, C)`` heights in mm, one per pixel centre; finite; R, C >= 2.
+        tolerance: largest height error in mm at a grid point, > 0.
+
+        max_fraction: stop when the triangulation reaches this share of the
+            pixel grid's ``2 (R-1)(C-1)`` triangles without meeting the tolerance.
+
+    Returns:
+        None if the tolerance needs more than ``max_fraction`` of the grid's
+        triangles (use the grid), else
+        ``(rc, faces)``: ``rc`` ``(N, 2)`` int64 ``(row, col)`` of the kept grid
+        points, sorted row-major (so the same heights give the same arrays), and
+        ``faces`` ``(M, 3)`` uint32 indices into ``rc``, counter-clockwise with
+        columns to the right and rows up (the orientation of
+        :func:`texcad.solid.grid_faces`). Includes the four corners.
+
+    Raises:
+        ParameterError: bad tolerance or heights.
+    """
+    from pydelatin import Delatin
+
+    t = check_tolerance(tolerance)
+    if t <= 0:
+        raise ParameterError("triangulate needs a tolerance > 0 mm; tolerance 0 is the full pixel grid")
+    h = np.ascontiguousarray(heights, dtype=np.float32)
+    if h.ndim != 2 or min(h.shape) < 2:
+        raise ParameterError(f"heights must be a 2-D array of at least 2 x 2 pixels, got shape {h.shape}")
+    if not np.isfinite(h).all():
+        raise ParameterError("heights must be finite (no NaN or inf)")
+    rows, cols = h.shape
+    # hmm keeps ~1 triangle per 3 px at worst on noise; 80 bytes per grid point is its
+    # peak (float heights, error raster, priority queue) with ours on top.
+    from ..util import require_memory
+
+    require_memory(rows * cols * 80.0, f"a lean triangulation of {rows} x {cols} px", "use a larger pitch")
+    budget = max(2, int(max_fraction * 2 * (rows - 1) * (cols - 1)))
+    d = Delatin(h, max_error=t, max_triangles=budget)
+    if d.error > t:
+        return None
+    v = d.vertices
+    tri = d.triangles.astype(np.int64)
+    # pydelatin's x is the column and y counts rows from the bottom (y = R - 1 - row).
+    col = np.rint(v[:, 0]).astype(np.int64)
+    row = rows - 1 - np.rint(v[:, 1]).astype(np.int64)
+    order = np.lexsort((col, row))
+    inv = np.empty_like(order)
+    inv[order] = np.arange(len(order))
+    rc = np.stack([row[order], col[order]], axis=1)
+    # Counter-clockwise in (x, y_up) is clockwise in (col, row): swap two corners.
+    faces = inv[tri][:, [0, 2, 1]].astype(np.uint32)
+    a, b, c = rc[faces[:, 0]], rc[faces[:, 1]], rc[faces[:, 2]]
+    area2 = (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]) - (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
+    if not (area2 > 0).all():
+        raise GeometryError(
+            f"the lean triangulation has {int((area2 <= 0).sum())} degenerate or flipped triangles; "
+            "use tolerance=0 (one vertex per pixel) and please report this"
+        )
+    if int(area2.sum()) != 2 * (rows - 1) * (cols - 1):
+        raise GeometryError("the lean triangulation does not cover the grid; use tolerance=0 and please report this")
+    return rc, faces
+
+
+def boundary_chains(rc: np.ndarray, rows: int, cols: int) -> tuple[np.ndarray, ...]:
+    """Indices into ``rc`` of the kept vertices on the grid's four sides, each from
+    corner to corner, counter-clockwise seen from +z (columns right, rows up): row 0
+    by increasing column, the last column by increasing row, the last row by
+    decreasing column, column 0 by decreasing row (the sides of
+    :func:`texcad.solid.heightfield_slab`)."""
+    r, c = rc[:, 0], rc[:, 1]
+    idx = np.arange(len(rc))
+    s0 = idx[r == 0][np.argsort(c[r == 0], kind="stable")]
+    s1 = idx[c == cols - 1][np.argsort(r[c == cols - 1], kind="stable")]
+    s2 = idx[r == rows - 1][np.argsort(-c[r == rows - 1], kind="stable")]
+    s3 = idx[c == 0][np.argsort(-r[c == 0], kind="stable")]
+    return s0, s1, s2, s3
+
+
+def surface_error(
+    heights: np.ndarray,
+    rc: np.ndarray,
+    z: np.ndarray,
+    faces: np.ndarray,
+    *,
+    chunk: int = 1 << 21,
+) -> float:
+    """The largest ``|surface - height|`` in mm over every pixel centre.
+
+    Each triangle (vertices at grid points ``rc`` with heights ``z`` mm) is
+    rasterized onto the pixel grid by scanlines: for every grid row it spans, the
+    columns between its edges (inclusive, so shared edges are measured by both
+    neighbours) get the height of the triangle's plane there. Every pixel centre
+    must be covered, else the triangles do not tile the grid
+    (:class:`GeometryError`). Vectorized over (triangle, row) pairs in batches.
+
+    Args:
+        heights: ``(R, C)`` heightmap in mm.
+        rc: ``(N, 2)`` integer ``(row, col)`` of the vertices.
+        z: ``(N,)`` vertex heights in mm (e.g. the mesh's float32 z minus its origin).
+        faces: ``(M, 3)`` vertex indices.
+        chunk: (triangle, row) pairs per batch (bounds the memory, not the result).
+
+    Returns:
+        Max absolute error in mm (float64 arithmetic).
+    """
+    h = np.asarray(heights, dtype=np.float64)
+    rows, cols = h.shape
+    rc = np.asarray(rc, dtype=np.int64)
+    z = np.asarray(z, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    if len(f) == 0:
+        raise GeometryError("no triangles to measure")
+    pr, pc = rc[f, 0].astype(np.float64), rc[f, 1].astype(np.float64)  # (M, 3)
+    pz = z[f]
+    # The plane z = A col + B row + C of each triangle.
+    e1c, e1r, e1z = pc[:, 1] - pc[:, 0], pr[:, 1] - pr[:, 0], pz[:, 1] - pz[:, 0]
+    e2c, e2r, e2z = pc[:, 2] - pc[:, 0], pr[:, 2] - pr[:, 0], pz[:, 2] - pz[:, 0]
+    det = e1c * e2r - e1r * e2c
+    if not (det != 0).all():
+        raise GeometryError(f"{int((det == 0).sum())} triangles have no area")
+    A = (e1z * e2r - e1r * e2z) / det
+    B = (e1c * e2z - e1z * e2c) / det
+    C = pz[:, 0] - A * pc[:, 0] - B * pr[:, 0]
+    # Vertices sorted by row: top (0), middle (1), bottom (2) of each triangle.
+    o = np.argsort(pr, axis=1, kind="stable")
+    sr = np.take_along_axis(pr, o, axis=1)
+    sc = np.take_along_axis(pc, o, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s02 = (sc[:, 2] - sc[:, 0]) / (sr[:, 2] - sr[:, 0])
+        s01 = np.where(sr[:, 1] > sr[:, 0], (sc[:, 1] - sc[:, 0]) / (sr[:, 1] - sr[:, 0]), 0.0)
+        s12 = np.where(sr[:, 2] > sr[:, 1], (sc[:, 2] - sc[:, 1]) / (sr[:, 2] - sr[:, 1]), 0.0)
+    r0 = sr[:, 0].astype(np.int32)
+    nrow = sr[:, 2].astype(np.int32) - r0 + 1
+    covered = np.zeros(rows * cols, dtype=bool)
+    hf = h.ravel()
+    worst = 0.0
+    ends = np.cumsum(nrow)
+    cut = np.searchsorted(ends, np.arange(chunk, int(ends[-1]), chunk), side="left")
+    lo = 0
+    for hi in list(cut) + [len(f)]:
+        if hi <= lo:
+            continue
+        n = nrow[lo:hi]
+        t = np.repeat(np.arange(lo, hi, dtype=np.int32), n)
+        dri = np.arange(len(t), dtype=np.int32) - np.repeat((np.cumsum(n) - n).astype(np.int32), n)
+        dr = dri.astype(np.float64)  # rows below the top
+        x_long = sc[t, 0] + dr * s02[t]
+        mid = sr[t, 1] - sr[t, 0]
+        x_short = np.where(dr < mid, sc[t, 0] + dr * s01[t], sc[t, 1] + (dr - mid) * s12[t])
+        x_short = np.where(dr == mid, sc[t, 1], x_short)
+        cl = np.ceil(np.minimum(x_long, x_short) - 1e-9).astype(np.int32)
+        cu = np.floor(np.maximum(x_long, x_short) + 1e-9).astype(np.int32)
+        span = np.maximum(cu - cl + 1, 0)
+        tt = np.repeat(t, span)
+        rr = np.repeat(r0[t] + dri, span)
+        cc = np.repeat(cl - (np.cumsum(span) - span).astype(np.int32), span) + np.arange(len(tt), dtype=np.int32)
+        s = A[tt] * cc + B[tt] * rr + C[tt]
+        flat = rr.astype(np.int64) * cols + cc
+        if len(s):
+            worst = max(worst, float(np.abs(s - hf[flat]).max()))
+        covered[flat] = True
+        lo = hi
+    if not covered.all():
+        raise GeometryError(
+            f"{int((~covered).sum())} pixel centres are not covered by any triangle; the mesh does not tile the grid"
+        )
+    return worst
+
+
+def mesh_error(
+    heights: np.ndarray,
+    pitch: tuple[float, float],
+    origin: tuple[float, float, float],
+    vertices: np.ndarray,
+    faces: np.ndarray,
+) -> float:
+    """The largest height error in mm of a slab's top surface at every pixel centre.
+
+    ``vertices`` and ``faces`` are the top surface as written (e.g. the ``"texture"``
+    faces of :func:`texcad.solid.heightfield_slab`, float32 mm): each vertex's grid
+    point is recovered from its x, y (pixel ``(r, c)`` sits at ``origin + ((c + 1/2)
+    px, (r + 1/2) py)``), its height is its z minus ``origin_z``, and
+    :func:`surface_error` compares the surface with ``heights`` (mm) at every pixel
+    centre.
+
+    Raises:
+        GeometryError: a vertex is off the pixel grid, or the faces do not tile it.
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    used = np.unique(f)
+    px, py = (float(p) for p in pitch)
+    ox, oy, oz = (float(o) for o in origin)
+    col = (v[used, 0] - ox) / px - 0.5
+    row = (v[used, 1] - oy) / py - 0.5
+    ci, ri = np.rint(col).astype(np.int64), np.rint(row).astype(np.int64)
+    rows, cols = np.shape(heights)
+    off = max(float(np.abs(col - ci).max()), float(np.abs(row - ri).max()))
+    if off > 1e-2 or ci.min() < 0 or ri.min() < 0 or ci.max() >= cols or ri.max() >= rows:
+        raise GeometryError(f"the surface has vertices off the {rows} x {cols} px grid (by {off:.3g} px)")
+    rc = np.zeros((len(v), 2), dtype=np.int64)
+    rc[used, 0], rc[used, 1] = ri, ci
+    return surface_error(heights, rc, v[:, 2] - oz, f)
