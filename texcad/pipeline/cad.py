@@ -235,9 +235,10 @@ def _texture_plane(
     y0 = -rows * py / 2 + float(offset[1])
     kx = np.arange(int(np.floor((lo[0] - x0) / px - 0.5)) - 2, int(np.ceil((hi[0] - x0) / px - 0.5)) + 3)
     ky = np.arange(int(np.floor((lo[1] - y0) / py - 0.5)) - 2, int(np.ceil((hi[1] - y0) / py - 0.5)) + 3)
-    from ..util import require_memory
+    from ..util import fitting_pitch, require_memory, texture_bytes
 
-    require_memory(len(kx) * len(ky) * 120.0, f"a {len(ky)} x {len(kx)} px texture on the face", "use a larger pitch")
+    need = texture_bytes(len(kx) * len(ky), tolerance)
+    require_memory(need, f"a {len(ky)} x {len(kx)} px texture on the face", f"use pitch >= {fitting_pitch(min(px, py), need):.3g} mm")
     xs = x0 + (kx + 0.5) * px
     ys = y0 + (ky + 0.5) * py
     h = _place_heightmap(hm, kx, ky)
@@ -428,6 +429,7 @@ def _texture_extrusion(
     from OCP.TopoDS import TopoDS
 
     from ..mapping import fit_texture, map_texture, slab_mesh
+    from ..util import fitting_pitch, require_memory, texture_bytes
     from ..mapping import Profile
 
     o, ex, ey, ez = _extrusion_frame(face)
@@ -465,6 +467,8 @@ def _texture_extrusion(
     report(progress, 0.05, f"mapping the texture onto the {profile.length:.1f} x {length:.1f} mm face ({mapping})")
     hm, periodic = fit_texture(profile, tex, length=length, pitch=pitch, height=height, periodic_x=periodic_x)
     _require_relief(hm, tex)
+    need = texture_bytes(hm.shape[0] * hm.shape[1], 0.0)
+    require_memory(need, f"a {hm.shape[0]} x {hm.shape[1]} px texture on the face", f"use pitch >= {fitting_pitch(min(hm.pitch), need):.3g} mm")
     limits = None
     d_local = None
     if build_dir is not None:

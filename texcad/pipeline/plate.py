@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import GeometryError, ParameterError
 from ..sources import Heightmap
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, heightfield_slab, mesh_error
-from ..util import Progress, report
+from ..util import Progress, fitting_pitch, report, require_memory, texture_bytes
 from ..solid import fuse, shape_to_mesh
 from ..sources import load_texture
 from .result import Textured
@@ -109,6 +109,9 @@ def textured_plate(
         hm, limits = limit_overhangs(hm, build_dir, critical_angle)
     report(progress, 0.15, f"meshing {hm.shape[0]} x {hm.shape[1]} px heightmap")
     tolerance = check_tolerance(tolerance)
+    need = texture_bytes(hm.shape[0] * hm.shape[1], tolerance)
+    fix = f"use pitch >= {fitting_pitch(min(hm.pitch), need):.3g} mm"
+    require_memory(need, f"a {hm.shape[0]} x {hm.shape[1]} px texture on the plate", fix)
     origin = ((w - tw) / 2, (d - td) / 2, 0.0)
     if build_dir is not None and tolerance > 0:
         from ..printability import printable_lean_slab

@@ -10,7 +10,7 @@ from ..errors import ParameterError
 from ..mapping import Surface, fit_texture, map_texture
 from ..solid import Mesh, fuse, shape_to_mesh
 from ..sources import Heightmap
-from ..util import Progress, report, subrange
+from ..util import Progress, fitting_pitch, report, require_memory, subrange, texture_bytes
 from .result import Textured
 
 __all__ = ["textured_surface"]
@@ -96,6 +96,9 @@ def textured_surface(
         depth = min(0.5, surf.thickness / 2) if surf.thickness else 0.5
     report(progress, 0.05, "loading texture")
     hm, periodic = fit_texture(surf.profile, texture, length=surf.length, pitch=pitch, height=height, periodic_x=periodic_x)
+    need = texture_bytes(hm.shape[0] * hm.shape[1], 0.0)
+    fix = f"use pitch >= {fitting_pitch(min(hm.pitch), need):.3g} mm"
+    require_memory(need, f"a {hm.shape[0]} x {hm.shape[1]} px texture on the surface", fix)
     overhang = None
     if build_dir is not None:
         from ..printability import limit_on_profile

@@ -18,6 +18,8 @@ from .progress import (
 from .resources import (
     available_memory,
     require_memory,
+    texture_bytes,
+    fitting_pitch,
 )
 from .vectors import (
     parse_vector,
@@ -32,5 +34,7 @@ __all__ = [
     'subrange',
     'available_memory',
     'require_memory',
+    'texture_bytes',
+    'fitting_pitch',
     'parse_vector',
 ]
