@@ -12,6 +12,22 @@ from .map import (
     column_positions,
     slab_mesh,
 )
+from .param import (
+    Distortion,
+    FaceGrid,
+    locate,
+    lay_grid,
+    measure_distortion,
+    separable_coordinates,
+    lscm_coordinates,
+    band_coordinates,
+    vertex_normals,
+    concave_convex,
+    point_scales,
+    metric_tables,
+    cell_mask,
+    grid_slab,
+)
 from .surface import (
     Profile,
     ProfileSample,
@@ -22,6 +38,20 @@ from .surface import (
 )
 
 __all__ = [
+    'Distortion',
+    'FaceGrid',
+    'locate',
+    'lay_grid',
+    'measure_distortion',
+    'separable_coordinates',
+    'lscm_coordinates',
+    'band_coordinates',
+    'vertex_normals',
+    'concave_convex',
+    'point_scales',
+    'metric_tables',
+    'cell_mask',
+    'grid_slab',
     'MAPPINGS',
     'HeightLimit',
     'MappedSurface',
