@@ -403,9 +403,9 @@ def band_coordinates(V: np.ndarray, F: np.ndarray, axis: np.ndarray, centre: np.
     rounded corners of a box): x = arc length around the cross-section (the 2.5D
     method's profile arc length), y = height along the axis (mm).
 
-    The cross-section is the band's outline seen along the axis, as a function of
-    the angle about ``centre`` (a star-shaped section); its arc length is measured
-    on a 2048-step polyline of that outline.
+    The cross-section is the band's longest boundary loop seen along the axis (a
+    polyline of the tessellation's own edge points); every vertex takes the arc
+    length of its nearest point on it (exact for prismatic bands).
 
     Returns:
         ``(XY, perimeter)``: ``(N, 2)`` mm and the section's perimeter in mm.
@@ -416,24 +416,30 @@ def band_coordinates(V: np.ndarray, F: np.ndarray, axis: np.ndarray, centre: np.
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(a, e1)
     q = V - centre
-    x2, y2 = q @ e1, q @ e2
-    ang = np.arctan2(y2, x2)
-    rad = np.hypot(x2, y2)
-    bins = 2048
-    k = np.floor((ang + np.pi) / (2 * np.pi) * bins).astype(np.int64) % bins
-    rb = np.zeros(bins)
-    np.maximum.at(rb, k, rad)
-    have = rb > 0
-    if have.sum() < 16:
+    import igl
+
+    F = np.ascontiguousarray(F, np.int64)
+    loop = igl.boundary_loop(F)
+    if len(loop) < 8:
         raise GeometryError("cannot find the cross-section of the band of faces")
-    th = (np.arange(bins) + 0.5) / bins * 2 * np.pi - np.pi
-    rb = np.interp(th, th[have], rb[have], period=2 * np.pi)
-    ring = np.stack([rb * np.cos(th), rb * np.sin(th)], axis=1)
-    seg = np.linalg.norm(np.diff(np.vstack([ring, ring[:1]]), axis=0), axis=1)
+    ring = np.stack([q[loop] @ e1, q[loop] @ e2], axis=1)
+    seg_a, seg_b = ring, np.roll(ring, -1, axis=0)
+    seg = np.linalg.norm(seg_b - seg_a, axis=1)
     cum = np.concatenate([[0.0], np.cumsum(seg)])
     perimeter = float(cum[-1])
-    th_ext = np.concatenate([th, [th[0] + 2 * np.pi]])
-    x = np.interp(np.where(ang < th[0], ang + 2 * np.pi, ang), th_ext, cum)
+    pts = np.stack([q @ e1, q @ e2], axis=1)
+    x = np.empty(len(pts))
+    best = np.full(len(pts), np.inf)
+    d = seg_b - seg_a
+    dd = np.maximum((d * d).sum(axis=1), 1e-18)
+    for k0 in range(0, len(pts), 4096):  # per chunk of points: nearest segment of the section
+        p = pts[k0 : k0 + 4096, None, :]
+        t = np.clip(((p - seg_a) * d).sum(axis=2) / dd, 0.0, 1.0)
+        dist = np.linalg.norm(p - (seg_a + t[..., None] * d), axis=2)
+        j = np.argmin(dist, axis=1)
+        r = np.arange(len(j))
+        best[k0 : k0 + 4096] = dist[r, j]
+        x[k0 : k0 + 4096] = cum[j] + t[r, j] * seg[j]
     return np.stack([x, q @ a], axis=1), perimeter
 
 

@@ -722,7 +722,7 @@ def _general_limits(res: dict, opts: dict):
         critical_angle_deg=float(opts["critical_angle"]),
         margin_deg=0.5,
         directions=np.asarray(opts["build_dir"]),
-        remaining_overhang_mm2=0.0,
+        remaining_overhang_mm2=float(sum(x["remaining_overhang_mm2"] for x in li)),
         surface_overhang=any(x["surface_overhang"] for x in li),
         iterations=int(max((x["rounds"] for x in li), default=1)),
     )

@@ -261,7 +261,10 @@ def _surface_tables(fm: FaceMesh, n: int = 48):
     v0, v1 = float(fm.uv[:, 1].min()), float(fm.uv[:, 1].max())
     us, vs = np.linspace(u0, u1, n), np.linspace(v0, v1, n)
     pts = np.array([[as_array(ad.Value(float(u), float(v))) for v in vs] for u in us])  # n^2 evaluations
-    closed_u = bool(ad.IsUPeriodic() and (u1 - u0) > ad.UPeriod() * (1 - 1e-6))
+    span = ad.LastUParameter() - ad.FirstUParameter()
+    closed_u = bool((ad.IsUPeriodic() or ad.IsUClosed()) and (u1 - u0) > span * (1 - 1e-6))
+    if ad.IsUPeriodic():
+        closed_u = closed_u or (u1 - u0) > ad.UPeriod() * (1 - 1e-6)
     (ut, Y), (vt, X) = metric_tables(pts, us, vs)
     return (ut, Y), (vt, X), closed_u
 
@@ -404,6 +407,9 @@ def _limit_overhangs_grid(P, N, h, cells, wrap_y, dirs, critical_angle, floor):
         return e / np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-18)
 
     base_n = normals(Pf)
+    if (base_n * Nf[tri].mean(axis=1)).sum() < 0:  # the grid's cells run clockwise seen from outside
+        tri = tri[:, ::-1]
+        base_n = -base_n
     base_over = np.zeros(len(tri), bool)
     for d in dirs:
         base_over |= -(base_n @ d) > cos_c
@@ -418,7 +424,15 @@ def _limit_overhangs_grid(P, N, h, cells, wrap_y, dirs, critical_angle, floor):
             break
         idx = np.unique(tri[over])
         hf[idx] = floor[idx] + 0.7 * (hf[idx] - floor[idx])
-    return hf.reshape(R, C), rounds, base_over, tri
+    q = Pf + hf[:, None] * Nf
+    e = np.cross(q[tri[:, 1]] - q[tri[:, 0]], q[tri[:, 2]] - q[tri[:, 0]])
+    area = 0.5 * np.linalg.norm(e, axis=1)
+    n = e / np.maximum(2 * area[:, None], 1e-18)
+    over = np.zeros(len(tri), bool)
+    for d in dirs:
+        over |= -(n @ d) > cos_c
+    remaining = float(area[over & ~base_over].sum())
+    return hf.reshape(R, C), rounds, base_over, remaining
 
 
 def _cell_tris(cells: np.ndarray, R: int, C: int, wrap_y: bool) -> np.ndarray:
@@ -466,12 +480,13 @@ def _patch_relief(pm: PartMesh, patch: list[int], tex: Any, opts: dict) -> dict:
     if opts["build_dir"] is not None:
         floor_arr = np.minimum(h_top, FLOOR_CURVED)
         before = h_top.copy()
-        h_top, rounds, base_over, _ = _limit_overhangs_grid(
+        h_top, rounds, base_over, remaining = _limit_overhangs_grid(
             grid.points, grid.normals, h_top, cells, grid.wrap_y, opts["build_dir"], opts["critical_angle"], floor_arr
         )
         removed = np.maximum(before - h_top, 0.0)
         limit_info = {"removed_volume_mm3": float(removed.sum() * px * py), "max_removed_mm": float(removed.max()), "rounds": rounds,
-                      "touched_fraction": float((removed > 1e-6).mean()), "surface_overhang": bool(base_over.any())}
+                      "touched_fraction": float((removed > 1e-6).mean()), "surface_overhang": bool(base_over.any()),
+                      "remaining_overhang_mm2": remaining}
     textured = keep & (h_top > FLOOR_CURVED + 1e-6)
     if not textured.any():
         raise GeometryError(
@@ -479,7 +494,7 @@ def _patch_relief(pm: PartMesh, patch: list[int], tex: Any, opts: dict) -> dict:
             f"{px:.3g} mm pitch (or faded / limited away); use a smaller pitch or a larger face"
         )
     faded = (fade < 1.0) & (H > 1e-6) & keep & (d > d_floor)
-    dist = measure_distortion(grid, keep)
+    dist = measure_distortion(grid, keep & (fade > 0))
     dist = type(dist)(dist.x, dist.y, float(faded.sum() / max(keep.sum(), 1)))
     P, N = grid.points, grid.normals
     top = P + h_top[..., None] * N
