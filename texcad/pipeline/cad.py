@@ -720,7 +720,7 @@ def _general_limits(res: dict, opts: dict):
         touched_fraction=float(max((x["touched_fraction"] for x in li), default=0.0)),
         ramped_borders=(),
         critical_angle_deg=float(opts["critical_angle"]),
-        margin_deg=0.5,
+        margin_deg=1.0,
         directions=np.asarray(opts["build_dir"]),
         remaining_overhang_mm2=float(sum(x["remaining_overhang_mm2"] for x in li)),
         surface_overhang=any(x["surface_overhang"] for x in li),

@@ -311,7 +311,7 @@ def _param(pm: PartMesh, patch: list[int], tile: tuple[float, float] | None, rot
         fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
         w, vec = np.linalg.eigh(fn.T @ fn)
         axis = vec[:, 0]
-        if w[0] > 1e-3 * w[2]:
+        if w[0] > 0.05 * w[2]:
             raise GeometryError(
                 "the faces form a closed band that does not run around one axis; texture them in two calls "
                 "or as two selections that each form an open strip"
@@ -386,10 +386,12 @@ def _border_distance(valid: np.ndarray, px: float, py: float, wrap_y: bool) -> n
 def _limit_overhangs_grid(P, N, h, cells, wrap_y, dirs, critical_angle, floor):
     """Lower heights until no displaced facet overhangs where the face under it does not.
 
-    A facet overhangs along build direction d when ``-n . d > cos(critical_angle)``
-    (:func:`texcad.printability.overhang_mask`). Each round (vectorized over the grid)
+    A facet overhangs along build direction d when ``-n . d > cos(critical_angle +
+    1 deg)`` (:func:`texcad.printability.overhang_mask` with a 1 degree margin), for
+    both triangulations of every grid cell. Each round (vectorized over the grid)
     moves the heights of every overhanging facet's corners 30 % of the way down to
-    ``floor``; 80 rounds bring any height to within 1e-12 of it.
+    ``floor``; 80 rounds bring any height to within 1e-12 of it. Where the face
+    itself overhangs, the texture goes down to the floor.
 
     Returns:
         ``(h, removed_volume_mm3_estimate, max_removed, rounds)``.
@@ -398,7 +400,7 @@ def _limit_overhangs_grid(P, N, h, cells, wrap_y, dirs, critical_angle, floor):
     floor = np.asarray(floor, np.float64).reshape(-1)
     tri = _cell_tris(cells, R, C, wrap_y)
     Pf, Nf = P.reshape(-1, 3), N.reshape(-1, 3)
-    cos_c = np.cos(np.radians(critical_angle - 0.5))
+    cos_c = np.cos(np.radians(critical_angle + 1.0))  # 1 degree stricter than overhang_mask
     h0 = h.copy()
     hf = h.reshape(-1).copy()
 
@@ -419,7 +421,9 @@ def _limit_overhangs_grid(P, N, h, cells, wrap_y, dirs, critical_angle, floor):
         over = np.zeros(len(tri), bool)
         for d in dirs:  # per build direction
             over |= -(n @ d) > cos_c
-        over &= ~base_over
+        # A facet that overhangs and still stands above the floor somewhere is lowered
+        # (on a face that overhangs by itself the texture goes down to the floor).
+        over &= (hf[tri] > floor[tri] + 1e-9).any(axis=1)
         if not over.any():
             break
         idx = np.unique(tri[over])
@@ -436,11 +440,13 @@ def _limit_overhangs_grid(P, N, h, cells, wrap_y, dirs, critical_angle, floor):
 
 
 def _cell_tris(cells: np.ndarray, R: int, C: int, wrap_y: bool) -> np.ndarray:
+    """Both triangulations of every cell (four triangles): the union may flip a cell's
+    diagonal, so the limiter makes either one safe."""
     rr, cc = np.nonzero(cells)
     rn = (rr + 1) % R
     a, b = rr * C + cc, rr * C + cc + 1
     d, c = rn * C + cc, rn * C + cc + 1
-    return np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    return np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1), np.stack([a, b, d], 1), np.stack([b, c, d], 1)])
 
 
 # ------------------------------------------------------------------------------------------
@@ -514,7 +520,7 @@ def _patch_relief(pm: PartMesh, patch: list[int], tex: Any, opts: dict) -> dict:
     if limit_info is not None:
         info["overhang_limit"] = limit_info
     hmap = Heightmap(np.where(keep, np.maximum(h_top, 0.0), 0.0).astype(np.float32), (px, py))
-    return {"slab": slab, "info": info, "distortion": dist, "heightmap": hmap, "grid": grid, "limited": bool(limited.any())}
+    return {"slab": slab, "info": info, "distortion": dist, "heightmap": hmap, "grid": grid, "limited": bool(limited.any()), "h_top": h_top, "cells": cells}
 
 
 # ------------------------------------------------------------------------------------------
@@ -565,7 +571,14 @@ def texture_any_faces(topo, faces: list, tex: Any, *, base_mesh: Mesh | None = N
     reliefs = []
     for k, patch in enumerate(patches):  # per patch of smoothly joined faces
         report(progress, 0.05 + 0.6 * k / len(patches), f"texturing face(s) {patch} ({', '.join(pm.faces[i].kind for i in patch)})")
-        reliefs.append(_patch_relief(pm, patch, tex, opts))
+        try:
+            reliefs.append(_patch_relief(pm, patch, tex, opts))
+        except GeometryError as e:
+            if len(patches) == 1:
+                raise
+            warnings.warn(f"face(s) {patch} left untextured: {e}", TexcadWarning, stacklevel=3)
+    if not reliefs:
+        raise GeometryError("no texture is left on any selected face: they are too small or narrow at this pitch")
     faded = [r for r in reliefs if r["distortion"].faded_fraction > 0]
     if faded:
         warnings.warn(
