@@ -280,11 +280,20 @@ def test_ball_and_cone_without_texture_overhang():
 def test_partial_cylinder_and_cadquery_selection():
     import cadquery as cq
 
-    # A cylinder with a flat: its round face is only part of its strip.
-    wp = cq.Workplane("XY").cylinder(20, 8).cut(cq.Workplane("XY").box(4, 20, 30).translate((8, 0, 0)))
-    tx = texture(wp.val(), wp.faces("%CYLINDER"), "builtin:ridges", height=0.4, pitch=PITCH)
+    # A cylinder with a cross hole: its round face is no longer a full strip of its
+    # extrusion (a trimmed face with two holes).
+    wp = cq.Workplane("XY").cylinder(24, 8).cut(cq.Workplane("YZ").cylinder(30, 3))
+    faces = wp.faces("%CYLINDER").vals()
+    side = [f for f in faces if abs(f.Area() - max(g.Area() for g in faces)) < 1e-6]
+    tx = texture(wp.val(), side, "builtin:ridges", height=0.4, pitch=PITCH)
+    assert tx.info["faces"][0]["kinds"] == ["cylinder"]
     assert_solid(tx, wp.val())
-    assert "period_y" in tx.info["faces"][0] and tx.info["faces"][0]["period_y"] is None  # not closed
+    assert_only_on(tx, wp.val(), side, 0.4)
+    # CadQuery selection of several faces at once.
+    box = cq.Workplane("XY").box(30, 20, 10)
+    tx2 = texture(box, box.faces(">Z or <X"), "builtin:ridges", height=0.4, pitch=PITCH)
+    assert len(tx2.info["faces"]) == 2
+    assert_solid(tx2, box.val())
 
 
 def test_bad_input():
@@ -305,16 +314,15 @@ def test_bad_input():
 def test_height_against_concave_curvature_is_limited():
     from build123d import Axis, Box, Cylinder, GeomType, Pos, fillet
 
-    # A boss on a plate with a 2 mm concave fillet: the fillet cannot carry 5 mm of texture.
-    part = Box(30, 30, 6) + Pos(0, 0, 6) * Cylinder(6, 8)
-    part = fillet(part.edges().filter_by(GeomType.CIRCLE).group_by(Axis.Z)[1].sort_by(Axis.Z)[0:1], 2.0)
+    # A boss on a plate with a 4 mm concave fillet: it cannot carry 8 mm of texture.
+    part = Box(50, 50, 6) + Pos(0, 0, 8) * Cylinder(8, 10)
+    part = fillet(part.edges().filter_by(GeomType.CIRCLE).sort_by(Axis.Z)[0:1], 4.0)  # the boss foot
     fil = part.faces().filter_by(GeomType.TORUS)
     assert len(fil) == 1
-    with pytest.warns(TexcadWarning):
-        tx = texcad.texture(part, fil, "builtin:ridges", height=5.0, pitch=0.25)
-    m = tx.mesh
-    assert trimesh.Trimesh(m.vertices, m.faces).is_watertight
-    assert tx.info["faces"][0]["max_height"] <= 0.9 * 2.0 * 1.05
+    with pytest.warns(TexcadWarning, match="curvature"):
+        tx = texcad.texture(part, fil, "builtin:ridges", height=8.0, pitch=PITCH, edge_angle=90)
+    assert_solid(tx, part)
+    assert tx.info["faces"][0]["max_height"] <= 0.9 * 4.0 * 1.05
 
 
 @settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
