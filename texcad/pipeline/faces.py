@@ -460,7 +460,10 @@ def _patch_relief(pm: PartMesh, patch: list[int], tex: Any, opts: dict) -> dict:
     par = _param(pm, patch, tile, opts["rotation"])
     pitch = hm.pitch if hm is not None else (opts["pitch"], opts["pitch"])
     px, py = float(pitch[0]), float(pitch[1])
-    grid = lay_grid(par.V, par.F, par.XY, (px, py), period_y=par.period_y)
+    lo = par.XY.min(axis=0)
+    shift = 0.37 * float(opts.get("jitter", 0.0)) / 0.002  # retries also move the grid by a fraction of a pixel
+    origin = (float(lo[0]) - shift * px, float(lo[1]) - (0.0 if par.period_y is not None else shift * py))
+    grid = lay_grid(par.V, par.F, par.XY, (px, py), period_y=par.period_y, origin=origin)
     H = _heights(hm, tex, periodic, grid, opts["pitch"], opts["height"])
     diag = float(np.hypot(px, py))
     d = _border_distance(grid.valid, px, py, grid.wrap_y)
@@ -477,14 +480,16 @@ def _patch_relief(pm: PartMesh, patch: list[int], tex: Any, opts: dict) -> dict:
     limited = (h > hcap) & grid.valid
     h = np.minimum(h, hcap)
     depth = np.minimum(opts["depth"], 0.9 / np.maximum(convex, 1e-9))
-    sink = np.minimum(0.05, 0.5 * depth)
+    jit = float(opts.get("jitter", 0.0))  # mm: a retry after a union that pinched (see welded)
+    floor_c = FLOOR_CURVED + jit
+    sink = np.minimum(0.05 + 2 * jit, 0.5 * depth)
     band = np.interp(d, [d_keep, d_floor], [0.0, 1.0])
-    h_top = np.where(d < d_floor, -sink + band * (sink + FLOOR_CURVED), np.maximum(h, FLOOR_CURVED))
+    h_top = np.where(d < d_floor, -sink + band * (sink + floor_c), np.maximum(h, floor_c))
     keep = grid.valid & (d >= d_keep)
     cells = cell_mask(keep, grid.wrap_y)
     limit_info = None
     if opts["build_dir"] is not None:
-        floor_arr = np.minimum(h_top, FLOOR_CURVED)
+        floor_arr = np.minimum(h_top, floor_c)
         before = h_top.copy()
         h_top, rounds, base_over, remaining = _limit_overhangs_grid(
             grid.points, grid.normals, h_top, cells, grid.wrap_y, opts["build_dir"], opts["critical_angle"], floor_arr
@@ -493,7 +498,7 @@ def _patch_relief(pm: PartMesh, patch: list[int], tex: Any, opts: dict) -> dict:
         limit_info = {"removed_volume_mm3": float(removed.sum() * px * py), "max_removed_mm": float(removed.max()), "rounds": rounds,
                       "touched_fraction": float((removed > 1e-6).mean()), "surface_overhang": bool(base_over.any()),
                       "remaining_overhang_mm2": remaining}
-    textured = keep & (h_top > FLOOR_CURVED + 1e-6)
+    textured = keep & (h_top > floor_c + 1e-6)
     if not textured.any():
         raise GeometryError(
             f"no texture is left on the face(s) {patch}: too small or narrow for the {d_floor:.2f} mm border band at "
@@ -547,6 +552,30 @@ def _face_indices(pm: PartMesh, topo, faces: list) -> list[int]:
     return out
 
 
+def welded(man) -> "Mesh | None":
+    """The union's mesh with vertices at the same position merged (as an STL reader
+    does) and the zero-area needles manifold3d sometimes leaves along a cut edge
+    (a triangle with two vertices at one position) dropped; None unless every edge
+    then lies on exactly two triangles."""
+    out = man.to_mesh()
+    v = np.asarray(out.vert_properties)[:, :3].astype(np.float32)
+    f = np.asarray(out.tri_verts).astype(np.int64)
+    uniq, first, inv = np.unique(v, axis=0, return_index=True, return_inverse=True)
+    f = inv.ravel()[f]
+    f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])]
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    key = e[:, 0] * (len(uniq) + 1) + e[:, 1]
+    _, counts = np.unique(key, return_counts=True)
+    if not np.all(counts == 2):
+        return None
+    used = np.unique(f)
+    remap = np.full(len(uniq), -1, np.int64)
+    remap[used] = np.arange(len(used))
+    mesh = Mesh(np.ascontiguousarray(uniq[used]), remap[f].astype(np.uint32))
+    mesh.__dict__["is_watertight"] = True
+    return mesh
+
+
 def texture_any_faces(topo, faces: list, tex: Any, *, base_mesh: Mesh | None = None, progress: Progress = None, **opts) -> dict:
     """Texture ``faces`` (OCP faces of ``topo``) with the general method of this
     module; fuse every relief onto ``base_mesh`` (default: the part's tessellation).
@@ -592,18 +621,27 @@ def texture_any_faces(topo, faces: list, tex: Any, *, base_mesh: Mesh | None = N
         warnings.warn("the texture height was limited to 0.9 / curvature on concave parts of the face(s)", TexcadWarning, stacklevel=3)
     report(progress, 0.7, f"fusing {sum(r['slab'].num_triangles for r in reliefs)} texture triangles onto the part (manifold3d)")
     base_man = to_manifold(base)
-    parts = [base_man] + [to_manifold(r["slab"]) for r in reliefs]
-    fused_man = m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
-    if fused_man.status() != m3d.Error.NoError or fused_man.is_empty():
-        raise GeometryError(f"the union of texture and part failed (manifold3d: {fused_man.status().name})")
     want = len(base_man.decompose())
-    got = len(fused_man.decompose())
-    if got != want:
-        raise GeometryError(
-            f"the textured part has {got} bodies, the part {want}: a relief came off the face; "
-            "use a smaller height or depth, or report this"
-        )
-    fused = from_manifold(fused_man)
+    for attempt in range(3):  # a union whose output pinches (two sheets along an edge) is redone, nudged
+        parts = [base_man] + [to_manifold(r["slab"]) for r in reliefs]
+        fused_man = m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
+        if fused_man.status() != m3d.Error.NoError or fused_man.is_empty():
+            raise GeometryError(f"the union of texture and part failed (manifold3d: {fused_man.status().name})")
+        got = len(fused_man.decompose())
+        if got != want:
+            raise GeometryError(
+                f"the textured part has {got} bodies, the part {want}: a relief came off the face; "
+                "use a smaller height or depth, or report this"
+            )
+        fused = welded(fused_man)
+        if fused is not None:
+            break
+        if attempt == 2:
+            raise GeometryError("the textured mesh touches itself along an edge (welded by position it is not a manifold); "
+                                "try another pitch or height")
+        report(progress, 0.75, "the union pinched along an edge: redoing it with the relief nudged by 2 um")
+        opts = dict(opts, jitter=0.002 * (attempt + 1))
+        reliefs = [_patch_relief(pm, r["info"]["faces"], tex, opts) for r in reliefs]
 
     def texture_only() -> Mesh:
         return from_manifold(fused_man - base_man)
