@@ -359,3 +359,20 @@ def test_random_bspline_faces(radii):
     assert_only_on(tx, part, list(side), 0.4, spacing=0.1)
     d = tx.distortion
     assert d.x[0] <= d.x[1] and d.y[0] <= d.y[1]
+
+
+def test_cli_selects_several_faces_and_prints_distortion(tmp_path, capsys):
+    from build123d import export_step
+
+    from texcad.cli import main
+
+    export_step(knob(inner=3.0), str(tmp_path / "knob.step"))
+    argv = ["texture", str(tmp_path / "knob.step"), "--face", "cone:all", "--face", "normal:0,0,1", "--pitch", "0.5",
+            "--height", "0.5", "--texture", "builtin:ridges", "-q", "-o", str(tmp_path / "k.stl")]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "3 face(s)" in out and out.count("distortion   patch") >= 2 and "texture scale" in out
+    stl = trimesh.load(tmp_path / "k.stl")
+    assert stl.is_watertight
+    assert main(argv[:3] + ["cone:9", "-o", str(tmp_path / "x.stl")]) != 0
+    assert "cone:0..1" in capsys.readouterr().err

@@ -488,7 +488,9 @@ def grid_slab(top: np.ndarray, bottom: np.ndarray, cells: np.ndarray, wrap_y: bo
     a, b = idx[rr, cc], idx[rr, cc + 1]
     d, c = idx[rn, cc], idx[rn, cc + 1]
     tri = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
-    used = np.unique(tri)
+    mark = np.zeros(R * C, bool)
+    mark[tri.ravel()] = True
+    used = np.flatnonzero(mark)
     remap = np.full(R * C, -1, np.int64)
     remap[used] = np.arange(len(used))
     tri = remap[tri]
@@ -502,9 +504,13 @@ def grid_slab(top: np.ndarray, bottom: np.ndarray, cells: np.ndarray, wrap_y: bo
         tri = tri[:, ::-1]
     # Boundary edges: directed edges of the top whose reverse is not in the top.
     ed = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
-    key = ed[:, 0] * nv + ed[:, 1]
-    rkey = ed[:, 1] * nv + ed[:, 0]
-    border = ed[~np.isin(key, rkey)]
+    und = np.minimum(ed[:, 0], ed[:, 1]) * nv + np.maximum(ed[:, 0], ed[:, 1])
+    order = np.argsort(und, kind="stable")
+    su = und[order]
+    single = np.ones(len(su), bool)
+    single[1:] &= su[1:] != su[:-1]
+    single[:-1] &= su[:-1] != su[1:]
+    border = ed[order[single]]
     i, j = border[:, 0], border[:, 1]
     walls = np.concatenate([np.stack([j, i, i + nv], 1), np.stack([j, i + nv, j + nv], 1)])
     faces = np.concatenate([tri, tri[:, ::-1] + nv, walls]).astype(np.uint32)

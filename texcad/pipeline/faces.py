@@ -560,13 +560,19 @@ def welded(man) -> "Mesh | None":
     out = man.to_mesh()
     v = np.asarray(out.vert_properties)[:, :3].astype(np.float32)
     f = np.asarray(out.tri_verts).astype(np.int64)
-    uniq, first, inv = np.unique(v, axis=0, return_index=True, return_inverse=True)
-    f = inv.ravel()[f]
+    order = np.lexsort((v[:, 2], v[:, 1], v[:, 0]))
+    sv = v[order]
+    new = np.ones(len(v), bool)
+    new[1:] = np.any(sv[1:] != sv[:-1], axis=1)
+    inv = np.empty(len(v), np.int64)
+    inv[order] = np.cumsum(new) - 1
+    uniq = sv[new]
+    f = inv[f]
     f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])]
     e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    key = e[:, 0] * (len(uniq) + 1) + e[:, 1]
-    _, counts = np.unique(key, return_counts=True)
-    if not np.all(counts == 2):
+    key = np.sort(e[:, 0] * (len(uniq) + 1) + e[:, 1])
+    # Every edge exactly twice: sorted keys pair up, and no pair equals the next one.
+    if len(key) % 2 or not np.array_equal(key[0::2], key[1::2]) or np.any(key[1:-1:2] == key[2::2]):
         return None
     used = np.unique(f)
     remap = np.full(len(uniq), -1, np.int64)
