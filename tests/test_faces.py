@@ -344,6 +344,12 @@ def test_random_revolved_profiles(r0, r1, h):
     per = tx.info["faces"][0]["period_y"]
     r_ref = per / (2 * np.pi)
     lo, hi = min(r0, r1) / r_ref, max(r0, r1) / r_ref
+    # The closure around: whole tiles, so the step from the last row to the first is no
+    # larger than the steps between rows elsewhere (no seam).
+    h = tx.heightmap.heights.astype(np.float64)
+    assert h.shape[0] * PITCH == pytest.approx(per)
+    inner = np.abs(np.diff(h, axis=0)).max()
+    assert np.abs(h[0] - h[-1]).max() <= inner + 1e-6
     assert lo - 0.03 < tx.distortion.y[0] and tx.distortion.y[1] < hi + 0.03
 
 
