@@ -44,6 +44,14 @@ Which faces
   unioned with manifold3d for the mesh and with OCCT's boolean for the B-rep (the
   slab's planar walls are real planes; its bottom is a ruled 2-row grid).
 
+* **Any other face, several faces at once, chaining** (cones, spheres, tori, surfaces
+  of revolution, B-splines, fillets, partial strips, trimmed faces; a list, a
+  ``ShapeList`` or a CadQuery selection; a :class:`Textured` as the part): the general
+  method of :mod:`texcad.pipeline.faces` (a texture grid on a parameterization of the
+  face in mm, fused as a mesh; ``Textured.distortion`` reports the texture scale). Those
+  results have no B-rep: ``.shape`` raises ``GeometryError`` naming the STL / 3MF
+  outputs.
+
 Checks: the B-rep must be one valid solid (``BRepCheck``) per input solid and must
 enclose the mesh's volume within 0.1 % (:data:`VOLUME_TOLERANCE`; they differ only by
 the bilinear-vs-triangle term of :mod:`texcad.brep`); OCCT's boolean occasionally
