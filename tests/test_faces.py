@@ -383,3 +383,33 @@ def test_cli_selects_several_faces_and_prints_distortion(tmp_path, capsys):
     assert stl.is_watertight
     assert main(argv[:3] + ["cone:9", "-o", str(tmp_path / "x.stl")]) != 0
     assert "cone:0..1" in capsys.readouterr().err
+
+
+def test_tessellation_that_needs_healing_is_retried(monkeypatch):
+    import texcad.pipeline.faces as F
+    from texcad.solid import Mesh
+
+    part = knob()
+    weld = F._weld
+    calls = []
+
+    def leaky(fms, tol):  # the first tessellation loses a triangle: not a closed solid
+        pm = weld(fms, tol)
+        calls.append(tol)
+        if len(calls) == 1:
+            pm.mesh = Mesh(pm.mesh.vertices, pm.mesh.faces[1:])
+            pm.face_of_tri = pm.face_of_tri[1:]
+        return pm
+
+    monkeypatch.setattr(F, "_weld", leaky)
+    pm = F.part_tessellation(to_topods(part))
+    assert len(calls) == 2 and trimesh.Trimesh(pm.mesh.vertices, pm.mesh.faces).is_watertight
+
+    def broken(fms, tol):
+        pm = weld(fms, tol)
+        pm.mesh = Mesh(pm.mesh.vertices, pm.mesh.faces[1:])
+        return pm
+
+    monkeypatch.setattr(F, "_weld", broken)
+    with pytest.raises(GeometryError, match="not a closed solid even after healing"):
+        F.part_tessellation(to_topods(part))
