@@ -416,18 +416,25 @@ def _limit_overhangs_grid(P, N, h, cells, wrap_y, dirs, critical_angle, floor):
     for d in dirs:
         base_over |= -(base_n @ d) > cos_c
     rounds = 0
+    active = np.arange(len(tri))  # facets to look at: all, then those next to lowered vertices
     for rounds in range(1, 81):  # per limiting round
-        n = normals(Pf + hf[:, None] * Nf)
-        over = np.zeros(len(tri), bool)
+        t = tri[active]
+        q = Pf + hf[:, None] * Nf
+        e = np.cross(q[t[:, 1]] - q[t[:, 0]], q[t[:, 2]] - q[t[:, 0]])
+        n = e / np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-18)
+        over = np.zeros(len(t), bool)
         for d in dirs:  # per build direction
             over |= -(n @ d) > cos_c
         # A facet that overhangs and still stands above the floor somewhere is lowered
         # (on a face that overhangs by itself the texture goes down to the floor).
-        over &= (hf[tri] > floor[tri] + 1e-9).any(axis=1)
+        over &= (hf[t] > floor[t] + 1e-9).any(axis=1)
         if not over.any():
             break
-        idx = np.unique(tri[over])
+        changed = np.zeros(len(hf), bool)
+        changed[t[over].ravel()] = True
+        idx = np.flatnonzero(changed)
         hf[idx] = floor[idx] + 0.6 * (hf[idx] - floor[idx])
+        active = np.flatnonzero(changed[tri].any(axis=1))
     q = Pf + hf[:, None] * Nf
     e = np.cross(q[tri[:, 1]] - q[tri[:, 0]], q[tri[:, 2]] - q[tri[:, 0]])
     area = 0.5 * np.linalg.norm(e, axis=1)
