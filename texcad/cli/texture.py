@@ -1,4 +1,13 @@
-"""``texcad texture``: texture one face of a STEP part; write STL, 3MF, STEP or PNG."""
+"""``texcad texture``: texture faces of a STEP part; write STL, 3MF, STEP or PNG.
+
+``--face`` is repeatable; every selected face is textured in one call (faces that
+meet smoothly share one texture). A selector is a direction word (``top``...), a
+face index, ``TYPE`` (the largest face of that kind: ``cylinder``, ``cone``,
+``sphere``, ``torus``, ``bspline``, ``revolution``, ``extrusion``...), ``TYPE:i``
+(the i-th face of that kind in the part's order), ``TYPE:all``, or
+``normal:x,y,z`` (every face whose normal at its centre is within 10 degrees of
+that direction).
+"""
 
 from __future__ import annotations
 
@@ -13,32 +22,65 @@ from ._args import add_orientation, add_tolerance, limits_line, positive_float
 DIRECTIONS = {"top": (0, 0, 1), "bottom": (0, 0, -1), "front": (0, -1, 0), "back": (0, 1, 0), "left": (-1, 0, 0), "right": (1, 0, 0)}
 
 
-def pick_face(shape, which: str):
-    """The face of a build123d shape named by ``which``: a word of :data:`DIRECTIONS`,
-    ``cylinder`` / ``extrusion`` (the largest such face) or a face index."""
+def _kind(word: str):
+    from build123d import GeomType
+
+    aliases = {"extrusion": "EXTRUSION", "bspline": "BSPLINE", "b-spline": "BSPLINE", "bezier": "BEZIER"}
+    name = aliases.get(word, word.upper())
+    return GeomType[name] if name in GeomType.__members__ else None
+
+
+def pick_faces(shape, which: str) -> list:
+    """The faces of a build123d shape named by ``which`` (module docstring)."""
     from build123d import GeomType, Vector
 
     from ..errors import ParameterError
+    from ..util import parse_vector
 
     faces = shape.faces()
     if which.isdigit():
         i = int(which)
         if i >= len(faces):
             raise ParameterError(f"--face {i}: the part has only {len(faces)} faces (0..{len(faces) - 1})")
-        return faces[i]
-    if which in ("cylinder", "extrusion"):
-        kinds = (GeomType.CYLINDER,) if which == "cylinder" else (GeomType.CYLINDER, GeomType.EXTRUSION, GeomType.BSPLINE)
-        cands = [f for f in faces if f.geom_type in kinds]
+        return [faces[i]]
+    head, _, tail = which.partition(":")
+    if head == "normal":
+        d = Vector(*parse_vector(tail))
+        d = d.normalized()
+        hit = [f for f in faces if f.normal_at(f.center()).dot(d) > 0.985]
+        if not hit:
+            raise ParameterError(f"--face {which}: no face looks that way (within 10 degrees)")
+        return hit
+    kind = _kind(head)
+    if kind is not None:
+        if head == "extrusion" and not tail:
+            cands = [f for f in faces if f.geom_type in (GeomType.CYLINDER, GeomType.EXTRUSION, GeomType.BSPLINE)]
+        else:
+            cands = [f for f in faces if f.geom_type == kind]
         if not cands:
-            raise ParameterError(f"--face {which}: the part has no such face; use top, bottom, ... or a face index")
-        return max(cands, key=lambda f: f.area)
+            raise ParameterError(f"--face {which}: the part has no {head} face; use top, bottom, ... or a face index")
+        if not tail:
+            return [max(cands, key=lambda f: f.area)]
+        if tail == "all":
+            return cands
+        if not tail.isdigit() or int(tail) >= len(cands):
+            raise ParameterError(f"--face {which}: the part has {len(cands)} {head} face(s): use {head}:0..{len(cands) - 1} or {head}:all")
+        return [cands[int(tail)]]
     if which not in DIRECTIONS:
-        raise ParameterError(f"--face {which!r}: use one of {', '.join(DIRECTIONS)}, cylinder, extrusion or a face index")
+        raise ParameterError(
+            f"--face {which!r}: use one of {', '.join(DIRECTIONS)}, a face type (cone, sphere, bspline...), "
+            "TYPE:i, TYPE:all, normal:x,y,z or a face index"
+        )
     d = DIRECTIONS[which]
     planar = [f for f in faces.filter_by(GeomType.PLANE) if f.normal_at().dot(Vector(*d)) > 0.999]
     if not planar:
         raise ParameterError(f"--face {which}: no planar face looks {which}; use a face index (0..{len(faces) - 1})")
-    return sorted(planar, key=lambda f: f.area, reverse=True)[0] if len(planar) > 1 else planar[0]
+    return [sorted(planar, key=lambda f: f.area, reverse=True)[0]]
+
+
+def pick_face(shape, which: str):
+    """The first face :func:`pick_faces` names (kept for callers of one face)."""
+    return pick_faces(shape, which)[0]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -51,7 +93,10 @@ def run(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     part = Compound(read_step(args.part))
-    face = pick_face(part, args.face)
+    faces = []
+    for which in args.face or ["top"]:  # per --face
+        faces += [f for f in pick_faces(part, which) if not any(f.is_same(g) for g in faces)]
+    face = faces[0] if len(faces) == 1 else faces
     with warnings.catch_warnings():
         if args.quiet:
             warnings.simplefilter("ignore", TexcadWarning)
@@ -71,9 +116,19 @@ def run(args: argparse.Namespace) -> int:
     for out in args.out:
         tx.export(out, separate_texture=args.separate_texture)
     m = tx.mesh
-    print(f"face         {args.face} ({tx.info['face']}, grid {tx.info['grid'][0]} x {tx.info['grid'][1]})")
+    print(f"faces        {', '.join(args.face or ['top'])}: {len(faces)} face(s) ({tx.info['face']}, grid {tx.info['grid'][0]} x {tx.info['grid'][1]})")
+    for k, patch in enumerate(tx.info.get("faces") or []):  # per patch of smoothly joined faces
+        dx, dy = patch["distortion"]["x"], patch["distortion"]["y"]
+        print(
+            f"distortion   patch {k} ({'+'.join(patch['kinds'])}, {patch['parameterization']}): texture scale "
+            f"x {dx[0]:.3f}..{dx[1]:.3f} (worst {dx[2]:.3f}), y {dy[0]:.3f}..{dy[1]:.3f} (worst {dy[2]:.3f}), "
+            f"faded {100 * patch['distortion']['faded_fraction']:.1f} %"
+        )
+    if not tx.info.get("faces"):
+        print("distortion   none (planar face: exact; extruded profile: arc length, see the mapping's limits)")
     print(f"triangles    {m.num_triangles}, watertight {m.is_watertight}")
-    print(f"max error    {tx.max_error:.4f} mm at the pixel centres (tolerance {args.tolerance:g} mm)")
+    if tx.max_error is not None:
+        print(f"max error    {tx.max_error:.4f} mm at the pixel centres (tolerance {args.tolerance:g} mm)")
     print(f"volume       {m.volume:.1f} mm3")
     line = limits_line(tx.limits)
     if line:
@@ -84,9 +139,14 @@ def run(args: argparse.Namespace) -> int:
 
 
 def add(sub: argparse._SubParsersAction) -> None:
-    t = sub.add_parser("texture", help="texture one face of a STEP part; write STL, 3MF, STEP and/or PNG")
+    t = sub.add_parser("texture", help="texture faces of a STEP part; write STL, 3MF, STEP and/or PNG")
     t.add_argument("part", help="PART.step (mm)")
-    t.add_argument("--face", default="top", help="top, bottom, front, back, left, right, cylinder, extrusion or a face index (default top)")
+    t.add_argument(
+        "--face",
+        action="append",
+        help="repeatable: top, bottom, front, back, left, right; a face type (cylinder, cone, sphere, torus, bspline, "
+        "revolution, extrusion: the largest), TYPE:i, TYPE:all, normal:x,y,z, or a face index (default top)",
+    )
     t.add_argument("--texture", default="builtin:stones", help="builtin:NAME[:k=v] or an image (default builtin:stones)")
     t.add_argument("--height", type=positive_float, default=1.0, help="texture height in mm (default 1)")
     t.add_argument("--pitch", type=positive_float, default=0.25, help="mm per pixel (default 0.25)")

@@ -7,6 +7,14 @@ from .cad import (
     texture_faces,
     LIFT,
 )
+from .faces import (
+    texture_any_faces,
+    face_list,
+    part_tessellation,
+    FADE_FULL,
+    FADE_ZERO,
+    FLOOR_CURVED,
+)
 from .ops import (
     cad_op,
     OPS,
@@ -33,6 +41,12 @@ from .texture import (
 __all__ = [
     'texture_faces',
     'LIFT',
+    'texture_any_faces',
+    'face_list',
+    'part_tessellation',
+    'FADE_FULL',
+    'FADE_ZERO',
+    'FLOOR_CURVED',
     'cad_op',
     'OPS',
     'OP_VOLUME_TOLERANCE',

@@ -44,6 +44,14 @@ Which faces
   unioned with manifold3d for the mesh and with OCCT's boolean for the B-rep (the
   slab's planar walls are real planes; its bottom is a ruled 2-row grid).
 
+* **Any other face, several faces at once, chaining** (cones, spheres, tori, surfaces
+  of revolution, B-splines, fillets, partial strips, trimmed faces; a list, a
+  ``ShapeList`` or a CadQuery selection; a :class:`Textured` as the part): the general
+  method of :mod:`texcad.pipeline.faces` (a texture grid on a parameterization of the
+  face in mm, fused as a mesh; ``Textured.distortion`` reports the texture scale). Those
+  results have no B-rep: ``.shape`` raises ``GeometryError`` naming the STL / 3MF
+  outputs.
+
 Checks: the B-rep must be one valid solid (``BRepCheck``) per input solid and must
 enclose the mesh's volume within 0.1 % (:data:`VOLUME_TOLERANCE`; they differ only by
 the bilinear-vs-triangle term of :mod:`texcad.solid.brep`); OCCT's boolean occasionally
@@ -67,7 +75,7 @@ from ..errors import GeometryError, ParameterError
 from ..sources import Heightmap
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, heightfield_slab, mesh_error
 from ..util import Progress, report, subrange
-from ..solid import from_manifold, fuse, shape_to_mesh, to_manifold
+from ..solid import from_manifold, fuse, to_manifold
 
 __all__ = ["texture_faces", "LIFT"]
 
@@ -140,7 +148,12 @@ def _plane_frame(face, rotation: float):
     ad = BRepAdaptor_Surface(face)
     pln = ad.Plane()
     p0 = as_array(pln.Location())
-    n = as_array(pln.Axis().Direction())
+    # The surface's own normal is XDir x YDir: the axis for a right-handed plane
+    # frame, minus the axis for a left-handed one (e.g. the bottom annulus of a
+    # revolved part); the face's orientation flips it once more.
+    pos = pln.Position()
+    n = np.cross(as_array(pos.XDirection()), as_array(pos.YDirection()))
+    n = n / np.linalg.norm(n)
     if face.Orientation() == TopAbs_REVERSED:
         n = -n
     if abs(n[2]) > 0.999:
@@ -152,6 +165,11 @@ def _plane_frame(face, rotation: float):
     a = np.radians(float(rotation))
     ex, ey = np.cos(a) * ex + np.sin(a) * ey, -np.sin(a) * ex + np.cos(a) * ey
     return p0, ex, ey, n
+
+
+def plane_frame(face, rotation: float = 0.0):
+    """Public name of :func:`_plane_frame` for :mod:`texcad.pipeline.faces`."""
+    return _plane_frame(face, rotation)
 
 
 def _local(points: np.ndarray, origin: np.ndarray, axes: np.ndarray) -> np.ndarray:
@@ -248,7 +266,7 @@ def _texture_plane(
     spacing = 0.5 * min(px, py)
     all_segs = [segs]
     hmax = float(h.max())
-    base_mesh = shape_to_mesh(topo)
+    base_mesh = _base_mesh(topo)
     base_local = Mesh(_local(base_mesh.vertices, origin, axes), base_mesh.faces)
     z = base_local.vertices[:, 2]
     snap = max(1e-5, 4 * float(np.finfo(np.float32).eps) * float(np.abs(base_mesh.vertices).max()))
@@ -517,7 +535,7 @@ def _texture_extrusion(
 
         limits = measured(limits, slab_local, d_local, critical_angle)
     slab = Mesh(world(slab_local.vertices.astype(np.float64)).astype(np.float32), slab_local.faces)
-    base_mesh = shape_to_mesh(topo)
+    base_mesh = _base_mesh(topo)
     fused = fuse(base_mesh, slab)
 
     def texture_only() -> Mesh:
@@ -647,6 +665,98 @@ def _check_options(mapping: str, height: float, pitch: float, depth: float, edge
         raise ParameterError(f"offset must be (dx, dy) in mm, got {offset!r}")
 
 
+def _base_mesh(topo) -> Mesh:
+    """The part's tessellation, welded and checked closed (healed if needed:
+    :func:`texcad.pipeline.faces.part_tessellation`)."""
+    from .faces import part_tessellation
+
+    return part_tessellation(topo).mesh
+
+
+def _face_index(topo, face) -> int:
+    from OCP.TopAbs import TopAbs_FACE
+
+    return next(k for k, c in enumerate(explore(topo, TopAbs_FACE)) if c.IsSame(face))
+
+
+def _chain_base(part: Any):
+    """``(topo, previous)``: the part's shape, and the earlier :class:`Textured` when
+    ``part`` is one (chaining: its mesh is the base, its base B-rep gives the faces).
+
+    Raises:
+        ParameterError: a textured result that cannot be chained (no base part, or
+            moved since).
+    """
+    from .result import Textured
+
+    prev = part if isinstance(part, Textured) else getattr(part, "texcad", None)
+    if not isinstance(prev, Textured):
+        return _part_shape(part), None
+    chain = getattr(prev, "_texcad_base", None)
+    if chain is None or not np.allclose(prev._placement, np.eye(3, 4), rtol=0, atol=1e-12):
+        raise ParameterError(
+            "this textured result cannot be textured again (it was moved, or did not come from a CAD part); "
+            "texture all faces in one call: texcad.texture(part, [face1, face2, ...], texture)"
+        )
+    return chain[0], prev
+
+
+def _texture_general(part, topo, prev, faces, texture, *, progress, **opts):
+    """Any face kind, several faces, chaining: :mod:`texcad.pipeline.faces`."""
+    from .faces import texture_any_faces
+    from .result import Textured
+
+    done = list(prev._texcad_base[1]) if prev is not None else []
+    res = texture_any_faces(topo, faces, texture, base_mesh=prev.mesh if prev is not None else None, progress=progress, **opts)
+    again = sorted(set(done) & set(res["face_indices"]))
+    if again:
+        raise ParameterError(f"face(s) {again} are textured already; texture each face once (all faces in one call)")
+    kinds = sorted({k for i in res["info"] for k in i["kinds"]})
+    info = {
+        "face": "faces" if len(res["info"]) > 1 else res["info"][0]["kinds"][0],
+        "faces": res["info"],
+        "grid": res["info"][0]["grid"],
+        "brep": False,
+        "no_brep": (
+            f"{', '.join(kinds)} face(s) textured by the general method (a texture grid on the face's "
+            "parameterization, fused as a mesh) have no B-rep; write the mesh: export('part.stl') or export('part.3mf')"
+        ),
+        "distortion": None if res["distortion"] is None else res["distortion"].to_dict(),
+        "chained": prev is not None,
+    }
+    if opts.get("build_dir") is not None:
+        info["build_dir"] = np.asarray(opts["build_dir"]).tolist()
+        info["critical_angle"] = float(opts["critical_angle"])
+    limits = _general_limits(res, opts) if opts.get("build_dir") is not None else None
+    out = Textured(
+        mesh=res["mesh"], texture_mesh=res["texture_mesh"], base_mesh=res["base_mesh"], shape=None,
+        heightmap=res["heightmap"], limits=limits, distortion=res["distortion"], info=info, kind="face",
+        max_error=0.0,  # one vertex per texture grid point, at its exact height
+    )
+    out._texcad_base = (topo, done + list(res["face_indices"]))
+    report(progress, 1.0, "textured")
+    return out
+
+
+def _general_limits(res: dict, opts: dict):
+    """One :class:`texcad.printability.LimitReport` over the patches."""
+    from ..printability import LimitReport
+
+    li = [i["overhang_limit"] for i in res["info"] if "overhang_limit" in i]
+    return LimitReport(
+        removed_volume_mm3=float(sum(x["removed_volume_mm3"] for x in li)),
+        max_removed_mm=float(max((x["max_removed_mm"] for x in li), default=0.0)),
+        touched_fraction=float(max((x["touched_fraction"] for x in li), default=0.0)),
+        ramped_borders=(),
+        critical_angle_deg=float(opts["critical_angle"]),
+        margin_deg=1.0,
+        directions=np.asarray(opts["build_dir"]),
+        remaining_overhang_mm2=float(sum(x["remaining_overhang_mm2"] for x in li)),
+        surface_overhang=any(x["surface_overhang"] for x in li),
+        iterations=int(max((x["rounds"] for x in li), default=1)),
+    )
+
+
 def checked_brep(make_shape: Callable[[], Any], topo, mesh: Mesh, info: dict | None = None, progress: Progress = None):
     """Build a B-rep with ``make_shape()`` and check it against the mesh: one valid
     solid (``BRepCheck_Analyzer``) per solid of ``topo``, enclosing the mesh's volume
@@ -700,9 +810,9 @@ def texture_faces(
     for the arguments (mm and degrees). Returns a :class:`texcad.Textured` whose
     B-rep is made on first use of ``.shape`` (STEP, CAD work)."""
     from OCP.BRepAdaptor import BRepAdaptor_Surface
-    from OCP.GeomAbs import GeomAbs_Plane
+    from OCP.GeomAbs import GeomAbs_Cylinder, GeomAbs_Plane, GeomAbs_SurfaceOfExtrusion
 
-    from .result import Textured
+    from .faces import face_list
 
     _check_options(mapping, height, pitch, depth, edge_angle, offset)
     tolerance = check_tolerance(tolerance)
@@ -712,15 +822,38 @@ def texture_faces(
 
         dirs = build_directions(build_dir)
         critical_angle = check_critical_angle(critical_angle)
-    topo = _part_shape(part)
-    f = _find_face(topo, face)
     if not isinstance(texture, Heightmap):
         texture = os.fspath(texture)
+    topo, prev = _chain_base(part)
+    faces = face_list(face)
     common = dict(height=height, pitch=pitch, make_brep=brep, build_dir=dirs, critical_angle=critical_angle, progress=progress)
-    if BRepAdaptor_Surface(f).GetType() == GeomAbs_Plane:
-        res = _texture_plane(topo, f, texture, edge_angle=float(edge_angle), rotation=rotation, offset=offset, tolerance=tolerance, **common)
-    else:
-        res = _texture_extrusion(topo, f, texture, mapping=mapping, depth=depth, periodic_x=periodic_x, transition=transition, **common)
+    res = None
+    if len(faces) == 1 and prev is None:
+        f = _find_face(topo, faces[0])
+        kind = BRepAdaptor_Surface(f).GetType()
+        if kind == GeomAbs_Plane:
+            res = _texture_plane(topo, f, texture, edge_angle=float(edge_angle), rotation=rotation, offset=offset, tolerance=tolerance, **common)
+        elif kind in (GeomAbs_Cylinder, GeomAbs_SurfaceOfExtrusion):
+            try:
+                res = _texture_extrusion(topo, f, texture, mapping=mapping, depth=depth, periodic_x=periodic_x, transition=transition, **common)
+            except GeometryError as e:  # not a full strip of its extrusion: the general method
+                if "strip" not in str(e) and "cross-section" not in str(e):
+                    raise
+    if res is None:
+        return _texture_general(part, topo, prev, faces, texture, height=height, pitch=pitch, depth=depth,
+                                edge_angle=float(edge_angle), rotation=float(rotation), build_dir=dirs,
+                                critical_angle=critical_angle, progress=progress)
+    report(progress, 1.0, "textured")
+    out = _result(res, topo, brep, dirs, critical_angle)
+    out._texcad_base = (topo, [_face_index(topo, f)])
+    return out
+
+
+def _result(res: dict, topo, brep: bool, dirs, critical_angle: float):
+    """The :class:`Textured` of one planar or extruded face, with its B-rep made on
+    first use and checked (:func:`checked_brep`)."""
+    from .result import Textured
+
     info = res["info"]
     info["brep"] = bool(brep)
     if dirs is not None:
@@ -733,7 +866,6 @@ def texture_faces(
             return checked_brep(make_shape, topo, res["mesh"], info)
     else:
         info["no_brep"] = "textured with brep=False; texture it again with brep=True for STEP"
-    report(progress, 1.0, "textured")
     return Textured(
         mesh=res["mesh"],
         texture_mesh=res["texture_mesh"],

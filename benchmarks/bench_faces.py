@@ -1,0 +1,100 @@
+"""Benchmark: the knob's knurled grip (a cone, any-face method; the knob of
+recipes/knob.py at twice its size: about 1 M relief triangles) at 0.125 mm to a
+fused, checked binary STL, seconds per stage (issue 13; target 3 s on 2 cores).
+
+    python benchmarks/bench_faces.py [--pitch 0.125] [--repeat 3] [--scale 2]
+
+Stages: tessellate (OCCT, the part's welded, checked mesh), parameterize (the face's
+(u, v) by arc length, whole tiles around), map (texture grid on the face, heights,
+M-I ramp, curvature limit, slab), fuse (manifold3d union, welded and checked: every
+edge on two triangles), export (binary STL). The load average is printed with them:
+other processes on the machine slow every figure down.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+
+def knob(scale: float = 1.0):
+    from build123d import Axis, BuildLine, BuildPart, BuildSketch, Plane, Polyline, make_face, revolve
+
+    with BuildPart() as k:
+        with BuildSketch(Plane.XZ):
+            with BuildLine():
+                pts = [(3, 0), (15, 0), (15, 2), (12.5, 14), (11, 15.5), (3, 15.5)]
+                Polyline(*[(scale * x, scale * z) for x, z in pts], close=True)
+            make_face()
+        revolve(axis=Axis.Z)
+    return k.part
+
+
+def run(pitch: float, out: Path, scale: float) -> dict:
+    import manifold3d as m3d
+    from build123d import Axis, GeomType
+
+    from texcad.io import write_stl
+    from texcad.pipeline import faces as F
+    from texcad.solid import to_manifold, to_topods
+
+    part = knob(scale)
+    cone = part.faces().filter_by(GeomType.CONE).sort_by(Axis.Z)[0]
+    topo = to_topods(part)
+    opts = dict(height=0.6, pitch=pitch, depth=0.5, edge_angle=45.0, rotation=0.0, build_dir=None, critical_angle=45.0)
+    tex = "builtin:diamond_knurl:period=2"
+    t = {}
+    t0 = time.perf_counter()
+    pm = F.part_tessellation(topo)
+    idx = F._face_indices(pm, topo, [cone])
+    t["tessellate"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    hm, periodic = F._texture_tile(tex, pitch, 0.6)
+    F._param(pm, idx, hm.size, 0.0)
+    t["parameterize"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    relief = F._patch_relief(pm, idx, tex, opts)  # (parameterizes again: subtracted below)
+    t["map"] = time.perf_counter() - t0 - t["parameterize"]
+    t0 = time.perf_counter()
+    man = m3d.Manifold.batch_boolean([to_manifold(pm.mesh), to_manifold(relief["slab"])], m3d.OpType.Add)
+    mesh = F.welded(man)
+    assert mesh is not None and len(man.decompose()) == 1
+    t["fuse"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    write_stl(mesh, out / "knob_grip.stl")
+    t["export"] = time.perf_counter() - t0
+    t["total"] = sum(t.values())
+    t["triangles"] = mesh.num_triangles
+    t["slab_triangles"] = relief["slab"].num_triangles
+    t["distortion"] = str(relief["distortion"])
+    return t
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--pitch", type=float, default=0.125)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--scale", type=float, default=2.0, help="knob size (2: a 60 mm knob, about 1 M relief triangles)")
+    a = ap.parse_args()
+    from texcad.solid import retain_freed_memory
+
+    retain_freed_memory()
+    with tempfile.TemporaryDirectory() as d:
+        runs = [run(a.pitch, Path(d), a.scale) for _ in range(a.repeat)]  # per repeat
+    print(f"knob x{a.scale:g} grip (cone) at {a.pitch} mm: {runs[0]['triangles']} triangles fused ({runs[0]['slab_triangles']} in the relief)")
+    print(f"distortion   {runs[0]['distortion']}")
+    for k in ("tessellate", "parameterize", "map", "fuse", "export", "total"):
+        vals = [r[k] for r in runs]
+        print(f"{k:13s} median {statistics.median(vals):6.2f} s   (first {vals[0]:.2f}, range {min(vals):.2f}..{max(vals):.2f})")
+    print(f"load average {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f} on {os.cpu_count()} cores")
+
+
+if __name__ == "__main__":
+    main()
