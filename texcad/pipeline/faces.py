@@ -56,7 +56,7 @@ from __future__ import annotations
 import os
 import warnings
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -401,7 +401,6 @@ def _limit_overhangs_grid(P, N, h, cells, wrap_y, dirs, critical_angle, floor):
     tri = _cell_tris(cells, R, C, wrap_y)
     Pf, Nf = P.reshape(-1, 3), N.reshape(-1, 3)
     cos_c = np.cos(np.radians(critical_angle + 1.0))  # 1 degree stricter than overhang_mask
-    h0 = h.copy()
     hf = h.reshape(-1).copy()
 
     def normals(q):
