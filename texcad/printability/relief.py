@@ -1,0 +1,138 @@
+"""The overhang limiter for a displaced mesh (a texture as vertex displacements).
+
+A mesh textured by displacing its vertices ``p_i`` along their normals ``n_i`` by
+``d_i`` mm (:mod:`texcad.pipeline.mesh`) prints without support for the build
+directions ``D`` when no displaced face overhangs: ``-n_f . d <= cos(alpha_crit)``
+for every displaced face ``f`` and every ``d`` in ``D`` (paper, section 2.1.3; the
+faces of the undisplaced surface are left out of the region beforehand when they
+overhang themselves). :func:`limit_relief` lowers the displacements where a face
+breaks that, and also where a face would fold over (its displaced normal turned by
+90 degrees or more from its undisplaced one: the relief is deeper than the local
+curvature allows, e.g. an engraving into a thin convex edge), by shrinking the three
+displacements of each offending face by ``shrink`` per round towards 0; after
+``rounds`` rounds what still offends is set to 0, which is the undisplaced surface
+and so never offends. Only faces next to a changed vertex are looked at again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .overhang import build_directions, check_critical_angle
+
+__all__ = ["ReliefLimit", "limit_relief"]
+
+
+@dataclass(frozen=True)
+class ReliefLimit:
+    """What :func:`limit_relief` changed.
+
+    Attributes:
+        lowered: vertices whose displacement was lowered.
+        zeroed: vertices set back on the surface.
+        overhang_faces: faces that overhung before limiting.
+        folded_faces: faces that folded over before limiting.
+        removed_mm3: estimated relief volume removed, ``sum |d - d'| A_i`` (mm^3,
+            ``A_i`` a third of the area of the faces around vertex ``i``).
+    """
+
+    lowered: int
+    zeroed: int
+    overhang_faces: int
+    folded_faces: int
+    removed_mm3: float
+
+
+def _bad(v, f, n0, dirs, cos_limit):
+    p = v[f]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    ln = np.linalg.norm(n, axis=1)
+    n = n / np.maximum(ln, 1e-300)[:, None]
+    fold = ((n * n0).sum(1) <= 0.0) | (ln <= 1e-300)
+    over = np.zeros(len(f), dtype=bool) if dirs is None else np.any(-(n @ dirs.T) > cos_limit, axis=1)
+    return over, fold
+
+
+def limit_relief(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    normals: np.ndarray,
+    d: np.ndarray,
+    *,
+    build_dir=None,
+    critical_angle: float = 45.0,
+    margin: float = 1.0,
+    shrink: float = 0.7,
+    rounds: int = 25,
+) -> tuple[np.ndarray, ReliefLimit]:
+    """Lower vertex displacements so that no displaced face overhangs or folds.
+
+    Args:
+        vertices: ``(N, 3)`` undisplaced positions, mm.
+        faces: ``(M, 3)`` vertex indices.
+        normals: ``(N, 3)`` unit displacement directions.
+        d: ``(N,)`` displacements along ``normals``, mm (0 off the texture).
+        build_dir: ``(3,)`` or ``(K, 3)`` build direction(s), or None (fold check
+            only).
+        critical_angle: degrees between face and build plate, 0..90.
+        margin: degrees added to ``critical_angle`` for the limit, so that the
+            result passes :func:`texcad.check` after rounding to float32.
+        shrink: factor per round on the offending faces' displacements.
+        rounds: rounds of shrinking before what still offends is set to 0.
+
+    Returns:
+        ``(d', report)`` with ``|d'_i| <= |d_i|`` and the same signs.
+    """
+    v0 = np.asarray(vertices, dtype=np.float64)
+    nrm = np.asarray(normals, dtype=np.float64)
+    d0 = np.asarray(d, dtype=np.float64)
+    out = d0.copy()
+    dirs = None if build_dir is None else build_directions(build_dir)
+    cos_limit = 0.0
+    if dirs is not None:
+        cos_limit = float(np.cos(np.radians(min(89.9, check_critical_angle(critical_angle) + margin))))
+    live = np.flatnonzero((out[faces] != 0).any(axis=1))
+    f = faces[live]
+    p0 = v0[f]
+    n0 = np.cross(p0[:, 1] - p0[:, 0], p0[:, 2] - p0[:, 0])
+    n0 /= np.maximum(np.linalg.norm(n0, axis=1), 1e-300)[:, None]
+    cand = np.ones(len(f), dtype=bool)
+    first = None
+    for r in range(rounds + len(v0) + 1):  # per round; only faces near a change are looked at
+        idx = np.flatnonzero(cand)
+        if not len(idx):
+            break
+        fi = f[idx]
+        vv = v0[fi] + nrm[fi] * out[fi][..., None]
+        over, fold = _bad(vv.reshape(-1, 3), np.arange(3 * len(idx)).reshape(-1, 3), n0[idx], dirs, cos_limit)
+        if first is None:
+            first = (int(over.sum()), int(fold.sum()))
+        bad = idx[over | fold]
+        if not len(bad):
+            break
+        verts = np.unique(f[bad])
+        if r < rounds:
+            out[verts] *= shrink
+        else:
+            out[verts] = 0.0
+        changed = np.zeros(len(v0), dtype=bool)
+        changed[verts] = True
+        cand = changed[f].any(axis=1)
+    else:  # pragma: no cover - zeroing converges: the undisplaced surface never offends
+        raise AssertionError("relief limiter did not converge")
+    area = np.zeros(len(v0))
+    p = v0[faces]
+    fa = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    for k in range(3):  # per corner
+        area += np.bincount(faces[:, k], weights=fa / 3.0, minlength=len(v0))
+    low = out != d0
+    rep = ReliefLimit(
+        lowered=int(low.sum()),
+        zeroed=int((low & (out == 0)).sum()),
+        overhang_faces=first[0] if first else 0,
+        folded_faces=first[1] if first else 0,
+        removed_mm3=float((np.abs(d0 - out) * area).sum()),
+    )
+    return out, rep
