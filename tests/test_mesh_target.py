@@ -221,3 +221,20 @@ def test_region_strings():
     assert Region.parse("all+bottom").bottom and not Region.parse("not-bottom").bottom
     with pytest.raises(ParameterError):
         Region.parse("box:1,2")
+
+
+def test_cli_texture_mesh(tmp_path, capsys):
+    from texcad.cli import main
+
+    part = tmp_path / "part.stl"
+    _box().export(part)
+    out = tmp_path / "out.3mf"
+    rc = main(["texture", str(part), "--region", "normal:+z:30@builtin:diamond_knurl@engraved", "--region", "normal:+x:60",
+               "--texture", "builtin:ridges", "--pitch", "1.0", "--build-dir", "0,0,1", "--separate-texture", "-o", str(out), "-q"])
+    assert rc == 0 and "watertight True" in capsys.readouterr().out
+    rep = texcad.check(out, build_dir=(0, 0, 1))
+    assert rep.objects == ["base", "texture 1", "texture 2"]
+    assert rep.watertight and rep.shells == 1 and rep.texture_overhang_area_mm2 == 0.0
+    assert rep.bounds_mm[1][2] <= 16.0 + 1e-4  # the top is engraved: no higher than before
+    assert main(["texture", str(part), "--region", "cone", "-o", str(tmp_path / "x.stl"), "-q"]) != 0
+    assert not (tmp_path / "x.stl").exists()
