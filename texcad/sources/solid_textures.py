@@ -13,7 +13,7 @@ the tile of the texture. They are the 3-D forms of built-ins where that makes se
 * ``sand``: periodic 3-D value noise with feature size ``grain`` mm (seeded values
   on a periodic lattice, interpolated with the quintic fade ``6t^5 - 15t^4 + 10t^3``),
   two octaves;
-* ``diamond_knurl`` / ``straight_knurl``: knurls as helices about the z axis (or the
+* ``diamond_knurl`` (and ``knurl_fine``) / ``straight_knurl``: knurls as helices about the z axis (or the
   ``axis`` given) through ``origin``: with ``theta`` the angle about the axis and
   ``z`` along it, ``N = round(2 pi r / period)`` starts at the reference radius ``r``,
   ``s = theta N / 2 pi``: the diamond knurl is ``min(tri(s + z/period + 1/2),
@@ -150,6 +150,7 @@ SOLID_TEXTURES: dict[str, Callable[..., Func3]] = {
     "leather": _leather,
     "sand": _sand,
     "diamond_knurl": _diamond_knurl,
+    "knurl_fine": _diamond_knurl,
     "straight_knurl": _straight_knurl,
 }
 
