@@ -238,3 +238,25 @@ def test_cli_texture_mesh(tmp_path, capsys):
     assert rep.bounds_mm[1][2] <= 16.0 + 1e-4  # the top is engraved: no higher than before
     assert main(["texture", str(part), "--region", "cone", "-o", str(tmp_path / "x.stl"), "-q"]) != 0
     assert not (tmp_path / "x.stl").exists()
+
+
+def test_repairs_flipped_and_split_input_and_masks():
+    tm = _box()
+    f = np.asarray(tm.faces).copy()
+    f[::3] = f[::3, ::-1]  # a third of the triangles flipped
+    soup = trimesh.Trimesh(np.asarray(tm.vertices)[f.ravel()], np.arange(f.size).reshape(-1, 3), process=False)
+    r = texcad.texture(soup, "normal:+x:30", "builtin:ridges", height=0.5, pitch=1.0, projection="planar:+x")
+    assert r.mesh.is_watertight and r.volume > 3200.0  # welded, oriented outward, textured
+    # a mask in the projection: only the left half (u < 0) of the +x face
+    mask = np.zeros((4, 4))
+    mask[:, :2] = 1.0
+    m = texcad.texture(tm, "normal:+x:30", "builtin:ridges", height=0.5, pitch=1.0, projection="planar:+x",
+                       origin=(10, 0, 8), mask=mask, mask_size=(20, 16), border=0.5)
+    v = m.mesh.vertices.astype(np.float64)
+    moved = v[v[:, 0] > 10 + 1e-4]
+    assert len(moved) > 20 and np.all(moved[:, 1] < 2.5 + 1e-6)  # u along +y: left half only (+ blend)
+    with pytest.raises(ParameterError, match="mask covers none"):
+        texcad.texture(tm, "normal:+x:30", "builtin:ridges", projection="planar:+x", mask=mask, mask_size=(2, 2),
+                       origin=(100, 100, 100))
+    with pytest.raises(ParameterError, match="mask"):
+        texcad.texture(tm, "normal:+x:30", "builtin:ridges", projection="planar:+x", mask=np.ones(5), mask_size=(2, 2))

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
@@ -58,7 +58,7 @@ MESH_SUFFIXES = (".stl", ".3mf", ".obj")
 MODES = {"raised": 0.0, "engraved": 1.0, "centred": 0.5, "centered": 0.5}
 #: Options of :func:`texture_mesh` (per call; every layer may override the layer ones).
 LAYER_OPTIONS = ("height", "mode", "projection", "axis", "origin", "radius", "blend", "rotation", "local_radius",
-                 "border", "gradient", "scale", "size", "pitch")
+                 "border", "gradient", "scale", "size", "pitch", "mask", "mask_size")
 MESH_OPTIONS = LAYER_OPTIONS + ("build_dir", "critical_angle", "progress", "check")
 
 
@@ -101,14 +101,16 @@ def load_closed(target: Any) -> tuple[np.ndarray, np.ndarray, int, dict]:
     tm.update_faces(tm.nondegenerate_faces())
     tm.update_faces(tm.unique_faces())
     tm.remove_unreferenced_vertices()
+    trimesh.repair.fix_normals(tm, multibody=True)
     rep = edge_report(np.asarray(tm.faces))
     if not rep["watertight"] or not tm.is_watertight:
         raise InputError(
-            f"{name} is not closed after repair ({rep.get('boundary_edges', '?')} open edges, "
-            f"{rep.get('nonmanifold_edges', '?')} non-manifold edges); texcad textures closed solids: "
+            f"{name} is not closed after repair ({rep['boundary']} open edges, {rep['nonmanifold']} non-manifold "
+            f"edges, {rep['misoriented']} misoriented); texcad textures closed solids: "
             "close the holes (e.g. in the CAD program or a mesh repair tool) and export it again"
         )
-    trimesh.repair.fix_normals(tm, multibody=True)
+    if tm.volume <= 0:
+        tm.invert()  # inside out as a whole: turn it right way out
     bodies = int(tm.body_count)
     info = {"input_triangles": int(len(f)), "repaired_triangles": int(len(tm.faces)), "bodies": bodies}
     return np.array(tm.vertices, np.float64), np.array(tm.faces, np.int64), bodies, info
@@ -132,6 +134,10 @@ class Layer:
         scale: factor on the texture's lengths.
         size: tile size ``(w, d)`` mm of an image texture.
         pitch: longest edge after subdivision, mm.
+        mask: where to texture inside the region, in the projection: an image path, a
+            Heightmap or a 2-D array, 0 (black) = none ... 1 (white) = full depth,
+            stretched over ``mask_size`` ``(w, d)`` mm of texture coordinates centred
+            on the projection's origin (0 outside it).
     """
 
     region: Any = "all"
@@ -144,7 +150,8 @@ class Layer:
     scale: float = 1.0
     size: Any = None
     pitch: float = 0.5
-    extra: dict = field(default_factory=dict)
+    mask: Any = None
+    mask_size: Any = None
 
     @classmethod
     def make(cls, region: Any, texture: Any, options: dict) -> "Layer":
@@ -181,6 +188,8 @@ class Layer:
         if proj.kind == "solid":
             if not (isinstance(self.texture, str) and self.texture.startswith(PREFIX)):
                 raise ParameterError("a solid projection needs a built-in texture with a 3-D form, e.g. builtin:stones")
+            if self.mask is not None:
+                raise ParameterError("a mask lies in a projection's texture coordinates; a solid texture has none: use a region instead")
             name, params = parse_texture_spec(self.texture)
             axis = parse_axis(proj.axis)
             origin = proj.origin if proj.origin is not None else 0.5 * (points.min(0) + points.max(0))
@@ -198,7 +207,40 @@ class Layer:
             sampler = TileSampler(hm, (self.scale, self.scale))
         samples, info = proj.samples(points, normals, sampler.tile)
         info["projection"] = proj.kind
+        if self.mask is not None:
+            info["mask"] = sample_heights(samples, _mask_sampler(self.mask, self.mask_size))
         return np.clip(sample_heights(samples, sampler), 0.0, H), info
+
+
+def _mask_sampler(mask: Any, size: Any) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """Bilinear, non-periodic sampling of a mask in [0, 1] over ``size`` mm, centred."""
+    from ..sources import Heightmap
+
+    if size is None or np.size(size) != 2 or not all(np.isfinite(size)) or min(size) <= 0:
+        raise ParameterError(f"mask_size must be (w, d) in mm (the texture coordinates the mask covers), got {size!r}")
+    w, d = (float(t) for t in size)
+    if isinstance(mask, Heightmap):
+        a = np.asarray(mask.heights, np.float64)
+        a = a / a.max() if a.max() > 0 else a
+    elif isinstance(mask, (str, os.PathLike)):
+        a = np.asarray(Heightmap.from_image(os.fspath(mask), size=(w, d), height=1.0).heights, np.float64)
+    else:
+        a = np.asarray(mask, dtype=np.float64)
+    if a.ndim != 2 or min(a.shape) < 2 or not np.all(np.isfinite(a)) or a.min() < 0 or a.max() > 1:
+        raise ParameterError(f"a mask is a 2-D array (at least 2 x 2) of values in [0, 1] (y up), got shape {a.shape}")
+    rows, cols = a.shape
+
+    def f(u, v):
+        fu = (np.asarray(u) / w + 0.5) * cols - 0.5
+        fv = (np.asarray(v) / d + 0.5) * rows - 0.5
+        inside = (fu >= -0.5) & (fu <= cols - 0.5) & (fv >= -0.5) & (fv <= rows - 0.5)
+        fu, fv = np.clip(fu, 0, cols - 1), np.clip(fv, 0, rows - 1)
+        c0, r0 = np.minimum(fu.astype(np.int64), cols - 2), np.minimum(fv.astype(np.int64), rows - 2)
+        tu, tv = fu - c0, fv - r0
+        val = (a[r0, c0] * (1 - tu) + a[r0, c0 + 1] * tu) * (1 - tv) + (a[r0 + 1, c0] * (1 - tu) + a[r0 + 1, c0 + 1] * tu) * tv
+        return np.where(inside, val, 0.0)
+
+    return f
 
 
 class MeshTextured(Textured):
@@ -284,6 +326,11 @@ def _relief(layer: Layer, v, f, sel, normals):
     H = float(layer.height)
     R = H * (np.minimum(1.0, dist[idx] / layer.border) if layer.border > 0 else (dist[idx] > 0).astype(float))
     h, info = layer.heights(v[idx], normals[idx])
+    m = info.pop("mask", None)
+    if m is not None:
+        if not np.any(m > 0):
+            raise ParameterError("the mask covers none of the region: check mask_size (mm) and the projection's origin")
+        R = R * m  # the mask scales the M-I ramp: 0 where it is black
     c = MODES[layer.mode]
     g = _gradient(v[idx], layer.gradient)
     d = np.zeros(len(v))
