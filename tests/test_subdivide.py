@@ -61,3 +61,16 @@ def test_normals_and_offset_directions():
     d = offset_directions(v, f, n)
     # at a cube's corner, moving by d offsets all three faces by exactly 1 mm
     assert np.allclose(np.abs(d), 1.0, atol=1e-9)
+
+
+def test_flips_remove_the_fans_of_slivers():
+    # a CAD-style strip: two 40 x 0.5 mm slivers make a flat rectangle
+    tm = trimesh.creation.box((40.0, 0.5, 3.0))
+    v, f = np.asarray(tm.vertices), np.asarray(tm.faces)
+    V, F, _ = refine(v, f, np.ones(len(f), bool), 0.5)
+    t = trimesh.Trimesh(V, F, process=False)
+    assert t.is_watertight and t.is_winding_consistent and abs(t.volume - 60.0) < 1e-9
+    # close to the area / triangle of edge-0.5 right triangles, not the fans' many more
+    assert len(F) < 2.0 * tm.area / (0.5 * 0.5 * 0.5 / 2)
+    ang = _min_angles(V, F)
+    assert np.median(ang) > 30.0 and np.quantile(ang, 0.01) > 2.0

@@ -14,7 +14,8 @@ part's lowest point along ``build_dir`` (the face the part stands on).
 
 String forms (CLI): ``"all"``, ``"not-bottom"`` (the same: the bed face is never
 textured by default), ``"all+bottom"``, ``"normal:+x:70"`` or ``"normal:0,1,1:30"``,
-``"box:x0,y0,z0,x1,y1,z1"``, ``"sphere:x,y,z,r"``.
+``"box:x0,y0,z0,x1,y1,z1"``, ``"sphere:x,y,z,r"``; ``"not:SPEC"`` is every face but
+those of ``SPEC`` (e.g. ``"not:normal:+z:30"``: the sides and below, not the top).
 """
 
 from __future__ import annotations
@@ -62,6 +63,7 @@ class Region:
         lo, hi: ``box`` corners, mm.
         center, radius: ``sphere``, mm.
         bottom: texture the bed face too (default False).
+        invert: every face *not* selected by the rest (the bed face still left out).
     """
 
     kind: str = "all"
@@ -72,6 +74,7 @@ class Region:
     center: "Sequence[float] | None" = None
     radius: float | None = None
     bottom: bool = False
+    invert: bool = False
 
     def __post_init__(self) -> None:
         if self.kind not in REGION_KINDS:
@@ -96,6 +99,9 @@ class Region:
         if not isinstance(spec, str):
             raise ParameterError(f"a mesh region is a texcad Region or a string like 'normal:+x:70', got {type(spec).__name__}")
         s = spec.strip().lower()
+        if s.startswith("not:"):
+            inner = cls.parse(s[4:])
+            return cls(**{**inner.__dict__, "invert": not inner.invert})
         if s in ("all", "not-bottom", "everything-but-bottom"):
             return cls()
         if s in ("all+bottom", "everything"):
@@ -116,7 +122,8 @@ class Region:
             v = _numbers(rest, 4, spec)
             return cls("sphere", center=tuple(v[:3]), radius=v[3])
         raise ParameterError(
-            f"unknown region {spec!r}; use all, not-bottom, all+bottom, normal:+x:70, box:x0,y0,z0,x1,y1,z1 or sphere:x,y,z,r"
+            f"unknown region {spec!r}; use all, not-bottom, all+bottom, normal:+x:70, box:x0,y0,z0,x1,y1,z1, "
+            "sphere:x,y,z,r or not:REGION"
         )
 
     def select(
@@ -153,6 +160,8 @@ class Region:
                 sel = np.all(tri.max(axis=1) >= c0 - r, axis=1) & np.all(tri.min(axis=1) <= c0 + r, axis=1)
             else:
                 sel = np.linalg.norm(tri.mean(axis=1) - c0, axis=1) <= r
+        if self.invert:
+            sel = np.ones(len(faces), dtype=bool) if (loose and self.kind in ("box", "sphere")) else ~sel
         if not self.bottom:
             sel &= ~bed_faces(vertices, faces, normals, build_dir, tolerance)
         return sel

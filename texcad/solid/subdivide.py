@@ -24,7 +24,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..util import require_memory
 
-__all__ = ["refine", "vertex_normals", "offset_directions", "face_normals", "edge_lengths"]
+__all__ = ["refine", "flip_edges", "vertex_normals", "offset_directions", "face_normals", "edge_lengths"]
 
 _ROT = np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])
 
@@ -36,7 +36,7 @@ def _edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     e.sort(axis=1)
     n = np.int64(e.max() + 1) if e.size else np.int64(1)
     key = e[:, 0] * n + e[:, 1]
-    order = np.argsort(key, kind="stable")
+    order = np.argsort(key)
     ks = key[order]
     first = np.ones(len(ks), dtype=bool)
     first[1:] = ks[1:] != ks[:-1]
@@ -86,6 +86,61 @@ def _split(faces: np.ndarray, eid: np.ndarray, longest: np.ndarray, mid: np.ndar
     out += [np.stack([m[rn], b[rn], c[rn]], 1), np.stack([m[rp], b[rp], p[rp]], 1), np.stack([m[rp], p[rp], c[rp]], 1)]
     src += [ar[rn], ar[rp], ar[rp]]
     return np.concatenate(out), np.concatenate(src)
+
+
+def _angle_at(p: np.ndarray, q: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Angle (radians) at ``p`` of the triangles ``(p, q, r)``."""
+    a, b = q - p, r - p
+    c = (a * b).sum(1) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
+    return np.arccos(np.clip(c, -1.0, 1.0))
+
+
+def flip_edges(v: np.ndarray, f: np.ndarray, active: np.ndarray, *, passes: int = 4) -> np.ndarray:
+    """Lawson edge flips between coplanar active triangles (in place on a copy).
+
+    An edge shared by the active triangles ``(a, b, c)`` and ``(b, a, d)`` that lie in
+    one plane (normals within 1e-9 rad) is flipped to ``c-d`` when the angles at ``c``
+    and ``d`` add up to more than 180 degrees (it is not locally Delaunay). A flip
+    changes neither the surface (the two triangles cover the same planar quad, which
+    is convex when the angles add up to more than 180 degrees) nor its closedness; it
+    removes the fans of thin triangles that bisection leaves on the long slivers of CAD
+    exports. Each pass flips an independent set of edges (no triangle in two flips:
+    an edge flips when its excess angle is the largest at both of its triangles).
+    """
+    f = f.copy()
+    for _ in range(passes):  # per pass over all edges at once
+        _, eid = _edges(f)
+        order = np.argsort(eid.ravel())
+        pair = order.reshape(-1, 2)  # closed mesh: every edge has two (face, corner) slots
+        both = active[pair[:, 0] // 3] & active[pair[:, 1] // 3]
+        pair = pair[both]
+        f1, k1 = pair[:, 0] // 3, pair[:, 0] % 3
+        f2, k2 = pair[:, 1] // 3, pair[:, 1] % 3
+        a, b = f[f1, k1], f[f1, (k1 + 1) % 3]
+        c, d = f[f1, (k1 + 2) % 3], f[f2, (k2 + 2) % 3]
+        ok = (f[f2, k2] == b) & (f[f2, (k2 + 1) % 3] == a) & (c != d)
+        va, vb, vc, vd = v[a], v[b], v[c], v[d]
+        # not locally Delaunay: the angles at c and d add up to more than 180 degrees
+        excess = _angle_at(vc, va, vb) + _angle_at(vd, vb, va) - np.pi
+        ok &= excess > 1e-9
+        s = np.flatnonzero(ok)
+        if not len(s):
+            break
+        n1 = np.cross(vb[s] - va[s], vc[s] - va[s])
+        n2 = np.cross(va[s] - vb[s], vd[s] - vb[s])
+        l1, l2 = np.linalg.norm(n1, axis=1), np.linalg.norm(n2, axis=1)
+        flat = (l1 > 0) & (l2 > 0) & ((n1 * n2).sum(1) > (1.0 - 1e-12) * l1 * l2)
+        s = s[flat]
+        if not len(s):
+            break
+        pri = excess[s] + 1e-15 * np.arange(len(s)) / len(s)
+        best = np.full(len(f), -1.0)
+        np.maximum.at(best, f1[s], pri)
+        np.maximum.at(best, f2[s], pri)
+        s = s[(pri == best[f1[s]]) & (pri == best[f2[s]])]
+        f[f1[s]] = np.stack([a[s], d[s], c[s]], 1)
+        f[f2[s]] = np.stack([d[s], b[s], c[s]], 1)
+    return f
 
 
 def refine(
@@ -144,6 +199,7 @@ def refine(
         v = np.concatenate([v, 0.5 * (v[edges[split, 0]] + v[edges[split, 1]])])
         f, src = _split(f, eid, longest, mid)
         parent, act = parent[src], act[src]
+        f = flip_edges(v, f, act, passes=1)  # keeps the triangles well shaped
     return v, f, parent
 
 
