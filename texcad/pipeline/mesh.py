@@ -27,7 +27,8 @@ The job, for each texture *layer* ``(region, texture, options)``:
 
 The result is a :class:`MeshTextured` (a :class:`texcad.Textured`): ``mesh`` is the
 displaced mesh, ``base_mesh`` the part with every texture at its lowest (the surface
-itself for raised textures, pushed in by ``H`` for engraved ones), ``texture_mesh``
+itself for raised textures, pushed in by ``H`` for engraved ones) and :data:`SKIN` mm
+below that inside the regions, ``texture_mesh``
 the texture alone (``mesh - base_mesh``, manifold3d), ``layer_meshes`` one texture
 body per layer; a 3MF with ``separate_texture=True`` holds the base and every
 texture as its own object of the build item. A mesh has no B-rep: ``.shape`` raises.
@@ -55,6 +56,10 @@ from .result import Textured
 __all__ = ["MESH_SUFFIXES", "MODES", "MESH_OPTIONS", "Layer", "MeshTextured", "is_mesh_target", "load_closed", "texture_mesh"]
 
 MESH_SUFFIXES = (".stl", ".3mf", ".obj")
+#: How far (mm) the base lies under the regions in ``base_mesh`` (texture bodies have
+#: at least this thickness, so a slicer's multi-material split has no zero-thickness
+#: slivers).
+SKIN = 0.02
 MODES = {"raised": 0.0, "engraved": 1.0, "centred": 0.5, "centered": 0.5}
 #: Options of :func:`texture_mesh` (per call; every layer may override the layer ones).
 LAYER_OPTIONS = ("height", "mode", "projection", "axis", "origin", "radius", "blend", "rotation", "local_radius",
@@ -338,7 +343,9 @@ def _relief(layer: Layer, v, f, sel, normals):
     d[idx] = g * (np.minimum(h, R) - c * R)
     b[idx] = -g * c * R
     info["vertices"] = int(len(idx))
-    return d, b, info
+    inside = np.zeros(len(v), dtype=bool)
+    inside[idx] = dist[idx] > 0  # the border itself stays where it is
+    return d, b, info, inside
 
 
 def _assert_solid(mesh: Mesh, bodies: int, what: str) -> None:
@@ -402,27 +409,38 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
     d2, limit = limit_relief(v, f, normals, d, build_dir=dirs, critical_angle=crit)
     if limit.folded_faces:
         warnings.warn(f"the texture was lowered on {limit.lowered} vertices where it would fold over (too deep for the curvature there)", TexcadWarning, stacklevel=2)
-    ratio = np.divide(d2, d, out=np.zeros_like(d), where=d != 0)
     out = Mesh((v + normals * d2[:, None]).astype(np.float32), f.astype(np.uint32), {"texture": np.flatnonzero((d2[f] != 0).any(axis=1))})
     _assert_solid(out, bodies, "textured mesh")
     progress(0.9, "checked")
+    # the base lies SKIN mm under every region, so no texture body has parts of zero thickness
+    inside = np.any([p[3] for p in parts], axis=0)
+    b = b - SKIN * inside
     base = Mesh((v + normals * b[:, None]).astype(np.float32), f.astype(np.uint32))
     info.update(triangles=int(len(f)), layers=[p[2] for p in parts], kind="mesh", face="mesh",
                 no_brep="a mesh has no B-rep: it is textured as a mesh", region_faces=[int(m.sum()) for m in masks])
-    return _result(out, base, v, f, normals, b, parts, ratio, limit, info)
+    return _result(out, base, v, f, normals, b, d2, parts, limit, info)
 
 
-def _result(out, base, v, f, normals, b, parts, ratio, limit, info) -> MeshTextured:
+def _difference(a: Mesh, b: Mesh) -> Mesh:
+    """``a - b`` (manifold3d), without the zero-volume shells (< 1e-6 mm^3) that
+    coincident surfaces can leave."""
+    import manifold3d as m3d
+
     from ..solid import from_manifold, to_manifold
 
+    pieces = [p for p in (to_manifold(a) - to_manifold(b)).decompose() if p.volume() > 1e-6]  # per shell
+    return from_manifold(m3d.Manifold.compose(pieces) if pieces else m3d.Manifold())
+
+
+def _result(out, base, v, f, normals, b, d2, parts, limit, info) -> MeshTextured:
     def texture_body():
-        return from_manifold(to_manifold(out) - to_manifold(base))
+        return _difference(out, base)
 
     def layer_bodies():
         res = []
-        for dk, bk, _ in parts:  # per layer
-            mk = Mesh((v + normals * (b + (dk * ratio - bk))[:, None]).astype(np.float32), f.astype(np.uint32))
-            res.append(from_manifold(to_manifold(mk) - to_manifold(base)))
+        for *_, inside in parts:  # per layer: its own relief on the base
+            mk = Mesh((v + normals * np.where(inside, d2, b)[:, None]).astype(np.float32), f.astype(np.uint32))
+            res.append(_difference(mk, base))
         return res
 
     return MeshTextured(mesh=out, base_mesh=base, texture_mesh=texture_body, layers=layer_bodies, limits=limit, info=info)
