@@ -29,9 +29,10 @@ __all__ = ["refine", "flip_edges", "vertex_normals", "offset_directions", "face_
 _ROT = np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])
 
 
-def _edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _edges(faces: np.ndarray, slots: bool = False):
     """Unique undirected edges ``(E, 2)`` and, per face, its three edges' ids
-    ``(M, 3)`` (local edge k runs from corner k to corner k+1)."""
+    ``(M, 3)`` (local edge k runs from corner k to corner k+1); with ``slots`` also
+    the ``3M`` slots ``3 face + corner`` sorted by edge (consecutive per edge)."""
     e = np.stack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]], axis=1).reshape(-1, 2)
     e.sort(axis=1)
     n = np.int64(e.max() + 1) if e.size else np.int64(1)
@@ -43,7 +44,7 @@ def _edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     inv = np.empty(len(ks), dtype=np.int64)
     inv[order] = np.cumsum(first) - 1
     uniq = e[order[first]]
-    return uniq, inv.reshape(-1, 3)
+    return (uniq, inv.reshape(-1, 3), order) if slots else (uniq, inv.reshape(-1, 3))
 
 
 def edge_lengths(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -88,13 +89,6 @@ def _split(faces: np.ndarray, eid: np.ndarray, longest: np.ndarray, mid: np.ndar
     return np.concatenate(out), np.concatenate(src)
 
 
-def _angle_at(p: np.ndarray, q: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """Angle (radians) at ``p`` of the triangles ``(p, q, r)``."""
-    a, b = q - p, r - p
-    c = (a * b).sum(1) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
-    return np.arccos(np.clip(c, -1.0, 1.0))
-
-
 def flip_edges(v: np.ndarray, f: np.ndarray, active: np.ndarray, *, passes: int = 4) -> np.ndarray:
     """Lawson edge flips between coplanar active triangles (in place on a copy).
 
@@ -109,8 +103,7 @@ def flip_edges(v: np.ndarray, f: np.ndarray, active: np.ndarray, *, passes: int 
     """
     f = f.copy()
     for _ in range(passes):  # per pass over all edges at once
-        _, eid = _edges(f)
-        order = np.argsort(eid.ravel())
+        _, _, order = _edges(f, slots=True)
         pair = order.reshape(-1, 2)  # closed mesh: every edge has two (face, corner) slots
         both = active[pair[:, 0] // 3] & active[pair[:, 1] // 3]
         pair = pair[both]
@@ -120,20 +113,17 @@ def flip_edges(v: np.ndarray, f: np.ndarray, active: np.ndarray, *, passes: int 
         c, d = f[f1, (k1 + 2) % 3], f[f2, (k2 + 2) % 3]
         ok = (f[f2, k2] == b) & (f[f2, (k2 + 1) % 3] == a) & (c != d)
         va, vb, vc, vd = v[a], v[b], v[c], v[d]
-        # not locally Delaunay: the angles at c and d add up to more than 180 degrees
-        excess = _angle_at(vc, va, vb) + _angle_at(vd, vb, va) - np.pi
-        ok &= excess > 1e-9
+        # not locally Delaunay: the angles at c and d add up to more than 180 degrees,
+        # i.e. cot c + cot d < 0 (cot = dot / |cross| of the edges from the corner)
+        n1 = np.cross(vb - va, vc - va)
+        n2 = np.cross(va - vb, vd - vb)
+        l1, l2 = np.sqrt((n1 * n1).sum(1)), np.sqrt((n2 * n2).sum(1))
+        cot = ((va - vc) * (vb - vc)).sum(1) / np.maximum(l1, 1e-300) + ((vb - vd) * (va - vd)).sum(1) / np.maximum(l2, 1e-300)
+        ok &= (cot < -1e-9) & (l1 > 0) & (l2 > 0) & ((n1 * n2).sum(1) > (1.0 - 1e-12) * l1 * l2)
         s = np.flatnonzero(ok)
         if not len(s):
             break
-        n1 = np.cross(vb[s] - va[s], vc[s] - va[s])
-        n2 = np.cross(va[s] - vb[s], vd[s] - vb[s])
-        l1, l2 = np.linalg.norm(n1, axis=1), np.linalg.norm(n2, axis=1)
-        flat = (l1 > 0) & (l2 > 0) & ((n1 * n2).sum(1) > (1.0 - 1e-12) * l1 * l2)
-        s = s[flat]
-        if not len(s):
-            break
-        pri = excess[s] + 1e-15 * np.arange(len(s)) / len(s)
+        pri = -cot[s] + 1e-15 * np.arange(len(s)) / len(s)
         best = np.full(len(f), -1.0)
         np.maximum.at(best, f1[s], pri)
         np.maximum.at(best, f2[s], pri)
