@@ -260,3 +260,15 @@ def test_repairs_flipped_and_split_input_and_masks():
                        origin=(100, 100, 100))
     with pytest.raises(ParameterError, match="mask"):
         texcad.texture(tm, "normal:+x:30", "builtin:ridges", projection="planar:+x", mask=np.ones(5), mask_size=(2, 2))
+
+
+def test_too_deep_for_the_curvature_is_limited_with_a_warning():
+    thin = trimesh.creation.cylinder(radius=1.5, height=10.0, sections=24)
+    thin.apply_translation((0, 0, 5.0))
+    with pytest.warns(texcad.TexcadWarning, match="fold"):
+        r = texcad.texture(thin, "not:normal:+z:30", "builtin:pins", height=2.5, mode="engraved", pitch=0.4,
+                           projection="cylindrical", border=0.5)
+    assert r.limits.folded_faces > 0 and r.limits.lowered > 0
+    man = _man(r.mesh)
+    assert man.status() == m3d.Error.NoError and len(man.decompose()) == 1
+    assert (man - _man(Mesh(thin.vertices, thin.faces))).volume() < 1e-3  # still inside the envelope
