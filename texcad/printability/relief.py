@@ -8,10 +8,13 @@ faces of the undisplaced surface are left out of the region beforehand when they
 overhang themselves). :func:`limit_relief` lowers the displacements where a face
 breaks that, and also where a face would fold over (its displaced normal turned by
 90 degrees or more from its undisplaced one: the relief is deeper than the local
-curvature allows, e.g. an engraving into a thin convex edge), by shrinking the three
-displacements of each offending face by ``shrink`` per round towards 0; after
-``rounds`` rounds what still offends is set to 0, which is the undisplaced surface
-and so never offends. Only faces next to a changed vertex are looked at again.
+curvature allows, e.g. an engraving into a thin convex edge): each round finds, for
+every offending face, the largest factor ``s in [0, 1]`` on its three displacements
+that makes it pass (12 bisection steps; ``s = 0`` is the undisplaced surface, which
+passes), and every vertex takes the smallest factor of its offending faces (times
+``shrink^(round // 5)`` after the first five rounds, so that it converges quickly where
+neighbours keep disturbing each other); after ``rounds`` rounds what still offends is
+set to 0. Only faces next to a changed vertex are looked at again.
 """
 
 from __future__ import annotations
@@ -79,7 +82,7 @@ def limit_relief(
         critical_angle: degrees between face and build plate, 0..90.
         margin: degrees added to ``critical_angle`` for the limit, so that the
             result passes :func:`texcad.check` after rounding to float32.
-        shrink: factor per round on the offending faces' displacements.
+        shrink: extra factor per five rounds on the offending faces' displacements.
         rounds: rounds of shrinking before what still offends is set to 0.
 
     Returns:
@@ -100,28 +103,58 @@ def limit_relief(
     n0 /= np.maximum(np.linalg.norm(n0, axis=1), 1e-300)[:, None]
     cand = np.ones(len(f), dtype=bool)
     first = None
+
+    def offending(idx, dd):  # faces f[idx] with displacements dd (len(idx), 3)
+        fi = f[idx]
+        vv = v0[fi] + nrm[fi] * dd[..., None]
+        over, fold = _bad(vv.reshape(-1, 3), np.arange(3 * len(idx)).reshape(-1, 3), n0[idx], dirs, cos_limit)
+        return over, fold
+
     for r in range(rounds + len(v0) + 1):  # per round; only faces near a change are looked at
         idx = np.flatnonzero(cand)
         if not len(idx):
             break
-        fi = f[idx]
-        vv = v0[fi] + nrm[fi] * out[fi][..., None]
-        over, fold = _bad(vv.reshape(-1, 3), np.arange(3 * len(idx)).reshape(-1, 3), n0[idx], dirs, cos_limit)
+        over, fold = offending(idx, out[f[idx]])
         if first is None:
             first = (int(over.sum()), int(fold.sum()))
         bad = idx[over | fold]
         if not len(bad):
             break
-        verts = np.unique(f[bad])
+        fb = f[bad]
         if r < rounds:
-            out[verts] *= shrink
+            # the largest common factor s in [0, 1] on each offending face's three
+            # displacements that makes it pass (bisection; s = 0 is the surface, which
+            # passes), then every vertex takes the smallest factor of its faces
+            lo, hi = np.zeros(len(bad)), np.ones(len(bad))
+            base = out[fb]
+            for _ in range(12):  # per bisection step, all offending faces at once
+                mid = 0.5 * (lo + hi)
+                o, fo = offending(bad, base * mid[:, None])
+                ok = ~(o | fo)
+                lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
+            fac = np.ones(len(v0))
+            for k in range(3):  # per corner
+                np.minimum.at(fac, fb[:, k], 0.9 * lo * shrink ** (r // 5))
+            verts = np.flatnonzero(fac < 1.0)
+            out[verts] *= fac[verts]
         else:
+            verts = np.unique(fb)
             out[verts] = 0.0
         changed = np.zeros(len(v0), dtype=bool)
         changed[verts] = True
         cand = changed[f].any(axis=1)
     else:  # pragma: no cover - zeroing converges: the undisplaced surface never offends
         raise AssertionError("relief limiter did not converge")
+    # the same test on the float32 vertices that are written (a tiny face can turn
+    # when rounded): what offends there goes back to the surface
+    for _ in range(len(v0) + 1):  # per round of zeroing
+        fi = f[(out[f] != 0).any(axis=1)]
+        vv = (v0[fi] + nrm[fi] * out[fi][..., None]).astype(np.float32).astype(np.float64)
+        sel = (out[f] != 0).any(axis=1)
+        over, fold = _bad(vv.reshape(-1, 3), np.arange(vv.shape[0] * 3).reshape(-1, 3), n0[sel], dirs, cos_limit)
+        if not (over | fold).any():
+            break
+        out[np.unique(fi[over | fold])] = 0.0
     area = np.zeros(len(v0))
     p = v0[faces]
     fa = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
