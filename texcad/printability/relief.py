@@ -58,6 +58,72 @@ def _bad(v, f, n0, dirs, cos_limit):
     return over, fold
 
 
+def _offending(ctx, idx, dd):
+    """Overhang and fold flags of the faces ``f[idx]`` with displacements ``dd``."""
+    v0, nrm, f, n0, dirs, cos_limit = ctx
+    fi = f[idx]
+    vv = v0[fi] + nrm[fi] * dd[..., None]
+    return _bad(vv.reshape(-1, 3), np.arange(3 * len(idx)).reshape(-1, 3), n0[idx], dirs, cos_limit)
+
+
+def _largest_factor(ctx, bad, base):
+    """Per offending face: the largest common factor s in [0, 1] on its three
+    displacements ``base`` that makes it pass (12 bisection steps; s = 0 passes)."""
+    lo, hi = np.zeros(len(bad)), np.ones(len(bad))
+    for _ in range(12):  # per bisection step, all offending faces at once
+        mid = 0.5 * (lo + hi)
+        o, fo = _offending(ctx, bad, base * mid[:, None])
+        ok = ~(o | fo)
+        lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
+    return lo
+
+
+def _rounds(ctx, out, rounds, shrink):
+    """The limiter's rounds, in place on ``out``; returns the first round's counts."""
+    v0, f = ctx[0], ctx[2]
+    cand = np.ones(len(f), dtype=bool)
+    first = None
+    for r in range(rounds + len(v0) + 1):  # per round; only faces near a change are looked at
+        idx = np.flatnonzero(cand)
+        if not len(idx):
+            break
+        over, fold = _offending(ctx, idx, out[f[idx]])
+        if first is None:
+            first = (int(over.sum()), int(fold.sum()))
+        bad = idx[over | fold]
+        if not len(bad):
+            break
+        fb = f[bad]
+        if r < rounds:  # every vertex takes the smallest factor of its offending faces
+            lo = _largest_factor(ctx, bad, out[fb])
+            fac = np.ones(len(v0))
+            for k in range(3):  # per corner
+                np.minimum.at(fac, fb[:, k], 0.9 * lo * shrink ** (r // 5))
+            verts = np.flatnonzero(fac < 1.0)
+            out[verts] *= fac[verts]
+        else:
+            verts = np.unique(fb)
+            out[verts] = 0.0
+        changed = np.zeros(len(v0), dtype=bool)
+        changed[verts] = True
+        cand = changed[f].any(axis=1)
+    return first
+
+
+def _float32_pass(ctx, out) -> None:
+    """The same test on the float32 vertices that are written (a tiny face can turn
+    when rounded): what offends there goes back to the surface, in place."""
+    v0, nrm, f, n0, dirs, cos_limit = ctx
+    for _ in range(len(v0) + 1):  # per round of zeroing
+        sel = (out[f] != 0).any(axis=1)
+        fi = f[sel]
+        vv = (v0[fi] + nrm[fi] * out[fi][..., None]).astype(np.float32).astype(np.float64)
+        over, fold = _bad(vv.reshape(-1, 3), np.arange(vv.shape[0] * 3).reshape(-1, 3), n0[sel], dirs, cos_limit)
+        if not (over | fold).any():
+            return
+        out[np.unique(fi[over | fold])] = 0.0
+
+
 def limit_relief(
     vertices: np.ndarray,
     faces: np.ndarray,
@@ -101,60 +167,9 @@ def limit_relief(
     p0 = v0[f]
     n0 = np.cross(p0[:, 1] - p0[:, 0], p0[:, 2] - p0[:, 0])
     n0 /= np.maximum(np.linalg.norm(n0, axis=1), 1e-300)[:, None]
-    cand = np.ones(len(f), dtype=bool)
-    first = None
-
-    def offending(idx, dd):  # faces f[idx] with displacements dd (len(idx), 3)
-        fi = f[idx]
-        vv = v0[fi] + nrm[fi] * dd[..., None]
-        over, fold = _bad(vv.reshape(-1, 3), np.arange(3 * len(idx)).reshape(-1, 3), n0[idx], dirs, cos_limit)
-        return over, fold
-
-    for r in range(rounds + len(v0) + 1):  # per round; only faces near a change are looked at
-        idx = np.flatnonzero(cand)
-        if not len(idx):
-            break
-        over, fold = offending(idx, out[f[idx]])
-        if first is None:
-            first = (int(over.sum()), int(fold.sum()))
-        bad = idx[over | fold]
-        if not len(bad):
-            break
-        fb = f[bad]
-        if r < rounds:
-            # the largest common factor s in [0, 1] on each offending face's three
-            # displacements that makes it pass (bisection; s = 0 is the surface, which
-            # passes), then every vertex takes the smallest factor of its faces
-            lo, hi = np.zeros(len(bad)), np.ones(len(bad))
-            base = out[fb]
-            for _ in range(12):  # per bisection step, all offending faces at once
-                mid = 0.5 * (lo + hi)
-                o, fo = offending(bad, base * mid[:, None])
-                ok = ~(o | fo)
-                lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
-            fac = np.ones(len(v0))
-            for k in range(3):  # per corner
-                np.minimum.at(fac, fb[:, k], 0.9 * lo * shrink ** (r // 5))
-            verts = np.flatnonzero(fac < 1.0)
-            out[verts] *= fac[verts]
-        else:
-            verts = np.unique(fb)
-            out[verts] = 0.0
-        changed = np.zeros(len(v0), dtype=bool)
-        changed[verts] = True
-        cand = changed[f].any(axis=1)
-    else:  # pragma: no cover - zeroing converges: the undisplaced surface never offends
-        raise AssertionError("relief limiter did not converge")
-    # the same test on the float32 vertices that are written (a tiny face can turn
-    # when rounded): what offends there goes back to the surface
-    for _ in range(len(v0) + 1):  # per round of zeroing
-        fi = f[(out[f] != 0).any(axis=1)]
-        vv = (v0[fi] + nrm[fi] * out[fi][..., None]).astype(np.float32).astype(np.float64)
-        sel = (out[f] != 0).any(axis=1)
-        over, fold = _bad(vv.reshape(-1, 3), np.arange(vv.shape[0] * 3).reshape(-1, 3), n0[sel], dirs, cos_limit)
-        if not (over | fold).any():
-            break
-        out[np.unique(fi[over | fold])] = 0.0
+    ctx = (v0, nrm, f, n0, dirs, cos_limit)
+    first = _rounds(ctx, out, rounds, shrink)
+    _float32_pass(ctx, out)
     area = np.zeros(len(v0))
     p = v0[faces]
     fa = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
