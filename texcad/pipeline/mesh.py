@@ -64,7 +64,7 @@ MODES = {"raised": 0.0, "engraved": 1.0, "centred": 0.5, "centered": 0.5}
 #: Options of :func:`texture_mesh` (per call; every layer may override the layer ones).
 LAYER_OPTIONS = ("height", "mode", "projection", "axis", "origin", "radius", "blend", "rotation", "local_radius",
                  "border", "gradient", "scale", "size", "pitch", "mask", "mask_size")
-MESH_OPTIONS = LAYER_OPTIONS + ("build_dir", "critical_angle", "progress", "check")
+MESH_OPTIONS = LAYER_OPTIONS + ("build_dir", "critical_angle", "progress")
 
 
 def is_mesh_target(target: Any) -> bool:
@@ -387,7 +387,6 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
     build_dir = options.pop("build_dir", None)
     crit = check_critical_angle(options.pop("critical_angle", 45.0))
     progress = options.pop("progress", None) or (lambda fr, msg: None)
-    options.pop("check", None)
     raw = where if isinstance(where, list) else [(where, texture, {})]
     layers = [Layer.make(r, t, {**options, **dict(o)}) for r, t, o in raw]
     dirs = None if build_dir is None else build_directions(build_dir)

@@ -112,17 +112,22 @@ def _rounds(ctx, out, rounds, shrink):
 
 def _float32_pass(ctx, out) -> None:
     """The same test on the float32 vertices that are written (a tiny face can turn
-    when rounded): what offends there goes back to the surface, in place."""
+    when rounded): what offends there goes back to the surface, in place. After the
+    first pass only faces next to a zeroed vertex are looked at again."""
     v0, nrm, f, n0, dirs, cos_limit = ctx
+    sel = (out[f] != 0).any(axis=1)
     for _ in range(len(v0) + 1):  # per round of zeroing
-        sel = (out[f] != 0).any(axis=1)
-        fi = f[sel]
+        idx = np.flatnonzero(sel & (out[f] != 0).any(axis=1))
+        fi = f[idx]
         vv = (v0[fi] + nrm[fi] * out[fi][..., None]).astype(np.float32).astype(np.float64)
-        over, fold = _bad(vv.reshape(-1, 3), np.arange(vv.shape[0] * 3).reshape(-1, 3), n0[sel], dirs, cos_limit)
+        over, fold = _bad(vv.reshape(-1, 3), np.arange(vv.shape[0] * 3).reshape(-1, 3), n0[idx], dirs, cos_limit)
         if not (over | fold).any():
             return
-        out[np.unique(fi[over | fold])] = 0.0
-
+        zero = np.unique(fi[over | fold])
+        out[zero] = 0.0
+        changed = np.zeros(len(v0), dtype=bool)
+        changed[zero] = True
+        sel = changed[f].any(axis=1)
 
 def limit_relief(
     vertices: np.ndarray,
