@@ -197,6 +197,11 @@ def test_read_files_and_refuse_bad_input(tmp_path):
     assert r.mesh.is_watertight
     r.export(tmp_path / "out.3mf")
     assert (tmp_path / "out.3mf").stat().st_size > 1000
+    from texcad.io import write_3mf
+
+    tmf = tmp_path / "part.3mf"
+    write_3mf(Mesh(tm.vertices, tm.faces), tmf)
+    assert texcad.texture(tmf, "normal:+z:10", "builtin:dots", height=0.5, pitch=1.5).mesh.is_watertight
     obj = tmp_path / "part.obj"
     tm.export(obj)
     assert texcad.texture(obj, "all", "builtin:ridges", height=0.5, pitch=1.5).mesh.is_watertight
