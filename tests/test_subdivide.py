@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import numpy as np
 import trimesh
 
@@ -74,3 +75,15 @@ def test_flips_remove_the_fans_of_slivers():
     assert len(F) < 2.0 * tm.area / (0.5 * 0.5 * 0.5 / 2)
     ang = _min_angles(V, F)
     assert np.median(ang) > 30.0 and np.quantile(ang, 0.01) > 2.0
+
+
+@pytest.mark.parametrize("pitch", [0.23, 0.35, 0.5, 0.77, 1.3])
+def test_refine_stays_closed_for_any_pitch(pitch):
+    # many equal angles (ties in the flip order) on a finely tessellated cylinder
+    from texcad.solid import edge_report
+
+    tm = trimesh.creation.cylinder(radius=6, height=9, sections=64)
+    v, f = np.asarray(tm.vertices), np.asarray(tm.faces)
+    V, F, _ = refine(v, f, np.asarray(tm.face_normals)[:, 2] > -0.5, pitch)
+    assert edge_report(F)["watertight"]
+    assert abs(trimesh.Trimesh(V, F, process=False).volume - tm.volume) < 1e-9 * tm.volume

@@ -99,7 +99,8 @@ def flip_edges(v: np.ndarray, f: np.ndarray, active: np.ndarray, *, passes: int 
     is convex when the angles add up to more than 180 degrees) nor its closedness; it
     removes the fans of thin triangles that bisection leaves on the long slivers of CAD
     exports. Each pass flips an independent set of edges (no triangle in two flips:
-    an edge flips when its excess angle is the largest at both of its triangles).
+    an edge flips when its rank by excess angle is the highest at both of its triangles;
+    ranks are unique, so ties cannot flip two edges of one triangle).
     """
     f = f.copy()
     for _ in range(passes):  # per pass over all edges at once
@@ -123,8 +124,9 @@ def flip_edges(v: np.ndarray, f: np.ndarray, active: np.ndarray, *, passes: int 
         s = np.flatnonzero(ok)
         if not len(s):
             break
-        pri = -cot[s] + 1e-15 * np.arange(len(s)) / len(s)
-        best = np.full(len(f), -1.0)
+        pri = np.empty(len(s), dtype=np.int64)  # unique ranks: no two winners share a face
+        pri[np.argsort(-cot[s], kind="stable")] = np.arange(len(s))
+        best = np.full(len(f), -1, dtype=np.int64)
         np.maximum.at(best, f1[s], pri)
         np.maximum.at(best, f2[s], pri)
         s = s[(pri == best[f1[s]]) & (pri == best[f2[s]])]
