@@ -407,7 +407,7 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
     progress(0.6, "limiting overhangs")
     d2, limit = limit_relief(v, f, normals, d, build_dir=dirs, critical_angle=crit)
     if limit.folded_faces:
-        warnings.warn(f"the texture was lowered on {limit.lowered} vertices where it would fold over (too deep for the curvature there)", TexcadWarning, stacklevel=2)
+        warnings.warn(f"the texture was lowered where {limit.folded_faces} faces would fold over (too deep for the curvature there)", TexcadWarning, stacklevel=2)
     out = Mesh((v + normals * d2[:, None]).astype(np.float32), f.astype(np.uint32), {"texture": np.flatnonzero((d2[f] != 0).any(axis=1))})
     _assert_solid(out, bodies, "textured mesh")
     progress(0.9, "checked")
