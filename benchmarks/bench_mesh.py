@@ -8,7 +8,7 @@ Prints seconds per stage (read + repair, subdivide, sample + displace + limit + 
 manifold3d check, write 3MF, texcad.check of the 3MF), triangle counts, and peak
 memory (resident set size). Usage:
 
-    python benchmarks/bench_mesh.py [--pitch 0.2] [--segments 224]
+    python benchmarks/bench_mesh.py [--pitch 0.2] [--segments 624]
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ def stages(progress_log: list):
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--pitch", type=float, default=0.2)
-    ap.add_argument("--segments", type=int, default=440)
+    ap.add_argument("--segments", type=int, default=624)
     ap.add_argument("--texture", default="builtin:stones")
     args = ap.parse_args()
     n = args.segments
