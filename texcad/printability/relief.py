@@ -78,13 +78,29 @@ def _largest_factor(ctx, bad, base):
     return lo
 
 
+def _faces_at(f: np.ndarray, n: int):
+    """Vertex -> face incidence: ``faces_of(verts)`` gives the faces (indices into
+    ``f``) at any of ``verts``, sorted and unique, in time proportional to the answer."""
+    corner = f.ravel()
+    order = np.argsort(corner, kind="stable") // 3
+    start = np.concatenate([[0], np.cumsum(np.bincount(corner, minlength=n))])
+
+    def faces_of(verts: np.ndarray) -> np.ndarray:
+        lo, cnt = start[verts], start[verts + 1] - start[verts]
+        total = int(cnt.sum())
+        offs = np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+        return np.unique(order[np.repeat(lo, cnt) + offs])
+
+    return faces_of
+
+
 def _rounds(ctx, out, rounds, shrink):
     """The limiter's rounds, in place on ``out``; returns the first round's counts."""
     v0, f = ctx[0], ctx[2]
-    cand = np.ones(len(f), dtype=bool)
+    faces_of = _faces_at(f, len(v0))
+    idx = np.arange(len(f))
     first = None
     for r in range(rounds + len(v0) + 1):  # per round; only faces near a change are looked at
-        idx = np.flatnonzero(cand)
         if not len(idx):
             break
         over, fold = _offending(ctx, idx, out[f[idx]])
@@ -104,9 +120,7 @@ def _rounds(ctx, out, rounds, shrink):
         else:
             verts = np.unique(fb)
             out[verts] = 0.0
-        changed = np.zeros(len(v0), dtype=bool)
-        changed[verts] = True
-        cand = changed[f].any(axis=1)
+        idx = faces_of(verts)
     return first
 
 
@@ -115,9 +129,9 @@ def _float32_pass(ctx, out) -> None:
     when rounded): what offends there goes back to the surface, in place. After the
     first pass only faces next to a zeroed vertex are looked at again."""
     v0, nrm, f, n0, dirs, cos_limit = ctx
-    sel = (out[f] != 0).any(axis=1)
+    faces_of = _faces_at(f, len(v0))
+    idx = np.flatnonzero((out[f] != 0).any(axis=1))
     for _ in range(len(v0) + 1):  # per round of zeroing
-        idx = np.flatnonzero(sel & (out[f] != 0).any(axis=1))
         fi = f[idx]
         vv = (v0[fi] + nrm[fi] * out[fi][..., None]).astype(np.float32).astype(np.float64)
         over, fold = _bad(vv.reshape(-1, 3), np.arange(vv.shape[0] * 3).reshape(-1, 3), n0[idx], dirs, cos_limit)
@@ -125,9 +139,8 @@ def _float32_pass(ctx, out) -> None:
             return
         zero = np.unique(fi[over | fold])
         out[zero] = 0.0
-        changed = np.zeros(len(v0), dtype=bool)
-        changed[zero] = True
-        sel = changed[f].any(axis=1)
+        idx = faces_of(zero)
+        idx = idx[(out[f[idx]] != 0).any(axis=1)]
 
 def limit_relief(
     vertices: np.ndarray,
