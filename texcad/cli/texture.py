@@ -14,8 +14,10 @@ from __future__ import annotations
 import argparse
 import time
 import warnings
+from pathlib import Path
 
 from ._args import add_orientation, add_tolerance, limits_line, positive_float
+from ._texture_mesh import MESH_SUFFIXES, add_mesh_arguments, run_mesh
 
 #: ``--face`` words: the planar face whose outward normal points that way (largest
 #: if several), or the largest cylindrical / extruded face.
@@ -91,6 +93,8 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import TexcadWarning
     from ..util import StageReporter
 
+    if Path(args.part).suffix.lower() in MESH_SUFFIXES:  # STL / 3MF / OBJ: _texture_mesh.py
+        return run_mesh(args)
     t0 = time.perf_counter()
     part = Compound(read_step(args.part))
     faces = []
@@ -140,7 +144,7 @@ def run(args: argparse.Namespace) -> int:
 
 def add(sub: argparse._SubParsersAction) -> None:
     t = sub.add_parser("texture", help="texture faces of a STEP part; write STL, 3MF, STEP and/or PNG")
-    t.add_argument("part", help="PART.step (mm)")
+    t.add_argument("part", help="PART.step, or a mesh PART.stl / .3mf / .obj (mm)")
     t.add_argument(
         "--face",
         action="append",
@@ -154,6 +158,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--rotation", type=float, default=0.0, help="planar faces: turn the texture, degrees")
     add_orientation(t)
     add_tolerance(t)
+    add_mesh_arguments(t)
     t.add_argument("--separate-texture", action="store_true", help="3MF: the texture as its own object of the build item")
     t.add_argument("-o", "--out", action="append", required=True, metavar="OUT", help="OUT.stl, .3mf, .step or .png (repeatable)")
     t.add_argument("-q", "--quiet", action="store_true", help="no progress or warnings")

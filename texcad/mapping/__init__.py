@@ -28,6 +28,19 @@ from .param import (
     cell_mask,
     grid_slab,
 )
+from .projection import (
+    PROJECTIONS,
+    Projection,
+    TileSampler,
+    parse_axis,
+    sample_heights,
+    frame,
+)
+from .region import (
+    Region,
+    REGION_KINDS,
+    bed_faces,
+)
 from .surface import (
     Profile,
     ProfileSample,
@@ -59,6 +72,15 @@ __all__ = [
     'metric_tables',
     'cell_mask',
     'grid_slab',
+    'PROJECTIONS',
+    'Projection',
+    'TileSampler',
+    'parse_axis',
+    'sample_heights',
+    'frame',
+    'Region',
+    'REGION_KINDS',
+    'bed_faces',
     'Profile',
     'ProfileSample',
     'FunctionPiece',

@@ -15,6 +15,16 @@ from .faces import (
     FADE_ZERO,
     FLOOR_CURVED,
 )
+from .mesh import (
+    MESH_SUFFIXES,
+    MODES,
+    MESH_OPTIONS,
+    Layer,
+    MeshTextured,
+    is_mesh_target,
+    load_closed,
+    texture_mesh,
+)
 from .ops import (
     cad_op,
     OPS,
@@ -47,6 +57,14 @@ __all__ = [
     'FADE_FULL',
     'FADE_ZERO',
     'FLOOR_CURVED',
+    'MESH_SUFFIXES',
+    'MODES',
+    'MESH_OPTIONS',
+    'Layer',
+    'MeshTextured',
+    'is_mesh_target',
+    'load_closed',
+    'texture_mesh',
     'cad_op',
     'OPS',
     'OP_VOLUME_TOLERANCE',

@@ -7,7 +7,10 @@ The target says which pipeline runs:
   (:func:`texcad.pipeline.cad.texture_faces`);
 * a :class:`texcad.Surface` or :class:`texcad.Profile` (a 2.5D surface, paper section
   2.2): the whole surface, ``where`` is None
-  (:func:`texcad.pipeline.surface.textured_surface`).
+  (:func:`texcad.pipeline.surface.textured_surface`);
+* a mesh (a path ending in .stl / .3mf / .obj, a :class:`texcad.Mesh`, a
+  ``trimesh.Trimesh``): ``where`` is a region such as ``"normal:+x:70"`` or a list of
+  layers (:func:`texcad.pipeline.mesh.texture_mesh`).
 
 Every target gives a :class:`texcad.Textured`.
 """
@@ -90,6 +93,12 @@ def texture(
         ParameterError: the face is not on the part, an unknown option, a bad value.
         GeometryError: the face cannot be textured or a boolean failed.
     """
+    from .mesh import is_mesh_target
+
+    if is_mesh_target(target):  # STL / 3MF / OBJ, a texcad Mesh or a trimesh: texcad.pipeline.mesh
+        from .mesh import texture_mesh
+
+        return texture_mesh(target, "all" if where is None else where, texture, **options)
     if isinstance(target, (Surface, Profile)):
         if where is not None:
             raise ParameterError("a Surface is textured whole: pass where=None")

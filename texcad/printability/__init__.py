@@ -27,6 +27,10 @@ from .profile import (
     limit_on_profile,
     measured,
 )
+from .relief import (
+    ReliefLimit,
+    limit_relief,
+)
 
 __all__ = [
     'orientation',
@@ -49,4 +53,6 @@ __all__ = [
     'printable_lean_slab',
     'limit_on_profile',
     'measured',
+    'ReliefLimit',
+    'limit_relief',
 ]

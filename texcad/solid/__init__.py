@@ -52,6 +52,14 @@ from .occt import (
     as_array,
     compound,
 )
+from .subdivide import (
+    refine,
+    flip_edges,
+    vertex_normals,
+    offset_directions,
+    face_normals,
+    edge_lengths,
+)
 
 __all__ = [
     'shape_to_mesh',
@@ -93,4 +101,10 @@ __all__ = [
     'faces_of',
     'as_array',
     'compound',
+    'refine',
+    'flip_edges',
+    'vertex_normals',
+    'offset_directions',
+    'face_normals',
+    'edge_lengths',
 ]

@@ -25,6 +25,10 @@ from .scan import (
     largest_rectangle,
     scan_to_heightmap,
 )
+from .solid_textures import (
+    SOLID_TEXTURES,
+    solid_texture,
+)
 from .textures import (
     PREFIX,
     BuiltinTexture,
@@ -51,6 +55,8 @@ __all__ = [
     'fit_plane',
     'largest_rectangle',
     'scan_to_heightmap',
+    'SOLID_TEXTURES',
+    'solid_texture',
     'PREFIX',
     'BuiltinTexture',
     'Param',

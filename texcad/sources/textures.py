@@ -669,3 +669,153 @@ def load_texture(
             f"say how large the image {s!r} is: give its size in mm (e.g. size=(100, 100)) or its pitch in mm per pixel"
         )
     return Heightmap.from_image(s, size=size, pitch=pitch, height=height)
+
+
+# -- more textures (issue 14: the library grows to BumpMesh's set and beyond) -----------
+def _make_knurl_fine(period: float):
+    # A fine diamond knurl (1 mm pitch by default): the diamond knurl's V-grooves.
+    return _make_diamond_knurl(period)
+
+
+def _make_crosshatch(period: float, width: float):
+    # Two sets of rounded beads `width` mm wide along the diagonals, crossing:
+    # u = (x + y)/p, v = (x - y)/p (period p in x and y, as the diamond knurl);
+    # a bead at distance s (mm) from its axis is sqrt(1 - (2s/w)^2) high.
+    _need(width < period / np.sqrt(2.0), "crosshatch", f"width ({width:g} mm) must be less than period / sqrt 2 ({period / np.sqrt(2):.3g} mm)")
+
+    def f(x, y):
+        u, v = (x + y) / period, (x - y) / period
+        su = np.abs(u - np.round(u)) * period / np.sqrt(2.0)
+        sv = np.abs(v - np.round(v)) * period / np.sqrt(2.0)
+        bead = lambda s: np.sqrt(np.clip(1.0 - (2.0 * s / width) ** 2, 0.0, None))  # noqa: E731
+        return np.maximum(bead(su), bead(sv))
+
+    return (period, period), f
+
+
+def _make_waves(period: float, length: float, amplitude: float):
+    # Wavy ridges: h = sin^2(pi (y + a sin(2 pi x / L)) / p); crests every `period`
+    # mm across y, bent sideways by `amplitude` mm with wavelength `length` mm.
+    def f(x, y):
+        return np.sin(np.pi * (y + amplitude * np.sin(2 * np.pi * x / length)) / period) ** 2
+
+    return (length, period), f
+
+
+def _make_basketweave(cell: float, strands: int):
+    # Basket weave: square cells `cell` mm, `strands` rounded strands per cell, along
+    # x in cells (i + j) even and along y in the others; each strand is
+    # |sin(pi n t / cell)|^0.7, t across it.
+    def f(x, y):
+        i, j = np.floor(x / cell), np.floor(y / cell)
+        along_x = np.mod(i + j, 2.0) == 0
+        sx = np.abs(np.sin(np.pi * strands * y / cell)) ** 0.7
+        sy = np.abs(np.sin(np.pi * strands * x / cell)) ** 0.7
+        return np.where(along_x, sx, sy)
+
+    return (2 * cell, 2 * cell), f
+
+
+def _make_carbon_fiber(tow: float):
+    # 2 x 2 twill of tows `tow` mm wide: warp tow i (along y) lies over weft tow j
+    # (along x) where (i - j) mod 4 < 2; each tow is a flattened arch
+    # sin(pi s)^0.5 across it (s its fractional position), the one on top 0.35 higher.
+    def f(x, y):
+        u, v = x / tow, y / tow
+        i, j = np.floor(u), np.floor(v)
+        warp_top = np.mod(i - j, 4.0) < 2.0
+        aw = np.sqrt(np.abs(np.sin(np.pi * (u - i))))
+        af = np.sqrt(np.abs(np.sin(np.pi * (v - j))))
+        return np.where(warp_top, 0.35 + 0.65 * aw, 0.35 + 0.65 * af)
+
+    return (4 * tow, 4 * tow), f
+
+
+def _make_honeycomb(period: float, wall: float, bevel: float):
+    # Honeycomb walls: raised hexagon outlines on a hexagonal lattice of centre
+    # spacing `period`, walls `wall` mm wide with `bevel` mm slopes (the negative of
+    # `hexagons`): h = 1 - smoothstep(w/2, w/2 + b, distance to the cell border).
+    _need(wall + 2 * bevel < period, "honeycomb", f"wall + 2 bevel ({wall:g} + 2 x {bevel:g} mm) must be less than the period ({period:g} mm)")
+    s3 = np.sqrt(3.0) / 2
+
+    def f(x, y):
+        dx, dy = _hex_offset(x, y, period)
+        hexd = np.maximum(np.abs(dx), np.maximum(np.abs(0.5 * dx + s3 * dy), np.abs(-0.5 * dx + s3 * dy)))
+        return 1.0 - _smoothstep(wall / 2, wall / 2 + bevel, period / 2 - hexd)
+
+    return (period, period * np.sqrt(3.0)), f
+
+
+def _make_grid(period: float, width: float, bevel: float):
+    # Raised square grid: lines `width` mm wide every `period` mm in x and y, with
+    # `bevel` mm slopes: h = 1 - smoothstep(w/2, w/2 + b, distance to the nearest line).
+    _need(width + 2 * bevel < period, "grid", f"width + 2 bevel ({width:g} + 2 x {bevel:g} mm) must be less than the period ({period:g} mm)")
+
+    def f(x, y):
+        d = np.minimum(np.abs(_wrap(x, period)), np.abs(_wrap(y, period)))
+        return 1.0 - _smoothstep(width / 2, width / 2 + bevel, d)
+
+    return (period, period), f
+
+
+def _make_dots(period: float, radius: float):
+    # Hemispherical dots on a square grid: h = sqrt(r^2 - d^2) / r inside radius r.
+    _need(2 * radius < period, "dots", f"the diameter ({2 * radius:g} mm) must be less than the period ({period:g} mm)")
+
+    def f(x, y):
+        d = _lattice_distance(x, y, period, hexagonal=False)
+        return np.sqrt(np.clip(radius * radius - d * d, 0.0, None)) / radius
+
+    return (period, period), f
+
+
+def _make_bumps(period: float):
+    # Smooth egg-crate bumps: h = (sin(pi x / p) sin(pi y / p))^2.
+    def f(x, y):
+        return (np.sin(np.pi * x / period) * np.sin(np.pi * y / period)) ** 2
+
+    return (period, period), f
+
+
+def _make_cracks(cell: float, count: int, width: float, seed: int):
+    # Cracked earth: flat periodic Voronoi plates with V-shaped cracks `width` mm
+    # wide along the cell borders: h = smoothstep(0, w/2, (F2 - F1)/2).
+    tile = cell * count
+
+    def f(x, y):
+        f1, f2 = _voronoi(x, y, tile, count, 0.4, np.random.default_rng(seed))
+        return _smoothstep(0.0, width / 2, 0.5 * (f2 - f1))
+
+    return (tile, tile), f
+
+
+BUILTINS.update(
+    {
+        t.name: t
+        for t in (
+            _register("knurl_fine", "fine diamond knurl", _make_knurl_fine, period=Param(1.0, _MM, "groove pitch")),
+            _register("crosshatch", "crossing diagonal beads", _make_crosshatch, period=Param(3.0, _MM, "bead spacing along x"), width=Param(0.8, _MM, "bead width")),
+            _register(
+                "waves", "wavy ridges", _make_waves,
+                period=Param(3.0, _MM, "crest spacing"), length=Param(12.0, _MM, "wavelength of the bends"), amplitude=Param(1.0, _MM, "bend amplitude"),
+            ),
+            _register("basketweave", "basket weave of strand blocks", _make_basketweave, cell=Param(4.0, _MM, "block size"), strands=Param(3, _COUNT, "strands per block")),
+            _register("carbon_fiber", "2 x 2 twill, carbon-fibre look", _make_carbon_fiber, tow=Param(1.5, _MM, "tow width")),
+            _register(
+                "honeycomb", "raised honeycomb walls", _make_honeycomb,
+                period=Param(5.0, _MM, "cell centre spacing"), wall=Param(0.6, _MM, "wall width"), bevel=Param(0.5, _MM, "wall slope width"),
+            ),
+            _register(
+                "grid", "raised square grid lines", _make_grid,
+                period=Param(4.0, _MM, "line spacing"), width=Param(0.6, _MM, "line width"), bevel=Param(0.4, _MM, "line slope width"),
+            ),
+            _register("dots", "hemispherical dots, square grid", _make_dots, period=Param(3.0, _MM, "dot spacing"), radius=Param(1.0, _MM, "dot radius")),
+            _register("bumps", "smooth egg-crate bumps", _make_bumps, period=Param(4.0, _MM, "bump spacing")),
+            _register(
+                "cracks", "cracked earth, periodic Voronoi plates", _make_cracks,
+                cell=Param(5.0, _MM, "plate size"), count=Param(5, _COUNT, "plates per tile side"),
+                width=Param(0.8, _MM, "crack width"), seed=Param(5, _SEED, "random seed"),
+            ),
+        )
+    }
+)

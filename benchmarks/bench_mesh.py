@@ -1,0 +1,85 @@
+"""Time texturing a mesh: a 100 k-triangle input part (a dome-topped cylinder, r 36
+mm, 52 mm + the dome: 19 900 mm2 besides its bed face, written as an STL like a
+downloaded part: long slivers on the side, a fine dome) textured everywhere but the
+bed face with the default stones (4 mm cells, 1 mm high) in a triplanar projection at a 0.2 mm pitch (longest
+edge), with the overhang limiter for +z, written as a 3MF and checked.
+
+Prints seconds per stage (read + repair, subdivide, sample + displace + limit + the
+manifold3d check, write 3MF, texcad.check of the 3MF), triangle counts, and peak
+memory (resident set size). Usage:
+
+    python benchmarks/bench_mesh.py [--pitch 0.2] [--segments 624]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import tempfile
+import time
+from pathlib import Path
+
+import manifold3d as m3d
+import numpy as np
+
+import texcad
+from texcad.io import write_stl
+from texcad.solid import Mesh
+
+
+def stages(progress_log: list):
+    """A progress callback that records when each stage starts."""
+    def cb(fraction: float, message: str) -> None:
+        progress_log.append((time.perf_counter(), message))
+
+    return cb
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--pitch", type=float, default=0.2)
+    ap.add_argument("--segments", type=int, default=624)
+    ap.add_argument("--texture", default="builtin:stones")
+    args = ap.parse_args()
+    n = args.segments
+    dome = m3d.Manifold.sphere(36.0, n).translate((0, 0, 52.0)) ^ m3d.Manifold.cube((80, 80, 40)).translate((-40, -40, 52.0))
+    g = (m3d.Manifold.cylinder(52.0, 36.0, 36.0, n) + dome).to_mesh()
+    src = Mesh(np.asarray(g.vert_properties)[:, :3], np.asarray(g.tri_verts))
+    with tempfile.TemporaryDirectory() as tmp:
+        stl = Path(tmp) / "part.stl"
+        write_stl(src, stl)
+        log: list = []
+        t0 = time.perf_counter()
+        tx = texcad.texture(stl, "not-bottom", args.texture, height=1.0, pitch=args.pitch, projection="triplanar",
+                            build_dir=(0, 0, 1), progress=stages(log))
+        t1 = time.perf_counter()
+        out = Path(tmp) / "part.3mf"
+        tx.export(out)
+        t2 = time.perf_counter()
+        rep = texcad.check(out, build_dir=(0, 0, 1))
+        t3 = time.perf_counter()
+        size = out.stat().st_size
+    marks = [t0] + [t for t, _ in log] + [t1]
+    names = ["start"] + [m for _, m in log]
+    print(f"input        {src.num_triangles} triangles, {src.area:.0f} mm2 with the bed face (STL)")
+    print(f"textured     {tx.mesh.num_triangles} triangles at pitch {args.pitch} mm, {args.texture}, triplanar, +z limiter")
+    for (a, b), name in zip(zip(marks[:-1], marks[1:]), names):
+        print(f"  {name:<24s} {b - a:6.2f} s")
+    print(f"texture      {t1 - t0:6.2f} s ({tx.mesh.num_triangles / (t1 - t0) / 1e6:.2f} M output triangles/s)")
+    print(f"write 3mf    {t2 - t1:6.2f} s ({size / 1e6:.1f} MB)")
+    from texcad.printability import face_areas, overhang_mask
+
+    m = tx.mesh
+    tex = np.zeros(m.num_triangles, bool)
+    tex[m.groups["texture"]] = True
+    over = float(face_areas(m)[overhang_mask(m, (0, 0, 1), 45.0) & tex].sum())
+    print(f"check 3mf    {t3 - t2:6.2f} s: watertight {rep.watertight}, manifold {rep.manifold}, shells {rep.shells}, "
+          f"overhang {rep.overhang_area_mm2:.2f} mm2; texture {float(face_areas(m)[tex].sum()):.0f} mm2, {over:.2f} mm2 of it overhanging")
+    print(f"total        {t3 - t0:6.2f} s")
+    print(f"peak memory  {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB (RSS)")
+    print(f"load         {os.getloadavg()[0]:.1f} (1-min load average, {os.cpu_count()} CPUs)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,62 @@
+"""``texcad texture PART.stl|.3mf|.obj``: the mesh branch of ``texcad texture``
+(:func:`texcad.pipeline.mesh.texture_mesh`)."""
+
+from __future__ import annotations
+
+import argparse
+import time
+import warnings
+
+from ._args import positive_float
+
+MESH_SUFFIXES = (".stl", ".3mf", ".obj")
+
+
+def add_mesh_arguments(t: argparse.ArgumentParser) -> None:
+    """The options only mesh parts take (regions, projections, modes)."""
+    g = t.add_argument_group("mesh parts (.stl, .3mf, .obj)")
+    g.add_argument("--region", action="append", default=None, metavar="REGION",
+                   help="all / not-bottom (default; the bed face is never textured), all+bottom, normal:+x:70, "
+                   "box:x0,y0,z0,x1,y1,z1, sphere:x,y,z,r; REGION@TEXTURE[@MODE] gives that region its own "
+                   "texture (and mode); repeat for several textures in one part")
+    g.add_argument("--projection", default="triplanar",
+                   help="planar:+x (any axis), cylindrical[:+z], spherical, triplanar, cubic or solid (default triplanar)")
+    g.add_argument("--mode", choices=("raised", "engraved", "centred"), default="raised", help="default raised")
+    g.add_argument("--border", type=float, default=2.0, help="fade width at the region's border, mm (default 2)")
+    g.add_argument("--blend", type=float, default=20.0, help="triplanar / cubic blend width, degrees (default 20)")
+    g.add_argument("--scale", type=positive_float, default=1.0, help="texture scale factor (default 1)")
+
+
+def run_mesh(args: argparse.Namespace) -> int:
+    """Texture a mesh file: one layer per ``--region REGION[@TEXTURE[@MODE]]`` (the
+    ``--texture`` and ``--mode`` where not given)."""
+    from .. import texture
+    from ..errors import TexcadWarning
+    from ..util import StageReporter
+
+    t0 = time.perf_counter()
+    regions = args.region or ["not-bottom"]
+    layers = []
+    for spec in regions:  # per layer
+        region, _, rest = spec.partition("@")
+        tex, _, mode = rest.rpartition("@") if rest.count("@") else (rest, "", "")
+        layers.append((region, tex or args.texture, {"mode": mode} if mode else {}))
+    with warnings.catch_warnings():
+        if args.quiet:
+            warnings.simplefilter("ignore", TexcadWarning)
+        tx = texture(
+            args.part, layers, height=args.height, pitch=args.pitch, projection=args.projection, mode=args.mode,
+            border=args.border, blend=args.blend, scale=args.scale, build_dir=args.build_dir,
+            critical_angle=args.critical_angle, progress=None if args.quiet else StageReporter(),
+        )
+    for out in args.out:
+        tx.export(out, separate_texture=args.separate_texture)
+    m = tx.mesh
+    print(f"mesh         {args.part}: {tx.info['input_triangles']} triangles in, {tx.info['bodies']} bodies")
+    print(f"triangles    {m.num_triangles}, watertight {m.is_watertight}")
+    print(f"volume       {m.volume:.1f} mm3")
+    if tx.limits is not None and tx.limits.lowered:
+        print(f"limited      {tx.limits.lowered} vertices lowered, {tx.limits.removed_mm3:.1f} mm3 of relief removed")
+    print(f"seconds      {time.perf_counter() - t0:.2f}")
+    print(f"wrote        {', '.join(args.out)}")
+    return 0

@@ -1,0 +1,445 @@
+"""Texturing a mesh (STL, 3MF, OBJ, a :class:`texcad.Mesh` or a ``trimesh.Trimesh``).
+
+The job, for each texture *layer* ``(region, texture, options)``:
+
+1. read and repair the mesh (merge duplicate vertices, drop degenerate and duplicate
+   triangles, make the winding consistent and outward); refuse it unless every body
+   is closed (:func:`load_closed`);
+2. pick the region's faces (:class:`texcad.mapping.Region`; never the bed face by
+   default, and with ``build_dir`` never a face that overhangs by itself) and refine
+   only them by longest-edge bisection until no edge is longer than ``pitch`` mm
+   (:func:`texcad.solid.subdivide.refine`; conforming, so the mesh stays closed);
+3. sample the texture at the region's vertices, ``h in [0, H]`` mm, through the
+   projection (:class:`texcad.mapping.projection.Projection`) or as a solid 3-D
+   texture;
+4. fade it out towards the region's border with the M-I ramp: with ``s`` the
+   distance (mm) of a vertex from the nearest vertex on the region's border and
+   ``b`` the border width, ``R = H min(1, s/b)`` and the relief is ``min(h, R)``,
+   so it is 0 on the border and never steeper than ``H/b`` there;
+5. displace every region vertex along its angle-weighted normal by
+   ``d = g (min(h, R) - c R)`` with ``c = 0`` raised (outward), ``c = 1`` engraved
+   (inward: the texture's top is the original surface, so the outer envelope is
+   kept) and ``c = 1/2`` centred, ``g in [0, 1]`` the depth gradient along an axis;
+6. limit: no displaced face may overhang for ``build_dir`` nor fold over
+   (:func:`texcad.printability.limit_relief`);
+7. check: the result is accepted by manifold3d (closed, oriented 2-manifold) with
+   as many bodies as the input, else GeometryError.
+
+The result is a :class:`MeshTextured` (a :class:`texcad.Textured`): ``mesh`` is the
+displaced mesh, ``base_mesh`` the part with every texture at its lowest (the surface
+itself for raised textures, pushed in by ``H`` for engraved ones) and :data:`SKIN` mm
+below that inside the regions, ``texture_mesh``
+the texture alone (``mesh - base_mesh``, manifold3d), ``layer_meshes`` one texture
+body per layer; a 3MF with ``separate_texture=True`` holds the base and every
+texture as its own object of the build item. A mesh has no B-rep: ``.shape`` raises.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from ..errors import GeometryError, InputError, ParameterError, TexcadWarning
+from ..mapping.projection import PROJECTIONS, Projection, TileSampler, parse_axis, sample_heights
+from ..mapping.region import Region
+from ..printability import build_directions, check_critical_angle
+from ..printability.relief import limit_relief
+from ..solid import Mesh, edge_report
+from ..solid.subdivide import face_normals, offset_directions, refine, vertex_normals
+from .result import Textured
+
+__all__ = ["MESH_SUFFIXES", "MODES", "MESH_OPTIONS", "Layer", "MeshTextured", "is_mesh_target", "load_closed", "texture_mesh"]
+
+MESH_SUFFIXES = (".stl", ".3mf", ".obj")
+#: How far (mm) the base lies under the regions in ``base_mesh`` (texture bodies have
+#: at least this thickness, so a slicer's multi-material split has no zero-thickness
+#: slivers).
+SKIN = 0.02
+MODES = {"raised": 0.0, "engraved": 1.0, "centred": 0.5, "centered": 0.5}
+#: Options of :func:`texture_mesh` (per call; every layer may override the layer ones).
+LAYER_OPTIONS = ("height", "mode", "projection", "axis", "origin", "radius", "blend", "rotation", "local_radius",
+                 "border", "gradient", "scale", "size", "pitch", "mask", "mask_size")
+MESH_OPTIONS = LAYER_OPTIONS + ("build_dir", "critical_angle", "progress")
+
+
+def is_mesh_target(target: Any) -> bool:
+    """A :class:`texcad.Mesh`, a ``trimesh.Trimesh`` or a path ending in .stl/.3mf/.obj."""
+    if isinstance(target, Mesh):
+        return True
+    if isinstance(target, (str, os.PathLike)):
+        return Path(os.fspath(target)).suffix.lower() in MESH_SUFFIXES
+    return type(target).__name__ == "Trimesh" and hasattr(target, "faces") and hasattr(target, "vertices")
+
+
+def load_closed(target: Any) -> tuple[np.ndarray, np.ndarray, int, dict]:
+    """Read and repair a mesh; ``(vertices float64 (N, 3) mm, faces int64 (M, 3),
+    bodies, info)``.
+
+    Repairs (trimesh): vertices merged where equal to 1e-8 mm, degenerate and
+    duplicate triangles dropped, winding made consistent and outward per body.
+
+    Raises:
+        InputError: unreadable, empty, or not closed after repair (the message counts
+            the open and non-manifold edges).
+    """
+    import trimesh
+
+    from ..io import read_mesh
+
+    name = "the mesh"
+    if isinstance(target, (str, os.PathLike)):
+        name = repr(os.fspath(target))
+        m = read_mesh(target)
+        v, f = m.vertices, m.faces
+    elif isinstance(target, Mesh):
+        v, f = target.vertices, target.faces
+    else:
+        v, f = np.asarray(target.vertices), np.asarray(target.faces)
+    if len(f) == 0:
+        raise InputError(f"{name} holds no triangles")
+    tm = trimesh.Trimesh(np.asarray(v, np.float64), np.asarray(f, np.int64), process=True, validate=False)
+    tm.update_faces(tm.nondegenerate_faces())
+    tm.update_faces(tm.unique_faces())
+    tm.remove_unreferenced_vertices()
+    trimesh.repair.fix_normals(tm, multibody=True)
+    rep = edge_report(np.asarray(tm.faces))
+    if not rep["watertight"] or not tm.is_watertight:
+        raise InputError(
+            f"{name} is not closed after repair ({rep['boundary']} open edges, {rep['nonmanifold']} non-manifold "
+            f"edges, {rep['misoriented']} misoriented); texcad textures closed solids: "
+            "close the holes (e.g. in the CAD program or a mesh repair tool) and export it again"
+        )
+    if tm.volume <= 0:
+        tm.invert()  # inside out as a whole: turn it right way out
+    bodies = int(tm.body_count)
+    info = {"input_triangles": int(len(f)), "repaired_triangles": int(len(tm.faces)), "bodies": bodies}
+    return np.array(tm.vertices, np.float64), np.array(tm.faces, np.int64), bodies, info
+
+
+@dataclass
+class Layer:
+    """One texture on a mesh: where, what, and how (lengths mm, angles degrees).
+
+    Attributes:
+        region: a :class:`texcad.mapping.Region` or its string form.
+        texture: ``builtin:NAME[:k=v]``, an image path (needs ``size``) or a Heightmap
+            (one tile).
+        height: relief depth ``H``, mm.
+        mode: ``raised``, ``engraved`` or ``centred``.
+        projection: a :class:`Projection`, or its kind (``planar``, ``cylindrical``,
+            ``spherical``, ``triplanar``, ``cubic``, ``solid``) with ``axis`` etc.
+        border: fade width at the region's border, mm (M-I ramp).
+        gradient: ``(start, end)`` points (mm): full depth at ``start``, fading
+            linearly to 0 at ``end`` (along ``end - start``), or None.
+        scale: factor on the texture's lengths.
+        size: tile size ``(w, d)`` mm of an image texture.
+        pitch: longest edge after subdivision, mm.
+        mask: where to texture inside the region, in the projection: an image path, a
+            Heightmap or a 2-D array, 0 (black) = none ... 1 (white) = full depth,
+            stretched over ``mask_size`` ``(w, d)`` mm of texture coordinates centred
+            on the projection's origin (0 outside it).
+    """
+
+    region: Any = "all"
+    texture: Any = "builtin:stones"
+    height: float = 1.0
+    mode: str = "raised"
+    projection: Any = "triplanar"
+    border: float = 2.0
+    gradient: Any = None
+    scale: float = 1.0
+    size: Any = None
+    pitch: float = 0.5
+    mask: Any = None
+    mask_size: Any = None
+
+    @classmethod
+    def make(cls, region: Any, texture: Any, options: dict) -> "Layer":
+        opts = dict(options)
+        proj = opts.pop("projection", "triplanar")
+        pkeys = ("axis", "origin", "radius", "blend", "rotation", "local_radius")
+        pargs = {k: opts.pop(k) for k in pkeys if k in opts}
+        if isinstance(proj, str):
+            kind, _, ax = proj.partition(":")
+            if ax:
+                pargs.setdefault("axis", ax)
+            proj = Projection(kind.strip().lower(), **pargs)
+        elif not isinstance(proj, Projection):
+            raise ParameterError(f"projection must be one of {', '.join(PROJECTIONS)} or a Projection, got {proj!r}")
+        layer = cls(Region.parse(region), texture, projection=proj, **opts)
+        if layer.mode not in MODES:
+            raise ParameterError(f"mode {layer.mode!r}: use raised, engraved or centred")
+        for k in ("height", "pitch", "scale"):
+            v = getattr(layer, k)
+            if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
+                raise ParameterError(f"{k} must be a positive number (mm), got {v!r}")
+        if not (np.isfinite(layer.border) and layer.border >= 0):
+            raise ParameterError(f"border must be a width >= 0 in mm, got {layer.border!r}")
+        return layer
+
+    def heights(self, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, dict]:
+        """Texture heights ``h in [0, height]`` mm at ``points`` with unit ``normals``."""
+        from ..sources import Heightmap, builtin
+        from ..sources.solid_textures import solid_texture
+        from ..sources.textures import PREFIX, parse_texture_spec
+
+        H = float(self.height)
+        proj = self.projection
+        if proj.kind == "solid":
+            if not (isinstance(self.texture, str) and self.texture.startswith(PREFIX)):
+                raise ParameterError("a solid projection needs a built-in texture with a 3-D form, e.g. builtin:stones")
+            if self.mask is not None:
+                raise ParameterError("a mask lies in a projection's texture coordinates; a solid texture has none: use a region instead")
+            name, params = parse_texture_spec(self.texture)
+            axis = parse_axis(proj.axis)
+            origin = proj.origin if proj.origin is not None else 0.5 * (points.min(0) + points.max(0))
+            f = solid_texture(name, scale=self.scale * params.pop("scale", 1.0), origin=origin, axis=axis, **params)
+            return H * np.clip(f(points), 0.0, 1.0), {"projection": "solid"}
+        if isinstance(self.texture, Heightmap):
+            hm = self.texture if np.isclose(self.texture.max_height, H) else self.texture.scaled(H)
+            sampler = TileSampler(hm, (self.scale, self.scale))
+        elif isinstance(self.texture, str) and self.texture.startswith(PREFIX):
+            sampler = TileSampler(builtin(self.texture, pitch=min(0.1, self.pitch / 2), height=H, scale=self.scale))
+        else:
+            if self.size is None:
+                raise ParameterError(f"say how large one tile of the image {str(self.texture)!r} is: size=(w, d) in mm")
+            hm = Heightmap.from_image(os.fspath(self.texture), size=self.size, height=H)
+            sampler = TileSampler(hm, (self.scale, self.scale))
+        samples, info = proj.samples(points, normals, sampler.tile)
+        info["projection"] = proj.kind
+        if self.mask is not None:
+            info["mask"] = sample_heights(samples, _mask_sampler(self.mask, self.mask_size))
+        return np.clip(sample_heights(samples, sampler), 0.0, H), info
+
+
+def _mask_sampler(mask: Any, size: Any) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """Bilinear, non-periodic sampling of a mask in [0, 1] over ``size`` mm, centred."""
+    from ..sources import Heightmap
+
+    if size is None or np.size(size) != 2 or not all(np.isfinite(size)) or min(size) <= 0:
+        raise ParameterError(f"mask_size must be (w, d) in mm (the texture coordinates the mask covers), got {size!r}")
+    w, d = (float(t) for t in size)
+    if isinstance(mask, Heightmap):
+        a = np.asarray(mask.heights, np.float64)
+        a = a / a.max() if a.max() > 0 else a
+    elif isinstance(mask, (str, os.PathLike)):
+        a = np.asarray(Heightmap.from_image(os.fspath(mask), size=(w, d), height=1.0).heights, np.float64)
+    else:
+        a = np.asarray(mask, dtype=np.float64)
+    if a.ndim != 2 or min(a.shape) < 2 or not np.all(np.isfinite(a)) or a.min() < 0 or a.max() > 1:
+        raise ParameterError(f"a mask is a 2-D array (at least 2 x 2) of values in [0, 1] (y up), got shape {a.shape}")
+    rows, cols = a.shape
+
+    def f(u, v):
+        fu = (np.asarray(u) / w + 0.5) * cols - 0.5
+        fv = (np.asarray(v) / d + 0.5) * rows - 0.5
+        inside = (fu >= -0.5) & (fu <= cols - 0.5) & (fv >= -0.5) & (fv <= rows - 0.5)
+        fu, fv = np.clip(fu, 0, cols - 1), np.clip(fv, 0, rows - 1)
+        c0, r0 = np.minimum(fu.astype(np.int64), cols - 2), np.minimum(fv.astype(np.int64), rows - 2)
+        tu, tv = fu - c0, fv - r0
+        val = (a[r0, c0] * (1 - tu) + a[r0, c0 + 1] * tu) * (1 - tv) + (a[r0 + 1, c0] * (1 - tu) + a[r0 + 1, c0 + 1] * tu) * tv
+        return np.where(inside, val, 0.0)
+
+    return f
+
+
+class MeshTextured(Textured):
+    """A textured mesh: a :class:`texcad.Textured` (``kind == "mesh"``) that also
+    holds one texture body per layer (:attr:`layer_meshes`)."""
+
+    def __init__(self, *, layers: "Callable[[], list[Mesh]]", **kwargs: Any) -> None:
+        super().__init__(kind="mesh", **kwargs)
+        self._layers = layers
+
+    @property
+    def layer_meshes(self) -> list[Mesh]:
+        """One closed texture body per layer (``layer_k - base``), mm."""
+        if callable(self._layers):
+            self._layers = self._layers()
+        return list(self._layers)
+
+    def export(self, path: "str | os.PathLike", *, separate_texture: bool = False, name: str | None = None) -> Path:
+        """As :meth:`texcad.Textured.export`; a ``.3mf`` with ``separate_texture``
+        holds the base and every layer's texture (``texture 1``, ``texture 2`` ...)
+        as objects of one build item, so each can get its own filament."""
+        if separate_texture and Path(path).suffix.lower() == ".3mf":
+            from ..io import write_3mf
+
+            objs = [("base", self.base_mesh)] + [(f"texture {k + 1}", m) for k, m in enumerate(self.layer_meshes)]
+            write_3mf(objs, path, name=name or Path(path).stem)
+            return Path(path)
+        return super().export(path, separate_texture=separate_texture, name=name)
+
+
+def _border_distance(v: np.ndarray, f: np.ndarray, sel: np.ndarray) -> np.ndarray:
+    """Per vertex: distance (mm) to the nearest vertex shared by a region face and a
+    face outside it (inf when the region has no border); NaN off the region."""
+    from scipy.spatial import cKDTree
+
+    inside = np.zeros(len(v), dtype=bool)
+    inside[f[sel].ravel()] = True
+    outside = np.zeros(len(v), dtype=bool)
+    outside[f[~sel].ravel()] = True
+    border = np.flatnonzero(inside & outside)
+    dist = np.full(len(v), np.nan)
+    idx = np.flatnonzero(inside)
+    if not len(border):
+        dist[idx] = np.inf
+    else:
+        dist[idx], _ = cKDTree(v[border]).query(v[idx], workers=1)
+    return dist
+
+
+def _gradient(points: np.ndarray, gradient: Any) -> np.ndarray:
+    if gradient is None:
+        return np.ones(len(points))
+    g = np.asarray(gradient, dtype=np.float64).reshape(-1)
+    if g.shape != (6,) or not np.all(np.isfinite(g)) or np.allclose(g[:3], g[3:]):
+        raise ParameterError(f"gradient is (start, end): two different points (x, y, z) in mm, got {gradient!r}")
+    a = g[3:] - g[:3]
+    t = (points - g[:3]) @ a / (a @ a)
+    return np.clip(1.0 - t, 0.0, 1.0)
+
+
+def _select(layer: Layer, v, f, fn, dirs, crit, tol, loose):
+    sel = layer.region.select(v, f, fn, build_dir=dirs[0] if dirs is not None else np.array([0.0, 0, 1]), tolerance=tol, loose=loose)
+    if dirs is not None:  # a face that overhangs by itself cannot carry a support-free texture
+        sel &= ~np.any(-(fn @ dirs.T) > np.cos(np.radians(min(89.9, crit + 1.0))), axis=1)
+    return sel
+
+
+def _refine_layers(layers, v, f, dirs, crit, tol):
+    """Refine each layer's region to its pitch; returns v, f, per-layer face masks."""
+    for layer in layers:  # per layer
+        fn, _ = face_normals(v, f)
+        sel = _select(layer, v, f, fn, dirs, crit, tol, loose=True)
+        v, f, _parent = refine(v, f, sel, layer.pitch)
+    fn, _ = face_normals(v, f)
+    masks = [_select(layer, v, f, fn, dirs, crit, tol, loose=False) for layer in layers]
+    return v, f, masks
+
+
+def _relief(layer: Layer, v, f, sel, normals):
+    """Per-vertex displacement ``d`` and lowest displacement ``b`` of one layer (mm)."""
+    dist = _border_distance(v, f, sel)
+    idx = np.flatnonzero(np.isfinite(dist) | np.isinf(dist))
+    H = float(layer.height)
+    R = H * (np.minimum(1.0, dist[idx] / layer.border) if layer.border > 0 else (dist[idx] > 0).astype(float))
+    h, info = layer.heights(v[idx], normals[idx])
+    m = info.pop("mask", None)
+    if m is not None:
+        if not np.any(m > 0):
+            raise ParameterError("the mask covers none of the region: check mask_size (mm) and the projection's origin")
+        R = R * m  # the mask scales the M-I ramp: 0 where it is black
+    c = MODES[layer.mode]
+    g = _gradient(v[idx], layer.gradient)
+    d = np.zeros(len(v))
+    b = np.zeros(len(v))
+    d[idx] = g * (np.minimum(h, R) - c * R)
+    b[idx] = -g * c * R
+    info["vertices"] = int(len(idx))
+    inside = np.zeros(len(v), dtype=bool)
+    inside[idx] = dist[idx] > 0  # the border itself stays where it is
+    return d, b, info, inside
+
+
+def _assert_solid(mesh: Mesh, bodies: int, what: str) -> None:
+    import manifold3d as m3d
+
+    man = m3d.Manifold(m3d.Mesh(vert_properties=mesh.vertices, tri_verts=mesh.faces))
+    if man.status() != m3d.Error.NoError:
+        raise GeometryError(f"the {what} is not a closed oriented solid (manifold3d: {man.status().name}); use a smaller height")
+    n = len(man.decompose()) if bodies > 1 else 1
+    if n != bodies:
+        raise GeometryError(f"the {what} has {n} bodies where the input had {bodies}")
+
+
+def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones", **options: Any) -> MeshTextured:
+    """Texture a closed mesh (module docstring gives the method). Lengths mm, degrees.
+
+    Args:
+        target: a path ``.stl``/``.3mf``/``.obj``, a :class:`texcad.Mesh` or a
+            ``trimesh.Trimesh``: one or more closed bodies.
+        where: the region (:class:`texcad.mapping.Region` or its string, e.g.
+            ``"normal:+x:70"``), or a list of layers ``(region, texture, {options})``
+            (each layer's options override the call's).
+        texture: ``builtin:NAME[:k=v]``, an image (with ``size``) or a Heightmap.
+        **options: ``height`` (1 mm), ``mode`` (``raised``/``engraved``/``centred``),
+            ``projection`` (``triplanar``; ``planar:+x``, ``cylindrical:+z``,
+            ``spherical``, ``cubic``, ``solid`` or a Projection) with ``axis``,
+            ``origin``, ``radius``, ``blend`` (20 deg), ``rotation``,
+            ``local_radius``; ``border`` (2 mm fade), ``gradient`` ``(start, end)``,
+            ``scale``, ``size`` (image tile, mm), ``pitch`` (0.5 mm, longest edge),
+            ``build_dir`` / ``critical_angle`` (45 deg).
+
+    Raises:
+        InputError: the mesh is not closed. ParameterError: a bad option or an empty
+        region. GeometryError: the result is not a closed solid.
+    """
+    bad = sorted(set(options) - set(MESH_OPTIONS))
+    if bad:
+        raise ParameterError(f"{', '.join(bad)}: not an option when texturing a mesh; the options are {', '.join(sorted(MESH_OPTIONS))}")
+    build_dir = options.pop("build_dir", None)
+    crit = check_critical_angle(options.pop("critical_angle", 45.0))
+    progress = options.pop("progress", None) or (lambda fr, msg: None)
+    raw = where if isinstance(where, list) else [(where, texture, {})]
+    layers = [Layer.make(r, t, {**options, **dict(o)}) for r, t, o in raw]
+    dirs = None if build_dir is None else build_directions(build_dir)
+    progress(0.0, "reading the mesh")
+    v, f, bodies, info = load_closed(target)
+    tol = 0.01 + 1e-6 * float(np.ptp(v, axis=0).max())
+    progress(0.1, "subdividing the region")
+    v, f, masks = _refine_layers(layers, v, f, dirs, crit, tol)
+    for k, m in enumerate(masks):  # per layer
+        if not m.any():
+            raise ParameterError(f"region {k + 1} ({layers[k].region}) holds no face of the mesh; choose another region")
+    unit = vertex_normals(v, f)
+    normals = offset_directions(v, f, unit)  # keeps sharp edges sharp: no fold
+    progress(0.4, "sampling the texture")
+    parts = [_relief(layer, v, f, m, unit) for layer, m in zip(layers, masks)]
+    d = np.sum([p[0] for p in parts], axis=0)
+    b = np.sum([p[1] for p in parts], axis=0)
+    progress(0.6, "limiting overhangs")
+    d2, limit = limit_relief(v, f, normals, d, build_dir=dirs, critical_angle=crit)
+    if limit.folded_faces:
+        warnings.warn(f"the texture was lowered where {limit.folded_faces} faces would fold over (too deep for the curvature there)", TexcadWarning, stacklevel=2)
+    out = Mesh((v + normals * d2[:, None]).astype(np.float32), f.astype(np.uint32), {"texture": np.flatnonzero((d2[f] != 0).any(axis=1))})
+    _assert_solid(out, bodies, "textured mesh")
+    progress(0.9, "checked")
+    # the base lies SKIN mm under every region, so no texture body has parts of zero thickness
+    inside = np.any([p[3] for p in parts], axis=0)
+    b = b - SKIN * inside
+    base = Mesh((v + normals * b[:, None]).astype(np.float32), f.astype(np.uint32))
+    info.update(triangles=int(len(f)), layers=[p[2] for p in parts], kind="mesh", face="mesh",
+                no_brep="a mesh has no B-rep: it is textured as a mesh", region_faces=[int(m.sum()) for m in masks])
+    return _result(out, base, v, f, normals, b, d2, parts, limit, info)
+
+
+def _difference(a: Mesh, b: Mesh) -> Mesh:
+    """``a - b`` (manifold3d), without the zero-volume shells (< 1e-6 mm^3) that
+    coincident surfaces can leave."""
+    import manifold3d as m3d
+
+    from ..solid import from_manifold, to_manifold
+
+    pieces = [p for p in (to_manifold(a) - to_manifold(b)).decompose() if p.volume() > 1e-6]  # per shell
+    return from_manifold(m3d.Manifold.compose(pieces) if pieces else m3d.Manifold())
+
+
+def _result(out, base, v, f, normals, b, d2, parts, limit, info) -> MeshTextured:
+    def texture_body():
+        return _difference(out, base)
+
+    def layer_bodies():
+        res = []
+        for *_, inside in parts:  # per layer: its own relief on the base
+            mk = Mesh((v + normals * np.where(inside, d2, b)[:, None]).astype(np.float32), f.astype(np.uint32))
+            res.append(_difference(mk, base))
+        return res
+
+    return MeshTextured(mesh=out, base_mesh=base, texture_mesh=texture_body, layers=layer_bodies, limits=limit, info=info)

@@ -1,0 +1,204 @@
+"""The overhang limiter for a displaced mesh (a texture as vertex displacements).
+
+A mesh textured by displacing its vertices ``p_i`` along their normals ``n_i`` by
+``d_i`` mm (:mod:`texcad.pipeline.mesh`) prints without support for the build
+directions ``D`` when no displaced face overhangs: ``-n_f . d <= cos(alpha_crit)``
+for every displaced face ``f`` and every ``d`` in ``D`` (paper, section 2.1.3; the
+faces of the undisplaced surface are left out of the region beforehand when they
+overhang themselves). :func:`limit_relief` lowers the displacements where a face
+breaks that, and also where a face would fold over (its displaced normal turned by
+90 degrees or more from its undisplaced one: the relief is deeper than the local
+curvature allows, e.g. an engraving into a thin convex edge): each round finds, for
+every offending face, the largest factor ``s in [0, 1]`` on its three displacements
+that makes it pass (12 bisection steps; ``s = 0`` is the undisplaced surface, which
+passes), and every vertex takes the smallest factor of its offending faces (times
+``shrink^(round // 5)`` after the first five rounds, so that it converges quickly where
+neighbours keep disturbing each other); after ``rounds`` rounds what still offends is
+set to 0. Only faces next to a changed vertex are looked at again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .overhang import build_directions, check_critical_angle
+
+__all__ = ["ReliefLimit", "limit_relief"]
+
+
+@dataclass(frozen=True)
+class ReliefLimit:
+    """What :func:`limit_relief` changed.
+
+    Attributes:
+        lowered: vertices whose displacement was lowered.
+        zeroed: vertices set back on the surface.
+        overhang_faces: faces that overhung before limiting.
+        folded_faces: faces that folded over before limiting.
+        removed_mm3: estimated relief volume removed, ``sum |d - d'| A_i`` (mm^3,
+            ``A_i`` a third of the area of the faces around vertex ``i``).
+    """
+
+    lowered: int
+    zeroed: int
+    overhang_faces: int
+    folded_faces: int
+    removed_mm3: float
+
+
+def _bad(v, f, n0, dirs, cos_limit):
+    p = v[f]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    ln = np.linalg.norm(n, axis=1)
+    n = n / np.maximum(ln, 1e-300)[:, None]
+    fold = ((n * n0).sum(1) <= 0.0) | (ln <= 1e-300)
+    over = np.zeros(len(f), dtype=bool) if dirs is None else np.any(-(n @ dirs.T) > cos_limit, axis=1)
+    return over, fold
+
+
+def _offending(ctx, idx, dd):
+    """Overhang and fold flags of the faces ``f[idx]`` with displacements ``dd``."""
+    v0, nrm, f, n0, dirs, cos_limit = ctx
+    fi = f[idx]
+    vv = v0[fi] + nrm[fi] * dd[..., None]
+    return _bad(vv.reshape(-1, 3), np.arange(3 * len(idx)).reshape(-1, 3), n0[idx], dirs, cos_limit)
+
+
+def _largest_factor(ctx, bad, base):
+    """Per offending face: the largest common factor s in [0, 1] on its three
+    displacements ``base`` that makes it pass (12 bisection steps; s = 0 passes)."""
+    lo, hi = np.zeros(len(bad)), np.ones(len(bad))
+    for _ in range(12):  # per bisection step, all offending faces at once
+        mid = 0.5 * (lo + hi)
+        o, fo = _offending(ctx, bad, base * mid[:, None])
+        ok = ~(o | fo)
+        lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
+    return lo
+
+
+def _faces_at(f: np.ndarray, n: int):
+    """Vertex -> face incidence: ``faces_of(verts)`` gives the faces (indices into
+    ``f``) at any of ``verts``, sorted and unique, in time proportional to the answer."""
+    corner = f.ravel()
+    order = np.argsort(corner, kind="stable") // 3
+    start = np.concatenate([[0], np.cumsum(np.bincount(corner, minlength=n))])
+
+    def faces_of(verts: np.ndarray) -> np.ndarray:
+        lo, cnt = start[verts], start[verts + 1] - start[verts]
+        total = int(cnt.sum())
+        offs = np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+        return np.unique(order[np.repeat(lo, cnt) + offs])
+
+    return faces_of
+
+
+def _rounds(ctx, out, rounds, shrink):
+    """The limiter's rounds, in place on ``out``; returns the first round's counts."""
+    v0, f = ctx[0], ctx[2]
+    faces_of = _faces_at(f, len(v0))
+    idx = np.arange(len(f))
+    first = None
+    for r in range(rounds + len(v0) + 1):  # per round; only faces near a change are looked at
+        if not len(idx):
+            break
+        over, fold = _offending(ctx, idx, out[f[idx]])
+        if first is None:
+            first = (int(over.sum()), int(fold.sum()))
+        bad = idx[over | fold]
+        if not len(bad):
+            break
+        fb = f[bad]
+        if r < rounds:  # every vertex takes the smallest factor of its offending faces
+            lo = _largest_factor(ctx, bad, out[fb])
+            fac = np.ones(len(v0))
+            for k in range(3):  # per corner
+                np.minimum.at(fac, fb[:, k], 0.9 * lo * shrink ** (r // 5))
+            verts = np.flatnonzero(fac < 1.0)
+            out[verts] *= fac[verts]
+        else:
+            verts = np.unique(fb)
+            out[verts] = 0.0
+        idx = faces_of(verts)
+    return first
+
+
+def _float32_pass(ctx, out) -> None:
+    """The same test on the float32 vertices that are written (a tiny face can turn
+    when rounded): what offends there goes back to the surface, in place. After the
+    first pass only faces next to a zeroed vertex are looked at again."""
+    v0, nrm, f, n0, dirs, cos_limit = ctx
+    faces_of = _faces_at(f, len(v0))
+    idx = np.flatnonzero((out[f] != 0).any(axis=1))
+    for _ in range(len(v0) + 1):  # per round of zeroing
+        fi = f[idx]
+        vv = (v0[fi] + nrm[fi] * out[fi][..., None]).astype(np.float32).astype(np.float64)
+        over, fold = _bad(vv.reshape(-1, 3), np.arange(vv.shape[0] * 3).reshape(-1, 3), n0[idx], dirs, cos_limit)
+        if not (over | fold).any():
+            return
+        zero = np.unique(fi[over | fold])
+        out[zero] = 0.0
+        idx = faces_of(zero)
+        idx = idx[(out[f[idx]] != 0).any(axis=1)]
+
+def limit_relief(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    normals: np.ndarray,
+    d: np.ndarray,
+    *,
+    build_dir=None,
+    critical_angle: float = 45.0,
+    margin: float = 1.0,
+    shrink: float = 0.7,
+    rounds: int = 25,
+) -> tuple[np.ndarray, ReliefLimit]:
+    """Lower vertex displacements so that no displaced face overhangs or folds.
+
+    Args:
+        vertices: ``(N, 3)`` undisplaced positions, mm.
+        faces: ``(M, 3)`` vertex indices.
+        normals: ``(N, 3)`` unit displacement directions.
+        d: ``(N,)`` displacements along ``normals``, mm (0 off the texture).
+        build_dir: ``(3,)`` or ``(K, 3)`` build direction(s), or None (fold check
+            only).
+        critical_angle: degrees between face and build plate, 0..90.
+        margin: degrees added to ``critical_angle`` for the limit, so that the
+            result passes :func:`texcad.check` after rounding to float32.
+        shrink: extra factor per five rounds on the offending faces' displacements.
+        rounds: rounds of shrinking before what still offends is set to 0.
+
+    Returns:
+        ``(d', report)`` with ``|d'_i| <= |d_i|`` and the same signs.
+    """
+    v0 = np.asarray(vertices, dtype=np.float64)
+    nrm = np.asarray(normals, dtype=np.float64)
+    d0 = np.asarray(d, dtype=np.float64)
+    out = d0.copy()
+    dirs = None if build_dir is None else build_directions(build_dir)
+    cos_limit = 0.0
+    if dirs is not None:
+        cos_limit = float(np.cos(np.radians(min(89.9, check_critical_angle(critical_angle) + margin))))
+    live = np.flatnonzero((out[faces] != 0).any(axis=1))
+    f = faces[live]
+    p0 = v0[f]
+    n0 = np.cross(p0[:, 1] - p0[:, 0], p0[:, 2] - p0[:, 0])
+    n0 /= np.maximum(np.linalg.norm(n0, axis=1), 1e-300)[:, None]
+    ctx = (v0, nrm, f, n0, dirs, cos_limit)
+    first = _rounds(ctx, out, rounds, shrink)
+    _float32_pass(ctx, out)
+    area = np.zeros(len(v0))
+    p = v0[faces]
+    fa = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    for k in range(3):  # per corner
+        area += np.bincount(faces[:, k], weights=fa / 3.0, minlength=len(v0))
+    low = out != d0
+    rep = ReliefLimit(
+        lowered=int(low.sum()),
+        zeroed=int((low & (out == 0)).sum()),
+        overhang_faces=first[0] if first else 0,
+        folded_faces=first[1] if first else 0,
+        removed_mm3=float((np.abs(d0 - out) * area).sum()),
+    )
+    return out, rep
