@@ -39,7 +39,7 @@ def imports(top_level_only: bool = False) -> list[tuple[str, str, str, int]]:
     for path in sorted(ROOT.rglob("*.py")):
         mod = _module_name(path)
         is_pkg = path.name == "__init__.py"
-        tree = ast.parse(path.read_text(), str(path))
+        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
         nodes = tree.body if top_level_only else ast.walk(tree)
         for node in nodes:
             if isinstance(node, ast.ImportFrom):
@@ -125,7 +125,7 @@ def test_functions_are_short():
     }
     long = []
     for path in sorted(ROOT.rglob("*.py")):
-        for node in ast.walk(ast.parse(path.read_text())):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 n = node.end_lineno - node.lineno + 1
                 key = f"{_module_name(path)}.{node.name}"
