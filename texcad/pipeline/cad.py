@@ -330,9 +330,8 @@ def _texture_plane(
             "obstructed": obst is not None,
         },
     }
-    def make_shape():
-        new_face = _brep.textured_plane_face(face, h, xs, ys, origin=origin, xdir=ex, normal=n)
-        return _brep.replace_face(topo, face, new_face)
+    def make_shape(fine=None):
+        return _brep.textured_plane_solid(topo, face, h, xs, ys, origin=origin, xdir=ex, normal=n, fine=fine)
 
     result["shape"] = make_shape if make_brep else None
     return result
@@ -651,6 +650,10 @@ def checked_brep(make_shape: Callable[[], Any], topo, mesh: Mesh, info: dict | N
         )
     if info is not None:
         info["brep_volume"] = vb
+        # For CAD operations on the result (texcad.pipeline.ops): the untextured part,
+        # and the builder (planar faces take fine=[(x0, x1, y0, y1)]: finer tiles there).
+        info["_base_shape"] = topo
+        info["_make_shape"] = make_shape
     report(progress, 1.0, "B-rep checked")
     return shape
 
