@@ -80,6 +80,8 @@ def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part"
     label = _ascii(name)
     if tessellated is None:
         tessellated = _has_tiles(topo)
+    if tessellated:
+        _keep_tile_meshes(topo)
     with _Quiet():
         STEPControl_Controller.Init_s()
         Interface_Static.SetCVal_s("write.step.unit", "MM")
@@ -134,6 +136,31 @@ def _has_tiles(topo) -> bool:
                 return True
         exp.Next()
     return False
+
+
+def _keep_tile_meshes(topo) -> None:
+    """Drop the triangulations a STEP file must not carry: those of faces that are not
+    texcad tiles (OCCT's own meshes, e.g. of the untouched faces, made by an earlier
+    tessellation) and of located faces (OCCT's writer stores their nodes without the
+    location). The faces are the same; OCCT meshes them again on reading."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.Geom import Geom_BSplineSurface
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS
+
+    builder = BRep_Builder()
+    exp = TopExp_Explorer(topo, TopAbs_FACE)
+    while exp.More():  # one per face
+        face = TopoDS.Face_s(exp.Current())
+        exp.Next()
+        if BRep_Tool.Triangulation_s(face, TopLoc_Location()) is None:
+            continue
+        surf = BRep_Tool.Surface_s(face)
+        tile = isinstance(surf, Geom_BSplineSurface) and surf.UDegree() == 1 and surf.VDegree() == 1
+        if not tile or not face.Location().IsIdentity():
+            builder.UpdateFace(face, None)
 
 
 def read_step(path: str | os.PathLike):
