@@ -523,8 +523,7 @@ def _texture_extrusion(
         },
     }
     def make_shape():
-        slab_b = _brep.grid_brep(top_w, world(bottom), wrap_x=mapped.closed)
-        return _fuse_keep_count(topo, slab_b)
+        return _brep.textured_extrusion_solid(topo, face, top_w, world(bottom), closed=mapped.closed)
 
     result["shape"] = make_shape if make_brep else None
     return result

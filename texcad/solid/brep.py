@@ -65,6 +65,8 @@ __all__ = [
     "tiled_grid_faces",
     "tiled_plane_solid",
     "textured_plane_solid",
+    "textured_band_solid",
+    "textured_extrusion_solid",
     "TILE",
     "FINE",
     "occt_volume",
@@ -1019,6 +1021,7 @@ def tiled_grid_faces(
     tile: int = TILE,
     triangulate: bool = True,
     fine: Sequence | None = None,
+    wrap_x: bool = False,
 ):
     """The degree-1 B-spline surface through an ``(R, C, 3)`` grid (mm), made as a
     patchwork of tiles of at most ``tile`` x ``tile`` cells that **share** their
@@ -1041,6 +1044,10 @@ def tiled_grid_faces(
     and skips the face, and the STEP writer stores it (see
     :func:`texcad.io.write_step`), so a viewer shows texcad's mesh at once instead
     of re-meshing hundreds of thousands of poles.
+
+    ``wrap_x``: the grid's last column is its first (a closed band): the tiles there
+    share their edges with the first column's tiles, and ``boundary`` is
+    ``{"v0": row 0's edges, "v1": the last row's}``, each left to right.
 
     Returns:
         ``(faces, boundary)``: ``faces`` a list of forward ``TopoDS_Face`` (normal
@@ -1082,10 +1089,29 @@ def tiled_grid_faces(
         faces.append(TopoDS.Face_s(it.Value()))
         faces[-1].Free(True)  # read shapes are frozen; the wire is added below
         it.Next()
-    return _share_tile_edges(b, g, x, y, leaves, faces)
+    return _share_tile_edges(b, g, x, y, leaves, faces, wrap_x)
 
 
-def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: list, faces: list):
+def _patch_boundary(edges: dict, R: int, C: int, wrap: bool):
+    """The edges around a tile patchwork (``edges`` keyed ``(horizontal, line, a, z)``
+    in grid indices, ``R`` x ``C`` cells): counter-clockwise, or for a closed band
+    ``{"v0": row 0, "v1": row R}`` left to right."""
+    from OCP.TopAbs import TopAbs_REVERSED
+    from OCP.TopoDS import TopoDS
+
+    def along(horizontal, idx, reverse):
+        keys = sorted(key for key in edges if key[0] == horizontal and key[1] == idx)
+        items = [edges[key] for key in keys]
+        if reverse:
+            items = [(TopoDS.Edge_s(e.Oriented(TopAbs_REVERSED)), line) for e, line in reversed(items)]
+        return items
+
+    if wrap:
+        return {"v0": along(True, 0, False), "v1": along(True, R, False)}
+    return along(True, 0, False) + along(False, C, False) + along(True, R, True) + along(False, 0, True)
+
+
+def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: list, faces: list, wrap_x: bool = False):
     """Give the tile faces (``leaves`` ``(r0, r1, c0, c1)`` of the grid ``g``) shared
     vertices and edges, split at every tile corner on a side, with straight pcurves;
     returns :func:`tiled_grid_faces`' ``(faces, boundary)``."""
@@ -1103,7 +1129,11 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
     on_col = {c: np.unique(corners[corners[:, 1] == c, 0]) for c in np.unique(corners[:, 1])}
     verts, edges = {}, {}
 
+    period = g.shape[1] - 1 if wrap_x else None
+
     def vertex(r, c):
+        if period is not None:
+            c = c % period  # the last grid column is the first
         if (r, c) not in verts:
             v = TopoDS_Vertex()
             b.MakeVertex(v, gp_Pnt(*g[r, c]), TOLERANCE)
@@ -1124,6 +1154,8 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
         out = []
         for a, z in zip(stops[:-1], stops[1:]):  # one per edge
             key = (horizontal, int(line_idx), int(a), int(z))
+            if period is not None and not horizontal:
+                key = (horizontal, int(line_idx) % period, int(a), int(z))
             if key not in edges:
                 if curve is None:
                     curve = surf[k].VIso(line[1]) if horizontal else surf[k].UIso(line[0])
@@ -1154,17 +1186,7 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
         w.Closed(True)
         b.Add(faces[k], w)
         out.append(faces[k])
-    R, C = g.shape[0] - 1, g.shape[1] - 1
-
-    def along(horizontal, idx, reverse):
-        keys = sorted(key for key in edges if key[0] == horizontal and key[1] == idx)
-        items = [edges[key] for key in keys]
-        if reverse:
-            items = [(TopoDS.Edge_s(e.Oriented(TopAbs_REVERSED)), line) for e, line in reversed(items)]
-        return items
-
-    boundary = along(True, 0, False) + along(False, C, False) + along(True, R, True) + along(False, 0, True)
-    return out, boundary
+    return out, _patch_boundary(edges, g.shape[0] - 1, g.shape[1] - 1, period is not None)
 
 
 def tiled_plane_solid(
@@ -1296,12 +1318,20 @@ def textured_plane_solid(
 def _replace_by_faces(shape, old, patch):
     """``shape`` with the face ``old`` replaced by the faces of the shell ``patch``
     (forward faces whose normals point out of the body)."""
+    from OCP.TopAbs import TopAbs_FACE
+
+    return _replace_faces(shape, [(old, explore(patch, TopAbs_FACE))])
+
+
+def _replace_faces(shape, swaps: list):
+    """``shape`` with each old face of ``swaps`` ``[(old, [new faces]), ...]`` replaced
+    by its new faces (oriented as they are to lie in the shell: normals outward)."""
     from OCP.BRep import BRep_Builder
-    from OCP.TopAbs import TopAbs_FACE, TopAbs_SHELL, TopAbs_SOLID
-    from OCP.TopoDS import TopoDS_Iterator, TopoDS_Shell, TopoDS_Solid
+    from OCP.TopAbs import TopAbs_SHELL, TopAbs_SOLID
+    from OCP.TopoDS import TopoDS_Compound, TopoDS_Iterator, TopoDS_Shell, TopoDS_Solid
 
     b = BRep_Builder()
-    new_faces = explore(patch, TopAbs_FACE)
+    hits = [False] * len(swaps)
 
     def rebuild(s):
         kind = s.ShapeType()
@@ -1312,17 +1342,19 @@ def _replace_by_faces(shape, old, patch):
             found = False
             while it.More():  # one per face of the shell
                 f = it.Value()
-                if f.IsSame(old):
-                    found = True
-                    for nf in new_faces:  # the textured faces
-                        b.Add(sh, nf)
+                for k, (old, new) in enumerate(swaps):  # a few swaps
+                    if f.IsSame(old):
+                        found = hits[k] = True
+                        for nf in new:  # the new faces
+                            b.Add(sh, nf)
+                        break
                 else:
                     b.Add(sh, f)
                 it.Next()
-            sh.Closed(found or s.Closed())
+            sh.Closed(True if found else s.Closed())
             return (sh if found else s), found
         if kind == TopAbs_SOLID or kind.name.endswith("COMPOUND") or kind.name.endswith("COMPSOLID"):
-            out = TopoDS_Solid() if kind == TopAbs_SOLID else type(s)()
+            out = TopoDS_Solid() if kind == TopAbs_SOLID else TopoDS_Compound()
             if kind == TopAbs_SOLID:
                 b.MakeSolid(out)
             else:
@@ -1337,12 +1369,175 @@ def _replace_by_faces(shape, old, patch):
             return (out if hit else s), hit
         return s, False
 
-    # The new faces point outward like the old one: the solids keep their orientation
+    # The new faces point outward like the old ones: the solids keep their orientation
     # (checked_brep checks the volume's sign and size).
-    result, hit = rebuild(shape)
-    if not hit:
-        raise GeometryError("internal: the face to replace is not in the part")
+    result, _ = rebuild(shape)
+    if not all(hits):
+        raise GeometryError("internal: a face to replace is not in the part")
     return result
+
+
+def textured_band_solid(shape: Any, face: Any, top: np.ndarray, *, tile: int = TILE):
+    """``shape`` with a closed band face (a cylinder's side, any closed extruded
+    profile) textured by the grid ``top`` in tiles, **without a boolean**.
+
+    ``top`` is ``(R, C, 3)`` mm, closed in x (column ``C - 1`` joins column 0), with
+    ``d(top)/dc x d(top)/dr`` outward, outside the face, and its first and last rows
+    each in a plane across the band, inside the face's length (the pixel rows end
+    half a pixel short of the face's ends). The face is split by those two planes
+    (``BRepAlgoAPI_Splitter``: a plane across a cylinder or an extrusion, exact); its
+    middle part is replaced by :func:`tiled_grid_faces` (``wrap_x``) and two planar
+    rings between the split's section edges and the end rows' edges: the slab walls
+    of texcad's mesh. Every edge is shared: closed by construction.
+
+    Returns:
+        The new shape, or None where this does not apply (then use :func:`grid_brep`
+        + :func:`fuse_solids`).
+    """
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Splitter
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+    from OCP.gp import gp_Dir, gp_Pln, gp_Pnt
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_ListOfShape
+
+    topo, band = to_topods(shape), TopoDS.Face_s(to_topods(face))
+    g = np.asarray(top, np.float64)
+    extent = float(np.ptp(g.reshape(-1, 3), axis=0).max()) or 1.0
+    planes = []
+    for r, inward in ((0, 1), (-1, -2)):  # the two end rows
+        row = g[r]
+        centre = row.mean(axis=0)
+        nrm = np.linalg.svd(row - centre, full_matrices=False)[2][2]
+        if np.abs((row - centre) @ nrm).max() > 1e-7 * extent:
+            return None
+        if float((g[inward].mean(axis=0) - centre) @ nrm) > 0:
+            nrm = -nrm  # pointing away from the texture: the ring's outward normal
+        planes.append((centre, nrm))
+    # The planes must cut the band strictly inside its length.
+    ends = face_segments(band, 0.05 * extent).reshape(-1, 3)
+    for centre, nrm in planes:
+        d = (ends - centre) @ nrm
+        if not (d.max() > 1e-4 and d.min() < -1e-4):  # mm: the face reaches past the plane
+            return None
+    tools = TopTools_ListOfShape()
+    big = 10.0 * extent
+    pl = [gp_Pln(gp_Pnt(*map(float, c)), gp_Dir(*map(float, n))) for c, n in planes]
+    for p in pl:  # two cutting planes
+        tools.Append(BRepBuilderAPI_MakeFace(p, -big, big, -big, big).Face())
+    args = TopTools_ListOfShape()
+    args.Append(band)  # the face alone: its end edges, shared with the body, stay as they are
+    sp = BRepAlgoAPI_Splitter()
+    sp.SetArguments(args)
+    sp.SetTools(tools)
+    sp.Build()
+    if not sp.IsDone():
+        return None
+    split = sp.Shape()
+    middle, strips = None, []
+    for f in explore(split, TopAbs_FACE):  # the band's pieces (3), oriented as the band
+        props = GProp_GProps()
+        BRepGProp.SurfaceProperties_s(f, props)
+        c = np.array(props.CentreOfMass().Coord())
+        if all(float((c - centre) @ nrm) < 0 for centre, nrm in planes):
+            middle = TopoDS.Face_s(f)
+        else:
+            strips.append(TopoDS.Face_s(f))
+    if middle is None or len(strips) != 2:
+        return None
+    sections = [TopoDS.Edge_s(e) for e in explore(middle, TopAbs_EDGE) if not BRep_Tool.IsClosed_s(TopoDS.Edge_s(e), middle)]
+    if len(sections) != 2:
+        return None
+    grid = np.concatenate([g, g[:, :1]], axis=1)
+    u, v = np.arange(grid.shape[1], dtype=np.float64), np.arange(grid.shape[0], dtype=np.float64)
+    tiles, rows = tiled_grid_faces(grid, u, v, tile=tile, wrap_x=True)
+    new_faces = strips + list(tiles)
+    for (centre, nrm), p, key in zip(planes, pl, ("v0", "v1")):  # the two rings
+        sec = [e for e in sections if abs(float((edge_points(e, 0.1 * extent)[0] - centre) @ nrm)) < 1e-6 * extent]
+        if len(sec) != 1:
+            return None
+        ring = _ring_face(p, next(e for e in explore(middle, TopAbs_EDGE) if e.IsSame(sec[0])), rows[key], key == "v0")
+        if ring is None:
+            return None
+        new_faces.append(ring)
+    return _replace_faces(topo, [(band, new_faces)])
+
+
+def _ring_face(pln, section, row: list, first: bool):
+    """The planar ring (plane ``pln``, normal away from the texture) between a band's
+    section edge (as the band's middle piece ran it) and the texture's end row edges
+    (``first``: row 0, which the tiles run forward)."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.Geom import Geom_Plane
+    from OCP.GeomAPI import GeomAPI
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Wire
+
+    b = BRep_Builder()
+    ring = TopoDS_Face()
+    b.MakeFace(ring, Geom_Plane(pln), TOLERANCE)
+    # The strip beyond runs the section edge against the middle piece; the ring, which
+    # takes the middle piece's place along it, runs it as the middle piece did. The
+    # tiles run row 0 forward and the last row reversed: the ring the other way.
+    w1, w2 = TopoDS_Wire(), TopoDS_Wire()
+    b.MakeWire(w1)
+    b.Add(w1, section)
+    w1.Closed(True)
+    b.MakeWire(w2)
+    want = TopAbs_REVERSED if first else TopAbs_FORWARD
+    for edge, _ in row:  # one per tile along the end
+        b.Add(w2, edge.Oriented(want))
+    w2.Closed(True)
+    b.Add(ring, w1)
+    b.Add(ring, w2)
+    for e in [section] + [edge for edge, _ in row]:  # pcurves on the ring's plane
+        edge = TopoDS.Edge_s(e)
+        curve = BRep_Tool.Curve_s(edge, 0.0, 0.0)
+        if curve is None:
+            return None
+        b.UpdateEdge(edge, GeomAPI.To2d_s(curve, pln), ring, TOLERANCE)
+    return ring
+
+
+def textured_extrusion_solid(shape: Any, face: Any, top: np.ndarray, bottom: np.ndarray, *, closed: bool):
+    """``shape`` with a face of an extruded profile textured: the texture grid ``top``
+    (``(R, C, 3)`` mm, outward ``d/dc x d/dr``) and the slab's ``bottom`` inside the
+    body (as :func:`grid_brep`).
+
+    A closed band whose ends are planar faces (a cylinder, a boss on a plate, any
+    closed extruded profile between planes) gets :func:`textured_band_solid`: the
+    face is replaced, no boolean. Other faces get the slab of :func:`grid_brep` fused
+    onto the body by OCCT's boolean (:func:`fuse_solids`; slow on fine grids).
+
+    Raises:
+        GeometryError: the boolean failed or changed the number of solids.
+    """
+    if closed:
+        out = textured_band_solid(shape, face, top)
+        if out is not None:
+            return out
+    topo = to_topods(shape)
+    slab = grid_brep(top, bottom, wrap_x=closed)
+    want = len(solids_of(topo))
+    if want == 1:
+        return fuse_solids(topo, slab)
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Fuse
+    from OCP.TopTools import TopTools_ListOfShape
+
+    args, tools = TopTools_ListOfShape(), TopTools_ListOfShape()
+    args.Append(topo)
+    tools.Append(slab)
+    fu = BRepAlgoAPI_Fuse()
+    fu.SetArguments(args)
+    fu.SetTools(tools)
+    fu.SetRunParallel(True)
+    fu.Build()
+    if not fu.IsDone() or len(solids_of(fu.Shape())) != want:
+        raise GeometryError("OCCT's union of texture and part failed; texture with brep=False for STL/3MF only")
+    return fu.Shape()
 
 
 #: Relative precision asked of OCCT's adaptive volume integration (:func:`occt_volume`).
