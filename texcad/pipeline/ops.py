@@ -229,7 +229,7 @@ def _occt_fillet(shape, mids: np.ndarray, radius: float):
     return mk.Shape()
 
 
-def _checked(shape, mesh: Mesh, op: str, bodies: int):
+def _checked(shape, mesh: Mesh, op: str, bodies: int, info: dict | None = None):
     chk = check_shape(shape)
     if not chk["valid"] or chk["solids"] != bodies:
         raise GeometryError(
@@ -243,6 +243,8 @@ def _checked(shape, mesh: Mesh, op: str, bodies: int):
             f"{vm:.1f} mm3 (OCCT lost or kept material it should not); the mesh result is fine: write STL or 3MF, "
             "or make the cut before texturing"
         )
+    if info is not None:
+        info["brep_volume"] = vb
     return shape
 
 
@@ -264,7 +266,7 @@ def _derived(part: Any, *, mesh, texture_mesh, base_mesh, shape, info, hist) -> 
 
 
 def _info(part: Any, what: str) -> dict:
-    return {k: v for k, v in part.info.items() if not k.startswith("_")} | {
+    return {k: v for k, v in part.info.items() if not k.startswith("_") and k != "brep_volume"} | {
         "operations": [*part.info.get("operations", []), what]
     }
 
@@ -310,10 +312,10 @@ def cad_op(part: Any, tool: Any, op: str) -> Any:
         hist = dict(src, steps=[*src["steps"], step], to_world=world)
 
         def shape():
-            return _checked(_apply(_replay(hist), world), mesh, op, bodies)
+            return _checked(_apply(_replay(hist), world), mesh, op, bodies, info)
 
-    return _derived(part, mesh=mesh, texture_mesh=texture_mesh, base_mesh=base_mesh, shape=shape,
-                    info=_info(part, op), hist=hist)  # fmt: skip
+    info = _info(part, op)
+    return _derived(part, mesh=mesh, texture_mesh=texture_mesh, base_mesh=base_mesh, shape=shape, info=info, hist=hist)
 
 
 def fillet(part: Any, edges: Sequence[Any], radius: float) -> Any:
@@ -354,10 +356,10 @@ def fillet(part: Any, edges: Sequence[Any], radius: float) -> Any:
     bodies = len(to_manifold(mesh).decompose())
 
     def shape():
-        return _checked(_apply(_replay(hist), world), mesh, "fillet", bodies)
+        return _checked(_apply(_replay(hist), world), mesh, "fillet", bodies, info)
 
-    return _derived(part, mesh=mesh, texture_mesh=tex, base_mesh=base_world, shape=shape,
-                    info=_info(part, "fillet"), hist=hist)  # fmt: skip
+    info = _info(part, "fillet")
+    return _derived(part, mesh=mesh, texture_mesh=tex, base_mesh=base_world, shape=shape, info=info, hist=hist)
 
 
 def _mirror_matrix(origin: Sequence[float], normal: Sequence[float]) -> np.ndarray:
