@@ -389,18 +389,16 @@ def mirror(part: Any, origin: Sequence[float] = (0.0, 0.0, 0.0), normal: Sequenc
         hist = dict(hist_src, to_world=world)
 
         def shape():
-            out = _apply(_replay(hist), world)
-            chk = check_shape(out)
-            if not chk["valid"]:
-                raise GeometryError("the mirrored B-rep is not valid; the meshes are fine: write STL or 3MF")
-            return out
+            mesh = _mirrored_mesh(part.mesh, m)
+            return _checked(_apply(_replay(hist), world), mesh, "mirror", len(to_manifold(mesh).decompose()), info)
 
+    info = _info(part, "mirror")
     return _derived(
         part,
         mesh=lambda: _mirrored_mesh(part.mesh, m),
         texture_mesh=lambda: _mirrored_mesh(part.texture_mesh, m),
         base_mesh=lambda: _mirrored_mesh(part.base_mesh, m),
         shape=shape,
-        info=_info(part, "mirror"),
+        info=info,
         hist=hist,
     )
