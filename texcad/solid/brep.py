@@ -31,6 +31,14 @@ CAD model generation that the paper did in Rhino/Grasshopper), with OCCT (OCP):
 * :func:`grid_brep` / :func:`fuse_solids` - the general case (textures mapped onto
   curved faces): the slab between a top and a bottom grid (the B-rep twin of
   :func:`texcad.mesh.grid_solid`), sewn, and fused onto the base with OCCT's boolean.
+* :func:`tiled_grid_faces` / :func:`tiled_plane_solid` / :func:`textured_band_solid` -
+  what texcad's B-reps are made of now: the texture grid as **tiles** of at most
+  :data:`TILE` x :data:`TILE` cells sharing their edges, each carrying texcad's own
+  mesh as its triangulation (OCCT's mesher keeps it; STEP stores it), finer
+  (:data:`FINE`) where a CAD operation's tool meets the texture. Planar faces keep
+  their plane outside the tiles; closed bands (cylinders) are split by the end rows'
+  planes and closed by planar rings. No boolean; open profiles still use
+  :func:`grid_brep` + :func:`fuse_solids` (:func:`textured_extrusion_solid`).
 * :func:`write_step` / :func:`read_step` - AP214 STEP in mm, silent, with a fixed
   header (time stamp, product name) so the same shape gives the same bytes.
 
