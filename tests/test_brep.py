@@ -132,3 +132,49 @@ def test_bad_grids_are_refused():
         brep.grid_surface(_heightfield(), u=np.zeros(17))
     with pytest.raises(ParameterError, match="cannot use"):
         brep.to_topods(42)
+
+
+def test_tiles_share_edges_and_refine_locally():
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    g = _heightfield(rows=40, cols=50)
+    x, y = g[0, :, 0], g[:, 0, 1]
+    faces, boundary = brep.tiled_grid_faces(g, x, y, tile=16, fine=[(10, 20, 10, 30)])
+    assert len(faces) > 4 * 4  # 3 x 4 coarse tiles, some split into 2 x 2-cell tiles
+    shell = texcad.solid.compound(faces)
+    # Every inner edge is shared by exactly two tiles (no T-junctions), the border by one.
+    emap = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shell, TopAbs_EDGE, TopAbs_FACE, emap)
+    uses = np.array([emap.FindFromIndex(i).Size() for i in range(1, emap.Extent() + 1)])
+    assert set(uses) == {1, 2} and (uses == 1).sum() == len(boundary)
+    # Together they enclose exactly the bilinear surface's flux.
+    flux = sum(brep._grid_face_flux(f, np.zeros(3)) for f in faces)
+    assert flux == pytest.approx(brep.grid_flux(g), rel=1e-12)
+
+
+@pytest.mark.parametrize("boss", [False, True])
+def test_cylinder_band_without_boolean(boss):
+    import warnings
+    from build123d import Box, Cylinder, GeomType, Pos
+    import texcad
+
+    body = Box(30, 30, 4) + Pos(0, 0, 8) * Cylinder(6, 12) if boss else Cylinder(8, 16)
+    side = body.faces().filter_by(GeomType.CYLINDER)[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", texcad.TexcadWarning)
+        tx = texcad.texture(body, side, "builtin:stones", height=0.6, pitch=0.5)
+    called = []
+    real = brep.fuse_solids
+    brep.fuse_solids = lambda *a, **k: called.append(1) or real(*a, **k)
+    try:
+        shape = tx.shape
+    finally:
+        brep.fuse_solids = real
+    assert not called  # no OCCT boolean
+    chk = brep.check_shape(shape)
+    assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
+    assert chk["faces"] > len(texcad.solid.faces_of(body)) + 4  # tiles and two rings
+    assert brep.volume(shape) == pytest.approx(tx.volume, rel=1e-4)
+    assert brep.occt_volume(shape) == pytest.approx(tx.volume, rel=1e-3)

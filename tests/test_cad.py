@@ -208,7 +208,8 @@ def test_cadquery_shape_in_shape_out():
     assert isinstance(out, texcad.Textured) and out.mesh.is_watertight
     wp = out.workplane
     assert isinstance(wp, cq.Workplane) and wp.val().isValid()
-    assert wp.val().Volume() == pytest.approx(out.volume, rel=1e-3)
+    # the B-rep keeps one pole per pixel, the mesh is lean: within its tolerance x area
+    assert abs(wp.val().Volume() - out.volume) <= 1e-3 * out.volume + out.info["volume_slack"]
 
 
 def test_errors_name_the_problem():

@@ -1,11 +1,12 @@
 """Same inputs and seed, same bytes: the demo and two recipes with one vertex per
-pixel (``tolerance=0``) give exactly the STL and STEP files texcad 0.1 (before the
-layout of issue 17) wrote.
+pixel (``tolerance=0``) give exactly the STL files texcad 0.1 (before the layout of
+issue 17) wrote.
 
 The SHA-256 sums below were taken from texcad 0.1 (commit 9603649) on the pinned
-stack, with the same commands. The 3MF files changed on purpose: they are written
-compressed, and a textured part's texture is a part of one object (issue 15); their
-meshes are compared instead.
+stack, with the same commands. The 3MF files changed on purpose (written compressed,
+a textured part's texture a part of one object: issue 15), and so did the STEP files
+(the texture as tiles that carry their triangulation, issue 16): their contents are
+compared with the STL instead, and a second run must give the same bytes.
 """
 
 from __future__ import annotations
@@ -42,13 +43,14 @@ def _run(args: list[str], out: Path) -> None:
 @pytest.fixture(scope="module")
 def outputs(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("repro")
-    _run(["-m", "texcad", "demo", "--out", str(out / "demo"), "--size", "20", "--pitch", "0.5", "--tolerance", "0"], out)
+    for d in ("demo", "demo_again"):
+        _run(["-m", "texcad", "demo", "--out", str(out / d), "--size", "20", "--pitch", "0.5", "--tolerance", "0"], out)
     _run([str(ROOT / "recipes" / "heat_sink.py")], out / "hs")
     _run([str(ROOT / "recipes" / "handle_flange.py")], out / "hf")
     return out
 
 
-@pytest.mark.parametrize("name", sorted(n for n in TEXCAD_0_1 if not n.endswith(".3mf")))
+@pytest.mark.parametrize("name", sorted(n for n in TEXCAD_0_1 if n.endswith(".stl")))
 def test_same_bytes_as_texcad_0_1(outputs, name):
     digest = hashlib.sha256((outputs / name).read_bytes()).hexdigest()
     assert digest == TEXCAD_0_1[name], f"{name} changed"
@@ -63,3 +65,19 @@ def test_3mf_holds_the_same_mesh_as_the_stl(outputs, name):
     assert all(m.is_watertight for _, m in parts)
     total = sum(m.volume for _, m in parts)
     assert total == pytest.approx(stl.volume, rel=2e-3)  # base + texture touch, no overlap
+
+
+@pytest.mark.parametrize("name", sorted(n for n in TEXCAD_0_1 if n.endswith(".step")))
+def test_step_is_the_stl_solid(outputs, name):
+    from texcad.io import read_mesh, read_step
+    from texcad.solid import check_shape, volume
+
+    shape = read_step(outputs / name)
+    chk = check_shape(shape)
+    assert chk["valid"] and chk["solids"] == 1
+    assert volume(shape) == pytest.approx(read_mesh(outputs / name.replace(".step", ".stl")).volume, rel=1e-3)
+
+
+def test_a_second_run_gives_the_same_bytes(outputs):
+    for f in ("demo.stl", "demo.3mf", "demo.step"):
+        assert (outputs / "demo" / f).read_bytes() == (outputs / "demo_again" / f).read_bytes(), f

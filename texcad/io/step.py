@@ -44,17 +44,28 @@ def _ascii(text: str) -> str:
     return re.sub(r"[^ -~]", "_", str(text)).replace("'", "_")
 
 
-def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part") -> None:
-    """Write a shape as an AP214 STEP file in mm (atomic, silent, reproducible).
+def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part", tessellated: bool | None = None) -> None:
+    """Write a shape as a STEP file in mm (atomic, silent, reproducible).
 
     The header's time stamp is fixed (1980-01-01, as in texcad's 3MF) and the product
     is named ``name`` instead of OCCT's per-session counter, so the same shape gives
     the same bytes.
 
+    Faces that carry a triangulation (texcad's texture tiles carry texcad's own
+    mesh, see :func:`texcad.solid.tiled_grid_faces`) are written with it as AP242
+    tessellated geometry (``TRIANGULATED_FACE`` next to the B-spline face): OCCT's
+    STEP reader attaches it to the face again, and its mesher
+    (``BRepMesh_IncrementalMesh``, what CQ-editor, ocp_vscode and FreeCAD run to show
+    a part) then keeps it instead of meshing hundreds of thousands of poles. The
+    schema is then AP242 (``AP242_MANAGED_MODEL_BASED_3D_ENGINEERING``), else AP214.
+
     Args:
         shape: build123d / CadQuery object or ``TopoDS_Shape``.
         path: output ``.step`` / ``.stp`` file.
         name: product name shown by CAD programs (ASCII).
+        tessellated: write the faces' triangulations (default: when a face of
+            ``shape`` is a texcad tile with its mesh); False gives a plain AP214
+            B-rep (smaller; viewers then mesh the B-spline faces themselves).
 
     Raises:
         GeometryError: OCCT could not translate or write the shape.
@@ -67,11 +78,25 @@ def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part"
 
     topo = to_topods(shape)
     label = _ascii(name)
+    if tessellated is None:
+        tessellated = _has_tiles(topo)
+    if tessellated:
+        _keep_tile_meshes(topo)
     with _Quiet():
         STEPControl_Controller.Init_s()
         Interface_Static.SetCVal_s("write.step.unit", "MM")
-        writer = STEPControl_Writer()
-        if writer.Transfer(topo, STEPControl_AsIs) != IFSelect_RetDone:
+        saved = Interface_Static.IVal_s("write.step.tessellated"), Interface_Static.IVal_s("write.step.schema")
+        # 1: triangulations written along with the B-rep; 0: not at all. Schema 5: AP242.
+        Interface_Static.SetIVal_s("write.step.tessellated", 1 if tessellated else 0)
+        if tessellated:
+            Interface_Static.SetIVal_s("write.step.schema", 5)
+        try:
+            writer = STEPControl_Writer()
+            ok = writer.Transfer(topo, STEPControl_AsIs) == IFSelect_RetDone
+        finally:
+            Interface_Static.SetIVal_s("write.step.tessellated", saved[0])
+            Interface_Static.SetIVal_s("write.step.schema", saved[1])
+        if not ok:
             raise GeometryError("OCCT could not translate the shape to STEP")
         header = APIHeaderSection_MakeHeader(writer.Model())
         header.SetName(TCollection_HAsciiString(label))
@@ -90,6 +115,52 @@ def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part"
         with open(tmp, "wb") as fh:
             fh.write(head)
             fh.write(tail)
+
+
+def _has_tiles(topo) -> bool:
+    """Does a face of ``topo`` carry a triangulation on a degree-1 B-spline surface (a
+    texcad texture tile)?"""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom import Geom_BSplineSurface
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    exp = TopExp_Explorer(topo, TopAbs_FACE)
+    while exp.More():  # one per face, until the first tile
+        face = TopoDS.Face_s(exp.Current())
+        surf = BRep_Tool.Surface_s(face)
+        if isinstance(surf, Geom_BSplineSurface) and surf.UDegree() == 1 and surf.VDegree() == 1:
+            if BRep_Tool.Triangulation_s(face, TopLoc_Location()) is not None:
+                return True
+        exp.Next()
+    return False
+
+
+def _keep_tile_meshes(topo) -> None:
+    """Drop the triangulations a STEP file must not carry: those of faces that are not
+    texcad tiles (OCCT's own meshes, e.g. of the untouched faces, made by an earlier
+    tessellation) and of located faces (OCCT's writer stores their nodes without the
+    location). The faces are the same; OCCT meshes them again on reading."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.Geom import Geom_BSplineSurface
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS
+
+    builder = BRep_Builder()
+    exp = TopExp_Explorer(topo, TopAbs_FACE)
+    while exp.More():  # one per face
+        face = TopoDS.Face_s(exp.Current())
+        exp.Next()
+        if BRep_Tool.Triangulation_s(face, TopLoc_Location()) is None:
+            continue
+        surf = BRep_Tool.Surface_s(face)
+        tile = isinstance(surf, Geom_BSplineSurface) and surf.UDegree() == 1 and surf.VDegree() == 1
+        if not tile or not face.Location().IsIdentity():
+            builder.UpdateFace(face, None)
 
 
 def read_step(path: str | os.PathLike):

@@ -27,6 +27,8 @@ from .mesh import (
 )
 from .ops import (
     cad_op,
+    fillet,
+    mirror,
     OPS,
     OP_VOLUME_TOLERANCE,
 )
@@ -66,6 +68,8 @@ __all__ = [
     'load_closed',
     'texture_mesh',
     'cad_op',
+    'fillet',
+    'mirror',
     'OPS',
     'OP_VOLUME_TOLERANCE',
     'plate_base',

@@ -365,9 +365,8 @@ def _texture_plane(
             "volume_slack": float(tolerance) * px * py * h_mesh.size,
         },
     }
-    def make_shape():
-        new_face = _brep.textured_plane_face(face, h, xs, ys, origin=origin, xdir=ex, normal=n)
-        return _brep.replace_face(topo, face, new_face)
+    def make_shape(fine=None):
+        return _brep.textured_plane_solid(topo, face, h, xs, ys, origin=origin, xdir=ex, normal=n, fine=fine)
 
     result["shape"] = make_shape if make_brep else None
     return result
@@ -562,8 +561,7 @@ def _texture_extrusion(
         },
     }
     def make_shape():
-        slab_b = _brep.grid_brep(top_w, world(bottom), wrap_x=mapped.closed)
-        return _fuse_keep_count(topo, slab_b)
+        return _brep.textured_extrusion_solid(topo, face, top_w, world(bottom), closed=mapped.closed)
 
     result["shape"] = make_shape if make_brep else None
     return result
@@ -782,6 +780,10 @@ def checked_brep(make_shape: Callable[[], Any], topo, mesh: Mesh, info: dict | N
         )
     if info is not None:
         info["brep_volume"] = vb
+        # For CAD operations on the result (texcad.pipeline.ops): the untextured part,
+        # and the builder (planar faces take fine=[(x0, x1, y0, y1)]: finer tiles there).
+        info["_base_shape"] = topo
+        info["_make_shape"] = make_shape
     report(progress, 1.0, "B-rep checked")
     return shape
 

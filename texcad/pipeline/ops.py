@@ -1,25 +1,55 @@
-"""CAD operations on a textured part, checked: the same boolean on texcad's mesh
+"""CAD operations on a textured part, checked: the same operation on texcad's mesh
 (manifold3d, guaranteed manifold) and, when the B-rep is asked for, on the B-rep
 (OCCT), which must then agree with the mesh.
 
-A boolean that OCCT gets wrong (it can return a "valid" solid that lost the cut) raises
-:class:`texcad.GeometryError` instead of giving a silently wrong part.
+* ``textured - tool``, ``+``, ``&`` (:func:`cad_op`): manifold3d's boolean of the
+  fused mesh, and OCCT's boolean of the textured B-rep. OCCT's boolean misses the
+  intersection of a tool with a degree-1 B-spline face of many cells (it then returns
+  a "valid" solid that kept the material, or two solids for a union), so the B-rep is
+  rebuilt for the operation with tiles of at most :data:`texcad.solid.FINE` x
+  :data:`~texcad.solid.FINE` cells where the tool's bounding box meets the texture
+  (planar faces; measured: 20 of 20 random cuts and bosses right, against 17 of 20
+  with 4- to 24-cell tiles), and the operations made so far are replayed on it.
+* :func:`fillet` (``Textured.fillet``): OCCT's fillet of the textured B-rep; the mesh
+  is the filleted *untextured* part (OCCT, tessellated at 5 um) united with the
+  texture mesh (manifold3d).
+* :func:`mirror` (``Textured.mirrored``): meshes and B-rep mirrored about a plane.
+
+Every B-rep result must be valid (``BRepCheck_Analyzer``), have as many solids as the
+mesh and enclose the mesh's volume within :data:`OP_VOLUME_TOLERANCE`, integrated by
+:func:`texcad.solid.volume` (exact on the untrimmed tiles, OCCT's Gauss integration on
+the few fine tiles a tool trimmed: 2e-5 from the mesh for a hole in the demo plate;
+OCCT's adaptive :func:`texcad.solid.occt_volume` at 1e-4 agrees as closely but takes
+seconds per hundred tiles); otherwise :class:`texcad.GeometryError` is raised instead
+of giving a silently wrong part.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Sequence
+
+import numpy as np
 
 from ..errors import GeometryError, ParameterError
-from ..solid import Mesh, check_shape, from_manifold, shape_to_mesh, to_manifold, to_topods, volume
+from ..solid import (
+    Mesh,
+    check_shape,
+    from_manifold,
+    shape_to_mesh,
+    to_manifold,
+    to_topods,
+    volume,
+)
 
-__all__ = ["cad_op", "OPS", "OP_VOLUME_TOLERANCE"]
+__all__ = ["cad_op", "fillet", "mirror", "OPS", "OP_VOLUME_TOLERANCE"]
 
-#: The operations: name -> (manifold3d operator, the OCCT algorithm's name).
+#: The boolean operations.
 OPS = ("cut", "fuse", "common")
-#: Largest relative difference between the B-rep's and the mesh's volume after an
-#: operation (the tool's tessellation, 0.01 mm, and the texture's bilinear term).
-OP_VOLUME_TOLERANCE = 2e-3
+#: Largest relative difference between the B-rep's volume and the mesh's after an
+#: operation: 0.1 %.
+OP_VOLUME_TOLERANCE = 1e-3
+#: mm: tolerance of the tessellation of tools and filleted parts for the mesh side.
+TOOL_TOLERANCE = 0.005
 
 
 def _is_textured(obj: Any) -> bool:
@@ -32,7 +62,7 @@ def _tool_mesh(tool: Any) -> Mesh:
         return tool.mesh
     if isinstance(tool, Mesh):
         return tool
-    return shape_to_mesh(tool, tolerance=0.005)
+    return shape_to_mesh(tool, tolerance=TOOL_TOLERANCE)
 
 
 def _mesh_op(a: Mesh, b: Mesh, op: str) -> Mesh:
@@ -41,6 +71,91 @@ def _mesh_op(a: Mesh, b: Mesh, op: str) -> Mesh:
     return from_manifold(out)
 
 
+# -- placements -----------------------------------------------------------------------------
+def _m4(m: np.ndarray) -> np.ndarray:
+    return np.vstack([np.asarray(m, np.float64)[:3], [0.0, 0.0, 0.0, 1.0]])
+
+
+def _trsf(m: np.ndarray):
+    from OCP.gp import gp_Trsf
+
+    t = gp_Trsf()
+    t.SetValues(*[float(m[i, j]) for i in range(3) for j in range(4)])
+    return t
+
+
+def _apply(shape, m: np.ndarray):
+    """``shape`` moved (rigid) or mirrored by the ``(3, 4)`` matrix ``m``."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
+    from OCP.TopLoc import TopLoc_Location
+
+    if np.allclose(m, np.eye(3, 4), rtol=0, atol=1e-12):
+        return shape
+    if np.linalg.det(m[:, :3]) > 0:
+        return shape.Moved(TopLoc_Location(_trsf(m)))
+    return BRepBuilderAPI_Transform(shape, _trsf(m), True).Shape()
+
+
+def _history(part: Any) -> dict:
+    """How to rebuild ``part``'s B-rep: ``make(fine)`` (the textured part in its own
+    frame, or None), ``shape`` (used when ``make`` is None), ``steps`` (operations in
+    that frame), ``to_world`` (that frame to the part's unplaced frame), the face
+    frame and pitch for the fine tiles, ``base`` (the untextured part)."""
+    hist = getattr(part, "_cad_history", None)
+    if hist is not None:
+        return hist
+    shape = part.shape  # builds and checks the B-rep, records the builder
+    placement = np.asarray(part._placement, np.float64)
+    unplaced = _apply(shape, np.linalg.inv(_m4(placement))[:3]) if not np.allclose(placement, np.eye(3, 4)) else shape
+    info = part.info
+    make = info.get("_make_shape") if info.get("face") == "plane" else None
+    frame = None
+    if make is not None:
+        frame = (np.asarray(info["origin"]), np.asarray(info["xdir"]), np.asarray(info["ydir"]))
+        x = np.asarray(info["x"], np.float64)
+        frame += (float(x[1] - x[0]),)
+    return {"make": make, "shape": unplaced, "steps": [], "to_world": np.eye(3, 4), "frame": frame,
+            "base": info.get("_base_shape")}  # fmt: skip
+
+
+def _world(part: Any, hist: dict) -> np.ndarray:
+    """History frame -> world, where the part is now (``(3, 4)``)."""
+    return (_m4(part._placement) @ _m4(hist["to_world"]))[:3]
+
+
+def _fine_rect(tool_local, frame) -> tuple[float, float, float, float]:
+    """The tool's bounding box seen in the face frame ``(x0, x1, y0, y1)`` mm, two
+    pixels wider."""
+    from OCP.Bnd import Bnd_Box
+    from OCP.BRepBndLib import BRepBndLib
+
+    box = Bnd_Box()
+    BRepBndLib.Add_s(tool_local, box)
+    lo, hi = np.array(box.CornerMin().Coord()), np.array(box.CornerMax().Coord())
+    corners = np.array([[(lo, hi)[i][0], (lo, hi)[j][1], (lo, hi)[k][2]] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+    o, ex, ey, pitch = frame
+    u, v = (corners - o) @ ex, (corners - o) @ ey
+    m = 2.0 * pitch
+    return (float(u.min() - m), float(u.max() + m), float(v.min() - m), float(v.max() + m))
+
+
+def _replay(hist: dict):
+    """The B-rep of a history, in its frame: the textured part (with fine tiles under
+    every tool) and the operations, in order."""
+    if hist["make"] is not None:
+        rects = [s["fine"] for s in hist["steps"] if s.get("fine") is not None]
+        shape = hist["make"](fine=rects)
+    else:
+        shape = hist["shape"]
+    for step in hist["steps"]:  # one per operation so far
+        if step["op"] == "fillet":
+            shape = _occt_fillet(shape, step["edges"], step["radius"])
+        else:
+            shape = _occt_op(shape, step["tool"], step["op"])
+    return shape
+
+
+# -- OCCT --------------------------------------------------------------------------------------
 def _occt_op(shape, tool, op: str):
     from OCP.BRepAlgoAPI import BRepAlgoAPI_Common, BRepAlgoAPI_Cut, BRepAlgoAPI_Fuse
     from OCP.TopTools import TopTools_ListOfShape
@@ -58,7 +173,62 @@ def _occt_op(shape, tool, op: str):
     return algo.Shape()
 
 
-def _checked(shape, mesh: Mesh, op: str, bodies: int):
+def _edge_mids(edges) -> np.ndarray:
+    """``(n, 3)`` mid-points (mm) of edges, at their mid parameter."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.TopoDS import TopoDS
+
+    out = []
+    for e in edges:  # one per edge
+        ad = BRepAdaptor_Curve(TopoDS.Edge_s(to_topods(e)))
+        out.append(ad.Value(0.5 * (ad.FirstParameter() + ad.LastParameter())).Coord())
+    return np.array(out, dtype=np.float64).reshape(-1, 3)
+
+
+def _find_edges(shape, mids: np.ndarray, tol: float = 1e-4) -> list:
+    """The edges of ``shape`` whose mid-points are ``mids`` (mm, within ``tol``)."""
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS
+
+    emap = TopTools_IndexedMapOfShape()
+    TopExp.MapShapes_s(shape, TopAbs_EDGE, emap)
+    edges = [TopoDS.Edge_s(emap.FindKey(i)) for i in range(1, emap.Extent() + 1)]  # one per edge
+    have = _edge_mids(edges)
+    found = []
+    for p in mids:  # one per edge asked for
+        d = np.linalg.norm(have - p, axis=1)
+        k = int(np.argmin(d))
+        if d[k] > tol:
+            raise ParameterError(
+                f"no edge of the part has its middle at {np.round(p, 3).tolist()} mm; choose edges from "
+                "textured.part.edges() or from the original part"
+            )
+        found.append(edges[k])
+    return found
+
+
+def _occt_fillet(shape, mids: np.ndarray, radius: float):
+    from OCP.BRepFilletAPI import BRepFilletAPI_MakeFillet
+
+    mk = BRepFilletAPI_MakeFillet(shape)
+    for e in _find_edges(shape, mids):  # one per edge
+        mk.Add(float(radius), e)
+    try:
+        mk.Build()
+        ok = mk.IsDone()
+    except Exception:  # OCCT raises Standard_Failure from inside the fillet builder
+        ok = False
+    if not ok:
+        raise GeometryError(
+            f"OCCT cannot fillet these edges with r = {radius:g} mm; use a smaller radius or edges away from the "
+            "texture (fillet the part before texturing it)"
+        )
+    return mk.Shape()
+
+
+def _checked(shape, mesh: Mesh, op: str, bodies: int, info: dict | None = None):
     chk = check_shape(shape)
     if not chk["valid"] or chk["solids"] != bodies:
         raise GeometryError(
@@ -72,7 +242,32 @@ def _checked(shape, mesh: Mesh, op: str, bodies: int):
             f"{vm:.1f} mm3 (OCCT lost or kept material it should not); the mesh result is fine: write STL or 3MF, "
             "or make the cut before texturing"
         )
+    if info is not None:
+        info["brep_volume"] = vb
     return shape
+
+
+def _derived(part: Any, *, mesh, texture_mesh, base_mesh, shape, info, hist) -> Any:
+    out = type(part)(
+        mesh=mesh,
+        texture_mesh=texture_mesh,
+        base_mesh=base_mesh,
+        shape=shape,
+        heightmap=part.heightmap,
+        limits=part.limits,
+        height_limits=part.height_limits,
+        distortion=part.distortion,
+        info=info,
+        kind=part.kind,
+    )
+    out._cad_history = hist
+    return out
+
+
+def _info(part: Any, what: str) -> dict:
+    return {k: v for k, v in part.info.items() if not k.startswith("_") and k != "brep_volume"} | {
+        "operations": [*part.info.get("operations", []), what]
+    }
 
 
 def cad_op(part: Any, tool: Any, op: str) -> Any:
@@ -82,8 +277,9 @@ def cad_op(part: Any, tool: Any, op: str) -> Any:
 
     The mesh result is manifold3d's boolean of the fused meshes (exact on the
     triangles); the B-rep result (made on first use of ``.shape``) is OCCT's boolean of
-    the textured B-rep with the tool's shape, and must have as many solids as the
-    mesh and enclose its volume within :data:`OP_VOLUME_TOLERANCE`.
+    the textured B-rep - rebuilt with fine tiles under the tool, see the module - with
+    the tool's shape, and must be valid, have as many solids as the mesh and enclose
+    its volume within :data:`OP_VOLUME_TOLERANCE`.
 
     Raises:
         ParameterError: unknown operation or tool.
@@ -97,31 +293,111 @@ def cad_op(part: Any, tool: Any, op: str) -> Any:
     if mesh.num_triangles == 0:
         raise GeometryError(f"the {op} leaves nothing of the part; check the tool's placement (mm)")
     texture_op = "cut" if op == "fuse" else op
-    base_op = op
     bodies = len(to_manifold(mesh).decompose())
-    info = dict(part.info, operations=[*part.info.get("operations", []), op])
 
     def texture_mesh() -> Mesh:
         return _mesh_op(part.texture_mesh, tool_mesh, texture_op)
 
     def base_mesh() -> Mesh:
-        return _mesh_op(part.base_mesh, tool_mesh, base_op)
+        return _mesh_op(part.base_mesh, tool_mesh, op)
 
-    shape = None
+    shape, hist = None, None
     if part._shape is not None and not isinstance(tool, Mesh):
-        def shape():
-            other = tool.shape if _is_textured(tool) else to_topods(tool)
-            return _checked(_occt_op(part.shape, other, op), mesh, op, bodies)
+        src = _history(part)
+        world = _world(part, src)
+        other = tool.shape if _is_textured(tool) else to_topods(tool)
+        local = _apply(other, np.linalg.inv(_m4(world))[:3])
+        step = {"op": op, "tool": local, "fine": _fine_rect(local, src["frame"]) if src["frame"] else None}
+        hist = dict(src, steps=[*src["steps"], step], to_world=world)
 
-    return type(part)(
-        mesh=mesh,
-        texture_mesh=texture_mesh,
-        base_mesh=base_mesh,
+        def shape():
+            return _checked(_apply(_replay(hist), world), mesh, op, bodies, info)
+
+    info = _info(part, op)
+    return _derived(part, mesh=mesh, texture_mesh=texture_mesh, base_mesh=base_mesh, shape=shape, info=info, hist=hist)
+
+
+def fillet(part: Any, edges: Sequence[Any], radius: float) -> Any:
+    """``part`` with ``edges`` rounded to ``radius`` mm (edges of the body away from
+    the texture, chosen from ``textured.part.edges()`` or from the original part).
+
+    The B-rep is OCCT's fillet of the textured B-rep; the mesh is OCCT's fillet of the
+    *untextured* part (the operations made so far replayed on it), tessellated at
+    :data:`TOOL_TOLERANCE` mm and united (manifold3d) with the texture mesh. They must
+    agree (valid, same number of solids, volume within :data:`OP_VOLUME_TOLERANCE`).
+
+    Raises:
+        ParameterError: no edges, a non-positive radius, or an edge not on the part.
+        GeometryError: OCCT cannot make the fillet, or the results disagree.
+    """
+    from ..solid import fuse
+
+    if not (isinstance(radius, (int, float)) and np.isfinite(radius) and radius > 0):
+        raise ParameterError(f"the fillet radius must be a positive number of mm, got {radius!r}")
+    edge_list = [edges] if hasattr(edges, "wrapped") and not hasattr(edges, "__len__") else list(edges)
+    if not edge_list:
+        raise ParameterError("select at least one edge to fillet, e.g. textured.part.edges().filter_by(Axis.Z)")
+    hist_src = _history(part)
+    if hist_src["base"] is None:
+        raise GeometryError("this result has no untextured part to fillet for the mesh; fillet before texturing")
+    world = _world(part, hist_src)
+    inv = np.linalg.inv(_m4(world))
+    mids = _edge_mids(edge_list) @ inv[:3, :3].T + inv[:3, 3]  # in the history frame
+    step = {"op": "fillet", "edges": mids, "radius": float(radius)}
+    hist = dict(hist_src, steps=[*hist_src["steps"], step], to_world=world)
+    base = hist["base"]
+    for st in hist_src["steps"]:  # the operations so far, on the untextured part
+        base = _occt_op(base, st["tool"], st["op"]) if st["op"] != "fillet" else _occt_fillet(base, st["edges"], st["radius"])
+    base = _occt_fillet(base, mids, radius)
+    base_world = shape_to_mesh(_apply(base, world), tolerance=TOOL_TOLERANCE)
+    tex = part.texture_mesh
+    mesh = fuse(base_world, tex)
+    bodies = len(to_manifold(mesh).decompose())
+
+    def shape():
+        return _checked(_apply(_replay(hist), world), mesh, "fillet", bodies, info)
+
+    info = _info(part, "fillet")
+    return _derived(part, mesh=mesh, texture_mesh=tex, base_mesh=base_world, shape=shape, info=info, hist=hist)
+
+
+def _mirror_matrix(origin: Sequence[float], normal: Sequence[float]) -> np.ndarray:
+    n = np.asarray(normal, np.float64)
+    if n.shape != (3,) or not np.linalg.norm(n) > 0:
+        raise ParameterError(f"the mirror plane's normal must be a non-zero (3,) vector, got {normal!r}")
+    n = n / np.linalg.norm(n)
+    o = np.asarray(origin, np.float64)
+    r = np.eye(3) - 2.0 * np.outer(n, n)
+    return np.hstack([r, (o - r @ o)[:, None]])
+
+
+def _mirrored_mesh(mesh: Mesh, m: np.ndarray) -> Mesh:
+    v = mesh.vertices.astype(np.float64) @ m[:, :3].T + m[:, 3]
+    return Mesh(v.astype(np.float32), np.ascontiguousarray(mesh.faces[:, ::-1]), mesh.groups)
+
+
+def mirror(part: Any, origin: Sequence[float] = (0.0, 0.0, 0.0), normal: Sequence[float] = (1.0, 0.0, 0.0)) -> Any:
+    """``part`` mirrored about the plane through ``origin`` (mm) with ``normal``:
+    meshes (vertices reflected, triangles turned to keep them outward) and B-rep
+    (``BRepBuilderAPI_Transform``) alike; later operations still get fine tiles."""
+    m = _mirror_matrix(origin, normal)
+    hist_src = _history(part) if part._shape is not None else None
+    hist, shape = None, None
+    if hist_src is not None:
+        world = (_m4(m) @ _m4(_world(part, hist_src)))[:3]
+        hist = dict(hist_src, to_world=world)
+
+        def shape():
+            mesh = _mirrored_mesh(part.mesh, m)
+            return _checked(_apply(_replay(hist), world), mesh, "mirror", len(to_manifold(mesh).decompose()), info)
+
+    info = _info(part, "mirror")
+    return _derived(
+        part,
+        mesh=lambda: _mirrored_mesh(part.mesh, m),
+        texture_mesh=lambda: _mirrored_mesh(part.texture_mesh, m),
+        base_mesh=lambda: _mirrored_mesh(part.base_mesh, m),
         shape=shape,
-        heightmap=part.heightmap,
-        limits=part.limits,
-        height_limits=part.height_limits,
-        distortion=part.distortion,
         info=info,
-        kind=part.kind,
+        hist=hist,
     )

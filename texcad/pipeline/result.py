@@ -230,6 +230,20 @@ class Textured:
 
         return cad_op(self, tool, "common")
 
+    def fillet(self, edges: Any, radius: float) -> "Textured":
+        """Round ``edges`` (from ``self.part.edges()`` or the original part, away from
+        the texture) to ``radius`` mm; see :func:`texcad.pipeline.ops.fillet`."""
+        from .ops import fillet
+
+        return fillet(self, edges, radius)
+
+    def mirrored(self, origin: Any = (0.0, 0.0, 0.0), normal: Any = (1.0, 0.0, 0.0)) -> "Textured":
+        """A mirror image about the plane through ``origin`` (mm) with ``normal``;
+        see :func:`texcad.pipeline.ops.mirror`."""
+        from .ops import mirror
+
+        return mirror(self, origin, normal)
+
     # -- output --------------------------------------------------------------------------
     def export(self, path: "str | os.PathLike", *, separate_texture: bool = False, name: str | None = None) -> Path:
         """Write by the file's extension: ``.stl`` (binary, mm) and ``.3mf`` from the

@@ -31,6 +31,14 @@ CAD model generation that the paper did in Rhino/Grasshopper), with OCCT (OCP):
 * :func:`grid_brep` / :func:`fuse_solids` - the general case (textures mapped onto
   curved faces): the slab between a top and a bottom grid (the B-rep twin of
   :func:`texcad.solid.grid_solid`), sewn, and fused onto the base with OCCT's boolean.
+* :func:`tiled_grid_faces` / :func:`tiled_plane_solid` / :func:`textured_band_solid` -
+  what texcad's B-reps are made of now: the texture grid as **tiles** of at most
+  :data:`TILE` x :data:`TILE` cells sharing their edges, each carrying texcad's own
+  mesh as its triangulation (OCCT's mesher keeps it; STEP stores it), finer
+  (:data:`FINE`) where a CAD operation's tool meets the texture. Planar faces keep
+  their plane outside the tiles; closed bands (cylinders) are split by the end rows'
+  planes and closed by planar rings. No boolean; open profiles still use
+  :func:`grid_brep` + :func:`fuse_solids` (:func:`textured_extrusion_solid`).
 * :func:`write_step` / :func:`read_step` - AP214 STEP in mm, silent, with a fixed
   header (time stamp, product name) so the same shape gives the same bytes.
 
@@ -59,6 +67,15 @@ __all__ = [
     "grid_brep",
     "textured_plane_face",
     "replace_face",
+    "tiled_grid_faces",
+    "tiled_plane_solid",
+    "textured_plane_solid",
+    "textured_band_solid",
+    "textured_extrusion_solid",
+    "TILE",
+    "FINE",
+    "occt_volume",
+    "OCCT_EPS",
     "fuse_solids",
     "check_shape",
     "volume",
@@ -919,3 +936,626 @@ def mesh_face(vertices: np.ndarray, faces: np.ndarray):
     if shape.IsNull():
         raise GeometryError("OCCT could not read the display mesh")
     return TopoDS.Face_s(shape)
+
+
+# -- textured faces in tiles -------------------------------------------------------------------
+#: Grid cells per side of a texture tile. OCCT's mesher (what CAD programs run to show a
+#: shape) takes time growing steeply with the poles of one B-spline face (measured: 50 x
+#: 50 poles 0.24 s, 100 x 100 1.5 s), but only about 40 us per pole on faces of a few
+#: hundred poles; OCCT's booleans only intersect the tiles a tool reaches.
+TILE = 24
+#: Grid cells per side of the tiles where a CAD operation's tool reaches the texture:
+#: OCCT's boolean misses intersections of a tool with a degree-1 face of many cells
+#: (measured: 3 of 20 random cuts into 4 x 4- to 8 x 8-cell tiles kept the material,
+#: none into 1 x 1 or 2 x 2 cells).
+FINE = 2
+
+
+def _tile_bounds(n: int, tile: int) -> np.ndarray:
+    """Indices ``0 = b_0 < b_1 < ... < b_k = n`` splitting ``n`` cells into ``k =
+    ceil(n / tile)`` nearly equal runs."""
+    k = max(1, -(-int(n) // int(tile)))
+    return np.unique(np.round(np.linspace(0, n, k + 1)).astype(np.int64))
+
+
+def _tile_text(grids: list, us: list, vs: list, triangulate: bool) -> str:
+    """OCCT ``.brep`` text of a compound of natural-bounds faces, one per degree-1 grid
+    (with its triangulation: the grid's two triangles per cell, UV = the knots), one
+    formatting call per array."""
+    from .mesh import grid_faces
+
+    n = len(grids)
+    surfs, tris, shapes = [], [], []
+    for k, (g, u, v) in enumerate(zip(grids, us, vs)):  # one per tile
+        rows, cols = g.shape[:2]
+        surfs += [
+            f"9 0 0 0 0 1 1 {cols} {rows} {cols} {rows}\n",
+            _fmt("%.12g %.12g %.12g\n", np.ascontiguousarray(g.transpose(1, 0, 2))),
+            _knot_lines(u),
+            _knot_lines(v),
+        ]
+        if triangulate:
+            uv = np.stack(np.broadcast_arrays(u[None, :], v[:, None]), axis=-1)
+            tri = grid_faces(rows, cols).astype(np.int64) + 1
+            tris += [
+                f"{rows * cols} {len(tri)} 1 0 0\n",
+                _fmt("%.10g %.10g %.10g ", g.reshape(-1, 3)),  # for display: 1e-8 mm at 100 mm
+                _fmt("%.10g %.10g ", uv.reshape(-1, 2)),
+                _fmt("%d %d %d ", tri),
+                "\n",
+            ]
+        shapes.append(f"Fa\n0  1e-07 {k + 1} 0\n" + (f"2  {k + 1}\n" if triangulate else "\n") + "1101000\n*\n")
+    refs = " ".join(f"+{n + 1 - k} 0" for k in range(n))  # TShapes are referenced from the end
+    return "".join(
+        [
+            "\nCASCADE Topology V3, (c) Open Cascade\nLocations 0\nCurve2ds 0\nCurves 0\nPolygon3D 0\n"
+            f"PolygonOnTriangulations 0\nSurfaces {n}\n",
+            *surfs,
+            f"\nTriangulations {n if triangulate else 0}\n",
+            *tris,
+            f"\nTShapes {n + 1}\n",
+            *shapes,
+            f"Co\n\n1100000\n{refs} *\n\n+1 0 \n",
+        ]
+    )
+
+
+def _leaves(rows: int, cols: int, tile: int, fine: Sequence | None) -> list[tuple[int, int, int, int]]:
+    """Tiles ``(r0, r1, c0, c1)`` (grid line indices) over ``rows`` x ``cols`` cells:
+    at most ``tile`` cells a side, and at most :data:`FINE` where a tile overlaps one
+    of the ``fine`` index rectangles ``(r0, r1, c0, c1)``."""
+    rb, cb = _tile_bounds(rows, tile), _tile_bounds(cols, tile)
+    out = []
+    for i in range(len(rb) - 1):  # one per tile
+        for j in range(len(cb) - 1):
+            r0, r1, c0, c1 = int(rb[i]), int(rb[i + 1]), int(cb[j]), int(cb[j + 1])
+            hit = any(r0 < fr1 and fr0 < r1 and c0 < fc1 and fc0 < c1 for fr0, fr1, fc0, fc1 in (fine or ()))
+            if not hit:
+                out.append((r0, r1, c0, c1))
+                continue
+            sr, sc = r0 + _tile_bounds(r1 - r0, FINE), c0 + _tile_bounds(c1 - c0, FINE)
+            out += [(int(sr[a]), int(sr[a + 1]), int(sc[c]), int(sc[c + 1])) for a in range(len(sr) - 1) for c in range(len(sc) - 1)]
+    return out
+
+
+def tiled_grid_faces(
+    grid: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    *,
+    tile: int = TILE,
+    triangulate: bool = True,
+    fine: Sequence | None = None,
+    wrap_x: bool = False,
+):
+    """The degree-1 B-spline surface through an ``(R, C, 3)`` grid (mm), made as a
+    patchwork of tiles of at most ``tile`` x ``tile`` cells that **share** their
+    boundary edges and vertices (one ``TopoDS_Edge`` per tile side, with a pcurve on
+    each of its two faces): together they are exactly the surface of
+    :func:`grid_surface` (the tiles share the poles along their common grid lines), as
+    faces OCCT meshes and cuts tile by tile.
+
+    Tiles span whole grid cells; their knots are ``x`` and ``y`` (mm), so every edge's
+    pcurve is a straight line and the 3-D curves are the surfaces' iso-curves
+    (``S(u, y_r)``, ``S(x_c, v)``). ``fine``: index rectangles ``(r0, r1, c0, c1)``
+    where the tiles are at most :data:`FINE` cells a side (where a CAD operation's
+    tool meets the texture); a larger tile next to them has its side split at their
+    corners (shared vertices: no T-junctions).
+
+    ``triangulate``: each tile carries its triangulation (``Poly_Triangulation``):
+    texcad's own mesh of the tile, the two triangles ``(a, b, c)``, ``(a, c, d)`` per
+    cell through the poles, which the B-spline surface interpolates. OCCT's mesher
+    (``BRepMesh_IncrementalMesh``, what CAD viewers run) keeps a face's triangulation
+    and skips the face, and the STEP writer stores it (see
+    :func:`texcad.io.write_step`), so a viewer shows texcad's mesh at once instead
+    of re-meshing hundreds of thousands of poles.
+
+    ``wrap_x``: the grid's last column is its first (a closed band): the tiles there
+    share their edges with the first column's tiles, and ``boundary`` is
+    ``{"v0": row 0's edges, "v1": the last row's}``, each left to right.
+
+    Returns:
+        ``(faces, boundary)``: ``faces`` a list of forward ``TopoDS_Face`` (normal
+        ``S_u x S_v``), ``boundary`` the edges around the patchwork, counter-clockwise
+        about ``S_u x S_v`` (bottom row left to right, right column upwards, top row
+        right to left, left column downwards), each ``(edge, param_line)`` with the
+        edge oriented that way and ``param_line = (x0, y0, dx, dy)`` its pcurve in the
+        ``(x, y)`` parameter plane.
+    """
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepTools import BRepTools
+    from OCP.TopoDS import TopoDS, TopoDS_Iterator, TopoDS_Shape
+
+    g = np.asarray(grid, np.float64)
+    x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+    if g.ndim != 3 or g.shape[2] != 3 or g.shape[:2] != (len(y), len(x)) or min(g.shape[:2]) < 2:
+        raise ParameterError(f"a tiled grid needs an (R >= 2, C >= 2, 3) array with R y and C x knots, got {g.shape}")
+    if not np.isfinite(g).all():
+        raise GeometryError("the grid holds NaN or infinite coordinates")
+    require_memory(g.shape[0] * g.shape[1] * 500.0, f"a {g.shape[0]} x {g.shape[1]} tiled B-spline face", "use a larger pitch")
+    leaves = _leaves(g.shape[0] - 1, g.shape[1] - 1, tile, fine)
+    text = _tile_text(
+        [g[r0 : r1 + 1, c0 : c1 + 1] for r0, r1, c0, c1 in leaves],
+        [x[c0 : c1 + 1] for r0, r1, c0, c1 in leaves],
+        [y[r0 : r1 + 1] for r0, r1, c0, c1 in leaves],
+        triangulate,
+    )
+    comp = TopoDS_Shape()
+    b = BRep_Builder()
+    BRepTools.Read_s(comp, io.BytesIO(text.encode("ascii")), b)
+    it = TopoDS_Iterator(comp)
+    faces = []
+    for _ in leaves:  # one per tile
+        if not it.More():
+            raise GeometryError(f"OCCT could not read the {len(leaves)} texture tiles")
+        faces.append(TopoDS.Face_s(it.Value()))
+        faces[-1].Free(True)  # read shapes are frozen; the wire is added below
+        it.Next()
+    return _share_tile_edges(b, g, x, y, leaves, faces, wrap_x)
+
+
+def _patch_boundary(edges: dict, R: int, C: int, wrap: bool):
+    """The edges around a tile patchwork (``edges`` keyed ``(horizontal, line, a, z)``
+    in grid indices, ``R`` x ``C`` cells): counter-clockwise, or for a closed band
+    ``{"v0": row 0, "v1": row R}`` left to right."""
+    from OCP.TopAbs import TopAbs_REVERSED
+    from OCP.TopoDS import TopoDS
+
+    def along(horizontal, idx, reverse):
+        keys = sorted(key for key in edges if key[0] == horizontal and key[1] == idx)
+        items = [edges[key] for key in keys]
+        if reverse:
+            items = [(TopoDS.Edge_s(e.Oriented(TopAbs_REVERSED)), line) for e, line in reversed(items)]
+        return items
+
+    if wrap:
+        return {"v0": along(True, 0, False), "v1": along(True, R, False)}
+    return along(True, 0, False) + along(False, C, False) + along(True, R, True) + along(False, 0, True)
+
+
+def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: list, faces: list, wrap_x: bool = False):
+    """Give the tile faces (``leaves`` ``(r0, r1, c0, c1)`` of the grid ``g``) shared
+    vertices and edges, split at every tile corner on a side, with straight pcurves;
+    returns :func:`tiled_grid_faces`' ``(faces, boundary)``."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.gp import gp_Dir2d, gp_Pnt, gp_Pnt2d
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopoDS import TopoDS_Edge, TopoDS_Vertex, TopoDS_Wire
+
+    surf = {k: BRep_Tool.Surface_s(f) for k, f in enumerate(faces)}  # one per tile
+    corners = np.array([(l[0], l[2]) for l in leaves] + [(l[0], l[3]) for l in leaves]
+                       + [(l[1], l[2]) for l in leaves] + [(l[1], l[3]) for l in leaves])  # fmt: skip
+    corners = np.unique(corners, axis=0)
+    on_row = {r: np.unique(corners[corners[:, 0] == r, 1]) for r in np.unique(corners[:, 0])}  # one per line
+    on_col = {c: np.unique(corners[corners[:, 1] == c, 0]) for c in np.unique(corners[:, 1])}
+    verts, edges = {}, {}
+
+    period = g.shape[1] - 1 if wrap_x else None
+
+    def vertex(r, c):
+        if period is not None:
+            c = c % period  # the last grid column is the first
+        if (r, c) not in verts:
+            v = TopoDS_Vertex()
+            b.MakeVertex(v, gp_Pnt(*g[r, c]), TOLERANCE)
+            verts[r, c] = v
+        return verts[r, c]
+
+    def side(k, horizontal, line_idx, lo, hi):
+        """Edges along one side of leaf ``k``, split at every corner on it, in
+        increasing grid index; each gets this leaf's pcurve."""
+        stops = on_row[line_idx] if horizontal else on_col[line_idx]
+        stops = stops[(stops >= lo) & (stops <= hi)]
+        if horizontal:
+            line = (0.0, float(y[line_idx]), 1.0, 0.0)
+            knots, curve = x, None
+        else:
+            line = (float(x[line_idx]), 0.0, 0.0, 1.0)
+            knots, curve = y, None
+        out = []
+        for a, z in zip(stops[:-1], stops[1:]):  # one per edge
+            key = (horizontal, int(line_idx), int(a), int(z))
+            if period is not None and not horizontal:
+                key = (horizontal, int(line_idx) % period, int(a), int(z))
+            if key not in edges:
+                if curve is None:
+                    curve = surf[k].VIso(line[1]) if horizontal else surf[k].UIso(line[0])
+                e = TopoDS_Edge()
+                b.MakeEdge(e, curve, TOLERANCE)
+                ends = ((line_idx, a), (line_idx, z)) if horizontal else ((a, line_idx), (z, line_idx))
+                b.Add(e, vertex(*ends[0]).Oriented(TopAbs_FORWARD))
+                b.Add(e, vertex(*ends[1]).Oriented(TopAbs_REVERSED))
+                b.Range(e, float(knots[a]), float(knots[z]))
+                edges[key] = (e, line)
+            e = edges[key][0]
+            b.UpdateEdge(e, Geom2d_Line(gp_Pnt2d(line[0], line[1]), gp_Dir2d(line[2], line[3])), faces[k], TOLERANCE)
+            out.append(e)
+        return out
+
+    out = []
+    for k, (r0, r1, c0, c1) in enumerate(leaves):  # one wire per tile
+        w = TopoDS_Wire()
+        b.MakeWire(w)
+        for e in side(k, True, r0, c0, c1):  # bottom, left to right
+            b.Add(w, e.Oriented(TopAbs_FORWARD))
+        for e in side(k, False, c1, r0, r1):  # right, upwards
+            b.Add(w, e.Oriented(TopAbs_FORWARD))
+        for e in reversed(side(k, True, r1, c0, c1)):  # top, right to left
+            b.Add(w, e.Oriented(TopAbs_REVERSED))
+        for e in reversed(side(k, False, c0, r0, r1)):  # left, downwards
+            b.Add(w, e.Oriented(TopAbs_REVERSED))
+        w.Closed(True)
+        b.Add(faces[k], w)
+        out.append(faces[k])
+    return out, _patch_boundary(edges, g.shape[0] - 1, g.shape[1] - 1, period is not None)
+
+
+def tiled_plane_solid(
+    shape: Any,
+    face: Any,
+    heights: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    *,
+    origin: Sequence[float],
+    xdir: Sequence[float],
+    normal: Sequence[float],
+    tile: int = TILE,
+    triangulate: bool = True,
+    fine: Sequence | None = None,
+):
+    """``shape`` with a planar ``face`` textured in place, the texture in tiles.
+
+    Like :func:`textured_plane_face` + :func:`replace_face` (same surface: vertex
+    ``(r, c)`` at ``origin + x[c] xdir + y[r] ydir + heights[r, c] normal``), but the
+    part of the grid that leaves the plane - the rectangle of rows and columns one
+    beyond the outermost non-zero heights, where every height on its border is 0 - is
+    made by :func:`tiled_grid_faces`, and the rest of the face stays a plane with the
+    face's own wires and that rectangle as a hole. The tiles' border edges lie on the
+    plane, so the planar face and the tiles share them: a closed shell by construction,
+    no boolean, no sewing.
+
+    ``triangulate``: the tiles carry texcad's mesh as their triangulation (see
+    :func:`tiled_grid_faces`). ``fine``: rectangles ``(x0, x1, y0, y1)`` in the face
+    frame (mm) where the tiles are at most :data:`FINE` cells a side (where a CAD
+    operation's tool will meet the texture).
+
+    Returns:
+        The new shape, or None when the rectangle is not inside the face (an outline
+        crosses it: use :func:`textured_plane_face`).
+    """
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.Geom import Geom_Plane
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.GeomAPI import GeomAPI
+    from OCP.gp import gp_Dir2d, gp_Pnt2d
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Iterator, TopoDS_Shell, TopoDS_Wire
+
+    old = TopoDS.Face_s(to_topods(face))
+    o, ex, n = (np.asarray(a, np.float64) for a in (origin, xdir, normal))
+    ey = np.cross(n, ex)
+    h = np.asarray(heights, np.float64)
+    x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+    lifted_r, lifted_c = np.nonzero((h != 0).any(axis=1))[0], np.nonzero((h != 0).any(axis=0))[0]
+    if not len(lifted_r):
+        return None
+    r0, r1 = max(0, lifted_r[0] - 1), min(len(y) - 1, lifted_r[-1] + 1)
+    c0, c1 = max(0, lifted_c[0] - 1), min(len(x) - 1, lifted_c[-1] + 1)
+    if r1 - r0 < 1 or c1 - c0 < 1 or h[[r0, r1]].any() or h[:, [c0, c1]].any():
+        return None  # non-zero heights on the grid's own border
+    # The rectangle must lie inside the face: no outline point in it, its centre inside.
+    segs = face_segments(old, 0.25 * float(min(x[1] - x[0], y[1] - y[0]))) - o
+    uv = np.stack([segs @ ex, segs @ ey], axis=-1)
+    p = uv.reshape(-1, 2)
+    eps = 1e-9 * float(np.abs(p).max() + 1.0)
+    if ((p[:, 0] > x[c0] - eps) & (p[:, 0] < x[c1] + eps) & (p[:, 1] > y[r0] - eps) & (p[:, 1] < y[r1] + eps)).any():
+        return None
+    mid = np.array([0.5 * (x[c0] + x[c1])]), np.array([0.5 * (y[r0] + y[r1])])
+    if not inside(uv, *mid)[0, 0]:
+        return None
+    grid = o + x[None, c0 : c1 + 1, None] * ex + y[r0 : r1 + 1, None, None] * ey + h[r0 : r1 + 1, c0 : c1 + 1, None] * n
+    idx = []
+    for fx0, fx1, fy0, fy1 in fine or ():  # one per tool
+        ca, cz = np.searchsorted(x[c0 : c1 + 1], [fx0, fx1]) + np.array([-1, 1])
+        ra, rz = np.searchsorted(y[r0 : r1 + 1], [fy0, fy1]) + np.array([-1, 1])
+        idx.append((int(ra), int(rz), int(ca), int(cz)))
+    tiles, boundary = tiled_grid_faces(grid, x[c0 : c1 + 1], y[r0 : r1 + 1], tile=tile, triangulate=triangulate, fine=idx)
+    pln = _frame_pln(o, n, ex)
+    b = BRep_Builder()
+    flat = TopoDS_Face()
+    b.MakeFace(flat, Geom_Plane(pln), TOLERANCE)
+    it = TopoDS_Iterator(old)  # the face's wires, its orientation composed in
+    while it.More():  # one per wire (outline and holes)
+        b.Add(flat, it.Value())
+        it.Next()
+    for e in explore(old, TopAbs_EDGE):  # one per outline edge
+        edge = TopoDS.Edge_s(e)
+        curve = BRep_Tool.Curve_s(edge, 0.0, 0.0)
+        if curve is None:
+            raise GeometryError("an edge of the face has no 3-D curve; rebuild the part (BRepLib.BuildCurves3d)")
+        b.UpdateEdge(edge, GeomAPI.To2d_s(curve, pln), flat, TOLERANCE)
+    hole = TopoDS_Wire()
+    b.MakeWire(hole)
+    for e, line in reversed(boundary):  # clockwise: a hole in the planar face
+        b.Add(hole, e.Reversed())
+        b.UpdateEdge(TopoDS.Edge_s(e), Geom2d_Line(gp_Pnt2d(line[0], line[1]), gp_Dir2d(line[2], line[3])), flat, TOLERANCE)
+    hole.Closed(True)
+    b.Add(flat, hole)
+    patch = TopoDS_Shell()
+    b.MakeShell(patch)
+    for f in [flat, *tiles]:  # one per tile
+        b.Add(patch, f)
+    return _replace_by_faces(to_topods(shape), old, patch)
+
+
+def textured_plane_solid(
+    shape: Any,
+    face: Any,
+    heights: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    *,
+    origin: Sequence[float],
+    xdir: Sequence[float],
+    normal: Sequence[float],
+    tile: int = TILE,
+    fine: Sequence | None = None,
+):
+    """``shape`` with the planar ``face`` textured in place (arguments as
+    :func:`textured_plane_face`, mm; ``fine`` as :func:`tiled_plane_solid`): in
+    tiles that carry texcad's mesh (:func:`tiled_plane_solid`) where the textured
+    rectangle lies inside the face,
+    else as one B-spline face trimmed by the face's own wires
+    (:func:`textured_plane_face` + :func:`replace_face`: the same solid, slower for
+    OCCT's mesher and booleans)."""
+    frame = dict(origin=origin, xdir=xdir, normal=normal)
+    out = tiled_plane_solid(shape, face, heights, x, y, tile=tile, fine=fine, **frame)
+    if out is not None:
+        return out
+    return replace_face(shape, face, textured_plane_face(face, heights, x, y, **frame))
+
+
+def _replace_by_faces(shape, old, patch):
+    """``shape`` with the face ``old`` replaced by the faces of the shell ``patch``
+    (forward faces whose normals point out of the body)."""
+    from OCP.TopAbs import TopAbs_FACE
+
+    return _replace_faces(shape, [(old, explore(patch, TopAbs_FACE))])
+
+
+def _replace_faces(shape, swaps: list):
+    """``shape`` with each old face of ``swaps`` ``[(old, [new faces]), ...]`` replaced
+    by its new faces (oriented as they are to lie in the shell: normals outward)."""
+    from OCP.BRep import BRep_Builder
+    from OCP.TopAbs import TopAbs_SHELL, TopAbs_SOLID
+    from OCP.TopoDS import TopoDS_Compound, TopoDS_Iterator, TopoDS_Shell, TopoDS_Solid
+
+    b = BRep_Builder()
+    hits = [False] * len(swaps)
+
+    def rebuild(s):
+        kind = s.ShapeType()
+        if kind == TopAbs_SHELL:
+            sh = TopoDS_Shell()
+            b.MakeShell(sh)
+            it = TopoDS_Iterator(s)
+            found = False
+            while it.More():  # one per face of the shell
+                f = it.Value()
+                for k, (old, new) in enumerate(swaps):  # a few swaps
+                    if f.IsSame(old):
+                        found = hits[k] = True
+                        for nf in new:  # the new faces
+                            b.Add(sh, nf)
+                        break
+                else:
+                    b.Add(sh, f)
+                it.Next()
+            sh.Closed(True if found else s.Closed())
+            return (sh if found else s), found
+        if kind == TopAbs_SOLID or kind.name.endswith("COMPOUND") or kind.name.endswith("COMPSOLID"):
+            out = TopoDS_Solid() if kind == TopAbs_SOLID else TopoDS_Compound()
+            if kind == TopAbs_SOLID:
+                b.MakeSolid(out)
+            else:
+                b.MakeCompound(out)
+            it = TopoDS_Iterator(s)
+            hit = False
+            while it.More():  # one per sub-shape (shells, solids)
+                sub, f = rebuild(it.Value())
+                b.Add(out, sub)
+                hit |= f
+                it.Next()
+            return (out if hit else s), hit
+        return s, False
+
+    # The new faces point outward like the old ones: the solids keep their orientation
+    # (checked_brep checks the volume's sign and size).
+    result, _ = rebuild(shape)
+    if not all(hits):
+        raise GeometryError("internal: a face to replace is not in the part")
+    return result
+
+
+def textured_band_solid(shape: Any, face: Any, top: np.ndarray, *, tile: int = TILE):
+    """``shape`` with a closed band face (a cylinder's side, any closed extruded
+    profile) textured by the grid ``top`` in tiles, **without a boolean**.
+
+    ``top`` is ``(R, C, 3)`` mm, closed in x (column ``C - 1`` joins column 0), with
+    ``d(top)/dc x d(top)/dr`` outward, outside the face, and its first and last rows
+    each in a plane across the band, inside the face's length (the pixel rows end
+    half a pixel short of the face's ends). The face is split by those two planes
+    (``BRepAlgoAPI_Splitter``: a plane across a cylinder or an extrusion, exact); its
+    middle part is replaced by :func:`tiled_grid_faces` (``wrap_x``) and two planar
+    rings between the split's section edges and the end rows' edges: the slab walls
+    of texcad's mesh. Every edge is shared: closed by construction.
+
+    Returns:
+        The new shape, or None where this does not apply (then use :func:`grid_brep`
+        + :func:`fuse_solids`).
+    """
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Splitter
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+    from OCP.gp import gp_Dir, gp_Pln, gp_Pnt
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_ListOfShape
+
+    topo, band = to_topods(shape), TopoDS.Face_s(to_topods(face))
+    g = np.asarray(top, np.float64)
+    extent = float(np.ptp(g.reshape(-1, 3), axis=0).max()) or 1.0
+    planes = []
+    for r, inward in ((0, 1), (-1, -2)):  # the two end rows
+        row = g[r]
+        centre = row.mean(axis=0)
+        nrm = np.linalg.svd(row - centre, full_matrices=False)[2][2]
+        if np.abs((row - centre) @ nrm).max() > 1e-7 * extent:
+            return None
+        if float((g[inward].mean(axis=0) - centre) @ nrm) > 0:
+            nrm = -nrm  # pointing away from the texture: the ring's outward normal
+        planes.append((centre, nrm))
+    # The planes must cut the band strictly inside its length.
+    ends = face_segments(band, 0.05 * extent).reshape(-1, 3)
+    for centre, nrm in planes:
+        d = (ends - centre) @ nrm
+        if not (d.max() > 1e-4 and d.min() < -1e-4):  # mm: the face reaches past the plane
+            return None
+    tools = TopTools_ListOfShape()
+    big = 10.0 * extent
+    pl = [gp_Pln(gp_Pnt(*map(float, c)), gp_Dir(*map(float, n))) for c, n in planes]
+    for p in pl:  # two cutting planes
+        tools.Append(BRepBuilderAPI_MakeFace(p, -big, big, -big, big).Face())
+    args = TopTools_ListOfShape()
+    args.Append(band)  # the face alone: its end edges, shared with the body, stay as they are
+    sp = BRepAlgoAPI_Splitter()
+    sp.SetArguments(args)
+    sp.SetTools(tools)
+    sp.Build()
+    if not sp.IsDone():
+        return None
+    split = sp.Shape()
+    middle, strips = None, []
+    for f in explore(split, TopAbs_FACE):  # the band's pieces (3), oriented as the band
+        props = GProp_GProps()
+        BRepGProp.SurfaceProperties_s(f, props)
+        c = np.array(props.CentreOfMass().Coord())
+        if all(float((c - centre) @ nrm) < 0 for centre, nrm in planes):
+            middle = TopoDS.Face_s(f)
+        else:
+            strips.append(TopoDS.Face_s(f))
+    if middle is None or len(strips) != 2:
+        return None
+    sections = [TopoDS.Edge_s(e) for e in explore(middle, TopAbs_EDGE) if not BRep_Tool.IsClosed_s(TopoDS.Edge_s(e), middle)]
+    if len(sections) != 2:
+        return None
+    grid = np.concatenate([g, g[:, :1]], axis=1)
+    u, v = np.arange(grid.shape[1], dtype=np.float64), np.arange(grid.shape[0], dtype=np.float64)
+    tiles, rows = tiled_grid_faces(grid, u, v, tile=tile, wrap_x=True)
+    new_faces = strips + list(tiles)
+    for (centre, nrm), p, key in zip(planes, pl, ("v0", "v1")):  # the two rings
+        sec = [e for e in sections if abs(float((edge_points(e, 0.1 * extent)[0] - centre) @ nrm)) < 1e-6 * extent]
+        if len(sec) != 1:
+            return None
+        ring = _ring_face(p, next(e for e in explore(middle, TopAbs_EDGE) if e.IsSame(sec[0])), rows[key], key == "v0")
+        if ring is None:
+            return None
+        new_faces.append(ring)
+    return _replace_faces(topo, [(band, new_faces)])
+
+
+def _ring_face(pln, section, row: list, first: bool):
+    """The planar ring (plane ``pln``, normal away from the texture) between a band's
+    section edge (as the band's middle piece ran it) and the texture's end row edges
+    (``first``: row 0, which the tiles run forward)."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.Geom import Geom_Plane
+    from OCP.GeomAPI import GeomAPI
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Wire
+
+    b = BRep_Builder()
+    ring = TopoDS_Face()
+    b.MakeFace(ring, Geom_Plane(pln), TOLERANCE)
+    # The strip beyond runs the section edge against the middle piece; the ring, which
+    # takes the middle piece's place along it, runs it as the middle piece did. The
+    # tiles run row 0 forward and the last row reversed: the ring the other way.
+    w1, w2 = TopoDS_Wire(), TopoDS_Wire()
+    b.MakeWire(w1)
+    b.Add(w1, section)
+    w1.Closed(True)
+    b.MakeWire(w2)
+    want = TopAbs_REVERSED if first else TopAbs_FORWARD
+    for edge, _ in row:  # one per tile along the end
+        b.Add(w2, edge.Oriented(want))
+    w2.Closed(True)
+    b.Add(ring, w1)
+    b.Add(ring, w2)
+    for e in [section] + [edge for edge, _ in row]:  # pcurves on the ring's plane
+        edge = TopoDS.Edge_s(e)
+        curve = BRep_Tool.Curve_s(edge, 0.0, 0.0)
+        if curve is None:
+            return None
+        b.UpdateEdge(edge, GeomAPI.To2d_s(curve, pln), ring, TOLERANCE)
+    return ring
+
+
+def textured_extrusion_solid(shape: Any, face: Any, top: np.ndarray, bottom: np.ndarray, *, closed: bool):
+    """``shape`` with a face of an extruded profile textured: the texture grid ``top``
+    (``(R, C, 3)`` mm, outward ``d/dc x d/dr``) and the slab's ``bottom`` inside the
+    body (as :func:`grid_brep`).
+
+    A closed band whose ends are planar faces (a cylinder, a boss on a plate, any
+    closed extruded profile between planes) gets :func:`textured_band_solid`: the
+    face is replaced, no boolean. Other faces get the slab of :func:`grid_brep` fused
+    onto the body by OCCT's boolean (:func:`fuse_solids`; slow on fine grids).
+
+    Raises:
+        GeometryError: the boolean failed or changed the number of solids.
+    """
+    if closed:
+        out = textured_band_solid(shape, face, top)
+        if out is not None:
+            return out
+    topo = to_topods(shape)
+    slab = grid_brep(top, bottom, wrap_x=closed)
+    want = len(solids_of(topo))
+    if want == 1:
+        return fuse_solids(topo, slab)
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Fuse
+    from OCP.TopTools import TopTools_ListOfShape
+
+    args, tools = TopTools_ListOfShape(), TopTools_ListOfShape()
+    args.Append(topo)
+    tools.Append(slab)
+    fu = BRepAlgoAPI_Fuse()
+    fu.SetArguments(args)
+    fu.SetTools(tools)
+    fu.SetRunParallel(True)
+    fu.Build()
+    if not fu.IsDone() or len(solids_of(fu.Shape())) != want:
+        raise GeometryError("OCCT's union of texture and part failed; texture with brep=False for STL/3MF only")
+    return fu.Shape()
+
+
+#: Relative precision asked of OCCT's adaptive volume integration (:func:`occt_volume`).
+OCCT_EPS = 1e-4
+
+
+def occt_volume(shape: Any, eps: float = OCCT_EPS) -> float:
+    """Volume in mm^3 by OCCT's own integrator: ``BRepGProp::VolumeProperties(shape,
+    props, eps, OnlyClosed=True)``, adaptive Gauss integration to the relative error
+    ``eps`` (OCCT's default, non-adaptive integration is off by tenths of a percent on
+    texture tiles and by percents on one large grid face). Independent of texcad's
+    own :func:`volume` (exact on untrimmed grid faces, OCCT's plain Gauss integration
+    on faces a boolean trimmed)."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    props = GProp_GProps()
+    BRepGProp.VolumeProperties_s(to_topods(shape), props, float(eps), True)
+    return float(props.Mass())

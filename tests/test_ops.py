@@ -1,0 +1,122 @@
+"""CAD work on textured parts: booleans, fillets, mirrors; the B-rep (OCCT) checked
+against the same operation on texcad's mesh (manifold3d)."""
+
+import numpy as np
+import pytest
+
+import texcad
+from texcad.errors import GeometryError, ParameterError
+from texcad.pipeline import ops
+from texcad.solid import check_shape, occt_volume
+
+
+@pytest.fixture(scope="module")
+def part():
+    from build123d import Axis, Box
+
+    box = Box(40, 30, 8)
+    top = box.faces().sort_by(Axis.Z)[-1]
+    return box, texcad.texture(box, top, "builtin:stones", height=1.0, pitch=0.5)
+
+
+def _agree(result, bodies=1):
+    """The B-rep of an operation: one valid solid per mesh body, OCCT's adaptive volume
+    within 0.1 % of the mesh's."""
+    shape = result.shape
+    chk = check_shape(shape)
+    assert chk["valid"] and chk["closed"] and chk["solids"] == bodies
+    assert occt_volume(shape) == pytest.approx(result.volume, rel=1e-3)
+    return shape
+
+
+def test_textured_b_rep_is_tiles_with_texcads_mesh(part):
+    from OCP.BRep import BRep_Tool
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS
+    from texcad.solid import explore, surface_grid
+    from OCP.TopAbs import TopAbs_FACE
+
+    _, tx = part
+    shape = tx.shape
+    tiles = 0
+    for f in explore(shape, TopAbs_FACE):
+        face = TopoDS.Face_s(f)
+        got = surface_grid(BRep_Tool.Surface_s(face))
+        if got is None:
+            continue
+        tiles += 1
+        rows, cols = got[0].shape[:2]
+        assert max(rows, cols) - 1 <= texcad.solid.TILE
+        tri = BRep_Tool.Triangulation_s(face, TopLoc_Location())
+        assert tri is not None and tri.NbNodes() == rows * cols and tri.NbTriangles() == 2 * (rows - 1) * (cols - 1)
+    assert tiles >= 9
+    assert check_shape(shape)["valid"] and check_shape(shape)["solids"] == 1
+    # Both integrators agree with the mesh: texcad's exact one and OCCT's adaptive one.
+    assert tx.info["brep_volume"] == pytest.approx(tx.volume, rel=1e-6)
+    assert occt_volume(shape) == pytest.approx(tx.volume, rel=1e-4)
+
+
+def test_drill_union_and_cross_hole(part):
+    from build123d import Cylinder, Pos, Rot
+
+    box, tx = part
+    drilled = tx - Cylinder(3, 50)
+    removed = tx.volume - drilled.volume
+    # The hole removes the box's 8 mm and the texture above (at most 1 mm).
+    assert np.pi * 9 * 8 < removed < np.pi * 9 * 9
+    _agree(drilled)
+    boss = tx + Pos(0, 0, 6) * Cylinder(4, 6)
+    added = boss.volume - tx.volume
+    assert np.pi * 16 * 4 < added < np.pi * 16 * 5  # the boss above z = 4, less the texture it swallows
+    _agree(boss)  # one solid, not two
+    both = drilled + Pos(8, 5, 6) * Cylinder(3, 6)  # operations chain (replayed on fine tiles)
+    _agree(both)
+    cross = tx - Pos(5, 0, 3.3) * Rot(90, 0, 0) * Cylinder(2, 60)
+    assert tx.volume - cross.volume > 100
+    _agree(cross)
+
+
+def test_fillet_mirror_and_moved(part, tmp_path):
+    from build123d import Axis, Cylinder, Pos
+
+    box, tx = part
+    bottom = box.edges().filter_by(Axis.X).sort_by(Axis.Z)[:2]
+    rounded = tx.fillet(bottom, 2.0)
+    # Two 40 mm edges rounded by r = 2 mm: (1 - pi / 4) r^2 L removed each.
+    assert tx.volume - rounded.volume == pytest.approx(2 * (1 - np.pi / 4) * 4 * 40, rel=5e-3)
+    _agree(rounded)
+    upright = tx.fillet(tx.part.edges().filter_by(Axis.Z), 1.0)  # edges of the textured B-rep
+    _agree(upright)
+    mirrored = tx.mirrored((30, 0, 0), (1, 0, 0))
+    assert mirrored.volume == pytest.approx(tx.volume, rel=1e-6)
+    assert mirrored.mesh.vertices[:, 0].min() > 39.9  # x -> 60 - x
+    _agree(mirrored)
+    _agree(mirrored - Pos(60, 0, 0) * Cylinder(3, 50))
+    _agree(Pos(10, 0, 0) * tx - Pos(10, 0, 0) * Cylinder(3, 50))
+    rounded.export(tmp_path / "rounded.step")  # STEP again after CAD work
+    back = texcad.io.read_step(tmp_path / "rounded.step")
+    assert check_shape(back)["valid"] and occt_volume(back) == pytest.approx(rounded.volume, rel=1e-3)
+
+
+def test_wrong_occt_result_raises(part, monkeypatch):
+    from build123d import Cylinder
+
+    _, tx = part
+    drilled = tx - Cylinder(3, 50)
+    # An OCCT boolean that keeps the material (as on one large grid face) must not pass.
+    monkeypatch.setattr(ops, "_occt_op", lambda shape, tool, op: shape)
+    with pytest.raises(GeometryError, match="mm3"):
+        drilled.shape
+    with pytest.raises(ParameterError, match="radius"):
+        tx.fillet(tx.part.edges()[:1], -1.0)
+
+
+def test_hole_in_textured_demo_plate():
+    from build123d import Axis, Cylinder, Pos
+
+    plate = texcad.pipeline.plate_base((100, 100), 5)
+    top = plate.faces().sort_by(Axis.Z)[-1]
+    tx = texcad.texture(plate, top, "builtin:stones", height=2.0, pitch=0.5)
+    drilled = tx - Pos(50, 50, 0) * Cylinder(4, 30)
+    _agree(drilled)
+    assert tx.volume - drilled.volume > np.pi * 16 * 5

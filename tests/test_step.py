@@ -1,0 +1,81 @@
+"""STEP files texcad writes, read back and meshed by OCCT as a CAD viewer would
+(``BRepMesh_IncrementalMesh`` at 0.1 mm): one valid solid, and the shown mesh within
+the deflection (plus the grid's own bilinear term) of texcad's mesh."""
+
+import numpy as np
+import pytest
+
+import texcad
+from texcad.solid import check_shape, occt_volume, shape_to_mesh
+
+DEFLECTION = 0.1  # mm, what CQ-editor / ocp_vscode use on a part this size
+
+
+def _distance(points: np.ndarray, mesh: texcad.solid.Mesh) -> float:
+    """Largest distance (mm) from ``points`` to the triangles of ``mesh`` (exact:
+    libigl's AABB tree)."""
+    import igl
+
+    d2 = igl.point_mesh_squared_distance(
+        np.asarray(points, np.float64), mesh.vertices.astype(np.float64), mesh.faces.astype(np.int64)
+    )[0]
+    return float(np.sqrt(d2.max()))
+
+
+def _shown(tx, path, tol):
+    """Write ``tx`` as STEP, read it, mesh it with OCCT; the two one-sided distances
+    between OCCT's mesh and texcad's (mm) must be within ``tol``."""
+    tx.export(path)
+    back = texcad.io.read_step(path)
+    chk = check_shape(back)
+    assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
+    slack = tx.info.get("volume_slack", 0.0)  # a lean mesh: its tolerance x area
+    assert abs(occt_volume(back) - tx.volume) <= 1e-3 * tx.volume + slack
+    shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
+    ours = tx.mesh
+    assert _distance(shown.vertices, ours) < tol  # OCCT's mesh lies on texcad's
+    assert _distance(ours.vertices, shown) < tol  # and keeps its detail
+    return back
+
+
+def test_plate_step_carries_texcads_mesh(tmp_path):
+    from build123d import Axis, Box
+
+    box = Box(30, 20, 5)
+    tx = texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=1.5, pitch=0.25)
+    path = tmp_path / "plate.step"
+    # The tiles carry the pixel grid (one pole per pixel); texcad's fused mesh is the
+    # lean one, within its tolerance of that grid.
+    back = _shown(tx, path, tx.info["tolerance"] + 1e-3)
+    text = path.read_bytes()
+    assert b"TRIANGULATED_FACE" in text and b"AP242" in text[:2000]
+    # Without tessellation: plain AP214, and OCCT meshes the B-spline tiles itself.
+    texcad.io.write_step(back, tmp_path / "plain.step", tessellated=False)
+    plain = (tmp_path / "plain.step").read_bytes()
+    assert b"TRIANGULATED_FACE" not in plain and b"AUTOMOTIVE_DESIGN" in plain[:2000]
+    again = texcad.io.read_step(tmp_path / "plain.step")
+    shown = shape_to_mesh(again, tolerance=DEFLECTION, angular_tolerance=0.5)
+    assert _distance(shown.vertices, tx.mesh) < DEFLECTION
+    assert _distance(tx.mesh.vertices, shown) < DEFLECTION + 0.25  # + the pitch's scale
+
+
+def test_cylinder_step(tmp_path):
+    from build123d import Cylinder, GeomType
+
+    cyl = Cylinder(8, 16)
+    side = cyl.faces().filter_by(GeomType.CYLINDER)[0]
+    tx = texcad.texture(cyl, side, "builtin:diamond_knurl", height=0.6, pitch=0.5)
+    _shown(tx, tmp_path / "cyl.step", DEFLECTION + 0.5 * 0.5)  # + half the pitch (the grid face is bilinear)
+
+
+def test_sine_step(tmp_path):
+    from build123d import Plane, Polyline, SortBy, Spline, extrude, make_face
+
+    k = 2 * np.pi / 25
+    x = np.linspace(0, 25, 33)
+    top = Spline(*[(a, 2 * np.sin(k * a)) for a in x], tangents=[(1, 2 * k), (1, 2 * k)])
+    section = make_face([top, Polyline(top @ 1, (25, -5), (0, -5), (0, 0))])
+    part = extrude(Plane.XZ * section, amount=-15)
+    face = part.faces().sort_by(SortBy.AREA)[-1]
+    tx = texcad.texture(part, face, "builtin:stones", height=0.8, pitch=0.5, mapping="distance")
+    _shown(tx, tmp_path / "sine.step", DEFLECTION + 0.5 * 0.5)
