@@ -1062,7 +1062,6 @@ def _quilt(
         rng = np.random.default_rng(int(seed))
     else:
         raise ParameterError(f"seed must be a whole number >= 0 or a numpy Generator, got {seed!r}")
-
     ay = _axis(out_shape[0], p, o, wrap_y)
     ax = _axis(out_shape[1], p, o, wrap_x)
     require_memory(
@@ -1070,131 +1069,143 @@ def _quilt(
         f"synthesizing a {out_shape[0]} x {out_shape[1]} px texture",
         "synthesize a smaller output or use a larger pitch",
     )
-    S = hm.heights  # float32 (rows, cols), read-only
-    syn = _Synthesizer(S, p, o, rng, search)
-    n_rows, n_cols = len(ay.starts), len(ax.starts)
-    ncand = len(syn.cy)
+    q = _Quilter(hm.heights, ay, ax, p, o, rng, search, tolerance, blend == "feather", wrap_x)
+    canvas = q.run(progress, f"synthesizing {out_shape[0]} x {out_shape[1]} px ({len(ay.starts)} patch rows)")
+    return Heightmap(np.ascontiguousarray(canvas[: out_shape[0], : out_shape[1]]), hm.pitch)
 
-    # Zone type of every patch: (top, left, right, bottom) strip widths in px.
-    rkind, rtype = np.unique(np.stack([ay.before, ay.after], axis=1), axis=0, return_inverse=True)
-    ckind, ctype = np.unique(np.stack([ax.before, ax.after], axis=1), axis=0, return_inverse=True)
-    code = rtype.reshape(-1, 1) * len(ckind) + ctype.reshape(1, -1)  # (rows, cols)
-    codes, first_at, counts = np.unique(code, return_index=True, return_counts=True)
-    zone_keys: dict[int, tuple[int, int, int, int]] = {}
-    for c, at, m in sorted(zip(codes.tolist(), first_at.tolist(), counts.tolist()), key=lambda x: x[1]):
-        (t, b), (l, r) = rkind[c // len(ckind)].tolist(), ckind[c % len(ckind)].tolist()
-        zone_keys[c] = (t, l, r, b)
-        if (t, l, r, b) != (0, 0, 0, 0):
-            syn.zone((t, l, r, b)).uses = m  # fitted in scan-line order of first use
-    # The random pick of each patch (same seed, same picks, whatever the schedule).
-    u = rng.random((n_rows, n_cols))
 
-    canvas = np.zeros((ay.canvas, ax.canvas), dtype=np.float32)
-    windows = np.lib.stride_tricks.sliding_window_view(canvas, (p, p))
-    Swin = syn.windows(p, p)
-    ys0, xs0 = ay.starts, ax.starts
-    row_wraps = ys0 + p > ay.canvas
-    col_wraps = xs0 + p > ax.canvas
-    rows_px = (ys0[:, None] + np.arange(p)) % ay.canvas  # (rows, p) for wrapped patches
-    cols_px = (xs0[:, None] + np.arange(p)) % ax.canvas
-    feather = blend == "feather"
-    cut_work: dict = {}
+class _Quilter:
+    """One synthesis run: the canvas, the patch grid with the zone type of every
+    patch, the random pick of each patch (same seed, same picks, whatever the
+    schedule) and the wavefront schedule (:func:`_levels`)."""
 
-    table = _neighbour_table(ay, ax) if search == "approximate" and _COHERENT else None
-    chosen = np.full(n_rows * n_cols, -1, dtype=np.intp)  # candidate pasted at each patch
-    levels = _levels(ay, ax, p)
-    flat = levels.ravel()
-    order = np.argsort(flat, kind="stable")
-    bounds = np.flatnonzero(np.diff(flat[order])) + 1
-    row_done = levels.max(axis=1)  # rows finish in order
-    next_row = 0
-    # One message for the whole run, so that reporters may throttle repeated lines.
-    message = f"synthesizing {out_shape[0]} x {out_shape[1]} px ({n_rows} patch rows)"
-    def _paste_batch(batch: np.ndarray) -> None:
-        """Match and paste the patches of one wavefront step, a zone type at a time."""
-        bi, bj = np.divmod(batch, n_cols)
-        batch_ids = batch
-        bcode = code[bi, bj]
-        groups = [slice(None)] if (bcode == bcode[0]).all() else [bcode == c for c in np.unique(bcode)]
-        for sel in groups:
-            gi, gj = bi[sel], bj[sel]
-            key = zone_keys[int(code[gi[0], gj[0]])]
-            wrapped = row_wraps[gi] | col_wraps[gj]
-            plain = ~wrapped
-            if wrapped.any():
-                old = np.empty((len(gi), p, p), dtype=np.float32)
-                old[plain] = windows[ys0[gi[plain]], xs0[gj[plain]]]
-                for k in np.flatnonzero(wrapped).tolist():
-                    old[k] = canvas[np.ix_(rows_px[gi[k]], cols_px[gj[k]])]
-            else:
-                old = windows[ys0[gi], xs0[gj]]
-            gu = u[gi, gj]
-            if key == (0, 0, 0, 0) or not search:  # the first patch: anywhere in the sample
-                c = np.minimum((gu * ncand).astype(np.intp), ncand - 1)
-            elif search == "exact" or (_EXACT_CLOSING and (key[2] or key[3])):
-                c = syn.query_exact(syn.zone(key), old, _closing_tolerance(key, tolerance), gu)
-            else:
-                extra = None if table is None else _coherent_candidates(batch_ids[sel], chosen, table, syn)
-                c = syn.query(syn.zone(key), old, tolerance, gu, extra)
-            chosen[batch_ids[sel]] = c
-            new = Swin[syn.cy[c], syn.cx[c]]  # (b, p, p) float32 copy
-            if key != (0, 0, 0, 0):
-                if feather:
-                    alpha = syn.zone(key).alpha
-                else:
-                    alpha = _cut_alphas(old, new, key, wrap_x & (gj == 0), cut_work)
-                new -= old
-                new *= alpha
-                new += old
-            # (One slice assignment per patch: a fancy assignment through the
-            # overlapping windows costs several times more.)
-            for k, (y, x, w) in enumerate(zip(ys0[gi].tolist(), xs0[gj].tolist(), wrapped.tolist())):
-                if w:
-                    canvas[np.ix_(rows_px[gi[k]], cols_px[gj[k]])] = new[k]
-                else:
-                    canvas[y: y + p, x: x + p] = new[k]
+    def __init__(self, S, ay, ax, p: int, o: int, rng, search, tolerance: float, feather: bool, wrap_x: bool):
+        self.S, self.ay, self.ax, self.p = S, ay, ax, p
+        self.syn = _Synthesizer(S, p, o, rng, search)
+        self.search, self.tolerance, self.feather, self.wrap_x = search, tolerance, feather, wrap_x
+        self.n_rows, self.n_cols = len(ay.starts), len(ax.starts)
+        self.ncand = len(self.syn.cy)
+        self.code, self.zone_keys = self._zone_types()
+        self.u = rng.random((self.n_rows, self.n_cols))
+        self.canvas = np.zeros((ay.canvas, ax.canvas), dtype=np.float32)
+        self.windows = np.lib.stride_tricks.sliding_window_view(self.canvas, (p, p))
+        self.Swin = self.syn.windows(p, p)
+        self.row_wraps = ay.starts + p > ay.canvas
+        self.col_wraps = ax.starts + p > ax.canvas
+        self.rows_px = (ay.starts[:, None] + np.arange(p)) % ay.canvas  # (rows, p) for wrapped patches
+        self.cols_px = (ax.starts[:, None] + np.arange(p)) % ax.canvas
+        self.cut_work: dict = {}
+        self.table = _neighbour_table(ay, ax) if search == "approximate" and _COHERENT else None
+        self.chosen = np.full(self.n_rows * self.n_cols, -1, dtype=np.intp)  # candidate pasted at each patch
 
-    code_rows = code.tolist()
-    for batch in np.split(order, bounds):
-        if len(batch) == 1:
-            # One patch (a serial schedule): the same arithmetic on views and scalars.
-            i, j = divmod(int(batch[0]), n_cols)
-            key = zone_keys[code_rows[i][j]]
-            if row_wraps[i] or col_wraps[j]:
-                idx: tuple = np.ix_(rows_px[i], cols_px[j])
+    def _zone_types(self):
+        """Zone type of every patch: (top, left, right, bottom) strip widths in px."""
+        ay, ax = self.ay, self.ax
+        rkind, rtype = np.unique(np.stack([ay.before, ay.after], axis=1), axis=0, return_inverse=True)
+        ckind, ctype = np.unique(np.stack([ax.before, ax.after], axis=1), axis=0, return_inverse=True)
+        code = rtype.reshape(-1, 1) * len(ckind) + ctype.reshape(1, -1)  # (rows, cols)
+        codes, first_at, counts = np.unique(code, return_index=True, return_counts=True)
+        zone_keys: dict[int, tuple[int, int, int, int]] = {}
+        for c, at, m in sorted(zip(codes.tolist(), first_at.tolist(), counts.tolist()), key=lambda x: x[1]):
+            (t, b), (l, r) = rkind[c // len(ckind)].tolist(), ckind[c % len(ckind)].tolist()
+            zone_keys[c] = (t, l, r, b)
+            if (t, l, r, b) != (0, 0, 0, 0):
+                self.syn.zone((t, l, r, b)).uses = m  # fitted in scan-line order of first use
+        return code, zone_keys
+
+    def run(self, progress, message: str) -> np.ndarray:
+        levels = _levels(self.ay, self.ax, self.p)
+        flat = levels.ravel()
+        order = np.argsort(flat, kind="stable")
+        bounds = np.flatnonzero(np.diff(flat[order])) + 1
+        row_done = levels.max(axis=1)  # rows finish in order
+        next_row = 0
+        code_rows = self.code.tolist()
+        for batch in np.split(order, bounds):  # per wavefront step
+            if len(batch) == 1:
+                self._paste_one(int(batch[0]), batch, code_rows)
             else:
-                y0, x0 = int(ys0[i]), int(xs0[j])
-                idx = (slice(y0, y0 + p), slice(x0, x0 + p))
-            old = canvas[idx][None]  # (1, p, p)
-            if key == (0, 0, 0, 0) or not search:
-                c0 = min(int(u[i, j] * ncand), ncand - 1)
-            elif search == "exact" or (_EXACT_CLOSING and (key[2] or key[3])):
-                c0 = int(syn.query_exact(syn.zone(key), old, _closing_tolerance(key, tolerance), u[i, j].reshape(1))[0])
-            else:
-                extra = None if table is None else _coherent_candidates(batch, chosen, table, syn)
-                c0 = int(syn.query(syn.zone(key), old, tolerance, u[i, j].reshape(1), extra)[0])
-            chosen[batch[0]] = c0
-            y0, x0 = int(syn.cy[c0]), int(syn.cx[c0])
-            new = S[y0: y0 + p, x0: x0 + p][None].copy()
-            if key != (0, 0, 0, 0):
-                if feather:
-                    alpha = syn.zone(key).alpha
-                else:
-                    alpha = _cut_alphas(old, new, key, np.array([wrap_x and j == 0]), cut_work)
-                new -= old
-                new *= alpha
-                new += old
-            canvas[idx] = new[0]
+                self._paste_batch(batch)
+            if progress is not None:
+                lev = int(flat[batch[0]])
+                while next_row < self.n_rows and row_done[next_row] == lev:
+                    next_row += 1
+                    progress(next_row / self.n_rows, message)  # one message: reporters may throttle
+        return self.canvas
+
+    def _pick(self, key, old, gu, ids):
+        """Candidates for patches of zone type ``key`` over ``old`` (b, p, p)."""
+        syn = self.syn
+        if key == (0, 0, 0, 0) or not self.search:  # the first patch: anywhere in the sample
+            return np.minimum((gu * self.ncand).astype(np.intp), self.ncand - 1)
+        if self.search == "exact" or (_EXACT_CLOSING and (key[2] or key[3])):
+            return syn.query_exact(syn.zone(key), old, _closing_tolerance(key, self.tolerance), gu)
+        extra = None if self.table is None else _coherent_candidates(ids, self.chosen, self.table, syn)
+        return syn.query(syn.zone(key), old, self.tolerance, gu, extra)
+
+    def _blend(self, key, old, new, wrap_first):
+        """``new`` blended over ``old`` in the overlaps (feathered or cut, eq. 1), in place."""
+        if key != (0, 0, 0, 0):
+            alpha = self.syn.zone(key).alpha if self.feather else _cut_alphas(old, new, key, wrap_first, self.cut_work)
+            new -= old
+            new *= alpha
+            new += old
+        return new
+
+    def _paste_one(self, pid: int, batch: np.ndarray, code_rows) -> None:
+        """One patch (a serial schedule): the same arithmetic on views and scalars."""
+        i, j = divmod(pid, self.n_cols)
+        p = self.p
+        key = self.zone_keys[code_rows[i][j]]
+        if self.row_wraps[i] or self.col_wraps[j]:
+            idx: tuple = np.ix_(self.rows_px[i], self.cols_px[j])
         else:
-            _paste_batch(batch)
-        if progress is not None:
-            lev = int(flat[batch[0]])
-            while next_row < n_rows and row_done[next_row] == lev:
-                next_row += 1
-                progress(next_row / n_rows, message)
+            y0, x0 = int(self.ay.starts[i]), int(self.ax.starts[j])
+            idx = (slice(y0, y0 + p), slice(x0, x0 + p))
+        old = self.canvas[idx][None]  # (1, p, p)
+        c0 = int(np.asarray(self._pick(key, old, self.u[i, j].reshape(1), batch)).reshape(-1)[0])
+        self.chosen[pid] = c0
+        y0, x0 = int(self.syn.cy[c0]), int(self.syn.cx[c0])
+        new = self.S[y0: y0 + p, x0: x0 + p][None].copy()
+        self.canvas[idx] = self._blend(key, old, new, np.array([self.wrap_x and j == 0]))[0]
 
-    out = canvas[: out_shape[0], : out_shape[1]]
-    return Heightmap(np.ascontiguousarray(out), hm.pitch)
+    def _paste_batch(self, batch: np.ndarray) -> None:
+        """Match and paste the patches of one wavefront step, a zone type at a time."""
+        bi, bj = np.divmod(batch, self.n_cols)
+        bcode = self.code[bi, bj]
+        groups = [slice(None)] if (bcode == bcode[0]).all() else [bcode == c for c in np.unique(bcode)]
+        for sel in groups:  # per zone type
+            gi, gj = bi[sel], bj[sel]
+            key = self.zone_keys[int(self.code[gi[0], gj[0]])]
+            wrapped = self.row_wraps[gi] | self.col_wraps[gj]
+            old = self._old(gi, gj, wrapped)
+            c = self._pick(key, old, self.u[gi, gj], batch[sel])
+            self.chosen[batch[sel]] = c
+            new = self.Swin[self.syn.cy[c], self.syn.cx[c]]  # (b, p, p) float32 copy
+            new = self._blend(key, old, new, self.wrap_x & (gj == 0))
+            self._put(gi, gj, wrapped, new)
+
+    def _old(self, gi, gj, wrapped):
+        """The canvas under patches ``(gi, gj)``: ``(b, p, p)``."""
+        p = self.p
+        if not wrapped.any():
+            return self.windows[self.ay.starts[gi], self.ax.starts[gj]]
+        old = np.empty((len(gi), p, p), dtype=np.float32)
+        plain = ~wrapped
+        old[plain] = self.windows[self.ay.starts[gi[plain]], self.ax.starts[gj[plain]]]
+        for k in np.flatnonzero(wrapped).tolist():  # per wrapped patch
+            old[k] = self.canvas[np.ix_(self.rows_px[gi[k]], self.cols_px[gj[k]])]
+        return old
+
+    def _put(self, gi, gj, wrapped, new) -> None:
+        # (One slice assignment per patch: a fancy assignment through the overlapping
+        # windows costs several times more.)
+        p = self.p
+        for k, (y, x, w) in enumerate(zip(self.ay.starts[gi].tolist(), self.ax.starts[gj].tolist(), wrapped.tolist())):
+            if w:
+                self.canvas[np.ix_(self.rows_px[gi[k]], self.cols_px[gj[k]])] = new[k]
+            else:
+                self.canvas[y: y + p, x: x + p] = new[k]
 
 
 def synthesize(

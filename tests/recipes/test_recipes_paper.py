@@ -18,7 +18,7 @@ import trimesh
 
 import texcad
 
-RECIPE = Path(__file__).resolve().parent.parent / "recipes" / "paper_samples.py"
+RECIPE = Path(__file__).resolve().parents[2] / "recipes" / "paper_samples.py"
 TABLE2 = {
     "T1-flat": 0, "T1-curved": 30, "T1-sine": 15,
     "T2-flat": 45, "T2-curved": 45, "T2-sine": 0,

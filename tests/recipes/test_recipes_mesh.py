@@ -15,7 +15,7 @@ import trimesh
 import texcad
 from texcad.io import read_part
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_mesh_part_recipe(tmp_path):

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 import trimesh
 
-RECIPES = Path(__file__).resolve().parent.parent / "recipes"
+RECIPES = Path(__file__).resolve().parents[2] / "recipes"
 
 
 def run_recipe(name: str, out: Path, pitch: str = "0.5") -> dict:

@@ -13,7 +13,7 @@ from texcad.solid import brep
 import texcad.io
 from conftest import assert_heightmap_picture, assert_picture
 
-RECIPES = Path(__file__).resolve().parent.parent / "recipes"
+RECIPES = Path(__file__).resolve().parents[2] / "recipes"
 
 
 def run_recipe(name: str, out: Path, pitch: str = "1.0") -> subprocess.CompletedProcess:
