@@ -567,27 +567,6 @@ def _texture_extrusion(
     return result
 
 
-def _fuse_keep_count(topo, tool):
-    """OCCT union; the part keeps its number of solids."""
-    from OCP.BRepAlgoAPI import BRepAlgoAPI_Fuse
-    from OCP.TopTools import TopTools_ListOfShape
-
-    want = len(solids_of(topo))
-    if want == 1:
-        return _brep.fuse_solids(topo, tool)
-    args, tools = TopTools_ListOfShape(), TopTools_ListOfShape()
-    args.Append(topo)
-    tools.Append(tool)
-    fu = BRepAlgoAPI_Fuse()
-    fu.SetArguments(args)
-    fu.SetTools(tools)
-    fu.SetRunParallel(True)
-    fu.Build()
-    if not fu.IsDone() or len(solids_of(fu.Shape())) != want:
-        raise GeometryError("OCCT's union of texture and part failed; texture with brep=False for STL/3MF only")
-    return fu.Shape()
-
-
 def _lift(top: np.ndarray, profile, s: np.ndarray, *, closed: bool, keep_sunk: bool = False) -> np.ndarray:
     """Keep every top vertex at least ``LIFT`` mm plus the grid's chord sag outside
     the profile (along its normal): ``d_n >= LIFT + max(kappa, 0) ds^2 / 8``.
