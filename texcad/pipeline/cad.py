@@ -1,6 +1,7 @@
-"""Textures on build123d and CadQuery parts: ``texcad.texture(part, face, texture)``.
+"""Textures on faces of build123d and CadQuery parts: the CAD branch of
+``texcad.texture(part, faces, texture)``.
 
-Pick a face with the CAD library's selectors and texture it::
+Pick faces with the CAD library's selectors and texture them::
 
     from build123d import *
     import texcad
@@ -8,16 +9,13 @@ Pick a face with the CAD library's selectors and texture it::
     part = Box(60, 40, 10)
     top = part.faces().sort_by(Axis.Z)[-1]
     textured = texcad.texture(part, top, "builtin:diamond_knurl", height=1.0)
-    textured.export_stl("part.stl")      # texcad's own mesh (watertight, manifold3d)
-    textured.export_3mf("part.3mf", separate_texture=True)
-    textured.export_step("part.step")    # B-rep: the texture is a B-spline face
+    textured.export("part.stl")      # texcad's own mesh (watertight, manifold3d)
+    textured.export("part.3mf", separate_texture=True)
+    textured.export("part.step")     # the B-rep, made now (tiles of B-spline faces)
 
-The result is a build123d ``Part`` (a :class:`Textured`) whose OCCT shape is the
-textured B-rep, so it can be moved, combined and exported like any part; it also
-carries texcad's fused mesh, which STL and 3MF are written from (OCCT's tessellation
-of an 800 x 800 B-spline face is slow and loses detail). CadQuery in, CadQuery out: a
-``Workplane`` (or ``Shape``) gives a ``Workplane`` (or ``Shape``) whose
-``.texcad`` attribute is the :class:`Textured`.
+The result is a :class:`texcad.Textured`: texcad's fused mesh (STL and 3MF are written
+from it) and the textured B-rep, made on first use of ``.shape`` / ``.part`` /
+``.workplane`` and checked (:func:`checked_brep`).
 
 Which faces
 -----------
@@ -34,15 +32,17 @@ Which faces
   (45 degrees: the paper's edge modification M-I, section 2.1.3, applied on every
   border). The texture therefore lies on the selected face only, and the textured
   surface meets the face's own edges at height 0: the B-rep keeps the body's edges
-  and simply swaps the face's plane for the textured B-spline surface
-  (:func:`texcad.solid.brep.textured_plane_face`), and the mesh is the body's mesh united
-  (manifold3d) with the relief above the face.
+  and swaps the textured part of the face's plane for B-spline tiles
+  (:func:`texcad.solid.brep.textured_plane_solid`), and the mesh is the body's mesh
+  united (manifold3d) with the relief above the face.
 * **Faces of extruded profiles** (cylinders, extrusions of lines, arcs and splines:
   the 2.5D surfaces of :mod:`texcad.mapping`). The profile is recovered from the
   face's cross-section, the texture is mapped with :func:`texcad.mapping.map_texture`
-  (``mapping="distance"``, algorithm 1, or ``"angle"``, algorithm 2), the slab is
-  unioned with manifold3d for the mesh and with OCCT's boolean for the B-rep (the
-  slab's planar walls are real planes; its bottom is a ruled 2-row grid).
+  (``mapping="distance"``, algorithm 1, or ``"angle"``, algorithm 2) and the slab is
+  unioned with manifold3d for the mesh. B-rep: a closed band (a cylinder) is split
+  by the end rows' planes and its middle replaced by wrapped tiles, without a
+  boolean; an open profile's slab is fused with OCCT's boolean
+  (:func:`texcad.solid.brep.textured_extrusion_solid`).
 
 * **Any other face, several faces at once, chaining** (cones, spheres, tori, surfaces
   of revolution, B-splines, fillets, partial strips, trimmed faces; a list, a
@@ -55,11 +55,9 @@ Which faces
 Checks: the B-rep must be one valid solid (``BRepCheck``) per input solid and must
 enclose the mesh's volume within 0.1 % (:data:`VOLUME_TOLERANCE`; they differ only by
 the bilinear-vs-triangle term of :mod:`texcad.solid.brep`); OCCT's boolean occasionally
-returns a "valid" solid that lost material, and then :func:`texture` raises
-``GeometryError`` (``brep=False`` still gives the meshes). OCCT's boolean of a fine
-grid face with a curved base face is slow (about 1 s for 60 x 124 poles on a
-cylinder, 13 s for 306 x 300, 150 s for 488 x 768): use ``pitch`` 0.25 mm or more
-on curved faces when you need STEP. Planar faces need no boolean and stay fast.
+returns a "valid" solid that lost material, and then ``.shape`` raises
+``GeometryError`` (the meshes are fine). A lean mesh (``tolerance``) may differ from
+the one-pole-per-pixel B-rep by its tolerance times the area (``info["volume_slack"]``).
 """
 
 from __future__ import annotations
