@@ -32,6 +32,7 @@ import numpy as np
 
 from ..errors import GeometryError, ParameterError
 from ..solid import (
+    boolean,
     Mesh,
     check_shape,
     from_manifold,
@@ -151,28 +152,11 @@ def _replay(hist: dict):
         if step["op"] == "fillet":
             shape = _occt_fillet(shape, step["edges"], step["radius"])
         else:
-            shape = _occt_op(shape, step["tool"], step["op"])
+            shape = boolean(shape, step["tool"], step["op"])
     return shape
 
 
 # -- OCCT --------------------------------------------------------------------------------------
-def _occt_op(shape, tool, op: str):
-    from OCP.BRepAlgoAPI import BRepAlgoAPI_Common, BRepAlgoAPI_Cut, BRepAlgoAPI_Fuse
-    from OCP.TopTools import TopTools_ListOfShape
-
-    algo = {"cut": BRepAlgoAPI_Cut, "fuse": BRepAlgoAPI_Fuse, "common": BRepAlgoAPI_Common}[op]()
-    args, tools = TopTools_ListOfShape(), TopTools_ListOfShape()
-    args.Append(shape)
-    tools.Append(tool)
-    algo.SetArguments(args)
-    algo.SetTools(tools)
-    algo.SetRunParallel(True)
-    algo.Build()
-    if not algo.IsDone():
-        raise GeometryError(f"OCCT's {op} of the textured B-rep failed; the mesh result is fine: write STL or 3MF")
-    return algo.Shape()
-
-
 def _edge_mids(edges) -> np.ndarray:
     """``(n, 3)`` mid-points (mm) of edges, at their mid parameter."""
     from OCP.BRepAdaptor import BRepAdaptor_Curve
@@ -347,7 +331,7 @@ def fillet(part: Any, edges: Sequence[Any], radius: float) -> Any:
     hist = dict(hist_src, steps=[*hist_src["steps"], step], to_world=world)
     base = hist["base"]
     for st in hist_src["steps"]:  # the operations so far, on the untextured part
-        base = _occt_op(base, st["tool"], st["op"]) if st["op"] != "fillet" else _occt_fillet(base, st["edges"], st["radius"])
+        base = boolean(base, st["tool"], st["op"]) if st["op"] != "fillet" else _occt_fillet(base, st["edges"], st["radius"])
     base = _occt_fillet(base, mids, radius)
     base_world = shape_to_mesh(_apply(base, world), tolerance=TOOL_TOLERANCE)
     tex = part.texture_mesh

@@ -76,6 +76,7 @@ __all__ = [
     "FINE",
     "occt_volume",
     "OCCT_EPS",
+    "boolean",
     "fuse_solids",
     "check_shape",
     "volume",
@@ -537,37 +538,50 @@ def sample_segments(segs: np.ndarray, spacing: float) -> np.ndarray:
 
 
 # -- booleans and checks ----------------------------------------------------------------------
-def fuse_solids(base: Any, tool: Any, *, parallel: bool = True):
-    """OCCT boolean union of two solids, checked.
-
-    Returns:
-        The one ``TopoDS_Solid`` of the union.
+def boolean(shape: Any, tool: Any, op: str = "fuse", *, parallel: bool = True):
+    """OCCT's general boolean (``BRepAlgoAPI_Cut`` / ``_Fuse`` / ``_Common``) of two
+    shapes: the one place texcad calls it.
 
     Raises:
-        GeometryError: the boolean failed or gave more than one solid.
+        ParameterError: unknown ``op``.
+        GeometryError: OCCT reports failure.
     """
-    from OCP.BRepAlgoAPI import BRepAlgoAPI_Fuse
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Common, BRepAlgoAPI_Cut, BRepAlgoAPI_Fuse
     from OCP.TopTools import TopTools_ListOfShape
 
+    algos = {"cut": BRepAlgoAPI_Cut, "fuse": BRepAlgoAPI_Fuse, "common": BRepAlgoAPI_Common}
+    if op not in algos:
+        raise ParameterError(f"unknown boolean {op!r}; use one of {', '.join(algos)}")
+    algo = algos[op]()
     args, tools = TopTools_ListOfShape(), TopTools_ListOfShape()
-    args.Append(to_topods(base))
+    args.Append(to_topods(shape))
     tools.Append(to_topods(tool))
-    fu = BRepAlgoAPI_Fuse()
-    fu.SetArguments(args)
-    fu.SetTools(tools)
-    fu.SetRunParallel(parallel)
-    fu.Build()
-    if not fu.IsDone():
-        raise GeometryError("OCCT's union of texture and base failed; the mesh (STL/3MF) is still valid")
-    sols = solids_of(fu.Shape())
-    if len(sols) != 1:
+    algo.SetArguments(args)
+    algo.SetTools(tools)
+    algo.SetRunParallel(parallel)
+    algo.Build()
+    if not algo.IsDone():
+        raise GeometryError(f"OCCT's {op} of the textured B-rep failed; the mesh (STL/3MF) is still valid")
+    return algo.Shape()
+
+
+def fuse_solids(base: Any, tool: Any, *, parallel: bool = True, solids: int = 1):
+    """OCCT boolean union of ``base`` and ``tool``, checked: it must have ``solids``
+    solids (one: the ``TopoDS_Solid`` itself is returned).
+
+    Raises:
+        GeometryError: the boolean failed or gave another number of solids.
+    """
+    fused = boolean(base, tool, "fuse", parallel=parallel)
+    sols = solids_of(fused)
+    if len(sols) != solids:
         raise GeometryError(
-            f"OCCT's union of texture and base gave {len(sols)} solids instead of one: its boolean found no "
+            f"OCCT's union of texture and base gave {len(sols)} solids instead of {solids}: its boolean found no "
             "(or too little) intersection between the texture slab and the base, which happens with fine "
-            "grids on curved B-spline faces; build the STEP at a coarser pitch (e.g. 0.25 mm) or use "
-            "brep=False. The mesh (STL/3MF) does not depend on OCCT and is valid"
+            "grids on curved B-spline faces; build the STEP at a coarser pitch (e.g. 0.25 mm). "
+            "The mesh (STL/3MF) does not depend on OCCT and is valid"
         )
-    return sols[0]
+    return sols[0] if solids == 1 else fused
 
 
 def check_shape(shape: Any) -> dict:
@@ -1523,23 +1537,7 @@ def textured_extrusion_solid(shape: Any, face: Any, top: np.ndarray, bottom: np.
             return out
     topo = to_topods(shape)
     slab = grid_brep(top, bottom, wrap_x=closed)
-    want = len(solids_of(topo))
-    if want == 1:
-        return fuse_solids(topo, slab)
-    from OCP.BRepAlgoAPI import BRepAlgoAPI_Fuse
-    from OCP.TopTools import TopTools_ListOfShape
-
-    args, tools = TopTools_ListOfShape(), TopTools_ListOfShape()
-    args.Append(topo)
-    tools.Append(slab)
-    fu = BRepAlgoAPI_Fuse()
-    fu.SetArguments(args)
-    fu.SetTools(tools)
-    fu.SetRunParallel(True)
-    fu.Build()
-    if not fu.IsDone() or len(solids_of(fu.Shape())) != want:
-        raise GeometryError("OCCT's union of texture and part failed; texture with brep=False for STL/3MF only")
-    return fu.Shape()
+    return fuse_solids(topo, slab, solids=len(solids_of(topo)))
 
 
 #: Relative precision asked of OCCT's adaptive volume integration (:func:`occt_volume`).
