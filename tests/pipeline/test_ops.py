@@ -104,7 +104,7 @@ def test_wrong_occt_result_raises(part, monkeypatch):
     _, tx = part
     drilled = tx - Cylinder(3, 50)
     # An OCCT boolean that keeps the material (as on one large grid face) must not pass.
-    monkeypatch.setattr(ops, "boolean", lambda shape, tool, op: shape)
+    monkeypatch.setattr(ops, "occt_boolean", lambda shape, tool, op: shape)
     with pytest.raises(GeometryError, match="mm3"):
         drilled.shape
     with pytest.raises(ParameterError, match="radius"):

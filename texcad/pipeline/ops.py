@@ -32,7 +32,7 @@ import numpy as np
 
 from ..errors import GeometryError, ParameterError
 from ..solid import (
-    boolean,
+    occt_boolean,
     Mesh,
     check_shape,
     from_manifold,
@@ -152,7 +152,7 @@ def _replay(hist: dict):
         if step["op"] == "fillet":
             shape = _occt_fillet(shape, step["edges"], step["radius"])
         else:
-            shape = boolean(shape, step["tool"], step["op"])
+            shape = occt_boolean(shape, step["tool"], step["op"])
     return shape
 
 
@@ -331,7 +331,7 @@ def fillet(part: Any, edges: Sequence[Any], radius: float) -> Any:
     hist = dict(hist_src, steps=[*hist_src["steps"], step], to_world=world)
     base = hist["base"]
     for st in hist_src["steps"]:  # the operations so far, on the untextured part
-        base = boolean(base, st["tool"], st["op"]) if st["op"] != "fillet" else _occt_fillet(base, st["edges"], st["radius"])
+        base = occt_boolean(base, st["tool"], st["op"]) if st["op"] != "fillet" else _occt_fillet(base, st["edges"], st["radius"])
     base = _occt_fillet(base, mids, radius)
     base_world = shape_to_mesh(_apply(base, world), tolerance=TOOL_TOLERANCE)
     tex = part.texture_mesh

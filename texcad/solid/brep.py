@@ -76,7 +76,7 @@ __all__ = [
     "FINE",
     "occt_volume",
     "OCCT_EPS",
-    "boolean",
+    "occt_boolean",
     "fuse_solids",
     "check_shape",
     "volume",
@@ -538,7 +538,7 @@ def sample_segments(segs: np.ndarray, spacing: float) -> np.ndarray:
 
 
 # -- booleans and checks ----------------------------------------------------------------------
-def boolean(shape: Any, tool: Any, op: str = "fuse", *, parallel: bool = True):
+def occt_boolean(shape: Any, tool: Any, op: str = "fuse", *, parallel: bool = True):
     """OCCT's general boolean (``BRepAlgoAPI_Cut`` / ``_Fuse`` / ``_Common``) of two
     shapes: the one place texcad calls it.
 
@@ -572,7 +572,7 @@ def fuse_solids(base: Any, tool: Any, *, parallel: bool = True, solids: int = 1)
     Raises:
         GeometryError: the boolean failed or gave another number of solids.
     """
-    fused = boolean(base, tool, "fuse", parallel=parallel)
+    fused = occt_boolean(base, tool, "fuse", parallel=parallel)
     sols = solids_of(fused)
     if len(sols) != solids:
         raise GeometryError(
