@@ -55,14 +55,14 @@ from __future__ import annotations
 
 import os
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..errors import GeometryError, ParameterError, TexcadWarning
 from ..sources import Heightmap
-from ..solid import Mesh, as_array, explore, from_manifold, to_manifold
+from ..solid import Mesh, as_array, edge_report, explore, from_manifold, to_manifold
 from ..util import Progress, report
 
 __all__ = ["texture_any_faces", "face_list", "part_tessellation", "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED"]
@@ -99,7 +99,6 @@ class PartMesh:
     faces: list
     mesh: Mesh
     face_of_tri: np.ndarray
-    vertex_of: list = field(default_factory=list)  # per face: welded index of each local vertex
 
 
 # ------------------------------------------------------------------------------------------
@@ -184,8 +183,7 @@ def _weld(fms: list, weld: float) -> PartMesh:
     inv = inv.ravel()
     f = inv[f]
     keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
-    vertex_of = [None if fm is None else inv[o : o + len(fm.points)] for fm, o in zip(fms, offs)]
-    return PartMesh(fms, Mesh(v[first].astype(np.float32), f[keep].astype(np.uint32)), np.concatenate(fid)[keep], vertex_of)
+    return PartMesh(fms, Mesh(v[first].astype(np.float32), f[keep].astype(np.uint32)), np.concatenate(fid)[keep])
 
 
 # ------------------------------------------------------------------------------------------
@@ -575,10 +573,7 @@ def welded(man) -> "Mesh | None":
     uniq = sv[new]
     f = inv[f]
     f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])]
-    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    key = np.sort(e[:, 0] * (len(uniq) + 1) + e[:, 1])
-    # Every edge exactly twice: sorted keys pair up, and no pair equals the next one.
-    if len(key) % 2 or not np.array_equal(key[0::2], key[1::2]) or np.any(key[1:-1:2] == key[2::2]):
+    if not edge_report(f)["watertight"]:  # every edge on two triangles, opposite ways
         return None
     used = np.unique(f)
     remap = np.full(len(uniq), -1, np.int64)
