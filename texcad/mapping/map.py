@@ -82,7 +82,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..util import require_memory
-from ..util import positive
+from ..util import positive, smoothstep
 from ..errors import GeometryError, ParameterError, TexcadWarning
 from ..sources import Heightmap
 from ..solid import Mesh
@@ -291,8 +291,7 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 def _smoothstep(t: np.ndarray) -> np.ndarray:
-    t = np.clip(t, 0.0, 1.0)
-    return t * t * (3.0 - 2.0 * t)
+    return smoothstep(0.0, 1.0, t)
 
 
 

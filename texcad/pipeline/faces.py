@@ -63,7 +63,7 @@ import numpy as np
 from ..errors import GeometryError, ParameterError, TexcadWarning
 from ..sources import Heightmap
 from ..solid import Mesh, as_array, edge_report, explore, from_manifold, to_manifold
-from ..util import Progress, report
+from ..util import Progress, report, smoothstep
 
 __all__ = ["texture_any_faces", "face_list", "part_tessellation", "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED"]
 
@@ -361,9 +361,6 @@ def _heights(hm: Heightmap | None, tex: Any, periodic: bool, grid, pitch: float,
     return out
 
 
-def _smoothstep(e0: float, e1: float, t: np.ndarray) -> np.ndarray:
-    x = np.clip((t - e0) / (e1 - e0), 0.0, 1.0)
-    return x * x * (3 - 2 * x)
 
 
 def _border_distance(valid: np.ndarray, px: float, py: float, wrap_y: bool) -> np.ndarray:
@@ -474,7 +471,7 @@ def _patch_relief(pm: PartMesh, patch: list[int], tex: Any, opts: dict) -> dict:
     # Fade where the texture scale leaves [FADE_FULL, 1 / FADE_FULL] (poles, needles).
     sx, sy = point_scales(grid)
     q = np.minimum(np.minimum(sx, sy), 1.0 / np.maximum(np.maximum(sx, sy), 1e-9))
-    fade = _smoothstep(FADE_ZERO, FADE_FULL, q)
+    fade = smoothstep(FADE_ZERO, FADE_FULL, q)
     d_keep, d_floor = 0.75 * diag, 3.75 * diag
     ramp = np.tan(np.radians(opts["edge_angle"])) * np.maximum(d - d_floor, 0.0) if opts["edge_angle"] < 90 else np.where(d > d_floor, np.inf, 0.0)
     h = np.minimum(H * fade, ramp)

@@ -30,7 +30,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from ..util import require_memory
-from ..util import positive
+from ..util import positive, smoothstep
 from ..errors import ParameterError
 from .heightmap import Heightmap
 
@@ -156,10 +156,6 @@ def _tri(t: np.ndarray) -> np.ndarray:
     return 1.0 - np.abs(2.0 * (t - np.floor(t)) - 1.0)
 
 
-def _smoothstep(e0: float, e1: float, t: np.ndarray) -> np.ndarray:
-    """0 below ``e0``, 1 above ``e1``, ``3s^2 - 2s^3`` in between (C1)."""
-    s = np.clip((t - e0) / (e1 - e0), 0.0, 1.0)
-    return s * s * (3.0 - 2.0 * s)
 
 
 def _wrap(t: np.ndarray, p: float) -> np.ndarray:
@@ -298,7 +294,7 @@ def _make_pins(period: float, diameter: float, flank: float, hexagonal: bool = F
 
     def f(x, y):
         d = _lattice_distance(x, y, period, hexagonal=hexagonal)
-        return 1.0 - _smoothstep(r - flank / 2, r + flank / 2, d)
+        return 1.0 - smoothstep(r - flank / 2, r + flank / 2, d)
 
     return (period, period * np.sqrt(3.0) if hexagonal else period), f
 
@@ -348,7 +344,7 @@ def _make_hexagons(period: float, groove: float, bevel: float):
         dx, dy = _hex_offset(x, y, period)
         hexd = np.maximum(np.abs(dx), np.maximum(np.abs(0.5 * dx + s3 * dy), np.abs(-0.5 * dx + s3 * dy)))
         border = period / 2 - hexd
-        return _smoothstep(groove / 2, groove / 2 + bevel, border)
+        return smoothstep(groove / 2, groove / 2 + bevel, border)
 
     return (period, period * np.sqrt(3.0)), f
 
@@ -375,7 +371,7 @@ def _make_scales(period: float, radius: float, bevel: float):
             dy = yb - j * q
             d = np.hypot(dx, dy)
             inside = (d < radius) & (j > best_j)
-            hj = (0.2 + 0.4 * (1.0 - dy / radius)) * _smoothstep(0.0, bevel, radius - d)
+            hj = (0.2 + 0.4 * (1.0 - dy / radius)) * smoothstep(0.0, bevel, radius - d)
             h = np.where(inside, hj, h)
             best_j = np.where(inside, j, best_j)
         return h
@@ -394,7 +390,7 @@ def _make_brick(length: float, course: float, mortar: float, bevel: float):
         u = np.mod(x - np.mod(row, 2.0) * length / 2, length)
         v = np.mod(y, course)
         dist = np.minimum(np.minimum(u, length - u), np.minimum(v, course - v))
-        return _smoothstep(mortar / 2, mortar / 2 + bevel, dist)
+        return smoothstep(mortar / 2, mortar / 2 + bevel, dist)
 
     return (length, 2 * course), f
 
@@ -741,7 +737,7 @@ def _make_honeycomb(period: float, wall: float, bevel: float):
     def f(x, y):
         dx, dy = _hex_offset(x, y, period)
         hexd = np.maximum(np.abs(dx), np.maximum(np.abs(0.5 * dx + s3 * dy), np.abs(-0.5 * dx + s3 * dy)))
-        return 1.0 - _smoothstep(wall / 2, wall / 2 + bevel, period / 2 - hexd)
+        return 1.0 - smoothstep(wall / 2, wall / 2 + bevel, period / 2 - hexd)
 
     return (period, period * np.sqrt(3.0)), f
 
@@ -753,7 +749,7 @@ def _make_grid(period: float, width: float, bevel: float):
 
     def f(x, y):
         d = np.minimum(np.abs(_wrap(x, period)), np.abs(_wrap(y, period)))
-        return 1.0 - _smoothstep(width / 2, width / 2 + bevel, d)
+        return 1.0 - smoothstep(width / 2, width / 2 + bevel, d)
 
     return (period, period), f
 
@@ -784,7 +780,7 @@ def _make_cracks(cell: float, count: int, width: float, seed: int):
 
     def f(x, y):
         f1, f2 = _voronoi(x, y, tile, count, 0.4, np.random.default_rng(seed))
-        return _smoothstep(0.0, width / 2, 0.5 * (f2 - f1))
+        return smoothstep(0.0, width / 2, 0.5 * (f2 - f1))
 
     return (tile, tile), f
 

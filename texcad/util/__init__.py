@@ -23,6 +23,7 @@ from .resources import (
 )
 from .vectors import (
     parse_vector,
+    smoothstep,
 )
 
 __all__ = [
@@ -37,4 +38,5 @@ __all__ = [
     'texture_bytes',
     'fitting_pitch',
     'parse_vector',
+    'smoothstep',
 ]

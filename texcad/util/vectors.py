@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["parse_vector"]
+__all__ = ["parse_vector", "smoothstep"]
 
 
 def parse_vector(text: str) -> np.ndarray:
@@ -25,3 +25,10 @@ def parse_vector(text: str) -> np.ndarray:
     if v.shape != (3,) or not np.isfinite(v).all() or not np.any(v):
         raise ParameterError(f"expected three numbers X,Y,Z, not all zero (e.g. 0,0,1), got {text!r}")
     return v
+
+
+def smoothstep(e0: float, e1: float, t: np.ndarray) -> np.ndarray:
+    """0 below ``e0``, 1 above ``e1``, ``3s^2 - 2s^3`` in between (C1), with
+    ``s = (t - e0) / (e1 - e0)``: the fade of the M-I ramps and the textures' edges."""
+    s = np.clip((np.asarray(t) - e0) / (e1 - e0), 0.0, 1.0)
+    return s * s * (3.0 - 2.0 * s)
