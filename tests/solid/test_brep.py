@@ -43,6 +43,7 @@ def test_grid_solid_matches_mesh_volume_exactly():
     # Same corner heights: the bilinear and the triangle volume are identical (the
     # difference telescopes to the corners, see texcad.solid.brep).
     assert brep.volume(solid) == pytest.approx(mesh.volume, rel=1e-6)
+    assert brep.occt_volume(solid) == pytest.approx(mesh.volume, rel=1e-4)  # OCCT's own integrator
     # ... and a ruled (2-row) bottom gives the same solid.
     ruled = brep.grid_brep(top, bottom[[0, -1]])
     assert brep.check_shape(ruled)["valid"]
@@ -67,6 +68,10 @@ def test_closed_band_slab_and_fuse_with_cylinder():
     # Volume of the union: cylinder + slab - the part of the slab inside (r 9.5..10).
     inside = np.pi * (10**2 - 9.5**2) * 16
     assert brep.volume(fused) == pytest.approx(cyl.volume + brep.volume(slab) - inside, rel=1e-3)
+    # OCCT's integrator against manifold3d's union of the meshes: independent of texcad.solid.volume
+    from texcad.solid import fuse, shape_to_mesh
+
+    assert brep.occt_volume(fused) == pytest.approx(fuse(shape_to_mesh(cyl, tolerance=0.002), ring).volume, rel=3e-3)
 
 
 def test_volume_is_exact_on_analytic_and_trimmed_faces():
@@ -119,6 +124,7 @@ def test_step_round_trip_is_reproducible(tmp_path):
     back = texcad.io.read_step(a)
     assert brep.check_shape(back)["valid"] and brep.check_shape(back)["solids"] == 1
     assert brep.volume(back) == pytest.approx(brep.volume(solid), rel=1e-9)
+    assert brep.occt_volume(back) == pytest.approx(brep.volume(solid), rel=1e-4)
     m = brep.shape_mesh(back)  # viewing mesh: grid faces from their poles
     assert m.num_triangles >= 2 * 29 * 39
     with pytest.raises(InputError, match="does not exist"):
