@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import GeometryError
-from ..solid import Mesh
+from ..solid import Mesh, surface_slab
 from ..util import require_memory
 
 __all__ = [
@@ -494,25 +494,4 @@ def grid_slab(top: np.ndarray, bottom: np.ndarray, cells: np.ndarray, wrap_y: bo
     remap = np.full(R * C, -1, np.int64)
     remap[used] = np.arange(len(used))
     tri = remap[tri]
-    nv = len(used)
-    vt = top.reshape(-1, 3)[used]
-    vb = bottom.reshape(-1, 3)[used]
-    # Orient the top outward: its triangles must face along the normals (top - bottom).
-    e = np.cross(vt[tri[:, 1]] - vt[tri[:, 0]], vt[tri[:, 2]] - vt[tri[:, 0]])
-    outward = ((vt - vb)[tri].mean(axis=1) * e).sum(axis=1).sum()
-    if outward < 0:
-        tri = tri[:, ::-1]
-    # Boundary edges: directed edges of the top whose reverse is not in the top.
-    ed = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
-    und = np.minimum(ed[:, 0], ed[:, 1]) * nv + np.maximum(ed[:, 0], ed[:, 1])
-    order = np.argsort(und, kind="stable")
-    su = und[order]
-    single = np.ones(len(su), bool)
-    single[1:] &= su[1:] != su[:-1]
-    single[:-1] &= su[:-1] != su[1:]
-    border = ed[order[single]]
-    i, j = border[:, 0], border[:, 1]
-    walls = np.concatenate([np.stack([j, i, i + nv], 1), np.stack([j, i + nv, j + nv], 1)])
-    faces = np.concatenate([tri, tri[:, ::-1] + nv, walls]).astype(np.uint32)
-    verts = np.concatenate([vt, vb]).astype(np.float32)
-    return Mesh(verts, faces)
+    return surface_slab(top.reshape(-1, 3)[used], bottom.reshape(-1, 3)[used], tri)

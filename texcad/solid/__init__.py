@@ -53,6 +53,13 @@ from .mesh import (
     heightfield_slab,
     grid_solid,
     edge_report,
+    surface_slab,
+)
+from .rtin import (
+    BLOCK,
+    rtin_triangles,
+    grid_error,
+    lean_grid,
 )
 from .occt import (
     to_topods,
@@ -115,6 +122,11 @@ __all__ = [
     'heightfield_slab',
     'grid_solid',
     'edge_report',
+    'surface_slab',
+    'BLOCK',
+    'rtin_triangles',
+    'grid_error',
+    'lean_grid',
     'to_topods',
     'explore',
     'solids_of',

@@ -22,7 +22,7 @@ from ..util import require_memory
 from ..errors import GeometryError, ParameterError
 from ..sources import Heightmap
 
-__all__ = ["Mesh", "grid_faces", "heightfield_slab", "grid_solid", "edge_report"]
+__all__ = ["Mesh", "grid_faces", "heightfield_slab", "grid_solid", "edge_report", "surface_slab"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -378,3 +378,66 @@ def grid_solid(top: np.ndarray, bottom: np.ndarray, *, wrap_x: bool = False) -> 
         walls.append(np.stack([t0, b1, t1], 1))
     faces = np.concatenate([ftop, fbot, *walls])
     return Mesh(verts, faces, {"texture": np.arange(len(ftop), dtype=np.uint32)})
+
+
+def _border(tri: np.ndarray, nv: int) -> np.ndarray:
+    """Directed edges of a triangulated surface whose reverse is not in it ``(k, 2)``."""
+    ed = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    und = np.minimum(ed[:, 0], ed[:, 1]) * nv + np.maximum(ed[:, 0], ed[:, 1])
+    order = np.argsort(und, kind="stable")
+    su = und[order]
+    single = np.ones(len(su), bool)
+    single[1:] &= su[1:] != su[:-1]
+    single[:-1] &= su[:-1] != su[1:]
+    return ed[order[single]]
+
+
+def surface_slab(
+    top: np.ndarray,
+    bottom: np.ndarray,
+    tri: np.ndarray,
+    *,
+    bottom_tri: np.ndarray | None = None,
+    bottom_of: np.ndarray | None = None,
+) -> Mesh:
+    """A closed slab from a triangulated top surface and a bottom surface under it.
+
+    Args:
+        top: ``(N, 3)`` mm, the top surface's vertices.
+        bottom: ``(Nb, 3)`` mm, the bottom's vertices (default: vertex ``i`` under
+            top vertex ``i``, ``Nb = N``).
+        tri: ``(M, 3)`` triangles of the top (an oriented surface with a boundary;
+            either winding: it is turned to face along ``top - bottom``).
+        bottom_tri: ``(Mb, 3)`` triangles of the bottom, wound like ``tri`` (default
+            ``tri``): the bottom may be triangulated more coarsely, with the same
+            boundary.
+        bottom_of: ``(N,)`` the bottom vertex under each top vertex (-1: none; every
+            boundary vertex needs one).
+
+    Returns:
+        The slab: the top outward, the bottom reversed, and a wall of two triangles
+        on every boundary edge of the top (vertices: top then bottom).
+
+    Raises:
+        GeometryError: the bottom's boundary is not the top's.
+    """
+    tri = np.asarray(tri, dtype=np.int64)
+    vt, vb = np.asarray(top), np.asarray(bottom)
+    nv = len(vt)
+    btri = tri if bottom_tri is None else np.asarray(bottom_tri, dtype=np.int64)
+    under = np.arange(nv) if bottom_of is None else np.asarray(bottom_of, dtype=np.int64)
+    e = np.cross(vt[tri[:, 1]] - vt[tri[:, 0]], vt[tri[:, 2]] - vt[tri[:, 0]])
+    ref = np.where((under >= 0)[:, None], vt - vb[np.maximum(under, 0)], 0.0)
+    if (ref[tri].mean(axis=1) * e).sum() < 0:  # orient the top along top - bottom
+        tri, btri = tri[:, ::-1], btri[:, ::-1]
+    border = _border(tri, nv)
+    i, j = under[border[:, 0]], under[border[:, 1]]
+    if bottom_tri is not None:
+        bb = _border(btri, len(vb))
+        mine = np.sort(i * len(vb) + j)
+        if (i < 0).any() or (j < 0).any() or len(bb) != len(border) or not np.array_equal(mine, np.sort(bb[:, 0] * len(vb) + bb[:, 1])):
+            raise GeometryError("the slab's bottom does not share the top's boundary (a texcad bug)")
+    ti, tj = border[:, 0], border[:, 1]
+    walls = np.concatenate([np.stack([tj, ti, i + nv], 1), np.stack([tj, i + nv, j + nv], 1)])
+    faces = np.concatenate([tri, btri[:, ::-1] + nv, walls]).astype(np.uint32)
+    return Mesh(np.concatenate([vt, vb]).astype(np.float32), faces)
