@@ -413,3 +413,96 @@ def test_tessellation_that_needs_healing_is_retried(monkeypatch):
     monkeypatch.setattr(F, "_weld", broken)
     with pytest.raises(GeometryError, match="not a closed solid even after healing"):
         F.part_tessellation(to_topods(part))
+
+
+# ------------------------------------------------------------------------------------------
+# Modes (issue 14 on CAD faces) and lean reliefs (issue 15 on curved faces)
+# ------------------------------------------------------------------------------------------
+def radial(m):
+    v = m.vertices.astype(np.float64)
+    return np.hypot(v[:, 0], v[:, 1]), v[:, 2]
+
+
+def assert_one_watertight_body(m):
+    tm = trimesh.Trimesh(m.vertices, m.faces, process=True)
+    assert tm.is_watertight and tm.is_winding_consistent
+    assert len(tm.split(only_watertight=False)) == 1
+
+
+@pytest.mark.parametrize("mode", ["engraved", "centred"])
+def test_modes_on_a_cylinder(mode):
+    from build123d import Cylinder, GeomType
+
+    cyl = Cylinder(10, 24)
+    side = cyl.faces().filter_by(GeomType.CYLINDER)[0]
+    tx = texture(cyl, side, "builtin:diamond_knurl:period=2", height=0.6, pitch=0.25, mode=mode)
+    assert_one_watertight_body(tx.mesh)
+    r, z = radial(tx.mesh)
+    mid = (z > 3) & (z < 21)
+    if mode == "engraved":  # the knurl is cut in: the diameter is kept
+        assert r.max() <= 10.0 + 1e-4
+        assert 10.0 - r[mid].min() == pytest.approx(0.6, abs=0.05)
+        assert tx.mesh.volume < tx.base_mesh.volume - 50
+    else:  # half out, half in
+        assert r.max() - 10.0 == pytest.approx(0.3, abs=0.05)
+        assert 10.0 - r[mid].min() == pytest.approx(0.3, abs=0.05)
+    assert tx.info["faces"][0]["mode"] == mode
+    assert tx.texture_mesh.volume > 1.0  # the texture as its own body (multi-material)
+
+
+def test_engraved_top_face_stays_within_the_envelope():
+    from build123d import Axis, Box
+
+    box = Box(30, 20, 6)
+    top = box.faces().sort_by(Axis.Z)[-1]
+    tx = texture(box, top, "builtin:pins", height=1.0, pitch=0.25, mode="engraved")
+    assert_one_watertight_body(tx.mesh)
+    z = tx.mesh.vertices[:, 2]
+    assert z.max() <= 3.0 + 1e-4 and z.min() == pytest.approx(-3.0)
+    assert 3.0 - np.percentile(z[z > -2.9], 1) > 0.9  # the pins are cut 1 mm deep
+    assert tx.mesh.volume < box.volume - 10
+
+
+def test_gradient_fades_the_texture_along_an_axis():
+    from build123d import Cylinder, GeomType
+
+    cyl = Cylinder(10, 30)
+    side = cyl.faces().filter_by(GeomType.CYLINDER)[0]
+    tx = texture(cyl, side, "builtin:diamond_knurl:period=2", height=0.6, pitch=0.25, gradient=((0, 0, -15), (0, 0, 15)))
+    r, z = radial(tx.mesh)
+    low, high = (z > -13) & (z < -8), (z > 8) & (z < 13)
+    assert r[low].max() - 10 > 0.45 and r[high].max() - 10 < 0.25
+
+
+def test_bad_mode():
+    from build123d import Cylinder, GeomType
+
+    cyl = Cylinder(10, 24)
+    with pytest.raises(ParameterError, match="mode"):
+        texture(cyl, cyl.faces().filter_by(GeomType.CYLINDER)[0], "builtin:pins", mode="embossed")
+
+
+def test_lean_relief_on_a_cone_within_the_tolerance():
+    from build123d import Axis, GeomType
+
+    part = knob()
+    cone = part.faces().filter_by(GeomType.CONE)
+    opts = dict(height=0.6, pitch=0.125)
+    grid = texture(part, cone, "builtin:stones", tolerance=0, **opts)
+    lean = texture(part, cone, "builtin:stones", tolerance=0.02, **opts)
+    assert grid.max_error == 0.0 and 0.0 < lean.max_error <= 0.02
+    assert lean.mesh.num_triangles < 0.6 * grid.mesh.num_triangles
+    assert_one_watertight_body(lean.mesh)
+    area = sum(f.area for f in cone)
+    assert abs(lean.mesh.volume - grid.mesh.volume) <= 0.02 * area
+    # Independent: every vertex of the grid relief lies within the tolerance of the lean mesh.
+    from texcad.solid import Mesh
+
+    g = grid.mesh.vertices.astype(np.float64)
+    lm = lean.mesh
+    far = g[np.linalg.norm(g[:, :2], axis=1) > 3]  # relief and part
+    pts = far[np.random.default_rng(0).choice(len(far), 4000, replace=False)]
+    from tests.solid.test_rtin import distance_to_mesh
+
+    d = distance_to_mesh(pts, lm.vertices.astype(np.float64), lm.faces.astype(np.int64), k=24)
+    assert d.max() <= 0.02 + 0.012  # + the part's own tessellation (0.01 mm chords)

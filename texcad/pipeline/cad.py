@@ -706,7 +706,7 @@ def _texture_general(part, topo, prev, faces, texture, *, progress, **opts):
     out = Textured(
         mesh=res["mesh"], texture_mesh=res["texture_mesh"], base_mesh=res["base_mesh"], shape=None,
         heightmap=res["heightmap"], limits=limits, distortion=res["distortion"], info=info, kind="face",
-        max_error=0.0,  # one vertex per texture grid point, at its exact height
+        max_error=res["max_error"],  # 3-D, lean mesh vs the texture grid (0: the grid itself)
     )
     out._texcad_base = (topo, done + list(res["face_indices"]))
     report(progress, 1.0, "textured")
@@ -783,6 +783,8 @@ def texture_faces(
     build_dir: Any = None,
     critical_angle: float = 45.0,
     tolerance: float = DEFAULT_TOLERANCE,
+    mode: str = "raised",
+    gradient: Any = None,
     progress: Progress = None,
 ):
     """Texture a face of a build123d or CadQuery part: see :func:`texcad.texture`
@@ -807,7 +809,7 @@ def texture_faces(
     faces = face_list(face)
     common = dict(height=height, pitch=pitch, make_brep=brep, build_dir=dirs, critical_angle=critical_angle, progress=progress)
     res = None
-    if len(faces) == 1 and prev is None:
+    if len(faces) == 1 and prev is None and mode == "raised" and gradient is None:
         f = _find_face(topo, faces[0])
         kind = BRepAdaptor_Surface(f).GetType()
         if kind == GeomAbs_Plane:
@@ -821,7 +823,8 @@ def texture_faces(
     if res is None:
         return _texture_general(part, topo, prev, faces, texture, height=height, pitch=pitch, depth=depth,
                                 edge_angle=float(edge_angle), rotation=float(rotation), build_dir=dirs,
-                                critical_angle=critical_angle, progress=progress)
+                                critical_angle=critical_angle, progress=progress, tolerance=tolerance,
+                                mode=mode, gradient=gradient)
     report(progress, 1.0, "textured")
     out = _result(res, topo, brep, dirs, critical_angle)
     out._texcad_base = (topo, [_face_index(topo, f)])

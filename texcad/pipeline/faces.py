@@ -64,6 +64,7 @@ from ..errors import GeometryError, ParameterError, TexcadWarning
 from ..sources import Heightmap
 from ..solid import Mesh, as_array, edge_report, explore, from_manifold, to_manifold
 from ..util import Progress, report, smoothstep
+from .mesh import _gradient
 
 __all__ = ["texture_any_faces", "face_list", "part_tessellation", "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED"]
 
@@ -421,7 +422,7 @@ def _limit_overhangs_grid(P, N, h, cells, wrap_y, dirs, critical_angle, floor):
             over |= -(n @ d) > cos_c
         # A facet that overhangs and still stands above the floor somewhere is lowered
         # (on a face that overhangs by itself the texture goes down to the floor).
-        over &= (hf[t] > floor[t] + 1e-9).any(axis=1)
+        over &= (np.abs(hf[t] - floor[t]) > 1e-9).any(axis=1)
         if not over.any():
             break
         changed = np.zeros(len(hf), bool)
@@ -454,7 +455,54 @@ def _cell_tris(cells: np.ndarray, R: int, C: int, wrap_y: bool) -> np.ndarray:
 # One patch: grid, heights, limits, slab
 # ------------------------------------------------------------------------------------------
 def _patch_relief(pm: PartMesh, patch: list[int], tex: Any, opts: dict) -> dict:
-    from ..mapping import cell_mask, concave_convex, grid_slab, lay_grid, measure_distortion, point_scales
+    """One patch: the texture grid on it, its heights and limits (module docstring,
+    steps 2-4) and the bodies that put it on the part (step 5)."""
+    from ..mapping import measure_distortion
+
+    g = _patch_grid(pm, patch, tex, opts)
+    surf = _surfaces(g, opts)
+    lim = _limit_surface(g, surf, opts) if opts["build_dir"] is not None else None
+    if not surf["textured"]().any():
+        raise GeometryError(
+            f"no texture is left on the face(s) {patch}: too small or narrow for the {g['d_floor']:.2f} mm border band at "
+            f"{g['px']:.3g} mm pitch (or faded / limited away); use a smaller pitch or a larger face"
+        )
+    grid, keep = g["grid"], g["keep"]
+    faded = (g["fade"] < 1.0) & (g["H"] > 1e-6) & keep & (g["d"] > g["d_floor"])
+    dist = measure_distortion(grid, keep & (g["fade"] > 0))
+    dist = type(dist)(dist.x, dist.y, float(faded.sum() / max(keep.sum(), 1)))
+    bodies = _bodies(g, surf, opts)
+    s_top = surf["surface"]
+    info = {
+        "faces": [int(i) for i in patch],
+        "kinds": [pm.faces[i].kind for i in patch],
+        "parameterization": g["par"].method,
+        "grid": tuple(grid.valid.shape),
+        "period_y": g["par"].period_y,
+        "distortion": dist.to_dict(),
+        "faded_fraction": dist.faded_fraction,
+        "curvature_limited_points": int(surf["limited"].sum()),
+        "max_height": float(np.where(keep, s_top, 0).max()),
+        "mode": opts.get("mode", "raised"),
+        "triangles": {"grid": 2 * int(g["cells"].sum()), "mesh": bodies["top_triangles"]},
+        "max_error_mm": bodies["error"],
+    }
+    if surf["c"] > 0:
+        info["max_depth"] = float(-np.where(keep, s_top, 0).min())
+    if lim is not None:
+        info["overhang_limit"] = lim
+    shown = np.where(keep, s_top, 0.0)
+    shown = np.maximum(shown, 0.0) if surf["c"] == 0 else np.where(keep, shown - shown[keep].min(), 0.0)
+    hmap = Heightmap(shown.astype(np.float32), (g["px"], g["py"]))
+    return {"slab": bodies["slab"], "cutter": bodies["cutter"], "low_cutter": bodies["low_cutter"], "info": info,
+            "distortion": dist, "heightmap": hmap, "grid": grid, "limited": bool(surf["limited"].any()),
+            "h_top": s_top, "cells": g["cells"], "max_error": bodies["error"]}
+
+
+def _patch_grid(pm: PartMesh, patch: list[int], tex: Any, opts: dict) -> dict:
+    """Parameterize the patch, lay the texture grid, sample the texture, and the
+    envelope the heights may use: the M-I ramp and the fade (module docstring)."""
+    from ..mapping import cell_mask, concave_convex, lay_grid, point_scales
 
     hm, periodic = _texture_tile(tex, opts["pitch"], opts["height"])
     tile = hm.size if (hm is not None and periodic) else None
@@ -474,59 +522,189 @@ def _patch_relief(pm: PartMesh, patch: list[int], tex: Any, opts: dict) -> dict:
     fade = smoothstep(FADE_ZERO, FADE_FULL, q)
     d_keep, d_floor = 0.75 * diag, 3.75 * diag
     ramp = np.tan(np.radians(opts["edge_angle"])) * np.maximum(d - d_floor, 0.0) if opts["edge_angle"] < 90 else np.where(d > d_floor, np.inf, 0.0)
-    h = np.minimum(H * fade, ramp)
-    # Self-intersection: h <= 0.9 / kappa on concave sides; depth <= 0.9 / kappa on convex ones.
     concave, convex = concave_convex(grid)
-    hcap = 0.9 / np.maximum(concave, 1e-9)
-    limited = (h > hcap) & grid.valid
-    h = np.minimum(h, hcap)
-    depth = np.minimum(opts["depth"], 0.9 / np.maximum(convex, 1e-9))
+    keep = grid.valid & (d >= d_keep)
+    gain = _gradient(grid.points.reshape(-1, 3), opts.get("gradient")).reshape(d.shape)
+    return {"par": par, "grid": grid, "H": H, "px": px, "py": py, "diag": diag, "d": d, "fade": fade, "ramp": ramp,
+            "concave": concave, "convex": convex, "d_keep": d_keep, "d_floor": d_floor, "keep": keep, "gain": gain,
+            "cells": cell_mask(keep, grid.wrap_y)}
+
+
+def _surfaces(g: dict, opts: dict) -> dict:
+    """The textured surface as a signed offset ``s`` (mm along the normal) of the face.
+
+    Raised (``c = 0``): ``s = max(h, FLOOR_CURVED)`` inside, dipping ``sink`` mm into
+    the body along the outline band. With the envelope ``E = min(H_max fade, ramp)``
+    and ``h = min(H fade, ramp)``, engraved (``c = 1``) and centred (``c = 1/2``) give
+    ``s = g (h - c E)`` (``g`` the depth gradient), cut ``FLOOR_CURVED`` below the
+    face where it would be at or above it (engraved) and ``2 FLOOR_CURVED`` along the
+    outline band. Heights above the face are capped at ``0.9 / kappa`` on concave
+    sides, depths below it at ``0.9 / kappa`` on convex ones (self-intersection)."""
+    from .mesh import MODES
+
+    mode = opts.get("mode", "raised")
+    if mode not in MODES:
+        raise ParameterError(f"mode {mode!r}: use raised, engraved or centred")
+    c = MODES[mode]
     jit = float(opts.get("jitter", 0.0))  # mm: a retry after a union that pinched (see welded)
     floor_c = FLOOR_CURVED + jit
-    sink = np.minimum(0.05 + 2 * jit, 0.5 * depth)
-    band = np.interp(d, [d_keep, d_floor], [0.0, 1.0])
-    h_top = np.where(d < d_floor, -sink + band * (sink + floor_c), np.maximum(h, floor_c))
-    keep = grid.valid & (d >= d_keep)
-    cells = cell_mask(keep, grid.wrap_y)
-    limit_info = None
-    if opts["build_dir"] is not None:
-        floor_arr = np.minimum(h_top, floor_c)
-        before = h_top.copy()
-        h_top, rounds, base_over, remaining = _limit_overhangs_grid(
-            grid.points, grid.normals, h_top, cells, grid.wrap_y, opts["build_dir"], opts["critical_angle"], floor_arr
-        )
-        removed = np.maximum(before - h_top, 0.0)
-        limit_info = {"removed_volume_mm3": float(removed.sum() * px * py), "max_removed_mm": float(removed.max()), "rounds": rounds,
-                      "touched_fraction": float((removed > 1e-6).mean()), "surface_overhang": bool(base_over.any()),
-                      "remaining_overhang_mm2": remaining}
-    textured = keep & (h_top > floor_c + 1e-6)
-    if not textured.any():
-        raise GeometryError(
-            f"no texture is left on the face(s) {patch}: too small or narrow for the {d_floor:.2f} mm border band at "
-            f"{px:.3g} mm pitch (or faded / limited away); use a smaller pitch or a larger face"
-        )
-    faded = (fade < 1.0) & (H > 1e-6) & keep & (d > d_floor)
-    dist = measure_distortion(grid, keep & (fade > 0))
-    dist = type(dist)(dist.x, dist.y, float(faded.sum() / max(keep.sum(), 1)))
+    hcap = 0.9 / np.maximum(g["concave"], 1e-9)
+    dcap = 0.9 / np.maximum(g["convex"], 1e-9)
+    depth = np.minimum(opts["depth"], dcap)
+    band = g["d"] < g["d_floor"]
+    h = np.minimum(g["H"] * g["fade"], g["ramp"]) * g["gain"]
+    if c == 0:
+        limited = (h > hcap) & g["grid"].valid
+        h = np.minimum(h, hcap)
+        sink = np.minimum(0.05 + 2 * jit, 0.5 * depth)
+        blend = np.interp(g["d"], [g["d_keep"], g["d_floor"]], [0.0, 1.0])
+        s = np.where(band, -sink + blend * (sink + floor_c), np.maximum(h, floor_c))
+        floor = np.minimum(s, floor_c)
+    else:
+        env = np.minimum(opts["height"] * g["fade"], g["ramp"]) * g["gain"]
+        t = h - c * env
+        limited = ((t > hcap) | (t < -dcap)) & g["grid"].valid
+        t = np.clip(t, -dcap, hcap)
+        s = np.where(band, -2 * floor_c, np.minimum(t, -floor_c) if c == 1 else t)
+        floor = np.where(band, s, -floor_c if c == 1 else 0.0)
+        sink = 0.05 + 2 * jit
+    keep = g["keep"]
+
+    def textured():
+        return keep & ((s > floor_c + 1e-6) if c == 0 else (np.abs(s) > floor_c + 1e-6))
+
+    return {"surface": s, "floor": floor, "c": c, "depth": depth, "limited": limited, "floor_c": floor_c,
+            "sink": sink, "band": band, "textured": textured, "env": (None if c == 0 else env)}
+
+
+def _limit_surface(g: dict, surf: dict, opts: dict) -> dict:
+    """The overhang limiter on the textured surface (in place); its report."""
+    before = surf["surface"].copy()
+    s, rounds, base_over, remaining = _limit_overhangs_grid(
+        g["grid"].points, g["grid"].normals, surf["surface"], g["cells"], g["grid"].wrap_y, opts["build_dir"],
+        opts["critical_angle"], surf["floor"]
+    )
+    surf["surface"] = s
+    removed = np.abs(before - s)
+    return {"removed_volume_mm3": float(removed.sum() * g["px"] * g["py"]), "max_removed_mm": float(removed.max()),
+            "rounds": rounds, "touched_fraction": float((removed > 1e-6).mean()), "surface_overhang": bool(base_over.any()),
+            "remaining_overhang_mm2": remaining}
+
+
+#: mm: how far outside the face an engraving's cutter starts (beyond the tessellation's chord error).
+CUT_ABOVE = 0.05
+#: mm: the lean mesh keeps the face itself (chord error) within this, so the relief
+#: never dips under the part's own tessellation where it lies flat on the face.
+BASE_TOLERANCE = 0.005
+
+
+#: Largest share of the grid's triangles a lean relief may keep (else the grid is used):
+#: above it the union gains little over the cost of the triangulation.
+LEAN_FRACTION = 0.8
+#: mm: the slab's bottom (inside the part, never seen) is triangulated within this
+#: (by the refinement's own estimate; it lies ``depth`` mm inside the part).
+BOTTOM_TOLERANCE = 0.05
+
+
+def _bodies(g: dict, surf: dict, opts: dict) -> dict:
+    """The bodies that put the texture on: a slab to add (raised, centred) and a
+    cutter to subtract (engraved, centred). Their textured side is lean
+    (:func:`texcad.solid.lean_grid`) within ``tolerance`` mm of the grid where that
+    saves triangles; their other side, inside the part or outside it, is always lean
+    (within :data:`BOTTOM_TOLERANCE`), with the same outline."""
+    grid, cells = g["grid"], g["cells"]
     P, N = grid.points, grid.normals
-    top = P + h_top[..., None] * N
-    bottom = P - depth[..., None] * N
-    slab = grid_slab(top, bottom, cells, grid.wrap_y)
-    info = {
-        "faces": [int(i) for i in patch],
-        "kinds": [pm.faces[i].kind for i in patch],
-        "parameterization": par.method,
-        "grid": tuple(grid.valid.shape),
-        "period_y": par.period_y,
-        "distortion": dist.to_dict(),
-        "faded_fraction": dist.faded_fraction,
-        "curvature_limited_points": int(limited.sum()),
-        "max_height": float(np.where(keep, h_top, 0).max()),
-    }
-    if limit_info is not None:
-        info["overhang_limit"] = limit_info
-    hmap = Heightmap(np.where(keep, np.maximum(h_top, 0.0), 0.0).astype(np.float32), (px, py))
-    return {"slab": slab, "info": info, "distortion": dist, "heightmap": hmap, "grid": grid, "limited": bool(limited.any()), "h_top": h_top, "cells": cells}
+    s, c, fc = surf["surface"], surf["c"], surf["floor_c"]
+    tol = float(opts.get("tolerance", 0.0))
+    tex_tri, err = _relief_triangles(g, [s, np.zeros_like(s)], tol, [1.0, tol / BASE_TOLERANCE], lean=opts["build_dir"] is None)
+    if tex_tri is None:
+        tex_tri = _cell_triangles(cells, grid.wrap_y)
+    ring = _outline_ring(cells, grid.wrap_y)
+
+    def body(textured, plain, textured_on_top: bool):
+        plain_tri = _relief_triangles(dict(g, fine=ring), [plain], min(BOTTOM_TOLERANCE, 0.2 * float(np.min(surf["depth"]))),
+                                      [1.0], lean=True, measure=False)[0]
+        plain_tri = _cell_triangles(cells, grid.wrap_y) if plain_tri is None else plain_tri
+        tt, bt, to, bo = (tex_tri, plain_tri, textured, plain) if textured_on_top else (plain_tri, tex_tri, plain, textured)
+        return _slab(P + to[..., None] * N, P + bo[..., None] * N, tt, bt)
+
+    slab = cutter = low = None
+    if c == 0:
+        slab = body(s, -surf["depth"] + 0 * s, True)
+    else:
+        cut_bottom = np.minimum(s, -fc) - (fc if c < 1 else 0.0)
+        above = np.full(s.shape, CUT_ABOVE)
+        cutter = body(cut_bottom, above, False)
+        low = body(np.minimum(-c * surf["env"], -fc) - 2 * fc, above, False)
+        if c < 1:
+            slab = body(np.where(surf["band"], -surf["sink"], s), np.minimum(-surf["depth"], cut_bottom - 0.05), True)
+    return {"slab": slab, "cutter": cutter, "low_cutter": low, "error": err, "top_triangles": len(tex_tri)}
+
+
+def _cell_triangles(cells: np.ndarray, wrap_y: bool) -> np.ndarray:
+    """The grid's own triangles over ``cells`` ``(M, 3)``, as flat grid indices."""
+    R, C = cells.shape[0] + (0 if wrap_y else 1), cells.shape[1] + 1
+    rr, cc = np.nonzero(cells)
+    rn = (rr + 1) % R
+    a, b, d, c = rr * C + cc, rr * C + cc + 1, rn * C + cc, rn * C + cc + 1
+    return np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+
+
+def _outline_ring(cells: np.ndarray, wrap_y: bool) -> np.ndarray:
+    """Cells next to a cell outside ``cells`` (8-neighbourhood): kept at the grid's
+    resolution on both sides of a slab so that their outlines match."""
+    from scipy.ndimage import binary_erosion
+
+    if wrap_y:
+        inner = binary_erosion(np.concatenate([cells[-1:], cells, cells[:1]]), np.ones((3, 3), bool), border_value=0)[1:-1]
+    else:
+        inner = binary_erosion(cells, np.ones((3, 3), bool), border_value=0)
+    return cells & ~inner
+
+
+def _relief_triangles(g: dict, heights: list, tolerance: float, weights: list, lean: bool, measure: bool = True):
+    """``(faces, error_mm)``: a lean triangulation of the grid's cells following the
+    surfaces ``P + h N`` for ``h`` in ``heights`` (flat grid indices, ``(M, 3)``), or
+    ``(None, 0.0)`` for the grid itself (tolerance 0, the overhang limiter on, or no
+    saving). Cells marked ``g["fine"]`` (default: within two pixel diagonals of the
+    outline band, where the union's intersection with the part runs) stay at the
+    grid's resolution, and so do the rows along a closed face's seam."""
+    from ..solid import lean_grid
+
+    if tolerance <= 0 or not lean:
+        return None, 0.0
+    grid, cells = g["grid"], g["cells"]
+    P, N = grid.points, grid.normals
+    R, C = P.shape[:2]
+    if "fine" in g:
+        fine = g["fine"]
+    else:
+        near = g["d"] < g["d_floor"] + 2 * g["diag"]
+        near = np.concatenate([near, near[:1]]) if grid.wrap_y else near
+        fine = near[:-1, :-1] | near[1:, :-1] | near[:-1, 1:] | near[1:, 1:]
+    if grid.wrap_y:  # unroll the seam: row R is row 0 again
+        P, N = np.concatenate([P, P[:1]]), np.concatenate([N, N[:1]])
+        heights = [np.concatenate([h, h[:1]]) for h in heights]
+        fine = fine.copy()
+        fine[0] = fine[-1] = True
+    out = lean_grid(P, N, heights, cells, tolerance, weights=weights, fine=fine, max_fraction=LEAN_FRACTION, measure=measure)
+    if out is None:
+        return None, 0.0
+    flat = (out["rc"][:, 0] % R) * C + out["rc"][:, 1]
+    return flat[out["faces"]], float(out["error"])
+
+
+def _slab(top: np.ndarray, bottom: np.ndarray, top_tri: np.ndarray, bottom_tri: np.ndarray) -> Mesh:
+    """The closed slab between ``top`` and ``bottom`` ``(R, C, 3)`` (mm), each side
+    triangulated on its own (flat grid indices), sharing their outline."""
+    from ..solid import surface_slab
+
+    ut, ti = np.unique(top_tri, return_inverse=True)
+    ub, bi = np.unique(bottom_tri, return_inverse=True)
+    pos = np.minimum(np.searchsorted(ub, ut), len(ub) - 1)
+    under = np.where(ub[pos] == ut, pos, -1)
+    return surface_slab(top.reshape(-1, 3)[ut], bottom.reshape(-1, 3)[ub], ti.reshape(-1, 3),
+                        bottom_tri=bi.reshape(-1, 3), bottom_of=under)
 
 
 # ------------------------------------------------------------------------------------------
@@ -557,7 +735,8 @@ def welded(man) -> "Mesh | None":
     """The union's mesh with vertices at the same position merged (as an STL reader
     does) and the zero-area needles manifold3d sometimes leaves along a cut edge
     (a triangle with two vertices at one position) dropped; None unless every edge
-    then lies on exactly two triangles."""
+    then lies on exactly two triangles. When no two vertices share a position the
+    mesh is manifold3d's own (a closed, oriented 2-manifold) and is taken as it is."""
     out = man.to_mesh()
     v = np.asarray(out.vert_properties)[:, :3].astype(np.float32)
     f = np.asarray(out.tri_verts).astype(np.int64)
@@ -565,6 +744,10 @@ def welded(man) -> "Mesh | None":
     sv = v[order]
     new = np.ones(len(v), bool)
     new[1:] = np.any(sv[1:] != sv[:-1], axis=1)
+    if new.all():
+        mesh = Mesh(np.ascontiguousarray(v), f.astype(np.uint32))
+        mesh.__dict__["is_watertight"] = True
+        return mesh
     inv = np.empty(len(v), np.int64)
     inv[order] = np.cumsum(new) - 1
     uniq = sv[new]
@@ -623,14 +806,12 @@ def texture_any_faces(topo, faces: list, tex: Any, *, base_mesh: Mesh | None = N
         )
     if any(r["limited"] for r in reliefs):
         warnings.warn("the texture height was limited to 0.9 / curvature on concave parts of the face(s)", TexcadWarning, stacklevel=3)
-    report(progress, 0.7, f"fusing {sum(r['slab'].num_triangles for r in reliefs)} texture triangles onto the part (manifold3d)")
+    n_tri = sum(b.num_triangles for r in reliefs for b in (r["slab"], r["cutter"]) if b is not None)
+    report(progress, 0.7, f"fusing {n_tri} texture triangles onto the part (manifold3d)")
     base_man = to_manifold(base)
     want = len(base_man.decompose())
     for attempt in range(3):  # a union whose output pinches (two sheets along an edge) is redone, nudged
-        parts = [base_man] + [to_manifold(r["slab"]) for r in reliefs]
-        fused_man = m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
-        if fused_man.status() != m3d.Error.NoError or fused_man.is_empty():
-            raise GeometryError(f"the union of texture and part failed (manifold3d: {fused_man.status().name})")
+        fused_man = _apply(base_man, reliefs)
         got = len(fused_man.decompose())
         if got != want:
             raise GeometryError(
@@ -648,7 +829,9 @@ def texture_any_faces(topo, faces: list, tex: Any, *, base_mesh: Mesh | None = N
         reliefs = [_patch_relief(pm, r["info"]["faces"], tex, opts) for r in reliefs]
 
     def texture_only() -> Mesh:
-        return from_manifold(fused_man - base_man)
+        lows = [to_manifold(r["low_cutter"]) for r in reliefs if r["low_cutter"] is not None]
+        lowest = m3d.Manifold.batch_boolean([base_man] + lows, m3d.OpType.Subtract) if lows else base_man
+        return from_manifold(fused_man - lowest)
 
     dist = Distortion.combined([r["distortion"] for r in reliefs])
     infos = [r["info"] for r in reliefs]
@@ -661,4 +844,19 @@ def texture_any_faces(topo, faces: list, tex: Any, *, base_mesh: Mesh | None = N
         "info": infos,
         "face_indices": idx,
         "solids": len(solids_of(topo)),
+        "max_error": max(r["max_error"] for r in reliefs),
     }
+
+
+def _apply(base_man, reliefs: list):
+    """``(base - cutters) + slabs`` (manifold3d); checked."""
+    import manifold3d as m3d
+
+    cutters = [to_manifold(r["cutter"]) for r in reliefs if r["cutter"] is not None]
+    slabs = [to_manifold(r["slab"]) for r in reliefs if r["slab"] is not None]
+    man = m3d.Manifold.batch_boolean([base_man] + cutters, m3d.OpType.Subtract) if cutters else base_man
+    if slabs:
+        man = m3d.Manifold.batch_boolean([man] + slabs, m3d.OpType.Add)
+    if man.status() != m3d.Error.NoError or man.is_empty():
+        raise GeometryError(f"the union of texture and part failed (manifold3d: {man.status().name})")
+    return man

@@ -29,7 +29,7 @@ __all__ = ["texture"]
 
 #: Options every target takes (mm and degrees); the rest depend on the target.
 COMMON = ("height", "pitch", "mapping", "depth", "periodic_x", "transition", "build_dir", "critical_angle", "progress")
-FACE_ONLY = ("edge_angle", "rotation", "offset", "brep", "tolerance")
+FACE_ONLY = ("edge_angle", "rotation", "offset", "brep", "tolerance", "mode", "gradient")
 FACE_OPTIONS = COMMON + FACE_ONLY
 SURFACE_OPTIONS = COMMON + ("length", "base", "thickness")
 
