@@ -506,3 +506,22 @@ def test_lean_relief_on_a_cone_within_the_tolerance():
 
     d = distance_to_mesh(pts, lm.vertices.astype(np.float64), lm.faces.astype(np.int64), k=24)
     assert d.max() <= 0.02 + 0.012  # + the part's own tessellation (0.01 mm chords)
+
+
+def test_cli_engraves_a_step_cylinder(tmp_path, capsys):
+    from build123d import Cylinder, export_step
+
+    from texcad.cli import main
+
+    export_step(Cylinder(10, 20), str(tmp_path / "c.step"))
+    argv = ["texture", str(tmp_path / "c.step"), "--face", "cylinder", "--texture", "builtin:diamond_knurl:period=2",
+            "--height", "0.5", "--pitch", "0.25", "--mode", "engraved", "-q", "-o", str(tmp_path / "c.stl")]
+    assert main(argv) == 0
+    stl = trimesh.load(tmp_path / "c.stl")
+    assert stl.is_watertight
+    r = np.hypot(stl.vertices[:, 0], stl.vertices[:, 1])
+    assert r.max() <= 10.0 + 1e-4 and r.min() < 9.6
+    with pytest.raises(SystemExit) as e:  # argparse: one line on stderr, exit 2
+        main(argv[:-2] + ["--gradient", "0,0", "-o", str(tmp_path / "x.stl")])
+    assert e.value.code == 2 and "two different points" in capsys.readouterr().err
+    assert not (tmp_path / "x.stl").exists()

@@ -21,7 +21,6 @@ def add_mesh_arguments(t: argparse.ArgumentParser) -> None:
                    "texture (and mode); repeat for several textures in one part")
     g.add_argument("--projection", default="triplanar",
                    help="planar:+x (any axis), cylindrical[:+z], spherical, triplanar, cubic or solid (default triplanar)")
-    g.add_argument("--mode", choices=("raised", "engraved", "centred"), default="raised", help="default raised")
     g.add_argument("--border", type=float, default=2.0, help="fade width at the region's border, mm (default 2)")
     g.add_argument("--blend", type=float, default=20.0, help="triplanar / cubic blend width, degrees (default 20)")
     g.add_argument("--scale", type=positive_float, default=1.0, help="texture scale factor (default 1)")

@@ -85,6 +85,17 @@ def pick_face(shape, which: str):
     return pick_faces(shape, which)[0]
 
 
+def _gradient(text: str) -> tuple:
+    """``X0,Y0,Z0,X1,Y1,Z1`` in mm: two different points."""
+    try:
+        g = tuple(float(c) for c in text.split(","))
+    except ValueError:
+        g = ()
+    if len(g) != 6 or g[:3] == g[3:]:
+        raise argparse.ArgumentTypeError(f"expected X0,Y0,Z0,X1,Y1,Z1 (mm, two different points), got {text!r}")
+    return g[:3], g[3:]
+
+
 def run(args: argparse.Namespace) -> int:
     from build123d import Compound
 
@@ -115,6 +126,8 @@ def run(args: argparse.Namespace) -> int:
             build_dir=args.build_dir,
             critical_angle=args.critical_angle,
             tolerance=args.tolerance,
+            mode=args.mode,
+            gradient=args.gradient,
             progress=None if args.quiet else StageReporter(),
         )
     for out in args.out:
@@ -156,6 +169,10 @@ def add(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--pitch", type=positive_float, default=0.25, help="mm per pixel (default 0.25)")
     t.add_argument("--mapping", choices=("angle", "distance"), default="angle", help="curved faces: algorithm 2 (angle) or 1 (distance)")
     t.add_argument("--rotation", type=float, default=0.0, help="planar faces: turn the texture, degrees")
+    t.add_argument("--mode", choices=("raised", "engraved", "centred"), default="raised",
+                   help="raised (outward), engraved (cut in: the part's envelope is kept) or centred (default raised)")
+    t.add_argument("--gradient", type=_gradient, default=None, metavar="X0,Y0,Z0,X1,Y1,Z1",
+                   help="CAD faces: full height at the first point (mm), fading to 0 at the second")
     add_orientation(t)
     add_tolerance(t)
     add_mesh_arguments(t)
