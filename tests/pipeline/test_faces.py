@@ -525,3 +525,16 @@ def test_cli_engraves_a_step_cylinder(tmp_path, capsys):
         main(argv[:-2] + ["--gradient", "0,0", "-o", str(tmp_path / "x.stl")])
     assert e.value.code == 2 and "two different points" in capsys.readouterr().err
     assert not (tmp_path / "x.stl").exists()
+
+
+def test_lean_relief_with_build_dir_has_no_texture_overhang():
+    from build123d import GeomType
+
+    part = knob()
+    cone = part.faces().filter_by(GeomType.CONE)
+    grid = texture(part, cone, "builtin:stones", height=0.6, pitch=0.25, build_dir=(0, 0, -1), tolerance=0)
+    lean = texture(part, cone, "builtin:stones", height=0.6, pitch=0.25, build_dir=(0, 0, -1), tolerance=0.02)
+    assert 0 < lean.max_error <= 0.02
+    assert lean.mesh.num_triangles < 0.95 * grid.mesh.num_triangles
+    assert texture_overhang(lean, (0, 0, -1)) == 0.0
+    assert_one_watertight_body(lean.mesh)

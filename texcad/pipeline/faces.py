@@ -616,7 +616,7 @@ def _bodies(g: dict, surf: dict, opts: dict) -> dict:
     P, N = grid.points, grid.normals
     s, c, fc = surf["surface"], surf["c"], surf["floor_c"]
     tol = float(opts.get("tolerance", 0.0))
-    tex_tri, err = _relief_triangles(g, [s, np.zeros_like(s)], tol, [1.0, tol / BASE_TOLERANCE], lean=opts["build_dir"] is None)
+    tex_tri, err = _lean_relief(g, surf, tol, opts)
     if tex_tri is None:
         tex_tri = _cell_triangles(cells, grid.wrap_y)
     ring = _outline_ring(cells, grid.wrap_y)
@@ -639,6 +639,56 @@ def _bodies(g: dict, surf: dict, opts: dict) -> dict:
         if c < 1:
             slab = body(np.where(surf["band"], -surf["sink"], s), np.minimum(-surf["depth"], cut_bottom - 0.05), True)
     return {"slab": slab, "cutter": cutter, "low_cutter": low, "error": err, "top_triangles": len(tex_tri)}
+
+
+def _lean_relief(g: dict, surf: dict, tol: float, opts: dict):
+    """The textured side's lean triangles (or ``(None, 0.0)``: the grid). With
+    ``build_dir``, a lean triangle that overhangs where the face under it does not
+    (the limiter made the grid safe, not every plane through its points) has the
+    cells under it kept at grid resolution, and the triangulation is made again."""
+    heights, weights = [surf["surface"], np.zeros_like(surf["surface"])], [1.0, tol / BASE_TOLERANCE]
+    tri, err = _relief_triangles(g, heights, tol, weights, lean=True)
+    if opts["build_dir"] is None or tri is None:
+        return tri, err
+    more = np.zeros_like(g["cells"])
+    for _ in range(4):  # per round of refinement where a lean facet overhangs
+        bad = _overhanging_cells(g, surf["surface"], tri, opts["build_dir"], opts["critical_angle"])
+        if bad is None:
+            return tri, err
+        more |= bad
+        tri, err = _relief_triangles(dict(g, more_fine=more), heights, tol, weights, lean=True)
+        if tri is None:
+            return None, 0.0
+    return None, 0.0
+
+
+def _overhanging_cells(g: dict, s: np.ndarray, tri: np.ndarray, dirs: np.ndarray, critical_angle: float):
+    """Cells ``(R-1, C-1)`` (or ``(R, C-1)`` around a seam) under the lean triangles
+    that overhang (``-n . d > cos(critical + 1 deg)``) where the face does not; None
+    if there are none."""
+    grid = g["grid"]
+    P, N = grid.points.reshape(-1, 3), grid.normals.reshape(-1, 3)
+    V = P + s.reshape(-1)[:, None] * N
+    n = np.cross(V[tri[:, 1]] - V[tri[:, 0]], V[tri[:, 2]] - V[tri[:, 0]])
+    base = N[tri].mean(axis=1)
+    n *= np.sign((n * base).sum(axis=1, keepdims=True))  # outward, along the face's normal
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-18)
+    base /= np.maximum(np.linalg.norm(base, axis=1, keepdims=True), 1e-18)
+    cos_c = np.cos(np.radians(critical_angle + 1.0))
+    bad = np.any(-(n @ dirs.T) > cos_c, axis=1) & ~np.any(-(base @ dirs.T) > cos_c, axis=1)
+    if not bad.any():
+        return None
+    R, C = grid.valid.shape
+    rows, cols = tri[bad] // C, tri[bad] % C
+    if grid.wrap_y:  # a triangle across the seam has rows 0 and R-1: its cells are the last row
+        rows = np.where((rows.max(axis=1, keepdims=True) - rows.min(axis=1, keepdims=True)) > R // 2, np.where(rows == 0, R, rows), rows)
+    r0, c0 = rows.min(1), cols.min(1)
+    r1, c1 = np.maximum(rows.max(1), r0 + 1), np.maximum(cols.max(1), c0 + 1)
+    shape = g["cells"].shape
+    diff = np.zeros((shape[0] + 1, shape[1] + 1), np.int64)  # the triangles' cell boxes, summed
+    for rr, cc, sign in ((r0, c0, 1), (r0, c1, -1), (r1, c0, -1), (r1, c1, 1)):
+        np.add.at(diff, (rr, cc), sign)
+    return diff.cumsum(axis=0).cumsum(axis=1)[: shape[0], : shape[1]] > 0
 
 
 def _cell_triangles(cells: np.ndarray, wrap_y: bool) -> np.ndarray:
@@ -682,6 +732,7 @@ def _relief_triangles(g: dict, heights: list, tolerance: float, weights: list, l
         near = g["d"] < g["d_floor"] + 2 * g["diag"]
         near = np.concatenate([near, near[:1]]) if grid.wrap_y else near
         fine = near[:-1, :-1] | near[1:, :-1] | near[:-1, 1:] | near[1:, 1:]
+        fine = fine | g["more_fine"] if "more_fine" in g else fine
     if grid.wrap_y:  # unroll the seam: row R is row 0 again
         P, N = np.concatenate([P, P[:1]]), np.concatenate([N, N[:1]])
         heights = [np.concatenate([h, h[:1]]) for h in heights]
