@@ -532,8 +532,8 @@ def test_lean_relief_with_build_dir_has_no_texture_overhang():
 
     part = knob()
     cone = part.faces().filter_by(GeomType.CONE)
-    grid = texture(part, cone, "builtin:stones", height=0.6, pitch=0.25, build_dir=(0, 0, -1), tolerance=0)
-    lean = texture(part, cone, "builtin:stones", height=0.6, pitch=0.25, build_dir=(0, 0, -1), tolerance=0.02)
+    grid = texture(part, cone, "builtin:stones", height=0.6, pitch=0.2, build_dir=(0, 0, -1), tolerance=0)
+    lean = texture(part, cone, "builtin:stones", height=0.6, pitch=0.2, build_dir=(0, 0, -1), tolerance=0.02)
     assert 0 < lean.max_error <= 0.02
     assert lean.mesh.num_triangles < 0.95 * grid.mesh.num_triangles
     assert texture_overhang(lean, (0, 0, -1)) == 0.0
