@@ -338,15 +338,19 @@ def _make_hexagons(period: float, groove: float, bevel: float):
     # Hexagonal distance of the offset (dx, dy) from the cell centre:
     # max(|dx|, |dx/2 + dy sqrt3/2|, |-dx/2 + dy sqrt3/2|); the border lies at p/2.
     _need(groove + 2 * bevel < period, "hexagons", f"groove + 2 bevel ({groove:g} + 2 x {bevel:g} mm) must be less than the period ({period:g} mm)")
-    s3 = np.sqrt(3.0) / 2
 
     def f(x, y):
-        dx, dy = _hex_offset(x, y, period)
-        hexd = np.maximum(np.abs(dx), np.maximum(np.abs(0.5 * dx + s3 * dy), np.abs(-0.5 * dx + s3 * dy)))
-        border = period / 2 - hexd
-        return smoothstep(groove / 2, groove / 2 + bevel, border)
+        return smoothstep(groove / 2, groove / 2 + bevel, _hex_border(x, y, period))
 
     return (period, period * np.sqrt(3.0)), f
+
+
+def _hex_border(x: np.ndarray, y: np.ndarray, period: float) -> np.ndarray:
+    """Distance (mm, hexagonal metric) from ``(x, y)`` to its lattice cell's border."""
+    s3 = np.sqrt(3.0) / 2
+    dx, dy = _hex_offset(x, y, period)
+    hexd = np.maximum(np.abs(dx), np.maximum(np.abs(0.5 * dx + s3 * dy), np.abs(-0.5 * dx + s3 * dy)))
+    return period / 2 - hexd
 
 
 def _make_scales(period: float, radius: float, bevel: float):
@@ -732,12 +736,9 @@ def _make_honeycomb(period: float, wall: float, bevel: float):
     # spacing `period`, walls `wall` mm wide with `bevel` mm slopes (the negative of
     # `hexagons`): h = 1 - smoothstep(w/2, w/2 + b, distance to the cell border).
     _need(wall + 2 * bevel < period, "honeycomb", f"wall + 2 bevel ({wall:g} + 2 x {bevel:g} mm) must be less than the period ({period:g} mm)")
-    s3 = np.sqrt(3.0) / 2
 
     def f(x, y):
-        dx, dy = _hex_offset(x, y, period)
-        hexd = np.maximum(np.abs(dx), np.maximum(np.abs(0.5 * dx + s3 * dy), np.abs(-0.5 * dx + s3 * dy)))
-        return 1.0 - smoothstep(wall / 2, wall / 2 + bevel, period / 2 - hexd)
+        return 1.0 - smoothstep(wall / 2, wall / 2 + bevel, _hex_border(x, y, period))
 
     return (period, period * np.sqrt(3.0)), f
 
