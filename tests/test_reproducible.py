@@ -81,3 +81,30 @@ def test_step_is_the_stl_solid(outputs, name):
 def test_a_second_run_gives_the_same_bytes(outputs):
     for f in ("demo.stl", "demo.3mf", "demo.step"):
         assert (outputs / "demo" / f).read_bytes() == (outputs / "demo_again" / f).read_bytes(), f
+
+
+@pytest.mark.parametrize("mode", ["raised", "engraved"])
+def test_any_face_lean_relief_gives_the_same_bytes_twice(tmp_path, mode):
+    """The general face path with its lean relief (texcad.solid.lean_grid) is deterministic."""
+    import warnings
+
+    import texcad
+
+    from build123d import Axis, BuildLine, BuildPart, BuildSketch, GeomType, Plane, Polyline, make_face, revolve
+
+    with BuildPart() as k:
+        with BuildSketch(Plane.XZ):
+            with BuildLine():
+                Polyline((0, 0), (12, 0), (9, 12), (0, 12), close=True)
+            make_face()
+        revolve(axis=Axis.Z)
+    cone = k.part.faces().filter_by(GeomType.CONE)
+    out = []
+    for run in range(2):  # the same inputs twice
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            tx = texcad.texture(k.part, cone, "builtin:stones", height=0.5, pitch=0.25, mode=mode)
+        assert tx.max_error > 0  # lean
+        tx.export(tmp_path / f"{run}.stl")
+        out.append((tmp_path / f"{run}.stl").read_bytes())
+    assert out[0] == out[1]
