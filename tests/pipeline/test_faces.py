@@ -538,3 +538,38 @@ def test_lean_relief_with_build_dir_has_no_texture_overhang():
     assert lean.mesh.num_triangles < 0.95 * grid.mesh.num_triangles
     assert texture_overhang(lean, (0, 0, -1)) == 0.0
     assert_one_watertight_body(lean.mesh)
+
+
+def _mode_cases():
+    from build123d import Axis, Box, Cylinder, GeomType, Pos
+
+    plate = Box(40, 30, 5) - Pos(5, 0, 0) * Cylinder(4, 10) - Pos(-10, 5, 0) * Box(6, 6, 10)
+    lv, g, rb = lever(), grip(), rounded_box()
+    return {
+        "plane with holes": (plate, plate.faces().sort_by(Axis.Z)[-1]),
+        "sphere": (lv, lv.faces().filter_by(GeomType.SPHERE)),
+        "bspline around": (g, g.faces().filter_by(GeomType.BSPLINE)),
+        "band of planes and fillets": (rb, rb.faces().filter_by(Axis.Z, reverse=True)),
+    }
+
+
+@pytest.mark.parametrize("mode", ["engraved", "centred"])
+@pytest.mark.parametrize("case", ["plane with holes", "sphere", "bspline around", "band of planes and fillets"])
+def test_modes_on_every_face_kind(case, mode):
+    import manifold3d as m3d
+
+    from texcad.solid import to_manifold
+
+    part, faces = _mode_cases()[case]
+    tx = texture(part, faces, "builtin:stones", height=0.6, pitch=0.3, mode=mode)
+    assert_one_watertight_body(tx.mesh)
+    base, out = to_manifold(tx.base_mesh), to_manifold(tx.mesh)
+    added, removed = (out - base).volume(), (base - out).volume()
+    area = sum(f.area for f in (faces if isinstance(faces, list) or type(faces).__name__ == "ShapeList" else [faces]))
+    assert removed > 0.05 * area * 0.6  # the texture is cut in
+    if mode == "engraved":
+        assert added < 1e-3  # nothing outside the part's envelope
+    else:
+        assert added > 0.05 * area * 0.6 * 0.5
+    assert 0 <= tx.max_error <= 0.02
+    assert_only_on(tx, part, list(faces) if not hasattr(faces, "wrapped") else [faces], 0.6)

@@ -621,23 +621,24 @@ def _bodies(g: dict, surf: dict, opts: dict) -> dict:
         tex_tri = _cell_triangles(cells, grid.wrap_y)
     ring = _outline_ring(cells, grid.wrap_y)
 
-    def body(textured, plain, textured_on_top: bool):
-        plain_tri = _relief_triangles(dict(g, fine=ring), [plain], min(BOTTOM_TOLERANCE, 0.2 * float(np.min(surf["depth"]))),
-                                      [1.0], lean=True, measure=False)[0]
+    def body(textured, plain, textured_on_top: bool, plain_tol: float):
+        plain_tri = _relief_triangles(dict(g, fine=ring), [plain], plain_tol, [1.0], lean=True, measure=False)[0]
         plain_tri = _cell_triangles(cells, grid.wrap_y) if plain_tri is None else plain_tri
         tt, bt, to, bo = (tex_tri, plain_tri, textured, plain) if textured_on_top else (plain_tri, tex_tri, plain, textured)
         return _slab(P + to[..., None] * N, P + bo[..., None] * N, tt, bt)
 
+    inside = min(BOTTOM_TOLERANCE, 0.2 * float(np.min(surf["depth"])))  # a slab's bottom, depth mm in the part
+    outside = 0.25 * (CUT_ABOVE - TESSELLATION)  # a cutter's top, CUT_ABOVE mm out: clear of the part's facets
     slab = cutter = low = None
     if c == 0:
-        slab = body(s, -surf["depth"] + 0 * s, True)
+        slab = body(s, -surf["depth"] + 0 * s, True, inside)
     else:
         cut_bottom = np.minimum(s, -fc) - (fc if c < 1 else 0.0)
         above = np.full(s.shape, CUT_ABOVE)
-        cutter = body(cut_bottom, above, False)
-        low = body(np.minimum(-c * surf["env"], -fc) - 2 * fc, above, False)
+        cutter = body(cut_bottom, above, False, outside)
+        low = body(np.minimum(-c * surf["env"], -fc) - 2 * fc, above, False, outside)
         if c < 1:
-            slab = body(np.where(surf["band"], -surf["sink"], s), np.minimum(-surf["depth"], cut_bottom - 0.05), True)
+            slab = body(np.where(surf["band"], -surf["sink"], s), np.minimum(-surf["depth"], cut_bottom - 0.05), True, inside)
     return {"slab": slab, "cutter": cutter, "low_cutter": low, "error": err, "top_triangles": len(tex_tri)}
 
 
@@ -782,29 +783,37 @@ def _face_indices(pm: PartMesh, topo, faces: list) -> list[int]:
     return out
 
 
+#: mm: vertices of the union closer than this (one cell of a grid this fine) are one.
+WELD = 1e-5
+
+
 def welded(man) -> "Mesh | None":
-    """The union's mesh with vertices at the same position merged (as an STL reader
-    does) and the zero-area needles manifold3d sometimes leaves along a cut edge
-    (a triangle with two vertices at one position) dropped; None unless every edge
-    then lies on exactly two triangles. When no two vertices share a position the
-    mesh is manifold3d's own (a closed, oriented 2-manifold) and is taken as it is."""
+    """The union's mesh with vertices within :data:`WELD` mm merged (as an STL reader
+    or a mesh tool that merges by position does), the zero-area needles manifold3d
+    sometimes leaves along a cut edge (a triangle with two vertices at one position)
+    and the flat pillows two booleans can leave (two triangles on the same three
+    vertices, facing apart) dropped; None unless every edge then lies on exactly two
+    triangles, opposite ways. When no two vertices are that close, the mesh is
+    manifold3d's own (a closed, oriented 2-manifold) and is taken as it is."""
     out = man.to_mesh()
     v = np.asarray(out.vert_properties)[:, :3].astype(np.float32)
     f = np.asarray(out.tri_verts).astype(np.int64)
-    order = np.lexsort((v[:, 2], v[:, 1], v[:, 0]))
-    sv = v[order]
+    q = np.round(v.astype(np.float64) / WELD).astype(np.int64)
+    order = np.lexsort((q[:, 2], q[:, 1], q[:, 0]))
+    sq = q[order]
     new = np.ones(len(v), bool)
-    new[1:] = np.any(sv[1:] != sv[:-1], axis=1)
+    new[1:] = np.any(sq[1:] != sq[:-1], axis=1)
     if new.all():
         mesh = Mesh(np.ascontiguousarray(v), f.astype(np.uint32))
         mesh.__dict__["is_watertight"] = True
         return mesh
     inv = np.empty(len(v), np.int64)
     inv[order] = np.cumsum(new) - 1
-    uniq = sv[new]
+    uniq = v[order][new]
     f = inv[f]
     f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])]
-    if not edge_report(f)["watertight"]:  # every edge on two triangles, opposite ways
+    f = _drop_pillows(f)
+    if not len(f) or not edge_report(f)["watertight"]:  # every edge on two triangles, opposite ways
         return None
     used = np.unique(f)
     remap = np.full(len(uniq), -1, np.int64)
@@ -812,6 +821,13 @@ def welded(man) -> "Mesh | None":
     mesh = Mesh(np.ascontiguousarray(uniq[used]), remap[f].astype(np.uint32))
     mesh.__dict__["is_watertight"] = True
     return mesh
+
+
+def _drop_pillows(f: np.ndarray) -> np.ndarray:
+    """``f`` without the pairs of triangles on the same three vertices (zero volume)."""
+    key = np.sort(f, axis=1)
+    _, inv, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    return f[count[inv.ravel()] == 1]
 
 
 def texture_any_faces(topo, faces: list, tex: Any, *, base_mesh: Mesh | None = None, progress: Progress = None, **opts) -> dict:
