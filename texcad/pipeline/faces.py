@@ -743,7 +743,10 @@ def _relief_triangles(g: dict, heights: list, tolerance: float, weights: list, l
     if out is None:
         return None, 0.0
     flat = (out["rc"][:, 0] % R) * C + out["rc"][:, 1]
-    return flat[out["faces"]], float(out["error"])
+    tri = flat[out["faces"]]
+    # Row-major by the first corner (then the rest): manifold3d builds a mesh whose
+    # triangles are spatially coherent several times faster.
+    return tri[np.lexsort((tri[:, 2], tri[:, 1], tri[:, 0]))], float(out["error"])
 
 
 def _slab(top: np.ndarray, bottom: np.ndarray, top_tri: np.ndarray, bottom_tri: np.ndarray) -> Mesh:
