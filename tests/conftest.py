@@ -1,4 +1,5 @@
 import numpy as np
+from scipy.spatial import cKDTree
 import pytest
 
 import texcad
@@ -45,3 +46,28 @@ def assert_heightmap_picture(path, *, min_size: int = 20) -> np.ndarray:
     assert min(img.shape) >= min_size, img.shape
     assert img.std() > 8.0 and np.ptp(img) > 64, f"{path}: no relief shown"
     return img
+
+
+def _seg_dist(p, a, b):
+    ab = b - a
+    t = np.clip(((p - a) * ab).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-300), 0, 1)
+    return np.linalg.norm(p - (a + t[..., None] * ab), axis=-1)
+
+
+def distance_to_mesh(q, V, F, k=12):
+    """Exact point-to-triangle distances (nearest of the ``k`` triangles with the
+    closest centroids): independent of the grid coordinates."""
+    tri = V[F]
+    _, cand = cKDTree(tri.mean(axis=1)).query(q, k=k)
+    t = tri[cand]  # (n, k, 3, 3)
+    a, b, c = t[:, :, 0], t[:, :, 1], t[:, :, 2]
+    n = np.cross(b - a, c - a)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    p = q[:, None, :]
+    d = ((p - a) * n).sum(-1)
+    foot = p - d[..., None] * n
+    inside = np.ones(d.shape, bool)
+    for u, v in ((a, b), (b, c), (c, a)):
+        inside &= (np.cross(v - u, foot - u) * n).sum(-1) >= -1e-12
+    edge = np.minimum.reduce([_seg_dist(p, a, b), _seg_dist(p, b, c), _seg_dist(p, c, a)])
+    return np.where(inside, np.abs(d), edge).min(axis=1)

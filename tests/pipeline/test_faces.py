@@ -387,7 +387,6 @@ def test_cli_selects_several_faces_and_prints_distortion(tmp_path, capsys):
 
 def test_tessellation_that_needs_healing_is_retried(monkeypatch):
     import texcad.pipeline.faces as F
-    from texcad.solid import Mesh
 
     part = knob()
     weld = F._weld
@@ -496,13 +495,12 @@ def test_lean_relief_on_a_cone_within_the_tolerance():
     area = sum(f.area for f in cone)
     assert abs(lean.mesh.volume - grid.mesh.volume) <= 0.02 * area
     # Independent: every vertex of the grid relief lies within the tolerance of the lean mesh.
-    from texcad.solid import Mesh
 
     g = grid.mesh.vertices.astype(np.float64)
     lm = lean.mesh
     far = g[np.linalg.norm(g[:, :2], axis=1) > 3]  # relief and part
     pts = far[np.random.default_rng(0).choice(len(far), 4000, replace=False)]
-    from tests.solid.test_rtin import distance_to_mesh
+    from conftest import distance_to_mesh
 
     d = distance_to_mesh(pts, lm.vertices.astype(np.float64), lm.faces.astype(np.int64), k=24)
     assert d.max() <= 0.02 + 0.012  # + the part's own tessellation (0.01 mm chords)
