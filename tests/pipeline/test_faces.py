@@ -387,6 +387,7 @@ def test_cli_selects_several_faces_and_prints_distortion(tmp_path, capsys):
 
 def test_tessellation_that_needs_healing_is_retried(monkeypatch):
     import texcad.pipeline.faces as F
+    from texcad.solid import Mesh
 
     part = knob()
     weld = F._weld
@@ -482,7 +483,7 @@ def test_bad_mode():
 
 
 def test_lean_relief_on_a_cone_within_the_tolerance():
-    from build123d import Axis, GeomType
+    from build123d import GeomType
 
     part = knob()
     cone = part.faces().filter_by(GeomType.CONE)
@@ -554,7 +555,6 @@ def _mode_cases():
 @pytest.mark.parametrize("mode", ["engraved", "centred"])
 @pytest.mark.parametrize("case", ["plane with holes", "sphere", "bspline around", "band of planes and fillets"])
 def test_modes_on_every_face_kind(case, mode):
-    import manifold3d as m3d
 
     from texcad.solid import to_manifold
 
