@@ -200,7 +200,7 @@ def tiled_step_text(topo: Any, occt_write) -> bytes | None:
 
 def _layout(ents: dict):
     """Faces of the shells in order, the shell of each face, the solid of each shell
-    and the shape representations, from OCCT's STEP entities."""
+    and the shape representation of each solid, from OCCT's STEP entities."""
     face_ids, shell_of, msb, absr = [], {}, {}, []
     for eid in sorted(ents):  # one per entity
         m = ents[eid]
@@ -212,7 +212,8 @@ def _layout(ents: dict):
             msb[int(_REF.findall(m.group(3))[0])] = eid
         elif m.group(2) == b"ADVANCED_BREP_SHAPE_REPRESENTATION":
             absr.append(eid)
-    return face_ids, shell_of, msb, absr
+    absr_of = {int(r): eid for eid in absr for r in _REF.findall(ents[eid].group(3))}  # item -> representation
+    return face_ids, shell_of, msb, absr_of
 
 
 def _stand_in_ids(ents: dict, face: int, pts: np.ndarray, corners: list) -> tuple[int, list] | None:
@@ -242,8 +243,8 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list)
     """Rewrite the stand-in surfaces of OCCT's STEP text ``data`` with the tiles' poles
     and add their triangulations; None when the text is not laid out as expected."""
     ents = {int(m.group(1)): m for m in _ENTITY.finditer(data)}
-    face_ids, shell_of, msb, absr = _layout(ents)
-    if len(face_ids) != n_faces or not absr:
+    face_ids, shell_of, msb, absr_of = _layout(ents)
+    if len(face_ids) != n_faces:
         return None
     pts = np.concatenate([g.transpose(1, 0, 2).reshape(-1, 3) for g, _, _ in grids])
     # Each pole formatted once (8 decimals: 5e-9 mm), for its point and its mesh node.
@@ -260,7 +261,7 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list)
         ids[corners], emit[corners] = got[1], False
         swaps[got[0]] = (off, rows, cols, u, v)
         if mesh:
-            if msb.get(shell_of.get(face_ids[k], -1)) is None:
+            if absr_of.get(msb.get(shell_of.get(face_ids[k], -1), -1)) is None:
                 return None
             tess.append((face_ids[k], off, rows, cols))
         off += rows * cols
@@ -272,11 +273,13 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list)
     new = [("#%d = CARTESIAN_POINT('',(%s));\n" * n_emit) % tuple(inter)]
     repl = _surfaces_text(swaps, ids)
     new_ids, items = _tessellation_text(tess, tok, next_id + n_emit, shell_of, msb, new)
-    if items:
-        refs = [int(r) for r in _REF.findall(ents[absr[0]].group(3))]
-        ctx, listed = refs[-1], ",".join(f"#{r}" for r in refs[:-1] + items)
-        repl[absr[0]] = f"#{absr[0]} = ADVANCED_BREP_SHAPE_REPRESENTATION('',({listed}),#{ctx});"
-        new.append(f"#{new_ids} = TESSELLATED_SHAPE_REPRESENTATION('',({','.join(f'#{r}' for r in items)}),#{ctx});\n")
+    for rep in sorted({absr_of[solid] for solid, _ in items}):  # one per shape representation
+        mine = [t for solid, t in items if absr_of[solid] == rep]
+        refs = [int(r) for r in _REF.findall(ents[rep].group(3))]
+        ctx, listed = refs[-1], ",".join(f"#{r}" for r in refs[:-1] + mine)
+        repl[rep] = f"#{rep} = ADVANCED_BREP_SHAPE_REPRESENTATION('',({listed}),#{ctx});"
+        new.append(f"#{new_ids} = TESSELLATED_SHAPE_REPRESENTATION('',({','.join(f'#{r}' for r in mine)}),#{ctx});\n")
+        new_ids += 1
     end = data.rindex(b"ENDSEC;")
     chunks, at = [], 0
     for eid in sorted(repl, key=lambda e: ents[e].start()):  # one per rewritten entity
@@ -305,7 +308,7 @@ def _surfaces_text(swaps: dict, ids: np.ndarray) -> dict:
 def _tessellation_text(tess: list, tok: np.ndarray, next_id: int, shell_of: dict, msb: dict, new: list):
     """Append ``COORDINATES_LIST`` + ``TRIANGULATED_FACE`` per triangulated tile and a
     ``TESSELLATED_SOLID`` per solid to ``new``; returns the next free id and the
-    tessellated solids' ids."""
+    ``(solid, tessellated solid)`` ids."""
     tri_text, by_solid = {}, {}
     for face, o, rows, cols in tess:  # one per triangulated tile
         if (rows, cols) not in tri_text:
@@ -319,6 +322,6 @@ def _tessellation_text(tess: list, tok: np.ndarray, next_id: int, shell_of: dict
     items = []
     for solid, tfs in by_solid.items():  # one per solid
         new.append(f"#{next_id} = TESSELLATED_SOLID('',({','.join(f'#{t}' for t in tfs)}),#{solid});\n")
-        items.append(next_id)
+        items.append((solid, next_id))
         next_id += 1
     return next_id, items

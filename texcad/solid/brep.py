@@ -70,6 +70,7 @@ __all__ = [
     "replace_face",
     "tiled_grid_faces",
     "tile_grid",
+    "transformed_shape",
     "tiled_plane_solid",
     "textured_plane_solid",
     "textured_band_solid",
@@ -1155,6 +1156,36 @@ def tile_grid(surface) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     if got is None or got[0] is not surface:
         return None
     return got[1], got[2], got[3]
+
+
+def transformed_shape(shape: Any, matrix: np.ndarray):
+    """``shape`` moved or mirrored by the ``(3, 4)`` matrix ``matrix`` (mm), geometry
+    and triangulations copied (``BRepBuilderAPI_Transform``, no locations: texcad's
+    STEP writer and OCCT's mesher see the tiles as tiles); the copies of texture tiles
+    are remembered with their transformed grids (:func:`tile_grid`).
+
+    Raises:
+        ParameterError: ``matrix`` is not ``(3, 4)`` with a non-singular rotation part.
+    """
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
+    from OCP.gp import gp_Trsf
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+
+    m = np.asarray(matrix, np.float64)
+    if m.shape != (3, 4) or abs(np.linalg.det(m[:, :3])) < 1e-12:
+        raise ParameterError(f"a placement must be a (3, 4) matrix with an invertible rotation, got {m.shape}")
+    t = gp_Trsf()
+    t.SetValues(*[float(m[i, j]) for i in range(3) for j in range(4)])
+    topo = to_topods(shape)
+    mk = BRepBuilderAPI_Transform(topo, t, True, True)
+    for f in explore(topo, TopAbs_FACE):  # one per face
+        got = tile_grid(BRep_Tool.Surface_s(TopoDS.Face_s(f)))
+        if got is not None:
+            new = BRep_Tool.Surface_s(TopoDS.Face_s(mk.ModifiedShape(f)))
+            _remember_tile(new, got[0] @ m[:, :3].T + m[:, 3], got[1], got[2])
+    return mk.Shape()
 
 
 def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: list, faces: list, wrap_x: bool = False):
