@@ -47,7 +47,10 @@ goes the same way:
    the outline band), bottom = surface - depth n, walls along the outline; all slabs
    are fused onto the base mesh in one manifold3d union (one body per solid checked).
 
-STEP: faces textured this way have no B-rep: ``Textured.shape`` raises
+STEP: a face parameterized on its own ``(u, v)`` (one curved face) gets a B-rep, the
+textured face as a degree-1 B-spline on that parameter space in place of the face
+(:mod:`texcad.pipeline.brep_faces`, :func:`texcad.solid.uv_textured_solid`); faces
+flattened together (bands, LSCM) have none: ``Textured.shape`` raises
 :class:`~texcad.errors.GeometryError` that says so and names the STL / 3MF outputs.
 """
 
@@ -277,6 +280,7 @@ class Param:
     XY: np.ndarray
     period_y: float | None
     method: str
+    tables: tuple | None = None  # one curved face: (u table, v table, closed around u)
 
 
 def _param(pm: PartMesh, patch: list[int], tile: tuple[float, float] | None, rotation: float) -> Param:
@@ -295,7 +299,8 @@ def _param(pm: PartMesh, patch: list[int], tile: tuple[float, float] | None, rot
             period = around if tile is None else max(1, round(around / tile[1])) * tile[1]
             ut = (ut[0], ut[1] * (period / around))
         XY = separable_coordinates(fm.uv, ut, vt)
-        return Param(fm.points, fm.tris, XY, period, "face (u, v) by arc length" + (", whole tiles around" if closed else ""))
+        return Param(fm.points, fm.tris, XY, period, "face (u, v) by arc length" + (", whole tiles around" if closed else ""),
+                     (ut, vt, closed))  # fmt: skip
     # Several faces: the welded mesh of the patch.
     m = pm.mesh
     tmask = np.isin(pm.face_of_tri, patch)
@@ -526,7 +531,8 @@ def _patch_relief(pm: PartMesh, patch: list[int], tex: Any, opts: dict) -> dict:
     if limit_info is not None:
         info["overhang_limit"] = limit_info
     hmap = Heightmap(np.where(keep, np.maximum(h_top, 0.0), 0.0).astype(np.float32), (px, py))
-    return {"slab": slab, "info": info, "distortion": dist, "heightmap": hmap, "grid": grid, "limited": bool(limited.any()), "h_top": h_top, "cells": cells}
+    return {"slab": slab, "info": info, "distortion": dist, "heightmap": hmap, "grid": grid, "limited": bool(limited.any()), "h_top": h_top,
+            "cells": cells, "tables": par.tables, "face": pm.faces[patch[0]].face if len(patch) == 1 else None}  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------
@@ -661,4 +667,5 @@ def texture_any_faces(topo, faces: list, tex: Any, *, base_mesh: Mesh | None = N
         "info": infos,
         "face_indices": idx,
         "solids": len(solids_of(topo)),
+        "reliefs": reliefs,  # for the B-rep (texcad.pipeline.cad: texcad.solid.uv_textured_solid)
     }

@@ -10,6 +10,9 @@ from .boolean import (
     fuse,
     retain_freed_memory,
 )
+from .brep_faces import (
+    uv_textured_solid,
+)
 from .brep import (
     grid_surface,
     grid_face,
@@ -86,6 +89,7 @@ __all__ = [
     'replace_face',
     'tiled_grid_faces',
     'tile_grid',
+    'uv_textured_solid',
     'transformed_shape',
     'tiled_plane_solid',
     'textured_plane_solid',
