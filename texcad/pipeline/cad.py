@@ -562,7 +562,9 @@ def _texture_extrusion(
         },
     }
     def make_shape():
-        return _brep.textured_extrusion_solid(topo, face, top_w, world(bottom), closed=mapped.closed)
+        under = profile.point(np.asarray(mapped.s, np.float64))  # (C, 2): the face under each column (x, z)
+        base = world(np.stack([under[:, 0], np.full(len(under), y_rows[0]), under[:, 1]], axis=1))
+        return _brep_faces.extrusion_brep(topo, face, top_w, world(bottom), closed=mapped.closed, base=base)
 
     result["shape"] = make_shape if make_brep else None
     return result

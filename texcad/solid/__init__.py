@@ -12,6 +12,7 @@ from .boolean import (
 )
 from .brep_faces import (
     uv_textured_solid,
+    open_extrusion_solid,
 )
 from .brep import (
     grid_surface,
@@ -90,6 +91,7 @@ __all__ = [
     'tiled_grid_faces',
     'tile_grid',
     'uv_textured_solid',
+    'open_extrusion_solid',
     'transformed_shape',
     'tiled_plane_solid',
     'textured_plane_solid',

@@ -32,7 +32,7 @@ from ..errors import GeometryError
 from .brep import TOLERANCE, _remember_tile, _replace_faces, _tile_text
 from .occt import explore, to_topods
 
-__all__ = ["uv_textured_solid"]
+__all__ = ["uv_textured_solid", "open_extrusion_solid"]
 
 
 def _surface_rows(face, u: np.ndarray, v: np.ndarray):
@@ -260,3 +260,148 @@ def uv_textured_solid(shape: Any, items: list):
         u, v, top = _poles(face, item)
         swaps.append((face, [_new_face(face, u, v, top)]))
     return _replace_faces(topo, swaps)
+
+
+class _Projector:
+    """Points projected onto a surface (mm -> ``(u, v)``), each starting from the last
+    answer (``ShapeAnalysis_Surface::NextValueOfUV``: Newton steps, fast along a grid
+    line; OCCT's global search only for the first point)."""
+
+    def __init__(self, surf):
+        from OCP.ShapeAnalysis import ShapeAnalysis_Surface
+
+        self.sas = ShapeAnalysis_Surface(surf)
+        self.last = None
+
+    def __call__(self, p: np.ndarray) -> tuple[float, float]:
+        from OCP.gp import gp_Pnt
+
+        q = gp_Pnt(*map(float, p))
+        uv = self.sas.ValueOfUV(q, 1e-9) if self.last is None else self.sas.NextValueOfUV(self.last, q, 1e-9)
+        self.last = uv
+        return float(uv.X()), float(uv.Y())
+
+    def point(self, u: float, v: float) -> np.ndarray:
+        return np.array(self.sas.Value(u, v).Coord())
+
+
+def open_extrusion_solid(shape: Any, face: Any, top: np.ndarray, base: np.ndarray | None = None):
+    """``shape`` with a face of an open extruded profile (a partial cylinder, the
+    sine sample's top) textured in place, **without a boolean**: the texture grid
+    ``top`` (``(R, C, 3)`` mm; rows across the extrusion, columns along the profile,
+    half a pixel inside the face, with walls at its border as texcad's mesh has) on
+    the face's own ``(u, v)``, framed by rows of the face itself: its boundary, and
+    ``1e-3`` of a cell inside the grid's border the face again (h = 0) - the
+    mesh's walls, upright within that.
+
+    The grid's parameters come from projecting its first column and, for the columns,
+    ``base`` (``(C, 3)`` mm: the face's point under each column of the first row;
+    without it the grid's first row) onto the surface; the surface's ``u`` and ``v``
+    must follow the columns and rows (an extrusion: checked on the last row). The walls rise from the face under each border line (where the
+    texture is lifted along z, e.g. the distance mapping, texcad's mesh walls meet
+    the face up to h tan(slope) away: 0.07 mm on the sine sample).
+
+    Returns:
+        The new shape, or None where the face is not such an extrusion.
+    """
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.BRepTools import BRepTools
+    from OCP.gp import gp_Pnt, gp_Vec
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopoDS import TopoDS
+
+    old = TopoDS.Face_s(to_topods(face))
+    fwd = TopoDS.Face_s(old.Oriented(TopAbs_FORWARD))
+    g = np.asarray(top, np.float64)
+    R, C = g.shape[:2]
+    surf = BRep_Tool.Surface_s(fwd)
+    proj = _Projector(surf)
+    ad = BRepAdaptor_Surface(fwd, False)
+    p, du, dv = gp_Pnt(), gp_Vec(), gp_Vec()
+
+    def normal(a, c):
+        ad.D1(a, c, p, du, dv)
+        n = np.cross(du.Coord(), dv.Coord())
+        return n / max(float(np.linalg.norm(n)), 1e-300)
+
+    try:
+        row = np.array([proj(q) for q in g[0]])  # per column
+        col = np.array([proj(q) for q in g[:, 0]])  # per row
+    except RuntimeError:
+        return None
+    swap = np.ptp(row[:, 0]) < np.ptp(row[:, 1])  # the columns follow v: transpose
+    uc, vr = (row[:, 1], col[:, 0]) if swap else (row[:, 0], col[:, 1])
+    step = max(1, C // 8)
+    if base is not None and not swap:  # the columns' parameter: the face's point under each column
+        uc = np.array([proj(q)[0] for q in np.asarray(base, np.float64)])  # per column
+        last = uc[::step]  # the same under every row of an extrusion (dS/dv is checked below)
+    else:
+        last = np.array([proj(q) for q in g[-1, ::step]])[:, 1 if swap else 0]
+    if np.abs(last - uc[::step]).max() > 1e-6 * (np.ptp(uc) + 1.0):
+        return None  # the columns' parameter changes along them: not an extrusion's grid
+    grid = g.transpose(1, 0, 2) if not swap else g  # axis 0 along u
+    pu, pv = (uc, vr) if not swap else (vr, uc)
+    if not (np.all(np.diff(pu) > 0) or np.all(np.diff(pu) < 0)) or not (np.all(np.diff(pv) > 0) or np.all(np.diff(pv) < 0)):
+        return None
+    if pu[0] > pu[-1]:
+        pu, grid = pu[::-1], grid[::-1]
+    if pv[0] > pv[-1]:
+        pv, grid = pv[::-1], grid[:, ::-1]
+    u0, u1, v0, v1 = BRepTools.UVBounds_s(fwd)
+    ku, kv = _framed(pu, u0, u1), _framed(pv, v0, v1)
+    if ku is None or kv is None:
+        return None
+    (U, su, gi), (V, sv, gj) = ku, kv
+
+    def along_u(params):  # S(params, v0) and dS/dv there (one OCCT call per knot)
+        pts, ds = [], []
+        for a in params.tolist():  # per knot
+            ad.D1(a, v0, p, du, dv)
+            pts.append(p.Coord())
+            ds.append(dv.Coord())
+        return np.array(pts), np.array(ds)
+
+    base, deriv = along_u(su)
+    edge, _ = along_u(U)
+    if np.abs(deriv - deriv[0]).max() > 1e-9 * (np.linalg.norm(deriv[0]) + 1.0):
+        return None  # dS/dv varies along u: not an extrusion
+    T = base[:, None, :] + (sv - v0)[None, :, None] * deriv[0]  # the face under every knot
+    T[:, 0] = edge + (V[0] - v0) * deriv[0]  # the face's own boundary, at the knots
+    T[:, -1] = edge + (V[-1] - v0) * deriv[0]
+    T[0] = edge[0] + (V - v0)[:, None] * deriv[0]
+    T[-1] = edge[-1] + (V - v0)[:, None] * deriv[0]
+    T[np.ix_(gi, gj)] = grid
+    return _replace_faces(to_topods(shape), [(old, [_new_face(old, U, V, T)])])
+
+
+def _framed(pg: np.ndarray, lo: float, hi: float):
+    """Knots ``K`` for a grid's increasing parameters ``pg`` on a face's range ``[lo,
+    hi]``, the parameter ``S`` of the face point under each knot, and the indices of
+    the knots that carry the grid's lines. Around the grid: the face's bound (h = 0)
+    and the face again ``1e-3`` of a cell before the grid's border line (h = 0, under
+    that line: an upright wall, as texcad's mesh has); a border line on the bound
+    itself stands ``1e-3`` of a cell inside it (its wall rises from the bound). None
+    if the grid leaves the range."""
+    e = 1e-3 * float(np.diff(pg).min())
+    tol = 1e-6 * (abs(hi - lo) + 1.0)
+    K = pg.astype(np.float64).copy()
+    if pg[0] - lo > 4 * e:
+        low_k, low_s = [lo, pg[0] - e], [lo, pg[0]]
+    elif abs(pg[0] - lo) < tol:
+        low_k, low_s = [lo], [lo]
+        K[0] = lo + e
+    else:
+        return None
+    if hi - pg[-1] > 4 * e:
+        up_k, up_s = [pg[-1] + e, hi], [pg[-1], hi]
+    elif abs(hi - pg[-1]) < tol:
+        up_k, up_s = [hi], [hi]
+        K[-1] = hi - e
+    else:
+        return None
+    if len(K) > 1 and not np.all(np.diff(K) > 0):
+        return None
+    knots = np.concatenate([low_k, K, up_k])
+    under = np.concatenate([low_s, pg, up_s])
+    return knots, under, np.arange(len(low_k), len(low_k) + len(pg))
