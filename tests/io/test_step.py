@@ -22,16 +22,22 @@ def _distance(points: np.ndarray, mesh: texcad.solid.Mesh) -> float:
     return float(np.sqrt(d2.max()))
 
 
-def _shown(tx, path, tol):
+def _shown(tx, path, tol, occt_integrates=True):
     """Write ``tx`` as STEP, read it, mesh it with OCCT; the two one-sided distances
-    between OCCT's mesh and texcad's (mm) must be within ``tol``."""
+    between OCCT's mesh and texcad's (mm) must be within ``tol``. ``occt_integrates``
+    False: the textured face is one large trimmed B-spline face, which OCCT's adaptive
+    volume integration does not resolve (its result changes by percents with eps),
+    so the volume of OCCT's shown mesh stands in for it."""
     tx.export(path)
     back = texcad.io.read_step(path)
     chk = check_shape(back)
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
     slack = tx.info.get("volume_slack", 0.0)  # a lean mesh: its tolerance x area
-    assert abs(occt_volume(back) - tx.volume) <= 1e-3 * tx.volume + slack
     shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
+    if occt_integrates:
+        assert abs(occt_volume(back) - tx.volume) <= 1e-3 * tx.volume + slack
+    else:
+        assert abs(shown.volume - tx.volume) <= 1e-3 * tx.volume + slack
     ours = tx.mesh
     assert _distance(shown.vertices, ours) < tol  # OCCT's mesh lies on texcad's
     assert _distance(ours.vertices, shown) < tol  # and keeps its detail
@@ -78,7 +84,8 @@ def test_sine_step(tmp_path):
     part = extrude(Plane.XZ * section, amount=-15)
     face = part.faces().sort_by(SortBy.AREA)[-1]
     tx = texcad.texture(part, face, "builtin:stones", height=0.8, pitch=0.5, mapping="distance")
-    _shown(tx, tmp_path / "sine.step", DEFLECTION + 0.5 * 0.5)
+    # One trimmed B-spline face in place of the sine face (no boolean since this session).
+    _shown(tx, tmp_path / "sine.step", DEFLECTION + 0.5 * 0.5, occt_integrates=False)
 
 
 def test_numpy_step_matches_occts_own(tmp_path, monkeypatch):
