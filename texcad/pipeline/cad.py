@@ -561,9 +561,8 @@ def _texture_extrusion(
             "limits": [str(x) for x in mapped.limits],
         },
     }
-    def make_shape():
-        under = profile.point(np.asarray(mapped.s, np.float64))  # (C, 2): the face under each column (x, z)
-        base = world(np.stack([under[:, 0], np.full(len(under), y_rows[0]), under[:, 1]], axis=1))
+    def make_shape():  # base: the face under the first row's columns (local x, y0, z)
+        base = world(np.insert(profile.point(np.asarray(mapped.s, np.float64)), 1, y_rows[0], axis=1))
         return _brep_faces.extrusion_brep(topo, face, top_w, world(bottom), closed=mapped.closed, base=base)
 
     result["shape"] = make_shape if make_brep else None
