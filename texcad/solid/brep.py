@@ -1132,8 +1132,8 @@ def _patch_boundary(edges: dict, R: int, C: int, wrap: bool):
 
 
 #: Poles remembered by :func:`tile_grid` (the most recent tiles' surfaces, at most this many
-#: poles in all; older ones are forgotten and read back from OCCT instead).
-TILE_MEMORY = 8_000_000
+#: poles in all, about 100 MB; older ones are forgotten and read back from OCCT instead).
+TILE_MEMORY = 4_000_000
 _TILES: "OrderedDict[int, tuple]" = OrderedDict()
 _TILE_POLES = [0]
 
