@@ -8,9 +8,9 @@ its own object), NAME.step and NAME.png into $TEXCAD_OUT (default ./out), plus
 paper_samples.json with the table it prints.
 
 $TEXCAD_PITCH sets the pixel pitch in mm (default 0.125: the paper's 800 px per
-100 mm); the tests run it coarser. The STEP of the curved and sine samples is made at
-0.25 mm at most (OCCT's union of finer grid faces with curved faces is slow and, on
-the sine at 0.125 mm, fails); STL and 3MF are always at $TEXCAD_PITCH. Choose rows by
+100 mm); the tests run it coarser. The STEP is made at the same pitch (the textured
+face replaces the base face: no OCCT union, which used to fail on the sine at
+0.125 mm); STL and 3MF are always at $TEXCAD_PITCH. Choose rows by
 name on the command line or in $TEXCAD_SAMPLES (comma-separated), e.g.
 python recipes/paper_samples.py T1-flat T3-curved
 
@@ -54,9 +54,9 @@ THICKNESS = 5.0  # mm, base under the texture
 RADIUS = 80.0  # mm, curved sample (eq. 5)
 AMPLITUDE, PERIOD = 5.0, 50.0  # mm, sinusoidal sample (eq. 9)
 PAPER_PITCH = 0.125  # mm per pixel of the paper's textures (800 px per 100 mm)
-# OCCT's union of a finer grid face with a curved face is slow and can fail (see
-# texcad.pipeline): the STEP of the curved and sine samples is made at this pitch at most.
-STEP_PITCH = 0.25  # mm
+# The STEP of the curved and sine samples is made at this pitch at most (it was 0.25 mm
+# while their B-rep needed OCCT's union; the face is now replaced in place).
+STEP_PITCH = 0.125  # mm
 
 # Table 1: texture -> (built-in to cut the sample from, its parameters,
 #                      sample size (cols, rows) px, patch px, overlap px)

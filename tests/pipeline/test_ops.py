@@ -120,3 +120,27 @@ def test_hole_in_textured_demo_plate():
     drilled = tx - Pos(50, 50, 0) * Cylinder(4, 30)
     _agree(drilled)
     assert tx.volume - drilled.volume > np.pi * 16 * 5
+
+
+def test_pattern_of_textured_part(part, tmp_path):
+    from build123d import Cylinder, GridLocations, Pos, Rot
+
+    box, tx = part
+    grid = tx.patterned(GridLocations(50, 40, 2, 2))  # 40 x 30 mm copies, 10 mm apart
+    assert grid.volume == pytest.approx(4 * tx.volume, rel=1e-9)
+    _agree(grid, bodies=4)
+    turned = tx.patterned([Pos(0, 0, 0), Pos(100, 0, 0) * Rot(0, 0, 90)])
+    _agree(turned, bodies=2)
+    drilled = grid - Pos(25, 20, 0) * Cylinder(3, 50)  # through one copy
+    assert np.pi * 9 * 8 < grid.volume - drilled.volume < np.pi * 9 * 9  # 8 mm of body + up to 1 mm of texture
+    _agree(drilled, bodies=4)
+    grid.export(tmp_path / "grid.step")  # STEP of the pattern: four solids, each with its tiles' meshes
+    text = (tmp_path / "grid.step").read_bytes()
+    assert text.count(b"TESSELLATED_SOLID(") == 4
+    back = texcad.io.read_step(tmp_path / "grid.step")
+    chk = check_shape(back)
+    assert chk["valid"] and chk["solids"] == 4 and occt_volume(back) == pytest.approx(grid.volume, rel=1e-3)
+    with pytest.raises(GeometryError, match="overlap"):
+        tx.patterned([Pos(0, 0, 0), Pos(20, 0, 0)])
+    with pytest.raises(ParameterError, match="rigid"):
+        tx.patterned([np.diag([2.0, 1.0, 1.0, 1.0])])

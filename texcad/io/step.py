@@ -12,6 +12,7 @@ from typing import Any
 from ..errors import GeometryError, InputError
 from ..solid import to_topods
 from ..util import atomic_path
+from .step_tiles import tiled_step_text
 
 __all__ = ["write_step", "read_step"]
 
@@ -41,7 +42,7 @@ _PRODUCT = re.compile(rb"PRODUCT\('[^']*',\s*'[^']*'")
 
 
 def _ascii(text: str) -> str:
-    return re.sub(r"[^ -~]", "_", str(text)).replace("'", "_")
+    return re.sub(r"[^ -~]", "_", str(text)).replace("'", "_").replace(";", "_")
 
 
 def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part", tessellated: bool | None = None) -> None:
@@ -70,25 +71,41 @@ def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part"
     Raises:
         GeometryError: OCCT could not translate or write the shape.
     """
+    topo = to_topods(shape)
+    label = _ascii(name)
+    if tessellated is None:
+        tessellated = _has_tiles(topo)
+    data = None
+    if tessellated:
+        data = tiled_step_text(topo, lambda s: _occt_step(s, label, tessellated=False, ap242=True, path=path))
+    if data is None:
+        if tessellated:
+            _keep_tile_meshes(topo)
+        data = _occt_step(topo, label, tessellated=tessellated, ap242=tessellated, path=path)
+    head, tail = data[:8192], data[8192:]
+    head = _PRODUCT.sub(f"PRODUCT('{label}','{label}'".encode("ascii"), head, count=1)
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            fh.write(head)
+            fh.write(tail)
+
+
+def _occt_step(topo, label: str, *, tessellated: bool, ap242: bool, path) -> bytes:
+    """OCCT's STEP text of ``topo`` in mm with texcad's fixed header; ``tessellated``:
+    the faces' triangulations too; ``ap242``: schema AP242 (else AP214)."""
     from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
     from OCP.IFSelect import IFSelect_RetDone
     from OCP.Interface import Interface_Static
     from OCP.STEPControl import STEPControl_AsIs, STEPControl_Controller, STEPControl_Writer
     from OCP.TCollection import TCollection_HAsciiString
 
-    topo = to_topods(shape)
-    label = _ascii(name)
-    if tessellated is None:
-        tessellated = _has_tiles(topo)
-    if tessellated:
-        _keep_tile_meshes(topo)
     with _Quiet():
         STEPControl_Controller.Init_s()
         Interface_Static.SetCVal_s("write.step.unit", "MM")
         saved = Interface_Static.IVal_s("write.step.tessellated"), Interface_Static.IVal_s("write.step.schema")
         # 1: triangulations written along with the B-rep; 0: not at all. Schema 5: AP242.
         Interface_Static.SetIVal_s("write.step.tessellated", 1 if tessellated else 0)
-        if tessellated:
+        if ap242:
             Interface_Static.SetIVal_s("write.step.schema", 5)
         try:
             writer = STEPControl_Writer()
@@ -108,13 +125,7 @@ def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part"
         buf = io.BytesIO()
         if writer.WriteStream(buf) != IFSelect_RetDone:
             raise GeometryError(f"OCCT could not write the STEP data for {os.fspath(path)!r}")
-    data = buf.getvalue()
-    head, tail = data[:8192], data[8192:]
-    head = _PRODUCT.sub(f"PRODUCT('{label}','{label}'".encode("ascii"), head, count=1)
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            fh.write(head)
-            fh.write(tail)
+    return buf.getvalue()
 
 
 def _has_tiles(topo) -> bool:

@@ -29,6 +29,7 @@ from .ops import (
     cad_op,
     fillet,
     mirror,
+    pattern,
     OPS,
     OP_VOLUME_TOLERANCE,
 )
@@ -70,6 +71,7 @@ __all__ = [
     'cad_op',
     'fillet',
     'mirror',
+    'pattern',
     'OPS',
     'OP_VOLUME_TOLERANCE',
     'plate_base',

@@ -48,9 +48,11 @@ Which faces
   of revolution, B-splines, fillets, partial strips, trimmed faces; a list, a
   ``ShapeList`` or a CadQuery selection; a :class:`Textured` as the part): the general
   method of :mod:`texcad.pipeline.faces` (a texture grid on a parameterization of the
-  face in mm, fused as a mesh; ``Textured.distortion`` reports the texture scale). Those
-  results have no B-rep: ``.shape`` raises ``GeometryError`` naming the STL / 3MF
-  outputs.
+  face in mm, fused as a mesh; ``Textured.distortion`` reports the texture scale). Their
+  B-rep (:mod:`texcad.pipeline.brep_faces`): each face parameterized on its own (u, v)
+  becomes a degree-1 B-spline on that parameter space in its place; faces flattened
+  together, and chained textures, have none: ``.shape`` raises ``GeometryError``
+  naming the STL / 3MF outputs.
 
 Checks: the B-rep must be one valid solid (``BRepCheck``) per input solid and must
 enclose the mesh's volume within 0.1 % (:data:`VOLUME_TOLERANCE`; they differ only by
@@ -68,6 +70,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from ..solid import brep as _brep
+from . import brep_faces as _brep_faces
 from ..solid import as_array, explore, solids_of, to_topods
 from ..errors import GeometryError, ParameterError
 from ..sources import Heightmap
@@ -558,8 +561,9 @@ def _texture_extrusion(
             "limits": [str(x) for x in mapped.limits],
         },
     }
-    def make_shape():
-        return _brep.textured_extrusion_solid(topo, face, top_w, world(bottom), closed=mapped.closed)
+    def make_shape():  # base: the face under the first row's columns (local x, y0, z)
+        base = world(np.insert(profile.point(np.asarray(mapped.s, np.float64)), 1, y_rows[0], axis=1))
+        return _brep_faces.extrusion_brep(topo, face, top_w, world(bottom), closed=mapped.closed, base=base)
 
     result["shape"] = make_shape if make_brep else None
     return result
@@ -691,20 +695,27 @@ def _texture_general(part, topo, prev, faces, texture, *, progress, **opts):
         "face": "faces" if len(res["info"]) > 1 else res["info"][0]["kinds"][0],
         "faces": res["info"],
         "grid": res["info"][0]["grid"],
-        "brep": False,
+        "brep": prev is None,
         "no_brep": (
             f"{', '.join(kinds)} face(s) textured by the general method (a texture grid on the face's "
             "parameterization, fused as a mesh) have no B-rep; write the mesh: export('part.stl') or export('part.3mf')"
         ),
         "distortion": None if res["distortion"] is None else res["distortion"].to_dict(),
         "chained": prev is not None,
+        # the lean mesh may enclose up to its error times the textured area more or less than the grid's B-rep
+        "volume_slack": res["max_error"] * res["textured_area"],
     }
     if opts.get("build_dir") is not None:
         info["build_dir"] = np.asarray(opts["build_dir"]).tolist()
         info["critical_angle"] = float(opts["critical_angle"])
     limits = _general_limits(res, opts) if opts.get("build_dir") is not None else None
+    shape = None
+    if prev is None:  # the B-rep on first use: each face textured on its own (u, v) (texcad.solid.uv_textured_solid)
+        def shape():
+            return checked_brep(lambda: _brep_faces.general_brep(topo, res, info["no_brep"]), topo, res["mesh"], info)
+
     out = Textured(
-        mesh=res["mesh"], texture_mesh=res["texture_mesh"], base_mesh=res["base_mesh"], shape=None,
+        mesh=res["mesh"], texture_mesh=res["texture_mesh"], base_mesh=res["base_mesh"], shape=shape,
         heightmap=res["heightmap"], limits=limits, distortion=res["distortion"], info=info, kind="face",
         max_error=res["max_error"],  # 3-D, lean mesh vs the texture grid (0: the grid itself)
     )

@@ -47,7 +47,10 @@ goes the same way:
    the outline band), bottom = surface - depth n, walls along the outline; all slabs
    are fused onto the base mesh in one manifold3d union (one body per solid checked).
 
-STEP: faces textured this way have no B-rep: ``Textured.shape`` raises
+STEP: a face parameterized on its own ``(u, v)`` (one curved face) gets a B-rep, the
+textured face as a degree-1 B-spline on that parameter space in place of the face
+(:mod:`texcad.pipeline.brep_faces`, :func:`texcad.solid.uv_textured_solid`); faces
+flattened together (bands, LSCM) have none: ``Textured.shape`` raises
 :class:`~texcad.errors.GeometryError` that says so and names the STL / 3MF outputs.
 """
 
@@ -278,6 +281,7 @@ class Param:
     XY: np.ndarray
     period_y: float | None
     method: str
+    tables: tuple | None = None  # one curved face: (u table, v table, closed around u)
 
 
 def _param(pm: PartMesh, patch: list[int], tile: tuple[float, float] | None, rotation: float) -> Param:
@@ -296,7 +300,8 @@ def _param(pm: PartMesh, patch: list[int], tile: tuple[float, float] | None, rot
             period = around if tile is None else max(1, round(around / tile[1])) * tile[1]
             ut = (ut[0], ut[1] * (period / around))
         XY = separable_coordinates(fm.uv, ut, vt)
-        return Param(fm.points, fm.tris, XY, period, "face (u, v) by arc length" + (", whole tiles around" if closed else ""))
+        return Param(fm.points, fm.tris, XY, period, "face (u, v) by arc length" + (", whole tiles around" if closed else ""),
+                     (ut, vt, closed))  # fmt: skip
     # Several faces: the welded mesh of the patch.
     m = pm.mesh
     tmask = np.isin(pm.face_of_tri, patch)
@@ -496,7 +501,8 @@ def _patch_relief(pm: PartMesh, patch: list[int], tex: Any, opts: dict) -> dict:
     hmap = Heightmap(shown.astype(np.float32), (g["px"], g["py"]))
     return {"slab": bodies["slab"], "cutter": bodies["cutter"], "low_cutter": bodies["low_cutter"], "info": info,
             "distortion": dist, "heightmap": hmap, "grid": grid, "limited": bool(surf["limited"].any()),
-            "h_top": s_top, "cells": g["cells"], "max_error": bodies["error"]}
+            "h_top": s_top, "signed": surf["c"] > 0, "cells": g["cells"], "max_error": bodies["error"],
+            "tables": g["par"].tables, "face": pm.faces[patch[0]].face if len(patch) == 1 else None}
 
 
 def _patch_grid(pm: PartMesh, patch: list[int], tex: Any, opts: dict) -> dict:
@@ -915,6 +921,8 @@ def texture_any_faces(topo, faces: list, tex: Any, *, base_mesh: Mesh | None = N
         "face_indices": idx,
         "solids": len(solids_of(topo)),
         "max_error": max(r["max_error"] for r in reliefs),
+        "textured_area": float(sum(r["cells"].sum() * np.prod(r["heightmap"].pitch) for r in reliefs)),
+        "reliefs": reliefs,  # for the B-rep (texcad.pipeline.cad: texcad.solid.uv_textured_solid)
     }
 
 

@@ -14,6 +14,9 @@
   is the filleted *untextured* part (OCCT, tessellated at 5 um) united with the
   texture mesh (manifold3d).
 * :func:`mirror` (``Textured.mirrored``): meshes and B-rep mirrored about a plane.
+* :func:`pattern` (``Textured.patterned``): copies at a list of placements (a linear
+  or polar pattern), which must not overlap: the meshes side by side, the B-rep a
+  compound of transformed copies (geometry and tile meshes copied).
 
 Every B-rep result must be valid (``BRepCheck_Analyzer``), have as many solids as the
 mesh and enclose the mesh's volume within :data:`OP_VOLUME_TOLERANCE`, integrated by
@@ -39,10 +42,11 @@ from ..solid import (
     shape_to_mesh,
     to_manifold,
     to_topods,
+    transformed_shape,
     volume,
 )
 
-__all__ = ["cad_op", "fillet", "mirror", "OPS", "OP_VOLUME_TOLERANCE"]
+__all__ = ["cad_op", "fillet", "mirror", "pattern", "OPS", "OP_VOLUME_TOLERANCE"]
 
 #: The boolean operations.
 OPS = ("cut", "fuse", "common")
@@ -87,14 +91,13 @@ def _trsf(m: np.ndarray):
 
 def _apply(shape, m: np.ndarray):
     """``shape`` moved (rigid) or mirrored by the ``(3, 4)`` matrix ``m``."""
-    from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
     from OCP.TopLoc import TopLoc_Location
 
     if np.allclose(m, np.eye(3, 4), rtol=0, atol=1e-12):
         return shape
     if np.linalg.det(m[:, :3]) > 0:
         return shape.Moved(TopLoc_Location(_trsf(m)))
-    return BRepBuilderAPI_Transform(shape, _trsf(m), True).Shape()
+    return transformed_shape(shape, m)  # a copy with its tiles' meshes (STEP keeps them)
 
 
 def _history(part: Any) -> dict:
@@ -385,3 +388,111 @@ def mirror(part: Any, origin: Sequence[float] = (0.0, 0.0, 0.0), normal: Sequenc
         info=info,
         hist=hist,
     )
+
+
+def _placements(locations: Any) -> list[np.ndarray]:
+    """``(3, 4)`` matrices of a pattern's placements: a build123d ``Locations`` /
+    ``GridLocations`` / ``PolarLocations``, or a list of ``Location``s, ``Pos``es or
+    matrices."""
+    from .result import _matrix
+
+    items = getattr(locations, "locations", locations)
+    if hasattr(items, "wrapped") or (isinstance(items, np.ndarray) and items.ndim == 2):
+        items = [items]
+    mats = [_matrix(loc) for loc in items]  # one per copy
+    if not mats:
+        raise ParameterError("a pattern needs at least one placement, e.g. [Pos(0, 0, 0), Pos(120, 0, 0)]")
+    for m in mats:  # one per copy
+        if not np.allclose(m[:, :3].T @ m[:, :3], np.eye(3), atol=1e-9):
+            raise ParameterError("pattern placements must be rigid (rotations and translations, or mirrors)")
+    return mats
+
+
+def pattern(part: Any, locations: Any) -> Any:
+    """Copies of ``part`` at each of ``locations`` (placements relative to where the
+    part is now, mm and degrees: ``GridLocations(120, 0, 3, 1)``, ``PolarLocations(60,
+    6)``, ``[Pos(0, 0, 0), Pos(0, 120, 0)]``, or ``(3, 4)`` matrices), as one result
+    with one body per copy and body of ``part``.
+
+    The mesh holds the moved copies side by side; the B-rep (on first use) is a
+    compound of the copies (:func:`texcad.solid.transformed_shape`: geometry and the
+    tiles' meshes copied), checked like every operation (valid, one solid per body,
+    volume within :data:`OP_VOLUME_TOLERANCE` of the mesh's).
+
+    Raises:
+        ParameterError: no placement or a non-rigid one.
+        GeometryError: copies overlap or touch (fuse such copies with ``+``).
+    """
+    mats = _placements(locations)
+    bodies = len(to_manifold(part.mesh).decompose())
+    copies = [_placed(part.mesh, m) for m in mats]
+    _disjoint(copies, bodies)
+    mesh = _side_by_side(copies)
+    info = _info(part, f"pattern x{len(copies)}")
+    shape = None
+    if part._shape is not None:
+
+        def shape():
+            from OCP.BRep import BRep_Builder
+            from OCP.TopoDS import TopoDS_Compound
+
+            src = part.shape
+            b, comp = BRep_Builder(), TopoDS_Compound()
+            b.MakeCompound(comp)
+            for m in mats:  # one per copy
+                b.Add(comp, src if np.allclose(m, np.eye(3, 4), rtol=0, atol=1e-12) else transformed_shape(src, m))
+            return _checked(comp, mesh, "pattern", bodies * len(copies), info)
+
+    out = _derived(
+        part,
+        mesh=mesh,
+        texture_mesh=lambda: _side_by_side([_placed(part.texture_mesh, m) for m in mats]),
+        base_mesh=lambda: _side_by_side([_placed(part.base_mesh, m) for m in mats]),
+        shape=shape,
+        info=info,
+        hist=None,
+    )
+    return out  # later operations start from the compound (no history: _cad_history is None)
+
+
+def _disjoint(copies: list, bodies: int) -> None:
+    """Raise unless the meshes ``copies`` (each ``bodies`` bodies) are apart: where
+    bounding boxes meet, their manifold3d union must keep every body and the volume."""
+    lo = np.array([c.vertices.min(axis=0) for c in copies], np.float64)
+    hi = np.array([c.vertices.max(axis=0) for c in copies], np.float64)
+    meet = ((lo[:, None] <= hi[None] + 1e-6) & (lo[None] <= hi[:, None] + 1e-6)).all(axis=2)
+    if meet.sum() == len(copies):  # each box meets only itself
+        return
+    mans = [to_manifold(c) for c in copies]
+    union = mans[0]
+    for m in mans[1:]:  # one per copy
+        union = union + m
+    total = sum(m.volume() for m in mans)
+    if len(union.decompose()) != bodies * len(copies) or abs(union.volume() - total) > 1e-6 * abs(total):
+        raise GeometryError(
+            f"the {len(copies)} copies of the pattern overlap or touch; space them further apart, or fuse such "
+            "copies with + (textured + textured.moved(Pos(...)))"
+        )
+
+
+def _side_by_side(meshes: list) -> Mesh:
+    """One mesh holding ``meshes`` (their groups kept, renumbered)."""
+    offs = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])
+    toff = np.cumsum([0] + [m.num_triangles for m in meshes[:-1]])
+    groups: dict = {}
+    for m, t in zip(meshes, toff):  # one per copy
+        for k, g in m.groups.items():  # a few groups
+            groups.setdefault(k, []).append(np.asarray(g, np.int64) + t)
+    return Mesh(
+        np.concatenate([m.vertices for m in meshes]).astype(np.float32),
+        np.concatenate([m.faces.astype(np.int64) + o for m, o in zip(meshes, offs)]).astype(np.uint32),
+        {k: np.concatenate(v).astype(np.uint32) for k, v in groups.items()},
+    )
+
+
+def _placed(mesh: Mesh, m: np.ndarray) -> Mesh:
+    """``mesh`` moved by the rigid ``(3, 4)`` matrix ``m`` (a mirror turns the triangles)."""
+    if np.linalg.det(m[:, :3]) < 0:
+        return _mirrored_mesh(mesh, m)
+    v = mesh.vertices.astype(np.float64) @ m[:, :3].T + m[:, 3]
+    return Mesh(v.astype(np.float32), mesh.faces, mesh.groups)

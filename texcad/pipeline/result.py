@@ -244,6 +244,14 @@ class Textured:
 
         return mirror(self, origin, normal)
 
+    def patterned(self, locations: Any) -> "Textured":
+        """Copies at ``locations`` (build123d ``GridLocations`` / ``PolarLocations`` /
+        ``Locations``, a list of ``Pos``/``Location``s or ``(3, 4)`` matrices; mm and
+        degrees), which must not overlap; see :func:`texcad.pipeline.ops.pattern`."""
+        from .ops import pattern
+
+        return pattern(self, locations)
+
     # -- output --------------------------------------------------------------------------
     def export(self, path: "str | os.PathLike", *, separate_texture: bool = False, name: str | None = None) -> Path:
         """Write by the file's extension: ``.stl`` (binary, mm) and ``.3mf`` from the

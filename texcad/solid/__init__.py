@@ -10,6 +10,10 @@ from .boolean import (
     fuse,
     retain_freed_memory,
 )
+from .brep_faces import (
+    uv_textured_solid,
+    open_extrusion_solid,
+)
 from .brep import (
     grid_surface,
     grid_face,
@@ -17,6 +21,8 @@ from .brep import (
     textured_plane_face,
     replace_face,
     tiled_grid_faces,
+    tile_grid,
+    transformed_shape,
     tiled_plane_solid,
     textured_plane_solid,
     textured_band_solid,
@@ -90,6 +96,10 @@ __all__ = [
     'textured_plane_face',
     'replace_face',
     'tiled_grid_faces',
+    'tile_grid',
+    'uv_textured_solid',
+    'open_extrusion_solid',
+    'transformed_shape',
     'tiled_plane_solid',
     'textured_plane_solid',
     'textured_band_solid',

@@ -50,6 +50,7 @@ its adaptive variant, which follows the knots.
 from __future__ import annotations
 
 import io
+from collections import OrderedDict
 from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
@@ -68,6 +69,8 @@ __all__ = [
     "textured_plane_face",
     "replace_face",
     "tiled_grid_faces",
+    "tile_grid",
+    "transformed_shape",
     "tiled_plane_solid",
     "textured_plane_solid",
     "textured_band_solid",
@@ -984,7 +987,8 @@ def _tile_text(grids: list, us: list, vs: list, triangulate: bool) -> str:
         rows, cols = g.shape[:2]
         surfs += [
             f"9 0 0 0 0 1 1 {cols} {rows} {cols} {rows}\n",
-            _fmt("%.12g %.12g %.12g\n", np.ascontiguousarray(g.transpose(1, 0, 2))),
+            # 17 digits: the surface holds the grid's own numbers (tile_grid's and the STEP's).
+            _fmt("%.17g %.17g %.17g\n", np.ascontiguousarray(g.transpose(1, 0, 2))),
             _knot_lines(u),
             _knot_lines(v),
         ]
@@ -1127,6 +1131,63 @@ def _patch_boundary(edges: dict, R: int, C: int, wrap: bool):
     return along(True, 0, False) + along(False, C, False) + along(True, R, True) + along(False, 0, True)
 
 
+#: Poles remembered by :func:`tile_grid` (the most recent tiles' surfaces, at most this many
+#: poles in all, about 100 MB; older ones are forgotten and read back from OCCT instead).
+TILE_MEMORY = 4_000_000
+_TILES: "OrderedDict[int, tuple]" = OrderedDict()
+_TILE_POLES = [0]
+
+
+def _remember_tile(surface, grid: np.ndarray, u: np.ndarray, v: np.ndarray) -> None:
+    """Keep a tile's grid (mm) next to its OCCT surface for :func:`tile_grid` (the
+    surface object is kept alive with it, so its Python identity stays its own)."""
+    _TILES[id(surface)] = (surface, grid, u, v, grid.shape[0] * grid.shape[1])
+    _TILE_POLES[0] += grid.shape[0] * grid.shape[1]
+    while _TILE_POLES[0] > TILE_MEMORY and len(_TILES) > 1:  # the oldest tiles first
+        _TILE_POLES[0] -= _TILES.popitem(last=False)[1][4]
+
+
+def tile_grid(surface) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The ``(grid (R, C, 3) mm, u (C,), v (R,))`` of a texture tile's degree-1
+    B-spline surface (:func:`tiled_grid_faces`), the same numbers the surface holds,
+    without reading its poles through OCCT one by one; None when this surface is not a
+    remembered tile (then :func:`surface_grid` reads it)."""
+    got = _TILES.get(id(surface))
+    if got is None or got[0] is not surface:
+        return None
+    return got[1], got[2], got[3]
+
+
+def transformed_shape(shape: Any, matrix: np.ndarray):
+    """``shape`` moved or mirrored by the ``(3, 4)`` matrix ``matrix`` (mm), geometry
+    and triangulations copied (``BRepBuilderAPI_Transform``, no locations: texcad's
+    STEP writer and OCCT's mesher see the tiles as tiles); the copies of texture tiles
+    are remembered with their transformed grids (:func:`tile_grid`).
+
+    Raises:
+        ParameterError: ``matrix`` is not ``(3, 4)`` with a non-singular rotation part.
+    """
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
+    from OCP.gp import gp_Trsf
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+
+    m = np.asarray(matrix, np.float64)
+    if m.shape != (3, 4) or abs(np.linalg.det(m[:, :3])) < 1e-12:
+        raise ParameterError(f"a placement must be a (3, 4) matrix with an invertible rotation, got {m.shape}")
+    t = gp_Trsf()
+    t.SetValues(*[float(m[i, j]) for i in range(3) for j in range(4)])
+    topo = to_topods(shape)
+    mk = BRepBuilderAPI_Transform(topo, t, True, True)
+    for f in explore(topo, TopAbs_FACE):  # one per face
+        got = tile_grid(BRep_Tool.Surface_s(TopoDS.Face_s(f)))
+        if got is not None:
+            new = BRep_Tool.Surface_s(TopoDS.Face_s(mk.ModifiedShape(f)))
+            _remember_tile(new, got[0] @ m[:, :3].T + m[:, 3], got[1], got[2])
+    return mk.Shape()
+
+
 def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: list, faces: list, wrap_x: bool = False):
     """Give the tile faces (``leaves`` ``(r0, r1, c0, c1)`` of the grid ``g``) shared
     vertices and edges, split at every tile corner on a side, with straight pcurves;
@@ -1138,6 +1199,8 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
     from OCP.TopoDS import TopoDS_Edge, TopoDS_Vertex, TopoDS_Wire
 
     surf = {k: BRep_Tool.Surface_s(f) for k, f in enumerate(faces)}  # one per tile
+    for k, (r0, r1, c0, c1) in enumerate(leaves):  # one per tile
+        _remember_tile(surf[k], g[r0 : r1 + 1, c0 : c1 + 1], x[c0 : c1 + 1], y[r0 : r1 + 1])
     corners = np.array([(l[0], l[2]) for l in leaves] + [(l[0], l[3]) for l in leaves]
                        + [(l[1], l[2]) for l in leaves] + [(l[1], l[3]) for l in leaves])  # fmt: skip
     corners = np.unique(corners, axis=0)

@@ -1,0 +1,408 @@
+"""B-rep of faces textured by the general method (cones, spheres, tori, surfaces of
+revolution, B-spline faces, partial cylinders): the textured face as a degree-1
+B-spline **on the face's own parameter space**, in place of the face, without a
+boolean.
+
+A face parameterized by its own ``(u, v)`` corrected by the metric (texture ``y =
+Y(u)``, ``x = X(v)``, :func:`texcad.mapping.separable_coordinates`) carries a texture
+grid whose rows are iso-``u`` and columns iso-``v`` lines. The new surface has the
+knots ``u0, u(y_0), ..., u(y_R-1), u1`` and ``v0, v(x_0), ..., v1`` (the face's UV
+bounds around the grid's own parameters) and the poles ``P + h n`` (texcad's grid
+points and heights, ``h >= 0``: where the mesh's relief dips under the face the face
+shows); its boundary rows are the face's boundary, evaluated by OCCT (the relief is
+ramped to 0 mm there). The face's wires, edges and pcurves (in the same ``(u, v)``)
+are kept; the edges' tolerances grow by the chord of the boundary rows (sampled),
+and on a closed face the seam edge is replaced by the lifted seam row (the texture
+runs on across it). The face carries its grid's triangulation (texcad's mesh, two
+triangles per cell), which OCCT's mesher and texcad's STEP writer keep.
+
+Faces this does not apply to (several faces flattened together, trimmed faces whose
+outline is not the UV rectangle, an invalid grid point) raise ``GeometryError``
+saying so; the meshes (STL, 3MF) are unaffected.
+"""
+
+from __future__ import annotations
+
+import io
+from typing import Any
+
+import numpy as np
+
+from ..errors import GeometryError
+from .brep import TOLERANCE, _remember_tile, _replace_faces, _tile_text
+from .occt import explore, to_topods
+
+__all__ = ["uv_textured_solid", "open_extrusion_solid"]
+
+
+def _surface_rows(face, u: np.ndarray, v: np.ndarray):
+    """Points and outward unit normals ``(len(u), len(v), 3)`` of a face's surface at
+    ``u x v`` (OCCT, one call per point: boundary rows only)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.gp import gp_Pnt, gp_Vec
+    from OCP.TopAbs import TopAbs_REVERSED
+
+    ad = BRepAdaptor_Surface(face, False)
+    sign = -1.0 if face.Orientation() == TopAbs_REVERSED else 1.0
+    pts = np.zeros((len(u), len(v), 3))
+    nrm = np.zeros((len(u), len(v), 3))
+    p, du, dv = gp_Pnt(), gp_Vec(), gp_Vec()
+    for i, a in enumerate(u.tolist()):  # per boundary sample
+        for j, b in enumerate(v.tolist()):
+            ad.D1(a, b, p, du, dv)
+            pts[i, j] = p.Coord()
+            n = np.cross(du.Coord(), dv.Coord())
+            nrm[i, j] = sign * n / max(float(np.linalg.norm(n)), 1e-300)
+    return pts, nrm
+
+
+def _poles(face, item: dict):
+    """Knots ``u (Nu,)``, ``v (Nv,)`` and poles ``(Nu, Nv, 3)`` mm of the textured face."""
+    from OCP.BRepTools import BRepTools
+    from OCP.TopAbs import TopAbs_FORWARD
+    from OCP.TopoDS import TopoDS
+
+    fwd = TopoDS.Face_s(face.Oriented(TopAbs_FORWARD))
+    u0, u1, v0, v1 = BRepTools.UVBounds_s(fwd)
+    ut, vt = item["u_table"], item["v_table"]
+    ur = np.interp(item["ys"], ut[1], ut[0])
+    vc = np.interp(item["xs"], vt[1], vt[0])
+    eu, ev = 1e-9 * (abs(u1 - u0) + 1.0), 1e-9 * (abs(v1 - v0) + 1.0)
+    rows = (ur > u0 + eu) & (ur < u1 - eu)
+    cols = (vc > v0 + ev) & (vc < v1 - ev)
+    valid = item["valid"][np.ix_(rows, cols)]
+    if rows.sum() < 1 or cols.sum() < 1 or (~valid).sum() > 0.05 * valid.size:
+        raise GeometryError(f"the texture grid does not cover the face's (u, v) rectangle ({int((~valid).sum())} points off it)")
+    h = item["heights"][np.ix_(rows, cols)]  # signed (engraved, centred) or raised (its dip under the face cut off)
+    h = np.where(valid, h if item.get("signed") else np.maximum(h, 0.0), 0.0)
+    inner = item["points"][np.ix_(rows, cols)] + h[..., None] * item["normals"][np.ix_(rows, cols)]
+    u = np.concatenate([[u0], ur[rows], [u1]])
+    v = np.concatenate([[v0], vc[cols], [v1]])
+    ri, ci = np.nonzero(~valid)  # grid points the tessellation missed (near a pole): on the surface itself
+    for a, c in zip(ri.tolist(), ci.tolist()):  # a few points (at most 5 % of the grid)
+        inner[a, c] = _surface_rows(face, u[1:-1][[a]], v[1:-1][[c]])[0][0, 0]
+    top = np.zeros((len(u), len(v), 3))
+    top[1:-1, 1:-1] = inner
+    edge_u, _ = _surface_rows(face, u, v[[0, -1]])  # the v0 and v1 boundaries (the relief is 0 there)
+    top[:, 0], top[:, -1] = edge_u[:, 0], edge_u[:, 1]
+    seam, seam_n = _surface_rows(face, u[[0, -1]], v)
+    if item["closed_u"]:  # the texture runs on across the seam: its height between the last and first rows
+        hs = np.zeros(len(v))
+        hs[1:-1] = 0.5 * (h[0] + h[-1])
+        top[0] = top[-1] = seam[0] + hs[:, None] * seam_n[0]
+    else:
+        top[0], top[-1] = seam[0], seam[1]
+    return u, v, top
+
+
+def _grid_face(u: np.ndarray, v: np.ndarray, top: np.ndarray):
+    """A natural-bounds degree-1 face through ``top`` (u along columns of the pole
+    grid) carrying the grid's triangulation; returns ``(surface, triangulation)``."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRepTools import BRepTools
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS, TopoDS_Iterator, TopoDS_Shape
+
+    grid = np.ascontiguousarray(top.transpose(1, 0, 2))  # (Nv, Nu, 3): rows along v, columns along u
+    comp = TopoDS_Shape()
+    BRepTools.Read_s(comp, io.BytesIO(_tile_text([grid], [u], [v], True).encode("ascii")), BRep_Builder())
+    it = TopoDS_Iterator(comp)
+    if comp.IsNull() or not it.More():
+        raise GeometryError("OCCT could not read the textured face's surface")
+    f = TopoDS.Face_s(it.Value())
+    surf = BRep_Tool.Surface_s(f)
+    _remember_tile(surf, grid, u, v)
+    return surf, BRep_Tool.Triangulation_s(f, TopLoc_Location())
+
+
+def _bilinear(u: np.ndarray, v: np.ndarray, top: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """The degree-1 surface through ``top`` at parameters ``q (n, 2)``."""
+    i = np.clip(np.searchsorted(u, q[:, 0]) - 1, 0, len(u) - 2)
+    j = np.clip(np.searchsorted(v, q[:, 1]) - 1, 0, len(v) - 2)
+    s = ((q[:, 0] - u[i]) / (u[i + 1] - u[i]))[:, None]
+    t = ((q[:, 1] - v[j]) / (v[j + 1] - v[j]))[:, None]
+    return (1 - s) * (1 - t) * top[i, j] + s * (1 - t) * top[i + 1, j] + (1 - s) * t * top[i, j + 1] + s * t * top[i + 1, j + 1]
+
+
+def _edge_deviation(edge, fwd, u: np.ndarray, v: np.ndarray, top: np.ndarray) -> float:
+    """Largest distance (mm) between an edge's 3-D curve and its pcurve on the new
+    surface, sampled four times per grid cell it crosses (one OCCT call per sample:
+    an outline's thousands)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve, BRepAdaptor_Curve2d
+
+    c3, c2 = BRepAdaptor_Curve(edge), BRepAdaptor_Curve2d(edge, fwd)
+    t0, t1 = c2.FirstParameter(), c2.LastParameter()
+    n = 4 * (len(u) + len(v)) + 8
+    ts = np.linspace(t0, t1, n)
+    q = np.array([c2.Value(float(t)).Coord() for t in ts])  # per sample
+    p = np.array([c3.Value(float(t)).Coord() for t in ts])
+    return float(np.linalg.norm(_bilinear(u, v, top, q) - p, axis=1).max())
+
+
+def _u_seam(edge, fwd, u: np.ndarray) -> bool:
+    """Is this seam edge the one at ``u = u0`` (its pcurve runs along v)?"""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve2d
+
+    c2 = BRepAdaptor_Curve2d(edge, fwd)
+    a, b = c2.Value(c2.FirstParameter()), c2.Value(c2.LastParameter())
+    return abs(a.X() - b.X()) < 1e-9 * (abs(u[-1] - u[0]) + 1.0)
+
+
+def _seam_edge(b, e, fwd, surf, u, v, top):
+    """The new seam edge (the lifted grid row at ``u0``, running along v) for the old
+    seam ``e``: ``(edge, pcurve of its forward use, of its reversed use, same
+    direction as e)``."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve2d
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.gp import gp_Dir2d, gp_Pnt2d
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED, TopAbs_VERTEX
+    from OCP.TopoDS import TopoDS, TopoDS_Edge
+
+    ne = TopoDS_Edge()
+    b.MakeEdge(ne, surf.UIso(float(u[0])), TOLERANCE)
+    ends = explore(e, TopAbs_VERTEX)
+    pts = [np.array(BRep_Tool.Pnt_s(TopoDS.Vertex_s(x)).Coord()) for x in ends]
+    first = int(np.argmin([np.linalg.norm(p - top[0, 0]) for p in pts]))
+    b.Add(ne, ends[first].Oriented(TopAbs_FORWARD))
+    b.Add(ne, ends[1 - first if len(ends) > 1 else 0].Oriented(TopAbs_REVERSED))
+    b.Range(ne, float(v[0]), float(v[-1]))
+    cf = BRepAdaptor_Curve2d(TopoDS.Edge_s(e.Oriented(TopAbs_FORWARD)), fwd)
+    cr = BRepAdaptor_Curve2d(TopoDS.Edge_s(e.Oriented(TopAbs_REVERSED)), fwd)
+    up = cf.Value(cf.LastParameter()).Y() > cf.Value(cf.FirstParameter()).Y()
+    uf, ur = cf.Value(cf.FirstParameter()).X(), cr.Value(cr.FirstParameter()).X()
+    if not up:  # the new edge runs the other way: its forward use is the old reversed one
+        uf, ur = ur, uf
+    lines = [Geom2d_Line(gp_Pnt2d(float(a), 0.0), gp_Dir2d(0.0, 1.0)) for a in (uf, ur)]
+    return ne, lines[0], lines[1], up
+
+
+def _new_face(face, u, v, top):
+    """The textured face replacing ``face`` (same wires, same orientation; a new seam
+    edge on a closed face)."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FORWARD, TopAbs_REVERSED, TopAbs_VERTEX
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS, TopoDS_Edge, TopoDS_Face, TopoDS_Iterator, TopoDS_Wire
+
+    fwd = TopoDS.Face_s(face.Oriented(TopAbs_FORWARD))
+    surf, tri = _grid_face(u, v, top)
+    b = BRep_Builder()
+    new = TopoDS_Face()
+    b.MakeFace(new, surf, TopLoc_Location(), TOLERANCE)
+    seams: dict = {}
+    wires = []
+    wit = TopoDS_Iterator(fwd)
+    while wit.More():  # one per wire
+        w = TopoDS_Wire()
+        b.MakeWire(w)
+        eit = TopoDS_Iterator(wit.Value())
+        while eit.More():  # one per edge of the wire
+            e = TopoDS.Edge_s(eit.Value())
+            if BRep_Tool.IsClosed_s(e, fwd) and _u_seam(e, fwd, u):  # the seam: the lifted row at u0 (u1 the same points)
+                key = next((k for k in seams if k.IsSame(e)), None)
+                if key is None:
+                    seams[e] = _seam_edge(b, e, fwd, surf, u, v, top)
+                    key = e
+                ne, _, _, up = seams[key]
+                b.Add(w, ne.Oriented(e.Orientation() if up else e.Reversed().Orientation()))
+            else:
+                b.Add(w, e)
+            eit.Next()
+        w.Closed(True)
+        wires.append(w)
+        wit.Next()
+    for w in wires:  # one per wire
+        b.Add(new, w)
+    for e in explore(fwd, TopAbs_EDGE):  # the kept edges: pcurves on the new surface, tolerance
+        edge = TopoDS.Edge_s(e)
+        if BRep_Tool.IsClosed_s(edge, fwd):
+            if _u_seam(edge, fwd, u):
+                continue
+            c1 = BRep_Tool.CurveOnSurface_s(TopoDS.Edge_s(edge.Oriented(TopAbs_FORWARD)), fwd, 0.0, 0.0)
+            c2 = BRep_Tool.CurveOnSurface_s(TopoDS.Edge_s(edge.Oriented(TopAbs_REVERSED)), fwd, 0.0, 0.0)
+            b.UpdateEdge(edge, c1, c2, new, BRep_Tool.Tolerance_s(edge))  # a seam along u (a torus's tube): kept
+        else:
+            b.UpdateEdge(edge, BRep_Tool.CurveOnSurface_s(edge, fwd, 0.0, 0.0), new, BRep_Tool.Tolerance_s(edge))
+        if BRep_Tool.Degenerated_s(edge):  # a pole (a point): its pcurve is all it has
+            continue
+        dev = _edge_deviation(edge, fwd, u, v, top)
+        tol = max(BRep_Tool.Tolerance_s(edge), 1.5 * dev + TOLERANCE)
+        b.UpdateEdge(edge, tol)
+        for x in explore(edge, TopAbs_VERTEX):  # its two vertices
+            vx = TopoDS.Vertex_s(x)
+            b.UpdateVertex(vx, max(BRep_Tool.Tolerance_s(vx), tol))
+    for ne, c1, c2, _ in seams.values():  # the seam's two pcurves (u = u0 and u = u1)
+        b.UpdateEdge(ne, c1, c2, new, TOLERANCE)
+    b.UpdateFace(new, tri)
+    return new if face.Orientation() != TopAbs_REVERSED else TopoDS.Face_s(new.Oriented(TopAbs_REVERSED))
+
+
+def uv_textured_solid(shape: Any, items: list):
+    """``shape`` with faces textured on their own parameter space (see the module).
+
+    Args:
+        shape: the untextured part.
+        items: one dict per face: ``face`` (OCP face of ``shape``), ``points``,
+            ``normals`` ``(R, C, 3)`` (texcad's grid on the face, mm, outward),
+            ``heights`` ``(R, C)`` mm, ``valid`` ``(R, C)`` bool, ``xs (C,)``, ``ys
+            (R,)`` texture mm of the columns and rows, ``u_table``, ``v_table`` the
+            ``(parameter, mm)`` tables (``y = Y(u)``, ``x = X(v)``), ``closed_u``.
+
+    Raises:
+        GeometryError: a face's grid does not cover its (u, v) rectangle.
+    """
+    topo = to_topods(shape)
+    swaps = []
+    for item in items:  # one per face
+        from OCP.TopoDS import TopoDS
+
+        face = TopoDS.Face_s(to_topods(item["face"]))
+        u, v, top = _poles(face, item)
+        swaps.append((face, [_new_face(face, u, v, top)]))
+    return _replace_faces(topo, swaps)
+
+
+class _Projector:
+    """Points projected onto a surface (mm -> ``(u, v)``), each starting from the last
+    answer (``ShapeAnalysis_Surface::NextValueOfUV``: Newton steps, fast along a grid
+    line; OCCT's global search only for the first point)."""
+
+    def __init__(self, surf):
+        from OCP.ShapeAnalysis import ShapeAnalysis_Surface
+
+        self.sas = ShapeAnalysis_Surface(surf)
+        self.last = None
+
+    def __call__(self, p: np.ndarray) -> tuple[float, float]:
+        from OCP.gp import gp_Pnt
+
+        q = gp_Pnt(*map(float, p))
+        uv = self.sas.ValueOfUV(q, 1e-9) if self.last is None else self.sas.NextValueOfUV(self.last, q, 1e-9)
+        self.last = uv
+        return float(uv.X()), float(uv.Y())
+
+    def point(self, u: float, v: float) -> np.ndarray:
+        return np.array(self.sas.Value(u, v).Coord())
+
+
+def open_extrusion_solid(shape: Any, face: Any, top: np.ndarray, base: np.ndarray | None = None):
+    """``shape`` with a face of an open extruded profile (a partial cylinder, the
+    sine sample's top) textured in place, **without a boolean**: the texture grid
+    ``top`` (``(R, C, 3)`` mm; rows across the extrusion, columns along the profile,
+    half a pixel inside the face, with walls at its border as texcad's mesh has) on
+    the face's own ``(u, v)``, framed by rows of the face itself: its boundary, and
+    ``1e-3`` of a cell inside the grid's border the face again (h = 0) - the
+    mesh's walls, upright within that.
+
+    The grid's parameters come from projecting its first column and, for the columns,
+    ``base`` (``(C, 3)`` mm: the face's point under each column of the first row;
+    without it the grid's first row) onto the surface; the surface's ``u`` and ``v``
+    must follow the columns and rows (an extrusion: checked on the last row). The walls rise from the face under each border line (where the
+    texture is lifted along z, e.g. the distance mapping, texcad's mesh walls meet
+    the face up to h tan(slope) away: 0.07 mm on the sine sample).
+
+    Returns:
+        The new shape, or None where the face is not such an extrusion.
+    """
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.BRepTools import BRepTools
+    from OCP.gp import gp_Pnt, gp_Vec
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopoDS import TopoDS
+
+    old = TopoDS.Face_s(to_topods(face))
+    fwd = TopoDS.Face_s(old.Oriented(TopAbs_FORWARD))
+    g = np.asarray(top, np.float64)
+    R, C = g.shape[:2]
+    surf = BRep_Tool.Surface_s(fwd)
+    proj = _Projector(surf)
+    ad = BRepAdaptor_Surface(fwd, False)
+    p, du, dv = gp_Pnt(), gp_Vec(), gp_Vec()
+
+    def normal(a, c):
+        ad.D1(a, c, p, du, dv)
+        n = np.cross(du.Coord(), dv.Coord())
+        return n / max(float(np.linalg.norm(n)), 1e-300)
+
+    try:
+        row = np.array([proj(q) for q in g[0]])  # per column
+        col = np.array([proj(q) for q in g[:, 0]])  # per row
+    except RuntimeError:
+        return None
+    swap = np.ptp(row[:, 0]) < np.ptp(row[:, 1])  # the columns follow v: transpose
+    uc, vr = (row[:, 1], col[:, 0]) if swap else (row[:, 0], col[:, 1])
+    step = max(1, C // 8)
+    if base is not None and not swap:  # the columns' parameter: the face's point under each column
+        uc = np.array([proj(q)[0] for q in np.asarray(base, np.float64)])  # per column
+        last = uc[::step]  # the same under every row of an extrusion (dS/dv is checked below)
+    else:
+        last = np.array([proj(q) for q in g[-1, ::step]])[:, 1 if swap else 0]
+    if np.abs(last - uc[::step]).max() > 1e-6 * (np.ptp(uc) + 1.0):
+        return None  # the columns' parameter changes along them: not an extrusion's grid
+    grid = g.transpose(1, 0, 2) if not swap else g  # axis 0 along u
+    pu, pv = (uc, vr) if not swap else (vr, uc)
+    if not (np.all(np.diff(pu) > 0) or np.all(np.diff(pu) < 0)) or not (np.all(np.diff(pv) > 0) or np.all(np.diff(pv) < 0)):
+        return None
+    if pu[0] > pu[-1]:
+        pu, grid = pu[::-1], grid[::-1]
+    if pv[0] > pv[-1]:
+        pv, grid = pv[::-1], grid[:, ::-1]
+    u0, u1, v0, v1 = BRepTools.UVBounds_s(fwd)
+    ku, kv = _framed(pu, u0, u1), _framed(pv, v0, v1)
+    if ku is None or kv is None:
+        return None
+    (U, su, gi), (V, sv, gj) = ku, kv
+
+    def along_u(params):  # S(params, v0) and dS/dv there (one OCCT call per knot)
+        pts, ds = [], []
+        for a in params.tolist():  # per knot
+            ad.D1(a, v0, p, du, dv)
+            pts.append(p.Coord())
+            ds.append(dv.Coord())
+        return np.array(pts), np.array(ds)
+
+    base, deriv = along_u(su)
+    edge, _ = along_u(U)
+    if np.abs(deriv - deriv[0]).max() > 1e-9 * (np.linalg.norm(deriv[0]) + 1.0):
+        return None  # dS/dv varies along u: not an extrusion
+    T = base[:, None, :] + (sv - v0)[None, :, None] * deriv[0]  # the face under every knot
+    T[:, 0] = edge + (V[0] - v0) * deriv[0]  # the face's own boundary, at the knots
+    T[:, -1] = edge + (V[-1] - v0) * deriv[0]
+    T[0] = edge[0] + (V - v0)[:, None] * deriv[0]
+    T[-1] = edge[-1] + (V - v0)[:, None] * deriv[0]
+    T[np.ix_(gi, gj)] = grid
+    return _replace_faces(to_topods(shape), [(old, [_new_face(old, U, V, T)])])
+
+
+def _framed(pg: np.ndarray, lo: float, hi: float):
+    """Knots ``K`` for a grid's increasing parameters ``pg`` on a face's range ``[lo,
+    hi]``, the parameter ``S`` of the face point under each knot, and the indices of
+    the knots that carry the grid's lines. Around the grid: the face's bound (h = 0)
+    and the face again ``1e-3`` of a cell before the grid's border line (h = 0, under
+    that line: an upright wall, as texcad's mesh has); a border line on the bound
+    itself stands ``1e-3`` of a cell inside it (its wall rises from the bound). None
+    if the grid leaves the range."""
+    e = 1e-3 * float(np.diff(pg).min())
+    tol = 1e-6 * (abs(hi - lo) + 1.0)
+    K = pg.astype(np.float64).copy()
+    if pg[0] - lo > 4 * e:
+        low_k, low_s = [lo, pg[0] - e], [lo, pg[0]]
+    elif abs(pg[0] - lo) < tol:
+        low_k, low_s = [lo], [lo]
+        K[0] = lo + e
+    else:
+        return None
+    if hi - pg[-1] > 4 * e:
+        up_k, up_s = [pg[-1] + e, hi], [pg[-1], hi]
+    elif abs(hi - pg[-1]) < tol:
+        up_k, up_s = [hi], [hi]
+        K[-1] = hi - e
+    else:
+        return None
+    if len(K) > 1 and not np.all(np.diff(K) > 0):
+        return None
+    knots = np.concatenate([low_k, K, up_k])
+    under = np.concatenate([low_s, pg, up_s])
+    return knots, under, np.arange(len(low_k), len(low_k) + len(pg))
