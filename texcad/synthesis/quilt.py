@@ -165,6 +165,8 @@ _CLOSING_TOLERANCE = 0.0
 #: k-d tree approximation factor: returned neighbours are within (1 + eps) of the
 #: true k-th neighbour distance in feature space (Arya et al.), refined exactly after.
 _KD_EPS = 2.0
+#: Prefer the eligible coherent candidates (see _Synthesizer.query).
+_PREFER_COHERENT = True
 #: Principal components kept per strip type (at most; fewer if they hold 99.5 %).
 _COMPONENTS_PER_STRIP = 8
 _MIN_COMPONENTS = 3
@@ -173,8 +175,8 @@ _VARIANCE_KEPT = 0.995
 _SUBSPACE_ITERATIONS = 12
 #: The QTP level is the smallest at which the zone has at most this many blocks per
 #: strip (top, left, right, bottom) it holds, and at most _MAX_COARSE_PIXELS.
-_COARSE_PIXELS_PER_STRIP = 160
-_MAX_COARSE_PIXELS = 320
+_COARSE_PIXELS_PER_STRIP = 320
+_MAX_COARSE_PIXELS = 640
 #: Kernels correlated with the sample per FFT batch (bounds the memory: each holds
 #: about 12 bytes per sample pixel).
 _FFT_CHUNK = 8
@@ -390,13 +392,33 @@ def _qtp_blocks(mask: np.ndarray, max_blocks: int) -> tuple[np.ndarray, np.ndarr
         level += 1
 
 
+def _rows_matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a @ b`` in blocks of ``_MATMUL_ROWS`` rows of ``a``, which OpenBLAS runs on one
+    thread (a multithreaded product stalls for tens of ms on a busy 2-core machine)."""
+    return np.concatenate([a[s: s + _MATMUL_ROWS] @ b for s in range(0, len(a), _MATMUL_ROWS)])
+
+
+def _orthonormal(Y: np.ndarray) -> np.ndarray:
+    """``(n, m')`` orthonormal basis of the span of the columns of ``Y`` (``(n, m)``,
+    ``m' <= m``): twice ``Y V diag(1 / sqrt(w))`` with ``(w, V)`` the eigenpairs of the
+    small Gram matrix ``Y^T Y`` (directions with ``w <= 1e-12 max w`` dropped)."""
+    for _ in range(2):
+        w, V = np.linalg.eigh(np.einsum("ij,ik->jk", Y, Y))
+        keep = w > 1e-12 * float(w.max(initial=0.0))
+        if not keep.any():  # all zero (a flat sample)
+            return Y[:, :0]
+        Y = np.einsum("ij,jk->ik", Y, V[:, keep] / np.sqrt(w[keep]))
+    return Y
+
+
 def _top_components(cov: np.ndarray, kmax: int) -> np.ndarray:
     """``(n, k)`` leading eigenvectors of a covariance, enough to hold ``_VARIANCE_KEPT``.
 
     Subspace iteration on ``kmax + 8`` vectors (started from the coordinate vectors
     of the largest variances, so it is deterministic), then Rayleigh-Ritz. Only
-    small LAPACK calls are made: a multithreaded OpenBLAS ``eigh`` of a matrix of
-    more than ~32 rows stalls for 20-400 ms on a busy 2-core machine.
+    small LAPACK calls and row-blocked products are made: a multithreaded OpenBLAS
+    ``eigh``, ``qr`` or product of more than ~32 rows stalls for 20-400 ms on a busy
+    2-core machine.
     """
     n = cov.shape[0]
     kmax = min(kmax, n)
@@ -405,19 +427,23 @@ def _top_components(cov: np.ndarray, kmax: int) -> np.ndarray:
         evals, evecs = np.linalg.eigh(cov)
     else:
         start = np.argsort(-np.diag(cov), kind="stable")[:m]
-        Q = np.linalg.qr(cov[:, start])[0]
+        Q = _orthonormal(cov[:, start])
         for _ in range(_SUBSPACE_ITERATIONS):
-            Q = np.linalg.qr(cov @ Q)[0]
-        T = Q.T @ cov @ Q
+            if Q.shape[1] == 0:
+                break
+            Q = _orthonormal(_rows_matmul(cov, Q))
+        if Q.shape[1] == 0:  # a flat sample: any basis
+            Q = np.eye(n)[:, start[:1]]
+        T = np.einsum("ij,ik->jk", Q, _rows_matmul(cov, Q))
         evals, U = np.linalg.eigh(0.5 * (T + T.T))
-        evecs = Q @ U
+        evecs = np.einsum("ij,jk->ik", Q, U)
     evals, evecs = evals[::-1][:kmax], evecs[:, ::-1][:, :kmax]
     total = float(np.trace(cov))
     if total > 0:
         k = int(np.searchsorted(np.cumsum(evals) / total, _VARIANCE_KEPT) + 1)
     else:
         k = 1
-    k = int(np.clip(k, min(_MIN_COMPONENTS, kmax), kmax))
+    k = int(np.clip(k, min(_MIN_COMPONENTS, len(evals)), len(evals)))
     V = evecs[:, :k]
     # Sign convention so the basis (hence the features) depends only on the data.
     return V * np.where(V[np.abs(V).argmax(axis=0), np.arange(k)] < 0, -1.0, 1.0)
@@ -582,9 +608,15 @@ class _Synthesizer:
         """
         S, p = self.S, self.p
         strips = sum(1 for w in z.key if w)
-        block, count, _ = _qtp_blocks(z.mask, min(_COARSE_PIXELS_PER_STRIP * strips, _MAX_COARSE_PIXELS))
         n = min(len(self.cy), _PCA_SUBSET)
         pick = np.sort(self.rng.choice(len(self.cy), size=n, replace=False))
+        self._features(z, self._pca_kernels(z, pick, strips))
+
+    def _pca_kernels(self, z: _Zone, pick: np.ndarray, strips: int) -> np.ndarray:
+        """``(K, A)`` kernels: the principal components of the zone's QTP block means
+        at the candidates ``pick``, pulled back to full resolution."""
+        n = len(pick)
+        block, count, _ = _qtp_blocks(z.mask, min(_COARSE_PIXELS_PER_STRIP * strips, _MAX_COARSE_PIXELS))
         # The zones' pixels grouped by QTP block, then the block means: (n, blocks) mm.
         order = np.argsort(block, kind="stable")
         zones = self.S_flat.take(self.offsets[pick][:, None] + z.sflat[order])
@@ -594,8 +626,14 @@ class _Synthesizer:
         X = np.add.reduceat(zones.astype(np.float64), first, axis=1) / np.sqrt(count)
         X -= X.mean(axis=0)
         # (einsum, not BLAS: a multithreaded BLAS call stalls on a busy 2-core machine.)
-        V = _top_components(np.einsum("ni,nj->ij", X, X) / max(1, n - 1), _COMPONENTS_PER_STRIP * strips)
-        kernels = (V / np.sqrt(count)[:, None])[block].T  # (K, A): feature = kernels @ zone
+        X32 = X.astype(np.float32)  # (the covariance in single precision: half the time)
+        cov = np.einsum("ni,nj->ij", X32, X32).astype(np.float64) / max(1, n - 1)
+        V = _top_components(cov, _COMPONENTS_PER_STRIP * strips)
+        return (V / np.sqrt(count)[:, None])[block].T  # (K, A): feature = kernels @ zone
+
+    def _features(self, z: _Zone, kernels: np.ndarray) -> None:
+        """Features of every candidate (FFT correlation with the kernels), k-d tree."""
+        S, p = self.S, self.p
         K = len(kernels)
         # Correlation of the sample with each kernel: C[y, x] = sum S[y+u, x+v] k[u, v].
         # (Single precision: the features only guide the search, the exact distances
@@ -740,11 +778,12 @@ class _Synthesizer:
                 d2 += np.einsum("bmi,bmi->bm", g, g)
         if invalid is not None:
             d2[invalid] = np.inf
-        if b == 1:  # the same pick with less bookkeeping (serial schedules: wrap along x)
-            d = d2[0]
-            eligible = np.flatnonzero(d <= d.min() * (1.0 + tolerance) ** 2)
-            return nn[0, eligible[int(u[0] * len(eligible))]].reshape(1)
         ok = d2 <= d2.min(axis=1, keepdims=True) * (1.0 + tolerance) ** 2
+        if _PREFER_COHERENT and invalid is not None:
+            coh = np.zeros_like(ok)
+            coh[:, nn.shape[1] - extra.shape[1]:] = True
+            okc = ok & coh
+            ok = np.where(okc.any(axis=1, keepdims=True), okc, ok)
         r = (u * ok.sum(axis=1)).astype(np.intp)  # the r-th eligible candidate
         pos = (np.cumsum(ok, axis=1) > r[:, None]).argmax(axis=1)
         return nn[np.arange(b), pos]
