@@ -35,13 +35,14 @@ and one member is picked uniformly at random with ``numpy.random.default_rng(see
 The search is Liang's accelerated one (section 4): each zone type (top, left, L) is
 reduced by the quadtree pyramid (QTP: the means of its ``2^L x 2^L`` blocks, weighted
 so that distances between block vectors bound the full-resolution distance from
-below) and principal component analysis (PCA, up to 8 components per strip of the
-zone, fitted to 1024 random candidates); every principal component, pulled back to
-full resolution, is a ``patch x patch`` kernel, so the features of *all* candidates
-are computed at once by FFT correlation of the sample with the kernels; a k-d tree
-over those features returns the ``_NEIGHBOURS`` (16) approximate nearest candidates
-(the coarse level of the QTP search) and their exact full-resolution distances ``d``
-decide among them (the fine level).
+below; ``L`` is the smallest level with at most 320 blocks per strip, 2 x 2 px blocks
+for patch 45, overlap 25) and principal component analysis (PCA, up to 8 components
+per strip of the zone, fitted to 1024 random candidates); every principal component,
+pulled back to full resolution, is a ``patch x patch`` kernel, so the features of
+*all* candidates are computed at once by FFT correlation of the sample with the
+kernels; a k-d tree over those features returns the ``_NEIGHBOURS`` (16) approximate
+nearest candidates (the coarse level of the QTP search) and their exact
+full-resolution distances ``d`` decide among them (the fine level).
 
 Coherent candidates. Besides the tree's neighbours, the fine level gets, for every
 earlier neighbour patch (left, top-left, top, top-right, and across the wrap) copied
@@ -50,18 +51,26 @@ the window ``(y - dy, x - dx)`` that continues it (Ashikhmin 2001; Tong et al. 2
 k-coherence). Its zone equals the output wherever that neighbour alone made it, so
 it is the match an exhaustive search finds first, and one that a k-d tree over 8-16
 principal components of block means often misses. The candidate set is the members
-of ``Psi_B`` among these (at most 16 + 8, each counted once).
+of ``Psi_B`` among these (at most 16 + 8, each counted once); when some of its
+members are coherent candidates, the pick is among those (the coherence rule of
+Ashikhmin 2001 and Hertzmann et al. 2001 with their ``kappa`` equal to the
+tolerance: a continuation wins whenever it is eligible).
 
-Measured (benchmarks/bench_synthesis.py, 200 x 200 px crops of CC0 photographs from
-scikit-image grown to 800 x 800 px) with :func:`texcad.synthesis.quality.coherence`: without
-the coherent candidates the approximate search was 25-27 % worse than the
-exhaustive one (``search="exact"``, Liang's straightforward algorithm, by FFT) on
-gravel, 14-98 % on grass and on par on a brick wall;
-more neighbours (40) or more components (16 per strip) closed only part of the gap
-at up to 5 times the time; the coherent candidates close it (gravel, brick wall) or
-reverse it (grass: 0.76 of the exhaustive search's distance on one crop, still 1.17
-on another) for about 1.2 times the CPU time at 4000 x 4000 px (3.7-3.9 s against
-3.0-3.1 s) and the same at 800 x 800 px (0.20 s).
+Why (benchmarks/bench_synthesis.py, 200 x 200 px crops of CC0 photographs from
+scikit-image grown to 800 x 800 px, :func:`texcad.synthesis.quality.coherence`,
+the ratio to the exhaustive search ``search="exact"``, Liang's straightforward
+algorithm by FFT): without coherent candidates the approximate search was 9-68 %
+worse on grass (the tree's 16 neighbours miss the best window for ~30 % of the
+patches: grass is fine detail that 4 x 4 px block means do not see); more neighbours
+(64, 256) or more components (16 per strip) closed only part of the gap at 2-5 times
+the time; with coherent candidates one grass crop was still 17 % worse. Preferring
+the eligible coherent candidates (ratio 1.07 on that crop, and 0.64-0.75 on others)
+and PCA on 2 x 2 px blocks rather than 4 x 4 (1.01) closed it; the exhaustive
+search's best window added as an oracle candidate reaches 1.00-1.01 on a brick wall,
+so on structured textures the approximate search is at the exhaustive one's level
+(the figures per crop are in the README). A DCT basis instead of the PCA, the
+zone's norm outside the components' span as a feature, and a coherence bias
+``kappa`` above the tolerance were tried and were no better.
 
 Scan-line order, a front at a time
 ----------------------------------
@@ -174,7 +183,8 @@ _VARIANCE_KEPT = 0.995
 #: Subspace iterations of the PCA (see _top_components).
 _SUBSPACE_ITERATIONS = 12
 #: The QTP level is the smallest at which the zone has at most this many blocks per
-#: strip (top, left, right, bottom) it holds, and at most _MAX_COARSE_PIXELS.
+#: strip (top, left, right, bottom) it holds, and at most _MAX_COARSE_PIXELS (level 1,
+#: 2 x 2 px blocks, for patch 45 and overlap 25; level 2 missed fine detail).
 _COARSE_PIXELS_PER_STRIP = 320
 _MAX_COARSE_PIXELS = 640
 #: Kernels correlated with the sample per FFT batch (bounds the memory: each holds
@@ -724,7 +734,9 @@ class _Synthesizer:
         candidates in QTP + PCA feature space (one batched query for the ``b``
         patches). Fine level: their exact zone distances ``d`` at full resolution;
         the ``floor(u m)``-th of the ``m`` candidates with ``d <= (1 + tolerance)
-        d_min`` (in order of feature distance) is taken, a uniform random pick.
+        d_min`` (in order of feature distance) is taken, a uniform random pick;
+        if some of those ``m`` are coherent candidates (``extra``), the pick is among
+        them (``_PREFER_COHERENT``).
 
         Returns:
             ``(b,)`` int, indices into the candidate windows (``cy``, ``cx``).
