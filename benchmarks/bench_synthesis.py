@@ -6,6 +6,7 @@ Run from the repository root:
     python benchmarks/bench_synthesis.py --quick    # skip 4000 x 4000
     python benchmarks/bench_synthesis.py --photos   # only the photographs' figures
     python benchmarks/bench_synthesis.py --speed    # only the timings
+    python benchmarks/bench_synthesis.py --seams    # only the photographs' wrap seams
 
 Prints the median wall time of several runs and the peak memory (tracemalloc peak of
 one run, and the process's peak resident set size), then quality measures of the
@@ -106,7 +107,7 @@ def photos() -> dict[str, np.ndarray]:
 VARIANTS = {
     "no coherent candidates": dict(_COHERENT=False),
     "coherent, not preferred": dict(_PREFER_COHERENT=False),
-    "4 x 4 px QTP blocks (level 2)": dict(_COARSE_PIXELS_PER_STRIP=160, _MAX_COARSE_PIXELS=320),
+    "2 x 2 px QTP blocks (level 1)": dict(_COARSE_PIXELS_PER_STRIP=320, _MAX_COARSE_PIXELS=640),
     "default (16 nn + coherent, preferred)": {},
 }
 
@@ -181,8 +182,12 @@ def main() -> None:
     ap.add_argument("--photos", action="store_true", help="only the photographs' coherence and wrap seams")
     ap.add_argument("--speed", action="store_true", help="only the timings")
     ap.add_argument("--seeds", type=int, default=6, help="seeds of the photographs' coherence")
+    ap.add_argument("--seams", action="store_true", help="only the photographs' wrap seams")
     ap.add_argument("--wrap-seeds", type=int, default=12, help="seeds of the photographs' wrap seams")
     args = ap.parse_args()
+    if args.seams:
+        photo_wrap_seams(args.wrap_seeds)
+        return
     if args.photos:
         photo_coherence(args.seeds)
         print()

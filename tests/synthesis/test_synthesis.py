@@ -499,11 +499,11 @@ def _photo(name: str, y: int = 0, x: int = 0) -> np.ndarray:
 
 #: 200 x 200 px crops (name, row, col) on which approximate and exact search are compared.
 #: Irregular ones where the coherent candidates put the approximate search well ahead
-#: (4-seed means at 400 x 400 px: 0.64-0.84 of exact matching's distance) ...
+#: (4-seed means at 400 x 400 px: 0.63-0.72 of exact matching's distance) ...
 _AHEAD = [("gravel", 0, 0), ("gravel", 300, 300), ("grass", 0, 0)]
 #: ... and the hardest ones, at parity: a brick wall (structured) and the grass crop
-#: on which the approximate search was 17 % worse before the coherent candidates were
-#: preferred and the PCA moved to 2 x 2 px blocks (0.91-1.09 each; 1.01 on average).
+#: on which the approximate search was 17 % worse before the eligible coherent
+#: candidates were preferred (0.86-1.06 each; 0.97 on average).
 _PARITY = [("brick", 0, 0), ("brick", 300, 300), ("brick", 0, 300), ("grass", 300, 300)]
 
 

@@ -35,7 +35,7 @@ and one member is picked uniformly at random with ``numpy.random.default_rng(see
 The search is Liang's accelerated one (section 4): each zone type (top, left, L) is
 reduced by the quadtree pyramid (QTP: the means of its ``2^L x 2^L`` blocks, weighted
 so that distances between block vectors bound the full-resolution distance from
-below; ``L`` is the smallest level with at most 320 blocks per strip, 2 x 2 px blocks
+below; ``L`` is the smallest level with at most 160 blocks per strip, 4 x 4 px blocks
 for patch 45, overlap 25) and principal component analysis (PCA, up to 8 components
 per strip of the zone, fitted to 1024 random candidates); every principal component,
 pulled back to full resolution, is a ``patch x patch`` kernel, so the features of
@@ -64,13 +64,15 @@ worse on grass (the tree's 16 neighbours miss the best window for ~30 % of the
 patches: grass is fine detail that 4 x 4 px block means do not see); more neighbours
 (64, 256) or more components (16 per strip) closed only part of the gap at 2-5 times
 the time; with coherent candidates one grass crop was still 17 % worse. Preferring
-the eligible coherent candidates (ratio 1.07 on that crop, and 0.64-0.75 on others)
-and PCA on 2 x 2 px blocks rather than 4 x 4 (1.01) closed it; the exhaustive
-search's best window added as an oracle candidate reaches 1.00-1.01 on a brick wall,
-so on structured textures the approximate search is at the exhaustive one's level
-(the figures per crop are in the README). A DCT basis instead of the PCA, the
-zone's norm outside the components' span as a feature, and a coherence bias
-``kappa`` above the tolerance were tried and were no better.
+the eligible coherent candidates closed it: 1.01 +- 0.02 on that crop, 0.96-1.01 on
+three brick-wall crops and 0.64-0.90 on the others (6 seeds). The exhaustive search's
+best window added as an oracle candidate reaches only 1.00-1.01 on a brick wall, so
+on structured textures the approximate search is at the exhaustive one's level (the
+figures per crop are in the README). PCA on 2 x 2 px blocks instead of 4 x 4 was
+within the errors of these figures on all nine crops at about 1.3 times the CPU
+time, so the default stays at 4 x 4; a DCT basis instead of the PCA, the zone's norm
+outside the components' span as a feature, and a coherence bias ``kappa`` above the
+tolerance were tried and were no better.
 
 Scan-line order, a front at a time
 ----------------------------------
@@ -183,10 +185,10 @@ _VARIANCE_KEPT = 0.995
 #: Subspace iterations of the PCA (see _top_components).
 _SUBSPACE_ITERATIONS = 12
 #: The QTP level is the smallest at which the zone has at most this many blocks per
-#: strip (top, left, right, bottom) it holds, and at most _MAX_COARSE_PIXELS (level 1,
-#: 2 x 2 px blocks, for patch 45 and overlap 25; level 2 missed fine detail).
-_COARSE_PIXELS_PER_STRIP = 320
-_MAX_COARSE_PIXELS = 640
+#: strip (top, left, right, bottom) it holds, and at most _MAX_COARSE_PIXELS (level 2,
+#: 4 x 4 px blocks, for patch 45 and overlap 25: level 1 measured no better).
+_COARSE_PIXELS_PER_STRIP = 160
+_MAX_COARSE_PIXELS = 320
 #: Kernels correlated with the sample per FFT batch (bounds the memory: each holds
 #: about 12 bytes per sample pixel).
 _FFT_CHUNK = 8
