@@ -6,6 +6,7 @@ Run from the repository root:
     python benchmarks/bench_synthesis.py --quick    # skip 4000 x 4000
     python benchmarks/bench_synthesis.py --photos   # only the photographs' figures
     python benchmarks/bench_synthesis.py --speed    # only the timings
+    python benchmarks/bench_synthesis.py --seams    # only the photographs' wrap seams
 
 Prints the median wall time of several runs and the peak memory (tracemalloc peak of
 one run, and the process's peak resident set size), then quality measures of the
@@ -15,7 +16,7 @@ The sample is a 200 x 200 px photograph-like height field (filtered noise at two
 scales with a network of grooves), the paper's patch 45 px and overlap 25 px.
 
 Then, on real photographs (scikit-image's CC0 gravel, brick wall and grass, 200 x 200
-px crops at two places each, grey level / 255 as heights in mm): coherence
+px crops at three places each, grey level / 255 as heights in mm): coherence
 (texcad.synthesis.quality.coherence) and time of the approximate search (and of variants of
 it) against the exhaustive search (search="exact", straightforward Liang 2001), and
 the wrap seam (squared jump across the wrap over the mean squared jump between
@@ -97,17 +98,17 @@ def photos() -> dict[str, np.ndarray]:
     out = {}
     for name in ("gravel", "brick", "grass"):
         img = getattr(data, name)().astype(np.float32) / 255.0
-        for y, x in ((0, 0), (300, 300)):
+        for y, x in ((0, 0), (300, 300), (0, 300)):
             out[f"{name}@{y},{x}"] = np.ascontiguousarray(img[y: y + 200, x: x + 200])
     return out
 
 
 #: Variants of the approximate search measured against the exhaustive one.
 VARIANTS = {
-    "before (10 nn, no coherent)": dict(_NEIGHBOURS=10, _COHERENT=False),
-    "40 nn, no coherent": dict(_NEIGHBOURS=40, _COHERENT=False),
-    "16 comps/strip, no coherent": dict(_COMPONENTS_PER_STRIP=16, _VARIANCE_KEPT=0.9999, _COHERENT=False),
-    "default (16 nn + coherent)": {},
+    "no coherent candidates": dict(_COHERENT=False),
+    "coherent, not preferred": dict(_PREFER_COHERENT=False),
+    "2 x 2 px QTP blocks (level 1)": dict(_COARSE_PIXELS_PER_STRIP=320, _MAX_COARSE_PIXELS=640),
+    "default (16 nn + coherent, preferred)": {},
 }
 
 
@@ -124,26 +125,30 @@ def _with(settings: dict, fn):  # noqa: ANN001, ANN202
             setattr(syn, k, v)
 
 
-def photo_coherence(seeds: int) -> None:
+def photo_coherence(seeds: int, windows: int = 1000) -> None:
     print(f"coherence on photographs, 200 x 200 px crop -> 800 x 800 px, patch {PATCH}, overlap {OVERLAP},")
-    print(f"mean of seeds 0..{seeds - 1} (lower is better; ratio = approximate / exact; median wall s;")
+    print(f"{windows} windows, mean of seeds 0..{seeds - 1} (lower is better; ratio = approximate / exact,")
+    print("+- its standard error from the per-seed spread; median wall and CPU s per run;")
     print(f"load average now {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
     for name, s in photos().items():
-        line = f"  {name:15s}"
         res = {}
         for label, mode, settings in [("exact", "exact", {})] + [(k, "approximate", v) for k, v in VARIANTS.items()]:
-            cs, ts = [], []
+            cs, ts, cpu = [], [], []
             for seed in range(seeds):
-                t = time.perf_counter()
+                t, c = time.perf_counter(), time.process_time()
                 o = _with(settings, lambda: synthesize(s, (800, 800), patch=PATCH, overlap=OVERLAP, seed=seed, search=mode))  # noqa: B023
                 ts.append(time.perf_counter() - t)
-                cs.append(Q.coherence(o, s))
-            res[label] = (float(np.mean(cs)), statistics.median(ts))
+                cpu.append(time.process_time() - c)
+                cs.append(Q.coherence(o, s, n_windows=windows))
+            res[label] = (np.array(cs), statistics.median(ts), statistics.median(cpu))
         e = res["exact"][0]
-        print(line + f" exact {e:.4f} ({res['exact'][1]:.2f} s)")
+        print(f"  {name:15s} exact {e.mean():.4f} ({res['exact'][1]:.2f} s, CPU {res['exact'][2]:.2f} s)")
         for label in VARIANTS:
-            c, t = res[label]
-            print(f"      {label:30s} {c:.4f} ratio {c / e:.3f} ({t:.2f} s)")
+            c, t, cp = res[label]
+            r = c.mean() / e.mean()
+            # Delta method: relative errors of the two independent means add in quadrature.
+            se = r * np.sqrt((c.std(ddof=1) / c.mean()) ** 2 / seeds + (e.std(ddof=1) / e.mean()) ** 2 / seeds) if seeds > 1 else float("nan")
+            print(f"      {label:38s} {c.mean():.4f} ratio {r:.3f} +- {se:.3f} ({t:.2f} s, CPU {cp:.2f} s)", flush=True)
 
 
 def photo_wrap_seams(seeds: int) -> None:
@@ -176,9 +181,13 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="skip the 4000 x 4000 px runs")
     ap.add_argument("--photos", action="store_true", help="only the photographs' coherence and wrap seams")
     ap.add_argument("--speed", action="store_true", help="only the timings")
-    ap.add_argument("--seeds", type=int, default=3, help="seeds of the photographs' coherence")
+    ap.add_argument("--seeds", type=int, default=6, help="seeds of the photographs' coherence")
+    ap.add_argument("--seams", action="store_true", help="only the photographs' wrap seams")
     ap.add_argument("--wrap-seeds", type=int, default=12, help="seeds of the photographs' wrap seams")
     args = ap.parse_args()
+    if args.seams:
+        photo_wrap_seams(args.wrap_seeds)
+        return
     if args.photos:
         photo_coherence(args.seeds)
         print()

@@ -35,13 +35,14 @@ and one member is picked uniformly at random with ``numpy.random.default_rng(see
 The search is Liang's accelerated one (section 4): each zone type (top, left, L) is
 reduced by the quadtree pyramid (QTP: the means of its ``2^L x 2^L`` blocks, weighted
 so that distances between block vectors bound the full-resolution distance from
-below) and principal component analysis (PCA, up to 8 components per strip of the
-zone, fitted to 1024 random candidates); every principal component, pulled back to
-full resolution, is a ``patch x patch`` kernel, so the features of *all* candidates
-are computed at once by FFT correlation of the sample with the kernels; a k-d tree
-over those features returns the ``_NEIGHBOURS`` (16) approximate nearest candidates
-(the coarse level of the QTP search) and their exact full-resolution distances ``d``
-decide among them (the fine level).
+below; ``L`` is the smallest level with at most 160 blocks per strip, 4 x 4 px blocks
+for patch 45, overlap 25) and principal component analysis (PCA, up to 8 components
+per strip of the zone, fitted to 1024 random candidates); every principal component,
+pulled back to full resolution, is a ``patch x patch`` kernel, so the features of
+*all* candidates are computed at once by FFT correlation of the sample with the
+kernels; a k-d tree over those features returns the ``_NEIGHBOURS`` (16) approximate
+nearest candidates (the coarse level of the QTP search) and their exact
+full-resolution distances ``d`` decide among them (the fine level).
 
 Coherent candidates. Besides the tree's neighbours, the fine level gets, for every
 earlier neighbour patch (left, top-left, top, top-right, and across the wrap) copied
@@ -50,18 +51,28 @@ the window ``(y - dy, x - dx)`` that continues it (Ashikhmin 2001; Tong et al. 2
 k-coherence). Its zone equals the output wherever that neighbour alone made it, so
 it is the match an exhaustive search finds first, and one that a k-d tree over 8-16
 principal components of block means often misses. The candidate set is the members
-of ``Psi_B`` among these (at most 16 + 8, each counted once).
+of ``Psi_B`` among these (at most 16 + 8, each counted once); when some of its
+members are coherent candidates, the pick is among those (the coherence rule of
+Ashikhmin 2001 and Hertzmann et al. 2001 with their ``kappa`` equal to the
+tolerance: a continuation wins whenever it is eligible).
 
-Measured (benchmarks/bench_synthesis.py, 200 x 200 px crops of CC0 photographs from
-scikit-image grown to 800 x 800 px) with :func:`texcad.synthesis.quality.coherence`: without
-the coherent candidates the approximate search was 25-27 % worse than the
-exhaustive one (``search="exact"``, Liang's straightforward algorithm, by FFT) on
-gravel, 14-98 % on grass and on par on a brick wall;
-more neighbours (40) or more components (16 per strip) closed only part of the gap
-at up to 5 times the time; the coherent candidates close it (gravel, brick wall) or
-reverse it (grass: 0.76 of the exhaustive search's distance on one crop, still 1.17
-on another) for about 1.2 times the CPU time at 4000 x 4000 px (3.7-3.9 s against
-3.0-3.1 s) and the same at 800 x 800 px (0.20 s).
+Why (benchmarks/bench_synthesis.py, 200 x 200 px crops of CC0 photographs from
+scikit-image grown to 800 x 800 px, :func:`texcad.synthesis.quality.coherence`,
+the ratio to the exhaustive search ``search="exact"``, Liang's straightforward
+algorithm by FFT): without coherent candidates the approximate search was 9-68 %
+worse on grass (the tree's 16 neighbours miss the best window for ~30 % of the
+patches: grass is fine detail that 4 x 4 px block means do not see); more neighbours
+(64, 256) or more components (16 per strip) closed only part of the gap at 2-5 times
+the time; with coherent candidates one grass crop was still 17 % worse. Preferring
+the eligible coherent candidates closed it: 1.01 +- 0.02 on that crop, 0.96-1.01 on
+three brick-wall crops and 0.64-0.90 on the others (6 seeds). The exhaustive search's
+best window added as an oracle candidate reaches only 1.00-1.01 on a brick wall, so
+on structured textures the approximate search is at the exhaustive one's level (the
+figures per crop are in the README). PCA on 2 x 2 px blocks instead of 4 x 4 was
+within the errors of these figures on all nine crops at about 1.3 times the CPU
+time, so the default stays at 4 x 4; a DCT basis instead of the PCA, the zone's norm
+outside the components' span as a feature, and a coherence bias ``kappa`` above the
+tolerance were tried and were no better.
 
 Scan-line order, a front at a time
 ----------------------------------
@@ -165,6 +176,8 @@ _CLOSING_TOLERANCE = 0.0
 #: k-d tree approximation factor: returned neighbours are within (1 + eps) of the
 #: true k-th neighbour distance in feature space (Arya et al.), refined exactly after.
 _KD_EPS = 2.0
+#: Prefer the eligible coherent candidates (see _Synthesizer.query).
+_PREFER_COHERENT = True
 #: Principal components kept per strip type (at most; fewer if they hold 99.5 %).
 _COMPONENTS_PER_STRIP = 8
 _MIN_COMPONENTS = 3
@@ -172,7 +185,8 @@ _VARIANCE_KEPT = 0.995
 #: Subspace iterations of the PCA (see _top_components).
 _SUBSPACE_ITERATIONS = 12
 #: The QTP level is the smallest at which the zone has at most this many blocks per
-#: strip (top, left, right, bottom) it holds, and at most _MAX_COARSE_PIXELS.
+#: strip (top, left, right, bottom) it holds, and at most _MAX_COARSE_PIXELS (level 2,
+#: 4 x 4 px blocks, for patch 45 and overlap 25: level 1 measured no better).
 _COARSE_PIXELS_PER_STRIP = 160
 _MAX_COARSE_PIXELS = 320
 #: Kernels correlated with the sample per FFT batch (bounds the memory: each holds
@@ -390,13 +404,33 @@ def _qtp_blocks(mask: np.ndarray, max_blocks: int) -> tuple[np.ndarray, np.ndarr
         level += 1
 
 
+def _rows_matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a @ b`` in blocks of ``_MATMUL_ROWS`` rows of ``a``, which OpenBLAS runs on one
+    thread (a multithreaded product stalls for tens of ms on a busy 2-core machine)."""
+    return np.concatenate([a[s: s + _MATMUL_ROWS] @ b for s in range(0, len(a), _MATMUL_ROWS)])
+
+
+def _orthonormal(Y: np.ndarray) -> np.ndarray:
+    """``(n, m')`` orthonormal basis of the span of the columns of ``Y`` (``(n, m)``,
+    ``m' <= m``): twice ``Y V diag(1 / sqrt(w))`` with ``(w, V)`` the eigenpairs of the
+    small Gram matrix ``Y^T Y`` (directions with ``w <= 1e-12 max w`` dropped)."""
+    for _ in range(2):
+        w, V = np.linalg.eigh(np.einsum("ij,ik->jk", Y, Y))
+        keep = w > 1e-12 * float(w.max(initial=0.0))
+        if not keep.any():  # all zero (a flat sample)
+            return Y[:, :0]
+        Y = np.einsum("ij,jk->ik", Y, V[:, keep] / np.sqrt(w[keep]))
+    return Y
+
+
 def _top_components(cov: np.ndarray, kmax: int) -> np.ndarray:
     """``(n, k)`` leading eigenvectors of a covariance, enough to hold ``_VARIANCE_KEPT``.
 
     Subspace iteration on ``kmax + 8`` vectors (started from the coordinate vectors
     of the largest variances, so it is deterministic), then Rayleigh-Ritz. Only
-    small LAPACK calls are made: a multithreaded OpenBLAS ``eigh`` of a matrix of
-    more than ~32 rows stalls for 20-400 ms on a busy 2-core machine.
+    small LAPACK calls and row-blocked products are made: a multithreaded OpenBLAS
+    ``eigh``, ``qr`` or product of more than ~32 rows stalls for 20-400 ms on a busy
+    2-core machine.
     """
     n = cov.shape[0]
     kmax = min(kmax, n)
@@ -405,19 +439,23 @@ def _top_components(cov: np.ndarray, kmax: int) -> np.ndarray:
         evals, evecs = np.linalg.eigh(cov)
     else:
         start = np.argsort(-np.diag(cov), kind="stable")[:m]
-        Q = np.linalg.qr(cov[:, start])[0]
+        Q = _orthonormal(cov[:, start])
         for _ in range(_SUBSPACE_ITERATIONS):
-            Q = np.linalg.qr(cov @ Q)[0]
-        T = Q.T @ cov @ Q
+            if Q.shape[1] == 0:
+                break
+            Q = _orthonormal(_rows_matmul(cov, Q))
+        if Q.shape[1] == 0:  # a flat sample: any basis
+            Q = np.eye(n)[:, start[:1]]
+        T = np.einsum("ij,ik->jk", Q, _rows_matmul(cov, Q))
         evals, U = np.linalg.eigh(0.5 * (T + T.T))
-        evecs = Q @ U
+        evecs = np.einsum("ij,jk->ik", Q, U)
     evals, evecs = evals[::-1][:kmax], evecs[:, ::-1][:, :kmax]
     total = float(np.trace(cov))
     if total > 0:
         k = int(np.searchsorted(np.cumsum(evals) / total, _VARIANCE_KEPT) + 1)
     else:
         k = 1
-    k = int(np.clip(k, min(_MIN_COMPONENTS, kmax), kmax))
+    k = int(np.clip(k, min(_MIN_COMPONENTS, len(evals)), len(evals)))
     V = evecs[:, :k]
     # Sign convention so the basis (hence the features) depends only on the data.
     return V * np.where(V[np.abs(V).argmax(axis=0), np.arange(k)] < 0, -1.0, 1.0)
@@ -582,9 +620,15 @@ class _Synthesizer:
         """
         S, p = self.S, self.p
         strips = sum(1 for w in z.key if w)
-        block, count, _ = _qtp_blocks(z.mask, min(_COARSE_PIXELS_PER_STRIP * strips, _MAX_COARSE_PIXELS))
         n = min(len(self.cy), _PCA_SUBSET)
         pick = np.sort(self.rng.choice(len(self.cy), size=n, replace=False))
+        self._features(z, self._pca_kernels(z, pick, strips))
+
+    def _pca_kernels(self, z: _Zone, pick: np.ndarray, strips: int) -> np.ndarray:
+        """``(K, A)`` kernels: the principal components of the zone's QTP block means
+        at the candidates ``pick``, pulled back to full resolution."""
+        n = len(pick)
+        block, count, _ = _qtp_blocks(z.mask, min(_COARSE_PIXELS_PER_STRIP * strips, _MAX_COARSE_PIXELS))
         # The zones' pixels grouped by QTP block, then the block means: (n, blocks) mm.
         order = np.argsort(block, kind="stable")
         zones = self.S_flat.take(self.offsets[pick][:, None] + z.sflat[order])
@@ -594,8 +638,14 @@ class _Synthesizer:
         X = np.add.reduceat(zones.astype(np.float64), first, axis=1) / np.sqrt(count)
         X -= X.mean(axis=0)
         # (einsum, not BLAS: a multithreaded BLAS call stalls on a busy 2-core machine.)
-        V = _top_components(np.einsum("ni,nj->ij", X, X) / max(1, n - 1), _COMPONENTS_PER_STRIP * strips)
-        kernels = (V / np.sqrt(count)[:, None])[block].T  # (K, A): feature = kernels @ zone
+        X32 = X.astype(np.float32)  # (the covariance in single precision: half the time)
+        cov = np.einsum("ni,nj->ij", X32, X32).astype(np.float64) / max(1, n - 1)
+        V = _top_components(cov, _COMPONENTS_PER_STRIP * strips)
+        return (V / np.sqrt(count)[:, None])[block].T  # (K, A): feature = kernels @ zone
+
+    def _features(self, z: _Zone, kernels: np.ndarray) -> None:
+        """Features of every candidate (FFT correlation with the kernels), k-d tree."""
+        S, p = self.S, self.p
         K = len(kernels)
         # Correlation of the sample with each kernel: C[y, x] = sum S[y+u, x+v] k[u, v].
         # (Single precision: the features only guide the search, the exact distances
@@ -686,7 +736,9 @@ class _Synthesizer:
         candidates in QTP + PCA feature space (one batched query for the ``b``
         patches). Fine level: their exact zone distances ``d`` at full resolution;
         the ``floor(u m)``-th of the ``m`` candidates with ``d <= (1 + tolerance)
-        d_min`` (in order of feature distance) is taken, a uniform random pick.
+        d_min`` (in order of feature distance) is taken, a uniform random pick;
+        if some of those ``m`` are coherent candidates (``extra``), the pick is among
+        them (``_PREFER_COHERENT``).
 
         Returns:
             ``(b,)`` int, indices into the candidate windows (``cy``, ``cx``).
@@ -740,11 +792,12 @@ class _Synthesizer:
                 d2 += np.einsum("bmi,bmi->bm", g, g)
         if invalid is not None:
             d2[invalid] = np.inf
-        if b == 1:  # the same pick with less bookkeeping (serial schedules: wrap along x)
-            d = d2[0]
-            eligible = np.flatnonzero(d <= d.min() * (1.0 + tolerance) ** 2)
-            return nn[0, eligible[int(u[0] * len(eligible))]].reshape(1)
         ok = d2 <= d2.min(axis=1, keepdims=True) * (1.0 + tolerance) ** 2
+        if _PREFER_COHERENT and invalid is not None:
+            coh = np.zeros_like(ok)
+            coh[:, nn.shape[1] - extra.shape[1]:] = True
+            okc = ok & coh
+            ok = np.where(okc.any(axis=1, keepdims=True), okc, ok)
         r = (u * ok.sum(axis=1)).astype(np.intp)  # the r-th eligible candidate
         pos = (np.cumsum(ok, axis=1) > r[:, None]).argmax(axis=1)
         return nn[np.arange(b), pos]
