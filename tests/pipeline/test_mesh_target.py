@@ -208,6 +208,16 @@ def test_read_files_and_refuse_bad_input(tmp_path):
     open_mesh = trimesh.Trimesh(tm.vertices, tm.faces[:-1], process=False)
     with pytest.raises(InputError, match="not closed"):
         texcad.texture(open_mesh, "all", "builtin:ridges")
+    # two overlapping boxes in one "closed" mesh, and a box folded through itself
+    other = _box()
+    other.apply_translation((5.0, 4.0, 3.0))
+    fold = np.array(tm.vertices)
+    fold[int(np.argmax(fold.sum(1)))] = (-3.0, -2.0, -4.0)  # the top corner pushed through the bottom
+    for bad in (trimesh.util.concatenate([tm, other]), trimesh.Trimesh(fold, tm.faces, process=False)):
+        stl = tmp_path / "bad.stl"
+        bad.export(stl)
+        with pytest.raises(InputError, match="intersects itself.*manifold3d"):
+            texcad.texture(str(stl), "all", "builtin:ridges", pitch=1.5)
     with pytest.raises(ParameterError, match="holds no face"):
         texcad.texture(tm, "sphere:100,100,100,1", "builtin:ridges")
     with pytest.raises(ParameterError, match="region"):

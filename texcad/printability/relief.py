@@ -14,7 +14,15 @@ that makes it pass (12 bisection steps; ``s = 0`` is the undisplaced surface, wh
 passes), and every vertex takes the smallest factor of its offending faces (times
 ``shrink^(round // 5)`` after the first five rounds, so that it converges quickly where
 neighbours keep disturbing each other); after ``rounds`` rounds what still offends is
-set to 0. Only faces next to a changed vertex are looked at again.
+set to 0. Only faces next to a changed vertex are looked at again. The test is
+made on the float32 vertices that are written.
+
+Before the rounds, a vectorized pre-limit does most of their work: the overhang
+condition as a slope limit ``d_up - d_low <= w`` along every edge near the relief
+(:func:`_slope_limits`), enforced by min-plus relaxation waves from the vertices that
+change (like a distance transform), for the positive part (lowered) and the negative
+part (raised to 0) of the relief; the rounds then fix the few faces left (edges
+alone do not bound a thin face's slope across them) and the folds.
 """
 
 from __future__ import annotations
@@ -62,7 +70,8 @@ def _offending(ctx, idx, dd):
     """Overhang and fold flags of the faces ``f[idx]`` with displacements ``dd``."""
     v0, nrm, f, n0, dirs, cos_limit = ctx
     fi = f[idx]
-    vv = v0[fi] + nrm[fi] * dd[..., None]
+    # as written: float32 (a tiny face can turn when rounded)
+    vv = (v0[fi] + nrm[fi] * dd[..., None]).astype(np.float32).astype(np.float64)
     return _bad(vv.reshape(-1, 3), np.arange(3 * len(idx)).reshape(-1, 3), n0[idx], dirs, cos_limit)
 
 
@@ -95,18 +104,16 @@ def _faces_at(f: np.ndarray, n: int):
 
 
 def _rounds(ctx, out, rounds, shrink):
-    """The limiter's rounds, in place on ``out``; returns the first round's counts."""
+    """The limiter's rounds, in place on ``out``."""
     v0, f = ctx[0], ctx[2]
     faces_of = _faces_at(f, len(v0))
     idx = np.arange(len(f))
-    first = None
     for r in range(rounds + len(v0) + 1):  # per round; only faces near a change are looked at
         if not len(idx):
             break
-        over, fold = _offending(ctx, idx, out[f[idx]])
-        if first is None:
-            first = (int(over.sum()), int(fold.sum()))
-        bad = idx[over | fold]
+        dd = out[f[idx]]
+        over, fold = _offending(ctx, idx, dd)
+        bad = idx[(over | fold) & (dd != 0).any(axis=1)]  # an undisplaced face is as it was
         if not len(bad):
             break
         fb = f[bad]
@@ -121,26 +128,80 @@ def _rounds(ctx, out, rounds, shrink):
             verts = np.unique(fb)
             out[verts] = 0.0
         idx = faces_of(verts)
-    return first
 
 
-def _float32_pass(ctx, out) -> None:
-    """The same test on the float32 vertices that are written (a tiny face can turn
-    when rounded): what offends there goes back to the surface, in place. After the
-    first pass only faces next to a zeroed vertex are looked at again."""
-    v0, nrm, f, n0, dirs, cos_limit = ctx
-    faces_of = _faces_at(f, len(v0))
-    idx = np.flatnonzero((out[f] != 0).any(axis=1))
-    for _ in range(len(v0) + 1):  # per round of zeroing
-        fi = f[idx]
-        vv = (v0[fi] + nrm[fi] * out[fi][..., None]).astype(np.float32).astype(np.float64)
-        over, fold = _bad(vv.reshape(-1, 3), np.arange(vv.shape[0] * 3).reshape(-1, 3), n0[idx], dirs, cos_limit)
-        if not (over | fold).any():
-            return
-        zero = np.unique(fi[over | fold])
-        out[zero] = 0.0
-        idx = faces_of(zero)
-        idx = idx[(out[f[idx]] != 0).any(axis=1)]
+def _slope_limits(v0, nrm, edges, b, cos_limit):
+    """Per edge ``(i, j)`` oriented upwards along the build direction ``b``: the
+    largest rise ``w`` (mm) of the displacement from ``i`` to ``j`` that keeps the
+    displaced surface from overhanging. On a surface with unit normal ``n`` the
+    displaced normal is ``n - g`` (``g`` the displacement's surface gradient), which
+    overhangs when ``(n - g) . b < -c sqrt(1 + |g|^2)`` (``c`` the cosine limit);
+    along the upward tangent ``t`` (``b = b_n n + beta t``) the steepest slope that
+    passes is ``G = (beta b_n + c sqrt(1 - c^2)) / (beta^2 - c^2)`` (none when
+    ``beta <= c``), and ``w = 0.95 G (b . e) / beta`` for the edge vector ``e``."""
+    i, j = edges[:, 0], edges[:, 1]
+    rise = (v0[j] - v0[i]) @ b
+    flip = rise < 0
+    i, j = np.where(flip, j, i), np.where(flip, i, j)
+    rise = np.abs(rise)
+    n = nrm[i] / np.linalg.norm(nrm[i], axis=1, keepdims=True) + nrm[j] / np.linalg.norm(nrm[j], axis=1, keepdims=True)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    bn = n @ b
+    beta = np.sqrt(np.maximum(1.0 - bn * bn, 0.0))
+    c = cos_limit
+    steep = beta > c + 1e-6
+    keep = steep & (rise > 0)
+    bk, ck = beta[keep], bn[keep]
+    g = (bk * ck + c * np.sqrt(1.0 - c * c)) / (bk * bk - c * c)
+    return i[keep], j[keep], 0.95 * g * rise[keep] / bk
+
+
+def _min_plus(d, src, dst, w, sign):
+    """The largest ``|d'| <= |d|`` (same signs) with ``d'_up - d'_low <= w`` on every
+    edge. ``sign`` 1: the positive part is lowered (``src`` the lower ends, ``dst`` the
+    upper, ``d'_dst <= d'_src + w``); -1: the negative part is raised (``src`` the upper
+    ends, ``d'_dst >= d'_src - w``). Min-plus relaxation from the vertices that changed,
+    all edges out of them at once (CSR by ``src``), until nothing changes."""
+    out = d.copy()
+    order = np.argsort(src, kind="stable")
+    src, dst, w = src[order], dst[order], w[order]
+    start = np.concatenate([[0], np.cumsum(np.bincount(src, minlength=len(d)))])
+    front = np.unique(src)
+    for _ in range(len(d) + 1):  # per relaxation wave (about H / (slope * edge) waves)
+        lo, cnt = start[front], start[front + 1] - start[front]
+        k = np.repeat(lo - np.cumsum(cnt) + cnt, cnt) + np.arange(int(cnt.sum()))
+        cand, tgt = out[src[k]] + sign * w[k], dst[k]
+        if sign > 0:
+            cand = np.maximum(cand, 0.0)
+            hit = cand < out[tgt] - 1e-12
+            np.minimum.at(out, tgt[hit], cand[hit])
+        else:
+            cand = np.minimum(cand, 0.0)
+            hit = cand > out[tgt] + 1e-12
+            np.maximum.at(out, tgt[hit], cand[hit])
+        front = np.unique(tgt[hit])
+        if not len(front):
+            break
+    return out
+
+
+def _pre_limit(v0, nrm, faces, d, dirs, cos_limit):
+    """Slope limits along every edge near the relief (:func:`_slope_limits`), for each
+    build direction: most of what the face-by-face rounds would do, in a few
+    vectorized waves."""
+    f = faces[(d[faces] != 0).any(axis=1)]
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    e = np.unique(e[:, 0] * np.int64(len(v0)) + e[:, 1])
+    edges = np.stack([e // len(v0), e % len(v0)], 1)
+    out = d.copy()
+    for b in dirs:  # per build direction
+        i, j, w = _slope_limits(v0, nrm, edges, b, cos_limit)
+        if (out > 0).any():
+            out = _min_plus(out, i, j, w, 1)
+        if (out < 0).any():
+            out = _min_plus(out, j, i, w, -1)
+    return out
+
 
 def limit_relief(
     vertices: np.ndarray,
@@ -186,8 +247,11 @@ def limit_relief(
     n0 = np.cross(p0[:, 1] - p0[:, 0], p0[:, 2] - p0[:, 0])
     n0 /= np.maximum(np.linalg.norm(n0, axis=1), 1e-300)[:, None]
     ctx = (v0, nrm, f, n0, dirs, cos_limit)
-    first = _rounds(ctx, out, rounds, shrink)
-    _float32_pass(ctx, out)
+    over, fold = _offending(ctx, np.arange(len(f)), out[f])
+    first = (int(over.sum()), int(fold.sum()))
+    if dirs is not None and first[0]:
+        out = _pre_limit(v0, nrm, f, out, dirs, cos_limit)
+    _rounds(ctx, out, rounds, shrink)
     area = np.zeros(len(v0))
     p = v0[faces]
     fa = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
