@@ -287,9 +287,10 @@ class MeshTextured(Textured):
         return super().export(path, separate_texture=separate_texture, name=name)
 
 
-def _border_distance(v: np.ndarray, f: np.ndarray, sel: np.ndarray) -> np.ndarray:
+def _border_distance(v: np.ndarray, f: np.ndarray, sel: np.ndarray, upto: float = np.inf) -> np.ndarray:
     """Per vertex: distance (mm) to the nearest vertex shared by a region face and a
-    face outside it (inf when the region has no border); NaN off the region."""
+    face outside it (inf when the region has no border, or farther than ``upto``);
+    NaN off the region."""
     from scipy.spatial import cKDTree
 
     inside = np.zeros(len(v), dtype=bool)
@@ -302,7 +303,8 @@ def _border_distance(v: np.ndarray, f: np.ndarray, sel: np.ndarray) -> np.ndarra
     if not len(border):
         dist[idx] = np.inf
     else:
-        dist[idx], _ = cKDTree(v[border]).query(v[idx], workers=1)
+        up = upto * (1 + 1e-9) if np.isfinite(upto) and upto > 0 else np.inf
+        dist[idx], _ = cKDTree(v[border]).query(v[idx], workers=1, distance_upper_bound=up)
     return dist
 
 
@@ -337,7 +339,7 @@ def _refine_layers(layers, v, f, dirs, crit, tol):
 
 def _relief(layer: Layer, v, f, sel, normals):
     """Per-vertex displacement ``d`` and lowest displacement ``b`` of one layer (mm)."""
-    dist = _border_distance(v, f, sel)
+    dist = _border_distance(v, f, sel, upto=layer.border)
     idx = np.flatnonzero(np.isfinite(dist) | np.isinf(dist))
     H = float(layer.height)
     R = H * (np.minimum(1.0, dist[idx] / layer.border) if layer.border > 0 else (dist[idx] > 0).astype(float))
@@ -420,6 +422,7 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
     for k, m in enumerate(masks):  # per layer
         if not m.any():
             raise ParameterError(f"region {k + 1} ({layers[k].region}) holds no face of the mesh; choose another region")
+    progress(0.3, "normals")
     unit = vertex_normals(v, f)
     normals = offset_directions(v, f, unit)  # keeps sharp edges sharp: no fold
     progress(0.4, "sampling the texture")
@@ -431,8 +434,9 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
     if limit.folded_faces:
         warnings.warn(f"the texture was lowered where {limit.folded_faces} faces would fold over (too deep for the curvature there)", TexcadWarning, stacklevel=2)
     out = Mesh((v + normals * d2[:, None]).astype(np.float32), f.astype(np.uint32), {"texture": np.flatnonzero((d2[f] != 0).any(axis=1))})
+    progress(0.85, "checking the solid")
     _assert_solid(out, bodies, "textured mesh")
-    progress(0.9, "checked")
+    progress(0.9, "base mesh")
     # the base lies SKIN mm under every region, so no texture body has parts of zero thickness
     inside = np.any([p[3] for p in parts], axis=0)
     b = b - SKIN * inside
