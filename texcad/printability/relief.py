@@ -16,13 +16,8 @@ passes), and every vertex takes the smallest factor of its offending faces (time
 neighbours keep disturbing each other); after ``rounds`` rounds what still offends is
 set to 0. Only faces next to a changed vertex are looked at again. The test is
 made on the float32 vertices that are written.
-
-Before the rounds, a vectorized pre-limit does most of their work: the overhang
-condition as a slope limit ``d_up - d_low <= w`` along every edge near the relief
-(:func:`_slope_limits`), enforced by min-plus relaxation waves from the vertices that
-change (like a distance transform), for the positive part (lowered) and the negative
-part (raised to 0) of the relief; the rounds then fix the few faces left (edges
-alone do not bound a thin face's slope across them) and the folds.
+The first test of every face is made on the displaced vertices (one position per
+vertex, not per corner); later rounds look only at the faces next to a change.
 """
 
 from __future__ import annotations
@@ -87,6 +82,13 @@ def _largest_factor(ctx, bad, base):
     return lo
 
 
+def _distinct(idx: np.ndarray, n: int) -> np.ndarray:
+    """``np.unique(idx)`` for indices in ``0..n-1``, by a mask (no hashing or sorting)."""
+    mark = np.zeros(n, dtype=bool)
+    mark[idx] = True
+    return np.flatnonzero(mark)
+
+
 def _faces_at(f: np.ndarray, n: int):
     """Vertex -> face incidence: ``faces_of(verts)`` gives the faces (indices into
     ``f``) at any of ``verts``, sorted and unique, in time proportional to the answer."""
@@ -98,13 +100,22 @@ def _faces_at(f: np.ndarray, n: int):
         lo, cnt = start[verts], start[verts + 1] - start[verts]
         total = int(cnt.sum())
         offs = np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        return np.unique(order[np.repeat(lo, cnt) + offs])
+        return _distinct(order[np.repeat(lo, cnt) + offs], len(f))
 
     return faces_of
 
 
-def _rounds(ctx, out, rounds, shrink):
-    """The limiter's rounds, in place on ``out``."""
+def _all_offending(ctx, out):
+    """Overhang and fold flags of every face, from one displaced position per vertex."""
+    v0, nrm, f, n0, dirs, cos_limit = ctx
+    used = _distinct(f.ravel(), len(v0))
+    pos = np.zeros((len(v0), 3))
+    pos[used] = (v0[used] + nrm[used] * out[used, None]).astype(np.float32)
+    return _bad(pos, f, n0, dirs, cos_limit)
+
+
+def _rounds(ctx, out, rounds, shrink, first):
+    """The limiter's rounds, in place on ``out``; ``first`` the flags of every face."""
     v0, f = ctx[0], ctx[2]
     faces_of = _faces_at(f, len(v0))
     idx = np.arange(len(f))
@@ -112,7 +123,7 @@ def _rounds(ctx, out, rounds, shrink):
         if not len(idx):
             break
         dd = out[f[idx]]
-        over, fold = _offending(ctx, idx, dd)
+        over, fold = _offending(ctx, idx, dd) if r else first
         bad = idx[(over | fold) & (dd != 0).any(axis=1)]  # an undisplaced face is as it was
         if not len(bad):
             break
@@ -125,82 +136,9 @@ def _rounds(ctx, out, rounds, shrink):
             verts = np.flatnonzero(fac < 1.0)
             out[verts] *= fac[verts]
         else:
-            verts = np.unique(fb)
+            verts = _distinct(fb.ravel(), len(v0))
             out[verts] = 0.0
         idx = faces_of(verts)
-
-
-def _slope_limits(v0, nrm, edges, b, cos_limit):
-    """Per edge ``(i, j)`` oriented upwards along the build direction ``b``: the
-    largest rise ``w`` (mm) of the displacement from ``i`` to ``j`` that keeps the
-    displaced surface from overhanging. On a surface with unit normal ``n`` the
-    displaced normal is ``n - g`` (``g`` the displacement's surface gradient), which
-    overhangs when ``(n - g) . b < -c sqrt(1 + |g|^2)`` (``c`` the cosine limit);
-    along the upward tangent ``t`` (``b = b_n n + beta t``) the steepest slope that
-    passes is ``G = (beta b_n + c sqrt(1 - c^2)) / (beta^2 - c^2)`` (none when
-    ``beta <= c``), and ``w = 0.95 G (b . e) / beta`` for the edge vector ``e``."""
-    i, j = edges[:, 0], edges[:, 1]
-    rise = (v0[j] - v0[i]) @ b
-    flip = rise < 0
-    i, j = np.where(flip, j, i), np.where(flip, i, j)
-    rise = np.abs(rise)
-    n = nrm[i] / np.linalg.norm(nrm[i], axis=1, keepdims=True) + nrm[j] / np.linalg.norm(nrm[j], axis=1, keepdims=True)
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-    bn = n @ b
-    beta = np.sqrt(np.maximum(1.0 - bn * bn, 0.0))
-    c = cos_limit
-    steep = beta > c + 1e-6
-    keep = steep & (rise > 0)
-    bk, ck = beta[keep], bn[keep]
-    g = (bk * ck + c * np.sqrt(1.0 - c * c)) / (bk * bk - c * c)
-    return i[keep], j[keep], 0.95 * g * rise[keep] / bk
-
-
-def _min_plus(d, src, dst, w, sign):
-    """The largest ``|d'| <= |d|`` (same signs) with ``d'_up - d'_low <= w`` on every
-    edge. ``sign`` 1: the positive part is lowered (``src`` the lower ends, ``dst`` the
-    upper, ``d'_dst <= d'_src + w``); -1: the negative part is raised (``src`` the upper
-    ends, ``d'_dst >= d'_src - w``). Min-plus relaxation from the vertices that changed,
-    all edges out of them at once (CSR by ``src``), until nothing changes."""
-    out = d.copy()
-    order = np.argsort(src, kind="stable")
-    src, dst, w = src[order], dst[order], w[order]
-    start = np.concatenate([[0], np.cumsum(np.bincount(src, minlength=len(d)))])
-    front = np.unique(src)
-    for _ in range(len(d) + 1):  # per relaxation wave (about H / (slope * edge) waves)
-        lo, cnt = start[front], start[front + 1] - start[front]
-        k = np.repeat(lo - np.cumsum(cnt) + cnt, cnt) + np.arange(int(cnt.sum()))
-        cand, tgt = out[src[k]] + sign * w[k], dst[k]
-        if sign > 0:
-            cand = np.maximum(cand, 0.0)
-            hit = cand < out[tgt] - 1e-12
-            np.minimum.at(out, tgt[hit], cand[hit])
-        else:
-            cand = np.minimum(cand, 0.0)
-            hit = cand > out[tgt] + 1e-12
-            np.maximum.at(out, tgt[hit], cand[hit])
-        front = np.unique(tgt[hit])
-        if not len(front):
-            break
-    return out
-
-
-def _pre_limit(v0, nrm, faces, d, dirs, cos_limit):
-    """Slope limits along every edge near the relief (:func:`_slope_limits`), for each
-    build direction: most of what the face-by-face rounds would do, in a few
-    vectorized waves."""
-    f = faces[(d[faces] != 0).any(axis=1)]
-    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    e = np.unique(e[:, 0] * np.int64(len(v0)) + e[:, 1])
-    edges = np.stack([e // len(v0), e % len(v0)], 1)
-    out = d.copy()
-    for b in dirs:  # per build direction
-        i, j, w = _slope_limits(v0, nrm, edges, b, cos_limit)
-        if (out > 0).any():
-            out = _min_plus(out, i, j, w, 1)
-        if (out < 0).any():
-            out = _min_plus(out, j, i, w, -1)
-    return out
 
 
 def limit_relief(
@@ -247,17 +185,16 @@ def limit_relief(
     n0 = np.cross(p0[:, 1] - p0[:, 0], p0[:, 2] - p0[:, 0])
     n0 /= np.maximum(np.linalg.norm(n0, axis=1), 1e-300)[:, None]
     ctx = (v0, nrm, f, n0, dirs, cos_limit)
-    over, fold = _offending(ctx, np.arange(len(f)), out[f])
+    over, fold = _all_offending(ctx, out)
     first = (int(over.sum()), int(fold.sum()))
-    if dirs is not None and first[0]:
-        out = _pre_limit(v0, nrm, f, out, dirs, cos_limit)
-    _rounds(ctx, out, rounds, shrink)
+    _rounds(ctx, out, rounds, shrink, (over, fold))
+    low = out != d0
+    near = faces[low[faces].any(axis=1)]  # the faces at a lowered vertex
     area = np.zeros(len(v0))
-    p = v0[faces]
+    p = v0[near]
     fa = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
     for k in range(3):  # per corner
-        area += np.bincount(faces[:, k], weights=fa / 3.0, minlength=len(v0))
-    low = out != d0
+        area += np.bincount(near[:, k], weights=fa / 3.0, minlength=len(v0))
     rep = ReliefLimit(
         lowered=int(low.sum()),
         zeroed=int((low & (out == 0)).sum()),
