@@ -371,10 +371,7 @@ def offset_directions(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarr
     fn, _ = face_normals(v, faces)
     corner = faces.ravel()
     dots = (np.repeat(fn, 3, axis=0) * normals[corner]).sum(1)
-    order = np.argsort(corner, kind="stable")
-    cs = corner[order]
-    starts = np.flatnonzero(np.r_[True, cs[1:] != cs[:-1]])
     c = np.ones(len(v))
-    c[cs[starts]] = np.minimum.reduceat(dots[order], starts)
+    np.minimum.at(c, corner, dots)
     c = np.clip(c, 1.0 / cap, 1.0)
     return normals / c[:, None]
