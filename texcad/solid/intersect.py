@@ -4,9 +4,12 @@ A closed mesh whose surface crosses itself (two overlapping bodies written as on
 "closed" mesh, a fold) encloses no well-defined solid: displacing it or fusing it gives
 garbage. The test, all in numpy:
 
-1. *broad phase*: every triangle's axis-aligned box is put into the cells of a uniform
-   grid it overlaps (cell about twice the median triangle size); triangles that share
-   a cell and whose boxes overlap are candidate pairs;
+1. *broad phase*: every triangle goes into the cells of a uniform grid (cell about
+   twice the median triangle size) that its axis-aligned box overlaps and that it may
+   meet (a ball test against its plane and its edges' side planes, so a long diagonal
+   sliver does not fill its whole box); triangles that share a cell and whose boxes
+   overlap are candidate pairs, each pair counted once (in the cell of the lowest
+   corner of the two boxes' overlap);
 2. pairs that share a vertex are left out (neighbours touch by construction);
 3. *narrow phase*: two triangles cross when an edge of one passes through the inside
    of the other (Moller-Trumbore, all pairs and their six edges at once); touching
@@ -26,22 +29,43 @@ __all__ = ["self_intersections"]
 EPS = 1e-9
 
 
-def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, cell: float, budget: int) -> np.ndarray:
-    """``(P, 2)`` pairs ``a < b`` of triangles sharing a grid cell, boxes overlapping."""
+def _touches(tri: np.ndarray, t: np.ndarray, centre: np.ndarray, r: float) -> np.ndarray:
+    """``(E,)`` bool: the ball of radius ``r`` around ``centre[k]`` may meet triangle
+    ``tri[t[k]]`` (within ``r`` of its plane and of the inner side of its three edges:
+    conservative, never drops a cell the triangle meets)."""
+    p = tri[t]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    ok = np.abs(((centre - p[:, 0]) * n).sum(1)) <= r
+    for k in range(3):  # per edge: its side plane, normal pointing away from the triangle
+        s = np.cross(p[:, (k + 1) % 3] - p[:, k], n)
+        s /= np.maximum(np.linalg.norm(s, axis=1, keepdims=True), 1e-300)
+        ok &= ((centre - p[:, k]) * s).sum(1) <= r
+    return ok
+
+
+def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, cell: float, budget: int, tri: np.ndarray) -> np.ndarray:
+    """``(P, 2)`` pairs ``a < b`` of triangles that meet a common grid cell, boxes
+    overlapping."""
     c0 = np.floor((lo - lo.min(axis=0)) / cell).astype(np.int64)
     c1 = np.floor((hi - lo.min(axis=0)) / cell).astype(np.int64)
     span = c1 - c0 + 1
     ncell = span.prod(axis=1)
     if ncell.sum() > budget:  # a few huge triangles: coarser cells
-        return _candidate_pairs(lo, hi, cell * 2.0, budget)
-    tri = np.repeat(np.arange(len(lo)), ncell)
+        return _candidate_pairs(lo, hi, cell * 2.0, budget, tri)
+    owner = np.repeat(np.arange(len(lo)), ncell)
     k = np.arange(int(ncell.sum())) - np.repeat(np.cumsum(ncell) - ncell, ncell)
-    sx, sy = span[tri, 0], span[tri, 1]
-    ix, iy, iz = c0[tri, 0] + k % sx, c0[tri, 1] + (k // sx) % sy, c0[tri, 2] + k // (sx * sy)
+    sx, sy = span[owner, 0], span[owner, 1]
+    ix, iy, iz = c0[owner, 0] + k % sx, c0[owner, 1] + (k // sx) % sy, c0[owner, 2] + k // (sx * sy)
+    big = np.flatnonzero(ncell[owner] > 1)  # a triangle in several cells: only those it may meet
+    centre = lo.min(axis=0) + (np.stack([ix[big], iy[big], iz[big]], 1) + 0.5) * cell
+    keep = np.ones(len(owner), dtype=bool)
+    keep[big] = _touches(tri, owner[big], centre, 0.5 * np.sqrt(3.0) * cell)
+    owner, ix, iy, iz = owner[keep], ix[keep], iy[keep], iz[keep]
     dim = c1.max(axis=0) + 1
     key = ix + dim[0] * (iy + dim[1] * iz)
     order = np.argsort(key, kind="stable")
-    key, tri = key[order], tri[order]
+    key, owner = key[order], owner[order]
     start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
     size = np.diff(np.r_[start, len(key)])
     end = np.repeat(start + size, size)  # one past each entry's group
@@ -49,7 +73,7 @@ def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, cell: float, budget: int) -
     cnt = end - pos - 1
     a = np.repeat(pos, cnt)
     b = a + 1 + np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    ta, tb, kk = tri[a], tri[b], key[a]
+    ta, tb, kk = owner[a], owner[b], key[a]
     ok = np.all((lo[ta] <= hi[tb]) & (lo[tb] <= hi[ta]), axis=1)
     ta, tb, kk = ta[ok], tb[ok], kk[ok]
     # each pair once: in the cell of the lowest corner of the two boxes' overlap
@@ -102,7 +126,7 @@ def self_intersections(vertices: np.ndarray, faces: np.ndarray, *, budget: int =
     size = float(np.median((hi - lo).max(axis=1)))
     extent = float((hi.max(axis=0) - lo.min(axis=0)).max())
     cell = max(2.0 * size, extent / 512.0, 1e-9)
-    pairs = _candidate_pairs(lo, hi, cell, budget)
+    pairs = _candidate_pairs(lo, hi, cell, budget, tri)
     fa, fb = f[pairs[:, 0]], f[pairs[:, 1]]
     share = np.zeros(len(pairs), dtype=bool)
     for i in range(3):  # per corner pair
