@@ -345,14 +345,14 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Angle-weighted unit vertex normals ``(N, 3)``: ``n_v = sum_f theta_f(v) n_f``
     normalised, ``theta_f(v)`` the interior angle of face ``f`` at ``v`` (radians)."""
     v = np.asarray(vertices, dtype=np.float64)
-    p = v[faces]
-    e = p[:, [1, 2, 0]] - p  # (M, 3, 3): edge k from corner k to k + 1
-    n = np.cross(e[:, 0], -e[:, 2])
+    a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
+    e = (b - a, c - b, a - c)  # edge k from corner k to k + 1, (M, 3) each
+    n = np.cross(e[0], -e[2])
     twice = np.linalg.norm(n, axis=1)
     fn = n / np.maximum(twice, 1e-300)[:, None]
     out = np.zeros_like(v)
     for k in range(3):  # per corner: the angle between edge k and the reversed edge k - 1
-        ang = np.arctan2(twice, -(e[:, k] * e[:, (k + 2) % 3]).sum(1))
+        ang = np.arctan2(twice, -np.einsum("ij,ij->i", e[k], e[(k + 2) % 3]))
         for c in range(3):  # per coordinate
             out[:, c] += np.bincount(faces[:, k], weights=fn[:, c] * ang, minlength=len(v))
     ln = np.linalg.norm(out, axis=1)
