@@ -36,7 +36,14 @@ def _cylinder():
     return c
 
 
-SHAPES = {"box": _box, "cylinder": _cylinder}
+def _dome():
+    """Doubly curved: a half sphere (r 10 mm) standing on its flat face."""
+    s = m3d.Manifold.sphere(10.0, 48) ^ m3d.Manifold.cube((30, 30, 15)).translate((-15, -15, 0))
+    g = s.to_mesh()
+    return trimesh.Trimesh(np.asarray(g.vert_properties)[:, :3], np.asarray(g.tri_verts), process=False)
+
+
+SHAPES = {"box": _box, "cylinder": _cylinder, "dome": _dome}
 
 
 def _man(m):
@@ -155,6 +162,32 @@ def test_region_box_and_sphere_on_a_curved_mesh():
         assert np.all(inside(moved))
 
 
+@pytest.mark.parametrize("proj", PROJECTIONS)
+@pytest.mark.parametrize("mode", MODES)
+def test_region_respected_for_every_projection_and_mode(proj, mode):
+    """A sphere region on the dome's flank: every displaced vertex lies in a region face
+    (within a triangle of the sphere), and those within the border width of the
+    region's edge are displaced by at most the M-I ramp (H s / border)."""
+    tm = _dome()
+    c, rad, border, pitch = np.array([7.0, 0.0, 6.0]), 6.0, 1.5, 0.5
+    tex = "builtin:stones:scale=0.5" if proj == "solid" else "builtin:pins"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", texcad.TexcadWarning)
+        r = texcad.texture(tm, f"sphere:{c[0]},{c[1]},{c[2]},{rad}", tex, height=H, pitch=pitch, projection=proj,
+                           mode=mode, build_dir=(0, 0, 1), border=border)
+    v = r.mesh.vertices.astype(np.float64)
+    off = np.abs(_convex_distance(tm, v))
+    moved = off > 1e-4
+    assert moved.sum() > 50
+    # in a region face: its centroid is in the sphere, so its corners within a pitch of it
+    assert np.all(np.linalg.norm(v[moved] - c, axis=1) <= rad + pitch + H * np.sqrt(3))
+    # the ramp: a vertex s mm inside the sphere is within s + 2 pitch of the region's
+    # border vertices, so it moves by at most H (s + 2 pitch) / border (< H here)
+    s = rad - np.linalg.norm(v - c, axis=1)
+    near = moved & (s < 0.25)
+    assert np.all(off[near] <= 1.05 * H * np.maximum(s[near] + 2 * pitch, 0) / border + 1e-4)
+
+
 def test_gradient_fades_along_an_axis():
     tm = _cylinder()
     r = texcad.texture(tm, "normal:+z:100", "builtin:ridges", height=H, pitch=1.0, projection="cylindrical",
@@ -208,6 +241,16 @@ def test_read_files_and_refuse_bad_input(tmp_path):
     open_mesh = trimesh.Trimesh(tm.vertices, tm.faces[:-1], process=False)
     with pytest.raises(InputError, match="not closed"):
         texcad.texture(open_mesh, "all", "builtin:ridges")
+    # two overlapping boxes in one "closed" mesh, and a box folded through itself
+    other = _box()
+    other.apply_translation((5.0, 4.0, 3.0))
+    fold = np.array(tm.vertices)
+    fold[int(np.argmax(fold.sum(1)))] = (-3.0, -2.0, -4.0)  # the top corner pushed through the bottom
+    for bad in (trimesh.util.concatenate([tm, other]), trimesh.Trimesh(fold, tm.faces, process=False)):
+        stl = tmp_path / "bad.stl"
+        bad.export(stl)
+        with pytest.raises(InputError, match="intersects itself.*manifold3d"):
+            texcad.texture(str(stl), "all", "builtin:ridges", pitch=1.5)
     with pytest.raises(ParameterError, match="holds no face"):
         texcad.texture(tm, "sphere:100,100,100,1", "builtin:ridges")
     with pytest.raises(ParameterError, match="region"):

@@ -75,8 +75,10 @@ from .occt import (
     as_array,
     compound,
 )
+from .intersect import self_intersections
 from .subdivide import (
     refine,
+    tessellate,
     flip_edges,
     vertex_normals,
     offset_directions,
@@ -143,7 +145,9 @@ __all__ = [
     'faces_of',
     'as_array',
     'compound',
+    'self_intersections',
     'refine',
+    'tessellate',
     'flip_edges',
     'vertex_normals',
     'offset_directions',

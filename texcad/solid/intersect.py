@@ -1,0 +1,140 @@
+"""Does a triangle mesh cross itself? (:func:`self_intersections`, vectorized.)
+
+A closed mesh whose surface crosses itself (two overlapping bodies written as one
+"closed" mesh, a fold) encloses no well-defined solid: displacing it or fusing it gives
+garbage. The test, all in numpy:
+
+1. *broad phase*: every triangle goes into the cells of a uniform grid (cell about
+   twice the median triangle size) that its axis-aligned box overlaps and that it may
+   meet (a ball test against its plane and its edges' side planes, so a long diagonal
+   sliver does not fill its whole box); triangles that share a cell and whose boxes
+   overlap are candidate pairs, each pair counted once (in the cell of the lowest
+   corner of the two boxes' overlap);
+2. pairs that share a vertex are left out (neighbours touch by construction);
+3. *narrow phase*: two triangles cross when an edge of one passes through the inside
+   of the other (Moller-Trumbore, all pairs and their six edges at once); touching
+   within a relative 1e-9 does not count.
+
+Coplanar overlaps (two faces lying on each other) are not seen by the edge test; two
+bodies that overlap in volume always also cross somewhere.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["self_intersections"]
+
+#: Relative tolerance: an edge that ends on, or grazes, a triangle does not cross it.
+EPS = 1e-9
+
+
+def _touches(tri: np.ndarray, t: np.ndarray, centre: np.ndarray, r: float) -> np.ndarray:
+    """``(E,)`` bool: the ball of radius ``r`` around ``centre[k]`` may meet triangle
+    ``tri[t[k]]`` (within ``r`` of its plane and of the inner side of its three edges:
+    conservative, never drops a cell the triangle meets)."""
+    p = tri[t]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    ok = np.abs(((centre - p[:, 0]) * n).sum(1)) <= r
+    for k in range(3):  # per edge: its side plane, normal pointing away from the triangle
+        s = np.cross(p[:, (k + 1) % 3] - p[:, k], n)
+        s /= np.maximum(np.linalg.norm(s, axis=1, keepdims=True), 1e-300)
+        ok &= ((centre - p[:, k]) * s).sum(1) <= r
+    return ok
+
+
+def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, cell: float, budget: int, tri: np.ndarray) -> np.ndarray:
+    """``(P, 2)`` pairs ``a < b`` of triangles that meet a common grid cell, boxes
+    overlapping."""
+    c0 = np.floor((lo - lo.min(axis=0)) / cell).astype(np.int64)
+    c1 = np.floor((hi - lo.min(axis=0)) / cell).astype(np.int64)
+    span = c1 - c0 + 1
+    ncell = span.prod(axis=1)
+    if ncell.sum() > budget:  # a few huge triangles: coarser cells
+        return _candidate_pairs(lo, hi, cell * 2.0, budget, tri)
+    owner = np.repeat(np.arange(len(lo)), ncell)
+    k = np.arange(int(ncell.sum())) - np.repeat(np.cumsum(ncell) - ncell, ncell)
+    sx, sy = span[owner, 0], span[owner, 1]
+    ix, iy, iz = c0[owner, 0] + k % sx, c0[owner, 1] + (k // sx) % sy, c0[owner, 2] + k // (sx * sy)
+    big = np.flatnonzero(ncell[owner] > 1)  # a triangle in several cells: only those it may meet
+    centre = lo.min(axis=0) + (np.stack([ix[big], iy[big], iz[big]], 1) + 0.5) * cell
+    keep = np.ones(len(owner), dtype=bool)
+    keep[big] = _touches(tri, owner[big], centre, 0.5 * np.sqrt(3.0) * cell)
+    owner, ix, iy, iz = owner[keep], ix[keep], iy[keep], iz[keep]
+    dim = c1.max(axis=0) + 1
+    key = ix + dim[0] * (iy + dim[1] * iz)
+    order = np.argsort(key, kind="stable")
+    key, owner = key[order], owner[order]
+    start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    size = np.diff(np.r_[start, len(key)])
+    end = np.repeat(start + size, size)  # one past each entry's group
+    pos = np.arange(len(key))
+    cnt = end - pos - 1
+    a = np.repeat(pos, cnt)
+    b = a + 1 + np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    ta, tb, kk = owner[a], owner[b], key[a]
+    ok = np.all((lo[ta] <= hi[tb]) & (lo[tb] <= hi[ta]), axis=1)
+    ta, tb, kk = ta[ok], tb[ok], kk[ok]
+    # each pair once: in the cell of the lowest corner of the two boxes' overlap
+    r = np.floor((np.maximum(lo[ta], lo[tb]) - lo.min(axis=0)) / cell).astype(np.int64)
+    first = (r[:, 0] + dim[0] * (r[:, 1] + dim[1] * r[:, 2])) == kk
+    return np.stack([np.minimum(ta, tb)[first], np.maximum(ta, tb)[first]], 1)
+
+
+def _edges_cross(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``(P,)`` bool: an edge of triangle ``p[k]`` ``(P, 3, 3)`` passes through the
+    inside of triangle ``q[k]``."""
+    a = q[:, 0]
+    e1, e2 = q[:, 1] - a, q[:, 2] - a
+    scale = np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
+    hit = np.zeros(len(p), dtype=bool)
+    for k in range(3):  # per edge of p
+        o = p[:, k]
+        d = p[:, (k + 1) % 3] - o
+        pv = np.cross(d, e2)
+        det = (e1 * pv).sum(1)
+        ok = np.abs(det) > EPS * scale * np.linalg.norm(d, axis=1)
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        tv = o - a
+        u = (tv * pv).sum(1) * inv
+        qv = np.cross(tv, e1)
+        v = (d * qv).sum(1) * inv
+        t = (e2 * qv).sum(1) * inv
+        hit |= ok & (u > EPS) & (v > EPS) & (u + v < 1 - EPS) & (t > EPS) & (t < 1 - EPS)
+    return hit
+
+
+def self_intersections(vertices: np.ndarray, faces: np.ndarray, *, budget: int = 20_000_000) -> np.ndarray:
+    """Pairs of triangles that cross each other (module docstring).
+
+    Args:
+        vertices: ``(N, 3)`` positions, mm.
+        faces: ``(M, 3)`` vertex indices.
+        budget: most (triangle, grid cell) entries of the broad phase (memory bound).
+
+    Returns:
+        ``(K, 2)`` int64 face index pairs ``a < b`` that cross, sorted (empty: the
+        surface does not cross itself, up to coplanar overlaps).
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    if len(f) < 2:
+        return np.zeros((0, 2), dtype=np.int64)
+    tri = v[f]
+    lo, hi = tri.min(axis=1), tri.max(axis=1)
+    size = float(np.median((hi - lo).max(axis=1)))
+    extent = float((hi.max(axis=0) - lo.min(axis=0)).max())
+    cell = max(2.0 * size, extent / 512.0, 1e-9)
+    pairs = _candidate_pairs(lo, hi, cell, budget, tri)
+    fa, fb = f[pairs[:, 0]], f[pairs[:, 1]]
+    share = np.zeros(len(pairs), dtype=bool)
+    for i in range(3):  # per corner pair
+        for j in range(3):
+            share |= fa[:, i] == fb[:, j]
+    pairs = pairs[~share]
+    if not len(pairs):
+        return pairs
+    pa, pb = tri[pairs[:, 0]], tri[pairs[:, 1]]
+    cross = pairs[_edges_cross(pa, pb) | _edges_cross(pb, pa)]
+    return cross[np.lexsort((cross[:, 1], cross[:, 0]))]
