@@ -97,6 +97,8 @@ __all__ = [
     "map_texture",
     "column_positions",
     "slab_mesh",
+    "lean_slab_mesh",
+    "developed_field",
 ]
 
 #: The two mappings of the paper: algorithm 1 and algorithm 2.
@@ -258,6 +260,113 @@ def slab_mesh(top: np.ndarray, bottom: np.ndarray, *, closed: bool = False) -> M
             parts.append(_end_wall(top[:, c], bottom[:, c], idx[:, c], bidx[:, c], out))
     faces = np.concatenate(parts).astype(np.uint32)
     return Mesh(verts, faces, {"texture": np.arange(len(ftop), dtype=np.uint32)})
+
+
+def developed_field(top: np.ndarray, profile: Profile, s: np.ndarray, *, closed: bool) -> np.ndarray:
+    """A scalar field over a mapped grid whose linear-interpolation error models the
+    3-D error of flat triangles on the curved surface, for greedy insertion.
+
+    The 3-D point of grid vertex ``(r, c)`` is ``P = B(s_c) + y_r e_y + offset``
+    (:func:`map_texture`). A flat triangle spanning columns ``i..j`` misses ``P`` by
+    (to first order, along the normal) the interpolation error of the offset's normal
+    component ``H = offset . n`` plus the sagitta of the base's chord. The sagitta is
+    the interpolation error of the *developed* profile ``q`` with ``q'' = -kappa``
+    (``R (1 - cos(ds / 2R)) ~ ds^2 / 8R`` on a circle), so the field is ``H + q``:
+    ``q`` integrates the turning angles of the polyline through the columns (convex
+    positive, exact corners included) over chords taken on the offset at the
+    largest height (the outer surface of a convex bend has the longer chords, hence
+    the larger sagitta). Closed profiles get one more column, the seam again
+    (``C + 1``), where ``q`` has kept integrating.
+
+    Args:
+        top: ``(R, C, 3)`` mapped grid (mm), columns at arc lengths ``s``.
+        profile: the base profile (x, z in mm).
+        s: ``(C,)`` arc length of every column, mm.
+
+    Returns:
+        ``(R, C)`` or, closed, ``(R, C + 1)`` float32 field in mm.
+    """
+    t = np.asarray(top, dtype=np.float64)
+    fc = profile.at(np.asarray(s, dtype=np.float64))
+    p, n = fc.point, fc.normal
+    H = np.einsum("rcj,cj->rc", t[..., [0, 2]] - p[None], n)
+    hmax = float(max(H.max(initial=0.0), 0.0))
+    if closed:
+        p, n, H = np.concatenate([p, p[:1]]), np.concatenate([n, n[:1]]), np.concatenate([H, H[:, :1]], axis=1)
+    chord = np.diff(p, axis=0)
+    ell = np.maximum(np.linalg.norm(chord, axis=1), np.linalg.norm(np.diff(p + hmax * n, axis=0), axis=1))
+    tang = chord / np.maximum(np.linalg.norm(chord, axis=1, keepdims=True), 1e-300)
+    # Turning angle at every inner column; convex (away from the normal) positive.
+    beta = -np.arctan2(tang[:-1, 0] * tang[1:, 1] - tang[:-1, 1] * tang[1:, 0], np.einsum("ij,ij->i", tang[:-1], tang[1:]))
+    slope = -np.concatenate([[0.0], np.cumsum(beta)])  # dq/ds on each chord
+    q = np.concatenate([[0.0], np.cumsum(slope * ell)])
+    return (H + q[None, :]).astype(np.float32)
+
+
+def lean_slab_mesh(
+    top: np.ndarray,
+    bottom: np.ndarray,
+    profile: Profile,
+    s: np.ndarray,
+    *,
+    closed: bool = False,
+    tolerance: float,
+) -> tuple[Mesh, float]:
+    """:func:`slab_mesh` with a lean textured surface: only the grid vertices needed
+    to stay within ``tolerance`` mm of every grid vertex in 3-D.
+
+    Greedy insertion (:func:`texcad.solid.triangulate`) runs on
+    :func:`developed_field`, so the bound covers the texture's relief and the
+    curvature of the base (a cylinder's flat facets); the border rows and columns
+    keep every vertex (the end walls and, closed, the seam column are those of the
+    full grid: watertight, zero seam gap). The error is then measured independently
+    (:func:`texcad.solid.grid_distance`: every grid vertex to the mesh, in 3-D) and
+    the insertion repeated with a tighter bound until it is within ``tolerance``;
+    after four tries, or when the lean surface would keep more than
+    :data:`texcad.solid.lean.MAX_FRACTION` of the grid, the full grid is used.
+
+    Args:
+        top: ``(R, C, 3)`` exact mapped grid (mm), columns at arc lengths ``s`` (mm).
+        bottom: ``(2, C, 3)`` or ``(R, C, 3)`` (see :func:`slab_mesh`).
+        profile: the base profile the grid was mapped on (mm).
+        closed: columns wrap (closed profile).
+        tolerance: largest distance in mm from any grid vertex to the surface, > 0.
+
+    Returns:
+        ``(slab, max_error)``: the watertight slab (group ``"texture"``: the lean
+        surface) and the measured largest distance in mm (0 for the full grid).
+    """
+    from ..solid import check_tolerance, grid_distance, triangulate
+
+    tol = check_tolerance(tolerance)
+    full = slab_mesh(top, bottom, closed=closed)
+    if tol <= 0:
+        return full, 0.0
+    t64 = np.asarray(top, dtype=np.float64)
+    rows, cols = t64.shape[:2]
+    field = developed_field(t64, profile, s, closed=closed)
+    pts = np.concatenate([t64, t64[:, :1]], axis=1) if closed else t64
+    run = tol
+    for _ in range(4):  # tighter bounds until the measured error is within tolerance
+        lean = triangulate(field, run, full_border=True)
+        if lean is None:
+            return full, 0.0
+        rc, faces = lean
+        flat = rc[:, 0] * cols + np.mod(rc[:, 1], cols)  # the wrap column is column 0
+        err = float(grid_distance(pts, rc, full.vertices[flat], faces).max())
+        if err <= tol:
+            break
+        run *= 0.9 * tol / err
+    else:
+        return full, 0.0
+    ntop = len(full.groups["texture"])
+    top_faces = flat[faces.astype(np.int64)]
+    faces_all = np.concatenate([top_faces, full.faces[ntop:].astype(np.int64)])
+    used = np.unique(faces_all)
+    remap = np.full(len(full.vertices), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    mesh = Mesh(full.vertices[used], remap[faces_all].astype(np.uint32), {"texture": np.arange(len(top_faces), dtype=np.uint32)})
+    return mesh, err
 
 
 def _end_wall(tcol: np.ndarray, bcol: np.ndarray, tid: np.ndarray, bid: np.ndarray, outward: np.ndarray) -> np.ndarray:

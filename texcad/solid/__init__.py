@@ -46,6 +46,7 @@ from .lean import (
     surface_error,
     mesh_error,
     boundary_chains,
+    grid_distance,
 )
 from .mesh import (
     Mesh,
@@ -109,6 +110,7 @@ __all__ = [
     'triangulate',
     'surface_error',
     'mesh_error',
+    'grid_distance',
     'boundary_chains',
     'Mesh',
     'grid_faces',
