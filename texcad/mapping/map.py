@@ -76,7 +76,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from typing import Any
+from typing import Any, Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -311,6 +311,7 @@ def lean_slab_mesh(
     *,
     closed: bool = False,
     tolerance: float,
+    facets_ok: "Callable[[np.ndarray, np.ndarray], bool] | None" = None,
 ) -> tuple[Mesh, float]:
     """:func:`slab_mesh` with a lean textured surface: only the grid vertices needed
     to stay within ``tolerance`` mm of every grid vertex in 3-D.
@@ -331,12 +332,17 @@ def lean_slab_mesh(
         profile: the base profile the grid was mapped on (mm).
         closed: columns wrap (closed profile).
         tolerance: largest distance in mm from any grid vertex to the surface, > 0.
+        facets_ok: optional ``facets_ok(vertices (N, 3) mm, faces (M, 3))`` check of
+            lean facets (e.g. that none overhangs for a build direction). Given, the
+            surface is made in tiles (:func:`texcad.solid.lean.tiled_triangulation`),
+            each checked for its error and with ``facets_ok``; a rejected tile is
+            redone tighter, then as the grid, and the other tiles stay lean.
 
     Returns:
         ``(slab, max_error)``: the watertight slab (group ``"texture"``: the lean
         surface) and the measured largest distance in mm (0 for the full grid).
     """
-    from ..solid import check_tolerance, grid_distance, triangulate
+    from ..solid import check_tolerance
 
     tol = check_tolerance(tolerance)
     full = slab_mesh(top, bottom, closed=closed)
@@ -346,19 +352,10 @@ def lean_slab_mesh(
     rows, cols = t64.shape[:2]
     field = developed_field(t64, profile, s, closed=closed)
     pts = np.concatenate([t64, t64[:, :1]], axis=1) if closed else t64
-    run = tol
-    for _ in range(4):  # tighter bounds until the measured error is within tolerance
-        lean = triangulate(field, run, full_border=True)
-        if lean is None:
-            return full, 0.0
-        rc, faces = lean
-        flat = rc[:, 0] * cols + np.mod(rc[:, 1], cols)  # the wrap column is column 0
-        err = float(grid_distance(pts, rc, full.vertices[flat], faces).max())
-        if err <= tol:
-            break
-        run *= 0.9 * tol / err
-    else:
+    lean = _lean_top(field, pts, full.vertices, cols, tol, facets_ok)
+    if lean is None:
         return full, 0.0
+    flat, faces, err = lean
     ntop = len(full.groups["texture"])
     top_faces = flat[faces.astype(np.int64)]
     faces_all = np.concatenate([top_faces, full.faces[ntop:].astype(np.int64)])
@@ -367,6 +364,40 @@ def lean_slab_mesh(
     remap[used] = np.arange(len(used))
     mesh = Mesh(full.vertices[used], remap[faces_all].astype(np.uint32), {"texture": np.arange(len(top_faces), dtype=np.uint32)})
     return mesh, err
+
+
+def _lean_top(field, pts, verts, cols: int, tol: float, facets_ok):
+    """The lean top of :func:`lean_slab_mesh`: ``(flat grid index per kept vertex,
+    faces, measured error mm)`` or None (use the grid)."""
+    from ..solid import grid_distance, tiled_triangulation, triangulate
+
+    def measure(rc, faces):
+        flat = rc[:, 0] * cols + np.mod(rc[:, 1], cols)  # the wrap column is column 0
+        lo, hi = rc.min(axis=0), rc.max(axis=0)
+        sub = pts[lo[0] : hi[0] + 1, lo[1] : hi[1] + 1]
+        return flat, float(grid_distance(sub, rc - lo, verts[flat], faces).max())
+
+    if facets_ok is not None:
+
+        def accept(rc, faces):
+            flat, err = measure(rc, faces)
+            return facets_ok(verts[flat], faces) if err <= tol else err / tol
+
+        lean = tiled_triangulation(field, tol, accept=accept)
+        if lean is None:
+            return None
+        flat, err = measure(*lean)
+        return (flat, lean[1], err) if err <= tol else None
+    run = tol
+    for _ in range(4):  # tighter bounds until the measured error is within tolerance
+        lean = triangulate(field, run, full_border=True)
+        if lean is None:
+            return None
+        flat, err = measure(*lean)
+        if err <= tol:
+            return flat, lean[1], err
+        run *= 0.9 * tol / err
+    return None
 
 
 def _end_wall(tcol: np.ndarray, bcol: np.ndarray, tid: np.ndarray, bid: np.ndarray, outward: np.ndarray) -> np.ndarray:

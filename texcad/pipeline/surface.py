@@ -6,6 +6,8 @@ from __future__ import annotations
 import os
 from typing import Any
 
+import numpy as np
+
 from ..errors import ParameterError
 from ..mapping import Surface, fit_texture, lean_slab_mesh, map_texture
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, fuse, shape_to_mesh
@@ -21,26 +23,27 @@ def lean_mapped_slab(top, bottom, profile, s, *, closed: bool, tolerance: float,
     ``(R, C, 3)`` mm, columns at arc lengths ``s`` ``(C,)`` mm on ``profile``): lean
     within ``tolerance`` mm (:func:`texcad.mapping.lean_slab_mesh`), or the full
     grid for tolerance 0 and, with ``build_dir`` (``(3,)`` or ``(K, 3)``, the grid's
-    frame), where the lean facets of the texture overhang more than the grid's (the
-    limiter bounds the pixel facets; a thin lean triangle at a sharp feature can be
-    steeper). Returns ``(slab, max_error mm)``."""
+    frame), made in tiles of which those whose lean facets would overhang (at the
+    critical angle + 1 degree, the slicer's rule) are redone tighter or as the grid
+    (the limiter bounds the pixel facets; a thin lean triangle at a sharp feature
+    can be steeper). Returns ``(slab, max_error mm)``."""
     from ..mapping import slab_mesh
 
     if tolerance <= 0:
         return slab_mesh(top, bottom, closed=closed), 0.0
-    slab, err = lean_slab_mesh(top, bottom, profile, s, closed=closed, tolerance=tolerance)
-    if build_dir is None or err == 0.0:
-        return slab, err
-    from ..printability import build_directions, overhang_area
+    if build_dir is None:
+        return lean_slab_mesh(top, bottom, profile, s, closed=closed, tolerance=tolerance)
+    from ..printability import build_directions, overhang_mask
 
-    def worst(m: Mesh) -> float:
-        return max(overhang_area(m, d, critical_angle, faces=m.groups["texture"]) for d in build_directions(build_dir))
+    dirs = build_directions(build_dir)
+    # The slicer's rule: support below its threshold + 1 degree (SLICER_MARGIN).
+    limit = min(float(critical_angle) + 1.0, 89.9)
 
-    if worst(slab) > 0:
-        grid = slab_mesh(top, bottom, closed=closed)
-        if worst(slab) > worst(grid) + 1e-9:
-            return grid, 0.0
-    return slab, err
+    def facets_ok(v: np.ndarray, f: np.ndarray) -> bool:
+        m = Mesh(v, f.astype(np.uint32))
+        return not any(overhang_mask(m, d, limit, plate_tolerance=-1.0).any() for d in dirs)
+
+    return lean_slab_mesh(top, bottom, profile, s, closed=closed, tolerance=tolerance, facets_ok=facets_ok)
 
 
 def textured_surface(

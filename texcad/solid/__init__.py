@@ -47,6 +47,7 @@ from .lean import (
     mesh_error,
     boundary_chains,
     grid_distance,
+    tiled_triangulation,
 )
 from .mesh import (
     Mesh,
@@ -111,6 +112,7 @@ __all__ = [
     'surface_error',
     'mesh_error',
     'grid_distance',
+    'tiled_triangulation',
     'boundary_chains',
     'Mesh',
     'grid_faces',

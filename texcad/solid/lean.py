@@ -23,6 +23,8 @@ heights and tolerances, pixels for the ``(row, col)`` grid indices.
 
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 
 from ..errors import GeometryError, ParameterError
@@ -36,6 +38,8 @@ __all__ = [
     "mesh_error",
     "boundary_chains",
     "grid_distance",
+    "tiled_triangulation",
+    "TILE",
 ]
 
 #: Default largest height error in mm of a lean mesh at any pixel centre: a tenth of
@@ -136,6 +140,78 @@ def triangulate(
     if int(area2.sum()) != 2 * (rows - 1) * (cols - 1):
         raise GeometryError("the lean triangulation does not cover the grid; use tolerance=0 and please report this")
     return rc, faces
+
+
+#: Tile size in px of :func:`tiled_triangulation` (its tile borders keep every grid
+#: point: about 2 / TILE more vertices than one triangulation of the whole grid).
+TILE = 96
+
+
+def tiled_triangulation(
+    heights: np.ndarray,
+    tolerance: float,
+    *,
+    tile: int = TILE,
+    accept: "Callable[[np.ndarray, np.ndarray], bool | float] | None" = None,
+    max_fraction: float = MAX_FRACTION,
+) -> "tuple[np.ndarray, np.ndarray] | None":
+    """:func:`triangulate` tile by tile, each tile checked on its own.
+
+    The grid is cut into tiles of about ``tile`` px that share their border rows and
+    columns; each is triangulated with every border point kept (``full_border``), so
+    neighbouring tiles meet on the same vertices whatever each keeps inside, and a
+    tile can be redone alone. ``accept(rc, faces)`` (grid points ``(row, col)`` of the
+    whole grid and the tile's triangles) says whether a tile's triangulation is good
+    (e.g. its 3-D error, or that no facet overhangs): True accepts it, False or a
+    number ``x`` > 1 (the error came out ``x`` times the tolerance) rejects it, and
+    the tile is redone with 0.6 (or ``0.9 / x``) of the bound, twice at most, then
+    as the pixel grid (always accepted).
+
+    Args:
+        heights: ``(R, C)`` field in mm.
+        tolerance: mm, > 0.
+        tile: tile size in px (>= 2).
+        accept: optional check of one tile (see above).
+        max_fraction: None is returned when the result keeps more than this share of
+            the grid's triangles.
+
+    Returns:
+        ``(rc, faces)`` as :func:`triangulate` (every tile border point kept), or None.
+    """
+    from .mesh import grid_faces
+
+    h = np.asarray(heights, dtype=np.float32)
+    rows, cols = h.shape
+    tile = max(2, int(tile))
+    rcuts = np.unique(np.r_[np.arange(0, rows - 1, tile), rows - 1])
+    ccuts = np.unique(np.r_[np.arange(0, cols - 1, tile), cols - 1])
+    all_rc, all_f, base = [], [], 0
+    for r0, r1 in zip(rcuts[:-1], rcuts[1:]):  # per tile
+        for c0, c1 in zip(ccuts[:-1], ccuts[1:]):
+            sub = h[r0 : r1 + 1, c0 : c1 + 1]
+            got, run = None, float(tolerance)
+            for _ in range(3):  # tighter bounds, then the grid
+                lean = triangulate(sub, run, max_fraction=1.0, full_border=True)
+                if lean is None:
+                    break
+                rc = lean[0] + np.array([r0, c0])
+                verdict = True if accept is None else accept(rc, lean[1].astype(np.int64))
+                if verdict is True:
+                    got = (rc, lean[1].astype(np.int64))
+                    break
+                run *= 0.6 if verdict is False else 0.9 / max(float(verdict), 1.0 + 1e-9)
+            if got is None:
+                g = np.stack(np.meshgrid(np.arange(r0, r1 + 1), np.arange(c0, c1 + 1), indexing="ij"), -1).reshape(-1, 2)
+                got = (g, grid_faces(r1 - r0 + 1, c1 - c0 + 1).astype(np.int64))
+            all_rc.append(got[0])
+            all_f.append(got[1] + base)
+            base += len(got[0])
+    rc = np.concatenate(all_rc)
+    faces = np.concatenate(all_f)
+    if len(faces) > max_fraction * 2 * (rows - 1) * (cols - 1):
+        return None
+    key, inv = np.unique(rc[:, 0] * cols + rc[:, 1], return_inverse=True)
+    return np.stack([key // cols, key % cols], axis=1), inv.reshape(-1)[faces].astype(np.uint32)
 
 
 def _fill_border(rc: np.ndarray, faces: np.ndarray, rows: int, cols: int) -> tuple[np.ndarray, np.ndarray]:
