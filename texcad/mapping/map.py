@@ -369,7 +369,7 @@ def lean_slab_mesh(
 def _lean_top(field, pts, verts, cols: int, tol: float, facets_ok):
     """The lean top of :func:`lean_slab_mesh`: ``(flat grid index per kept vertex,
     faces, measured error mm)`` or None (use the grid)."""
-    from ..solid import grid_distance, tiled_triangulation, triangulate
+    from ..solid import BORDER_GRID, grid_distance, tiled_triangulation, triangulate
 
     def measure(rc, faces):
         flat = rc[:, 0] * cols + np.mod(rc[:, 1], cols)  # the wrap column is column 0
@@ -383,7 +383,7 @@ def _lean_top(field, pts, verts, cols: int, tol: float, facets_ok):
             flat, err = measure(rc, faces)
             return facets_ok(verts[flat], faces) if err <= tol else err / tol
 
-        lean = tiled_triangulation(field, tol, accept=accept)
+        lean = tiled_triangulation(field, tol, accept=accept, border_grid=BORDER_GRID)
         if lean is None:
             return None
         flat, err = measure(*lean)

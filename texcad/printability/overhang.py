@@ -858,7 +858,7 @@ def printable_lean_slab(
     Returns:
         ``(slab, tolerance_used)`` (mm).
     """
-    from ..solid import heightfield_slab, tiled_triangulation
+    from ..solid import BORDER_GRID, heightfield_slab, tiled_triangulation
 
     dirs = build_directions(build_dir)
     limit = min(check_critical_angle(critical_angle) + float(margin) - 0.5, 89.9)
@@ -875,7 +875,7 @@ def printable_lean_slab(
         # plate_tolerance < 0: no texture facet rests on the build plate.
         return not any(overhang_mask(top, d, limit, plate_tolerance=-1.0).any() for d in dirs)
 
-    lean = tiled_triangulation(h, tol, accept=accept)
+    lean = tiled_triangulation(h, tol, accept=accept, border_grid=BORDER_GRID)
     if lean is None:
         return heightfield_slab(heightmap, depth=depth, origin=origin), 0.0
     return heightfield_slab(heightmap, depth=depth, origin=origin, tolerance=tol, lean=lean), tol

@@ -48,6 +48,8 @@ from .lean import (
     boundary_chains,
     grid_distance,
     tiled_triangulation,
+    BORDER_GRID,
+    TILE,
 )
 from .mesh import (
     Mesh,
@@ -113,6 +115,8 @@ __all__ = [
     'mesh_error',
     'grid_distance',
     'tiled_triangulation',
+    'BORDER_GRID',
+    'TILE',
     'boundary_chains',
     'Mesh',
     'grid_faces',

@@ -40,6 +40,7 @@ __all__ = [
     "grid_distance",
     "tiled_triangulation",
     "TILE",
+    "BORDER_GRID",
 ]
 
 #: Default largest height error in mm of a lean mesh at any pixel centre: a tenth of
@@ -145,6 +146,11 @@ def triangulate(
 #: Tile size in px of :func:`tiled_triangulation` (its tile borders keep every grid
 #: point: about 2 / TILE more vertices than one triangulation of the whole grid).
 TILE = 96
+#: Width in px of the strips along the sides that :func:`tiled_triangulation` keeps as
+#: the pixel grid when a build direction is given: measured on stones limited for a
+#: 60-degree tilt, the lean facets that overhang (at the critical angle + 1 degree)
+#: touch the side, at any tolerance; the rest are fixed by a tighter tile.
+BORDER_GRID = 3
 
 
 def tiled_triangulation(
@@ -153,6 +159,7 @@ def tiled_triangulation(
     *,
     tile: int = TILE,
     accept: "Callable[[np.ndarray, np.ndarray], bool | float] | None" = None,
+    border_grid: int = 0,
     max_fraction: float = MAX_FRACTION,
 ) -> "tuple[np.ndarray, np.ndarray] | None":
     """:func:`triangulate` tile by tile, each tile checked on its own.
@@ -172,6 +179,9 @@ def tiled_triangulation(
         tolerance: mm, > 0.
         tile: tile size in px (>= 2).
         accept: optional check of one tile (see above).
+        border_grid: strips this many px wide along the four sides are kept as the
+            pixel grid (the feet of the M-I ramps, where lean slivers along the side
+            would overhang: :data:`BORDER_GRID`).
         max_fraction: None is returned when the result keeps more than this share of
             the grid's triangles.
 
@@ -183,14 +193,21 @@ def tiled_triangulation(
     h = np.asarray(heights, dtype=np.float32)
     rows, cols = h.shape
     tile = max(2, int(tile))
-    rcuts = np.unique(np.r_[np.arange(0, rows - 1, tile), rows - 1])
-    ccuts = np.unique(np.r_[np.arange(0, cols - 1, tile), cols - 1])
+    b = max(0, int(border_grid))
+
+    def cuts(n: int) -> np.ndarray:
+        if n - 1 <= 2 * b + 1:
+            return np.array([0, n - 1])
+        return np.unique(np.r_[0, np.arange(b, n - 1 - b, tile), n - 1 - b, n - 1])
+
+    rcuts, ccuts = cuts(rows), cuts(cols)
     all_rc, all_f, base = [], [], 0
     for r0, r1 in zip(rcuts[:-1], rcuts[1:]):  # per tile
         for c0, c1 in zip(ccuts[:-1], ccuts[1:]):
             sub = h[r0 : r1 + 1, c0 : c1 + 1]
             got, run = None, float(tolerance)
-            for _ in range(3):  # tighter bounds, then the grid
+            strip = b > 0 and (r0 < b or c0 < b or r1 > rows - 1 - b or c1 > cols - 1 - b)
+            for _ in range(0 if strip else 3):  # tighter bounds, then the grid
                 lean = triangulate(sub, run, max_fraction=1.0, full_border=True)
                 if lean is None:
                     break
