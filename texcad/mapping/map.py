@@ -359,9 +359,10 @@ def lean_slab_mesh(
     ntop = len(full.groups["texture"])
     top_faces = flat[faces.astype(np.int64)]
     faces_all = np.concatenate([top_faces, full.faces[ntop:].astype(np.int64)])
-    used = np.unique(faces_all)
-    remap = np.full(len(full.vertices), -1, dtype=np.int64)
-    remap[used] = np.arange(len(used))
+    mask = np.zeros(len(full.vertices), dtype=bool)
+    mask[faces_all.ravel()] = True
+    used = np.flatnonzero(mask)
+    remap = np.cumsum(mask) - 1
     mesh = Mesh(full.vertices[used], remap[faces_all].astype(np.uint32), {"texture": np.arange(len(top_faces), dtype=np.uint32)})
     return mesh, err
 

@@ -248,11 +248,14 @@ def _fill_border(rc: np.ndarray, faces: np.ndarray, rows: int, cols: int) -> tup
     from its opposite vertex onto them (same orientation); repeated for triangles
     with two such edges (at the corners)."""
     key = rc[:, 0] * cols + rc[:, 1]
-    side_r = np.concatenate([np.zeros(cols), np.full(cols, rows - 1), np.arange(rows), np.arange(rows)]).astype(np.int64)
-    side_c = np.concatenate([np.arange(cols), np.arange(cols), np.zeros(rows), np.full(rows, cols - 1)]).astype(np.int64)
-    allkey = np.union1d(key, side_r * cols + side_c)  # row-major, like triangulate's rc
+    kept = np.zeros((rows, cols), dtype=bool)
+    kept.ravel()[key] = True
+    kept[[0, -1], :] = True
+    kept[:, [0, -1]] = True
+    allkey = np.flatnonzero(kept)  # row-major, like triangulate's rc
+    slot = np.cumsum(kept.ravel()) - 1  # grid index -> index into allkey
     out = np.stack([allkey // cols, allkey % cols], axis=1)
-    f = np.searchsorted(allkey, key)[faces]
+    f = slot[key][faces]
     for _ in range(4):  # a triangle has at most two edges along the sides
         a, b = out[f], out[np.roll(f, -1, axis=1)]  # (M, 3, 2): edge k runs f[k] -> f[k+1]
         along_r = (a[..., 0] == b[..., 0]) & ((a[..., 0] == 0) | (a[..., 0] == rows - 1))
@@ -268,9 +271,9 @@ def _fill_border(rc: np.ndarray, faces: np.ndarray, rows: int, cols: int) -> tup
         step = np.sign(out[v] - out[u])  # (T, 2): along the side
         k = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
         start = np.repeat(out[u], n, axis=0) + k[:, None] * np.repeat(step, n, axis=0)
-        p0 = np.searchsorted(allkey, start[:, 0] * cols + start[:, 1])
+        p0 = slot[start[:, 0] * cols + start[:, 1]]
         nxt = start + np.repeat(step, n, axis=0)
-        p1 = np.searchsorted(allkey, nxt[:, 0] * cols + nxt[:, 1])
+        p1 = slot[nxt[:, 0] * cols + nxt[:, 1]]
         keep = np.ones(len(f), bool)
         keep[tri] = False
         f = np.concatenate([f[keep], np.stack([p0, p1, np.repeat(apex, n)], axis=1)])
