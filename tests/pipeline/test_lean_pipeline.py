@@ -50,3 +50,24 @@ def test_surface_with_build_dir_is_lean_and_support_free():
     assert edge_report(lean.mesh.faces)["watertight"]
     assert lean.limits.remaining_overhang_mm2 == 0.0
     assert _texture_overhang(lean, d, 46.0) == 0  # the slicer's threshold + 1 degree
+
+
+def test_lean_extruded_face_keeps_its_brep_and_ops():
+    """A lean cylinder face: the B-rep (one pole per pixel) is made and checked
+    against the lean mesh within its tolerance x area (``info["volume_slack"]``), and
+    a checked CAD operation works on it."""
+    from build123d import Axis, Box, Cylinder, Pos
+
+    part = Cylinder(8, 20)
+    face = part.faces().sort_by(Axis.Z)[1]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = texcad.texture(part, face, "builtin:stones", height=0.6, pitch=0.25, tolerance=0.02)
+    assert 0 < r.max_error <= 0.02
+    slack = r.info["volume_slack"]
+    assert slack == pytest.approx(0.02 * 2 * np.pi * 8 * 20, rel=0.02)
+    from texcad.solid import volume
+
+    assert abs(volume(r.shape) - r.mesh.volume) <= 1e-3 * r.mesh.volume + slack
+    cut = r - Pos(8, 0, 0) * Box(4, 4, 30)
+    assert cut.mesh.is_watertight and cut.mesh.volume < r.mesh.volume

@@ -544,8 +544,7 @@ def _texture_extrusion(
         "texture_mesh": texture_only,
         "base_mesh": base_mesh,
         "heightmap": mapped.heightmap,
-        "limits": limits,
-        "max_error": max_error,
+        "limits": limits, "max_error": max_error,
         "info": {
             "face": "extrusion",
             "origin": o.tolist(),
@@ -556,7 +555,7 @@ def _texture_extrusion(
             "closed": mapped.closed,
             "mapping": mapping,
             "profile_length": profile.length,
-            "length": length,
+            "length": length, "tolerance": float(tolerance), "volume_slack": float(tolerance) * profile.length * length,
             "limits": [str(x) for x in mapped.limits],
         },
     }
