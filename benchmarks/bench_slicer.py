@@ -160,7 +160,7 @@ def _outputs(out: Path) -> list[tuple[str, Path, tuple]]:
     if js.exists():
         return [(s["sample"], out / f"{s['sample']}.3mf", tuple(s["build_dir"])) for s in json.loads(js.read_text())["samples"]]
     name = out.name
-    return [(name, p, RECIPE_DIRS[name]) for p in sorted(out.glob("*.3mf"))]
+    return [(name, p, RECIPE_DIRS[name]) for p in sorted(out.glob("*.3mf")) if p.with_suffix(".stl").exists()]
 
 
 def recipes(args) -> None:
