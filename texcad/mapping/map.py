@@ -332,11 +332,13 @@ def lean_slab_mesh(
         profile: the base profile the grid was mapped on (mm).
         closed: columns wrap (closed profile).
         tolerance: largest distance in mm from any grid vertex to the surface, > 0.
-        facets_ok: optional ``facets_ok(vertices (N, 3) mm, faces (M, 3))`` check of
-            lean facets (e.g. that none overhangs for a build direction). Given, the
-            surface is made in tiles (:func:`texcad.solid.lean.tiled_triangulation`),
-            each checked for its error and with ``facets_ok``; a rejected tile is
-            redone tighter, then as the grid, and the other tiles stay lean.
+        facets_ok: optional ``facets_ok(vertices (N, 3) mm, faces (M, 3)) -> mm2``,
+            the area of facets that must not be there (e.g. overhanging for a build
+            direction). Given, the surface is made in tiles
+            (:func:`texcad.solid.lean.tiled_triangulation`), each checked for its
+            error and accepted where that area is 0 or no more than the pixel grid's
+            own on the tile; a rejected tile is redone tighter, then as the grid, and
+            the other tiles stay lean.
 
     Returns:
         ``(slab, max_error)``: the watertight slab (group ``"texture"``: the lean
@@ -370,7 +372,7 @@ def lean_slab_mesh(
 def _lean_top(field, pts, verts, cols: int, tol: float, facets_ok):
     """The lean top of :func:`lean_slab_mesh`: ``(flat grid index per kept vertex,
     faces, measured error mm)`` or None (use the grid)."""
-    from ..solid import BORDER_GRID, grid_distance, tiled_triangulation, triangulate
+    from ..solid import BORDER_GRID, grid_distance, grid_faces, tiled_triangulation, triangulate
 
     def measure(rc, faces):
         flat = rc[:, 0] * cols + np.mod(rc[:, 1], cols)  # the wrap column is column 0
@@ -382,7 +384,15 @@ def _lean_top(field, pts, verts, cols: int, tol: float, facets_ok):
 
         def accept(rc, faces):
             flat, err = measure(rc, faces)
-            return facets_ok(verts[flat], faces) if err <= tol else err / tol
+            if err > tol:
+                return err / tol
+            lean_area = facets_ok(verts[flat], faces)
+            if lean_area <= 0:
+                return True
+            # Where the grid itself overhangs (a profile facing down), no worse than it.
+            lo, hi = rc.min(axis=0), rc.max(axis=0)
+            g = pts[lo[0] : hi[0] + 1, lo[1] : hi[1] + 1]
+            return bool(lean_area <= facets_ok(g.reshape(-1, 3), grid_faces(*g.shape[:2]).astype(np.int64)))
 
         lean = tiled_triangulation(field, tol, accept=accept, border_grid=BORDER_GRID)
         if lean is None:

@@ -24,7 +24,8 @@ def lean_mapped_slab(top, bottom, profile, s, *, closed: bool, tolerance: float,
     within ``tolerance`` mm (:func:`texcad.mapping.lean_slab_mesh`), or the full
     grid for tolerance 0 and, with ``build_dir`` (``(3,)`` or ``(K, 3)``, the grid's
     frame), made in tiles of which those whose lean facets would overhang (at the
-    critical angle + 1 degree, the slicer's rule) are redone tighter or as the grid
+    critical angle + 1 degree, the slicer's rule; more than the grid's where the
+    surface itself faces down) are redone tighter or as the grid
     (the limiter bounds the pixel facets; a thin lean triangle at a sharp feature
     can be steeper). Returns ``(slab, max_error mm)``."""
     from ..mapping import slab_mesh
@@ -33,15 +34,15 @@ def lean_mapped_slab(top, bottom, profile, s, *, closed: bool, tolerance: float,
         return slab_mesh(top, bottom, closed=closed), 0.0
     if build_dir is None:
         return lean_slab_mesh(top, bottom, profile, s, closed=closed, tolerance=tolerance)
-    from ..printability import build_directions, overhang_mask
+    from ..printability import build_directions, overhang_area
 
     dirs = build_directions(build_dir)
     # The slicer's rule: support below its threshold + 1 degree (SLICER_MARGIN).
     limit = min(float(critical_angle) + 1.0, 89.9)
 
-    def facets_ok(v: np.ndarray, f: np.ndarray) -> bool:
-        m = Mesh(v, f.astype(np.uint32))
-        return not any(overhang_mask(m, d, limit, plate_tolerance=-1.0).any() for d in dirs)
+    def facets_ok(v: np.ndarray, f: np.ndarray) -> float:  # overhanging area, mm2
+        m = Mesh(np.asarray(v, np.float32), f.astype(np.uint32))
+        return max(overhang_area(m, d, limit, plate_tolerance=-1.0) for d in dirs)
 
     return lean_slab_mesh(top, bottom, profile, s, closed=closed, tolerance=tolerance, facets_ok=facets_ok)
 
