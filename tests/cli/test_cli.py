@@ -102,3 +102,21 @@ def test_make_and_texture_take_a_build_direction(tmp_path, capsys):
     assert main(argv + ["--separate-texture", "-q"]) == 0
     assert "overhangs    limited" in capsys.readouterr().out
     assert texcad.check(tmp_path / "b.3mf", build_dir=(0, 1, 1)).texture_overhang_area_mm2 == 0.0
+
+
+def test_make_takes_a_tolerance(tmp_path, capsys):
+    """``texcad make --tolerance``: 0 keeps one vertex per pixel, 0.05 mm a lean mesh
+    whose measured 3-D error (printed) is within it; both watertight."""
+    common = ["make", "--surface", "cylinder", "--radius", "8", "--length", "10", "--texture", "builtin:stones",
+              "--height", "1", "--mapping", "angle", "--pitch", "0.25"]
+    tris, errs = {}, {}
+    for tol in ("0", "0.05"):
+        assert main(common + ["--tolerance", tol, "-o", str(tmp_path / f"c{tol}.stl")]) == 0
+        out = capsys.readouterr().out
+        line = next(x for x in out.splitlines() if x.startswith("max error"))
+        errs[tol] = float(line.split()[2])
+        m = trimesh.load(tmp_path / f"c{tol}.stl")
+        assert m.is_watertight
+        tris[tol] = len(m.faces)
+    assert errs["0"] == 0.0 and 0 < errs["0.05"] <= 0.05
+    assert tris["0.05"] < 0.5 * tris["0"]

@@ -152,3 +152,42 @@ def test_noisy_texture_keeps_the_pixel_grid():
     assert a.faces.tobytes() == b.faces.tobytes() and a.vertices.tobytes() == b.vertices.tobytes()
     rc, f = lean.triangulate(hm.heights, 0.02, max_fraction=1.0)
     assert len(f) > lean.MAX_FRACTION * 2 * (hm.shape[0] - 1) * (hm.shape[1] - 1)
+
+
+def test_tiled_triangulation_tiles_meet_and_a_rejected_tile_is_the_grid():
+    """Tiles keep their borders, so they meet on the same vertices (watertight slab);
+    the error bound holds at every pixel centre; a tile its check rejects is the
+    pixel grid there, the others stay lean."""
+    hm = texcad.builtin("stones", size=(30, 20), pitch=0.125, height=1.5)
+    tol = 0.02
+    rows, cols = hm.shape
+    seen = []
+
+    def accept(rc, faces):
+        lo = rc.min(axis=0)
+        seen.append(tuple(lo))
+        return not (lo[0] == 0 and lo[1] == 0)  # reject the first tile: the grid there
+
+    rc, f = lean.tiled_triangulation(hm.heights, tol, tile=64, accept=accept, max_fraction=1.0)
+    assert len(seen) >= 4 * 3  # a few tiles, the first tried three times
+    err = lean.surface_error(hm.heights, rc, hm.heights[rc[:, 0], rc[:, 1]], f)
+    assert err <= tol * (1 + 1e-6)
+    # the rejected tile (rows 0..64, cols 0..64) has every grid point
+    inside = (rc[:, 0] <= 64) & (rc[:, 1] <= 64)
+    assert inside.sum() == 65 * 65
+    # tile borders kept: row 64 and column 64 are complete
+    assert (rc[:, 0] == 128).sum() == cols and (rc[:, 1] == 128).sum() == rows
+    slab = heightfield_slab(hm, depth=0.5, tolerance=tol, lean=(rc, f))
+    assert edge_report(slab.faces)["watertight"]
+    dense = heightfield_slab(hm, depth=0.5)
+    assert abs(slab.volume - dense.volume) <= tol * hm.size[0] * hm.size[1]
+    assert slab.num_triangles < 0.6 * dense.num_triangles
+
+
+def test_full_border_keeps_every_border_point():
+    hm = texcad.builtin("pins", size=(12, 9), pitch=0.125, height=1.0)
+    rows, cols = hm.shape
+    rc, f = lean.triangulate(hm.heights, 0.05, max_fraction=1.0, full_border=True)
+    border = (rc[:, 0] == 0) | (rc[:, 0] == rows - 1) | (rc[:, 1] == 0) | (rc[:, 1] == cols - 1)
+    assert border.sum() == 2 * (rows + cols) - 4
+    assert lean.surface_error(hm.heights, rc, hm.heights[rc[:, 0], rc[:, 1]], f) <= 0.05 * (1 + 1e-6)

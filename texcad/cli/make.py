@@ -17,7 +17,7 @@ from pathlib import Path
 
 from ..errors import ParameterError
 from ..util import StageReporter, subrange
-from ._args import add_orientation, limits_line, positive_float
+from ._args import add_orientation, add_tolerance, limits_line, positive_float
 
 SUFFIXES = (".stl", ".3mf")
 
@@ -54,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
             depth=args.depth,
             build_dir=args.build_dir,
             critical_angle=args.critical_angle,
+            tolerance=args.tolerance,
             progress=subrange(progress, 0.02, 0.85),
         )
     notes = [str(w.message) for w in caught if issubclass(w.category, TexcadWarning)]
@@ -68,6 +69,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"texture      {texture} ({hm.shape[1]} x {hm.shape[0]} px, pitch {hm.pitch[0]:.4g} mm, height {args.height:g} mm)")
     print(f"mapping      {args.mapping}-preserving (algorithm {1 if args.mapping == 'distance' else 2})")
     print(f"triangles    {m.num_triangles}")
+    print(f"max error    {part.max_error:.4f} mm at the pixel centres, in 3-D (tolerance {args.tolerance:g} mm)")
     print(f"watertight   {m.is_watertight}")
     print(f"volume       {m.volume:.1f} mm3")
     print(f"size         {hi[0] - lo[0]:.2f} x {hi[1] - lo[1]:.2f} x {hi[2] - lo[2]:.2f} mm")
@@ -115,5 +117,6 @@ def add(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--thickness", type=positive_float, help="base wall thickness (default 5; a cylinder with thickness >= radius is solid)")
     d.add_argument("--pitch", type=positive_float, default=0.125, help="mm per texture pixel (default 0.125)")
     add_orientation(d)
+    add_tolerance(d)
     d.add_argument("--depth", type=positive_float, default=None, help="how far the slab reaches into the base, mm")
     d.set_defaults(func=run)

@@ -11,6 +11,8 @@ from .map import (
     map_texture,
     column_positions,
     slab_mesh,
+    lean_slab_mesh,
+    developed_field,
 )
 from .param import (
     Distortion,
@@ -58,6 +60,8 @@ __all__ = [
     'map_texture',
     'column_positions',
     'slab_mesh',
+    'lean_slab_mesh',
+    'developed_field',
     'Distortion',
     'FaceGrid',
     'locate',

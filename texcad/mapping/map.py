@@ -76,7 +76,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from typing import Any
+from typing import Any, Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -97,6 +97,8 @@ __all__ = [
     "map_texture",
     "column_positions",
     "slab_mesh",
+    "lean_slab_mesh",
+    "developed_field",
 ]
 
 #: The two mappings of the paper: algorithm 1 and algorithm 2.
@@ -258,6 +260,155 @@ def slab_mesh(top: np.ndarray, bottom: np.ndarray, *, closed: bool = False) -> M
             parts.append(_end_wall(top[:, c], bottom[:, c], idx[:, c], bidx[:, c], out))
     faces = np.concatenate(parts).astype(np.uint32)
     return Mesh(verts, faces, {"texture": np.arange(len(ftop), dtype=np.uint32)})
+
+
+def developed_field(top: np.ndarray, profile: Profile, s: np.ndarray, *, closed: bool) -> np.ndarray:
+    """A scalar field over a mapped grid whose linear-interpolation error models the
+    3-D error of flat triangles on the curved surface, for greedy insertion.
+
+    The 3-D point of grid vertex ``(r, c)`` is ``P = B(s_c) + y_r e_y + offset``
+    (:func:`map_texture`). A flat triangle spanning columns ``i..j`` misses ``P`` by
+    (to first order, along the normal) the interpolation error of the offset's normal
+    component ``H = offset . n`` plus the sagitta of the base's chord. The sagitta is
+    the interpolation error of the *developed* profile ``q`` with ``q'' = -kappa``
+    (``R (1 - cos(ds / 2R)) ~ ds^2 / 8R`` on a circle), so the field is ``H + q``:
+    ``q`` integrates the turning angles of the polyline through the columns (convex
+    positive, exact corners included) over chords taken on the offset at the
+    largest height (the outer surface of a convex bend has the longer chords, hence
+    the larger sagitta). Closed profiles get one more column, the seam again
+    (``C + 1``), where ``q`` has kept integrating.
+
+    Args:
+        top: ``(R, C, 3)`` mapped grid (mm), columns at arc lengths ``s``.
+        profile: the base profile (x, z in mm).
+        s: ``(C,)`` arc length of every column, mm.
+
+    Returns:
+        ``(R, C)`` or, closed, ``(R, C + 1)`` float32 field in mm.
+    """
+    t = np.asarray(top, dtype=np.float64)
+    fc = profile.at(np.asarray(s, dtype=np.float64))
+    p, n = fc.point, fc.normal
+    H = np.einsum("rcj,cj->rc", t[..., [0, 2]] - p[None], n)
+    hmax = float(max(H.max(initial=0.0), 0.0))
+    if closed:
+        p, n, H = np.concatenate([p, p[:1]]), np.concatenate([n, n[:1]]), np.concatenate([H, H[:, :1]], axis=1)
+    chord = np.diff(p, axis=0)
+    ell = np.maximum(np.linalg.norm(chord, axis=1), np.linalg.norm(np.diff(p + hmax * n, axis=0), axis=1))
+    tang = chord / np.maximum(np.linalg.norm(chord, axis=1, keepdims=True), 1e-300)
+    # Turning angle at every inner column; convex (away from the normal) positive.
+    beta = -np.arctan2(tang[:-1, 0] * tang[1:, 1] - tang[:-1, 1] * tang[1:, 0], np.einsum("ij,ij->i", tang[:-1], tang[1:]))
+    slope = -np.concatenate([[0.0], np.cumsum(beta)])  # dq/ds on each chord
+    q = np.concatenate([[0.0], np.cumsum(slope * ell)])
+    return (H + q[None, :]).astype(np.float32)
+
+
+def lean_slab_mesh(
+    top: np.ndarray,
+    bottom: np.ndarray,
+    profile: Profile,
+    s: np.ndarray,
+    *,
+    closed: bool = False,
+    tolerance: float,
+    facets_ok: "Callable[[np.ndarray, np.ndarray], bool] | None" = None,
+) -> tuple[Mesh, float]:
+    """:func:`slab_mesh` with a lean textured surface: only the grid vertices needed
+    to stay within ``tolerance`` mm of every grid vertex in 3-D.
+
+    Greedy insertion (:func:`texcad.solid.triangulate`) runs on
+    :func:`developed_field`, so the bound covers the texture's relief and the
+    curvature of the base (a cylinder's flat facets); the border rows and columns
+    keep every vertex (the end walls and, closed, the seam column are those of the
+    full grid: watertight, zero seam gap). The error is then measured independently
+    (:func:`texcad.solid.grid_distance`: every grid vertex to the mesh, in 3-D) and
+    the insertion repeated with a tighter bound until it is within ``tolerance``;
+    after four tries, or when the lean surface would keep more than
+    :data:`texcad.solid.lean.MAX_FRACTION` of the grid, the full grid is used.
+
+    Args:
+        top: ``(R, C, 3)`` exact mapped grid (mm), columns at arc lengths ``s`` (mm).
+        bottom: ``(2, C, 3)`` or ``(R, C, 3)`` (see :func:`slab_mesh`).
+        profile: the base profile the grid was mapped on (mm).
+        closed: columns wrap (closed profile).
+        tolerance: largest distance in mm from any grid vertex to the surface, > 0.
+        facets_ok: optional ``facets_ok(vertices (N, 3) mm, faces (M, 3)) -> mm2``,
+            the area of facets that must not be there (e.g. overhanging for a build
+            direction). Given, the surface is made in tiles
+            (:func:`texcad.solid.lean.tiled_triangulation`), each checked for its
+            error and accepted where that area is 0 or no more than the pixel grid's
+            own on the tile; a rejected tile is redone tighter, then as the grid, and
+            the other tiles stay lean.
+
+    Returns:
+        ``(slab, max_error)``: the watertight slab (group ``"texture"``: the lean
+        surface) and the measured largest distance in mm (0 for the full grid).
+    """
+    from ..solid import check_tolerance
+
+    tol = check_tolerance(tolerance)
+    full = slab_mesh(top, bottom, closed=closed)
+    if tol <= 0:
+        return full, 0.0
+    t64 = np.asarray(top, dtype=np.float64)
+    rows, cols = t64.shape[:2]
+    field = developed_field(t64, profile, s, closed=closed)
+    pts = np.concatenate([t64, t64[:, :1]], axis=1) if closed else t64
+    lean = _lean_top(field, pts, full.vertices, cols, tol, facets_ok)
+    if lean is None:
+        return full, 0.0
+    flat, faces, err = lean
+    ntop = len(full.groups["texture"])
+    top_faces = flat[faces.astype(np.int64)]
+    faces_all = np.concatenate([top_faces, full.faces[ntop:].astype(np.int64)])
+    mask = np.zeros(len(full.vertices), dtype=bool)
+    mask[faces_all.ravel()] = True
+    used = np.flatnonzero(mask)
+    remap = np.cumsum(mask) - 1
+    mesh = Mesh(full.vertices[used], remap[faces_all].astype(np.uint32), {"texture": np.arange(len(top_faces), dtype=np.uint32)})
+    return mesh, err
+
+
+def _lean_top(field, pts, verts, cols: int, tol: float, facets_ok):
+    """The lean top of :func:`lean_slab_mesh`: ``(flat grid index per kept vertex,
+    faces, measured error mm)`` or None (use the grid)."""
+    from ..solid import BORDER_GRID, grid_distance, grid_faces, tiled_triangulation, triangulate
+
+    def measure(rc, faces):
+        flat = rc[:, 0] * cols + np.mod(rc[:, 1], cols)  # the wrap column is column 0
+        lo, hi = rc.min(axis=0), rc.max(axis=0)
+        sub = pts[lo[0] : hi[0] + 1, lo[1] : hi[1] + 1]
+        return flat, float(grid_distance(sub, rc - lo, verts[flat], faces).max())
+
+    if facets_ok is not None:
+
+        def accept(rc, faces):
+            flat, err = measure(rc, faces)
+            if err > tol:
+                return err / tol
+            lean_area = facets_ok(verts[flat], faces)
+            if lean_area <= 0:
+                return True
+            # Where the grid itself overhangs (a profile facing down), no worse than it.
+            lo, hi = rc.min(axis=0), rc.max(axis=0)
+            g = pts[lo[0] : hi[0] + 1, lo[1] : hi[1] + 1]
+            return bool(lean_area <= facets_ok(g.reshape(-1, 3), grid_faces(*g.shape[:2]).astype(np.int64)))
+
+        lean = tiled_triangulation(field, tol, accept=accept, border_grid=BORDER_GRID)
+        if lean is None:
+            return None
+        flat, err = measure(*lean)
+        return (flat, lean[1], err) if err <= tol else None
+    run = tol
+    for _ in range(4):  # tighter bounds until the measured error is within tolerance
+        lean = triangulate(field, run, full_border=True)
+        if lean is None:
+            return None
+        flat, err = measure(*lean)
+        if err <= tol:
+            return flat, lean[1], err
+        run *= 0.9 * tol / err
+    return None
 
 
 def _end_wall(tcol: np.ndarray, bcol: np.ndarray, tid: np.ndarray, bid: np.ndarray, outward: np.ndarray) -> np.ndarray:

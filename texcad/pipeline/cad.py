@@ -77,6 +77,7 @@ from ..sources import Heightmap
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, heightfield_slab, mesh_error
 from ..util import Progress, report, subrange
 from ..solid import from_manifold, fuse, to_manifold
+from .surface import lean_mapped_slab
 
 __all__ = ["texture_faces", "LIFT"]
 
@@ -439,6 +440,7 @@ def _texture_extrusion(
     build_dir: np.ndarray | None,
     critical_angle: float,
     progress: Progress,
+    tolerance: float = 0.0,
 ) -> dict:
     from build123d import Compound, Edge
     from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
@@ -446,9 +448,8 @@ def _texture_extrusion(
     from OCP.TopAbs import TopAbs_EDGE
     from OCP.TopoDS import TopoDS
 
-    from ..mapping import fit_texture, map_texture, slab_mesh
+    from ..mapping import Profile, fit_texture, map_texture
     from ..util import fitting_pitch, require_memory, texture_bytes
-    from ..mapping import Profile
 
     o, ex, ey, ez = _extrusion_frame(face)
     axes = np.stack([ex, ey, ez])
@@ -529,7 +530,7 @@ def _texture_extrusion(
 
     top_w = world(top)
     report(progress, 0.35, "meshing and fusing (manifold3d)")
-    slab_local = slab_mesh(top_mesh.astype(np.float32), bottom.astype(np.float32), closed=mapped.closed)
+    slab_local, max_error = lean_mapped_slab(top_mesh, bottom, profile, mapped.s, closed=mapped.closed, tolerance=tolerance, build_dir=d_local, critical_angle=critical_angle)  # lean (issue 15)
     if limits is not None:
         from ..printability import measured
 
@@ -546,7 +547,7 @@ def _texture_extrusion(
         "texture_mesh": texture_only,
         "base_mesh": base_mesh,
         "heightmap": mapped.heightmap,
-        "limits": limits,
+        "limits": limits, "max_error": max_error,
         "info": {
             "face": "extrusion",
             "origin": o.tolist(),
@@ -557,7 +558,7 @@ def _texture_extrusion(
             "closed": mapped.closed,
             "mapping": mapping,
             "profile_length": profile.length,
-            "length": length,
+            "length": length, "tolerance": float(tolerance), "volume_slack": float(tolerance) * profile.length * length,
             "limits": [str(x) for x in mapped.limits],
         },
     }
@@ -827,7 +828,7 @@ def texture_faces(
             res = _texture_plane(topo, f, texture, edge_angle=float(edge_angle), rotation=rotation, offset=offset, tolerance=tolerance, **common)
         elif kind in (GeomAbs_Cylinder, GeomAbs_SurfaceOfExtrusion):
             try:
-                res = _texture_extrusion(topo, f, texture, mapping=mapping, depth=depth, periodic_x=periodic_x, transition=transition, **common)
+                res = _texture_extrusion(topo, f, texture, mapping=mapping, depth=depth, periodic_x=periodic_x, transition=transition, tolerance=tolerance, **common)
             except GeometryError as e:  # not a full strip of its extrusion: the general method
                 if "strip" not in str(e) and "cross-section" not in str(e):
                     raise

@@ -6,14 +6,45 @@ from __future__ import annotations
 import os
 from typing import Any
 
+import numpy as np
+
 from ..errors import ParameterError
-from ..mapping import Surface, fit_texture, map_texture
-from ..solid import Mesh, fuse, shape_to_mesh
+from ..mapping import Surface, fit_texture, lean_slab_mesh, map_texture
+from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, fuse, shape_to_mesh
 from ..sources import Heightmap
 from ..util import Progress, fitting_pitch, report, require_memory, subrange, texture_bytes
 from .result import Textured
 
-__all__ = ["textured_surface"]
+__all__ = ["textured_surface", "lean_mapped_slab"]
+
+
+def lean_mapped_slab(top, bottom, profile, s, *, closed: bool, tolerance: float, build_dir=None, critical_angle: float = 45.0):
+    """The slab of a mapped grid (``top`` ``(R, C, 3)`` mm, ``bottom`` ``(2, C, 3)`` or
+    ``(R, C, 3)`` mm, columns at arc lengths ``s`` ``(C,)`` mm on ``profile``): lean
+    within ``tolerance`` mm (:func:`texcad.mapping.lean_slab_mesh`), or the full
+    grid for tolerance 0 and, with ``build_dir`` (``(3,)`` or ``(K, 3)``, the grid's
+    frame), made in tiles of which those whose lean facets would overhang (at the
+    critical angle + 1 degree, the slicer's rule; more than the grid's where the
+    surface itself faces down) are redone tighter or as the grid
+    (the limiter bounds the pixel facets; a thin lean triangle at a sharp feature
+    can be steeper). Returns ``(slab, max_error mm)``."""
+    from ..mapping import slab_mesh
+
+    if tolerance <= 0:
+        return slab_mesh(top, bottom, closed=closed), 0.0
+    if build_dir is None:
+        return lean_slab_mesh(top, bottom, profile, s, closed=closed, tolerance=tolerance)
+    from ..printability import build_directions, overhang_area
+
+    dirs = build_directions(build_dir)
+    # The slicer's rule: support below its threshold + 1 degree (SLICER_MARGIN).
+    limit = min(float(critical_angle) + 1.0, 89.9)
+
+    def facets_ok(v: np.ndarray, f: np.ndarray) -> float:  # overhanging area, mm2
+        m = Mesh(np.asarray(v, np.float32), f.astype(np.uint32))
+        return max(overhang_area(m, d, limit, plate_tolerance=-1.0) for d in dirs)
+
+    return lean_slab_mesh(top, bottom, profile, s, closed=closed, tolerance=tolerance, facets_ok=facets_ok)
 
 
 def textured_surface(
@@ -31,6 +62,7 @@ def textured_surface(
     transition: float | None = None,
     build_dir: Any = None,
     critical_angle: float = 45.0,
+    tolerance: float = DEFAULT_TOLERANCE,
     progress: Progress = None,
 ):
     """Texture a 2.5D surface and fuse it onto its base body: a watertight solid.
@@ -69,6 +101,12 @@ def textured_surface(
             None: the texture is used as is.
         critical_angle: critical overhang angle in degrees (default 45; paper,
             section 2.1.3), used with ``build_dir``.
+        tolerance: largest distance in mm from the mesh to the mapped texture at
+            any pixel centre (default 0.02 mm): a lean mesh
+            (:func:`texcad.mapping.lean_slab_mesh`: greedy insertion with the
+            curvature of the surface in the bound, measured in 3-D and reported as
+            ``.max_error``); 0 keeps one vertex per pixel. With ``build_dir`` the
+            full grid is used where a lean facet would overhang.
         progress: optional ``progress(fraction, message)`` callback.
 
     Returns:
@@ -83,6 +121,7 @@ def textured_surface(
         ParameterError: ``build_dir`` with ``mapping="distance"`` on a profile that
             looks both up and down (use ``mapping="angle"``).
     """
+    tolerance = check_tolerance(tolerance)
     report(progress, 0.0, "building the surface")
     if isinstance(surface, Surface):
         surf = surface
@@ -116,7 +155,8 @@ def textured_surface(
         progress=subrange(progress, 0.1, 0.3),
     )
     report(progress, 0.3, f"closing the {mapped.top.shape[0]} x {mapped.top.shape[1]} texture slab")
-    slab = mapped.solid()
+    slab, max_error = lean_mapped_slab(mapped.top, mapped.bottom, surf.profile, mapped.s, closed=mapped.closed,
+                                       tolerance=tolerance, build_dir=build_dir, critical_angle=critical_angle)
     if overhang is not None:
         from ..printability import measured
 
@@ -134,6 +174,7 @@ def textured_surface(
         limits=overhang,
         height_limits=list(mapped.limits),
         mapped=mapped,
-        info={"face": "surface", "mapping": mapping, "grid": tuple(mapped.top.shape[:2]), "closed": mapped.closed},
+        max_error=max_error,
+        info={"face": "surface", "mapping": mapping, "grid": tuple(mapped.top.shape[:2]), "closed": mapped.closed, "tolerance": tolerance},
         kind="surface",
     )

@@ -31,7 +31,7 @@ __all__ = ["texture"]
 COMMON = ("height", "pitch", "mapping", "depth", "periodic_x", "transition", "build_dir", "critical_angle", "progress")
 FACE_ONLY = ("edge_angle", "rotation", "offset", "brep", "tolerance", "mode", "gradient")
 FACE_OPTIONS = COMMON + FACE_ONLY
-SURFACE_OPTIONS = COMMON + ("length", "base", "thickness")
+SURFACE_OPTIONS = COMMON + ("length", "base", "thickness", "tolerance")
 
 
 def _only(options: dict, allowed: tuple[str, ...], target: str) -> dict:
@@ -81,6 +81,9 @@ def texture(
               use either way);
             * surfaces: ``length`` (extrusion length of a profile, mm), ``base``,
               ``thickness`` (mm);
+            * CAD faces and surfaces: ``tolerance`` (0.02): largest distance in mm
+              from the mesh to the exact texture at any pixel centre (a lean mesh,
+              measured and reported as ``.max_error``; 0: one vertex per pixel);
             * ``progress``: a ``progress(fraction, message)`` callback.
 
     Returns:

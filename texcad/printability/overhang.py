@@ -850,26 +850,32 @@ def printable_lean_slab(
     sharp features can overhang where the pixel facets do not (measured: a stones
     texture limited for a 60-degree tilt keeps facets at 46.5 degrees on the pixel
     grid but down to 30 degrees in its lean mesh at 0.02 mm, and still 30 degrees
-    at 0.00125 mm). So the lean slab is checked and, where a facet overhangs, the
-    pixel grid (tolerance 0, which the limiter guarantees) is used instead.
+    at 0.00125 mm). So the lean top is made in tiles
+    (:func:`texcad.solid.lean.tiled_triangulation`), each checked: a tile with an
+    overhanging facet is redone with a tighter tolerance, then as the pixel grid
+    (which the limiter guarantees); the other tiles stay lean.
 
     Returns:
         ``(slab, tolerance_used)`` (mm).
     """
-    from ..solid import heightfield_slab
+    from ..solid import BORDER_GRID, heightfield_slab, tiled_triangulation
 
     dirs = build_directions(build_dir)
-    limit = check_critical_angle(critical_angle) + float(margin) - 0.5
-    oz = float(origin[2])
+    limit = min(check_critical_angle(critical_angle) + float(margin) - 0.5, 89.9)
     tol = float(tolerance)
-    while True:
-        slab = heightfield_slab(heightmap, depth=depth, origin=origin, tolerance=tol)
-        if tol <= 0:
-            return slab, 0.0
-        f = slab.faces[slab.groups["texture"]]
-        f = f[slab.vertices[f, 2].max(axis=1) > oz + 1e-6]
-        top = Mesh(slab.vertices, f)
+    if tol <= 0:
+        return heightfield_slab(heightmap, depth=depth, origin=origin), 0.0
+    h = heightmap.heights
+    px, py = heightmap.pitch
+
+    def accept(rc: np.ndarray, faces: np.ndarray) -> bool:
+        v = np.stack([(rc[:, 1] + 0.5) * px, (rc[:, 0] + 0.5) * py, h[rc[:, 0], rc[:, 1]]], axis=1)
+        f = faces[v[faces, 2].max(axis=1) > 1e-6]  # facets above the base
+        top = Mesh(v.astype(np.float32), f.astype(np.uint32))
         # plate_tolerance < 0: no texture facet rests on the build plate.
-        if not any(overhang_mask(top, d, min(limit, 89.9), plate_tolerance=-1.0).any() for d in dirs):
-            return slab, tol
-        tol = 0.0
+        return not any(overhang_mask(top, d, limit, plate_tolerance=-1.0).any() for d in dirs)
+
+    lean = tiled_triangulation(h, tol, accept=accept, border_grid=BORDER_GRID)
+    if lean is None:
+        return heightfield_slab(heightmap, depth=depth, origin=origin), 0.0
+    return heightfield_slab(heightmap, depth=depth, origin=origin, tolerance=tol, lean=lean), tol

@@ -52,6 +52,10 @@ from .lean import (
     surface_error,
     mesh_error,
     boundary_chains,
+    grid_distance,
+    tiled_triangulation,
+    BORDER_GRID,
+    TILE,
 )
 from .mesh import (
     Mesh,
@@ -128,6 +132,10 @@ __all__ = [
     'triangulate',
     'surface_error',
     'mesh_error',
+    'grid_distance',
+    'tiled_triangulation',
+    'BORDER_GRID',
+    'TILE',
     'boundary_chains',
     'Mesh',
     'grid_faces',

@@ -166,6 +166,7 @@ def heightfield_slab(
     depth: float = 0.5,
     origin: Sequence[float] = (0.0, 0.0, 0.0),
     tolerance: float = 0.0,
+    lean: "tuple[np.ndarray, np.ndarray] | None" = None,
 ) -> Mesh:
     """The paper's flat mapping (section 2.2) as a closed slab.
 
@@ -196,6 +197,9 @@ def heightfield_slab(
             watertight; where that would keep more than half of the grid's
             triangles (:data:`texcad.solid.lean.MAX_FRACTION`: noisy textures), the grid
             is used. Measure the result with :func:`texcad.solid.lean.mesh_error`.
+        lean: with ``tolerance`` > 0, a lean top already made, ``(rc, faces)`` as
+            :func:`texcad.solid.lean.triangulate` returns it (e.g. from
+            :func:`texcad.solid.lean.tiled_triangulation`, its tiles checked).
 
     Returns:
         A watertight :class:`Mesh` with ``R C + 4`` vertices and
@@ -211,9 +215,9 @@ def heightfield_slab(
     from .lean import check_tolerance
 
     if check_tolerance(tolerance) > 0:
-        lean = _lean_slab(heightmap, depth, (ox, oy, oz), float(tolerance))
-        if lean is not None:
-            return lean
+        slab = _lean_slab(heightmap, depth, (ox, oy, oz), float(tolerance), lean)
+        if slab is not None:
+            return slab
     n = rows * cols
     verts = np.empty((n + 4, 3), dtype=np.float32)
     top = verts[:n].reshape(rows, cols, 3)
@@ -235,7 +239,7 @@ def heightfield_slab(
     return Mesh(verts, np.concatenate([top_faces, walls, bottom]), groups)
 
 
-def _lean_slab(heightmap: Heightmap, depth: float, origin: tuple, tolerance: float) -> "Mesh | None":
+def _lean_slab(heightmap: Heightmap, depth: float, origin: tuple, tolerance: float, lean=None) -> "Mesh | None":
     """:func:`heightfield_slab` with a lean top (``tolerance`` mm > 0): the kept pixel
     centres, walls on the kept boundary chains, the same bottom. None where the lean
     top would keep more than :data:`texcad.solid.lean.MAX_FRACTION` of the grid."""
@@ -243,7 +247,8 @@ def _lean_slab(heightmap: Heightmap, depth: float, origin: tuple, tolerance: flo
 
     ox, oy, oz = origin
     rows, cols = heightmap.shape
-    lean = triangulate(heightmap.heights, tolerance)
+    if lean is None:
+        lean = triangulate(heightmap.heights, tolerance)
     if lean is None:
         return None
     rc, top_faces = lean
