@@ -145,3 +145,24 @@ def test_open_extrusion_faces_are_replaced_in_place(tmp_path):
         shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
         assert _distance(shown.vertices, tx.mesh) < DEFLECTION
         assert _distance(tx.mesh.vertices, shown) < DEFLECTION
+
+
+@pytest.mark.parametrize("mode", ["engraved", "centred"])
+@pytest.mark.parametrize("make", [_cone, _sphere], ids=lambda f: f.__name__[1:])
+def test_engraved_and_centred_faces_have_their_step(make, mode, tmp_path):
+    """The face's B-rep follows the cut-in surface; the lean mesh (default tolerance)
+    and the grid's B-rep agree within its volume slack and OCCT's own volume."""
+    part, face = make()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TexcadWarning)
+        tx = texcad.texture(part, face, "builtin:stones", height=0.6, pitch=0.3, mode=mode)
+    assert tx.max_error > 0  # lean
+    path = tmp_path / "part.step"
+    tx.export(path)
+    back = texcad.io.read_step(path)
+    chk = check_shape(back)
+    assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
+    assert occt_volume(back) == pytest.approx(tx.volume, rel=1e-3)
+    assert occt_volume(back) < part.volume if mode == "engraved" else True
+    shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
+    assert _distance(shown.vertices, tx.mesh) < DEFLECTION
