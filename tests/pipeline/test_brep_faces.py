@@ -150,13 +150,13 @@ def test_open_extrusion_faces_are_replaced_in_place(tmp_path):
 @pytest.mark.parametrize("mode", ["engraved", "centred"])
 @pytest.mark.parametrize("make", [_cone, _sphere], ids=lambda f: f.__name__[1:])
 def test_engraved_and_centred_faces_have_their_step(make, mode, tmp_path):
-    """The face's B-rep follows the cut-in surface; the lean mesh (default tolerance)
-    and the grid's B-rep agree within its volume slack and OCCT's own volume."""
+    """The face's B-rep follows the cut-in surface, and OCCT's own volume of it agrees
+    with texcad's mesh (lean where that saves triangles) within 0.1 %."""
     part, face = make()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", TexcadWarning)
         tx = texcad.texture(part, face, "builtin:stones", height=0.6, pitch=0.3, mode=mode)
-    assert tx.max_error > 0  # lean
+    assert 0 <= tx.max_error <= 0.02
     path = tmp_path / "part.step"
     tx.export(path)
     back = texcad.io.read_step(path)
