@@ -571,3 +571,16 @@ def test_modes_on_every_face_kind(case, mode):
         assert added > 0.05 * area * 0.6 * 0.5
     assert 0 <= tx.max_error <= 0.02
     assert_only_on(tx, part, list(faces) if not hasattr(faces, "wrapped") else [faces], 0.6)
+
+
+def test_engraved_plane_has_no_step_and_says_why(tmp_path):
+    from build123d import Axis, Box
+
+    box = Box(30, 20, 6)
+    tx = texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:pins", height=1.0, pitch=0.5, mode="engraved")
+    with pytest.raises(GeometryError, match="planar face.*engraved") as e:
+        tx.export(tmp_path / "x.step")
+    assert "export('part.stl')" in str(e.value)
+    assert not (tmp_path / "x.step").exists()
+    tx.export(tmp_path / "x.stl")
+    assert trimesh.load(tmp_path / "x.stl").is_watertight

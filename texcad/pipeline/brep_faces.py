@@ -25,7 +25,9 @@ def general_brep(topo: Any, res: dict, no_brep: str):
     items = []
     for r in res["reliefs"]:  # one per patch
         if r["face"] is None or r["tables"] is None:
-            raise GeometryError(f"{no_brep} (faces {r['info']['faces']} were flattened together)")
+            why = (f"faces {r['info']['faces']} were flattened together" if r["face"] is None else
+                   "a planar face textured by the general method (engraved, centred or with a gradient) has none yet")
+            raise GeometryError(f"{no_brep} ({why})")
         ut, vt, closed = r["tables"]
         g = r["grid"]
         items.append({"face": r["face"], "points": g.points, "normals": g.normals, "heights": r["h_top"], "signed": r.get("signed", False), "valid": g.valid,
