@@ -18,7 +18,7 @@ import numpy as np
 from _figure import font
 from PIL import Image, ImageDraw
 
-from texcad.sources import rgb8_image
+from texcad.sources import rgb8_image, save_image
 from texcad.pipeline import textured_surface
 from texcad.render import render_mesh
 from texcad.mapping import Surface
@@ -96,9 +96,7 @@ def main() -> None:
         m = part.mesh
         d.text((x + 12, H - 28), f"{m.num_triangles} triangles, watertight {m.is_watertight}, {m.volume:.0f} mm3", fill=(60, 60, 60), font=small)
     out = Path(args.out)
-    tmp = out.with_suffix(".tmp.png")
-    fig.save(tmp, optimize=True)
-    tmp.replace(out)
+    save_image(fig, out)  # atomic (texcad.sources.save_image)
     print(f"wrote {out} ({W} x {H} px)")
 
 

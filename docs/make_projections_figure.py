@@ -25,7 +25,7 @@ from _figure import font  # noqa: E402
 
 import texcad  # noqa: E402
 from texcad.render import render_mesh  # noqa: E402
-from texcad.sources import rgb8_image  # noqa: E402
+from texcad.sources import rgb8_image, save_image  # noqa: E402
 
 PANEL = 420
 PROJECTIONS = [
@@ -71,9 +71,7 @@ def main() -> None:
         d.text((x + 12, y + 4), label, fill="black", font=font(17))
         fig.paste(r, (x, y + 30))
     out = Path(a.out)
-    tmp = out.with_suffix(".tmp.png")
-    fig.save(tmp, optimize=True)
-    tmp.replace(out)
+    save_image(fig, out)  # atomic (texcad.sources.save_image)
     print(f"wrote {out}")
 
 
