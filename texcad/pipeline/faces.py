@@ -467,7 +467,7 @@ def _patch_relief(pm: PartMesh, patch: list[int], tex: Any, opts: dict) -> dict:
     g = _patch_grid(pm, patch, tex, opts)
     surf = _surfaces(g, opts)
     lim = _limit_surface(g, surf, opts) if opts["build_dir"] is not None else None
-    if not surf["textured"]().any():
+    if not _textured(surf, g["keep"]).any():
         raise GeometryError(
             f"no texture is left on the face(s) {patch}: too small or narrow for the {g['d_floor']:.2f} mm border band at "
             f"{g['px']:.3g} mm pitch (or faded / limited away); use a smaller pitch or a larger face"
@@ -574,13 +574,15 @@ def _surfaces(g: dict, opts: dict) -> dict:
         s = np.where(band, -2 * floor_c, np.minimum(t, -floor_c) if c == 1 else t)
         floor = np.where(band, s, -floor_c if c == 1 else 0.0)
         sink = 0.05 + 2 * jit
-    keep = g["keep"]
-
-    def textured():
-        return keep & ((s > floor_c + 1e-6) if c == 0 else (np.abs(s) > floor_c + 1e-6))
-
     return {"surface": s, "floor": floor, "c": c, "depth": depth, "limited": limited, "floor_c": floor_c,
-            "sink": sink, "band": band, "textured": textured, "env": (None if c == 0 else env)}
+            "sink": sink, "band": band, "env": (None if c == 0 else env)}
+
+
+def _textured(surf: dict, keep: np.ndarray) -> np.ndarray:
+    """Grid points where a texture is left (after the limiter): above the floor
+    (raised) or off the face by more than it (engraved, centred)."""
+    s, fc = surf["surface"], surf["floor_c"]
+    return keep & ((s > fc + 1e-6) if surf["c"] == 0 else (np.abs(s) > fc + 1e-6))
 
 
 def _limit_surface(g: dict, surf: dict, opts: dict) -> dict:
@@ -637,7 +639,7 @@ def _bodies(g: dict, surf: dict, opts: dict) -> dict:
     outside = 0.25 * (CUT_ABOVE - TESSELLATION)  # a cutter's top, CUT_ABOVE mm out: clear of the part's facets
     slab = cutter = low = None
     if c == 0:
-        slab = body(s, -surf["depth"] + 0 * s, True, inside)
+        slab = body(s, -surf["depth"], True, inside)
     else:
         cut_bottom = np.minimum(s, -fc) - (fc if c < 1 else 0.0)
         above = np.full(s.shape, CUT_ABOVE)
