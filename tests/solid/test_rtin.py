@@ -107,7 +107,7 @@ def test_weights_and_measure_flag():
     cells = np.ones((119, 119), bool)
     a = lean_grid(P, N, [h, 0 * h], cells, 0.02, weights=[1.0, 1.0], max_fraction=1.0)
     b = lean_grid(P, N, [h, 0 * h], cells, 0.02, weights=[1.0, 4.0], max_fraction=1.0)
-    assert len(b["faces"]) >= len(a["faces"])  # the face itself 4x stricter
+    assert len(b["faces"]) > len(a["faces"])  # the face itself 4x stricter: more triangles
     c = lean_grid(P, N, [h], cells, 0.02, measure=False, max_fraction=1.0)
     assert np.isnan(c["error"])
 
