@@ -18,6 +18,7 @@ from pathlib import Path
 from ..errors import ParameterError
 from ..util import StageReporter, subrange
 from ._args import add_orientation, add_tolerance, limits_line, positive_float
+from .texture import _gradient
 
 SUFFIXES = (".stl", ".3mf")
 
@@ -55,6 +56,8 @@ def run(args: argparse.Namespace) -> int:
             build_dir=args.build_dir,
             critical_angle=args.critical_angle,
             tolerance=args.tolerance,
+            mode=args.mode,
+            gradient=args.gradient,
             progress=subrange(progress, 0.02, 0.85),
         )
     notes = [str(w.message) for w in caught if issubclass(w.category, TexcadWarning)]
@@ -67,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     lo, hi = m.bounds
     print(f"surface      {args.surface} ({surface.profile.name}, {surface.profile.length:.2f} x {surface.length:.2f} mm)")
     print(f"texture      {texture} ({hm.shape[1]} x {hm.shape[0]} px, pitch {hm.pitch[0]:.4g} mm, height {args.height:g} mm)")
-    print(f"mapping      {args.mapping}-preserving (algorithm {1 if args.mapping == 'distance' else 2})")
+    print(f"mapping      {args.mapping}-preserving (algorithm {1 if args.mapping == 'distance' else 2}), {args.mode}")
     print(f"triangles    {m.num_triangles}")
     print(f"max error    {part.max_error:.4f} mm at the pixel centres, in 3-D (tolerance {args.tolerance:g} mm)")
     print(f"watertight   {m.is_watertight}")
@@ -119,4 +122,8 @@ def add(sub: argparse._SubParsersAction) -> None:
     add_orientation(d)
     add_tolerance(d)
     d.add_argument("--depth", type=positive_float, default=None, help="how far the slab reaches into the base, mm")
+    d.add_argument("--mode", choices=("raised", "engraved", "centred"), default="raised",
+                   help="raised: on the surface; engraved: cut in, the outer envelope kept; centred: half and half")
+    d.add_argument("--gradient", type=_gradient, default=None, metavar="X0,Y0,Z0,X1,Y1,Z1",
+                   help="full depth at the first point (mm), none at the second")
     d.set_defaults(func=run)

@@ -30,6 +30,11 @@ from .param import (
     cell_mask,
     grid_slab,
 )
+from .modes import (
+    CUT_FLOOR,
+    ModeSheets,
+    mode_sheets,
+)
 from .projection import (
     PROJECTIONS,
     Projection,
@@ -76,6 +81,9 @@ __all__ = [
     'metric_tables',
     'cell_mask',
     'grid_slab',
+    'CUT_FLOOR',
+    'ModeSheets',
+    'mode_sheets',
     'PROJECTIONS',
     'Projection',
     'TileSampler',

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..mapping import Surface, fit_texture, lean_slab_mesh, map_texture
-from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, fuse, shape_to_mesh
+from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, from_manifold, shape_to_mesh, to_manifold
 from ..sources import Heightmap
 from ..util import Progress, fitting_pitch, report, require_memory, subrange, texture_bytes
 from .result import Textured
@@ -63,6 +63,8 @@ def textured_surface(
     build_dir: Any = None,
     critical_angle: float = 45.0,
     tolerance: float = DEFAULT_TOLERANCE,
+    mode: str = "raised",
+    gradient: Any = None,
     progress: Progress = None,
 ):
     """Texture a 2.5D surface and fuse it onto its base body: a watertight solid.
@@ -107,6 +109,13 @@ def textured_surface(
             curvature of the surface in the bound, measured in 3-D and reported as
             ``.max_error``); 0 keeps one vertex per pixel. With ``build_dir`` the
             full grid is used where a lean facet would overhang.
+        mode: ``"raised"`` (the texture stands on the surface), ``"engraved"`` (cut
+            into the base: nothing lies above the surface, the outer envelope is
+            kept) or ``"centred"`` (half above, half below); see
+            :mod:`texcad.mapping.modes`.
+        gradient: ``(start, end)`` points in mm, ``(x0, y0, z0, x1, y1, z1)``: the full
+            depth at ``start``, fading linearly to none at ``end`` (projected on the
+            line between them); None: the full depth everywhere.
         progress: optional ``progress(fraction, message)`` callback.
 
     Returns:
@@ -122,15 +131,9 @@ def textured_surface(
             looks both up and down (use ``mapping="angle"``).
     """
     tolerance = check_tolerance(tolerance)
+    share = _share(mode)
     report(progress, 0.0, "building the surface")
-    if isinstance(surface, Surface):
-        surf = surface
-        if base is not None:
-            surf = Surface(surf.profile, surf.length, base, thickness if thickness is not None else surf.thickness, surf.params)
-    else:
-        if length is None:
-            raise ParameterError("give the extrusion length in mm (length=...) when texturing a profile")
-        surf = Surface.from_profile(surface, length, base=base, thickness=thickness)
+    surf = _surface(surface, length, base, thickness)
     if depth is None:
         depth = min(0.5, surf.thickness / 2) if surf.thickness else 0.5
     report(progress, 0.05, "loading texture")
@@ -138,6 +141,7 @@ def textured_surface(
     need = texture_bytes(hm.shape[0] * hm.shape[1], 0.0)
     fix = f"use pitch >= {fitting_pitch(min(hm.pitch), need):.3g} mm"
     require_memory(need, f"a {hm.shape[0]} x {hm.shape[1]} px texture on the surface", fix)
+    full = float(hm.heights.max())  # the envelope H of engraved and centred textures, mm
     overhang = None
     if build_dir is not None:
         from ..printability import limit_on_profile
@@ -149,32 +153,141 @@ def textured_surface(
         hm,
         mapping=mapping,
         length=surf.length,
-        depth=depth,
+        depth=depth + (share * full + 0.1 + 2.0 * tolerance if share else 0.0),  # a centred slab's bottom lies under the cut
         periodic_x=periodic,
         transition=transition,
         progress=subrange(progress, 0.1, 0.3),
     )
     report(progress, 0.3, f"closing the {mapped.top.shape[0]} x {mapped.top.shape[1]} texture slab")
-    slab, max_error = lean_mapped_slab(mapped.top, mapped.bottom, surf.profile, mapped.s, closed=mapped.closed,
-                                       tolerance=tolerance, build_dir=build_dir, critical_angle=critical_angle)
+    lean = dict(closed=mapped.closed, tolerance=tolerance, build_dir=build_dir, critical_angle=critical_angle)
+    bodies = _bodies(surf.profile, mapped, share, full, gradient, lean)
     if overhang is not None:
         from ..printability import measured
 
-        overhang = measured(overhang, slab, build_dir, critical_angle)
+        overhang = measured(overhang, bodies["shown"], build_dir, critical_angle)
     report(progress, 0.4, "meshing the base body")
     base_mesh = surf.base if isinstance(surf.base, Mesh) else shape_to_mesh(surf.base)
-    report(progress, 0.5, f"fusing {slab.num_triangles} texture triangles onto the base (manifold3d)")
-    fused = fuse(base_mesh, slab)
+    report(progress, 0.5, f"fusing {bodies['triangles']} texture triangles onto the base (manifold3d)")
+    fused, texture_mesh = _apply(base_mesh, bodies)
     report(progress, 1.0, "fused")
     return Textured(
         mesh=fused,
-        texture_mesh=slab,
+        texture_mesh=texture_mesh,
         base_mesh=base_mesh,
         heightmap=mapped.heightmap,
         limits=overhang,
         height_limits=list(mapped.limits),
         mapped=mapped,
-        max_error=max_error,
-        info={"face": "surface", "mapping": mapping, "grid": tuple(mapped.top.shape[:2]), "closed": mapped.closed, "tolerance": tolerance},
+        max_error=bodies["error"],
+        info={"face": "surface", "mapping": mapping, "grid": tuple(mapped.top.shape[:2]), "closed": mapped.closed,
+              "tolerance": tolerance, "mode": mode},
         kind="surface",
     )
+
+
+def _share(mode: str) -> float:
+    """The mode's share ``c`` of the height that goes under the surface."""
+    from .mesh import MODES
+
+    if mode not in MODES:
+        raise ParameterError(f"mode {mode!r}: use 'raised', 'engraved' (cut in, the envelope kept) or 'centred'")
+    return MODES[mode]
+
+
+def _surface(surface: Any, length: float | None, base: Any, thickness: float | None) -> Surface:
+    if isinstance(surface, Surface):
+        if base is None:
+            return surface
+        return Surface(surface.profile, surface.length, base, thickness if thickness is not None else surface.thickness,
+                       surface.params)
+    if length is None:
+        raise ParameterError("give the extrusion length in mm (length=...) when texturing a profile")
+    return Surface.from_profile(surface, length, base=base, thickness=thickness)
+
+
+def _inverted(inner: np.ndarray, outer: np.ndarray, profile, s, lean: dict) -> tuple[Mesh, Mesh, float]:
+    """The closed body between a textured sheet ``inner`` ``(R, C, 3)`` and the sheet
+    ``outer`` ``(2, C, 3)`` outside it (a cutter): :func:`lean_mapped_slab` with the
+    sheets swapped. Its two sheets are oriented by their grids, facing the wrong way
+    for a body whose textured side is its bottom, and are turned; its end walls are
+    oriented by their geometry and stay. Returns ``(cutter, as made (its "texture"
+    faces facing out of the part), max_error mm)``."""
+    from ..errors import GeometryError
+    from ..solid import edge_report
+
+    made, err = lean_mapped_slab(inner, outer, profile, s, **lean)
+    closed = lean["closed"]
+    sheets = len(made.groups["texture"]) + 2 * (inner.shape[1] - (0 if closed else 1)) * (outer.shape[0] - 1)
+    faces = made.faces.copy()
+    faces[:sheets] = faces[:sheets, ::-1]
+    cutter = Mesh(made.vertices, faces, made.groups)
+    if not edge_report(faces)["watertight"] or cutter.volume <= 0:
+        raise GeometryError("the texture's cutter is not a closed solid (its textured side crosses the surface); "
+                            "use a smaller height")
+    return cutter, made, err
+
+
+def _bodies(profile, mapped, share: float, full: float, gradient: Any, lean: dict) -> dict:
+    """The bodies that put the texture on (:mod:`texcad.mapping.modes`): ``slab`` to
+    add, ``cutter`` to subtract, ``low`` (the envelope's cutter, for the texture
+    alone), ``shown`` (the body whose ``"texture"`` faces are the part's textured
+    surface, outward), ``error`` (mm) and ``triangles``."""
+    from ..mapping import CUT_FLOOR, mode_sheets
+    from .mesh import _gradient
+
+    s = mapped.s
+    gain = None if gradient is None else _gradient(mapped.top.reshape(-1, 3).astype(np.float64), gradient).reshape(mapped.top.shape[:2])
+    if share == 0 and gain is None:
+        slab, err = lean_mapped_slab(mapped.top, mapped.bottom, profile, s, **lean)
+        return {"slab": slab, "cutter": None, "low": None, "shown": slab, "error": err, "triangles": slab.num_triangles}
+    # Two lean sheets each within tolerance of their grids: 2 tolerance apart, they cannot cross.
+    sheets = mode_sheets(profile, mapped, share=share, height=full, gain=gain, overlap=CUT_FLOOR + 2.0 * lean["tolerance"])
+    slab = cutter = low = None
+    err = 0.0
+    if share < 1:
+        slab, err = lean_mapped_slab(sheets["slab"], mapped.bottom, profile, s, **lean)
+    if share > 0:
+        cutter, made, cut_err = _inverted(sheets["cut"], sheets["outer"], profile, s, lean)
+        low = lambda: _inverted(sheets["low"], sheets["outer"], profile, s, dict(lean, tolerance=0.0, build_dir=None))[0]  # noqa: E731
+        err = max(err, cut_err)
+    shown = made if share == 1 else slab  # its "texture" faces: the part's textured surface, facing out
+    n = sum(b.num_triangles for b in (slab, cutter) if b is not None)
+    return {"slab": slab, "cutter": cutter, "low": low, "shown": shown, "error": err, "triangles": n}
+
+
+def _apply(base_mesh: Mesh, bodies: dict):
+    """``(base - cutter) + slab`` with manifold3d, checked to make no more bodies than
+    the base has: ``(fused Mesh, texture_mesh)`` (the texture alone: the slab, or for a
+    cut texture a callable giving what of the part lies above the envelope's
+    bottom)."""
+    import manifold3d as m3d
+
+    from ..errors import GeometryError
+
+    base = to_manifold(base_mesh)
+    man = base - to_manifold(bodies["cutter"]) if bodies["cutter"] is not None else base
+    if bodies["slab"] is not None:
+        man = man + to_manifold(bodies["slab"])
+    parts = man.decompose()
+    real = [p for p in parts if p.volume() > 1e-6]  # booleans can leave flat, zero-volume slivers
+    if len(real) < len(parts):
+        man = m3d.Manifold.compose(real)
+    want, got = len(base.decompose()), len(real)
+    if man.status() != m3d.Error.NoError or man.is_empty() or got > want:  # a slab may join pieces of a base
+        raise GeometryError(
+            f"putting the texture on gave {got} bodies from the base's {want} (manifold3d: {man.status().name}): "
+            "a texture came off the surface or cut through the base; use a smaller height, or a thicker base"
+        )
+    from .faces import welded
+
+    # Vertices within 1e-5 mm merged, as a slicer reading the STL does; where that
+    # would pinch an edge, manifold3d's own (index-manifold) mesh is kept.
+    fused = welded(man) or from_manifold(man)
+
+    if bodies["cutter"] is None:
+        return fused, bodies["slab"]
+
+    def texture_only() -> Mesh:
+        return from_manifold(man - (base - to_manifold(bodies["low"]())))
+
+    return fused, texture_only

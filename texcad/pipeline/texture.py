@@ -31,7 +31,7 @@ __all__ = ["texture"]
 COMMON = ("height", "pitch", "mapping", "depth", "periodic_x", "transition", "build_dir", "critical_angle", "progress")
 FACE_ONLY = ("edge_angle", "rotation", "offset", "brep", "tolerance", "mode", "gradient")
 FACE_OPTIONS = COMMON + FACE_ONLY
-SURFACE_OPTIONS = COMMON + ("length", "base", "thickness", "tolerance")
+SURFACE_OPTIONS = COMMON + ("length", "base", "thickness", "tolerance", "mode", "gradient")
 
 
 def _only(options: dict, allowed: tuple[str, ...], target: str) -> dict:
@@ -84,6 +84,10 @@ def texture(
             * CAD faces and surfaces: ``tolerance`` (0.02): largest distance in mm
               from the mesh to the exact texture at any pixel centre (a lean mesh,
               measured and reported as ``.max_error``; 0: one vertex per pixel);
+            * CAD faces and surfaces: ``mode`` (``"raised"``; ``"engraved"``: cut
+              into the part, its outer envelope kept; ``"centred"``: half and half)
+              and ``gradient`` (``(start, end)`` points, mm: full depth at ``start``,
+              none at ``end``);
             * ``progress``: a ``progress(fraction, message)`` callback.
 
     Returns:
