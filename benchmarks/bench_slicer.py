@@ -54,7 +54,7 @@ def row(label: str, rep, extra: str = "") -> None:
         return
     ov = rep.lengths.get("Overhang perimeter", 0.0) / 1000
     print(
-        f"{label:44s} {rep.seconds:8.1f} s {rep.peak_mb:8.0f} MB  support {rep.support_mm / 1000:8.2f} m  "
+        f"{label:44s} {rep.seconds:8.1f} s ({rep.cpu_seconds:7.1f} s CPU) {rep.peak_mb:8.0f} MB  support {rep.support_mm / 1000:8.2f} m  "
         f"overhang perimeter {ov:7.2f} m  layers {rep.layers:4d}  rc {rep.returncode} {extra}"
     )
 

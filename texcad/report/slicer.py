@@ -43,6 +43,8 @@ class SliceReport:
 
     Attributes:
         seconds: wall time of the slicer process, s.
+        cpu_seconds: its user + system CPU time, s (all threads; less sensitive
+            than the wall time to other jobs on the machine).
         peak_mb: its peak resident memory, MB.
         lengths: ``{type: extrusion path length in mm}`` per ``;TYPE:`` section.
         support_mm: total support path length (both support types), mm.
@@ -56,6 +58,7 @@ class SliceReport:
 
     seconds: float
     peak_mb: float
+    cpu_seconds: float = float("nan")
     lengths: dict = field(default_factory=dict)
     support_mm: float = 0.0
     support_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)), repr=False)
@@ -189,7 +192,9 @@ def slice_mesh(
         secs = (int(wall.group(1) or 0) * 3600 + int(wall.group(2)) * 60 + float(wall.group(3))) if wall else float("nan")
         rss = re.search(r"Maximum resident set size \(kbytes\): (\d+)", err)
         peak = int(rss.group(1)) * 1024 / 1e6 if rss else float("nan")
-        rep = SliceReport(seconds=secs, peak_mb=peak, returncode=proc.returncode, log=err[-2000:])
+        cpu = [re.search(rf"{k} time \(seconds\): ([\d.]+)", err) for k in ("User", "System")]
+        cpu_s = sum(float(c.group(1)) for c in cpu) if all(cpu) else float("nan")
+        rep = SliceReport(seconds=secs, peak_mb=peak, cpu_seconds=cpu_s, returncode=proc.returncode, log=err[-2000:])
         if proc.returncode == 0 and gcode.exists():
             rep.lengths, pts, rep.layers = read_gcode(gcode)
             rep.gcode_mb = gcode.stat().st_size / 1e6
