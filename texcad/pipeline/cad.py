@@ -77,6 +77,7 @@ from ..sources import Heightmap
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, heightfield_slab, mesh_error
 from ..util import Progress, report, subrange
 from ..solid import from_manifold, fuse, to_manifold
+from ..solid.boolean import fuse_on_plane
 from .surface import lean_mapped_slab
 
 __all__ = ["texture_faces", "LIFT"]
@@ -327,9 +328,9 @@ def _texture_plane(
         )
     else:
         slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin, tolerance=tolerance)
-    relief = to_manifold(slab).trim_by_plane((0.0, 0.0, 1.0), 0.0)
-    report(progress, 0.4, f"fusing {slab.num_triangles} texture triangles onto the part (manifold3d)")
-    fused_local = fuse(base_local, relief)
+    report(progress, 0.4, f"fusing {slab.num_triangles} texture triangles onto the part")
+    expect = (float(np.maximum(h_mesh, 0).sum(dtype=np.float64)) * px * py, float(tolerance) * px * py * h_mesh.size)
+    fused_local, relief, how = _fuse_relief(base_local, slab, obst is None and tolerance > 0, expect)
 
     def world(m: Mesh) -> Mesh:
         v = m.vertices.astype(np.float64) @ axes + origin
@@ -339,8 +340,8 @@ def _texture_plane(
 
     def texture_only() -> Mesh:
         # (base + relief) - base: the bumps alone (manifold3d resolves the shared face
-        # plane consistently this way round).
-        return world(from_manifold(to_manifold(fused_local) - to_manifold(base_local)))
+        # plane consistently this way round); the stitched relief is that already.
+        return world(relief or from_manifold(to_manifold(fused_local) - to_manifold(base_local)))
 
     def max_error() -> float:
         return mesh_error(h_mesh, (px, py), slab_origin, slab.vertices, slab.faces[slab.groups["texture"]])
@@ -362,6 +363,7 @@ def _texture_plane(
             "x": xs,
             "y": ys,
             "obstructed": obst is not None,
+            "fuse": how,
             "tolerance": float(tolerance),
             # the lean surface may enclose up to tolerance x area more or less than the B-rep
             "volume_slack": float(tolerance) * px * py * h_mesh.size,
@@ -372,6 +374,22 @@ def _texture_plane(
 
     result["shape"] = make_shape if make_brep else None
     return result
+
+
+def _fuse_relief(base_local: Mesh, slab: Mesh, stitch: bool, expect: tuple[float, float]) -> tuple[Mesh, "Mesh | None", str]:
+    """The relief (``slab`` above the face plane z = 0) fused onto the body, in the
+    face's frame: ``(fused, relief or None, how)``. With ``stitch`` (an unobstructed
+    face) it is stitched into the body's mesh (:func:`texcad.solid.boolean.fuse_on_plane`,
+    checked, ``expect``: the heightfield's volume and slack in mm^3); otherwise, or if a
+    check of the stitch fails (``how`` says which), manifold3d's union."""
+    how = "manifold3d"
+    if stitch:
+        try:
+            fused, relief = fuse_on_plane(base_local, slab.vertices, slab.faces[slab.groups["texture"]], expect=expect)
+            return fused, relief, "stitched"
+        except GeometryError as exc:
+            how = f"manifold3d (the stitch failed a check: {exc})"
+    return fuse(base_local, to_manifold(slab).trim_by_plane((0.0, 0.0, 1.0), 0.0)), None, how
 
 
 def _require_relief(hm: Heightmap, tex: Any) -> None:

@@ -18,7 +18,17 @@ import numpy as np
 from ..errors import GeometryError, ParameterError
 from .mesh import Mesh
 
-__all__ = ["shape_to_mesh", "to_manifold", "from_manifold", "fuse", "retain_freed_memory"]
+__all__ = [
+    "shape_to_mesh",
+    "to_manifold",
+    "from_manifold",
+    "fuse",
+    "retain_freed_memory",
+    "clip_above_plane",
+    "boundary_loops",
+    "closed_and_oriented",
+    "fuse_on_plane",
+]
 
 
 def shape_to_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: float = 0.1) -> Mesh:
@@ -187,3 +197,223 @@ def retain_freed_memory() -> bool:
 def solids(meshes: Iterable[Mesh]) -> int:  # pragma: no cover - helper for reports
     """Number of separate shells in the union of ``meshes``."""
     return sum(len(to_manifold(m).decompose()) for m in meshes)
+
+
+# ------------------------------------------------------------------------------------------
+# A relief on a planar face, fused without a boolean
+# ------------------------------------------------------------------------------------------
+def clip_above_plane(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The part of a triangulated surface on or above the plane z = 0.
+
+    Triangles with no vertex above the plane are dropped, those with none below are
+    kept, and those that cross it are cut along it (Sutherland-Hodgman against the
+    half-space z >= 0, vectorized): a new vertex where an edge crosses z = 0, one per
+    edge, shared by its two triangles, at z = 0 exactly.
+
+    Args:
+        vertices: ``(N, 3)`` mm.
+        faces: ``(M, 3)`` vertex indices, any orientation (kept).
+
+    Returns:
+        ``(vertices, faces)``: ``(N', 3)`` float64 mm (the used input vertices in their
+        order, then the cut points) and ``(M', 3)`` int64.
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    n = len(v)
+    above, below = v[:, 2] > 0, v[:, 2] < 0
+    fa, fb = above[f], below[f]
+    whole = f[fa.any(axis=1) & ~fb.any(axis=1)]
+    cut = f[fa.any(axis=1) & fb.any(axis=1)]
+    a, b = cut, np.roll(cut, -1, axis=1)  # edge k runs a[:, k] -> b[:, k]
+    cross = (above[a] & below[b]) | (below[a] & above[b])
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    keys, inv = np.unique((lo * n + hi)[cross], return_inverse=True)
+    elo, ehi = keys // n, keys % n
+    t = v[elo, 2] / (v[elo, 2] - v[ehi, 2])
+    pts = v[elo] + t[:, None] * (v[ehi] - v[elo])
+    pts[:, 2] = 0.0
+    # Per cut triangle, up to 6 slots: vertex k if not below, then edge k's cut point.
+    slot = np.full((len(cut), 6), -1, dtype=np.int64)
+    slot[:, 0::2] = np.where(below[cut], -1, cut)
+    ex = np.full(cut.shape, -1, dtype=np.int64)
+    ex[cross] = n + inv.reshape(-1)
+    slot[:, 1::2] = ex
+    order = np.argsort(slot < 0, axis=1, kind="stable")
+    s = np.take_along_axis(slot, order, axis=1)
+    quad = s[:, 3] >= 0
+    tris = np.concatenate([s[:, [0, 1, 2]], s[quad][:, [0, 2, 3]]])
+    out = np.concatenate([whole, tris])
+    used, remap = np.unique(out, return_inverse=True)
+    return np.concatenate([v, pts])[used], remap.reshape(-1, 3)
+
+
+def _edge_keys(faces: np.ndarray, n: int) -> np.ndarray:
+    """Sorted keys of the directed edges of ``faces`` over ``n`` vertices: the
+    undirected edge ``(lo, hi)`` as ``2 (lo n + hi)``, plus 1 where it runs hi -> lo
+    (one sort finds boundary, duplicated and unpaired edges alike)."""
+    f = np.asarray(faces, dtype=np.int64)
+    a = f.reshape(-1)
+    b = f[:, [1, 2, 0]].reshape(-1)
+    return np.sort(2 * (np.minimum(a, b) * n + np.maximum(a, b)) + (a > b))
+
+
+def closed_and_oriented(faces: np.ndarray, num_vertices: int) -> bool:
+    """True if every directed edge of ``faces`` appears once and its reverse once
+    (one sort of the edge keys)."""
+    k = _edge_keys(faces, int(num_vertices))
+    if len(k) == 0 or len(k) % 2:
+        return False
+    first, second = k[0::2], k[1::2]
+    return bool((first % 2 == 0).all() and (second == first + 1).all() and (first[1:] > second[:-1]).all())
+
+
+def boundary_loops(faces: np.ndarray, num_vertices: int) -> list[np.ndarray]:
+    """The boundary of an oriented triangulated surface as closed loops of vertex
+    indices, each in the direction of its directed edges (the surface on the left).
+
+    Vectorized: the loops are labelled and ordered by pointer jumping (``log2``
+    rounds over the boundary vertices), not traced vertex by vertex.
+
+    Raises:
+        GeometryError: a directed edge is used twice (not oriented), or a boundary
+            vertex starts or ends more than one boundary edge (a pinch).
+    """
+    n = int(num_vertices)
+    k = _edge_keys(faces, n)
+    if (k[1:] == k[:-1]).any():
+        raise GeometryError("the surface is not oriented: a directed edge is used twice")
+    und = k >> 1
+    single = np.ones(len(k), bool)
+    single[1:] &= und[1:] != und[:-1]
+    single[:-1] &= und[:-1] != und[1:]
+    ks = k[single]
+    if len(ks) == 0:
+        return []
+    lo, hi = (ks >> 1) // n, (ks >> 1) % n
+    flip = (ks & 1).astype(bool)
+    order = np.argsort(np.where(flip, hi, lo), kind="stable")
+    u, w = np.where(flip, hi, lo)[order], np.where(flip, lo, hi)[order]
+    nxt = np.searchsorted(u, w)
+    if (u[1:] == u[:-1]).any() or (nxt >= len(u)).any() or (u[np.minimum(nxt, len(u) - 1)] != w).any():
+        raise GeometryError("the surface's boundary pinches: a vertex starts or ends two boundary edges")
+    m = len(u)
+    rounds = int(np.ceil(np.log2(m))) + 1
+    lab, p = np.arange(m), nxt.copy()
+    for _ in range(rounds):  # pointer jumping: the smallest index on each loop
+        lab, p = np.minimum(lab, lab[p]), p[p]
+    # Cut each loop before its leader and rank the vertices by their distance to the cut.
+    succ = np.where(lab[nxt] == nxt, np.arange(m), nxt)  # the leader's predecessor ends the list
+    d = (succ != np.arange(m)).astype(np.int64)
+    for _ in range(rounds):
+        d, succ = d + d[succ], succ[succ]
+    pos = d[lab] - d  # 0 at the leader
+    seq = np.lexsort((pos, lab))
+    starts = np.flatnonzero(np.r_[True, lab[seq][1:] != lab[seq][:-1]])
+    return [u[s] for s in np.split(seq, starts[1:])]  # per loop
+
+
+def _area2(xy: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Twice the signed area in mm^2 of triangles ``f`` over 2-D points ``xy``."""
+    a, b, c = xy[f[:, 0]], xy[f[:, 1]], xy[f[:, 2]]
+    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+
+
+def _tet_volume(v: np.ndarray, f: np.ndarray, ref: np.ndarray) -> float:
+    """Divergence-theorem volume in mm^3 of faces ``f`` about the point ``ref``."""
+    a, b, c = v[f[:, 0]] - ref, v[f[:, 1]] - ref, v[f[:, 2]] - ref
+    return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+
+
+def _triangulate_loops(xy: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:
+    """manifold3d's triangulation of the region the ``loops`` (indices into ``xy``,
+    counter-clockwise outer loops, clockwise holes) bound, as ``(T, 3)`` indices
+    into ``xy``, counter-clockwise."""
+    import manifold3d
+
+    if not loops:
+        return np.zeros((0, 3), dtype=np.int64)
+    ids = np.concatenate(loops)
+    tri = np.asarray(manifold3d.triangulate([xy[lp] for lp in loops]), dtype=np.int64).reshape(-1, 3)
+    return ids[tri]
+
+
+def fuse_on_plane(
+    base: Mesh,
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    *,
+    expect: "tuple[float, float] | None" = None,
+) -> tuple[Mesh, Mesh]:
+    """Fuse a relief that stands on the plane z = 0 onto a base body, without a boolean.
+
+    The base has a face in the plane z = 0 (its vertices there at z = 0 exactly,
+    facing +z), and the relief's surface (``vertices``, ``faces``: e.g. the top of
+    :func:`texcad.solid.heightfield_slab`) is cut at z = 0 (:func:`clip_above_plane`).
+    Where the relief stands, the base's face is cut out; the rest of that face is
+    triangulated again around the relief's footprint (manifold3d's polygon
+    triangulation), sharing its boundary vertices: the fused solid is the base's mesh
+    with the relief stitched in, as the union would make it. The caller must know
+    that nothing else of the body lies above the face where the relief stands.
+
+    Checked independently, else :class:`GeometryError` (use :func:`fuse` then):
+    every directed edge appears once and its reverse once (closed and oriented);
+    every new face triangle faces +z and together they cover the face's area minus
+    the relief's footprint; the volume (divergence theorem about a point off the
+    plane) is the base's plus the relief's own (its triangles' prisms down to
+    z = 0); and with ``expect = (volume, slack)`` mm^3 the relief's volume is
+    within ``slack`` of ``volume`` (e.g. the heightfield's sum of h dA).
+
+    Args:
+        base: closed :class:`Mesh` in mm, in the plane's frame.
+        vertices: ``(N, 3)`` mm, the relief surface (below z = 0 where it is cut away).
+        faces: ``(M, 3)`` its triangles, facing up (+z).
+
+    Returns:
+        ``(fused, relief)``: the fused solid, and the relief alone closed by its
+        footprint at z = 0 (both watertight :class:`Mesh`, float32 mm).
+    """
+    rv, rf = clip_above_plane(vertices, faces)
+    bv = base.vertices.astype(np.float64)
+    bf = base.faces.astype(np.int64)
+    on = (bv[:, 2] == 0.0)[bf].all(axis=1) & (_area2(bv, bf) > 0)
+    if not on.any() or not len(rf):
+        raise GeometryError("nothing to stitch: the base has no face at z = 0 or the relief is empty")
+    f_loops = boundary_loops(bf[on], len(bv))
+    r_loops = boundary_loops(rf, len(rv))
+    if any(float(np.abs(rv[lp, 2]).max()) != 0.0 for lp in r_loops):  # per loop
+        raise GeometryError("the relief's boundary leaves the plane z = 0")
+    nb = len(bv)
+    xy = np.concatenate([bv[:, :2], rv[:, :2]])
+    ring = _triangulate_loops(xy, f_loops + [lp[::-1] + nb for lp in r_loops])
+    foot = _triangulate_loops(rv[:, :2], r_loops)
+    faces_out = np.concatenate([bf[~on], ring, rf + nb])
+    v = np.concatenate([bv, rv])
+    used, remap = np.unique(faces_out, return_inverse=True)
+    fused = Mesh(v[used].astype(np.float32), remap.reshape(-1, 3).astype(np.uint32))
+    relief = Mesh(rv.astype(np.float32), np.concatenate([rf, foot[:, ::-1]]).astype(np.uint32))
+    _check_stitch(fused, relief, base, (_area2(xy, ring), _area2(bv, bf[on]), _area2(rv, foot)), expect)
+    for m in (fused, relief):
+        m.__dict__["is_watertight"] = True
+    return fused, relief
+
+
+def _check_stitch(fused: Mesh, relief: Mesh, base: Mesh, areas: tuple, expect) -> None:
+    """The checks of :func:`fuse_on_plane` (GeometryError naming the one that failed)."""
+    for label, m in (("fused solid", fused), ("relief", relief)):
+        if not closed_and_oriented(m.faces, len(m.vertices)):
+            raise GeometryError(f"the stitched {label} is not closed and oriented")
+    ring, face, foot = areas
+    scale = float(face.sum())
+    if (ring <= 0).any() or abs(float(ring.sum()) - (scale - float(foot.sum()))) > 1e-6 * scale:
+        raise GeometryError("the face around the relief does not cover the face's area minus the relief's footprint")
+    lo = base.bounds[0].astype(np.float64) - 1.0
+    v_fused = _tet_volume(fused.vertices.astype(np.float64), fused.faces.astype(np.int64), lo)
+    v_base = _tet_volume(base.vertices.astype(np.float64), base.faces.astype(np.int64), lo)
+    v_relief = _tet_volume(relief.vertices.astype(np.float64), relief.faces.astype(np.int64), lo)
+    if abs(v_fused - v_base - v_relief) > 1e-6 * (abs(v_base) + abs(v_relief)) + 1e-9:
+        raise GeometryError(
+            f"the stitched solid's volume {v_fused:.6g} mm3 is not the base's {v_base:.6g} plus the relief's {v_relief:.6g}"
+        )
+    if expect is not None and abs(v_relief - expect[0]) > expect[1] + 1e-6 * abs(expect[0]) + 1e-9:
+        raise GeometryError(f"the relief's volume {v_relief:.6g} mm3 is not the heightfield's {expect[0]:.6g} +- {expect[1]:.3g}")
