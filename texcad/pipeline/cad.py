@@ -78,6 +78,7 @@ from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, heightfield_slab, 
 from ..util import Progress, report, subrange
 from ..solid import from_manifold, fuse, to_manifold
 from ..solid.boolean import fuse_on_plane
+from ..solid.mesh import heightfield_volume
 from .surface import lean_mapped_slab
 
 __all__ = ["texture_faces", "LIFT"]
@@ -329,7 +330,8 @@ def _texture_plane(
     else:
         slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin, tolerance=tolerance)
     report(progress, 0.4, f"fusing {slab.num_triangles} texture triangles onto the part")
-    expect = (float(np.maximum(h_mesh, 0).sum(dtype=np.float64)) * px * py, float(tolerance) * px * py * h_mesh.size)
+    vol, slack = heightfield_volume(h_mesh, (px, py))
+    expect = (vol, slack + float(tolerance) * px * py * h_mesh.size)
     fused_local, relief, how = _fuse_relief(base_local, slab, obst is None and tolerance > 0, expect)
 
     def world(m: Mesh) -> Mesh:
