@@ -243,9 +243,8 @@ def clip_above_plane(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarra
     s = np.take_along_axis(slot, order, axis=1)
     quad = s[:, 3] >= 0
     tris = np.concatenate([s[:, [0, 1, 2]], s[quad][:, [0, 2, 3]]])
-    out = np.concatenate([whole, tris])
-    used, remap = np.unique(out, return_inverse=True)
-    return np.concatenate([v, pts])[used], remap.reshape(-1, 3)
+    used, faces_out = _compact(np.concatenate([whole, tris]), n + len(pts))
+    return np.concatenate([v, pts])[used], faces_out
 
 
 def _edge_keys(faces: np.ndarray, n: int) -> np.ndarray:
@@ -266,6 +265,14 @@ def closed_and_oriented(faces: np.ndarray, num_vertices: int) -> bool:
         return False
     first, second = k[0::2], k[1::2]
     return bool((first % 2 == 0).all() and (second == first + 1).all() and (first[1:] > second[:-1]).all())
+
+
+def _compact(faces: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(used, faces')``: the indices of the ``n`` vertices that ``faces`` use, in
+    their order, and the faces renumbered onto them (no sort: a mask and a cumsum)."""
+    mask = np.zeros(n, dtype=bool)
+    mask[faces.reshape(-1)] = True
+    return np.flatnonzero(mask), (np.cumsum(mask) - 1)[faces]
 
 
 def boundary_loops(faces: np.ndarray, num_vertices: int) -> list[np.ndarray]:
@@ -320,9 +327,20 @@ def _area2(xy: np.ndarray, f: np.ndarray) -> np.ndarray:
 
 
 def _tet_volume(v: np.ndarray, f: np.ndarray, ref: np.ndarray) -> float:
-    """Divergence-theorem volume in mm^3 of faces ``f`` about the point ``ref``."""
-    a, b, c = v[f[:, 0]] - ref, v[f[:, 1]] - ref, v[f[:, 2]] - ref
-    return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+    """Divergence-theorem volume in mm^3 of faces ``f`` about the point ``ref``
+    (float64, one coordinate column at a time)."""
+    x, y, z = (np.asarray(v[:, k], dtype=np.float64)[f] - float(ref[k]) for k in range(3))  # (M, 3) each
+    det = x[:, 0] * (y[:, 1] * z[:, 2] - z[:, 1] * y[:, 2])
+    det -= y[:, 0] * (x[:, 1] * z[:, 2] - z[:, 1] * x[:, 2])
+    det += z[:, 0] * (x[:, 1] * y[:, 2] - y[:, 1] * x[:, 2])
+    return float(det.sum() / 6.0)
+
+
+def _prism_volume(v: np.ndarray, f: np.ndarray) -> float:
+    """Volume in mm^3 between a surface over the xy plane (``f`` facing up, not
+    overlapping in xy) and z = 0: each triangle's xy area times its mean height."""
+    z = np.asarray(v[:, 2], dtype=np.float64)[f]
+    return float((_area2(np.asarray(v[:, :2], dtype=np.float64), f) * z.sum(axis=1)).sum() / 6.0)
 
 
 def _triangulate_loops(xy: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:
@@ -370,8 +388,8 @@ def fuse_on_plane(
         faces: ``(M, 3)`` its triangles, facing up (+z).
 
     Returns:
-        ``(fused, relief)``: the fused solid, and the relief alone closed by its
-        footprint at z = 0 (both watertight :class:`Mesh`, float32 mm).
+        ``(fused, relief)``: the fused solid (watertight, checked), and the relief
+        alone closed by its footprint at z = 0 (float32 mm :class:`Mesh`).
     """
     rv, rf = clip_above_plane(vertices, faces)
     bv = base.vertices.astype(np.float64)
@@ -389,28 +407,30 @@ def fuse_on_plane(
     foot = _triangulate_loops(rv[:, :2], r_loops)
     faces_out = np.concatenate([bf[~on], ring, rf + nb])
     v = np.concatenate([bv, rv])
-    used, remap = np.unique(faces_out, return_inverse=True)
-    fused = Mesh(v[used].astype(np.float32), remap.reshape(-1, 3).astype(np.uint32))
+    used, faces_out = _compact(faces_out, len(v))
+    fused = Mesh(v[used].astype(np.float32), faces_out.astype(np.uint32))
+    # The relief closes on its footprint: the triangulation of its own boundary loops
+    # (manifold3d keeps the loops' edges), so it is closed when the fused solid is.
     relief = Mesh(rv.astype(np.float32), np.concatenate([rf, foot[:, ::-1]]).astype(np.uint32))
-    _check_stitch(fused, relief, base, (_area2(xy, ring), _area2(bv, bf[on]), _area2(rv, foot)), expect)
-    for m in (fused, relief):
-        m.__dict__["is_watertight"] = True
+    areas = (_area2(xy, ring), _area2(bv, bf[on]), _area2(rv, foot))
+    _check_stitch(fused, base, _prism_volume(relief.vertices, rf), areas, expect)
+    fused.__dict__["is_watertight"] = True
     return fused, relief
 
 
-def _check_stitch(fused: Mesh, relief: Mesh, base: Mesh, areas: tuple, expect) -> None:
-    """The checks of :func:`fuse_on_plane` (GeometryError naming the one that failed)."""
-    for label, m in (("fused solid", fused), ("relief", relief)):
-        if not closed_and_oriented(m.faces, len(m.vertices)):
-            raise GeometryError(f"the stitched {label} is not closed and oriented")
+def _check_stitch(fused: Mesh, base: Mesh, v_relief: float, areas: tuple, expect) -> None:
+    """The checks of :func:`fuse_on_plane` (GeometryError naming the one that failed):
+    ``v_relief`` is the relief's own volume (mm^3), ``areas`` twice the signed xy
+    areas of the new face triangles, the old face's and the relief's footprint's."""
+    if not closed_and_oriented(fused.faces, len(fused.vertices)):
+        raise GeometryError("the stitched solid is not closed and oriented")
     ring, face, foot = areas
     scale = float(face.sum())
     if (ring <= 0).any() or abs(float(ring.sum()) - (scale - float(foot.sum()))) > 1e-6 * scale:
         raise GeometryError("the face around the relief does not cover the face's area minus the relief's footprint")
     lo = base.bounds[0].astype(np.float64) - 1.0
-    v_fused = _tet_volume(fused.vertices.astype(np.float64), fused.faces.astype(np.int64), lo)
-    v_base = _tet_volume(base.vertices.astype(np.float64), base.faces.astype(np.int64), lo)
-    v_relief = _tet_volume(relief.vertices.astype(np.float64), relief.faces.astype(np.int64), lo)
+    v_fused = _tet_volume(fused.vertices, fused.faces.astype(np.int64), lo)
+    v_base = _tet_volume(base.vertices, base.faces.astype(np.int64), lo)
     if abs(v_fused - v_base - v_relief) > 1e-6 * (abs(v_base) + abs(v_relief)) + 1e-9:
         raise GeometryError(
             f"the stitched solid's volume {v_fused:.6g} mm3 is not the base's {v_base:.6g} plus the relief's {v_relief:.6g}"

@@ -122,7 +122,7 @@ def triangulate(
     # pydelatin's x is the column and y counts rows from the bottom (y = R - 1 - row).
     col = np.rint(v[:, 0]).astype(np.int64)
     row = rows - 1 - np.rint(v[:, 1]).astype(np.int64)
-    order = np.lexsort((col, row))
+    order = np.argsort(row * cols + col)  # row-major (the keys are distinct)
     inv = np.empty_like(order)
     inv[order] = np.arange(len(order))
     rc = np.stack([row[order], col[order]], axis=1)
@@ -132,7 +132,7 @@ def triangulate(
         rc, faces = _fill_border(rc, faces, rows, cols)
     # Row-major faces (by their first vertex): manifold3d builds its half-edges from a
     # coherent order three times faster (0.6 s instead of 1.8 s CPU, demo plate).
-    faces = faces[np.argsort(faces.min(axis=1), kind="stable")].astype(np.uint32)
+    faces = faces[_stable_order(faces.min(axis=1))].astype(np.uint32)
     a, b, c = rc[faces[:, 0]], rc[faces[:, 1]], rc[faces[:, 2]]
     area2 = (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]) - (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
     if not (area2 > 0).all():
@@ -143,6 +143,12 @@ def triangulate(
     if int(area2.sum()) != 2 * (rows - 1) * (cols - 1):
         raise GeometryError("the lean triangulation does not cover the grid; use tolerance=0 and please report this")
     return rc, faces
+
+
+def _stable_order(key: np.ndarray) -> np.ndarray:
+    """``np.argsort(key, kind="stable")`` for integer keys >= 0, 5 x faster: the keys
+    made distinct by their position (``key * len + i``) need no stable sort."""
+    return np.argsort(key.astype(np.int64) * len(key) + np.arange(len(key)))
 
 
 #: Tile size in px of :func:`tiled_triangulation` (its tile borders keep every grid
@@ -238,7 +244,7 @@ def tiled_triangulation(
         return None
     key, inv = np.unique(rc[:, 0] * cols + rc[:, 1], return_inverse=True)
     faces = inv.reshape(-1)[faces]
-    faces = faces[np.argsort(faces.min(axis=1), kind="stable")]  # row-major, as triangulate's
+    faces = faces[_stable_order(faces.min(axis=1))]  # row-major, as triangulate's
     return np.stack([key // cols, key % cols], axis=1), faces.astype(np.uint32)
 
 
