@@ -34,7 +34,8 @@ Which faces
   surface meets the face's own edges at height 0: the B-rep keeps the body's edges
   and swaps the textured part of the face's plane for B-spline tiles
   (:func:`texcad.solid.brep.textured_plane_solid`), and the mesh is the body's mesh
-  united (manifold3d) with the relief above the face.
+  with the relief above the face stitched in (a lean relief on an unobstructed face,
+  no boolean: :func:`texcad.solid.boolean.fuse_on_plane`) or united (manifold3d).
 * **Faces of extruded profiles** (cylinders, extrusions of lines, arcs and splines:
   the 2.5D surfaces of :mod:`texcad.mapping`). The profile is recovered from the
   face's cross-section, the texture is mapped with :func:`texcad.mapping.map_texture`
@@ -320,6 +321,7 @@ def _texture_plane(
     # (zero-thickness) part there: what is left lies inside the outline, on the face.
     h_mesh = np.where(dist > 1.75 * float(np.hypot(px, py)), h, np.float32(-1.0))
     slab_origin = (xs[0] - px / 2, ys[0] - py / 2, 0.0)
+    stitch = obst is None and tolerance > 0  # (even where the lean mesh falls back to the grid)
     if build_dir is not None and tolerance > 0:
         from ..printability import printable_lean_slab
 
@@ -330,9 +332,7 @@ def _texture_plane(
     else:
         slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin, tolerance=tolerance)
     report(progress, 0.4, f"fusing {slab.num_triangles} texture triangles onto the part")
-    vol, slack = heightfield_volume(h_mesh, (px, py))
-    expect = (vol, slack + float(tolerance) * px * py * h_mesh.size)
-    fused_local, relief, how = _fuse_relief(base_local, slab, obst is None and tolerance > 0, expect)
+    fused_local, relief, how = _fuse_relief(base_local, slab, stitch, Heightmap(h_mesh, (px, py)), tolerance)
 
     def world(m: Mesh) -> Mesh:
         v = np.einsum("ij,jk->ik", m.vertices.astype(np.float64), axes) + origin  # 6 x faster than @ here
@@ -378,14 +378,19 @@ def _texture_plane(
     return result
 
 
-def _fuse_relief(base_local: Mesh, slab: Mesh, stitch: bool, expect: tuple[float, float]) -> tuple[Mesh, "Mesh | None", str]:
+def _fuse_relief(
+    base_local: Mesh, slab: Mesh, stitch: bool, field: Heightmap, tolerance: float
+) -> tuple[Mesh, "Mesh | None", str]:
     """The relief (``slab`` above the face plane z = 0) fused onto the body, in the
     face's frame: ``(fused, relief or None, how)``. With ``stitch`` (an unobstructed
     face) it is stitched into the body's mesh (:func:`texcad.solid.boolean.fuse_on_plane`,
-    checked, ``expect``: the heightfield's volume and slack in mm^3); otherwise, or if a
-    check of the stitch fails (``how`` says which), manifold3d's union."""
+    checked; its volume against the heightfield ``field``'s within ``tolerance`` mm x
+    area); otherwise, or if a check of the stitch fails (``how`` says which),
+    manifold3d's union."""
     how = "manifold3d"
     if stitch:
+        vol, slack = heightfield_volume(field.heights, field.pitch)
+        expect = (vol, slack + float(tolerance) * field.pitch[0] * field.pitch[1] * field.heights.size)
         try:
             fused, relief = fuse_on_plane(base_local, slab.vertices, slab.faces[slab.groups["texture"]], expect=expect)
             return fused, relief, "stitched"

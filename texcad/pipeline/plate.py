@@ -49,8 +49,11 @@ def textured_plate(
     """Texture the top face of a plate: the paper's flat sample (section 2.2).
 
     The texture lies on the plate's top face (z = 0), centred; mesh vertices at
-    pixel centres (all of them with ``tolerance=0``); the slab reaches ``depth`` mm into the plate and is unioned onto it with
-    manifold3d.
+    pixel centres (all of them with ``tolerance=0``); the slab reaches ``depth`` mm
+    into the plate. A lean slab (``tolerance`` > 0) on a base with nothing above
+    z = 0 is stitched into the plate's mesh without a boolean
+    (:func:`texcad.solid.boolean.fuse_on_plane`, checked; ``info["fuse"]`` says
+    how); otherwise it is unioned onto the plate with manifold3d.
 
     Args:
         texture: ``"builtin:NAME"``, an image path, or a Heightmap (used as is).

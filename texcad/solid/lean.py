@@ -193,7 +193,8 @@ def tiled_triangulation(
             pixel grid (the feet of the M-I ramps, where lean slivers along the side
             would overhang: :data:`BORDER_GRID`).
         max_fraction: None is returned when the result keeps more than this share of
-            the grid's triangles.
+            the grid's triangles, or (without finishing: noisy textures) when the
+            tiles done, a quarter of the grid or more, keep more than that share.
 
     Returns:
         ``(rc, faces)`` as :func:`triangulate` (every tile border point kept), or None.
@@ -212,6 +213,7 @@ def tiled_triangulation(
 
     rcuts, ccuts = cuts(rows), cuts(cols)
     all_rc, all_f, base = [], [], 0
+    total, done, kept = 2 * (rows - 1) * (cols - 1), 0, 0
     for r0, r1 in zip(rcuts[:-1], rcuts[1:]):  # per tile
         for c0, c1 in zip(ccuts[:-1], ccuts[1:]):
             sub = h[r0 : r1 + 1, c0 : c1 + 1]
@@ -238,6 +240,10 @@ def tiled_triangulation(
             all_rc.append(got[0])
             all_f.append(got[1] + base)
             base += len(got[0])
+            done += 2 * (r1 - r0) * (c1 - c0)
+            kept += len(got[1])
+            if done >= total / 4 and kept > max_fraction * done:  # noisy: the grid it is
+                return None
     rc = np.concatenate(all_rc)
     faces = np.concatenate(all_f)
     if len(faces) > max_fraction * 2 * (rows - 1) * (cols - 1):
