@@ -125,6 +125,10 @@ def test_boundary_loops_of_a_grid_with_a_hole():
         return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
     assert sorted(len(lp) for lp in loops) == [6, 22]
+    ring = np.zeros(42, bool)
+    ring[idx[[0, -1], :]] = ring[idx[:, [0, -1]]] = ring[idx[1:5, 1:6]] = True  # the sides and around the hole
+    same = boundary_loops(f[~hole], 42, on=ring)
+    assert sorted(map(tuple, loops)) == sorted(map(tuple, same))
     assert sorted(area(lp) for lp in loops) == [-2.0, 30.0]  # the hole runs clockwise
     with pytest.raises(GeometryError, match="pinch"):
         two = np.array([[0, 1, 2], [0, 3, 4]])  # two triangles touching at vertex 0

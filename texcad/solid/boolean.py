@@ -223,8 +223,10 @@ def clip_above_plane(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarra
     n = len(v)
     above, below = v[:, 2] > 0, v[:, 2] < 0
     fa, fb = above[f], below[f]
-    whole = f[fa.any(axis=1) & ~fb.any(axis=1)]
-    cut = f[fa.any(axis=1) & fb.any(axis=1)]
+    any_a = fa[:, 0] | fa[:, 1] | fa[:, 2]  # (faster than .any(axis=1) on 3 columns)
+    any_b = fb[:, 0] | fb[:, 1] | fb[:, 2]
+    whole = f[any_a & ~any_b]
+    cut = f[any_a & any_b]
     a, b = cut, np.roll(cut, -1, axis=1)  # edge k runs a[:, k] -> b[:, k]
     cross = (above[a] & below[b]) | (below[a] & above[b])
     lo, hi = np.minimum(a, b), np.maximum(a, b)
@@ -275,19 +277,30 @@ def _compact(faces: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(mask), (np.cumsum(mask) - 1)[faces]
 
 
-def boundary_loops(faces: np.ndarray, num_vertices: int) -> list[np.ndarray]:
+def boundary_loops(faces: np.ndarray, num_vertices: int, on: "np.ndarray | None" = None) -> list[np.ndarray]:
     """The boundary of an oriented triangulated surface as closed loops of vertex
     indices, each in the direction of its directed edges (the surface on the left).
 
     Vectorized: the loops are labelled and ordered by pointer jumping (``log2``
-    rounds over the boundary vertices), not traced vertex by vertex.
+    rounds over the boundary vertices), not traced vertex by vertex. ``on``: an
+    optional ``(num_vertices,)`` bool mask of the vertices the boundary is known to
+    lie on; only the faces with two or more of them are looked at (an edge between
+    two such vertices is in those faces alone, so it pairs up the same way).
 
     Raises:
         GeometryError: a directed edge is used twice (not oriented), or a boundary
             vertex starts or ends more than one boundary edge (a pinch).
     """
     n = int(num_vertices)
-    k = _edge_keys(faces, n)
+    f = np.asarray(faces, dtype=np.int64)
+    if on is not None:
+        hit = on[f]
+        f = f[hit[:, 0].astype(np.int8) + hit[:, 1] + hit[:, 2] >= 2]
+        a, b = f.reshape(-1), f[:, [1, 2, 0]].reshape(-1)
+        both = on[a] & on[b]
+        k = np.sort((2 * (np.minimum(a, b) * n + np.maximum(a, b)) + (a > b))[both])
+    else:
+        k = _edge_keys(f, n)
     if (k[1:] == k[:-1]).any():
         raise GeometryError("the surface is not oriented: a directed edge is used twice")
     und = k >> 1
@@ -322,14 +335,15 @@ def boundary_loops(faces: np.ndarray, num_vertices: int) -> list[np.ndarray]:
 
 def _area2(xy: np.ndarray, f: np.ndarray) -> np.ndarray:
     """Twice the signed area in mm^2 of triangles ``f`` over 2-D points ``xy``."""
-    a, b, c = xy[f[:, 0]], xy[f[:, 1]], xy[f[:, 2]]
-    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    x = np.ascontiguousarray(xy[:, 0], dtype=np.float64)[f]  # (M, 3): one gather per column
+    y = np.ascontiguousarray(xy[:, 1], dtype=np.float64)[f]
+    return (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (y[:, 1] - y[:, 0]) * (x[:, 2] - x[:, 0])
 
 
 def _tet_volume(v: np.ndarray, f: np.ndarray, ref: np.ndarray) -> float:
     """Divergence-theorem volume in mm^3 of faces ``f`` about the point ``ref``
     (float64, one coordinate column at a time)."""
-    x, y, z = (np.asarray(v[:, k], dtype=np.float64)[f] - float(ref[k]) for k in range(3))  # (M, 3) each
+    x, y, z = (np.ascontiguousarray(v[:, k], dtype=np.float64)[f] - float(ref[k]) for k in range(3))  # (M, 3) each
     det = x[:, 0] * (y[:, 1] * z[:, 2] - z[:, 1] * y[:, 2])
     det -= y[:, 0] * (x[:, 1] * z[:, 2] - z[:, 1] * x[:, 2])
     det += z[:, 0] * (x[:, 1] * y[:, 2] - y[:, 1] * x[:, 2])
@@ -339,8 +353,8 @@ def _tet_volume(v: np.ndarray, f: np.ndarray, ref: np.ndarray) -> float:
 def _prism_volume(v: np.ndarray, f: np.ndarray) -> float:
     """Volume in mm^3 between a surface over the xy plane (``f`` facing up, not
     overlapping in xy) and z = 0: each triangle's xy area times its mean height."""
-    z = np.asarray(v[:, 2], dtype=np.float64)[f]
-    return float((_area2(np.asarray(v[:, :2], dtype=np.float64), f) * z.sum(axis=1)).sum() / 6.0)
+    z = np.ascontiguousarray(v[:, 2], dtype=np.float64)[f]
+    return float(np.dot(_area2(v, f), z[:, 0] + z[:, 1] + z[:, 2]) / 6.0)
 
 
 def _triangulate_loops(xy: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:
@@ -398,7 +412,7 @@ def fuse_on_plane(
     if not on.any() or not len(rf):
         raise GeometryError("nothing to stitch: the base has no face at z = 0 or the relief is empty")
     f_loops = boundary_loops(bf[on], len(bv))
-    r_loops = boundary_loops(rf, len(rv))
+    r_loops = boundary_loops(rf, len(rv), on=rv[:, 2] == 0.0)  # the relief's boundary is at z = 0
     if any(float(np.abs(rv[lp, 2]).max()) != 0.0 for lp in r_loops):  # per loop
         raise GeometryError("the relief's boundary leaves the plane z = 0")
     nb = len(bv)
