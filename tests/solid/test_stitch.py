@@ -146,3 +146,39 @@ def test_heightfield_volume_is_the_grid_mesh_volume():
     vol2, slack2 = heightfield_volume(pos, (0.3, 0.2))
     exact2 = to_manifold(heightfield_slab(Heightmap(pos, (0.3, 0.2)), depth=2.0)).trim_by_plane((0, 0, 1.0), 0.0).volume()
     assert abs(vol2 - exact2) <= slack2 <= 0.3 * 0.2 * 1.2  # only the corners differ
+
+
+def _pyramids(*footprints, height=0.5):
+    """A relief surface: a pyramid (apex over the centroid) on each counter-clockwise
+    triangle footprint ``(3, 2)`` mm at z = 0; corners shared where footprints touch."""
+    pts, faces = [], []
+    key = {}
+
+    def vid(p):
+        k = tuple(np.round(p, 9))
+        if k not in key:
+            key[k] = len(pts)
+            pts.append(p)
+        return key[k]
+
+    for fp in footprints:  # per pyramid
+        fp = np.asarray(fp, float)
+        corners = [vid(np.r_[c, 0.0]) for c in fp]
+        apex = vid(np.r_[fp.mean(axis=0), height])
+        faces += [[corners[i], corners[(i + 1) % 3], apex] for i in range(3)]
+    return np.array(pts), np.array(faces)
+
+
+def test_a_relief_touching_itself_at_a_point_is_stitched_around_it():
+    """Two pyramids whose footprints touch at one corner (a pinch): the face around
+    them closes the fused solid there (one watertight body, exact volume); the relief
+    alone would have a pinched vertex, so it is not returned."""
+    a = [(3.0, 4.0), (5.0, 5.0), (4.0, 6.0)]
+    b = [(5.0, 5.0), (7.0, 4.5), (6.5, 7.0)]
+    v, f = _pyramids(a, b)
+    base = _box((0.0, 0.0, -2.0), (10.0, 10.0, 0.0))
+    fused, relief = fuse_on_plane(base, v, f)
+    assert relief is None
+    area = sum(0.5 * abs(np.cross(np.subtract(t[1], t[0]), np.subtract(t[2], t[0]))) for t in (a, b))
+    assert fused.volume == pytest.approx(base.volume + area * 0.5 / 3, rel=1e-9)
+    _watertight_one_body(fused)

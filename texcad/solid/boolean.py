@@ -277,7 +277,32 @@ def _compact(faces: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(mask), (np.cumsum(mask) - 1)[faces]
 
 
-def boundary_loops(faces: np.ndarray, num_vertices: int, on: "np.ndarray | None" = None) -> list[np.ndarray]:
+def _pinch_pairs(u: np.ndarray, w: np.ndarray, xy: np.ndarray, pinch: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """At vertices where a surface touches itself (``pinch``), which boundary edge
+    (``u -> w``) leaves along the same wedge that each arriving edge bounds: around
+    the vertex, counter-clockwise, a wedge of the surface runs from its leaving
+    edge's direction to its arriving edge's (reversed), so the edge leaving is the
+    one just before the arriving one in angle. Returns ``(arriving, leaving)``
+    edge indices."""
+    e_in, e_out = np.flatnonzero(pinch[w]), np.flatnonzero(pinch[u])
+    vert = np.r_[w[e_in], u[e_out]]
+    d = np.r_[xy[u[e_in]] - xy[w[e_in]], xy[w[e_out]] - xy[u[e_out]]]
+    arriving = np.r_[np.ones(len(e_in), bool), np.zeros(len(e_out), bool)]
+    edge = np.r_[e_in, e_out]
+    o = np.lexsort((np.arctan2(d[:, 1], d[:, 0]), vert))
+    vert, arriving, edge = vert[o], arriving[o], edge[o]
+    k = np.arange(len(vert))
+    first = np.maximum.accumulate(np.where(np.r_[True, vert[1:] != vert[:-1]], k, 0))
+    last = np.minimum.accumulate(np.where(np.r_[vert[1:] != vert[:-1], True], k, len(k))[::-1])[::-1]
+    prev = np.where(k == first, last, k - 1)  # cyclically, around each vertex
+    if arriving[prev[arriving]].any():
+        raise GeometryError("the surface's boundary pinches in a way that cannot be followed")
+    return edge[arriving], edge[prev[arriving]]
+
+
+def boundary_loops(
+    faces: np.ndarray, num_vertices: int, on: "np.ndarray | None" = None, xy: "np.ndarray | None" = None
+) -> list[np.ndarray]:
     """The boundary of an oriented triangulated surface as closed loops of vertex
     indices, each in the direction of its directed edges (the surface on the left).
 
@@ -286,10 +311,15 @@ def boundary_loops(faces: np.ndarray, num_vertices: int, on: "np.ndarray | None"
     optional ``(num_vertices,)`` bool mask of the vertices the boundary is known to
     lie on; only the faces with two or more of them are looked at (an edge between
     two such vertices is in those faces alone, so it pairs up the same way).
+    ``xy``: ``(num_vertices, 2)`` positions of a surface over the plane (facing +z),
+    to follow the boundary through vertices where the surface touches itself
+    (:func:`_pinch_pairs`): a loop may then pass such a vertex twice, or two loops
+    share it.
 
     Raises:
         GeometryError: a directed edge is used twice (not oriented), or a boundary
-            vertex starts or ends more than one boundary edge (a pinch).
+            vertex starts or ends more than one boundary edge (a pinch) and ``xy``
+            is not given or does not resolve it.
     """
     n = int(num_vertices)
     f = np.asarray(faces, dtype=np.int64)
@@ -314,10 +344,18 @@ def boundary_loops(faces: np.ndarray, num_vertices: int, on: "np.ndarray | None"
     flip = (ks & 1).astype(bool)
     order = np.argsort(np.where(flip, hi, lo), kind="stable")
     u, w = np.where(flip, hi, lo)[order], np.where(flip, lo, hi)[order]
-    nxt = np.searchsorted(u, w)
-    if (u[1:] == u[:-1]).any() or (nxt >= len(u)).any() or (u[np.minimum(nxt, len(u) - 1)] != w).any():
-        raise GeometryError("the surface's boundary pinches: a vertex starts or ends two boundary edges")
     m = len(u)
+    if not np.array_equal(np.bincount(u, minlength=n), np.bincount(w, minlength=n)):
+        raise GeometryError("the surface's boundary is not closed: a vertex ends a different number of edges than it starts")
+    nxt = np.searchsorted(u, w)
+    pinch = np.bincount(u, minlength=n) > 1  # the surface touches itself at these vertices
+    if pinch.any():
+        if xy is None:
+            raise GeometryError("the surface's boundary pinches: a vertex starts or ends two boundary edges")
+        e_in, e_out = _pinch_pairs(u, w, xy, pinch)
+        nxt[e_in] = e_out
+    if not (np.bincount(nxt, minlength=m) == 1).all():
+        raise GeometryError("the surface's boundary pinches in a way that cannot be followed")
     rounds = int(np.ceil(np.log2(m))) + 1
     lab, p = np.arange(m), nxt.copy()
     for _ in range(rounds):  # pointer jumping: the smallest index on each loop
@@ -366,8 +404,10 @@ def _triangulate_loops(xy: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:
     if not loops:
         return np.zeros((0, 3), dtype=np.int64)
     ids = np.concatenate(loops)
-    tri = np.asarray(manifold3d.triangulate([xy[lp] for lp in loops]), dtype=np.int64).reshape(-1, 3)
-    return ids[tri]
+    tri = ids[np.asarray(manifold3d.triangulate([xy[lp] for lp in loops]), dtype=np.int64).reshape(-1, 3)]
+    # Where loops touch at a vertex (a pinch) it is listed twice; a sliver between
+    # its two copies collapses to nothing.
+    return tri[(tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2]) & (tri[:, 2] != tri[:, 0])]
 
 
 def fuse_on_plane(
@@ -403,7 +443,9 @@ def fuse_on_plane(
 
     Returns:
         ``(fused, relief)``: the fused solid (watertight, checked), and the relief
-        alone closed by its footprint at z = 0 (float32 mm :class:`Mesh`).
+        alone closed by its footprint at z = 0 (float32 mm :class:`Mesh`; None where
+        the relief touches itself at a point, which the fused solid closes around
+        but the relief alone would not: a pinched vertex).
     """
     rv, rf = clip_above_plane(vertices, faces)
     bv = base.vertices.astype(np.float64)
@@ -411,8 +453,10 @@ def fuse_on_plane(
     on = (bv[:, 2] == 0.0)[bf].all(axis=1) & (_area2(bv, bf) > 0)
     if not on.any() or not len(rf):
         raise GeometryError("nothing to stitch: the base has no face at z = 0 or the relief is empty")
-    f_loops = boundary_loops(bf[on], len(bv))
-    r_loops = boundary_loops(rf, len(rv), on=rv[:, 2] == 0.0)  # the relief's boundary is at z = 0
+    f_loops = boundary_loops(bf[on], len(bv), xy=bv[:, :2])
+    r_loops = boundary_loops(rf, len(rv), on=rv[:, 2] == 0.0, xy=rv[:, :2])  # the relief's boundary is at z = 0
+    looped = np.concatenate(r_loops) if r_loops else np.zeros(0, np.int64)
+    pinched = len(np.unique(looped)) < len(looped)  # the relief touches itself at a point
     if any(float(np.abs(rv[lp, 2]).max()) != 0.0 for lp in r_loops):  # per loop
         raise GeometryError("the relief's boundary leaves the plane z = 0")
     nb = len(bv)
@@ -425,9 +469,9 @@ def fuse_on_plane(
     fused = Mesh(v[used].astype(np.float32), faces_out.astype(np.uint32))
     # The relief closes on its footprint: the triangulation of its own boundary loops
     # (manifold3d keeps the loops' edges), so it is closed when the fused solid is.
-    relief = Mesh(rv.astype(np.float32), np.concatenate([rf, foot[:, ::-1]]).astype(np.uint32))
+    relief = None if pinched else Mesh(rv.astype(np.float32), np.concatenate([rf, foot[:, ::-1]]).astype(np.uint32))
     areas = (_area2(xy, ring), _area2(bv, bf[on]), _area2(rv, foot))
-    _check_stitch(fused, base, _prism_volume(relief.vertices, rf), areas, expect)
+    _check_stitch(fused, base, _prism_volume(rv.astype(np.float32), rf), areas, expect)
     fused.__dict__["is_watertight"] = True
     return fused, relief
 
