@@ -55,6 +55,10 @@ def test_stitched_solid_is_the_union(seed, tolerance):
     assert fused.volume == pytest.approx(union.volume, rel=1e-6)
     assert relief.volume == pytest.approx(union.volume - base.volume, rel=1e-5)
     assert float(relief.vertices[:, 2].min()) == 0.0
+    for m in (fused, relief):  # no zero-area triangles
+        v = m.vertices.astype(np.float64)
+        f = m.faces
+        assert (np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1) > 0).all()
     # every fused vertex is a base vertex or a relief vertex
     assert len(fused.vertices) <= len(base.vertices) + len(relief.vertices)
 
