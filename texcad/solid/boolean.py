@@ -2,7 +2,10 @@
 
 This stage replaces the paper's Rhino/Grasshopper sweep (section 2.3): the textured
 slab from :mod:`texcad.solid` is unioned onto the base body with manifold3d, whose
-booleans are guaranteed to return an oriented 2-manifold.
+booleans are guaranteed to return an oriented 2-manifold. A relief standing on a
+planar face with nothing above it can instead be stitched into the body's mesh
+without a boolean (:func:`fuse_on_plane`), checked independently (closed and
+oriented, areas, volume).
 
 A *base* can be a build123d ``Shape`` (``Part``, ``Solid``, ``Compound``), a CadQuery
 ``Workplane`` or ``Shape`` (both wrap the same OCP ``TopoDS_Shape``), a raw
