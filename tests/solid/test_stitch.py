@@ -186,3 +186,22 @@ def test_a_relief_touching_itself_at_a_point_is_stitched_around_it():
     area = sum(0.5 * abs(np.cross(np.subtract(t[1], t[0]), np.subtract(t[2], t[0]))) for t in (a, b))
     assert fused.volume == pytest.approx(base.volume + area * 0.5 / 3, rel=1e-9)
     _watertight_one_body(fused)
+
+
+def test_a_pinch_with_edges_straight_through_it():
+    """Two blocks of a heightfield touching at one grid point, their outlines running
+    straight through it: the face's triangulation would make zero-area ears there;
+    they are split away, and the solid is the union's."""
+    h = np.full((9, 9), -1.0, np.float32)
+    h[1:5, 1:5] = h[4:8, 4:8] = 0.0
+    h[2:4, 2:4] = h[5:7, 5:7] = 0.5
+    slab = heightfield_slab(Heightmap(h, (1.0, 1.0)), depth=2.0)
+    base = _box((-1.0, -1.0, -3.0), (11.0, 11.0, 0.0))
+    fused, relief = fuse_on_plane(base, slab.vertices, slab.faces[slab.groups["texture"]])
+    assert relief is None  # the relief alone would be pinched there
+    union = fuse(base, to_manifold(slab).trim_by_plane((0.0, 0.0, 1.0), 0.0))
+    assert fused.volume == pytest.approx(union.volume, rel=1e-9)
+    _watertight_one_body(fused)
+    v = fused.vertices.astype(np.float64)
+    f = fused.faces
+    assert (np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1) > 0).all()

@@ -410,7 +410,44 @@ def _triangulate_loops(xy: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:
     tri = ids[np.asarray(manifold3d.triangulate([xy[lp] for lp in loops]), dtype=np.int64).reshape(-1, 3)]
     # Where loops touch at a vertex (a pinch) it is listed twice; a sliver between
     # its two copies collapses to nothing.
-    return tri[(tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2]) & (tri[:, 2] != tri[:, 0])]
+    tri = tri[(tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2]) & (tri[:, 2] != tri[:, 0])]
+    return _split_flat(tri, xy)
+
+
+def _split_flat(tri: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """Zero-area triangles ``(a, m, c)`` with ``m`` straight between ``a`` and ``c``
+    (ears at a pinch whose edges run straight through it) removed by splitting the
+    neighbour across ``c -> a``, ``(a, c, d)``, into ``(a, m, d)`` and ``(m, c, d)``.
+    Those that cannot be split (no such neighbour, or it is flat too) are left for
+    the caller's area check."""
+    for _ in range(8):  # rounds: a neighbour is split once per round (chains of flat ones)
+        flat = np.flatnonzero(_area2(xy, tri) == 0)
+        if len(flat) == 0:
+            return tri
+        p = xy[tri[flat]].astype(np.float64)  # (F, 3, 2)
+        d = [((p[:, (k + 1) % 3] - p[:, k]) * (p[:, (k + 2) % 3] - p[:, k])).sum(axis=1) for k in range(3)]
+        mid = np.argmin(np.stack(d, axis=1), axis=1)  # the vertex between the other two (dot < 0)
+        t = np.arange(len(flat))
+        m, c, a = tri[flat, mid], tri[flat, (mid + 1) % 3], tri[flat, (mid + 2) % 3]
+        n = len(xy)
+        e = np.stack([tri, np.roll(tri, -1, axis=1)], axis=-1).reshape(-1, 2)
+        key = e[:, 0] * n + e[:, 1]
+        order = np.argsort(key)
+        want = a * n + c
+        at = order[np.minimum(np.searchsorted(key[order], want), len(key) - 1)]
+        nb = at // 3
+        ok = (key[at] == want) & ~np.isin(nb, flat)
+        _, first = np.unique(nb[ok], return_index=True)
+        go = np.flatnonzero(ok)[first]
+        if len(go) == 0:
+            return tri
+        dd = tri[nb[go], (at[go] % 3 + 2) % 3]
+        new = np.concatenate([np.stack([a[go], m[go], dd], 1), np.stack([m[go], c[go], dd], 1)])
+        drop = np.zeros(len(tri), bool)
+        drop[flat[t[go]]] = True
+        drop[nb[go]] = True
+        tri = np.concatenate([tri[~drop], new])
+    return tri
 
 
 def fuse_on_plane(
