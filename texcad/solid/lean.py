@@ -127,14 +127,14 @@ def triangulate(
     inv[order] = np.arange(len(order))
     rc = np.stack([row[order], col[order]], axis=1)
     # Counter-clockwise in (x, y_up) is clockwise in (col, row): swap two corners.
-    faces = inv[tri][:, [0, 2, 1]].astype(np.int64)
+    faces = inv[tri[:, [0, 2, 1]]]
     if full_border:
         rc, faces = _fill_border(rc, faces, rows, cols)
     # Row-major faces (by their first vertex): manifold3d builds its half-edges from a
     # coherent order three times faster (0.6 s instead of 1.8 s CPU, demo plate).
-    faces = faces[_stable_order(faces.min(axis=1))].astype(np.uint32)
-    a, b, c = rc[faces[:, 0]], rc[faces[:, 1]], rc[faces[:, 2]]
-    area2 = (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]) - (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
+    faces = faces[_stable_order(np.minimum(np.minimum(faces[:, 0], faces[:, 1]), faces[:, 2]))].astype(np.uint32)
+    r, c = rc[:, 0][faces], rc[:, 1][faces]  # (M, 3) each: one gather per column
+    area2 = (c[:, 1] - c[:, 0]) * (r[:, 2] - r[:, 0]) - (r[:, 1] - r[:, 0]) * (c[:, 2] - c[:, 0])
     if not (area2 > 0).all():
         raise GeometryError(
             f"the lean triangulation has {int((area2 <= 0).sum())} degenerate or flipped triangles; "
