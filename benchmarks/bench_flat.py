@@ -2,7 +2,13 @@
 to fused solid to binary STL (issue: foundation). Targets on a 2-core machine:
 <= 1.5 s total, <= 1.5 GB peak memory.
 
-    python benchmarks/bench_flat.py [--repeat 5] [--pixels 800] [--allocator both]
+    python benchmarks/bench_flat.py [--repeat 5] [--pixels 800] [--allocator both] [--fuse union]
+
+``--fuse stitch`` fuses the slab with :func:`texcad.solid.boolean.fuse_on_plane` (the
+relief stitched into the plate's mesh, checked, no boolean: what ``textured_plate``
+does with a tolerance > 0) instead of manifold3d's union (what it does with
+``tolerance=0``, byte for byte as texcad 0.1). "cpu" is the process's CPU seconds
+for the counted stages.
 
 Each allocator setting runs in a fresh process (``--allocator retain``: glibc keeps
 freed memory for reuse, as the ``texcad`` CLI sets it with
@@ -28,29 +34,31 @@ from pathlib import Path
 
 STAGES = [
     ("slab", "heightmap -> slab mesh"),
-    ("fuse", "fuse with base (manifold3d)"),
+    ("fuse", "fuse with base (--fuse)"),
     ("stl", "binary STL"),
     ("total", "TOTAL heightmap -> STL"),
+    ("cpu", "CPU seconds of the TOTAL"),
     ("texture", "texture (not counted)"),
     ("3mf", "3MF (not counted)"),
 ]
 
 
-def run(pixels: int, out: Path) -> dict[str, float]:
+def run(pixels: int, out: Path, how: str = "union") -> dict[str, float]:
     """One job; seconds per stage."""
     import texcad
+    from texcad.solid.boolean import fuse_on_plane
 
     t = {}
     t0 = time.perf_counter()
     hm = texcad.builtin("stones", size=(100, 100), pitch=100 / pixels, height=2.0)
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     slab = texcad.solid.heightfield_slab(hm, depth=0.5)
     t2 = time.perf_counter()
     base = texcad.solid.shape_to_mesh(texcad.pipeline.plate_base((100, 100), 5))
-    fused = texcad.solid.fuse(base, slab)
+    fused = texcad.solid.fuse(base, slab) if how == "union" else fuse_on_plane(base, slab.vertices, slab.faces)[0]
     t3 = time.perf_counter()
     texcad.io.write_stl(fused, out / "bench.stl")
-    t4 = time.perf_counter()
+    t4, c4 = time.perf_counter(), time.process_time()
     texcad.io.write_3mf(fused, out / "bench.3mf")
     t5 = time.perf_counter()
     t["texture"] = t1 - t0
@@ -58,6 +66,7 @@ def run(pixels: int, out: Path) -> dict[str, float]:
     t["fuse"] = t3 - t2
     t["stl"] = t4 - t3
     t["total"] = t4 - t1
+    t["cpu"] = c4 - c1
     t["3mf"] = t5 - t4
     t["_triangles"] = fused.num_triangles
     t["_stl_mb"] = (out / "bench.stl").stat().st_size / 1e6
@@ -76,7 +85,7 @@ def child(args: argparse.Namespace) -> None:
     import texcad  # noqa: F401
 
     with tempfile.TemporaryDirectory() as d:
-        runs = [run(args.pixels, Path(d)) for _ in range(args.repeat)]
+        runs = [run(args.pixels, Path(d), args.fuse) for _ in range(args.repeat)]
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(json.dumps({"runs": runs, "peak_mb": peak, "tuned": tuned}))
 
@@ -86,6 +95,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--pixels", type=int, default=800)
     ap.add_argument("--allocator", choices=["both", "retain", "default", "child-retain", "child-default"], default="both")
+    ap.add_argument("--fuse", choices=["union", "stitch"], default="union")
     args = ap.parse_args()
     if args.allocator.startswith("child-"):
         args.allocator = args.allocator[len("child-") :]
@@ -95,14 +105,14 @@ def main() -> None:
     load0 = os.getloadavg()[0]
     results = {}
     for s in settings:
-        cmd = [sys.executable, __file__, "--repeat", str(args.repeat), "--pixels", str(args.pixels), "--allocator", f"child-{s}"]
+        cmd = [sys.executable, __file__, "--repeat", str(args.repeat), "--pixels", str(args.pixels), "--allocator", f"child-{s}", "--fuse", args.fuse]
         out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
         results[s] = json.loads(out.strip().splitlines()[-1])
     load1 = os.getloadavg()[0]
     first = next(iter(results.values()))["runs"][0]
     print(
         f"flat plate {args.pixels} x {args.pixels} px, 100 x 100 mm: {first['_triangles']} triangles, "
-        f"STL {first['_stl_mb']:.1f} MB; {os.cpu_count()} cores, load average {load0:.2f} -> {load1:.2f}"
+        f"STL {first['_stl_mb']:.1f} MB; fuse: {args.fuse}; {os.cpu_count()} cores, load average {load0:.2f} -> {load1:.2f}"
     )
     for s, res in results.items():
         label = "glibc keeps freed memory (as the CLI)" if s == "retain" else "glibc defaults (library in a host process)"

@@ -7,6 +7,18 @@ triangle count for the same heightmap at the same error.
 
     python benchmarks/bench_lean.py [--repeat 3] [--tolerance 0.02] [--builtins stones,pins]
     python benchmarks/bench_lean.py --curved [--builtins stones,diamond_knurl]
+    python benchmarks/bench_lean.py --stages [--repeat 5]
+    python benchmarks/bench_lean.py --samples [--pitch 0.125]
+
+``--stages``: the demo plate's texture-to-STL path stage by stage (wall and CPU
+seconds, medians), as texcad runs it (the relief stitched into the plate's mesh,
+:func:`texcad.solid.boolean.fuse_on_plane`) and with manifold3d's union instead (the
+path before, still the fallback): each stage is timed where the pipeline calls it.
+
+``--samples``: the paper's nine samples (recipes/paper_samples.py, with their build
+directions) and the sledgehammer's grip (recipes/sledgehammer.py, 0.25 mm), each at
+tolerance 0 and the default: triangles, measured maximum error, seconds (wall and
+CPU) and STL MB. Meshes only (``brep=False``), no STEP.
 
 ``--curved``: the same figures on curved surfaces instead: a 2.5D cylinder
 (``Surface.cylinder(20, 60)``, angle mapping) and a 40 x 60 mm sine
@@ -107,6 +119,139 @@ def curved(args) -> None:
                           f"{sec:10.2f} {cpu:6.2f} {out.stat().st_size / 1e6:7.1f}", flush=True)
 
 
+def _timed(module, name: str, label: str, log: dict):
+    """Wrap ``module.name`` so that each call adds its wall and CPU seconds to
+    ``log[label]``; returns a function that restores it."""
+    orig = getattr(module, name)
+
+    def wrapper(*a, **k):
+        t0, c0 = time.perf_counter(), time.process_time()
+        try:
+            return orig(*a, **k)
+        finally:
+            w, c = log.get(label, (0.0, 0.0))
+            log[label] = (w + time.perf_counter() - t0, c + time.process_time() - c0)
+
+    setattr(module, name, wrapper)
+    return lambda: setattr(module, name, orig)
+
+
+def stages(args) -> None:
+    """The demo plate's path stage by stage, stitched and with manifold3d's union."""
+    import pydelatin
+    from build123d import Axis
+
+    import texcad.pipeline.cad as cad
+    import texcad.solid.lean as lean
+    from texcad import texture
+    from texcad.errors import GeometryError
+    from texcad.io import write_stl
+    from texcad.pipeline import plate_base
+    from texcad.solid import retain_freed_memory
+
+    retain_freed_memory()
+    plate = plate_base((100.0, 100.0), 5.0)
+    face = plate.faces().sort_by(Axis.Z)[-1]
+    hm = demo_heightmap(args.pitch)
+    hooks = [(pydelatin, "Delatin", "greedy insertion (pydelatin)"), (lean, "triangulate", "lean top, pydelatin included"),
+             (cad, "heightfield_slab", "slab, lean top included"), (cad, "fuse_on_plane", "stitch with its checks"),
+             (cad, "to_manifold", "manifold3d: build the meshes"), (cad, "fuse", "manifold3d: trim + union")]
+    print(f"load average before: {load()}   (2-core machine; figures are noisy under load)")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "demo.stl"
+        for how in ("stitched", "manifold3d union"):
+            runs = []
+            for k in range(args.repeat + 1):  # the first run warms up
+                log: dict = {}
+                undo = [_timed(m, n, label, log) for m, n, label in hooks]
+                if how != "stitched":
+                    undo.append(_timed(cad, "fuse_on_plane", "stitch with its checks", log))
+                    cad.fuse_on_plane = lambda *a, **kw: (_ for _ in ()).throw(GeometryError("benchmark: union"))
+                try:
+                    t0, c0 = time.perf_counter(), time.process_time()
+                    part = texture(plate, face, hm, brep=False, tolerance=args.tolerance)
+                    log["texture (all stages)"] = (time.perf_counter() - t0, time.process_time() - c0)
+                    t1, c1 = time.perf_counter(), time.process_time()
+                    write_stl(part.mesh, out)
+                    log["STL writer"] = (time.perf_counter() - t1, time.process_time() - c1)
+                    log["texture-to-STL"] = (time.perf_counter() - t0, time.process_time() - c0)
+                finally:
+                    for u in reversed(undo):
+                        u()
+                if k:
+                    runs.append(log)
+            print(f"\n{how}: {part.mesh.num_triangles} triangles ({part.info['fuse'][:40]}), median of {len(runs)}, wall / CPU s")
+            for label in runs[0]:
+                w = statistics.median(r[label][0] for r in runs)
+                c = statistics.median(r[label][1] for r in runs)
+                print(f"  {label:32s} {w:6.3f} / {c:6.3f}")
+    print(f"load average after: {load()}")
+
+
+def samples(args) -> None:
+    """The paper's nine samples and the sledgehammer's grip at tolerance 0 and the default."""
+    import importlib.util
+    import warnings
+
+    import texcad
+    from texcad.io import write_stl
+    from texcad.solid import retain_freed_memory
+
+    retain_freed_memory()
+    os.environ["TEXCAD_PITCH"] = str(args.pitch)
+    spec = importlib.util.spec_from_file_location("paper_samples", Path(__file__).resolve().parents[1] / "recipes" / "paper_samples.py")
+    ps = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ps)
+    jobs = []
+    for tex, kind, tilt in ps.TABLE2:  # one per sample
+        build, mapping, toward = ps.SAMPLES[kind]
+        jobs.append((f"{tex}-{kind}", lambda b=build, t=tex, m=mapping, d=texcad.orientation(tilt, toward): (*_sample(ps, b, t), dict(mapping=m, build_dir=d))))
+    jobs.append(("sledgehammer grip", _sledgehammer))
+    print(f"load average before: {load()}   (2-core machine; figures are noisy under load)")
+    print(f"{'part':18s} {'tol mm':>6s} {'triangles':>10s} {'max err mm':>10s} {'wall s':>7s} {'CPU s':>6s} {'STL MB':>7s}")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "part.stl"
+        for label, make in jobs:
+            part, face, hm, opts = make()
+            for tol in (0.0, args.tolerance):
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    t0, c0 = time.perf_counter(), time.process_time()
+                    res = texcad.texture(part, face, hm, brep=False, tolerance=tol, **opts)
+                    write_stl(res.mesh, out)
+                    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+                print(f"{label:18s} {tol:6.3f} {res.mesh.num_triangles:10d} {res.max_error:10.4f} {wall:7.2f} {cpu:6.2f} "
+                      f"{out.stat().st_size / 1e6:7.1f}", flush=True)
+    print(f"load average after: {load()}")
+
+
+def _sample(ps, build, tex: str):
+    part, face, width = build()
+    return part, face, ps.synthesized(tex, width)
+
+
+def _sledgehammer():
+    """recipes/sledgehammer.py's handle and grip texture (0.25 mm pitch, printed upright)."""
+    import numpy as np
+    from build123d import Circle, Cone, GeomType, Plane, Pos, Rot, SortBy, extrude
+
+    import texcad
+
+    R, GRIP, PITCH = 16.0, 120.0, 0.25
+    butt = Pos(0, -3, 0) * (Rot(-90, 0, 0) * Cone(R + 3, R, 6))
+    grip_body = extrude(Plane.XZ * Circle(R), amount=-GRIP)
+    collar = Pos(0, GRIP + 1, 0) * (Rot(-90, 0, 0) * Cone(R, R - 2, 2))
+    neck = Pos(0, GRIP + 2, 0) * extrude(Plane.XZ * Circle(R - 2), amount=-130)
+    handle = butt + grip_body + collar + neck
+    face = handle.faces().filter_by(GeomType.CYLINDER).sort_by(SortBy.AREA)[-1]
+    n = 2 * round(np.pi * R / PITCH)
+    sample = texcad.builtin("stones", size=(25, 25), pitch=PITCH, height=1.0)
+    patch = min(45, *sample.shape)
+    grown = texcad.synthesize(sample, (round(GRIP / PITCH), n), patch=patch, overlap=patch * 5 // 9, seed=0, wrap="x")
+    hm = texcad.Heightmap(grown.heights, (2 * np.pi * R / n, PITCH))
+    return handle, face, hm, dict(mapping="angle", periodic_x=True, build_dir=(0, 1, 0))
+
+
 def delatin_count(heights, err: float) -> tuple[int, float]:
     from pydelatin import Delatin
 
@@ -124,7 +269,13 @@ def main() -> None:
     ap.add_argument("--builtins", default="stones,diamond_knurl,pins,leather,sand")
     ap.add_argument("--pitch", type=float, default=0.125)
     ap.add_argument("--curved", action="store_true", help="curved surfaces instead of the plate")
+    ap.add_argument("--stages", action="store_true", help="the demo plate's path stage by stage")
+    ap.add_argument("--samples", action="store_true", help="the paper's nine samples and the sledgehammer")
     args = ap.parse_args()
+    if args.stages:
+        return stages(args)
+    if args.samples:
+        return samples(args)
     if args.curved:
         print(f"load average before: {load()}   (2-core machine; figures are noisy under load)")
         curved(args)

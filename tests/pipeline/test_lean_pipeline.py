@@ -71,3 +71,85 @@ def test_lean_extruded_face_keeps_its_brep_and_ops():
     assert abs(volume(r.shape) - r.mesh.volume) <= 1e-3 * r.mesh.volume + slack
     cut = r - Pos(8, 0, 0) * Box(4, 4, 30)
     assert cut.mesh.is_watertight and cut.mesh.volume < r.mesh.volume
+
+
+def _union_instead(monkeypatch):
+    """Make the planar-face and plate paths use manifold3d's union (the stitch refused)."""
+    import texcad.pipeline.cad as cad
+    import texcad.pipeline.plate as plate
+    from texcad.errors import GeometryError
+
+    def refuse(*a, **k):
+        raise GeometryError("refused by the test")
+
+    monkeypatch.setattr(cad, "fuse_on_plane", refuse)
+    monkeypatch.setattr(plate, "fuse_on_plane", refuse)
+
+
+def _one_watertight_body(mesh):
+    import trimesh
+
+    from texcad.solid import to_manifold
+
+    t = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    assert t.is_watertight and t.is_winding_consistent
+    assert edge_report(mesh.faces)["watertight"]
+    assert len(to_manifold(mesh).decompose()) == 1
+
+
+@pytest.mark.parametrize("holes", [False, True])
+def test_lean_planar_face_is_stitched_as_the_union_would_make_it(monkeypatch, holes):
+    """A lean relief on an unobstructed planar face is stitched into the body's mesh
+    without a boolean: the same volume as manifold3d's union, watertight, one body,
+    and its texture mesh is the union's bumps."""
+    from build123d import Axis, Box, BuildPart, Hole, Locations
+
+    with BuildPart() as bp:
+        Box(30, 20, 8)
+        if holes:
+            with Locations((4, 2, 0), (-8, -3, 0)):
+                Hole(2.5)
+    top = bp.part.faces().sort_by(Axis.Z)[-1]
+    kw = dict(height=1.0, pitch=0.25, brep=False, tolerance=0.02)
+    lean = texcad.texture(bp.part, top, "builtin:stones", **kw)
+    assert lean.info["fuse"] == "stitched"
+    _one_watertight_body(lean.mesh)
+    assert 0 < lean.max_error <= 0.02
+    _union_instead(monkeypatch)
+    union = texcad.texture(bp.part, top, "builtin:stones", **kw)
+    assert union.info["fuse"].startswith("manifold3d")
+    assert lean.mesh.volume == pytest.approx(union.mesh.volume, rel=1e-6)
+    assert lean.texture_mesh.volume == pytest.approx(union.texture_mesh.volume, rel=1e-5)
+    # manifold3d merges a few short edges along the relief's foot; the stitch keeps them
+    assert lean.mesh.num_triangles <= 1.05 * union.mesh.num_triangles
+
+
+def test_lean_plate_is_stitched_and_tolerance_0_keeps_the_union(monkeypatch):
+    from texcad.pipeline import textured_plate
+
+    kw = dict(size=(20, 16), pitch=0.125, height=1.5)
+    lean = textured_plate("builtin:stones", tolerance=0.02, **kw)
+    grid = textured_plate("builtin:stones", tolerance=0, **kw)
+    assert lean.info["fuse"] == "stitched" and grid.info["fuse"] == "manifold3d"
+    _one_watertight_body(lean.mesh)
+    assert abs(lean.mesh.volume - grid.mesh.volume) <= 0.02 * 20 * 16
+    _union_instead(monkeypatch)
+    union = textured_plate("builtin:stones", tolerance=0.02, **kw)
+    assert lean.mesh.volume == pytest.approx(union.mesh.volume, rel=1e-6)
+
+
+def test_an_obstructed_face_uses_the_union():
+    from build123d import Align, Axis, Box, BuildPart, Locations
+
+    with BuildPart() as bp:
+        Box(30, 20, 8)  # top face at z = 4
+        with Locations((-14, 0, 4), (14, 0, 4)):  # two pillars
+            Box(2, 20, 3, align=(Align.CENTER, Align.CENTER, Align.MIN))
+        with Locations((0, 0, 4.8)):  # a beam 0.8 mm above the face, below the texture's top
+            Box(30, 4, 1, align=(Align.CENTER, Align.CENTER, Align.MIN))
+    top = bp.part.faces().filter_by_position(Axis.Z, 3.99, 4.01).sort_by(Axis.Z)[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = texcad.texture(bp.part, top, "builtin:stones", height=1.0, pitch=0.25, brep=False, tolerance=0.02)
+    assert r.info["obstructed"] and r.info["fuse"] == "manifold3d"
+    _one_watertight_body(r.mesh)

@@ -83,7 +83,10 @@ def test_3mf_reports_texture_alone(files, plate, capsys):
     code, out, _ = _cli(capsys, files / "plate.3mf", "--build-dir", "0,0,-1", "--json")
     rep = json.loads(out)
     assert code == 0 and rep["objects"] == ["base", "texture"] and rep["watertight"]
-    assert rep["shells"] == 1 and rep["triangles"] == plate.mesh.num_triangles
+    # The check unions the two parts with manifold3d; the plate's own mesh is stitched
+    # without a boolean (fuse_on_plane), which keeps a few more short edges at the
+    # relief's foot: the same solid (volume below), up to 5 % more triangles.
+    assert rep["shells"] == 1 and rep["triangles"] <= plate.mesh.num_triangles <= 1.05 * rep["triangles"]
     assert rep["volume_mm3"] == pytest.approx(plate.mesh.volume, rel=1e-5)
     # Reference: the slab's textured top (its "texture" group) seen from below.
     slab = plate.texture_mesh

@@ -34,7 +34,8 @@ Which faces
   surface meets the face's own edges at height 0: the B-rep keeps the body's edges
   and swaps the textured part of the face's plane for B-spline tiles
   (:func:`texcad.solid.brep.textured_plane_solid`), and the mesh is the body's mesh
-  united (manifold3d) with the relief above the face.
+  with the relief above the face stitched in (a lean relief on an unobstructed face,
+  no boolean: :func:`texcad.solid.boolean.fuse_on_plane`) or united (manifold3d).
 * **Faces of extruded profiles** (cylinders, extrusions of lines, arcs and splines:
   the 2.5D surfaces of :mod:`texcad.mapping`). The profile is recovered from the
   face's cross-section, the texture is mapped with :func:`texcad.mapping.map_texture`
@@ -77,6 +78,8 @@ from ..sources import Heightmap
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, heightfield_slab, mesh_error
 from ..util import Progress, report, subrange
 from ..solid import from_manifold, fuse, to_manifold
+from ..solid.boolean import fuse_on_plane
+from ..solid.mesh import heightfield_volume
 from .surface import lean_mapped_slab
 
 __all__ = ["texture_faces", "LIFT"]
@@ -318,6 +321,7 @@ def _texture_plane(
     # (zero-thickness) part there: what is left lies inside the outline, on the face.
     h_mesh = np.where(dist > 1.75 * float(np.hypot(px, py)), h, np.float32(-1.0))
     slab_origin = (xs[0] - px / 2, ys[0] - py / 2, 0.0)
+    stitch = obst is None and tolerance > 0  # (even where the lean mesh falls back to the grid)
     if build_dir is not None and tolerance > 0:
         from ..printability import printable_lean_slab
 
@@ -327,20 +331,19 @@ def _texture_plane(
         )
     else:
         slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin, tolerance=tolerance)
-    relief = to_manifold(slab).trim_by_plane((0.0, 0.0, 1.0), 0.0)
-    report(progress, 0.4, f"fusing {slab.num_triangles} texture triangles onto the part (manifold3d)")
-    fused_local = fuse(base_local, relief)
+    report(progress, 0.4, f"fusing {slab.num_triangles} texture triangles onto the part")
+    fused_local, relief, how = _fuse_relief(base_local, slab, stitch, Heightmap(h_mesh, (px, py)), tolerance)
 
     def world(m: Mesh) -> Mesh:
-        v = m.vertices.astype(np.float64) @ axes + origin
+        v = np.einsum("ij,jk->ik", m.vertices.astype(np.float64), axes) + origin  # 6 x faster than @ here
         out = Mesh(v.astype(np.float32), m.faces)
         out.__dict__["is_watertight"] = m.__dict__.get("is_watertight", None) or m.is_watertight
         return out
 
     def texture_only() -> Mesh:
         # (base + relief) - base: the bumps alone (manifold3d resolves the shared face
-        # plane consistently this way round).
-        return world(from_manifold(to_manifold(fused_local) - to_manifold(base_local)))
+        # plane consistently this way round); the stitched relief is that already.
+        return world(relief or from_manifold(to_manifold(fused_local) - to_manifold(base_local)))
 
     def max_error() -> float:
         return mesh_error(h_mesh, (px, py), slab_origin, slab.vertices, slab.faces[slab.groups["texture"]])
@@ -362,6 +365,7 @@ def _texture_plane(
             "x": xs,
             "y": ys,
             "obstructed": obst is not None,
+            "fuse": how,
             "tolerance": float(tolerance),
             # the lean surface may enclose up to tolerance x area more or less than the B-rep
             "volume_slack": float(tolerance) * px * py * h_mesh.size,
@@ -372,6 +376,27 @@ def _texture_plane(
 
     result["shape"] = make_shape if make_brep else None
     return result
+
+
+def _fuse_relief(
+    base_local: Mesh, slab: Mesh, stitch: bool, field: Heightmap, tolerance: float
+) -> tuple[Mesh, "Mesh | None", str]:
+    """The relief (``slab`` above the face plane z = 0) fused onto the body, in the
+    face's frame: ``(fused, relief or None, how)``. With ``stitch`` (an unobstructed
+    face) it is stitched into the body's mesh (:func:`texcad.solid.boolean.fuse_on_plane`,
+    checked; its volume against the heightfield ``field``'s within ``tolerance`` mm x
+    area); otherwise, or if a check of the stitch fails (``how`` says which),
+    manifold3d's union."""
+    how = "manifold3d"
+    if stitch:
+        vol, slack = heightfield_volume(field.heights, field.pitch)
+        expect = (vol, slack + float(tolerance) * field.pitch[0] * field.pitch[1] * field.heights.size)
+        try:
+            fused, relief = fuse_on_plane(base_local, slab.vertices, slab.faces[slab.groups["texture"]], expect=expect)
+            return fused, relief, "stitched"
+        except GeometryError as exc:
+            how = f"manifold3d (the stitch failed a check: {exc})"
+    return fuse(base_local, to_manifold(slab).trim_by_plane((0.0, 0.0, 1.0), 0.0)), None, how
 
 
 def _require_relief(hm: Heightmap, tex: Any) -> None:

@@ -16,6 +16,8 @@ from ..sources import Heightmap
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, heightfield_slab, mesh_error
 from ..util import Progress, fitting_pitch, report, require_memory, texture_bytes
 from ..solid import fuse, shape_to_mesh
+from ..solid.boolean import fuse_on_plane
+from ..solid.mesh import heightfield_volume
 from ..sources import load_texture
 from .result import Textured
 
@@ -47,8 +49,11 @@ def textured_plate(
     """Texture the top face of a plate: the paper's flat sample (section 2.2).
 
     The texture lies on the plate's top face (z = 0), centred; mesh vertices at
-    pixel centres (all of them with ``tolerance=0``); the slab reaches ``depth`` mm into the plate and is unioned onto it with
-    manifold3d.
+    pixel centres (all of them with ``tolerance=0``); the slab reaches ``depth`` mm
+    into the plate. A lean slab (``tolerance`` > 0) on a base with nothing above
+    z = 0 is stitched into the plate's mesh without a boolean
+    (:func:`texcad.solid.boolean.fuse_on_plane`, checked; ``info["fuse"]`` says
+    how); otherwise it is unioned onto the plate with manifold3d.
 
     Args:
         texture: ``"builtin:NAME"``, an image path, or a Heightmap (used as is).
@@ -123,8 +128,8 @@ def textured_plate(
     report(progress, 0.35, "building base body")
     base_shape = plate_base((w, d), thickness) if base is None else base
     base_mesh = base_shape if isinstance(base_shape, Mesh) else shape_to_mesh(base_shape)
-    report(progress, 0.45, f"fusing {slab.num_triangles} texture triangles onto the base (manifold3d)")
-    fused = fuse(base_mesh, slab)
+    report(progress, 0.45, f"fusing {slab.num_triangles} texture triangles onto the base")
+    fused, how = _fuse_plate(base_mesh, slab, hm, tolerance)
     report(progress, 0.9, "measuring the surface error at every pixel centre")
     err = mesh_error(hm.heights, hm.pitch, origin, slab.vertices, slab.faces[slab.groups["texture"]])
     report(progress, 1.0, "fused")
@@ -135,6 +140,23 @@ def textured_plate(
         heightmap=hm,
         limits=limits,
         max_error=err,
-        info={"face": "plate", "grid": hm.shape, "size": (w, d), "thickness": float(thickness)},
+        info={"face": "plate", "grid": hm.shape, "size": (w, d), "thickness": float(thickness), "fuse": how},
         kind="plate",
     )
+
+
+def _fuse_plate(base_mesh: Mesh, slab: Mesh, hm: Heightmap, tolerance: float) -> tuple[Mesh, str]:
+    """The slab fused onto the plate: ``(fused, how)``. A lean slab on a base with
+    nothing above its top face (z <= 0) is stitched in without a boolean
+    (:func:`texcad.solid.boolean.fuse_on_plane`, checked against the heightfield's
+    volume within ``tolerance`` x area); otherwise, with ``tolerance=0`` (the same
+    bytes as before) or when a check fails (``how`` says which), manifold3d's union."""
+    how = "manifold3d"
+    if tolerance > 0 and float(base_mesh.bounds[1][2]) <= 0.0:
+        vol, slack = heightfield_volume(hm.heights, hm.pitch)
+        area = hm.size[0] * hm.size[1]
+        try:
+            return fuse_on_plane(base_mesh, slab.vertices, slab.faces, expect=(vol, slack + tolerance * area))[0], "stitched"
+        except GeometryError as exc:
+            how = f"manifold3d (the stitch failed a check: {exc})"
+    return fuse(base_mesh, slab), how

@@ -122,19 +122,19 @@ def triangulate(
     # pydelatin's x is the column and y counts rows from the bottom (y = R - 1 - row).
     col = np.rint(v[:, 0]).astype(np.int64)
     row = rows - 1 - np.rint(v[:, 1]).astype(np.int64)
-    order = np.lexsort((col, row))
+    order = np.argsort(row * cols + col)  # row-major (the keys are distinct)
     inv = np.empty_like(order)
     inv[order] = np.arange(len(order))
     rc = np.stack([row[order], col[order]], axis=1)
     # Counter-clockwise in (x, y_up) is clockwise in (col, row): swap two corners.
-    faces = inv[tri][:, [0, 2, 1]].astype(np.int64)
+    faces = inv[tri[:, [0, 2, 1]]]
     if full_border:
         rc, faces = _fill_border(rc, faces, rows, cols)
     # Row-major faces (by their first vertex): manifold3d builds its half-edges from a
     # coherent order three times faster (0.6 s instead of 1.8 s CPU, demo plate).
-    faces = faces[np.argsort(faces.min(axis=1), kind="stable")].astype(np.uint32)
-    a, b, c = rc[faces[:, 0]], rc[faces[:, 1]], rc[faces[:, 2]]
-    area2 = (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]) - (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
+    faces = faces[_stable_order(np.minimum(np.minimum(faces[:, 0], faces[:, 1]), faces[:, 2]))].astype(np.uint32)
+    r, c = rc[:, 0][faces], rc[:, 1][faces]  # (M, 3) each: one gather per column
+    area2 = (c[:, 1] - c[:, 0]) * (r[:, 2] - r[:, 0]) - (r[:, 1] - r[:, 0]) * (c[:, 2] - c[:, 0])
     if not (area2 > 0).all():
         raise GeometryError(
             f"the lean triangulation has {int((area2 <= 0).sum())} degenerate or flipped triangles; "
@@ -143,6 +143,12 @@ def triangulate(
     if int(area2.sum()) != 2 * (rows - 1) * (cols - 1):
         raise GeometryError("the lean triangulation does not cover the grid; use tolerance=0 and please report this")
     return rc, faces
+
+
+def _stable_order(key: np.ndarray) -> np.ndarray:
+    """``np.argsort(key, kind="stable")`` for integer keys >= 0, 5 x faster: the keys
+    made distinct by their position (``key * len + i``) need no stable sort."""
+    return np.argsort(key.astype(np.int64) * len(key) + np.arange(len(key)))
 
 
 #: Tile size in px of :func:`tiled_triangulation` (its tile borders keep every grid
@@ -187,7 +193,8 @@ def tiled_triangulation(
             pixel grid (the feet of the M-I ramps, where lean slivers along the side
             would overhang: :data:`BORDER_GRID`).
         max_fraction: None is returned when the result keeps more than this share of
-            the grid's triangles.
+            the grid's triangles, or (without finishing: noisy textures) when the
+            tiles done, a quarter of the grid or more, keep more than that share.
 
     Returns:
         ``(rc, faces)`` as :func:`triangulate` (every tile border point kept), or None.
@@ -206,6 +213,7 @@ def tiled_triangulation(
 
     rcuts, ccuts = cuts(rows), cuts(cols)
     all_rc, all_f, base = [], [], 0
+    total, done, kept = 2 * (rows - 1) * (cols - 1), 0, 0
     for r0, r1 in zip(rcuts[:-1], rcuts[1:]):  # per tile
         for c0, c1 in zip(ccuts[:-1], ccuts[1:]):
             sub = h[r0 : r1 + 1, c0 : c1 + 1]
@@ -232,13 +240,17 @@ def tiled_triangulation(
             all_rc.append(got[0])
             all_f.append(got[1] + base)
             base += len(got[0])
+            done += 2 * (r1 - r0) * (c1 - c0)
+            kept += len(got[1])
+            if done >= total / 4 and kept > max_fraction * done:  # noisy: the grid it is
+                return None
     rc = np.concatenate(all_rc)
     faces = np.concatenate(all_f)
     if len(faces) > max_fraction * 2 * (rows - 1) * (cols - 1):
         return None
     key, inv = np.unique(rc[:, 0] * cols + rc[:, 1], return_inverse=True)
     faces = inv.reshape(-1)[faces]
-    faces = faces[np.argsort(faces.min(axis=1), kind="stable")]  # row-major, as triangulate's
+    faces = faces[_stable_order(faces.min(axis=1))]  # row-major, as triangulate's
     return np.stack([key // cols, key % cols], axis=1), faces.astype(np.uint32)
 
 
