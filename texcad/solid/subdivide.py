@@ -27,7 +27,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..util import require_memory
 
-__all__ = ["refine", "tessellate", "flip_edges", "vertex_normals", "offset_directions", "face_normals", "edge_lengths"]
+__all__ = ["refine", "coarsen", "tessellate", "flip_edges", "vertex_normals", "offset_directions", "face_normals", "edge_lengths"]
 
 _ROT = np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])
 
@@ -200,20 +200,9 @@ def refine(
         ``(vertices, faces, parent)``: float64 ``(N', 3)`` mm, int64 ``(M', 3)``, and
         ``parent[i]`` the input face that face ``i`` lies in.
     """
-    if not (np.isfinite(max_edge) and max_edge > 0):
-        raise ParameterError(f"max_edge must be a positive length in mm, got {max_edge!r}")
-    v = np.asarray(vertices, dtype=np.float64)
-    f = np.asarray(faces, dtype=np.int64)
-    act = np.asarray(active, dtype=bool)
-    parent = np.arange(len(f), dtype=np.int64)
+    v, f, act, parent = coarsen(vertices, faces, active, max_edge, max_faces=max_faces, coarse=coarse)
     if not act.any():
         return v, f, parent
-    lens = edge_lengths(v, f[act])
-    est = int(len(f) + 2.5 * (lens.max(axis=1) * lens.min(axis=1)).sum() / max_edge**2)
-    require_memory(est * 120, f"about {est} triangles", "use a larger pitch or a smaller region")
-    if est > max_faces:
-        require_memory(10**15, f"about {est} triangles", "use a larger pitch or a smaller region")
-    v, f, act, parent = _bisect(v, f, act, parent, coarse * max_edge)
     g = f[:, [1, 2, 0]]
     nv = np.int64(len(v))
     key = (np.minimum(f, g) * nv + np.maximum(f, g)).ravel()
@@ -223,6 +212,33 @@ def refine(
     np.maximum.at(per_edge, inv, n)
     v, f, src = tessellate(v, f, per_edge[inv].reshape(-1, 3))
     return v, f, parent[src]
+
+def coarsen(
+    vertices: np.ndarray, faces: np.ndarray, active: np.ndarray, max_edge: float, *, max_faces: int = 40_000_000, coarse: float = 3.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The first step of :func:`refine`: the ``active`` faces bisected (Rivara, with
+    its closure and Lawson flips) until no edge is longer than ``coarse * max_edge``
+    mm, after a memory estimate for the refinement down to ``max_edge``.
+
+    Returns:
+        ``(vertices, faces, active, parent)``: float64 ``(N', 3)`` mm, int64
+        ``(M', 3)``, bool ``(M',)`` and each face's input face.
+    """
+    if not (np.isfinite(max_edge) and max_edge > 0):
+        raise ParameterError(f"max_edge must be a positive length in mm, got {max_edge!r}")
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    act = np.asarray(active, dtype=bool)
+    parent = np.arange(len(f), dtype=np.int64)
+    if not act.any():
+        return v, f, act, parent
+    lens = edge_lengths(v, f[act])
+    est = int(len(f) + 2.5 * (lens.max(axis=1) * lens.min(axis=1)).sum() / max_edge**2)
+    require_memory(est * 120, f"about {est} triangles", "use a larger pitch or a smaller region")
+    if est > max_faces:
+        require_memory(10**15, f"about {est} triangles", "use a larger pitch or a smaller region")
+    return _bisect(v, f, act, parent, coarse * max_edge)
+
 
 def _grid(n: int) -> tuple[np.ndarray, np.ndarray]:
     """The level-``n`` grid of a triangle ``a, b, c``: points ``(i, j)`` (``(P, 2)``
@@ -273,7 +289,7 @@ def _grid_ids(v, f, cnt, sel, lev, pts, edge_of, start, nxt):
     return gid, nxt + len(sel) * len(inner), pos
 
 
-def tessellate(vertices: np.ndarray, faces: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def tessellate(vertices: np.ndarray, faces: np.ndarray, counts: np.ndarray, *, classes: dict | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Cut every edge into ``counts`` equal pieces and each face into a matching grid.
 
     A face whose edges are cut into ``(n0, n1, n2)`` pieces gets the uniform grid of
@@ -296,6 +312,11 @@ def tessellate(vertices: np.ndarray, faces: np.ndarray, counts: np.ndarray) -> t
         ``(vertices, faces, parent)``: float64 ``(N', 3)`` mm (the input's first, then
         the edges' points, then the faces' inner points), int64 ``(M', 3)`` (the faces
         with all counts 1 first, unchanged), ``parent[i]`` the input face of face ``i``.
+        A dict passed as ``classes`` receives where each new point lies: ``edge_key``
+        (the cut edges' keys ``min * N + max``), ``edge_start`` (id of each cut
+        edge's first point, from its smaller vertex), ``edge_count``, ``edge_point``
+        and ``t`` (per edge point: its edge and parameter), ``inner_face`` and
+        ``inner_w`` ``(Q, 3)`` (per inner point: its face and barycentric weights).
     """
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
@@ -321,15 +342,24 @@ def tessellate(vertices: np.ndarray, faces: np.ndarray, counts: np.ndarray) -> t
     new_v = [v, v[ea[eidx]] * (1 - t)[:, None] + v[eb[eidx]] * t[:, None]]
     nxt = len(v) + int(reps.sum())
     out_f, out_p = [f[keep]], [keep]
+    inner_f, inner_w = [np.zeros(0, np.int64)], [np.zeros((0, 3))]
     for lev in np.unique(level[cut]):  # per grid level (a handful)
         sel = np.flatnonzero(level == lev)
         pts, tri = _grid(int(lev))
         gid, nxt, pos = _grid_ids(v, f, cnt, sel, int(lev), pts, edge_of, start, nxt)
         new_v.append(pos)
+        if classes is not None:
+            i, j = pts[:, 0], pts[:, 1]
+            q = (i > 0) & (j > 0) & (i + j < lev)
+            inner_f.append(np.repeat(sel, int(q.sum())))
+            inner_w.append(np.tile(np.stack([lev - i[q] - j[q], i[q], j[q]], 1) / lev, (len(sel), 1)))
         ft = gid[:, tri].reshape(-1, 3)
         ok = (ft[:, 0] != ft[:, 1]) & (ft[:, 1] != ft[:, 2]) & (ft[:, 2] != ft[:, 0])
         out_f.append(ft[ok])
         out_p.append(np.repeat(sel, len(tri))[ok])
+    if classes is not None:
+        classes.update(edge_key=uk, edge_start=start, edge_count=ecount, edge_point=eidx, t=t,
+                       inner_face=np.concatenate(inner_f), inner_w=np.concatenate(inner_w))
     return np.concatenate(new_v), np.concatenate(out_f), np.concatenate(out_p)
 
 
