@@ -92,7 +92,7 @@ def test_measurement_can_fail():
     for levels, expect in ((np.ones(len(f), np.int64), "coarse"), (c.level.copy(), "pitch")):
         counts = edge_counts(c, levels, none)
         out = build(c, counts)
-        per_face, err = measure(c, counts, out, field(out["v"]), s, field(s["xyz"]))
+        per_face, err = measure(c, counts, out, field(out["v"]), s, field(s["xyz"]), exhaustive=True)
         if expect == "coarse":
             assert err > 0.02 and np.count_nonzero(per_face > 0.02) > 100
         else:

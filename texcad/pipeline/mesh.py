@@ -461,6 +461,18 @@ def _first_levels(c, s, ds, d, tolerance):
     return np.clip(np.ceil(np.sqrt(e1 * scale / tolerance) - 1e-9), 1, np.maximum(c.level, 1)).astype(np.int64)
 
 
+def _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol):
+    """Each layer's faces of the output: its coarse faces' pieces, and where a face
+    straddles a box or sphere region's boundary, the pieces it selects itself."""
+    par = out["parent"]
+    res = masks[:, par]
+    cut = np.flatnonzero(straddle[par])
+    for k, layer in enumerate(layers):  # per layer
+        if len(cut):
+            res[k, cut] = _select(layer, out["v"], out["f"][cut], fn[par[cut]], dirs, crit, tol, loose=False)
+    return list(res)
+
+
 def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
     """Error-driven adaptive subdivision (:mod:`texcad.solid.adaptive`): every face at
     the coarsest grid level whose displacement stays within ``tolerance`` mm of the
@@ -478,7 +490,7 @@ def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
     while True:  # per round: tessellate, measure, refine the faces still off (a few)
         counts = edge_counts(c, levels, forced)
         out = build(c, counts)
-        out["masks"] = [_select(layer, out["v"], out["f"], fn[out["parent"]], dirs, crit, tol, loose=False) for layer in layers]
+        out["masks"] = _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol)
         parts, queries = _output_relief(layers, out, fn)
         d = np.sum([p[0] for p in parts], axis=0)
         if ds is None:

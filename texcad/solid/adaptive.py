@@ -49,6 +49,8 @@ class Coarse:
         level: ``(M,)`` pitch-grid level of each face (its largest count).
         fn: ``(M, 3)`` unit face normals; vn, vdir: ``(N, 3)`` unit vertex normals and
             displacement directions (:func:`~texcad.solid.subdivide.offset_directions`).
+        en, edir: ``(E, 3)`` each edge's unit normal and displacement direction (made
+            on first use).
     """
 
     v: np.ndarray
@@ -61,6 +63,8 @@ class Coarse:
     fn: np.ndarray
     vn: np.ndarray
     vdir: np.ndarray
+    en: "np.ndarray | None" = None
+    edir: "np.ndarray | None" = None
 
 
 def coarse_mesh(vertices: np.ndarray, faces: np.ndarray, pitch: np.ndarray) -> Coarse:
@@ -82,11 +86,13 @@ def _edge_frames(c: Coarse, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit normal and displacement direction ``(P, 3)`` at points inside edges ``e``:
     the two faces' normals averaged (their angles there are both 180 degrees), over
     ``min(1, n . n_f)`` (clipped at 1/3) as in ``offset_directions``."""
-    f1, f2 = c.ef[e, 0], c.ef[e, 1]
-    s = c.fn[f1] + c.fn[f2]
-    n = s / np.maximum(np.linalg.norm(s, axis=1), 1e-300)[:, None]
-    cos = np.minimum((n * c.fn[f1]).sum(1), (n * c.fn[f2]).sum(1))
-    return n, n / np.clip(cos, 1.0 / 3.0, 1.0)[:, None]
+    if c.en is None:  # once per edge
+        f1, f2 = c.ef[:, 0], c.ef[:, 1]
+        s = c.fn[f1] + c.fn[f2]
+        n = s / np.maximum(np.linalg.norm(s, axis=1), 1e-300)[:, None]
+        cos = np.minimum((n * c.fn[f1]).sum(1), (n * c.fn[f2]).sum(1))
+        c.en, c.edir = n, n / np.clip(cos, 1.0 / 3.0, 1.0)[:, None]
+    return c.en[e], c.edir[e]
 
 
 def pitch_samples(c: Coarse) -> dict:
@@ -158,76 +164,73 @@ def _on_edges(c: Coarse, counts, out, d, dlen, s, ds):
     return np.abs(ds - (d[a] * (1 - fr) + d[b] * fr)) * np.maximum(dlen[a], dlen[b])
 
 
-def _candidates(c: Coarse, out, faces_with: np.ndarray):
-    """Pairs (output triangle, grid point ``(i, j)`` of its face's pitch level) from
-    each triangle's bounding box on the grid, for the triangles of ``faces_with``."""
-    tri = np.flatnonzero(faces_with[out["parent"]])
+def _grid_xy(c: Coarse, out, tri: np.ndarray) -> np.ndarray:
+    """``(T, 3, 2)`` grid coordinates of output triangles' corners in their parent
+    face: ``(i, j)`` of ``a + i/M (b - a) + j/M (c - a)``, ``M`` its pitch level."""
     p = out["parent"][tri]
     a = c.v[c.f[p, 0]]
     e1, e2 = c.v[c.f[p, 1]] - a, c.v[c.f[p, 2]] - a
     g11, g12, g22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
-    det = g11 * g22 - g12 * g12
-    m = c.level[p].astype(np.float64)
+    m = c.level[p] / (g11 * g22 - g12 * g12)
     xy = np.empty((len(tri), 3, 2))
-    for k in range(3):  # per corner: its grid coordinates in the face
+    for k in range(3):  # per corner
         r = out["v"][out["f"][tri, k]] - a
         r1, r2 = (r * e1).sum(1), (r * e2).sum(1)
-        xy[:, k, 0] = m * (g22 * r1 - g12 * r2) / det
-        xy[:, k, 1] = m * (g11 * r2 - g12 * r1) / det
-    lo = np.ceil(xy.min(axis=1) - 1e-7).astype(np.int64)
-    hi = np.floor(xy.max(axis=1) + 1e-7).astype(np.int64)
-    nx, ny = np.maximum(hi[:, 0] - lo[:, 0] + 1, 0), np.maximum(hi[:, 1] - lo[:, 1] + 1, 0)
-    cnt = nx * ny
-    r = np.repeat(np.arange(len(tri)), cnt)
-    k = np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    return tri[r], xy[r], lo[r, 0] + k // ny[r], lo[r, 1] + k % ny[r]
+        xy[:, k, 0] = m * (g22 * r1 - g12 * r2)
+        xy[:, k, 1] = m * (g11 * r2 - g12 * r1)
+    return xy
 
 
 def _in_faces(c: Coarse, out, d, dlen, s, ds, inner):
-    """Errors at the inner samples ``inner`` (indices into ``s``): each found in the
-    output triangles of its face, the largest over the triangles that hold it."""
-    faces_with = np.zeros(len(c.f), dtype=bool)
-    faces_with[s["face"][inner]] = True
-    tri, xy, i, j = _candidates(c, out, faces_with)
-    p = out["parent"][tri]
-    lev = c.level[p]
-    ok = (i >= 1) & (j >= 1) & (i + j <= lev - 1)
-    tri, xy, i, j, p, lev = tri[ok], xy[ok], i[ok], j[ok], p[ok], lev[ok]
+    """Errors at the inner samples ``inner`` (indices into ``s``): each tested against
+    every output triangle of its face (a handful: faces are at most a few pitches),
+    the largest over the triangles that hold it."""
+    par = out["parent"]
+    order = np.argsort(par, kind="stable")
+    count = np.bincount(par, minlength=len(c.f))
+    first = np.cumsum(count) - count
+    fs = s["face"][inner]
+    n = count[fs]
+    k = np.repeat(np.arange(len(inner)), n)
+    tri = order[np.repeat(first[fs], n) + np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)]
+    used, slot = np.unique(tri, return_inverse=True)
+    xy = _grid_xy(c, out, used)[slot]
     x0, y0 = xy[:, 0, 0], xy[:, 0, 1]
     ax, ay, bx, by = xy[:, 1, 0] - x0, xy[:, 1, 1] - y0, xy[:, 2, 0] - x0, xy[:, 2, 1] - y0
     den = ax * by - ay * bx
-    px, py = i - x0, j - y0
+    px, py = s["i"][inner][k] - x0, s["j"][inner][k] - y0
     l1 = (px * by - py * bx) / den
     l2 = (ax * py - ay * px) / den
     l0 = 1.0 - l1 - l2
     eps = 1e-9
     hit = (l0 >= -eps) & (l1 >= -eps) & (l2 >= -eps) & (den > 0)
-    tri, p, i, j, lev = tri[hit], p[hit], i[hit], j[hit], lev[hit]
-    fv = out["f"][tri]
+    fv = out["f"][tri[hit]]
     val = l0[hit] * d[fv[:, 0]] + l1[hit] * d[fv[:, 1]] + l2[hit] * d[fv[:, 2]]
-    scale = dlen[fv].max(axis=1)
-    # the sample of (face, i, j): inner samples are ordered by face, then i, then j
-    key_s = (s["face"][inner] * 4096 + s["i"][inner]) * 4096 + s["j"][inner]
-    order = np.argsort(key_s, kind="stable")
-    pos = np.searchsorted(key_s[order], (p * 4096 + i) * 4096 + j)
-    pos = np.minimum(pos, len(order) - 1)
-    which = order[pos]
-    found = key_s[which] == (p * 4096 + i) * 4096 + j
     err = np.full(len(inner), -1.0)
-    np.maximum.at(err, which[found], np.abs(ds[inner][which[found]] - val[found]) * scale[found])
+    np.maximum.at(err, k[hit], np.abs(ds[inner][k[hit]] - val) * dlen[fv].max(axis=1))
     return err
 
 
-def measure(c: Coarse, counts: np.ndarray, out: dict, d: np.ndarray, s: dict, ds: np.ndarray) -> tuple[np.ndarray, float]:
+def measure(
+    c: Coarse, counts: np.ndarray, out: dict, d: np.ndarray, s: dict, ds: np.ndarray, *, exhaustive: bool = False
+) -> tuple[np.ndarray, float]:
     """Per sample error (mm; module docstring) of the output ``out`` (:func:`build`)
     with vertex displacements ``d`` against the samples' displacements ``ds``
-    (NaN: not measured); returns ``(per face largest error (M,), largest)``."""
+    (NaN: not measured); returns ``(per face largest error (M,), largest)``.
+
+    Where the output is the pitch grid itself (an edge cut into its pitch count, a
+    face whose edges all are) the samples are its vertices, evaluated by the same
+    function: their error is 0 and they are skipped unless ``exhaustive``."""
     dlen = np.linalg.norm(out["dir"], axis=1)
     err = np.zeros(len(ds))
-    on_edge = np.flatnonzero((s["edge"] >= 0) & np.isfinite(ds))
+    e_exact = counts == c.n
+    f_exact = np.all(e_exact[c.eid], axis=1)
+    e, fc = s["edge"], s["face"]
+    skip = ~exhaustive & np.where(e >= 0, e_exact[np.maximum(e, 0)], f_exact[np.maximum(fc, 0)])
+    on_edge = np.flatnonzero((e >= 0) & np.isfinite(ds) & ~skip)
     sub = {k: v[on_edge] for k, v in s.items()}
     err[on_edge] = _on_edges(c, counts, out, d, dlen, sub, ds[on_edge])
-    inner = np.flatnonzero((s["edge"] < 0) & np.isfinite(ds))
+    inner = np.flatnonzero((e < 0) & np.isfinite(ds) & ~skip)
     if len(inner):
         e_in = _in_faces(c, out, d, dlen, s, ds, inner)
         if np.any(e_in < 0):
