@@ -390,7 +390,7 @@ def _coarse_layers(layers, v, f, dirs, crit, tol):
     pitch = np.full(len(f), np.inf)
     for layer in layers:  # per layer
         sel = _select(layer, v, f, fn, dirs, crit, tol, loose=True)
-        v, f, _, parent = coarsen(v, f, sel, layer.pitch)
+        v, f, _, parent = coarsen(v, f, sel, layer.pitch, ladders=True)
         fn, pitch = fn[parent], np.where(sel[parent], np.minimum(pitch[parent], layer.pitch), pitch[parent])
     return v, f, fn, pitch
 

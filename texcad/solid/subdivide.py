@@ -27,7 +27,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..util import require_memory
 
-__all__ = ["refine", "coarsen", "tessellate", "flip_edges", "vertex_normals", "offset_directions", "face_normals", "edge_lengths"]
+__all__ = ["refine", "coarsen", "ladder", "tessellate", "flip_edges", "vertex_normals", "offset_directions", "face_normals", "edge_lengths"]
 
 _ROT = np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])
 
@@ -213,8 +213,113 @@ def refine(
     v, f, src = tessellate(v, f, per_edge[inv].reshape(-1, 3))
     return v, f, parent[src]
 
+def _quads(v, f, act, target):
+    """Pairs of active, coplanar (within 1e-5 mm) triangles that share the longest edge
+    of both and form a long thin quad (the strips of CAD exports): ``(Q,)`` faces
+    ``f1``, ``f2`` and the quad's corners ``(Q, 4)`` counter-clockwise, starting at
+    one end of a long side (``c0 -> c1`` and ``c2 -> c3`` are the long sides)."""
+    edges, eid, order = _edges(f, slots=True)
+    pair = order.reshape(-1, 2)
+    el = np.linalg.norm(v[edges[:, 1]] - v[edges[:, 0]], axis=1)
+    lf = el[eid]
+    k = np.argmax(lf, axis=1)
+    g1, g2 = pair[:, 0] // 3, pair[:, 1] // 3
+    k1, k2 = pair[:, 0] % 3, pair[:, 1] % 3
+    ok = act[g1] & act[g2] & (k[g1] == k1) & (k[g2] == k2) & (el >= 2 * target)
+    g1, g2, k1, k2 = g1[ok], g2[ok], k1[ok], k2[ok]
+    p, q, r1 = f[g1, k1], f[g1, (k1 + 1) % 3], f[g1, (k1 + 2) % 3]
+    r2 = f[g2, (k2 + 2) % 3]
+    n = np.cross(v[q] - v[p], v[r1] - v[p])
+    off = np.abs(((v[r2] - v[p]) * n).sum(1)) / np.maximum(np.linalg.norm(n, axis=1), 1e-300)
+    c = np.stack([p, r2, q, r1], 1)  # counter-clockwise
+    side = np.linalg.norm(v[c[:, [1, 2, 3, 0]]] - v[c], axis=2)  # c0c1, c1c2, c2c3, c3c0
+    turn = side[:, 1] + side[:, 3] > side[:, 0] + side[:, 2]  # long sides c1c2, c3c0: start at c1
+    c = np.where(turn[:, None], c[:, [1, 2, 3, 0]], c)
+    side = np.where(turn[:, None], side[:, [1, 2, 3, 0]], side)
+    thin = np.maximum(side[:, 1], side[:, 3]) < 0.5 * np.minimum(side[:, 0], side[:, 2])
+    keep = (off <= 1e-5) & thin & (np.minimum(side[:, 0], side[:, 2]) >= 2 * target)
+    return g1[keep], g2[keep], c[keep]
+
+
+def ladder(v: np.ndarray, f: np.ndarray, active: np.ndarray, target: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Cut the long thin quads of two active triangles (:func:`_quads`; the strips a
+    CAD program exports for a cylinder's side) into ladders: each long side cut
+    into ``ceil(length / target)`` equal pieces (a side shared with a face that is not
+    such a quad stays whole, so the mesh stays conforming) and the strip between the
+    two sides triangulated in order of the pieces' positions. Longest-edge bisection
+    would put its new points inside the strip at irregular places, and every later
+    grid inherits the slivers. Lengths mm.
+
+    Returns:
+        ``(vertices, faces, active, parent)`` as :func:`coarsen`.
+    """
+    g1, g2, c = _quads(v, f, active, target)
+    parent = np.arange(len(f))
+    if not len(g1):
+        return v, f, active, parent
+    nv = np.int64(len(v))
+    lo, hi = np.minimum(c[:, [0, 2]], c[:, [1, 3]]), np.maximum(c[:, [0, 2]], c[:, [1, 3]])
+    key = lo * nv + hi  # (Q, 2): the long sides c0c1, c2c3
+    uk, inv, cnt = np.unique(key.ravel(), return_inverse=True, return_counts=True)
+    ln = np.linalg.norm(v[uk % nv] - v[uk // nv], axis=1)
+    pieces = np.where(cnt == 2, np.ceil(ln / target - 1e-9), 1).astype(np.int64)  # shared by two quads, or whole
+    start = nv + np.concatenate([[0], np.cumsum(pieces - 1)[:-1]])
+    e = np.repeat(np.arange(len(uk)), pieces - 1)
+    t = (np.arange(int((pieces - 1).sum())) - np.repeat(start - nv, pieces - 1) + 1) / pieces[e]
+    a, b = v[uk[e] // nv], v[uk[e] % nv]
+    v = np.concatenate([v, a * (1 - t)[:, None] + b * t[:, None]])
+    tri = _zip(c, inv.reshape(-1, 2), pieces, start, uk // nv)
+    gone = np.zeros(len(f), dtype=bool)
+    gone[g1] = gone[g2] = True
+    keep = np.flatnonzero(~gone)
+    src = np.concatenate([keep, g1[tri[1]]])
+    return v, np.concatenate([f[keep], tri[0]]), active[src], src
+
+
+def _zip(c, side, pieces, start, first):
+    """Triangles ``(T, 3)`` (and each one's quad) between the two long sides of every
+    quad: bottom ``c0 -> c1`` and top ``c3 -> c2`` points merged by their position."""
+    def points(qi, s, from_, to_):  # ids of the points along side s of quads qi, from_ -> to_
+        n = pieces[side[qi, s]]
+        k = np.arange(int(n.sum()) + len(qi)) - np.repeat(np.cumsum(n + 1) - (n + 1), n + 1)
+        qq = np.repeat(qi, n + 1)
+        nn = np.repeat(n, n + 1)
+        fwd = first[side[qq, s]] == from_[qq]
+        kk = np.where(fwd, k, nn - k)
+        inner = start[side[qq, s]] + kk - 1
+        ids = np.where(kk == 0, np.where(fwd, from_[qq], to_[qq]), np.where(kk == nn, np.where(fwd, to_[qq], from_[qq]), inner))
+        return ids, k / nn, qq
+
+    q = np.arange(len(c))
+    bot, tb, qb = points(q, 0, c[:, 0], c[:, 1])
+    top, tt, qt = points(q, 1, c[:, 3], c[:, 2])
+    nb, nt = pieces[side[:, 0]], pieces[side[:, 1]]
+    # steps: advance along the bottom (at the middle of piece i) or the top, in order
+    sb = np.concatenate([[0], np.cumsum(nb + 1)])[:-1]
+    st = np.concatenate([[0], np.cumsum(nt + 1)])[:-1]
+    kb = np.arange(int(nb.sum())) - np.repeat(np.cumsum(nb) - nb, nb)
+    kt = np.arange(int(nt.sum())) - np.repeat(np.cumsum(nt) - nt, nt)
+    qsb, qst = np.repeat(q, nb), np.repeat(q, nt)
+    ev_q = np.concatenate([qsb, qst])
+    ev_key = np.concatenate([(kb + 0.5) / nb[qsb], (kt + 0.5) / nt[qst]])
+    ev_bot = np.concatenate([np.ones(len(qsb), bool), np.zeros(len(qst), bool)])
+    o = np.lexsort((~ev_bot, ev_key, ev_q))
+    ev_q, ev_bot = ev_q[o], ev_bot[o]
+    first_ev = np.concatenate([[0], np.cumsum(nb + nt)])[:-1]
+    cb = np.cumsum(ev_bot) - ev_bot
+    ct = np.cumsum(~ev_bot) - ~ev_bot
+    i = cb - (cb[first_ev] )[ev_q] if len(ev_q) else cb
+    j = ct - (ct[first_ev])[ev_q] if len(ev_q) else ct
+    B = lambda k: bot[sb[ev_q] + k]  # noqa: E731
+    T = lambda k: top[st[ev_q] + k]  # noqa: E731
+    tri = np.where(ev_bot[:, None], np.stack([B(i), B(np.minimum(i + 1, nb[ev_q])), T(j)], 1),
+                   np.stack([B(i), T(np.minimum(j + 1, nt[ev_q])), T(j)], 1))
+    return tri, ev_q
+
+
 def coarsen(
-    vertices: np.ndarray, faces: np.ndarray, active: np.ndarray, max_edge: float, *, max_faces: int = 40_000_000, coarse: float = 3.0
+    vertices: np.ndarray, faces: np.ndarray, active: np.ndarray, max_edge: float, *, max_faces: int = 40_000_000, coarse: float = 3.0,
+    ladders: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The first step of :func:`refine`: the ``active`` faces bisected (Rivara, with
     its closure and Lawson flips) until no edge is longer than ``coarse * max_edge``
@@ -237,6 +342,8 @@ def coarsen(
     require_memory(est * 120, f"about {est} triangles", "use a larger pitch or a smaller region")
     if est > max_faces:
         require_memory(10**15, f"about {est} triangles", "use a larger pitch or a smaller region")
+    if ladders:
+        v, f, act, parent = ladder(v, f, act, 0.5 * coarse * max_edge)
     return _bisect(v, f, act, parent, coarse * max_edge)
 
 
