@@ -132,3 +132,25 @@ def test_adaptive_keeps_the_guarantees(region, mode):
 def test_tolerance_is_checked():
     with pytest.raises(ParameterError, match="tolerance"):
         texcad.texture(_box(), "all", "builtin:stones", tolerance=-1)
+
+
+def test_cli_passes_the_tolerance(tmp_path, capsys):
+    """``texcad texture PART.stl --tolerance MM``: the measured error is printed and
+    within it; ``--tolerance 0`` gives the pitch grid (more triangles, error 0)."""
+    import re
+
+    from texcad.cli import main
+
+    part = tmp_path / "part.stl"
+    _box().export(part)
+    found = {}
+    for tol in ("0.05", "0"):
+        out = tmp_path / f"out{tol}.stl"
+        assert main(["texture", str(part), "--region", "normal:+z:10", "--texture", "builtin:stones", "--pitch", "0.5",
+                     "--tolerance", tol, "-o", str(out), "-q"]) == 0
+        text = capsys.readouterr().out
+        err = float(re.search(r"max error\s+([0-9.]+) mm", text).group(1))
+        tris = int(re.search(r"triangles\s+(\d+)", text).group(1))
+        found[tol] = (err, tris)
+    assert 0 < found["0.05"][0] <= 0.05 and found["0"][0] == 0.0
+    assert found["0.05"][1] < found["0"][1]
