@@ -479,6 +479,7 @@ def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
     pitch grid's samples. Returns the output (``v``, ``f``, ``parent``, ``normal``,
     ``dir``, ``masks``), the layers' reliefs and the measured largest error (mm)."""
     v, f, fn, pitch = _coarse_layers(layers, v, f, dirs, crit, tol)
+    progress(0.12, "pitch-grid samples")
     c = coarse_mesh(v, f, pitch)
     s = pitch_samples(c)
     masks = np.array([_select(layer, v, f, fn, dirs, crit, tol, loose=False) for layer in layers])
@@ -494,8 +495,10 @@ def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
         parts, queries = _output_relief(layers, out, fn)
         d = np.sum([p[0] for p in parts], axis=0)
         if ds is None:
+            progress(0.13, "sampling the texture at the samples")
             ds = _sample_relief(layers, c, s, masks, queries, straddle)
             levels = np.maximum(levels, _first_levels(c, s, ds, d, tolerance))
+            progress(0.14, "adaptive tessellation and measurement")
             continue
         per_face, err = measure(c, counts, out, d, s, ds)
         rounds += 1
