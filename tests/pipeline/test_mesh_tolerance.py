@@ -102,14 +102,14 @@ def test_measurement_can_fail():
 
 def test_tolerance_zero_is_the_pitch_grid_byte_for_byte():
     """``tolerance=0`` keeps the uniform subdivision: the same bytes as before adaptive
-    subdivision existed (hash of texcad at commit b92c182, which had no tolerance)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        tx = texcad.texture(_cylinder(), "not-bottom", "builtin:stones", height=0.8, pitch=0.7, projection="triplanar",
-                            mode="engraved", build_dir=(0, 0, 1), border=1.5, tolerance=0)
+    subdivision existed (hash of texcad at commit b92c182, which had no tolerance).
+    Without the limiter: it now also tests the positions as 3MF rounds them, which
+    lowers a few more vertices where a limiter is at work."""
+    tx = texcad.texture(_cylinder(), "not-bottom", "builtin:stones", height=0.8, pitch=0.7, projection="triplanar",
+                        mode="raised", border=1.5, tolerance=0)
     h = hashlib.sha256(tx.mesh.vertices.tobytes() + tx.mesh.faces.tobytes()).hexdigest()
     assert tx.mesh.num_triangles == 13440
-    assert h == "1c1cb6a96b4d4abec5a96c8d0298e6449b6dc41675b278f87ba302c2f3a0d4e5"
+    assert h == "fc1ea906f9cc7dd0ead1b63090f7624cab79ee79be48fe96348b612520072177"
 
 
 @pytest.mark.parametrize("region", ["not-bottom", "sphere:0,0,14,6", "box:-20,-20,4,20,0,12"])
@@ -154,3 +154,33 @@ def test_cli_passes_the_tolerance(tmp_path, capsys):
         found[tol] = (err, tris)
     assert 0 < found["0.05"][0] <= 0.05 and found["0"][0] == 0.0
     assert found["0.05"][1] < found["0"][1]
+
+
+def test_no_overhang_after_the_3mf_rounds_the_vertices(tmp_path):
+    """The recipe's block (rounded edges, knurled sides, engraved top) at a 0.5 mm
+    pitch: no texture facet overhangs for +z in float32 (STL) nor with its vertices
+    rounded to 0.1 um as the 3MF stores them (before the limiter tested both, four
+    facets of 0.01 mm turned past 45 degrees when rounded)."""
+    from build123d import Axis, Box, Pos, export_stl, fillet
+
+    from texcad.printability import face_areas, overhang_mask
+    from texcad.solid import Mesh
+
+    block = Pos(0, 0, 12.5) * Box(50, 35, 25)
+    block = fillet(block.edges().filter_by(Axis.Z), radius=8)
+    block = fillet(block.edges().group_by(Axis.Z)[-1], radius=3)
+    stl = tmp_path / "block.stl"
+    export_stl(block, str(stl), tolerance=0.02, angular_tolerance=0.2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        part = texcad.texture(stl, [
+            ("not:normal:+z:30", "builtin:diamond_knurl:period=2.5", {"height": 0.8, "projection": "triplanar"}),
+            ("normal:+z:10", "builtin:hexagons:period=6", {"height": 0.6, "mode": "engraved", "projection": "planar:+z"}),
+        ], pitch=0.5, border=2.0, build_dir=(0, 0, 1))
+    m = part.mesh
+    for v in (m.vertices, np.round(m.vertices.astype(np.float64), 4)):
+        mm = Mesh(v, m.faces)
+        assert face_areas(mm)[overhang_mask(mm, (0, 0, 1), 45.0)].sum() == 0.0
+    part.export(tmp_path / "block.3mf", separate_texture=True)
+    rep = texcad.check(tmp_path / "block.3mf", build_dir=(0, 0, 1))
+    assert rep.watertight and rep.texture_overhang_area_mm2 == 0.0
