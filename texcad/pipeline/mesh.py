@@ -303,17 +303,22 @@ def _border_distance(v: np.ndarray, f: np.ndarray, sel: np.ndarray, upto: float 
 def _border_query(v: np.ndarray, f: np.ndarray, sel: np.ndarray, upto: float = np.inf) -> Callable[[np.ndarray], np.ndarray]:
     """``dist(points)``: distance (mm) of points to the nearest vertex shared by a
     region face and a face outside it (inf without a border, or farther than ``upto``)."""
-    from scipy.spatial import cKDTree
-
     inside = np.zeros(len(v), dtype=bool)
     inside[f[sel].ravel()] = True
     outside = np.zeros(len(v), dtype=bool)
     outside[f[~sel].ravel()] = True
-    border = np.flatnonzero(inside & outside)
+    return _nearest(v[np.flatnonzero(inside & outside)], upto)
+
+
+def _nearest(border: np.ndarray, upto: float) -> Callable[[np.ndarray], np.ndarray]:
+    """``dist(points)``: distance (mm) to the nearest of ``border`` ``(B, 3)`` (inf if
+    there is none, or it is farther than ``upto``)."""
+    from scipy.spatial import cKDTree
+
     if not len(border):
         return lambda p: np.full(len(p), np.inf)
     up = upto * (1 + 1e-9) if np.isfinite(upto) and upto > 0 else np.inf
-    tree = cKDTree(v[border])
+    tree = cKDTree(border)
     return lambda p: tree.query(p, workers=1, distance_upper_bound=up)[0]
 
 
@@ -440,6 +445,25 @@ def _output_relief(layers, out, fn):
     return parts, queries
 
 
+def _coarse_relief(layers, c, s, masks):
+    """Without faces that straddle a region's edge: each layer's border query from the
+    coarse mesh (the ends and pitch-grid points of its border edges: the vertices the
+    output has there, as those edges keep their pitch counts) and the displacement
+    at the coarse vertices (mm)."""
+    queries, d = [], np.zeros(len(c.v))
+    for layer, m in zip(layers, masks):  # per layer
+        be = m[c.ef[:, 0]] != m[c.ef[:, 1]]
+        on = (s["edge"] >= 0) & be[np.maximum(s["edge"], 0)]
+        q = _nearest(np.concatenate([c.v[np.unique(c.edges[be])], s["xyz"][on]]), layer.border)
+        inside = np.zeros(len(c.v), dtype=bool)
+        inside[c.f[m].ravel()] = True
+        dist = np.full(len(c.v), np.nan)
+        dist[inside] = q(c.v[inside])
+        d += _relief(layer, c.v, c.f, m, c.vn, dist=dist)[0]
+        queries.append(q)
+    return queries, d
+
+
 def _first_levels(c, s, ds, d, tolerance):
     """Grid level per face from its level-1 error (the samples against its corners'
     linear interpolation): ``ceil(sqrt(e1 / tolerance))``, at most the pitch level."""
@@ -488,6 +512,12 @@ def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
     layers = _frozen(layers, c, s, masks)
     levels = np.where(straddle, c.level, 1)
     ds, err, rounds = None, np.inf, 0
+    if not straddle.any():  # the border and the corners from the coarse mesh: no first tessellation
+        progress(0.13, "sampling the texture at the samples")
+        queries, d = _coarse_relief(layers, c, s, masks)
+        ds = _sample_relief(layers, c, s, masks, queries, straddle)
+        levels = np.maximum(levels, _first_levels(c, s, ds, d, tolerance))
+        progress(0.14, "adaptive tessellation and measurement")
     while True:  # per round: tessellate, measure, refine the faces still off (a few)
         counts = edge_counts(c, levels, forced)
         out = build(c, counts)
