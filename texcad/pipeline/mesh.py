@@ -7,8 +7,11 @@ The job, for each texture *layer* ``(region, texture, options)``:
    is closed (:func:`load_closed`);
 2. pick the region's faces (:class:`texcad.mapping.Region`; never the bed face by
    default, and with ``build_dir`` never a face that overhangs by itself) and refine
-   only them by longest-edge bisection until no edge is longer than ``pitch`` mm
-   (:func:`texcad.solid.subdivide.refine`; conforming, so the mesh stays closed);
+   only them, conforming (the mesh stays closed): with ``tolerance=0`` until no edge
+   is longer than ``pitch`` mm (:func:`texcad.solid.subdivide.refine`, the *pitch
+   grid*); with ``tolerance > 0`` (default 0.02 mm) each face only as finely as the
+   texture needs to stay within ``tolerance`` mm of the pitch grid's points, measured
+   there and reported as ``max_error`` (:mod:`texcad.solid.adaptive`, :func:`_adaptive`);
 3. sample the texture at the region's vertices, ``h in [0, H]`` mm, through the
    projection (:class:`texcad.mapping.projection.Projection`) or as a solid 3-D
    texture;
@@ -582,7 +585,9 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
             ``origin``, ``radius``, ``blend`` (20 deg), ``rotation``,
             ``local_radius``; ``border`` (2 mm fade), ``gradient`` ``(start, end)``,
             ``scale``, ``size`` (image tile, mm), ``pitch`` (0.5 mm, longest edge),
-            ``build_dir`` / ``critical_angle`` (45 deg).
+            ``build_dir`` / ``critical_angle`` (45 deg), ``tolerance`` (0.02 mm:
+            largest distance, along the displacement, between the mesh and the
+            texture at every point of the pitch grid; 0: the pitch grid itself).
 
     Raises:
         InputError: the mesh is not closed. ParameterError: a bad option or an empty

@@ -16,10 +16,16 @@ conforming), and the result is measured against the pitch grid's points:
   output triangle ``(w_k, d_k)`` that holds it, measured along the displacement
   direction (``|n_k| >= 1`` scales it up at sharp edges, where vertices move along
   the diagonal). Points along an edge are found on the edge's own points, inner
-  points in the triangles of their face (all candidate pairs from the triangles'
-  bounding boxes on the face's grid, one vectorized pass); a sample that no
-  triangle holds is an error (``AssertionError``), so the measurement covers
-  every sample.
+  points in the triangles of their face (each tested against every triangle of its
+  face, a handful, in one vectorized pass); a sample that no triangle holds is an
+  error (``AssertionError``), so the measurement covers every sample. Where the
+  output is the pitch grid itself the samples are its vertices (error 0) and are
+  skipped.
+
+The points' normals and displacement directions come from the coarse mesh by kind
+(a vertex: its angle-weighted normal; a point on an edge: the mean of the two faces'
+normals; a point inside a face: its normal), which is what
+:func:`~texcad.solid.subdivide.vertex_normals` gives on any subdivision of it.
 
 Faces whose error exceeds the tolerance are set to their pitch level, where the
 mesh has a vertex at every sample (error 0): the driver
