@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..solid.subdivide import cross, rows
 from .overhang import build_directions, check_critical_angle
 
 __all__ = ["ReliefLimit", "limit_relief"]
@@ -58,8 +59,8 @@ class ReliefLimit:
 
 
 def _bad(v, f, n0, dirs, cos_limit):
-    p = v[f]
-    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    p = rows(v, f)
+    n = cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     ln = np.linalg.norm(n, axis=1)
     n = n / np.maximum(ln, 1e-300)[:, None]
     fold = ((n * n0).sum(1) <= 0.0) | (ln <= 1e-300)
@@ -80,7 +81,7 @@ def _offending(ctx, idx, dd):
     v0, nrm, f, n0, dirs, cos_limit = ctx
     fi = f[idx]
     tri = np.arange(3 * len(idx)).reshape(-1, 3)
-    flags = [_bad(vv.reshape(-1, 3), tri, n0[idx], dirs, cos_limit) for vv in _as_written(v0[fi] + nrm[fi] * dd[..., None])]
+    flags = [_bad(vv.reshape(-1, 3), tri, n0[idx], dirs, cos_limit) for vv in _as_written(rows(v0, fi) + rows(nrm, fi) * dd[..., None])]
     return flags[0][0] | flags[1][0], flags[0][1] | flags[1][1]
 
 
@@ -227,8 +228,8 @@ def limit_relief(
         cos_limit = float(np.cos(np.radians(min(89.9, check_critical_angle(critical_angle) + margin))))
     live = np.flatnonzero((out[faces] != 0).any(axis=1))
     f = faces[live]
-    p0 = v0[f]
-    n0 = np.cross(p0[:, 1] - p0[:, 0], p0[:, 2] - p0[:, 0])
+    p0 = rows(v0, f)
+    n0 = cross(p0[:, 1] - p0[:, 0], p0[:, 2] - p0[:, 0])
     n0 /= np.maximum(np.linalg.norm(n0, axis=1), 1e-300)[:, None]
     ctx = (v0, nrm, f, n0, dirs, cos_limit)
     over, fold = _all_offending(ctx, out)
@@ -238,7 +239,7 @@ def limit_relief(
     near = faces[low[faces].any(axis=1)]  # the faces at a lowered vertex
     area = np.zeros(len(v0))
     p = v0[near]
-    fa = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    fa = 0.5 * np.linalg.norm(cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
     for k in range(3):  # per corner
         area += np.bincount(near[:, k], weights=fa / 3.0, minlength=len(v0))
     rep = ReliefLimit(

@@ -27,7 +27,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..util import require_memory
 
-__all__ = ["refine", "coarsen", "ladder", "tessellate", "flip_edges", "vertex_normals", "offset_directions", "face_normals", "edge_lengths"]
+__all__ = ["refine", "coarsen", "ladder", "tessellate", "rows", "cross", "flip_edges", "vertex_normals", "offset_directions", "face_normals", "edge_lengths"]
 
 _ROT = np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])
 
@@ -50,9 +50,25 @@ def _edges(faces: np.ndarray, slots: bool = False):
     return (uniq, inv.reshape(-1, 3), order) if slots else (uniq, inv.reshape(-1, 3))
 
 
+def rows(a: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """``a[index]`` for a 2-D ``a``, by ``np.take`` (the same values; numpy's fancy
+    indexing with a strided index such as ``faces[:, 0]`` is several times slower)."""
+    return np.take(a, index, axis=0)
+
+
+def cross(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``np.cross`` of ``(..., 3)`` arrays, column by column: the same products and
+    differences in the same order (the same bits), 3 to 6 times faster."""
+    out = np.empty(np.broadcast_shapes(x.shape, y.shape), dtype=np.result_type(x, y))
+    out[..., 0] = x[..., 1] * y[..., 2] - x[..., 2] * y[..., 1]
+    out[..., 1] = x[..., 2] * y[..., 0] - x[..., 0] * y[..., 2]
+    out[..., 2] = x[..., 0] * y[..., 1] - x[..., 1] * y[..., 0]
+    return out
+
+
 def edge_lengths(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """``(M, 3)`` lengths in mm of each face's edges (corner k to corner k+1)."""
-    v = vertices[faces]
+    v = rows(vertices, faces)
     return np.linalg.norm(v[:, [1, 2, 0]] - v, axis=2)
 
 
@@ -116,11 +132,11 @@ def flip_edges(v: np.ndarray, f: np.ndarray, active: np.ndarray, *, passes: int 
         a, b = f[f1, k1], f[f1, (k1 + 1) % 3]
         c, d = f[f1, (k1 + 2) % 3], f[f2, (k2 + 2) % 3]
         ok = (f[f2, k2] == b) & (f[f2, (k2 + 1) % 3] == a) & (c != d)
-        va, vb, vc, vd = v[a], v[b], v[c], v[d]
+        va, vb, vc, vd = rows(v, a), rows(v, b), rows(v, c), rows(v, d)
         # not locally Delaunay: the angles at c and d add up to more than 180 degrees,
         # i.e. cot c + cot d < 0 (cot = dot / |cross| of the edges from the corner)
-        n1 = np.cross(vb - va, vc - va)
-        n2 = np.cross(va - vb, vd - vb)
+        n1 = cross(vb - va, vc - va)
+        n2 = cross(va - vb, vd - vb)
         l1, l2 = np.sqrt((n1 * n1).sum(1)), np.sqrt((n2 * n2).sum(1))
         cot = ((va - vc) * (vb - vc)).sum(1) / np.maximum(l1, 1e-300) + ((vb - vd) * (va - vd)).sum(1) / np.maximum(l2, 1e-300)
         ok &= (cot < -1e-9) & (l1 > 0) & (l2 > 0) & ((n1 * n2).sum(1) > (1.0 - 1e-12) * l1 * l2)
@@ -472,8 +488,8 @@ def tessellate(vertices: np.ndarray, faces: np.ndarray, counts: np.ndarray, *, c
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit face normals ``(M, 3)`` and face areas ``(M,)`` in mm^2."""
-    v = vertices[faces]
-    n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    v = rows(vertices, faces)
+    n = cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
     ln = np.linalg.norm(n, axis=1)
     return n / np.maximum(ln, 1e-300)[:, None], 0.5 * ln
 
@@ -482,9 +498,9 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Angle-weighted unit vertex normals ``(N, 3)``: ``n_v = sum_f theta_f(v) n_f``
     normalised, ``theta_f(v)`` the interior angle of face ``f`` at ``v`` (radians)."""
     v = np.asarray(vertices, dtype=np.float64)
-    a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
+    a, b, c = rows(v, faces[:, 0]), rows(v, faces[:, 1]), rows(v, faces[:, 2])
     e = (b - a, c - b, a - c)  # edge k from corner k to k + 1, (M, 3) each
-    n = np.cross(e[0], -e[2])
+    n = cross(e[0], -e[2])
     twice = np.linalg.norm(n, axis=1)
     fn = n / np.maximum(twice, 1e-300)[:, None]
     out = np.zeros_like(v)
@@ -507,7 +523,7 @@ def offset_directions(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarr
     v = np.asarray(vertices, dtype=np.float64)
     fn, _ = face_normals(v, faces)
     corner = faces.ravel()
-    dots = (np.repeat(fn, 3, axis=0) * normals[corner]).sum(1)
+    dots = (np.repeat(fn, 3, axis=0) * rows(normals, corner)).sum(1)
     c = np.ones(len(v))
     np.minimum.at(c, corner, dots)
     c = np.clip(c, 1.0 / cap, 1.0)
