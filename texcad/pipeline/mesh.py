@@ -392,8 +392,9 @@ def _relief(layer: Layer, v, f, sel, normals, dist=None):
 
 
 def _coarse_layers(layers, v, f, dirs, crit, tol):
-    """Bisect each layer's region down to 3 pitches (:func:`coarsen`); the coarse
-    mesh, its parent normals and each face's pitch (inf outside every region)."""
+    """Cut each layer's region into ladders and bisect it down to 3 pitches
+    (:func:`coarsen`); the coarse mesh, its parent normals and each face's pitch (inf
+    outside every region)."""
     fn, _ = face_normals(v, f)
     pitch = np.full(len(f), np.inf)
     for layer in layers:  # per layer
@@ -432,7 +433,7 @@ def _sample_relief(layers, c, s, masks, queries, skip):
     return np.where(_sample_member(c, s, skip) | _sample_member(c, s, ~np.any(masks, axis=0)), np.nan, ds)
 
 
-def _output_relief(layers, out, fn):
+def _output_relief(layers, out):
     """Per layer ``(d, b, info, inside)`` at the output's vertices, its strict face
     masks and each layer's border query."""
     parts, masks, queries = [], [], []
@@ -525,7 +526,7 @@ def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
         counts = edge_counts(c, levels, forced)
         out = build(c, counts)
         out["masks"] = _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol)
-        parts, queries = _output_relief(layers, out, fn)
+        parts, queries = _output_relief(layers, out)
         d = np.sum([p[0] for p in parts], axis=0)
         if ds is None:
             progress(0.13, "sampling the texture at the samples")
