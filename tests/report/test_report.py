@@ -274,3 +274,40 @@ def test_check_a_texture_result_uses_its_fused_mesh():
     # The texture faces lie on the top face (the pins' flanks and tops), not on the sides.
     assert 0.0 < r_free.texture_area_mm2 < 3 * 400.0
     assert r_free.overhang_area_mm2 < r_free.texture_overhang_area_mm2 + 20 * 5 + 1e-6  # + the -x side wall
+
+
+def test_manifold_flag_agrees_with_manifold3d():
+    """The vectorized manifold test of a single object says what manifold3d says: yes
+    for closed solids, no for an open mesh, a flipped triangle and a repeated
+    triangle. A triangle that repeats a vertex is refused too, where manifold3d drops
+    it and accepts the rest (texcad is the stricter)."""
+    import manifold3d as m3d
+    import trimesh
+
+    from texcad.report.report import _closed_manifold
+    from texcad.solid import Mesh
+
+    def m3d_ok(m):
+        try:
+            man = m3d.Manifold(m3d.Mesh(vert_properties=m.vertices, tri_verts=m.faces))
+        except Exception:  # noqa: BLE001 - a refusal
+            return False
+        return man.status() == m3d.Error.NoError and not man.is_empty()
+
+    sphere = trimesh.creation.icosphere(3)
+    box = trimesh.creation.box((3, 2, 1))
+    good = [Mesh(sphere.vertices, sphere.faces), Mesh(box.vertices, box.faces)]
+    f = np.asarray(sphere.faces)
+    bad = [
+        Mesh(sphere.vertices, f[1:]),  # open
+        Mesh(sphere.vertices, np.concatenate([f[:1, ::-1], f[1:]])),  # one triangle flipped
+        Mesh(sphere.vertices, np.concatenate([f, f[:1]])),  # a triangle twice
+    ]
+    pinched = Mesh(sphere.vertices, np.concatenate([f, [[0, 0, 1]]]))  # a triangle repeating a vertex
+    assert m3d_ok(pinched) and not _closed_manifold(pinched) and not check(pinched).manifold
+    for m in good:
+        assert _closed_manifold(m) and m3d_ok(m)
+        assert check(m).manifold
+    for m in bad:
+        assert not _closed_manifold(m) and not m3d_ok(m)
+        assert not check(m).manifold

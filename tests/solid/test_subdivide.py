@@ -132,3 +132,35 @@ def test_refine_stays_closed_for_any_pitch(pitch):
     V, F, _ = refine(v, f, np.asarray(tm.face_normals)[:, 2] > -0.5, pitch)
     assert edge_report(F)["watertight"]
     assert abs(trimesh.Trimesh(V, F, process=False).volume - tm.volume) < 1e-9 * tm.volume
+
+
+def test_ladder_cuts_cad_strips_into_well_shaped_triangles():
+    """A 200-sided cylinder as a CAD program exports it (each side a 52 mm x 0.57 mm
+    strip of two triangles): the ladder keeps it closed, oriented and of the same area
+    and volume, every new face in its strip's plane, and leaves no sliver (shortest
+    edge at least half the step); longest-edge bisection alone leaves slivers there."""
+    import manifold3d as m3d
+
+    from texcad.solid import edge_report
+    from texcad.solid.subdivide import coarsen, edge_lengths, face_normals, ladder
+
+    g = m3d.Manifold.cylinder(52.0, 18.0, 18.0, 200).to_mesh()
+    v = np.asarray(g.vert_properties, np.float64)[:, :3]
+    f = np.asarray(g.tri_verts, np.int64)
+    fn, area = face_normals(v, f)
+    act = np.abs(fn[:, 2]) < 0.5  # the side
+    v1, f1, a1, p1 = ladder(v, f, act, 0.3)
+    assert edge_report(f1)["watertight"]
+    fn1, area1 = face_normals(v1, f1)
+    assert abs(area1.sum() - area.sum()) < 1e-9 * area.sum()
+    assert np.all((fn1 * fn[p1]).sum(1) > 1 - 1e-12)
+    vol = lambda v, f: np.einsum("ij,ij->i", v[f[:, 0]], np.cross(v[f[:, 1]], v[f[:, 2]])).sum() / 6  # noqa: E731
+    assert abs(vol(v1, f1) - vol(v, f)) < 1e-9 * vol(v, f)
+    side = a1 & (np.abs(fn1[:, 2]) < 0.5)
+    assert side.sum() >= 200 * 2 * 52 / 0.3
+    assert edge_lengths(v1, f1[side]).min() >= 0.15
+    _, fb, ab, _ = coarsen(v, f, act, 0.2)
+    vb = coarsen(v, f, act, 0.2)[0]
+    assert edge_lengths(vb, fb[ab]).min(axis=1).min() < 0.05  # bisection alone: slivers
+    vl, fl, al, _ = coarsen(v, f, act, 0.2, ladders=True)
+    assert edge_report(fl)["watertight"] and edge_lengths(vl, fl[al]).min() >= 0.15

@@ -46,13 +46,14 @@ def run_mesh(args: argparse.Namespace) -> int:
         tx = texture(
             args.part, layers, height=args.height, pitch=args.pitch, projection=args.projection, mode=args.mode,
             border=args.border, blend=args.blend, scale=args.scale, build_dir=args.build_dir,
-            critical_angle=args.critical_angle, progress=None if args.quiet else StageReporter(),
+            critical_angle=args.critical_angle, tolerance=args.tolerance, progress=None if args.quiet else StageReporter(),
         )
     for out in args.out:
         tx.export(out, separate_texture=args.separate_texture)
     m = tx.mesh
     print(f"mesh         {args.part}: {tx.info['input_triangles']} triangles in, {tx.info['bodies']} bodies")
     print(f"triangles    {m.num_triangles}, watertight {m.is_watertight}")
+    print(f"max error    {tx.max_error:.4f} mm at the pitch grid's points (tolerance {args.tolerance:g} mm; 0: the pitch grid)")
     print(f"volume       {m.volume:.1f} mm3")
     if tx.limits is not None and tx.limits.lowered:
         print(f"limited      {tx.limits.lowered} vertices lowered, {tx.limits.removed_mm3:.1f} mm3 of relief removed")

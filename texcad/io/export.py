@@ -107,10 +107,86 @@ def _fmt_rows(template: str, arr: np.ndarray) -> bytes:
     return ((template * len(arr)) % tuple(arr.ravel().tolist())).encode("ascii")
 
 
+_ROWS = 1 << 17  # rows per chunk of the bulk formatter
+
+
+def _digits(k: np.ndarray, width: int, keep: int) -> np.ndarray:
+    """``(n, width)`` ASCII digits of the integers ``0 <= k < 10^width``, right-aligned,
+    with 0 (no byte) for leading zeros left of the last ``keep`` columns."""
+    out = np.empty((len(k), width), dtype=np.uint8)
+    rest = k.copy()
+    for j in range(width - 1, -1, -1):  # per column, right to left
+        rest, d = np.divmod(rest, 10)
+        out[:, j] = 48 + d
+        if j < width - keep:
+            out[:, j] *= k >= 10 ** (width - 1 - j)  # a leading zero: no byte
+    return out
+
+
+def _fixed4(x: np.ndarray) -> np.ndarray | None:
+    """``"%.4f"`` of float32 values ``x`` (as float64) as ``(n, w + 6)`` bytes, 0 = none;
+    None if a value needs more than 9 integer digits or is not finite. ``|x| 10^4`` is
+    exact for a float32 (24 + 14 bits), so ``rint`` (ties to even) rounds as ``%``."""
+    if not np.all(np.isfinite(x)) or (len(x) and np.abs(x).max() >= 1e9):
+        return None
+    k = np.rint(np.abs(x) * 1e4).astype(np.int64)
+    ip, fp = np.divmod(k, 10000)
+    w = _width(ip)
+    out = np.zeros((len(x), w + 6), dtype=np.uint8)
+    out[:, 0] = np.where(np.signbit(x), 45, 0)  # '-', also for -0.0 and what rounds to 0
+    out[:, 1 : w + 1] = _digits(ip, w, 1)
+    out[:, w + 1] = 46  # '.'
+    out[:, w + 2 :] = _digits(fp, 4, 4)
+    return out
+
+
+def _width(k: np.ndarray) -> int:
+    """Digits of the largest of ``k >= 0`` (at least 1)."""
+    return len(str(int(k.max()))) if len(k) else 1
+
+
+def _bulk_rows(parts: list, n: int) -> bytes:
+    """Rows made of literal byte strings and ``(n, w)`` byte fields (0 = none),
+    concatenated and the zeros dropped: one array pass per column block."""
+    width = sum(len(p) if isinstance(p, bytes) else p.shape[1] for p in parts)
+    mat = np.empty((n, width), dtype=np.uint8)
+    c = 0
+    for p in parts:  # per piece of the row (a handful)
+        w = len(p) if isinstance(p, bytes) else p.shape[1]
+        mat[:, c : c + w] = np.frombuffer(p, dtype=np.uint8) if isinstance(p, bytes) else p
+        c += w
+    flat = mat.ravel()
+    return flat[flat != 0].tobytes()
+
+
+def _vertex_rows(v: np.ndarray) -> bytes:
+    """``<vertex x="%.4f" y="%.4f" z="%.4f"/>`` rows, formatted in bulk with numpy
+    (the same bytes as ``%``; tested), ``%`` where a value does not fit."""
+    out = []
+    for a in range(0, len(v), _ROWS):  # per chunk of rows
+        c = v[a : a + _ROWS].astype(np.float64)
+        f = [_fixed4(c[:, k]) for k in range(3)]
+        if any(x is None for x in f):
+            out.append(_fmt_rows('<vertex x="%.4f" y="%.4f" z="%.4f"/>\n', c))
+            continue
+        out.append(_bulk_rows([b'<vertex x="', f[0], b'" y="', f[1], b'" z="', f[2], b'"/>\n'], len(c)))
+    return b"".join(out)
+
+
+def _triangle_rows(t: np.ndarray) -> bytes:
+    """``<triangle v1="%d" v2="%d" v3="%d"/>`` rows, formatted in bulk with numpy."""
+    out = []
+    for a in range(0, len(t), _ROWS):  # per chunk of rows
+        c = t[a : a + _ROWS].astype(np.int64)
+        f = [_digits(c[:, k], _width(c[:, k]), 1) for k in range(3)]
+        out.append(_bulk_rows([b'<triangle v1="', f[0], b'" v2="', f[1], b'" v3="', f[2], b'"/>\n'], len(c)))
+    return b"".join(out)
+
+
 def _object_xml(oid: int, name: str, mesh: Mesh) -> bytes:
     # 0.1 um resolution: far below any printer's, and exact for texcad's float32 grid.
-    verts = _fmt_rows('<vertex x="%.4f" y="%.4f" z="%.4f"/>\n', mesh.vertices.astype(np.float64))
-    tris = _fmt_rows('<triangle v1="%d" v2="%d" v3="%d"/>\n', mesh.faces)
+    verts = _vertex_rows(mesh.vertices)
+    tris = _triangle_rows(mesh.faces)
     return b"".join(
         [
             f'<object id="{oid}" type="model" name="{name}"><mesh><vertices>\n'.encode(),

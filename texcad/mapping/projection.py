@@ -29,7 +29,7 @@ size in mm on every part (``scale`` only multiplies it):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable, Sequence
 
 import numpy as np
@@ -140,6 +140,24 @@ class Projection:
         if self.radius is not None and not (np.isfinite(self.radius) and self.radius > 0):
             raise ParameterError(f"radius must be a positive length in mm, got {self.radius!r}")
         parse_axis(self.axis)
+
+    def fixed(self, points: np.ndarray) -> "Projection":
+        """This projection with ``origin`` and ``radius`` taken from ``points``
+        ``(N, 3)`` mm where they are None (as :meth:`samples` would take them), so that
+        later calls on other points use the same ones."""
+        p = np.asarray(points, dtype=np.float64)
+        o = np.asarray(self.origin, dtype=np.float64) if self.origin is not None else (
+            0.5 * (p.min(axis=0) + p.max(axis=0)) if len(p) else np.zeros(3)
+        )
+        r = self.radius
+        if r is None and self.kind in ("cylindrical", "spherical") and len(p):
+            a = parse_axis(self.axis)
+            eu, ev = frame(a)
+            q = p - o
+            x, y = q @ eu, q @ ev
+            rho = np.hypot(x, y) if self.kind == "cylindrical" else np.sqrt(x * x + y * y + (q @ a) ** 2)
+            r = float(rho.mean())
+        return replace(self, origin=tuple(float(t) for t in o), radius=r)
 
     def samples(
         self, points: np.ndarray, normals: np.ndarray, tile: tuple[float, float]

@@ -126,6 +126,24 @@ class Region:
             "sphere:x,y,z,r or not:REGION"
         )
 
+    def settled(self, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+        """``(M,)`` bool: faces whose every piece after subdivision is selected as the
+        face is (``all`` and ``normal`` regions: every face; ``box`` and ``sphere``:
+        faces with all three corners inside, or whose bounding box misses the
+        region's; the rest straddle its boundary)."""
+        if self.kind in ("all", "normal"):
+            return np.ones(len(faces), dtype=bool)
+        tri = vertices[faces]
+        if self.kind == "box":
+            lo, hi = np.asarray(self.lo, float), np.asarray(self.hi, float)
+            inside = np.all((tri >= lo) & (tri <= hi), axis=(1, 2))
+            meets = np.all(tri.max(axis=1) >= lo, axis=1) & np.all(tri.min(axis=1) <= hi, axis=1)
+        else:
+            c0, r = np.asarray(self.center, float), float(self.radius)
+            inside = np.all(np.linalg.norm(tri - c0, axis=2) <= r, axis=1)
+            meets = np.all(tri.max(axis=1) >= c0 - r, axis=1) & np.all(tri.min(axis=1) <= c0 + r, axis=1)
+        return inside | ~meets
+
     def select(
         self,
         vertices: np.ndarray,

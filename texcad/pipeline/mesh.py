@@ -7,8 +7,11 @@ The job, for each texture *layer* ``(region, texture, options)``:
    is closed (:func:`load_closed`);
 2. pick the region's faces (:class:`texcad.mapping.Region`; never the bed face by
    default, and with ``build_dir`` never a face that overhangs by itself) and refine
-   only them by longest-edge bisection until no edge is longer than ``pitch`` mm
-   (:func:`texcad.solid.subdivide.refine`; conforming, so the mesh stays closed);
+   only them, conforming (the mesh stays closed): with ``tolerance=0`` until no edge
+   is longer than ``pitch`` mm (:func:`texcad.solid.subdivide.refine`, the *pitch
+   grid*); with ``tolerance > 0`` (default 0.02 mm) each face only as finely as the
+   texture needs to stay within ``tolerance`` mm of the pitch grid's points, measured
+   there and reported as ``max_error`` (:mod:`texcad.solid.adaptive`, :func:`_adaptive`);
 3. sample the texture at the region's vertices, ``h in [0, H]`` mm, through the
    projection (:class:`texcad.mapping.projection.Projection`) or as a solid 3-D
    texture;
@@ -49,8 +52,9 @@ from ..mapping.projection import PROJECTIONS, Projection, TileSampler, parse_axi
 from ..mapping.region import Region
 from ..printability import build_directions, check_critical_angle
 from ..printability.relief import limit_relief
-from ..solid import Mesh, edge_report, self_intersections
-from ..solid.subdivide import face_normals, offset_directions, refine, vertex_normals
+from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, edge_report, self_intersections
+from ..solid.adaptive import build, coarse_mesh, edge_counts, measure, pitch_samples
+from ..solid.subdivide import coarsen, face_normals, offset_directions, refine, vertex_normals
 from .result import Textured
 
 __all__ = ["MESH_SUFFIXES", "MODES", "MESH_OPTIONS", "Layer", "MeshTextured", "is_mesh_target", "load_closed", "texture_mesh"]
@@ -64,7 +68,7 @@ MODES = {"raised": 0.0, "engraved": 1.0, "centred": 0.5, "centered": 0.5}
 #: Options of :func:`texture_mesh` (per call; every layer may override the layer ones).
 LAYER_OPTIONS = ("height", "mode", "projection", "axis", "origin", "radius", "blend", "rotation", "local_radius",
                  "border", "gradient", "scale", "size", "pitch", "mask", "mask_size")
-MESH_OPTIONS = LAYER_OPTIONS + ("build_dir", "critical_angle", "progress")
+MESH_OPTIONS = LAYER_OPTIONS + ("build_dir", "critical_angle", "progress", "tolerance")
 
 
 def is_mesh_target(target: Any) -> bool:
@@ -291,21 +295,34 @@ def _border_distance(v: np.ndarray, f: np.ndarray, sel: np.ndarray, upto: float 
     """Per vertex: distance (mm) to the nearest vertex shared by a region face and a
     face outside it (inf when the region has no border, or farther than ``upto``);
     NaN off the region."""
-    from scipy.spatial import cKDTree
+    inside = np.zeros(len(v), dtype=bool)
+    inside[f[sel].ravel()] = True
+    dist = np.full(len(v), np.nan)
+    idx = np.flatnonzero(inside)
+    dist[idx] = _border_query(v, f, sel, upto)(v[idx])
+    return dist
 
+
+def _border_query(v: np.ndarray, f: np.ndarray, sel: np.ndarray, upto: float = np.inf) -> Callable[[np.ndarray], np.ndarray]:
+    """``dist(points)``: distance (mm) of points to the nearest vertex shared by a
+    region face and a face outside it (inf without a border, or farther than ``upto``)."""
     inside = np.zeros(len(v), dtype=bool)
     inside[f[sel].ravel()] = True
     outside = np.zeros(len(v), dtype=bool)
     outside[f[~sel].ravel()] = True
-    border = np.flatnonzero(inside & outside)
-    dist = np.full(len(v), np.nan)
-    idx = np.flatnonzero(inside)
+    return _nearest(v[np.flatnonzero(inside & outside)], upto)
+
+
+def _nearest(border: np.ndarray, upto: float) -> Callable[[np.ndarray], np.ndarray]:
+    """``dist(points)``: distance (mm) to the nearest of ``border`` ``(B, 3)`` (inf if
+    there is none, or it is farther than ``upto``)."""
+    from scipy.spatial import cKDTree
+
     if not len(border):
-        dist[idx] = np.inf
-    else:
-        up = upto * (1 + 1e-9) if np.isfinite(upto) and upto > 0 else np.inf
-        dist[idx], _ = cKDTree(v[border]).query(v[idx], workers=1, distance_upper_bound=up)
-    return dist
+        return lambda p: np.full(len(p), np.inf)
+    up = upto * (1 + 1e-9) if np.isfinite(upto) and upto > 0 else np.inf
+    tree = cKDTree(border)
+    return lambda p: tree.query(p, workers=1, distance_upper_bound=up)[0]
 
 
 def _gradient(points: np.ndarray, gradient: Any) -> np.ndarray:
@@ -326,6 +343,12 @@ def _select(layer: Layer, v, f, fn, dirs, crit, tol, loose):
     return sel
 
 
+def _check_regions(layers, masks) -> None:
+    for k, m in enumerate(masks):  # per layer
+        if not m.any():
+            raise ParameterError(f"region {k + 1} ({layers[k].region}) holds no face of the mesh; choose another region")
+
+
 def _refine_layers(layers, v, f, dirs, crit, tol):
     """Refine each layer's region to its pitch; returns v, f, per-layer face masks."""
     fn, _ = face_normals(v, f)
@@ -337,28 +360,190 @@ def _refine_layers(layers, v, f, dirs, crit, tol):
     return v, f, masks
 
 
-def _relief(layer: Layer, v, f, sel, normals):
-    """Per-vertex displacement ``d`` and lowest displacement ``b`` of one layer (mm)."""
-    dist = _border_distance(v, f, sel, upto=layer.border)
-    idx = np.flatnonzero(np.isfinite(dist) | np.isinf(dist))
+def _relief_at(layer: Layer, p: np.ndarray, unit: np.ndarray, dist: np.ndarray):
+    """Displacement ``d`` and lowest displacement ``b`` (mm) of one layer at points
+    ``p`` ``(P, 3)`` of its region, with unit normals and distances to its border (mm)."""
     H = float(layer.height)
-    R = H * (np.minimum(1.0, dist[idx] / layer.border) if layer.border > 0 else (dist[idx] > 0).astype(float))
-    h, info = layer.heights(v[idx], normals[idx])
+    R = H * (np.minimum(1.0, dist / layer.border) if layer.border > 0 else (dist > 0).astype(float))
+    h, info = layer.heights(p, unit)
     m = info.pop("mask", None)
     if m is not None:
         if not np.any(m > 0):
             raise ParameterError("the mask covers none of the region: check mask_size (mm) and the projection's origin")
         R = R * m  # the mask scales the M-I ramp: 0 where it is black
     c = MODES[layer.mode]
-    g = _gradient(v[idx], layer.gradient)
+    g = _gradient(p, layer.gradient)
+    return g * (np.minimum(h, R) - c * R), -g * c * R, info
+
+
+def _relief(layer: Layer, v, f, sel, normals, dist=None):
+    """Per-vertex displacement ``d`` and lowest displacement ``b`` of one layer (mm)."""
+    dist = _border_distance(v, f, sel, upto=layer.border) if dist is None else dist
+    idx = np.flatnonzero(np.isfinite(dist) | np.isinf(dist))
+    dd, bb, info = _relief_at(layer, v[idx], normals[idx], dist[idx])
     d = np.zeros(len(v))
     b = np.zeros(len(v))
-    d[idx] = g * (np.minimum(h, R) - c * R)
-    b[idx] = -g * c * R
+    d[idx] = dd
+    b[idx] = bb
     info["vertices"] = int(len(idx))
     inside = np.zeros(len(v), dtype=bool)
     inside[idx] = dist[idx] > 0  # the border itself stays where it is
     return d, b, info, inside
+
+
+def _coarse_layers(layers, v, f, dirs, crit, tol):
+    """Cut each layer's region into ladders and bisect it down to 3 pitches
+    (:func:`coarsen`); the coarse mesh, its parent normals and each face's pitch (inf
+    outside every region)."""
+    fn, _ = face_normals(v, f)
+    pitch = np.full(len(f), np.inf)
+    for layer in layers:  # per layer
+        sel = _select(layer, v, f, fn, dirs, crit, tol, loose=True)
+        v, f, _, parent = coarsen(v, f, sel, layer.pitch, ladders=True)
+        fn, pitch = fn[parent], np.where(sel[parent], np.minimum(pitch[parent], layer.pitch), pitch[parent])
+    return v, f, fn, pitch
+
+
+def _frozen(layers, c, s, masks):
+    """Each layer with its projection's origin and radius fixed from the pitch grid's
+    points in its region (what tolerance 0 would use), so every later call agrees."""
+    out = []
+    for layer, m in zip(layers, masks):  # per layer
+        vin = np.zeros(len(c.v), dtype=bool)
+        vin[c.f[m].ravel()] = True
+        pts = np.concatenate([c.v[vin], s["xyz"][_sample_member(c, s, m)]])
+        out.append(Layer(**{**layer.__dict__, "projection": layer.projection.fixed(pts)}))
+    return out
+
+
+def _sample_member(c, s, mask):
+    """Samples in a region given by coarse face ``mask``: inner points of its faces,
+    edge points of its faces' edges."""
+    e = s["edge"]
+    return np.where(e >= 0, mask[c.ef[np.maximum(e, 0), 0]] | mask[c.ef[np.maximum(e, 0), 1]], mask[np.maximum(s["face"], 0)])
+
+
+def _sample_relief(layers, c, s, masks, queries, skip):
+    """Displacement (mm) at the samples, NaN where not measured (``skip`` faces)."""
+    ds = np.zeros(len(s["xyz"]))
+    for layer, m, q in zip(layers, masks, queries):  # per layer
+        idx = np.flatnonzero(_sample_member(c, s, m))
+        if len(idx):
+            ds[idx] += _relief_at(layer, s["xyz"][idx], s["normal"][idx], q(s["xyz"][idx]))[0]
+    return np.where(_sample_member(c, s, skip) | _sample_member(c, s, ~np.any(masks, axis=0)), np.nan, ds)
+
+
+def _output_relief(layers, out):
+    """Per layer ``(d, b, info, inside)`` at the output's vertices, its strict face
+    masks and each layer's border query."""
+    parts, masks, queries = [], [], []
+    for layer, m in zip(layers, out["masks"]):  # per layer
+        q = _border_query(out["v"], out["f"], m, layer.border)
+        inside = np.zeros(len(out["v"]), dtype=bool)
+        inside[out["f"][m].ravel()] = True
+        dist = np.full(len(out["v"]), np.nan)
+        dist[inside] = q(out["v"][inside])
+        d, b, info, ins = _relief(layer, out["v"], out["f"], m, out["normal"], dist=dist)
+        parts.append((d, b, info, ins))
+        queries.append(q)
+    return parts, queries
+
+
+def _coarse_relief(layers, c, s, masks):
+    """Without faces that straddle a region's edge: each layer's border query from the
+    coarse mesh (the ends and pitch-grid points of its border edges: the vertices the
+    output has there, as those edges keep their pitch counts) and the displacement
+    at the coarse vertices (mm)."""
+    queries, d = [], np.zeros(len(c.v))
+    for layer, m in zip(layers, masks):  # per layer
+        be = m[c.ef[:, 0]] != m[c.ef[:, 1]]
+        on = (s["edge"] >= 0) & be[np.maximum(s["edge"], 0)]
+        q = _nearest(np.concatenate([c.v[np.unique(c.edges[be])], s["xyz"][on]]), layer.border)
+        inside = np.zeros(len(c.v), dtype=bool)
+        inside[c.f[m].ravel()] = True
+        dist = np.full(len(c.v), np.nan)
+        dist[inside] = q(c.v[inside])
+        d += _relief(layer, c.v, c.f, m, c.vn, dist=dist)[0]
+        queries.append(q)
+    return queries, d
+
+
+def _first_levels(c, s, ds, d, tolerance):
+    """Grid level per face from its level-1 error (the samples against its corners'
+    linear interpolation): ``ceil(sqrt(e1 / tolerance))``, at most the pitch level."""
+    e1 = np.zeros(len(c.f))
+    ok = np.isfinite(ds)
+    e = s["edge"]
+    on = np.flatnonzero(ok & (e >= 0))
+    ee, t = e[on], s["t"][on]
+    a, b = c.edges[ee, 0], c.edges[ee, 1]
+    err = np.abs(ds[on] - d[a] * (1 - t) - d[b] * t)
+    np.maximum.at(e1, c.ef[ee].ravel(), np.repeat(err, 2))
+    inn = np.flatnonzero(ok & (e < 0))
+    fi = s["face"][inn]
+    lev = c.level[fi]
+    w = np.stack([lev - s["i"][inn] - s["j"][inn], s["i"][inn], s["j"][inn]], 1) / lev[:, None]
+    err = np.abs(ds[inn] - (w * d[c.f[fi]]).sum(1))
+    np.maximum.at(e1, fi, err)
+    scale = np.linalg.norm(c.vdir, axis=1)[c.f].max(axis=1)
+    return np.clip(np.ceil(np.sqrt(e1 * scale / tolerance) - 1e-9), 1, np.maximum(c.level, 1)).astype(np.int64)
+
+
+def _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol):
+    """Each layer's faces of the output: its coarse faces' pieces, and where a face
+    straddles a box or sphere region's boundary, the pieces it selects itself."""
+    par = out["parent"]
+    res = masks[:, par]
+    cut = np.flatnonzero(straddle[par])
+    for k, layer in enumerate(layers):  # per layer
+        if len(cut):
+            res[k, cut] = _select(layer, out["v"], out["f"][cut], fn[par[cut]], dirs, crit, tol, loose=False)
+    return list(res)
+
+
+def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
+    """Error-driven adaptive subdivision (:mod:`texcad.solid.adaptive`): every face at
+    the coarsest grid level whose displacement stays within ``tolerance`` mm of the
+    pitch grid's samples. Returns the output (``v``, ``f``, ``parent``, ``normal``,
+    ``dir``, ``masks``), the layers' reliefs and the measured largest error (mm)."""
+    v, f, fn, pitch = _coarse_layers(layers, v, f, dirs, crit, tol)
+    progress(0.12, "pitch-grid samples")
+    c = coarse_mesh(v, f, pitch)
+    s = pitch_samples(c)
+    masks = np.array([_select(layer, v, f, fn, dirs, crit, tol, loose=False) for layer in layers])
+    straddle = ~np.all([layer.region.settled(v, f) for layer in layers], axis=0) & np.isfinite(pitch)
+    forced = np.any(masks[:, c.ef[:, 0]] != masks[:, c.ef[:, 1]], axis=0) | straddle[c.ef].any(axis=1)
+    layers = _frozen(layers, c, s, masks)
+    levels = np.where(straddle, c.level, 1)
+    ds, err, rounds = None, np.inf, 0
+    if not straddle.any():  # the border and the corners from the coarse mesh: no first tessellation
+        progress(0.13, "sampling the texture at the samples")
+        queries, d = _coarse_relief(layers, c, s, masks)
+        ds = _sample_relief(layers, c, s, masks, queries, straddle)
+        levels = np.maximum(levels, _first_levels(c, s, ds, d, tolerance))
+        progress(0.14, "adaptive tessellation and measurement")
+    while True:  # per round: tessellate, measure, refine the faces still off (a few)
+        counts = edge_counts(c, levels, forced)
+        out = build(c, counts)
+        out["masks"] = _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol)
+        parts, queries = _output_relief(layers, out)
+        d = np.sum([p[0] for p in parts], axis=0)
+        if ds is None:
+            progress(0.13, "sampling the texture at the samples")
+            ds = _sample_relief(layers, c, s, masks, queries, straddle)
+            levels = np.maximum(levels, _first_levels(c, s, ds, d, tolerance))
+            progress(0.14, "adaptive tessellation and measurement")
+            continue
+        per_face, err = measure(c, counts, out, d, s, ds)
+        rounds += 1
+        bad = (per_face > tolerance) & (levels < c.level)
+        progress(0.1 + 0.05 * min(rounds, 4), f"adaptive round {rounds}: {len(out['f'])} triangles, error {err:.4f} mm")
+        if not bad.any():
+            break
+        levels[bad] = c.level[bad]
+    if err > tolerance:
+        raise GeometryError(f"the adaptive mesh is {err:.4f} mm off the texture where {tolerance:g} mm was asked; use tolerance=0 (a report of this would help)")
+    return out, parts, err
 
 
 def _assert_solid(mesh: Mesh, bodies: int, what: str) -> None:
@@ -401,7 +586,9 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
             ``origin``, ``radius``, ``blend`` (20 deg), ``rotation``,
             ``local_radius``; ``border`` (2 mm fade), ``gradient`` ``(start, end)``,
             ``scale``, ``size`` (image tile, mm), ``pitch`` (0.5 mm, longest edge),
-            ``build_dir`` / ``critical_angle`` (45 deg).
+            ``build_dir`` / ``critical_angle`` (45 deg), ``tolerance`` (0.02 mm:
+            largest distance, along the displacement, between the mesh and the
+            texture at every point of the pitch grid; 0: the pitch grid itself).
 
     Raises:
         InputError: the mesh is not closed. ParameterError: a bad option or an empty
@@ -413,6 +600,7 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
     build_dir = options.pop("build_dir", None)
     crit = check_critical_angle(options.pop("critical_angle", 45.0))
     progress = options.pop("progress", None) or (lambda fr, msg: None)
+    tolerance = check_tolerance(options.pop("tolerance", DEFAULT_TOLERANCE))
     raw = where if isinstance(where, list) else [(where, texture, {})]
     layers = [Layer.make(r, t, {**options, **dict(o)}) for r, t, o in raw]
     dirs = None if build_dir is None else build_directions(build_dir)
@@ -420,15 +608,19 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
     v, f, bodies, info = load_closed(target)
     tol = 0.01 + 1e-6 * float(np.ptp(v, axis=0).max())
     progress(0.1, "subdividing the region")
-    v, f, masks = _refine_layers(layers, v, f, dirs, crit, tol)
-    for k, m in enumerate(masks):  # per layer
-        if not m.any():
-            raise ParameterError(f"region {k + 1} ({layers[k].region}) holds no face of the mesh; choose another region")
-    progress(0.3, "normals")
-    unit = vertex_normals(v, f)
-    normals = offset_directions(v, f, unit)  # keeps sharp edges sharp: no fold
-    progress(0.4, "sampling the texture")
-    parts = [_relief(layer, v, f, m, unit) for layer, m in zip(layers, masks)]
+    if tolerance > 0:
+        out, parts, max_error = _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress)
+        v, f, masks, normals = out["v"], out["f"], out["masks"], out["dir"]
+        _check_regions(layers, masks)
+    else:
+        v, f, masks = _refine_layers(layers, v, f, dirs, crit, tol)
+        _check_regions(layers, masks)
+        progress(0.3, "normals")
+        unit = vertex_normals(v, f)
+        normals = offset_directions(v, f, unit)  # keeps sharp edges sharp: no fold
+        progress(0.4, "sampling the texture")
+        parts = [_relief(layer, v, f, m, unit) for layer, m in zip(layers, masks)]
+        max_error = 0.0  # the pitch grid itself: the samples are its vertices
     d = np.sum([p[0] for p in parts], axis=0)
     b = np.sum([p[1] for p in parts], axis=0)
     progress(0.6, "limiting overhangs")
@@ -443,7 +635,7 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
     inside = np.any([p[3] for p in parts], axis=0)
     b = b - SKIN * inside
     base = Mesh((v + normals * b[:, None]).astype(np.float32), f.astype(np.uint32))
-    info.update(triangles=int(len(f)), layers=[p[2] for p in parts], kind="mesh", face="mesh",
+    info.update(triangles=int(len(f)), layers=[p[2] for p in parts], kind="mesh", face="mesh", tolerance=tolerance, max_error=max_error,
                 no_brep="a mesh has no B-rep: it is textured as a mesh", region_faces=[int(m.sum()) for m in masks])
     return _result(out, base, v, f, normals, b, d2, parts, limit, info)
 
@@ -470,4 +662,5 @@ def _result(out, base, v, f, normals, b, d2, parts, limit, info) -> MeshTextured
             res.append(_difference(mk, base))
         return res
 
-    return MeshTextured(mesh=out, base_mesh=base, texture_mesh=texture_body, layers=layer_bodies, limits=limit, info=info)
+    return MeshTextured(mesh=out, base_mesh=base, texture_mesh=texture_body, layers=layer_bodies, limits=limit, info=info,
+                        max_error=info["max_error"])

@@ -84,6 +84,8 @@ def texture(
             * CAD faces and surfaces: ``tolerance`` (0.02): largest distance in mm
               from the mesh to the exact texture at any pixel centre (a lean mesh,
               measured and reported as ``.max_error``; 0: one vertex per pixel);
+              meshes: the same default, measured at every point of the pitch grid
+              (0: the pitch grid itself);
             * CAD faces and surfaces: ``mode`` (``"raised"``; ``"engraved"``: cut
               into the part, its outer envelope kept; ``"centred"``: half and half)
               and ``gradient`` (``(start, end)`` points, mm: full depth at ``start``,

@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .subdivide import cross
+
 __all__ = ["self_intersections"]
 
 #: Relative tolerance: an edge that ends on, or grazes, a triangle does not cross it.
@@ -33,12 +35,12 @@ def _touches(tri: np.ndarray, t: np.ndarray, centre: np.ndarray, r: float) -> np
     """``(E,)`` bool: the ball of radius ``r`` around ``centre[k]`` may meet triangle
     ``tri[t[k]]`` (within ``r`` of its plane and of the inner side of its three edges:
     conservative, never drops a cell the triangle meets)."""
-    p = tri[t]
-    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    p = np.take(tri, t, axis=0)
+    n = cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
     ok = np.abs(((centre - p[:, 0]) * n).sum(1)) <= r
     for k in range(3):  # per edge: its side plane, normal pointing away from the triangle
-        s = np.cross(p[:, (k + 1) % 3] - p[:, k], n)
+        s = cross(p[:, (k + 1) % 3] - p[:, k], n)
         s /= np.maximum(np.linalg.norm(s, axis=1, keepdims=True), 1e-300)
         ok &= ((centre - p[:, k]) * s).sum(1) <= r
     return ok
@@ -92,13 +94,13 @@ def _edges_cross(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     for k in range(3):  # per edge of p
         o = p[:, k]
         d = p[:, (k + 1) % 3] - o
-        pv = np.cross(d, e2)
+        pv = cross(d, e2)
         det = (e1 * pv).sum(1)
         ok = np.abs(det) > EPS * scale * np.linalg.norm(d, axis=1)
         inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
         tv = o - a
         u = (tv * pv).sum(1) * inv
-        qv = np.cross(tv, e1)
+        qv = cross(tv, e1)
         v = (d * qv).sum(1) * inv
         t = (e2 * qv).sum(1) * inv
         hit |= ok & (u > EPS) & (v > EPS) & (u + v < 1 - EPS) & (t > EPS) & (t < 1 - EPS)
@@ -121,7 +123,7 @@ def self_intersections(vertices: np.ndarray, faces: np.ndarray, *, budget: int =
     f = np.asarray(faces, dtype=np.int64)
     if len(f) < 2:
         return np.zeros((0, 2), dtype=np.int64)
-    tri = v[f]
+    tri = np.take(v, f, axis=0)
     lo, hi = tri.min(axis=1), tri.max(axis=1)
     size = float(np.median((hi - lo).max(axis=1)))
     extent = float((hi.max(axis=0) - lo.min(axis=0)).max())
