@@ -38,8 +38,8 @@ def add_tolerance(parser: argparse.ArgumentParser) -> None:
         type=nonnegative_float,
         default=DEFAULT_TOLERANCE,
         metavar="MM",
-        help=f"largest height error of the texture mesh at any pixel centre, mm (default {DEFAULT_TOLERANCE:g}; "
-        "0 = one vertex per pixel)",
+        help=f"largest error of the texture mesh, mm: at every pixel centre (CAD faces, surfaces) or every point of "
+        f"the pitch grid (meshes) (default {DEFAULT_TOLERANCE:g}; 0 = one vertex per pixel / the pitch grid)",
     )
 
 
