@@ -38,16 +38,17 @@ def general_brep(topo: Any, res: dict, no_brep: str):
         raise GeometryError(f"{no_brep}: {e}") from None
 
 
-def extrusion_brep(topo: Any, face: Any, top, bottom, *, closed: bool, base=None):
+def extrusion_brep(topo: Any, face: Any, top, bottom, *, closed: bool, base=None, fine=None):
     """The textured B-rep of a face of an extruded profile (grids in world mm, as
     :func:`texcad.solid.textured_extrusion_solid`; ``base`` ``(C, 3)``: the face
-    under the grid's first row): an open profile's face is replaced in place
-    (:func:`texcad.solid.open_extrusion_solid`, no boolean); closed bands and anything
-    else go to :func:`texcad.solid.textured_extrusion_solid`."""
+    under the grid's first row): an open profile's face is replaced in place by tiles
+    (:func:`texcad.solid.open_extrusion_solid`, no boolean; ``fine``: boxes ``(lo,
+    hi)`` mm where the tiles are small, for a CAD operation's tool); closed bands and
+    anything else go to :func:`texcad.solid.textured_extrusion_solid`."""
     from ..solid import open_extrusion_solid, textured_extrusion_solid
 
     if not closed:
-        out = open_extrusion_solid(topo, face, top, base)
+        out = open_extrusion_solid(topo, face, top, base, fine=fine)
         if out is not None:
             return out
     return textured_extrusion_solid(topo, face, top, bottom, closed=closed)

@@ -562,9 +562,9 @@ def _texture_extrusion(
             "limits": [str(x) for x in mapped.limits],
         },
     }
-    def make_shape():  # base: the face under the first row's columns (local x, y0, z)
+    def make_shape(fine=None):  # base: the face under the first row's columns (local x, y0, z)
         base = world(np.insert(profile.point(np.asarray(mapped.s, np.float64)), 1, y_rows[0], axis=1))
-        return _brep_faces.extrusion_brep(topo, face, top_w, world(bottom), closed=mapped.closed, base=base)
+        return _brep_faces.extrusion_brep(topo, face, top_w, world(bottom), closed=mapped.closed, base=base, fine=fine)
 
     result["shape"] = make_shape if make_brep else None
     return result

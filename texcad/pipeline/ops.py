@@ -9,7 +9,9 @@
   rebuilt for the operation with tiles of at most :data:`texcad.solid.FINE` x
   :data:`~texcad.solid.FINE` cells where the tool's bounding box meets the texture
   (planar faces; measured: 20 of 20 random cuts and bosses right, against 17 of 20
-  with 4- to 24-cell tiles), and the operations made so far are replayed on it.
+  with 4- to 24-cell tiles; on open profiles such as the sine sample, where the
+  grid's poles lie in the tool's bounding box), and the operations made so far are
+  replayed on it.
 * :func:`fillet` (``Textured.fillet``): OCCT's fillet of the textured B-rep; the mesh
   is the filleted *untextured* part (OCCT, tessellated at 5 um) united with the
   texture mesh (manifold3d).
@@ -112,9 +114,12 @@ def _history(part: Any) -> dict:
     placement = np.asarray(part._placement, np.float64)
     unplaced = _apply(shape, np.linalg.inv(_m4(placement))[:3]) if not np.allclose(placement, np.eye(3, 4)) else shape
     info = part.info
-    make = info.get("_make_shape") if info.get("face") == "plane" else None
+    open_profile = info.get("face") == "extrusion" and not info.get("closed", True)
+    make = info.get("_make_shape") if info.get("face") == "plane" or open_profile else None
     frame = None
-    if make is not None:
+    if make is not None and open_profile:  # fine tiles where the grid's poles lie in the tool's box
+        frame = ("box", 2.0 * float(max(part.heightmap.pitch)))
+    elif make is not None:
         frame = (np.asarray(info["origin"]), np.asarray(info["xdir"]), np.asarray(info["ydir"]))
         x = np.asarray(info["x"], np.float64)
         frame += (float(x[1] - x[0]),)
@@ -127,15 +132,18 @@ def _world(part: Any, hist: dict) -> np.ndarray:
     return (_m4(part._placement) @ _m4(hist["to_world"]))[:3]
 
 
-def _fine_rect(tool_local, frame) -> tuple[float, float, float, float]:
+def _fine_rect(tool_local, frame) -> tuple:
     """The tool's bounding box seen in the face frame ``(x0, x1, y0, y1)`` mm, two
-    pixels wider."""
+    pixels wider (an open profile's frame ``("box", margin)``: the box itself, ``(lo
+    (3,), hi (3,))`` mm, ``margin`` wider)."""
     from OCP.Bnd import Bnd_Box
     from OCP.BRepBndLib import BRepBndLib
 
     box = Bnd_Box()
     BRepBndLib.Add_s(tool_local, box)
     lo, hi = np.array(box.CornerMin().Coord()), np.array(box.CornerMax().Coord())
+    if isinstance(frame[0], str):  # ("box", margin)
+        return (lo - frame[1], hi + frame[1])
     corners = np.array([[(lo, hi)[i][0], (lo, hi)[j][1], (lo, hi)[k][2]] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
     o, ex, ey, pitch = frame
     u, v = (corners - o) @ ex, (corners - o) @ ey

@@ -29,10 +29,10 @@ from typing import Any
 import numpy as np
 
 from ..errors import GeometryError
-from .brep import TOLERANCE, _remember_tile, _replace_faces, _tile_text
+from .brep import TILE, TOLERANCE, _remember_tile, _replace_faces, _tile_text, tiled_grid_faces
 from .occt import explore, to_topods
 
-__all__ = ["uv_textured_solid", "open_extrusion_solid"]
+__all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place"]
 
 
 def _surface_rows(face, u: np.ndarray, v: np.ndarray):
@@ -286,7 +286,7 @@ class _Projector:
         return np.array(self.sas.Value(u, v).Coord())
 
 
-def open_extrusion_solid(shape: Any, face: Any, top: np.ndarray, base: np.ndarray | None = None):
+def open_extrusion_solid(shape: Any, face: Any, top: np.ndarray, base: np.ndarray | None = None, *, fine=None):
     """``shape`` with a face of an open extruded profile (a partial cylinder, the
     sine sample's top) textured in place, **without a boolean**: the texture grid
     ``top`` (``(R, C, 3)`` mm; rows across the extrusion, columns along the profile,
@@ -373,7 +373,25 @@ def open_extrusion_solid(shape: Any, face: Any, top: np.ndarray, base: np.ndarra
     T[0] = edge[0] + (V - v0)[:, None] * deriv[0]
     T[-1] = edge[-1] + (V - v0)[:, None] * deriv[0]
     T[np.ix_(gi, gj)] = grid
+    # Tiles end at every frame line: the flat frame and the narrow walls are tiles of their own.
+    frame = [np.concatenate([np.arange(1, k[0] + 1), np.arange(k[-1], n - 1)]) for k, n in ((gj, len(V)), (gi, len(U)))]
+    out = tiled_in_place(shape, old, U, V, T, breaks=tuple(frame), fine=_fine_cells(T, fine))
+    if out is not None:
+        return out
     return _replace_faces(to_topods(shape), [(old, [_new_face(old, U, V, T)])])
+
+
+def _fine_cells(T: np.ndarray, boxes) -> list | None:
+    """Index rectangles ``(v0, v1, u0, u1)`` of the pole grid ``T`` (``(Nu, Nv, 3)``
+    mm) around the poles inside each box ``(lo (3,), hi (3,))`` mm, one cell wider."""
+    if not boxes:
+        return None
+    out = []
+    for lo, hi in boxes:  # one per CAD operation's tool
+        iu, iv = np.nonzero(((T >= np.asarray(lo)) & (T <= np.asarray(hi))).all(axis=-1))
+        if len(iu):
+            out.append((max(int(iv.min()) - 1, 0), int(iv.max()) + 1, max(int(iu.min()) - 1, 0), int(iu.max()) + 1))
+    return out
 
 
 def _framed(pg: np.ndarray, lo: float, hi: float):
@@ -406,3 +424,205 @@ def _framed(pg: np.ndarray, lo: float, hi: float):
     knots = np.concatenate([low_k, K, up_k])
     under = np.concatenate([low_s, pg, up_s])
     return knots, under, np.arange(len(low_k), len(low_k) + len(pg))
+
+
+# -- a face replaced by tiles, sewn to its own boundary edges split at the tile corners -----------
+def _sides(fwd, U: np.ndarray, V: np.ndarray) -> dict | None:
+    """The face's boundary edge on each side of its ``(u, v)`` rectangle ``U[0] ..
+    U[-1]`` x ``V[0] .. V[-1]``: ``{"v0": (edge, increasing), ...}`` (``increasing``:
+    the edge's parameter runs towards higher ``u`` or ``v``), or None unless there are
+    exactly four edges, one per side, none a seam or degenerate."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve2d
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopoDS import TopoDS
+
+    edges = explore(fwd, TopAbs_EDGE)
+    tol = 1e-7 * (abs(U[-1] - U[0]) + abs(V[-1] - V[0]) + 1.0)
+    out: dict = {}
+    for e in edges:  # 4 edges
+        edge = TopoDS.Edge_s(e)
+        if BRep_Tool.IsClosed_s(edge, fwd) or BRep_Tool.Degenerated_s(edge):
+            return None
+        c2 = BRepAdaptor_Curve2d(edge, fwd)
+        a, b = np.array(c2.Value(c2.FirstParameter()).Coord()), np.array(c2.Value(c2.LastParameter()).Coord())
+        for name, axis, val in (("u0", 0, U[0]), ("u1", 0, U[-1]), ("v0", 1, V[0]), ("v1", 1, V[-1])):  # 4 sides
+            if abs(a[axis] - val) < tol and abs(b[axis] - val) < tol and name not in out:
+                out[name] = (edge, bool(b[1 - axis] > a[1 - axis]))
+                break
+        else:
+            return None
+    return out if len(out) == 4 and len(edges) == 4 else None
+
+
+def _split_edge(b, edge, fwd, points2d: np.ndarray, increasing: bool, tol: float):
+    """``edge`` split at the parameters whose pcurve on ``fwd`` passes ``points2d``
+    (``(n, 2)``, in the order of the tile corners, ends included): ``(vertices,
+    pieces along the edge, pieces oriented towards the higher index)``."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.Geom2dAPI import Geom2dAPI_ProjectPointOnCurve
+    from OCP.gp import gp_Pnt, gp_Pnt2d
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS, TopoDS_Edge, TopoDS_Vertex
+
+    ad = BRepAdaptor_Curve(edge)
+    f, l = ad.FirstParameter(), ad.LastParameter()
+    curve = BRep_Tool.Curve_s(edge, 0.0, 0.0)
+    pc = BRep_Tool.CurveOnSurface_s(edge, fwd, 0.0, 0.0)
+    if curve is None or pc is None:
+        return None
+    ts = [f if increasing else l]
+    for q in points2d[1:-1]:  # per inner tile corner on the side
+        pr = Geom2dAPI_ProjectPointOnCurve(gp_Pnt2d(float(q[0]), float(q[1])), pc, f, l)
+        if pr.NbPoints() < 1:
+            return None
+        ts.append(pr.LowerDistanceParameter())
+    ts.append(l if increasing else f)
+    ts = np.array(ts)
+    if not (np.all(np.diff(ts) > 0) if increasing else np.all(np.diff(ts) < 0)):
+        return None
+    first, last = TopExp.FirstVertex_s(edge), TopExp.LastVertex_s(edge)  # at f and at l (edge orientation ignored)
+    verts = [first if increasing else last]
+    for t in ts[1:-1].tolist():  # per inner tile corner
+        v = TopoDS_Vertex()
+        b.MakeVertex(v, gp_Pnt(*ad.Value(t).Coord()), tol)
+        verts.append(v)
+    verts.append(last if increasing else first)
+    along, oriented = [], []
+    for k in range(len(ts) - 1):  # per piece
+        lo, hi = (k, k + 1) if increasing else (k + 1, k)
+        piece = TopoDS_Edge()
+        b.MakeEdge(piece, curve, tol)
+        b.Add(piece, verts[lo].Oriented(TopAbs_FORWARD))
+        b.Add(piece, verts[hi].Oriented(TopAbs_REVERSED))
+        b.Range(piece, float(ts[lo]), float(ts[hi]))
+        along.append(piece)
+        oriented.append((piece if increasing else TopoDS.Edge_s(piece.Reversed()), pc))
+    if not increasing:
+        along = along[::-1]
+    return verts, along, oriented
+
+
+def _with_pieces(b, face, pieces: dict, tol: dict):
+    """A copy of ``face`` (same surface, location and orientation) whose wires have
+    each edge of ``pieces`` (``{edge: [pieces along it]}``) replaced by its pieces,
+    which get the edge's pcurves on it."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopoDS import TopoDS, TopoDS_Iterator, TopoDS_Wire
+
+    new = TopoDS.Face_s(face.EmptyCopied())
+    for edge, along in pieces.items():  # the replaced edges on this face
+        if BRep_Tool.IsClosed_s(edge, face):
+            c1 = BRep_Tool.CurveOnSurface_s(TopoDS.Edge_s(edge.Oriented(TopAbs_FORWARD)), face, 0.0, 0.0)
+            c2 = BRep_Tool.CurveOnSurface_s(TopoDS.Edge_s(edge.Oriented(TopAbs_REVERSED)), face, 0.0, 0.0)
+            for p in along:  # per piece
+                b.UpdateEdge(p, c1, c2, face, tol[edge])
+        else:
+            c = BRep_Tool.CurveOnSurface_s(edge, face, 0.0, 0.0)
+            for p in along:  # per piece
+                b.UpdateEdge(p, c, face, tol[edge])
+    wit = TopoDS_Iterator(face)
+    while wit.More():  # per wire
+        w = TopoDS_Wire()
+        b.MakeWire(w)
+        eit = TopoDS_Iterator(wit.Value())
+        while eit.More():  # per edge of the wire
+            e = eit.Value()
+            key = next((k for k in pieces if k.IsSame(e)), None)
+            if key is None:
+                b.Add(w, e)
+            elif e.Orientation() == TopAbs_FORWARD:
+                for p in pieces[key]:  # per piece
+                    b.Add(w, p)
+            elif e.Orientation() == TopAbs_REVERSED:
+                for p in reversed(pieces[key]):  # per piece
+                    b.Add(w, p.Reversed())
+            else:
+                return None
+            eit.Next()
+        w.Closed(wit.Value().Closed())
+        b.Add(new, w)
+        wit.Next()
+    return new
+
+
+def tiled_in_place(shape: Any, face: Any, U: np.ndarray, V: np.ndarray, T: np.ndarray, *, tile: int = TILE, breaks=((), ()),
+                   fine=None):
+    """``shape`` with ``face`` replaced by the degree-1 surface through the poles
+    ``T`` (``(len(U), len(V), 3)`` mm) on the face's own ``(u, v)`` knots ``U`` x
+    ``V`` (whose outer rows are the face's boundary), made as **tiles** of at most
+    ``tile`` x ``tile`` cells (:func:`texcad.solid.tiled_grid_faces`, each carrying its
+    grid triangulation) sewn to the face's own boundary edges, split at the tile
+    corners (tiles also end at the grid lines ``breaks``, ``(v indices, u indices)``,
+    see :func:`texcad.solid.tiled_grid_faces`); the neighbouring faces get the same
+    pieces in place of each edge; ``fine``: index rectangles ``(v0, v1, u0, u1)``
+    where the tiles are small (:data:`texcad.solid.FINE`). No
+    boolean, no sewing: every edge is shared by construction. The pieces' tolerance
+    grows by the chord between the edge and the bilinear tiles (sampled).
+
+    Returns:
+        The new shape, or None unless the face has four boundary edges, one per side
+        of its ``(u, v)`` rectangle (then use one face, :func:`uv_textured_solid`'s way).
+    """
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD, TopAbs_REVERSED, TopAbs_VERTEX
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    topo, old = to_topods(shape), TopoDS.Face_s(to_topods(face))
+    fwd = TopoDS.Face_s(old.Oriented(TopAbs_FORWARD))
+    sides = _sides(fwd, U, V)
+    if sides is None:
+        return None
+    b = BRep_Builder()
+    tol, pieces, failed = {}, {}, []
+    for edge, _ in sides.values():  # 4 edges
+        tol[edge] = max(BRep_Tool.Tolerance_s(edge), 1.5 * _edge_deviation(edge, fwd, U, V, T) + TOLERANCE)
+        for x in explore(edge, TopAbs_VERTEX):  # its two vertices
+            vx = TopoDS.Vertex_s(x)
+            b.UpdateVertex(vx, max(BRep_Tool.Tolerance_s(vx), tol[edge]))
+
+    def outline(name: str, stops: np.ndarray):
+        edge, increasing = sides[name]
+        pts = np.stack([U[stops], np.full(len(stops), V[0 if name == "v0" else -1])], axis=1) if name[0] == "v" else \
+            np.stack([np.full(len(stops), U[0 if name == "u0" else -1]), V[stops]], axis=1)  # fmt: skip
+        got = _split_edge(b, edge, fwd, pts, increasing, tol[edge])
+        if got is None:
+            failed.append(name)
+            raise GeometryError(f"internal: the face's {name} edge cannot be split at the tile corners")
+        verts, along, oriented = got
+        pieces[edge] = along
+        return verts, oriented
+
+    grid = np.ascontiguousarray(np.asarray(T, np.float64).transpose(1, 0, 2))  # rows along v, columns along u
+    try:
+        tiles, _ = tiled_grid_faces(grid, np.asarray(U, np.float64), np.asarray(V, np.float64), tile=tile, outline=outline, breaks=breaks, fine=fine)
+    except GeometryError:
+        if failed:
+            return None
+        raise
+    if old.Orientation() == TopAbs_REVERSED:
+        tiles = [TopoDS.Face_s(t.Reversed()) for t in tiles]
+    owners = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(topo, TopAbs_EDGE, TopAbs_FACE, owners)
+    neighbours: list = []
+    for edge in pieces:  # 4 edges
+        for f in owners.FindFromKey(edge):  # the faces along it (two)
+            if f.IsSame(old):
+                continue
+            hit = next((n for n in neighbours if n[0].IsSame(f)), None)
+            if hit is None:
+                neighbours.append((TopoDS.Face_s(f), {}))
+                hit = neighbours[-1]
+            hit[1][edge] = pieces[edge]
+    swaps = [(old, tiles)]
+    for f, mine in neighbours:  # 4 faces at most
+        new = _with_pieces(b, f, mine, tol)
+        if new is None:
+            return None
+        swaps.append((f, [new]))
+    return _replace_faces(topo, swaps)
