@@ -210,3 +210,35 @@ def test_engraved_and_centred_faces_have_their_step(make, mode, tmp_path):
         assert occt_volume(back) < part.volume
     shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
     assert _distance(shown.vertices, tx.mesh) < DEFLECTION
+
+
+def test_plate_with_holes_in_tiles(tmp_path):
+    """A planar face with holes and a pocket: tiles where the texture is (halved near
+    the outlines, never touching them), planar faces around them (islands around the
+    holes), no boolean; one valid solid whose OCCT volume is within 0.1 % of the
+    mesh, its STEP shown as texcad's mesh, and a hole drilled through the texture
+    checked against manifold3d."""
+    from build123d import Axis, Box, Cylinder, GeomType, Pos
+
+    plate = Box(60, 40, 6) - Pos(-15, 0, 0) * Cylinder(5, 10) - Pos(15, 5, 0) * Cylinder(3, 10) - Pos(20, -12, 2) * Box(8, 6, 4)
+    top = plate.faces().sort_by(Axis.Z)[-1]
+    assert len(top.wires()) == 4
+    tx = texcad.texture(plate, top, "builtin:stones", height=1.0, pitch=0.5)
+    shape = tx.shape
+    faces, most = _poles(shape)
+    assert most <= (texcad.solid.TILE + 1) ** 2 and faces > 60  # tiles, not one large face
+    slack = tx.info.get("volume_slack", 0.0)
+    assert abs(occt_volume(shape, 1e-3) - tx.volume) <= 1e-3 * tx.volume + slack
+    path = tmp_path / "holes.step"
+    tx.export(path)
+    back = texcad.io.read_step(path)
+    chk = check_shape(back)
+    assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
+    shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
+    assert _distance(shown.vertices, tx.mesh) < DEFLECTION
+    assert _distance(tx.mesh.vertices, shown) < DEFLECTION
+    cut = tx - Pos(0, 0, 0) * Cylinder(4, 30)
+    assert tx.volume - cut.volume > 300
+    cs = cut.shape  # checked: valid, one solid, volume within 0.1 % of manifold3d's
+    assert abs(occt_volume(cs, 1e-3) - cut.volume) <= 1e-3 * cut.volume + slack
+    assert len(plate.faces().filter_by(GeomType.CYLINDER)) == 2

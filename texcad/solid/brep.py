@@ -1060,17 +1060,19 @@ def _leaves(rows: int, cols: int, tile: int, fine: Sequence | None, breaks=((), 
     """Tiles ``(r0, r1, c0, c1)`` (grid line indices) over ``rows`` x ``cols`` cells:
     at most ``tile`` cells a side, ending at the grid lines ``breaks`` ``(rows,
     columns)``, and at most :data:`FINE` where a tile overlaps one of the ``fine``
-    index rectangles ``(r0, r1, c0, c1)``."""
+    index rectangles ``(r0, r1, c0, c1)`` (or ``(r0, r1, c0, c1, cells)``: at most
+    ``cells`` there)."""
     rb, cb = _split_bounds(rows, tile, breaks[0]), _split_bounds(cols, tile, breaks[1])
     out = []
     for i in range(len(rb) - 1):  # one per tile
         for j in range(len(cb) - 1):
             r0, r1, c0, c1 = int(rb[i]), int(rb[i + 1]), int(cb[j]), int(cb[j + 1])
-            hit = any(r0 < fr1 and fr0 < r1 and c0 < fc1 and fc0 < c1 for fr0, fr1, fc0, fc1 in (fine or ()))
+            hit = [f for f in (fine or ()) if r0 < f[1] and f[0] < r1 and c0 < f[3] and f[2] < c1]
             if not hit:
                 out.append((r0, r1, c0, c1))
                 continue
-            sr, sc = r0 + _tile_bounds(r1 - r0, FINE), c0 + _tile_bounds(c1 - c0, FINE)
+            size = min(int(f[4]) if len(f) > 4 else FINE for f in hit)
+            sr, sc = r0 + _tile_bounds(r1 - r0, size), c0 + _tile_bounds(c1 - c0, size)
             out += [(int(sr[a]), int(sr[a + 1]), int(sc[c]), int(sc[c + 1])) for a in range(len(sr) - 1) for c in range(len(sc) - 1)]
     return out
 
@@ -1086,6 +1088,8 @@ def tiled_grid_faces(
     wrap_x: bool = False,
     outline: Any = None,
     breaks: tuple = ((), ()),
+    leaves: list | None = None,
+    edges_out: dict | None = None,
 ):
     """The degree-1 B-spline surface through an ``(R, C, 3)`` grid (mm), made as a
     patchwork of tiles of at most ``tile`` x ``tile`` cells that **share** their
@@ -1121,7 +1125,13 @@ def tiled_grid_faces(
     ``(vertices, pieces)``: one ``TopoDS_Vertex`` per stop and, per pair of
     consecutive stops, ``(edge, pcurve)``: the edge oriented towards the higher index
     and its ``Geom2d_Curve`` in the ``(x, y)`` parameter plane (its tolerance is the
-    edge's own).
+    edge's own). ``breaks``: ``(rows, columns)`` grid lines where tiles must end
+    (around narrow cells such as a wall: OCCT's Gauss integration of a tile is off
+    where its cells differ in size by orders of magnitude). ``leaves``: the tiles
+    ``(r0, r1, c0, c1)`` (grid line indices) to make instead of the whole grid's (any
+    set of non-overlapping rectangles; ``boundary`` is then empty); ``edges_out``: a
+    dict filled with every edge, ``{(horizontal, line, a, z): (edge, param_line)}``
+    (grid indices; edges oriented towards the higher index).
 
     Returns:
         ``(faces, boundary)``: ``faces`` a list of forward ``TopoDS_Face`` (normal
@@ -1142,7 +1152,9 @@ def tiled_grid_faces(
     if not np.isfinite(g).all():
         raise GeometryError("the grid holds NaN or infinite coordinates")
     require_memory(g.shape[0] * g.shape[1] * 500.0, f"a {g.shape[0]} x {g.shape[1]} tiled B-spline face", "use a larger pitch")
-    leaves = _leaves(g.shape[0] - 1, g.shape[1] - 1, tile, fine, breaks)
+    own = leaves is None
+    if own:
+        leaves = _leaves(g.shape[0] - 1, g.shape[1] - 1, tile, fine, breaks)
     text = _tile_text(
         [g[r0 : r1 + 1, c0 : c1 + 1] for r0, r1, c0, c1 in leaves],
         [x[c0 : c1 + 1] for r0, r1, c0, c1 in leaves],
@@ -1160,7 +1172,10 @@ def tiled_grid_faces(
         faces.append(TopoDS.Face_s(it.Value()))
         faces[-1].Free(True)  # read shapes are frozen; the wire is added below
         it.Next()
-    return _share_tile_edges(b, g, x, y, leaves, faces, wrap_x, outline)
+    out, boundary, edges = _share_tile_edges(b, g, x, y, leaves, faces, wrap_x, outline)
+    if edges_out is not None:
+        edges_out.update(edges)
+    return out, (boundary if own else [])
 
 
 def _patch_boundary(edges: dict, R: int, C: int, wrap: bool):
@@ -1244,7 +1259,7 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
     """Give the tile faces (``leaves`` ``(r0, r1, c0, c1)`` of the grid ``g``) shared
     vertices and edges, split at every tile corner on a side, with straight pcurves
     (the border's edges from ``outline`` if given, see :func:`tiled_grid_faces`);
-    returns :func:`tiled_grid_faces`' ``(faces, boundary)``."""
+    returns :func:`tiled_grid_faces`' ``(faces, boundary)`` and every edge (a dict)."""
     from OCP.BRep import BRep_Tool
     from OCP.Geom2d import Geom2d_Line
     from OCP.gp import gp_Dir2d, gp_Pnt, gp_Pnt2d
@@ -1307,7 +1322,7 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
         return out
 
     out = [_tile_wire(b, k, leaf, faces[k], side) for k, leaf in enumerate(leaves)]  # one per tile
-    return out, _patch_boundary(edges, g.shape[0] - 1, g.shape[1] - 1, period is not None)
+    return out, _patch_boundary(edges, g.shape[0] - 1, g.shape[1] - 1, period is not None), edges
 
 
 def _tile_wire(b, k: int, leaf: tuple, face, side):
@@ -1418,10 +1433,10 @@ def tiled_plane_solid(
         return None
     grid = o + x[None, c0 : c1 + 1, None] * ex + y[r0 : r1 + 1, None, None] * ey + h[r0 : r1 + 1, c0 : c1 + 1, None] * n
     idx = []
-    for fx0, fx1, fy0, fy1 in fine or ():  # one per tool
-        ca, cz = np.searchsorted(x[c0 : c1 + 1], [fx0, fx1]) + np.array([-1, 1])
-        ra, rz = np.searchsorted(y[r0 : r1 + 1], [fy0, fy1]) + np.array([-1, 1])
-        idx.append((int(ra), int(rz), int(ca), int(cz)))
+    for f in fine or ():  # one per tool: (x0, x1, y0, y1[, cells])
+        ca, cz = np.searchsorted(x[c0 : c1 + 1], [f[0], f[1]]) + np.array([-1, 1])
+        ra, rz = np.searchsorted(y[r0 : r1 + 1], [f[2], f[3]]) + np.array([-1, 1])
+        idx.append((int(ra), int(rz), int(ca), int(cz), *f[4:]))
     tiles, boundary = tiled_grid_faces(grid, x[c0 : c1 + 1], y[r0 : r1 + 1], tile=tile, triangulate=triangulate, fine=idx)
     pln = _frame_pln(o, n, ex)
     b = BRep_Builder()
@@ -1471,8 +1486,12 @@ def textured_plane_solid(
     else as one B-spline face trimmed by the face's own wires
     (:func:`textured_plane_face` + :func:`replace_face`: the same solid, slower for
     OCCT's mesher and booleans)."""
+    from .brep_faces import holed_plane_solid
+
     frame = dict(origin=origin, xdir=xdir, normal=normal)
     out = tiled_plane_solid(shape, face, heights, x, y, tile=tile, fine=fine, **frame)
+    if out is None:  # an outline inside the textured rectangle (holes, pockets, notches)
+        out = holed_plane_solid(shape, face, heights, x, y, tile=tile, fine=fine, **frame)
     if out is not None:
         return out
     return replace_face(shape, face, textured_plane_face(face, heights, x, y, **frame))

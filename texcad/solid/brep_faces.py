@@ -32,7 +32,7 @@ from ..errors import GeometryError
 from .brep import TILE, TOLERANCE, _remember_tile, _replace_faces, _tile_text, tiled_grid_faces
 from .occt import explore, to_topods
 
-__all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place"]
+__all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid"]
 
 
 def _surface_rows(face, u: np.ndarray, v: np.ndarray):
@@ -382,15 +382,16 @@ def open_extrusion_solid(shape: Any, face: Any, top: np.ndarray, base: np.ndarra
 
 
 def _fine_cells(T: np.ndarray, boxes) -> list | None:
-    """Index rectangles ``(v0, v1, u0, u1)`` of the pole grid ``T`` (``(Nu, Nv, 3)``
-    mm) around the poles inside each box ``(lo (3,), hi (3,))`` mm, one cell wider."""
+    """Index rectangles ``(v0, v1, u0, u1[, cells])`` of the pole grid ``T`` (``(Nu,
+    Nv, 3)`` mm) around the poles inside each box ``(lo (3,), hi (3,)[, cells])`` mm,
+    one cell wider."""
     if not boxes:
         return None
     out = []
-    for lo, hi in boxes:  # one per CAD operation's tool
-        iu, iv = np.nonzero(((T >= np.asarray(lo)) & (T <= np.asarray(hi))).all(axis=-1))
+    for box in boxes:  # one per CAD operation's tool: (lo, hi[, cells])
+        iu, iv = np.nonzero(((T >= np.asarray(box[0])) & (T <= np.asarray(box[1]))).all(axis=-1))
         if len(iu):
-            out.append((max(int(iv.min()) - 1, 0), int(iv.max()) + 1, max(int(iu.min()) - 1, 0), int(iu.max()) + 1))
+            out.append((max(int(iv.min()) - 1, 0), int(iv.max()) + 1, max(int(iu.min()) - 1, 0), int(iu.max()) + 1, *box[2:]))
     return out
 
 
@@ -626,3 +627,270 @@ def tiled_in_place(shape: Any, face: Any, U: np.ndarray, V: np.ndarray, T: np.nd
             return None
         swaps.append((f, [new]))
     return _replace_faces(topo, swaps)
+
+
+# -- a planar face with holes: tiles where the texture is, planar faces around them --------------
+def _dirty_cells(old, o, ex, ey, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(dirty, segs)``: ``(R - 1, C - 1)`` bool, the grid cells that the face's
+    outline touches (sampled every quarter cell, then grown by one cell) or whose
+    centre lies outside the face; ``segs`` the outline in the face frame (mm)."""
+    from scipy.ndimage import binary_dilation
+
+    from .brep import face_segments, inside, sample_segments
+
+    step = 0.25 * float(min(x[1] - x[0], y[1] - y[0]))
+    seg3 = face_segments(old, step) - o
+    segs = np.stack([seg3 @ ex, seg3 @ ey], axis=-1)
+    pts = sample_segments(segs, step)
+    R, C = len(y), len(x)
+    hit = np.zeros((R - 1, C - 1), bool)
+    ci = np.clip(np.searchsorted(x, pts[:, 0]) - 1, 0, C - 2)
+    ri = np.clip(np.searchsorted(y, pts[:, 1]) - 1, 0, R - 2)
+    hit[ri, ci] = True
+    hit = binary_dilation(hit, np.ones((3, 3), bool))
+    centre = inside(segs, 0.5 * (x[1:] + x[:-1]), 0.5 * (y[1:] + y[:-1]))
+    return hit | ~centre, segs
+
+
+def _quad_leaves(want: np.ndarray, dirty: np.ndarray, tile: int, fine) -> list | None:
+    """Rectangles of cells ``(r0, r1, c0, c1)`` covering every ``want`` cell with
+    clean cells only: :func:`~texcad.solid.brep._leaves` tiles, halved until clean
+    (down to single cells); None if a wanted cell is dirty."""
+    from .brep import _leaves
+
+    if (want & dirty).any():
+        return None
+    cw = np.pad(np.cumsum(np.cumsum(want, 0), 1), ((1, 0), (1, 0)))  # summed-area tables
+    cd = np.pad(np.cumsum(np.cumsum(dirty, 0), 1), ((1, 0), (1, 0)))
+
+    def count(t, r0, r1, c0, c1):
+        return t[r1, c1] - t[r0, c1] - t[r1, c0] + t[r0, c0]
+
+    out, todo = [], list(_leaves(want.shape[0], want.shape[1], tile, fine))
+    while todo:  # one per rectangle looked at (tiles, halved near the outline)
+        r0, r1, c0, c1 = todo.pop()
+        if not count(cw, r0, r1, c0, c1):
+            continue
+        if not count(cd, r0, r1, c0, c1):
+            out.append((r0, r1, c0, c1))
+        elif r1 - r0 >= c1 - c0:
+            m = (r0 + r1) // 2
+            todo += [(r0, m, c0, c1), (m, r1, c0, c1)]
+        else:
+            m = (c0 + c1) // 2
+            todo += [(r0, r1, c0, m), (r0, r1, m, c1)]
+    return sorted(out)
+
+
+def _cover(want: np.ndarray, dirty: np.ndarray, tile: int, fine) -> tuple[list, np.ndarray] | None:
+    """Tiles over the wanted cells whose union has no pinch (two tiles meeting at a
+    corner only: add the clean cells beside it, up to 8 rounds); ``(leaves, (R - 1,
+    C - 1) covered cells)`` or None."""
+    for _ in range(8):  # rounds of pinches filled
+        leaves = _quad_leaves(want, dirty, tile, fine)
+        if leaves is None:
+            return None
+        m = np.zeros_like(want)
+        for r0, r1, c0, c1 in leaves:  # one per tile
+            m[r0:r1, c0:c1] = True
+        a, b, c, d = m[:-1, :-1], m[:-1, 1:], m[1:, :-1], m[1:, 1:]
+        pinch = (a & d & ~b & ~c) | (b & c & ~a & ~d)
+        if not pinch.any():
+            return leaves, m
+        add = np.zeros_like(want)
+        add[:-1, :-1] |= pinch & ~a
+        add[:-1, 1:] |= pinch & ~b
+        add[1:, :-1] |= pinch & ~c
+        add[1:, 1:] |= pinch & ~d
+        want = want | add
+    return None
+
+
+def _loops(edges: dict, m: np.ndarray) -> list:
+    """The boundary of the covered cells ``m`` as closed loops of tile edges, each
+    ``[(edge, param_line, (r, c) start), ...]`` running the way the tiles run them
+    (counter-clockwise about the cells)."""
+    from OCP.TopoDS import TopoDS
+
+    R, C = m.shape
+
+    def cell(r, c):
+        return bool(0 <= r < R and 0 <= c < C and m[r, c])
+
+    nxt = {}
+    for (horizontal, line, a, z), (e, pl) in edges.items():  # every tile edge
+        if horizontal:
+            above, below = cell(line, a), cell(line - 1, a)
+            if above == below:
+                continue
+            ends = ((line, a), (line, z)) if above else ((line, z), (line, a))
+            fwd = above
+        else:
+            right, left = cell(a, line), cell(a, line - 1)
+            if right == left:
+                continue
+            ends = ((z, line), (a, line)) if right else ((a, line), (z, line))
+            fwd = not right
+        nxt[ends[0]] = (e if fwd else TopoDS.Edge_s(e.Reversed()), pl, ends[0], ends[1])
+    loops = []
+    while nxt:  # one per loop
+        start = next(iter(nxt))
+        loop, at = [], start
+        while True:  # one per edge of the loop
+            e, pl, a, z = nxt.pop(at)
+            loop.append((e, pl, a))
+            at = z
+            if at == start:
+                break
+        loops.append(loop)
+    return loops
+
+
+def _loop_item(segs: np.ndarray, **kw) -> dict:
+    """A closed loop given by its oriented 2-D segments ``(K, 2, 2)`` mm: signed area
+    (Green's theorem, summed segment by segment: any order) and one point on it."""
+    a, b = segs[:, 0], segs[:, 1]
+    area = 0.5 * float((a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum())
+    return dict(kw, segs=segs, area=area, point=segs[0, 0])
+
+
+def _wire_segments(w, o, ex, ey, spacing: float) -> np.ndarray:
+    """A wire of the face as oriented 2-D segments ``(K, 2, 2)`` in the face frame
+    (mm): each edge sampled every <= ``spacing`` mm, run the way the wire runs it."""
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_REVERSED
+    from OCP.TopoDS import TopoDS
+
+    from .brep import edge_points
+
+    segs = []
+    for e in explore(w, TopAbs_EDGE):  # one per edge of the wire (its orientation composed in)
+        p = edge_points(TopoDS.Edge_s(e), spacing)
+        p = (p[::-1] if e.Orientation() == TopAbs_REVERSED else p) - o
+        q = np.stack([p @ ex, p @ ey], axis=-1)
+        segs.append(np.stack([q[:-1], q[1:]], axis=1))
+    return np.concatenate(segs)
+
+
+def _fine_index(fine, x: np.ndarray, y: np.ndarray) -> list:
+    """Rectangles ``(x0, x1, y0, y1)`` mm in the face frame as cell index rectangles."""
+    idx = []
+    for f in fine or ():  # one per tool: (x0, x1, y0, y1[, cells])
+        ca, cz = np.searchsorted(x, [f[0], f[1]]) + np.array([-1, 1])
+        ra, rz = np.searchsorted(y, [f[2], f[3]]) + np.array([-1, 1])
+        idx.append((max(int(ra), 0), int(rz), max(int(ca), 0), int(cz), *f[4:]))
+    return idx
+
+
+def _plane_regions(items: list) -> list | None:
+    """Group closed loops (:func:`_loop_item`, each
+    oriented with its region on the left) into faces: each counter-clockwise loop
+    with the clockwise loops it is the smallest to contain. None if a hole has no
+    loop around it."""
+    from .brep import inside
+
+    outers = [i for i in items if i["area"] > 0]
+    faces = [[o] for o in outers]
+    for hole in (i for i in items if i["area"] <= 0):  # one per hole
+        p = hole["point"]
+        best = None
+        for k, o in enumerate(outers):  # the loops around it
+            if inside(o["segs"], np.array([p[0]]), np.array([p[1]]))[0, 0] and (best is None or o["area"] < outers[best]["area"]):
+                best = k
+        if best is None:
+            return None
+        faces[best].append(hole)
+    return faces
+
+
+def _plane_face(b, surf, pln, loops: list):
+    """A planar face on ``surf`` (the face frame's plane ``pln``) bounded by
+    ``loops``: the part's own wires (``"wire"``, oriented for the outward normal) or
+    tile boundary loops (``"loop"``, run the tiles' way: reversed here)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.GeomAPI import GeomAPI
+    from OCP.gp import gp_Dir2d, gp_Pnt2d
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Wire
+
+    from .brep import TOLERANCE
+
+    f = TopoDS_Face()
+    b.MakeFace(f, surf, TOLERANCE)
+    for item in loops:  # outer loop, then holes
+        if "wire" in item:
+            b.Add(f, item["wire"])
+            for e in explore(item["wire"], TopAbs_EDGE):  # one per edge of the part's wire
+                edge = TopoDS.Edge_s(e)
+                curve = BRep_Tool.Curve_s(edge, 0.0, 0.0)
+                if curve is None:
+                    raise GeometryError("an edge of the face has no 3-D curve; rebuild the part (BRepLib.BuildCurves3d)")
+                b.UpdateEdge(edge, GeomAPI.To2d_s(curve, pln), f, TOLERANCE)
+            continue
+        w = TopoDS_Wire()
+        b.MakeWire(w)
+        for e, pl, _ in reversed(item["loop"]):  # one per tile edge on the loop
+            b.Add(w, e.Reversed())
+            b.UpdateEdge(TopoDS.Edge_s(e), Geom2d_Line(gp_Pnt2d(pl[0], pl[1]), gp_Dir2d(pl[2], pl[3])), f, TOLERANCE)
+        w.Closed(True)
+        b.Add(f, w)
+    return f
+
+
+def holed_plane_solid(shape: Any, face: Any, heights: np.ndarray, x: np.ndarray, y: np.ndarray, *, origin, xdir, normal,
+                      tile: int = TILE, fine=None):  # fmt: skip
+    """``shape`` with a planar ``face`` of any outline (holes, pockets, notches)
+    textured in place, **in tiles, without a boolean**: the grid cells where the
+    texture leaves the plane are covered by tiles (:func:`texcad.solid.tiled_grid_faces`,
+    at most ``tile`` cells a side, halved down to single cells where the face's
+    outline comes near: no tile touches it), and the rest of the face stays planar:
+    one planar face per region between the face's own wires and the tiles' boundary
+    loops (a texture ring around a hole leaves a planar island around it). Every edge
+    is shared: closed by construction. Arguments as
+    :func:`texcad.solid.textured_plane_face` (mm; ``heights`` exactly 0 on every cell
+    the outline crosses), ``fine`` as :func:`texcad.solid.tiled_plane_solid`.
+
+    Returns:
+        The new shape, or None where the tiles cannot avoid the outline (a lifted
+        cell it touches) or the regions do not nest.
+    """
+    from OCP.BRep import BRep_Builder
+    from OCP.Geom import Geom_Plane
+    from OCP.TopoDS import TopoDS, TopoDS_Iterator
+
+    from .brep import _frame_pln
+
+    old = TopoDS.Face_s(to_topods(face))
+    o, ex, n = (np.asarray(a, np.float64) for a in (origin, xdir, normal))
+    ey = np.cross(n, ex)
+    h = np.asarray(heights, np.float64)
+    x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+    up = h != 0
+    want = up[:-1, :-1] | up[:-1, 1:] | up[1:, :-1] | up[1:, 1:]
+    if not want.any():
+        return None
+    dirty, _ = _dirty_cells(old, o, ex, ey, x, y)
+    got = _cover(want, dirty, tile, _fine_index(fine, x, y))
+    if got is None:
+        return None
+    leaves, covered = got
+    grid = o + x[None, :, None] * ex + y[:, None, None] * ey + h[..., None] * n
+    edges: dict = {}
+    tiles, _ = tiled_grid_faces(grid, x, y, leaves=leaves, edges_out=edges)
+    items = []
+    for loop in _loops(edges, covered):  # the tiles' boundary loops, reversed for the plane
+        poly = np.array([(x[c], y[r]) for _, _, (r, c) in loop])[::-1]
+        items.append(_loop_item(np.stack([poly, np.roll(poly, -1, axis=0)], axis=1), loop=loop))
+    it = TopoDS_Iterator(old)  # the face's wires, its orientation composed in
+    while it.More():  # one per wire (outline and holes)
+        segs = _wire_segments(it.Value(), o, ex, ey, 0.25 * float(min(x[1] - x[0], y[1] - y[0])))
+        items.append(_loop_item(segs, wire=it.Value()))
+        it.Next()
+    regions = _plane_regions(items)
+    if regions is None:
+        return None
+    b = BRep_Builder()
+    pln = _frame_pln(o, n, ex)
+    surf = Geom_Plane(pln)
+    flats = [_plane_face(b, surf, pln, loops) for loops in regions]  # one per planar region
+    return _replace_faces(to_topods(shape), [(old, flats + list(tiles))])
