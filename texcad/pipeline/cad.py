@@ -713,7 +713,7 @@ def _texture_general(part, topo, prev, faces, texture, *, progress, **opts):
     shape = None
     if prev is None:  # the B-rep on first use: each face textured on its own (u, v) (texcad.solid.uv_textured_solid)
         def shape():
-            return checked_brep(lambda: _brep_faces.general_brep(topo, res, info["no_brep"]), topo, res["mesh"], info)
+            return checked_brep(lambda: _brep_faces.general_brep(topo, res, info["no_brep"], opts["rotation"]), topo, res["mesh"], info)
 
     out = Textured(
         mesh=res["mesh"], texture_mesh=res["texture_mesh"], base_mesh=res["base_mesh"], shape=shape,

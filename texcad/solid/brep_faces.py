@@ -838,7 +838,7 @@ def _plane_face(b, surf, pln, loops: list):
 
 
 def holed_plane_solid(shape: Any, face: Any, heights: np.ndarray, x: np.ndarray, y: np.ndarray, *, origin, xdir, normal,
-                      tile: int = TILE, fine=None):  # fmt: skip
+                      tile: int = TILE, fine=None, flatten_outline: bool = False):  # fmt: skip
     """``shape`` with a planar ``face`` of any outline (holes, pockets, notches)
     textured in place, **in tiles, without a boolean**: the grid cells where the
     texture leaves the plane are covered by tiles (:func:`texcad.solid.tiled_grid_faces`,
@@ -849,6 +849,9 @@ def holed_plane_solid(shape: Any, face: Any, heights: np.ndarray, x: np.ndarray,
     is shared: closed by construction. Arguments as
     :func:`texcad.solid.textured_plane_face` (mm; ``heights`` exactly 0 on every cell
     the outline crosses), ``fine`` as :func:`texcad.solid.tiled_plane_solid`.
+    ``flatten_outline``: set the heights to 0 on every cell within two cells of the
+    outline instead (a relief that runs on to the outline, such as an engraving's
+    20 um floor).
 
     Returns:
         The new shape, or None where the tiles cannot avoid the outline (a lifted
@@ -865,11 +868,16 @@ def holed_plane_solid(shape: Any, face: Any, heights: np.ndarray, x: np.ndarray,
     ey = np.cross(n, ex)
     h = np.asarray(heights, np.float64)
     x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+    dirty, _ = _dirty_cells(old, o, ex, ey, x, y)
+    if flatten_outline:
+        near = np.zeros(h.shape, bool)
+        for a, b in ((slice(None, -1), slice(None, -1)), (slice(None, -1), slice(1, None)), (slice(1, None), slice(None, -1)), (slice(1, None), slice(1, None))):
+            near[a, b] |= dirty  # the 4 corners of each cell
+        h = np.where(near, 0.0, h)
     up = h != 0
     want = up[:-1, :-1] | up[:-1, 1:] | up[1:, :-1] | up[1:, 1:]
     if not want.any():
         return None
-    dirty, _ = _dirty_cells(old, o, ex, ey, x, y)
     got = _cover(want, dirty, tile, _fine_index(fine, x, y))
     if got is None:
         return None
