@@ -33,7 +33,9 @@ Which faces
   border). The texture therefore lies on the selected face only, and the textured
   surface meets the face's own edges at height 0: the B-rep keeps the body's edges
   and swaps the textured part of the face's plane for B-spline tiles
-  (:func:`texcad.solid.brep.textured_plane_solid`), and the mesh is the body's mesh
+  (:func:`texcad.solid.brep.textured_plane_solid`; with holes or notches inside the
+  texture, tiles that keep clear of the outline and one planar face per region
+  around them), and the mesh is the body's mesh
   united (manifold3d) with the relief above the face.
 * **Faces of extruded profiles** (cylinders, extrusions of lines, arcs and splines:
   the 2.5D surfaces of :mod:`texcad.mapping`). The profile is recovered from the
@@ -41,8 +43,9 @@ Which faces
   (``mapping="distance"``, algorithm 1, or ``"angle"``, algorithm 2) and the slab is
   unioned with manifold3d for the mesh. B-rep: a closed band (a cylinder) is split
   by the end rows' planes and its middle replaced by wrapped tiles, without a
-  boolean; an open profile's slab is fused with OCCT's boolean
-  (:func:`texcad.solid.brep.textured_extrusion_solid`).
+  boolean (:func:`texcad.solid.brep.textured_extrusion_solid`); an open profile's
+  face is replaced by tiles on its own (u, v) sewn to its boundary edges, split at
+  the tile corners (:func:`texcad.solid.open_extrusion_solid`).
 
 * **Any other face, several faces at once, chaining** (cones, spheres, tori, surfaces
   of revolution, B-splines, fillets, partial strips, trimmed faces; a list, a

@@ -37,8 +37,9 @@ CAD model generation that the paper did in Rhino/Grasshopper), with OCCT (OCP):
   mesh as its triangulation (OCCT's mesher keeps it; STEP stores it), finer
   (:data:`FINE`) where a CAD operation's tool meets the texture. Planar faces keep
   their plane outside the tiles; closed bands (cylinders) are split by the end rows'
-  planes and closed by planar rings. No boolean; open profiles still use
-  :func:`grid_brep` + :func:`fuse_solids` (:func:`textured_extrusion_solid`).
+  planes and closed by planar rings; open profiles' faces are tiles sewn to their own
+  boundary edges split at the tile corners, and planar faces with holes get tiles
+  that keep clear of the outline (:mod:`texcad.solid.brep_faces`). No boolean.
 * :func:`write_step` / :func:`read_step` - AP214 STEP in mm, silent, with a fixed
   header (time stamp, product name) so the same shape gives the same bytes.
 

@@ -19,6 +19,18 @@ triangles per cell), which OCCT's mesher and texcad's STEP writer keep.
 Faces this does not apply to (several faces flattened together, trimmed faces whose
 outline is not the UV rectangle, an invalid grid point) raise ``GeometryError``
 saying so; the meshes (STL, 3MF) are unaffected.
+
+Tiles instead of one face (OCCT meshes, integrates and cuts tiles of a few hundred
+poles reliably, not one face of hundreds of thousands):
+
+* :func:`tiled_in_place` / :func:`open_extrusion_solid` - an open profile's face (the
+  sine sample, a partial cylinder) as tiles on its own ``(u, v)``, sewn to its four
+  boundary edges split at the tile corners (the neighbouring faces get the same
+  pieces); the flat frame and the narrow walls are tiles of their own.
+* :func:`holed_plane_solid` - a planar face with holes, pockets or notches inside
+  the texture: tiles over the cells where the texture leaves the plane, halved down
+  to single cells near the outline (never touching it), and one planar face per
+  region around them.
 """
 
 from __future__ import annotations
