@@ -147,8 +147,10 @@ def run_open(out: Path, pitch: float) -> None:
         vo = _clock("OCCT volume (BRepGProp, eps 1e-4)", lambda: occt_volume(shape, 1e-4), t)
         print(f"    OCCT {vo:.1f} mm3: {abs(vo - tx.volume) / tx.volume:.1e} from the mesh")
         _step_shown(tx, out / f"{kind}.step", t, kind)
-        cut = _clock("hole: - Cylinder(4, 60) at (61.3, 22.7), mesh + B-rep + checks",
-                     lambda: tx - Pos(61.3, 22.7, 0) * Cylinder(4, 60), t)  # fmt: skip
+        bb = part.bounding_box()  # the hole at 61.3 % and 22.7 % of the part's x and y (on the sine: (61.3, 22.7) mm)
+        at = (bb.min.X + 0.613 * bb.size.X, bb.min.Y + 0.227 * bb.size.Y, 0.5 * (bb.min.Z + bb.max.Z))
+        cut = _clock(f"hole: - Cylinder(4, 60) at ({at[0]:.1f}, {at[1]:.1f}), mesh + B-rep + checks",
+                     lambda: tx - Pos(*at) * Cylinder(4, 60), t)  # fmt: skip
         s = _clock("  its B-rep (fine tiles under the tool, OCCT cut, checks)", lambda: cut.shape, t)
         c = check_shape(s)
         vo = _clock("  OCCT volume of it (eps 1e-4)", lambda: occt_volume(s, 1e-4), t)

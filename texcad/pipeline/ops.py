@@ -118,7 +118,8 @@ def _history(part: Any) -> dict:
     unplaced = _apply(shape, np.linalg.inv(_m4(placement))[:3]) if not np.allclose(placement, np.eye(3, 4)) else shape
     info = part.info
     open_profile = info.get("face") == "extrusion" and not info.get("closed", True)
-    make = info.get("_make_shape") if info.get("face") == "plane" or open_profile else None
+    plane = info.get("face") == "plane" and "origin" in info  # (the general method's planar faces: no fine tiles)
+    make = info.get("_make_shape") if plane or open_profile else None
     frame = None
     if make is not None and open_profile:  # fine tiles where the grid's poles lie in the tool's box
         frame = ("box", 2.0 * float(max(part.heightmap.pitch)))
