@@ -267,3 +267,8 @@ def test_engraved_and_centred_planar_faces_have_their_step(mode, tmp_path):
     shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
     assert _distance(shown.vertices, tx.mesh) < DEFLECTION
     assert _distance(tx.mesh.vertices, shown) < DEFLECTION
+    cut = tx - Pos(8, 3, 0) * Cylinder(3, 30)  # a hole drilled through the texture
+    assert tx.volume - cut.volume > 200
+    chk = check_shape(cut.shape)  # checked by ops against manifold3d's cut
+    assert chk["valid"] and chk["solids"] == 1
+    assert occt_volume(cut.shape, 1e-3) == pytest.approx(cut.volume, rel=1e-3)
