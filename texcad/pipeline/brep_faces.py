@@ -14,11 +14,13 @@ from ..solid import uv_textured_solid
 __all__ = ["general_brep"]
 
 
-def general_brep(topo: Any, res: dict, no_brep: str, rotation: float = 0.0):
+def general_brep(topo: Any, res: dict, no_brep: str, rotation: float = 0.0, fine=None):
     """The textured B-rep of :func:`texcad.pipeline.faces.texture_any_faces`'s result
     ``res`` on the part ``topo`` (mm; ``rotation``: the texture's turn on planar
-    faces, degrees). Curved faces: :func:`texcad.solid.uv_textured_solid`; planar
-    faces (engraved, centred, with a gradient): tiles in the face's frame
+    faces, degrees; ``fine``: rectangles ``(x0, x1, y0, y1)`` mm in a planar face's
+    frame where its tiles are small, for a CAD operation's tool). Curved faces:
+    :func:`texcad.solid.uv_textured_solid`; planar faces (engraved, centred, with a
+    gradient): tiles in the face's frame
     (:func:`texcad.solid.brep_faces.holed_plane_solid`).
 
     Raises:
@@ -39,13 +41,13 @@ def general_brep(topo: Any, res: dict, no_brep: str, rotation: float = 0.0):
     try:
         shape = uv_textured_solid(topo, items) if items else topo
         for r in planes:  # one per planar face
-            shape = _plane_brep(shape, r, rotation)
+            shape = _plane_brep(shape, r, rotation, fine)
         return shape
     except GeometryError as e:
         raise GeometryError(f"{no_brep}: {e}") from None
 
 
-def _plane_brep(shape: Any, r: dict, rotation: float):
+def _plane_brep(shape: Any, r: dict, rotation: float, fine=None):
     """``shape`` with the planar face of the relief ``r`` (the general method's grid,
     in the face's frame) in tiles; heights 0 outside the kept cells and near the
     outline (the mesh's 20 um floor there is not carried over)."""
@@ -61,7 +63,7 @@ def _plane_brep(shape: Any, r: dict, rotation: float):
         kept[a, b] |= cells  # the 4 corners of each kept cell
     h = np.where(kept & g.valid, r["h_top"], 0.0)
     out = holed_plane_solid(shape, r["face"], h, np.asarray(g.xs, np.float64), np.asarray(g.ys, np.float64),
-                            origin=p0, xdir=ex, normal=n, flatten_outline=True)  # fmt: skip
+                            origin=p0, xdir=ex, normal=n, flatten_outline=True, fine=fine)  # fmt: skip
     if out is None:
         raise GeometryError("the planar face's texture grid reaches its outline; texture it in raised mode for a B-rep")
     return out

@@ -715,8 +715,16 @@ def _texture_general(part, topo, prev, faces, texture, *, progress, **opts):
     limits = _general_limits(res, opts) if opts.get("build_dir") is not None else None
     shape = None
     if prev is None:  # the B-rep on first use: each face textured on its own (u, v) (texcad.solid.uv_textured_solid)
+        def make(fine=None):  # fine: (x0, x1, y0, y1) mm in a lone planar face's frame (CAD operations)
+            return _brep_faces.general_brep(topo, res, info["no_brep"], opts["rotation"], fine=fine)
+
         def shape():
-            return checked_brep(lambda: _brep_faces.general_brep(topo, res, info["no_brep"], opts["rotation"]), topo, res["mesh"], info)
+            return checked_brep(make, topo, res["mesh"], info)
+
+        lone = res["reliefs"][0] if len(res["reliefs"]) == 1 else None
+        if lone is not None and lone["face"] is not None and lone["tables"] is None:  # one planar face
+            p0, ex, ey, _ = plane_frame(lone["face"], opts["rotation"])
+            info["fine_frame"] = (p0.tolist(), ex.tolist(), ey.tolist(), float(opts["pitch"]))
 
     out = Textured(
         mesh=res["mesh"], texture_mesh=res["texture_mesh"], base_mesh=res["base_mesh"], shape=shape,

@@ -118,11 +118,14 @@ def _history(part: Any) -> dict:
     unplaced = _apply(shape, np.linalg.inv(_m4(placement))[:3]) if not np.allclose(placement, np.eye(3, 4)) else shape
     info = part.info
     open_profile = info.get("face") == "extrusion" and not info.get("closed", True)
-    plane = info.get("face") == "plane" and "origin" in info  # (the general method's planar faces: no fine tiles)
+    plane = info.get("face") == "plane" and ("origin" in info or "fine_frame" in info)
     make = info.get("_make_shape") if plane or open_profile else None
     frame = None
     if make is not None and open_profile:  # fine tiles where the grid's poles lie in the tool's box
         frame = ("box", 2.0 * float(max(part.heightmap.pitch)))
+    elif make is not None and "fine_frame" in info:  # a planar face done by the general method (engraved, centred)
+        o, ex, ey, pitch = info["fine_frame"]
+        frame = (np.asarray(o), np.asarray(ex), np.asarray(ey), float(pitch))
     elif make is not None:
         frame = (np.asarray(info["origin"]), np.asarray(info["xdir"]), np.asarray(info["ydir"]))
         x = np.asarray(info["x"], np.float64)
