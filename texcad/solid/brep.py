@@ -1183,7 +1183,6 @@ def _patch_boundary(edges: dict, R: int, C: int, wrap: bool):
     """The edges around a tile patchwork (``edges`` keyed ``(horizontal, line, a, z)``
     in grid indices, ``R`` x ``C`` cells): counter-clockwise, or for a closed band
     ``{"v0": row 0, "v1": row R}`` left to right."""
-    from OCP.TopAbs import TopAbs_REVERSED
     from OCP.TopoDS import TopoDS
 
     def along(horizontal, idx, reverse):
