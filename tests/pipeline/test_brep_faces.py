@@ -231,6 +231,9 @@ def test_plate_with_holes_in_tiles(tmp_path):
     assert abs(occt_volume(shape, 1e-3) - tx.volume) <= 1e-3 * tx.volume + slack
     path = tmp_path / "holes.step"
     tx.export(path)
+    (tmp_path / "again").mkdir()
+    texcad.texture(plate, top, "builtin:stones", height=1.0, pitch=0.5).export(tmp_path / "again" / "holes.step")
+    assert (tmp_path / "again" / "holes.step").read_bytes() == path.read_bytes()  # same inputs, same bytes
     back = texcad.io.read_step(path)
     chk = check_shape(back)
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
