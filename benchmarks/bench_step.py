@@ -11,6 +11,14 @@ bottom edges filleted, a mirror image (each: mesh + B-rep + checks), and STEP wr
 again.
 
     python benchmarks/bench_step.py [--pixels 800] [--plain] [--occt-volume] [--paper] [--sledgehammer]
+    python benchmarks/bench_step.py --open 0.125
+    python benchmarks/bench_step.py --holes [--pixels 800] [--occt-volume]
+
+``--open PITCH``: instead of the plate, the paper's sine and curved samples (open
+profiles, tiles sewn in place) with the diamond knurl at PITCH mm: B-rep, OCCT's own
+volume, STEP re-read and meshed, and a 4 mm hole drilled through (B-rep checked).
+``--holes``: instead, a plate with two holes and a pocket, raised and engraved (tiles
+around the holes, planar faces between), STEP, and a hole drilled through.
 
 ``--plain`` also writes the plain AP214 STEP (no tessellation; size and time only:
 OCCT's mesher then meshes the B-spline tiles itself). ``--paper`` writes the nine
@@ -105,6 +113,76 @@ def run_plate(pixels: int, out: Path, plain: bool, occt: bool) -> None:
             _clock("  write STEP of the drilled plate", lambda: r.export(out / "drilled.step"), t)
 
 
+def _step_shown(tx, path: Path, t: dict, what: str) -> None:
+    """STEP written, read back, meshed by OCCT at 0.1 mm; distances to texcad's mesh."""
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+
+    _clock(f"write STEP of {what}", lambda: tx.export(path), t)
+    print(f"    {path.stat().st_size / 1e6:.1f} MB")
+    back = _clock("read STEP back (OCCT)", lambda: texcad.io.read_step(path), t)
+    _clock("BRepMesh_IncrementalMesh of the re-read STEP, 0.1 mm", lambda: BRepMesh_IncrementalMesh(back, 0.1, False, 0.5, True), t)
+    shown = shape_to_mesh(back, tolerance=0.1, angular_tolerance=0.5)
+    chk = check_shape(back)
+    d1, d2 = _distance(shown.vertices, tx.mesh), _distance(tx.mesh.vertices, shown)
+    print(f"    re-read: valid {chk['valid']}, {chk['solids']} solid; shown mesh -> texcad mesh {d1 * 1000:.1f} um, "
+          f"texcad mesh -> shown mesh {d2 * 1000:.1f} um")  # fmt: skip
+
+
+def run_open(out: Path, pitch: float) -> None:
+    """The paper's sine and curved samples (open profiles: tiles sewn in place), the
+    diamond knurl at ``pitch`` mm: B-rep, OCCT's volume, STEP, a hole drilled through."""
+    from build123d import Cylinder, Pos
+
+    sys.path.insert(0, str(ROOT / "recipes"))
+    import paper_samples as p
+
+    for kind in ("sine", "curved"):
+        t: dict = {}
+        build, mapping, _ = p.SAMPLES[kind]
+        part, face, _ = build()
+        print(f"{kind} sample, builtin:diamond_knurl 0.8 mm at {pitch:g} mm, mapping {mapping}")
+        tx = _clock("texture() (meshes; the B-rep waits)", lambda: texcad.texture(part, face, "builtin:diamond_knurl", height=0.8, pitch=pitch, mapping=mapping), t)
+        shape = _clock("B-rep: tiles sewn in place + checks", lambda: tx.shape, t)
+        print(f"    {check_shape(shape)['faces']} faces, texcad volume {tx.info['brep_volume']:.1f} mm3, mesh {tx.volume:.1f} mm3")
+        vo = _clock("OCCT volume (BRepGProp, eps 1e-4)", lambda: occt_volume(shape, 1e-4), t)
+        print(f"    OCCT {vo:.1f} mm3: {abs(vo - tx.volume) / tx.volume:.1e} from the mesh")
+        _step_shown(tx, out / f"{kind}.step", t, kind)
+        bb = part.bounding_box()  # the hole at 61.3 % and 22.7 % of the part's x and y (on the sine: (61.3, 22.7) mm)
+        at = (bb.min.X + 0.613 * bb.size.X, bb.min.Y + 0.227 * bb.size.Y, 0.5 * (bb.min.Z + bb.max.Z))
+        cut = _clock(f"hole: - Cylinder(4, 60) at ({at[0]:.1f}, {at[1]:.1f}), mesh + B-rep + checks",
+                     lambda: tx - Pos(*at) * Cylinder(4, 60), t)  # fmt: skip
+        s = _clock("  its B-rep (fine tiles under the tool, OCCT cut, checks)", lambda: cut.shape, t)
+        c = check_shape(s)
+        vo = _clock("  OCCT volume of it (eps 1e-4)", lambda: occt_volume(s, 1e-4), t)
+        print(f"    valid {c['valid']}, {c['solids']} solid, OCCT volume {vo:.1f} mm3 vs mesh {cut.volume:.1f} mm3 "
+              f"({abs(vo - cut.volume) / cut.volume:.1e}); removed {tx.volume - cut.volume:.1f} mm3")  # fmt: skip
+
+
+def run_holes(out: Path, pixels: int, occt: bool) -> None:
+    """A 100 x 100 x 5 mm plate with two holes and a pocket, its top textured
+    (stones, raised) and the same plate engraved: B-rep (tiles around the holes,
+    planar faces between), STEP, a hole drilled through the texture."""
+    from build123d import Axis, Box, Cylinder, Pos
+
+    plate = (Box(100, 100, 5) - Pos(-25, 20, 0) * Cylinder(8, 10) - Pos(25, -20, 0) * Cylinder(5, 10)
+             - Pos(25, 25, 1.5) * Box(20, 14, 4))  # fmt: skip
+    top = plate.faces().sort_by(Axis.Z)[-1]
+    for mode in ("raised", "engraved"):
+        t: dict = {}
+        print(f"plate with 2 holes and a pocket, stones {mode} at {pixels} x {pixels} px ({100 / pixels:g} mm)")
+        tx = _clock("texture() (meshes; the B-rep waits)", lambda: texcad.texture(plate, top, "builtin:stones", height=1.0, pitch=100 / pixels, mode=mode), t)
+        shape = _clock("B-rep: tiles + planar faces + checks", lambda: tx.shape, t)
+        print(f"    {check_shape(shape)['faces']} faces, texcad volume {tx.info['brep_volume']:.1f} mm3, mesh {tx.volume:.1f} mm3")
+        if occt:
+            vo = _clock("OCCT volume (BRepGProp, eps 1e-4)", lambda: occt_volume(shape, 1e-4), t)
+            print(f"    OCCT {vo:.1f} mm3: {abs(vo - tx.volume) / tx.volume:.1e} from the mesh")
+        _step_shown(tx, out / f"holes-{mode}.step", t, f"the {mode} plate")
+        cut = _clock("hole: - Cylinder(4, 30) at (10, -5), mesh + B-rep + checks", lambda: tx - Pos(10, -5, 0) * Cylinder(4, 30), t)
+        s = _clock("  its B-rep (fine tiles under the tool, OCCT cut, checks)", lambda: cut.shape, t)
+        c = check_shape(s)
+        print(f"    valid {c['valid']}, {c['solids']} solid, B-rep {cut.info['brep_volume']:.1f} mm3 vs mesh {cut.volume:.1f} mm3")
+
+
 def run_paper(out: Path) -> None:
     env = dict(os.environ, TEXCAD_PITCH="0.125", TEXCAD_OUT=str(out / "paper"), PYTHONPATH=str(ROOT))
     code = (
@@ -150,13 +228,20 @@ def main() -> None:
     ap.add_argument("--occt-volume", action="store_true", help="also OCCT's adaptive volume of the plate (minutes)")
     ap.add_argument("--paper", action="store_true", help="the nine paper samples' STEP at 0.125 mm")
     ap.add_argument("--sledgehammer", action="store_true", help="the sledgehammer's B-rep")
+    ap.add_argument("--open", type=float, default=None, metavar="PITCH", help="only the sine and curved samples at PITCH mm")
+    ap.add_argument("--holes", action="store_true", help="only the plate with holes (raised and engraved)")
     args = ap.parse_args()
     import build123d  # noqa: F401  (import cost is not part of the job)
 
     print(f"load: {os.getloadavg()[0]:.1f} (1 min), {os.cpu_count()} cores")
     with warnings.catch_warnings(), tempfile.TemporaryDirectory() as d:
         warnings.simplefilter("ignore", texcad.TexcadWarning)
-        run_plate(args.pixels, Path(d), args.plain, args.occt_volume)
+        if args.open is not None:
+            run_open(Path(d), args.open)
+        elif args.holes:
+            run_holes(Path(d), args.pixels, args.occt_volume)
+        else:
+            run_plate(args.pixels, Path(d), args.plain, args.occt_volume)
         if args.paper:
             run_paper(Path(d))
         if args.sledgehammer:

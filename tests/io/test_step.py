@@ -84,8 +84,8 @@ def test_sine_step(tmp_path):
     part = extrude(Plane.XZ * section, amount=-15)
     face = part.faces().sort_by(SortBy.AREA)[-1]
     tx = texcad.texture(part, face, "builtin:stones", height=0.8, pitch=0.5, mapping="distance")
-    # One trimmed B-spline face in place of the sine face (no boolean since this session).
-    _shown(tx, tmp_path / "sine.step", DEFLECTION + 0.5 * 0.5, occt_integrates=False)
+    # Tiles sewn in place of the sine face (no boolean): OCCT integrates them.
+    _shown(tx, tmp_path / "sine.step", DEFLECTION + 0.5 * 0.5)
 
 
 def test_numpy_step_matches_occts_own(tmp_path, monkeypatch):

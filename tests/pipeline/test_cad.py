@@ -149,7 +149,7 @@ def test_planar_face_of_any_outline(tmp_path):
     tx = texcad.texture(part, top, "builtin:stones", height=0.8, pitch=0.5)
     assert "brep_volume" not in tx.info  # the B-rep is made on first use
     chk = brep.check_shape(tx)
-    assert chk["valid"] and chk["solids"] == 1 and chk["faces"] == len(part.faces())
+    assert chk["valid"] and chk["solids"] == 1 and chk["faces"] > len(part.faces())  # tiles, planar faces around them
     # (the mesh's hole is OCCT's 10 um tessellation of the circle: 3e-5 smaller; the
     # B-rep has one pole per pixel, the lean mesh is within 0.02 mm of it)
     assert abs(tx.info["brep_volume"] - tx.mesh.volume) <= 1e-4 * tx.mesh.volume + 0.02 * 50 * 30

@@ -181,8 +181,10 @@ def test_knurled_cone_and_top_in_one_call():
     assert 0.98 < dx[0] <= dx[1] < 1.02
     assert 12 / r_ref - 0.03 < dy[0] <= dy[1] < 15 / r_ref + 0.03
     assert 12 / r_ref - 0.03 < dy[2] < 15 / r_ref + 0.03
-    with pytest.raises(GeometryError, match="stl"):
-        tx.shape
+    # B-rep: the cones on their own (u, v), the planar top in tiles; checked (valid,
+    # one solid, volume within 0.1 % of the mesh) when made.
+    chk = texcad.solid.check_shape(tx.shape)
+    assert chk["valid"] and chk["solids"] == 1
 
 
 def test_left_handed_plane_frame_bottom_annulus():
@@ -573,14 +575,17 @@ def test_modes_on_every_face_kind(case, mode):
     assert_only_on(tx, part, list(faces) if not hasattr(faces, "wrapped") else [faces], 0.6)
 
 
-def test_engraved_plane_has_no_step_and_says_why(tmp_path):
+def test_engraved_plane_has_its_step(tmp_path):
+    """Engraved planar faces get their B-rep in tiles (texcad.pipeline.brep_faces):
+    the STEP re-reads as one valid solid with the mesh's volume (OCCT, 0.1 %)."""
     from build123d import Axis, Box
 
     box = Box(30, 20, 6)
     tx = texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:pins", height=1.0, pitch=0.5, mode="engraved")
-    with pytest.raises(GeometryError, match="planar face.*engraved") as e:
-        tx.export(tmp_path / "x.step")
-    assert "export('part.stl')" in str(e.value)
-    assert not (tmp_path / "x.step").exists()
+    tx.export(tmp_path / "x.step")
+    back = texcad.io.read_step(tmp_path / "x.step")
+    chk = texcad.solid.check_shape(back)
+    assert chk["valid"] and chk["solids"] == 1
+    assert texcad.solid.occt_volume(back, 1e-4) == pytest.approx(tx.volume, rel=1e-3)  # (eps 1e-3 stops early: 2e-3)
     tx.export(tmp_path / "x.stl")
     assert trimesh.load(tmp_path / "x.stl").is_watertight

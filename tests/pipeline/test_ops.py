@@ -111,6 +111,24 @@ def test_wrong_occt_result_raises(part, monkeypatch):
         tx.fillet(tx.part.edges()[:1], -1.0)
 
 
+def test_another_tiling_when_occt_keeps_the_material(part, monkeypatch):
+    """When OCCT's cut on the first tiling keeps the material, the B-rep is made again
+    with the next tile size under the tool (ops.FINE_TRIES) and checked again."""
+    from build123d import Cylinder
+
+    _, tx = part
+    drilled = tx - Cylinder(3, 50)
+    real, calls = ops.occt_boolean, []
+
+    def first_wrong(shape, tool, op):
+        calls.append(op)
+        return shape if len(calls) == 1 else real(shape, tool, op)
+
+    monkeypatch.setattr(ops, "occt_boolean", first_wrong)
+    _agree(drilled)
+    assert len(calls) == 2 and tx.volume - drilled.volume > np.pi * 9 * 8
+
+
 def test_hole_in_textured_demo_plate():
     from build123d import Axis, Cylinder, Pos
 

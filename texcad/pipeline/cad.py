@@ -33,17 +33,20 @@ Which faces
   border). The texture therefore lies on the selected face only, and the textured
   surface meets the face's own edges at height 0: the B-rep keeps the body's edges
   and swaps the textured part of the face's plane for B-spline tiles
-  (:func:`texcad.solid.brep.textured_plane_solid`), and the mesh is the body's mesh
-  with the relief above the face stitched in (a lean relief on an unobstructed face,
-  no boolean: :func:`texcad.solid.boolean.fuse_on_plane`) or united (manifold3d).
+  (:func:`texcad.solid.brep.textured_plane_solid`; with holes or notches inside the
+  texture, tiles that keep clear of the outline and one planar face per region
+  around them), and the mesh is the body's mesh with the relief above the face
+  stitched in (a lean relief on an unobstructed face, no boolean:
+  :func:`texcad.solid.boolean.fuse_on_plane`) or united (manifold3d).
 * **Faces of extruded profiles** (cylinders, extrusions of lines, arcs and splines:
   the 2.5D surfaces of :mod:`texcad.mapping`). The profile is recovered from the
   face's cross-section, the texture is mapped with :func:`texcad.mapping.map_texture`
   (``mapping="distance"``, algorithm 1, or ``"angle"``, algorithm 2) and the slab is
   unioned with manifold3d for the mesh. B-rep: a closed band (a cylinder) is split
   by the end rows' planes and its middle replaced by wrapped tiles, without a
-  boolean; an open profile's slab is fused with OCCT's boolean
-  (:func:`texcad.solid.brep.textured_extrusion_solid`).
+  boolean (:func:`texcad.solid.brep.textured_extrusion_solid`); an open profile's
+  face is replaced by tiles on its own (u, v) sewn to its boundary edges, split at
+  the tile corners (:func:`texcad.solid.open_extrusion_solid`).
 
 * **Any other face, several faces at once, chaining** (cones, spheres, tori, surfaces
   of revolution, B-splines, fillets, partial strips, trimmed faces; a list, a
@@ -587,9 +590,9 @@ def _texture_extrusion(
             "limits": [str(x) for x in mapped.limits],
         },
     }
-    def make_shape():  # base: the face under the first row's columns (local x, y0, z)
+    def make_shape(fine=None):  # base: the face under the first row's columns (local x, y0, z)
         base = world(np.insert(profile.point(np.asarray(mapped.s, np.float64)), 1, y_rows[0], axis=1))
-        return _brep_faces.extrusion_brep(topo, face, top_w, world(bottom), closed=mapped.closed, base=base)
+        return _brep_faces.extrusion_brep(topo, face, top_w, world(bottom), closed=mapped.closed, base=base, fine=fine)
 
     result["shape"] = make_shape if make_brep else None
     return result
@@ -737,8 +740,16 @@ def _texture_general(part, topo, prev, faces, texture, *, progress, **opts):
     limits = _general_limits(res, opts) if opts.get("build_dir") is not None else None
     shape = None
     if prev is None:  # the B-rep on first use: each face textured on its own (u, v) (texcad.solid.uv_textured_solid)
+        def make(fine=None):  # fine: (x0, x1, y0, y1) mm in a lone planar face's frame (CAD operations)
+            return _brep_faces.general_brep(topo, res, info["no_brep"], opts["rotation"], fine=fine)
+
         def shape():
-            return checked_brep(lambda: _brep_faces.general_brep(topo, res, info["no_brep"]), topo, res["mesh"], info)
+            return checked_brep(make, topo, res["mesh"], info)
+
+        lone = res["reliefs"][0] if len(res["reliefs"]) == 1 else None
+        if lone is not None and lone["face"] is not None and lone["tables"] is None:  # one planar face
+            p0, ex, ey, _ = plane_frame(lone["face"], opts["rotation"])
+            info["fine_frame"] = (p0.tolist(), ex.tolist(), ey.tolist(), float(opts["pitch"]))
 
     out = Textured(
         mesh=res["mesh"], texture_mesh=res["texture_mesh"], base_mesh=res["base_mesh"], shape=shape,

@@ -19,6 +19,18 @@ triangles per cell), which OCCT's mesher and texcad's STEP writer keep.
 Faces this does not apply to (several faces flattened together, trimmed faces whose
 outline is not the UV rectangle, an invalid grid point) raise ``GeometryError``
 saying so; the meshes (STL, 3MF) are unaffected.
+
+Tiles instead of one face (OCCT meshes, integrates and cuts tiles of a few hundred
+poles reliably, not one face of hundreds of thousands):
+
+* :func:`tiled_in_place` / :func:`open_extrusion_solid` - an open profile's face (the
+  sine sample, a partial cylinder) as tiles on its own ``(u, v)``, sewn to its four
+  boundary edges split at the tile corners (the neighbouring faces get the same
+  pieces); the flat frame and the narrow walls are tiles of their own.
+* :func:`holed_plane_solid` - a planar face with holes, pockets or notches inside
+  the texture: tiles over the cells where the texture leaves the plane, halved down
+  to single cells near the outline (never touching it), and one planar face per
+  region around them.
 """
 
 from __future__ import annotations
@@ -29,10 +41,10 @@ from typing import Any
 import numpy as np
 
 from ..errors import GeometryError
-from .brep import TOLERANCE, _remember_tile, _replace_faces, _tile_text
+from .brep import TILE, TOLERANCE, _remember_tile, _replace_faces, _tile_text, tiled_grid_faces
 from .occt import explore, to_topods
 
-__all__ = ["uv_textured_solid", "open_extrusion_solid"]
+__all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid"]
 
 
 def _surface_rows(face, u: np.ndarray, v: np.ndarray):
@@ -286,7 +298,7 @@ class _Projector:
         return np.array(self.sas.Value(u, v).Coord())
 
 
-def open_extrusion_solid(shape: Any, face: Any, top: np.ndarray, base: np.ndarray | None = None):
+def open_extrusion_solid(shape: Any, face: Any, top: np.ndarray, base: np.ndarray | None = None, *, fine=None):
     """``shape`` with a face of an open extruded profile (a partial cylinder, the
     sine sample's top) textured in place, **without a boolean**: the texture grid
     ``top`` (``(R, C, 3)`` mm; rows across the extrusion, columns along the profile,
@@ -373,7 +385,26 @@ def open_extrusion_solid(shape: Any, face: Any, top: np.ndarray, base: np.ndarra
     T[0] = edge[0] + (V - v0)[:, None] * deriv[0]
     T[-1] = edge[-1] + (V - v0)[:, None] * deriv[0]
     T[np.ix_(gi, gj)] = grid
+    # Tiles end at every frame line: the flat frame and the narrow walls are tiles of their own.
+    frame = [np.concatenate([np.arange(1, k[0] + 1), np.arange(k[-1], n - 1)]) for k, n in ((gj, len(V)), (gi, len(U)))]
+    out = tiled_in_place(shape, old, U, V, T, breaks=tuple(frame), fine=_fine_cells(T, fine))
+    if out is not None:
+        return out
     return _replace_faces(to_topods(shape), [(old, [_new_face(old, U, V, T)])])
+
+
+def _fine_cells(T: np.ndarray, boxes) -> list | None:
+    """Index rectangles ``(v0, v1, u0, u1[, cells])`` of the pole grid ``T`` (``(Nu,
+    Nv, 3)`` mm) around the poles inside each box ``(lo (3,), hi (3,)[, cells])`` mm,
+    one cell wider."""
+    if not boxes:
+        return None
+    out = []
+    for box in boxes:  # one per CAD operation's tool: (lo, hi[, cells])
+        iu, iv = np.nonzero(((T >= np.asarray(box[0])) & (T <= np.asarray(box[1]))).all(axis=-1))
+        if len(iu):
+            out.append((max(int(iv.min()) - 1, 0), int(iv.max()) + 1, max(int(iu.min()) - 1, 0), int(iu.max()) + 1, *box[2:]))
+    return out
 
 
 def _framed(pg: np.ndarray, lo: float, hi: float):
@@ -406,3 +437,480 @@ def _framed(pg: np.ndarray, lo: float, hi: float):
     knots = np.concatenate([low_k, K, up_k])
     under = np.concatenate([low_s, pg, up_s])
     return knots, under, np.arange(len(low_k), len(low_k) + len(pg))
+
+
+# -- a face replaced by tiles, sewn to its own boundary edges split at the tile corners -----------
+def _sides(fwd, U: np.ndarray, V: np.ndarray) -> dict | None:
+    """The face's boundary edge on each side of its ``(u, v)`` rectangle ``U[0] ..
+    U[-1]`` x ``V[0] .. V[-1]``: ``{"v0": (edge, increasing), ...}`` (``increasing``:
+    the edge's parameter runs towards higher ``u`` or ``v``), or None unless there are
+    exactly four edges, one per side, none a seam or degenerate."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve2d
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopoDS import TopoDS
+
+    edges = explore(fwd, TopAbs_EDGE)
+    tol = 1e-7 * (abs(U[-1] - U[0]) + abs(V[-1] - V[0]) + 1.0)
+    out: dict = {}
+    for e in edges:  # 4 edges
+        edge = TopoDS.Edge_s(e)
+        if BRep_Tool.IsClosed_s(edge, fwd) or BRep_Tool.Degenerated_s(edge):
+            return None
+        c2 = BRepAdaptor_Curve2d(edge, fwd)
+        a, b = np.array(c2.Value(c2.FirstParameter()).Coord()), np.array(c2.Value(c2.LastParameter()).Coord())
+        for name, axis, val in (("u0", 0, U[0]), ("u1", 0, U[-1]), ("v0", 1, V[0]), ("v1", 1, V[-1])):  # 4 sides
+            if abs(a[axis] - val) < tol and abs(b[axis] - val) < tol and name not in out:
+                out[name] = (edge, bool(b[1 - axis] > a[1 - axis]))
+                break
+        else:
+            return None
+    return out if len(out) == 4 and len(edges) == 4 else None
+
+
+def _split_edge(b, edge, fwd, points2d: np.ndarray, increasing: bool, tol: float):
+    """``edge`` split at the parameters whose pcurve on ``fwd`` passes ``points2d``
+    (``(n, 2)``, in the order of the tile corners, ends included): ``(vertices,
+    pieces along the edge, pieces oriented towards the higher index)``."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.Geom2dAPI import Geom2dAPI_ProjectPointOnCurve
+    from OCP.gp import gp_Pnt, gp_Pnt2d
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS, TopoDS_Edge, TopoDS_Vertex
+
+    ad = BRepAdaptor_Curve(edge)
+    f, l = ad.FirstParameter(), ad.LastParameter()
+    curve = BRep_Tool.Curve_s(edge, 0.0, 0.0)
+    pc = BRep_Tool.CurveOnSurface_s(edge, fwd, 0.0, 0.0)
+    if curve is None or pc is None:
+        return None
+    ts = [f if increasing else l]
+    for q in points2d[1:-1]:  # per inner tile corner on the side
+        pr = Geom2dAPI_ProjectPointOnCurve(gp_Pnt2d(float(q[0]), float(q[1])), pc, f, l)
+        if pr.NbPoints() < 1:
+            return None
+        ts.append(pr.LowerDistanceParameter())
+    ts.append(l if increasing else f)
+    ts = np.array(ts)
+    if not (np.all(np.diff(ts) > 0) if increasing else np.all(np.diff(ts) < 0)):
+        return None
+    first, last = TopExp.FirstVertex_s(edge), TopExp.LastVertex_s(edge)  # at f and at l (edge orientation ignored)
+    verts = [first if increasing else last]
+    for t in ts[1:-1].tolist():  # per inner tile corner
+        v = TopoDS_Vertex()
+        b.MakeVertex(v, gp_Pnt(*ad.Value(t).Coord()), tol)
+        verts.append(v)
+    verts.append(last if increasing else first)
+    along, oriented = [], []
+    for k in range(len(ts) - 1):  # per piece
+        lo, hi = (k, k + 1) if increasing else (k + 1, k)
+        piece = TopoDS_Edge()
+        b.MakeEdge(piece, curve, tol)
+        b.Add(piece, verts[lo].Oriented(TopAbs_FORWARD))
+        b.Add(piece, verts[hi].Oriented(TopAbs_REVERSED))
+        b.Range(piece, float(ts[lo]), float(ts[hi]))
+        along.append(piece)
+        oriented.append((piece if increasing else TopoDS.Edge_s(piece.Reversed()), pc))
+    if not increasing:
+        along = along[::-1]
+    return verts, along, oriented
+
+
+def _with_pieces(b, face, pieces: dict, tol: dict):
+    """A copy of ``face`` (same surface, location and orientation) whose wires have
+    each edge of ``pieces`` (``{edge: [pieces along it]}``) replaced by its pieces,
+    which get the edge's pcurves on it."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopoDS import TopoDS, TopoDS_Iterator, TopoDS_Wire
+
+    new = TopoDS.Face_s(face.EmptyCopied())
+    for edge, along in pieces.items():  # the replaced edges on this face
+        if BRep_Tool.IsClosed_s(edge, face):
+            c1 = BRep_Tool.CurveOnSurface_s(TopoDS.Edge_s(edge.Oriented(TopAbs_FORWARD)), face, 0.0, 0.0)
+            c2 = BRep_Tool.CurveOnSurface_s(TopoDS.Edge_s(edge.Oriented(TopAbs_REVERSED)), face, 0.0, 0.0)
+            for p in along:  # per piece
+                b.UpdateEdge(p, c1, c2, face, tol[edge])
+        else:
+            c = BRep_Tool.CurveOnSurface_s(edge, face, 0.0, 0.0)
+            for p in along:  # per piece
+                b.UpdateEdge(p, c, face, tol[edge])
+    wit = TopoDS_Iterator(face)
+    while wit.More():  # per wire
+        w = TopoDS_Wire()
+        b.MakeWire(w)
+        eit = TopoDS_Iterator(wit.Value())
+        while eit.More():  # per edge of the wire
+            e = eit.Value()
+            key = next((k for k in pieces if k.IsSame(e)), None)
+            if key is None:
+                b.Add(w, e)
+            elif e.Orientation() == TopAbs_FORWARD:
+                for p in pieces[key]:  # per piece
+                    b.Add(w, p)
+            elif e.Orientation() == TopAbs_REVERSED:
+                for p in reversed(pieces[key]):  # per piece
+                    b.Add(w, p.Reversed())
+            else:
+                return None
+            eit.Next()
+        w.Closed(wit.Value().Closed())
+        b.Add(new, w)
+        wit.Next()
+    return new
+
+
+def tiled_in_place(shape: Any, face: Any, U: np.ndarray, V: np.ndarray, T: np.ndarray, *, tile: int = TILE, breaks=((), ()),
+                   fine=None):
+    """``shape`` with ``face`` replaced by the degree-1 surface through the poles
+    ``T`` (``(len(U), len(V), 3)`` mm) on the face's own ``(u, v)`` knots ``U`` x
+    ``V`` (whose outer rows are the face's boundary), made as **tiles** of at most
+    ``tile`` x ``tile`` cells (:func:`texcad.solid.tiled_grid_faces`, each carrying its
+    grid triangulation) sewn to the face's own boundary edges, split at the tile
+    corners (tiles also end at the grid lines ``breaks``, ``(v indices, u indices)``,
+    see :func:`texcad.solid.tiled_grid_faces`); the neighbouring faces get the same
+    pieces in place of each edge; ``fine``: index rectangles ``(v0, v1, u0, u1)``
+    where the tiles are small (:data:`texcad.solid.FINE`). No
+    boolean, no sewing: every edge is shared by construction. The pieces' tolerance
+    grows by the chord between the edge and the bilinear tiles (sampled).
+
+    Returns:
+        The new shape, or None unless the face has four boundary edges, one per side
+        of its ``(u, v)`` rectangle (then use one face, :func:`uv_textured_solid`'s way).
+    """
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD, TopAbs_REVERSED, TopAbs_VERTEX
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    topo, old = to_topods(shape), TopoDS.Face_s(to_topods(face))
+    fwd = TopoDS.Face_s(old.Oriented(TopAbs_FORWARD))
+    sides = _sides(fwd, U, V)
+    if sides is None:
+        return None
+    b = BRep_Builder()
+    tol, pieces, failed = {}, {}, []
+    for edge, _ in sides.values():  # 4 edges
+        tol[edge] = max(BRep_Tool.Tolerance_s(edge), 1.5 * _edge_deviation(edge, fwd, U, V, T) + TOLERANCE)
+        for x in explore(edge, TopAbs_VERTEX):  # its two vertices
+            vx = TopoDS.Vertex_s(x)
+            b.UpdateVertex(vx, max(BRep_Tool.Tolerance_s(vx), tol[edge]))
+
+    def outline(name: str, stops: np.ndarray):
+        edge, increasing = sides[name]
+        pts = np.stack([U[stops], np.full(len(stops), V[0 if name == "v0" else -1])], axis=1) if name[0] == "v" else \
+            np.stack([np.full(len(stops), U[0 if name == "u0" else -1]), V[stops]], axis=1)  # fmt: skip
+        got = _split_edge(b, edge, fwd, pts, increasing, tol[edge])
+        if got is None:
+            failed.append(name)
+            raise GeometryError(f"internal: the face's {name} edge cannot be split at the tile corners")
+        verts, along, oriented = got
+        pieces[edge] = along
+        return verts, oriented
+
+    grid = np.ascontiguousarray(np.asarray(T, np.float64).transpose(1, 0, 2))  # rows along v, columns along u
+    try:
+        tiles, _ = tiled_grid_faces(grid, np.asarray(U, np.float64), np.asarray(V, np.float64), tile=tile, outline=outline, breaks=breaks, fine=fine)
+    except GeometryError:
+        if failed:
+            return None
+        raise
+    if old.Orientation() == TopAbs_REVERSED:
+        tiles = [TopoDS.Face_s(t.Reversed()) for t in tiles]
+    owners = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(topo, TopAbs_EDGE, TopAbs_FACE, owners)
+    neighbours: list = []
+    for edge in pieces:  # 4 edges
+        for f in owners.FindFromKey(edge):  # the faces along it (two)
+            if f.IsSame(old):
+                continue
+            hit = next((n for n in neighbours if n[0].IsSame(f)), None)
+            if hit is None:
+                neighbours.append((TopoDS.Face_s(f), {}))
+                hit = neighbours[-1]
+            hit[1][edge] = pieces[edge]
+    swaps = [(old, tiles)]
+    for f, mine in neighbours:  # 4 faces at most
+        new = _with_pieces(b, f, mine, tol)
+        if new is None:
+            return None
+        swaps.append((f, [new]))
+    return _replace_faces(topo, swaps)
+
+
+# -- a planar face with holes: tiles where the texture is, planar faces around them --------------
+def _dirty_cells(old, o, ex, ey, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(dirty, segs)``: ``(R - 1, C - 1)`` bool, the grid cells that the face's
+    outline touches (sampled every quarter cell, then grown by one cell) or whose
+    centre lies outside the face; ``segs`` the outline in the face frame (mm)."""
+    from scipy.ndimage import binary_dilation
+
+    from .brep import face_segments, inside, sample_segments
+
+    step = 0.25 * float(min(x[1] - x[0], y[1] - y[0]))
+    seg3 = face_segments(old, step) - o
+    segs = np.stack([seg3 @ ex, seg3 @ ey], axis=-1)
+    pts = sample_segments(segs, step)
+    R, C = len(y), len(x)
+    hit = np.zeros((R - 1, C - 1), bool)
+    ci = np.clip(np.searchsorted(x, pts[:, 0]) - 1, 0, C - 2)
+    ri = np.clip(np.searchsorted(y, pts[:, 1]) - 1, 0, R - 2)
+    hit[ri, ci] = True
+    hit = binary_dilation(hit, np.ones((3, 3), bool))
+    centre = inside(segs, 0.5 * (x[1:] + x[:-1]), 0.5 * (y[1:] + y[:-1]))
+    return hit | ~centre, segs
+
+
+def _quad_leaves(want: np.ndarray, dirty: np.ndarray, tile: int, fine) -> list | None:
+    """Rectangles of cells ``(r0, r1, c0, c1)`` covering every ``want`` cell with
+    clean cells only: :func:`~texcad.solid.brep._leaves` tiles, halved until clean
+    (down to single cells); None if a wanted cell is dirty."""
+    from .brep import _leaves
+
+    if (want & dirty).any():
+        return None
+    cw = np.pad(np.cumsum(np.cumsum(want, 0), 1), ((1, 0), (1, 0)))  # summed-area tables
+    cd = np.pad(np.cumsum(np.cumsum(dirty, 0), 1), ((1, 0), (1, 0)))
+
+    def count(t, r0, r1, c0, c1):
+        return t[r1, c1] - t[r0, c1] - t[r1, c0] + t[r0, c0]
+
+    out, todo = [], list(_leaves(want.shape[0], want.shape[1], tile, fine))
+    while todo:  # one per rectangle looked at (tiles, halved near the outline)
+        r0, r1, c0, c1 = todo.pop()
+        if not count(cw, r0, r1, c0, c1):
+            continue
+        if not count(cd, r0, r1, c0, c1):
+            out.append((r0, r1, c0, c1))
+        elif r1 - r0 >= c1 - c0:
+            m = (r0 + r1) // 2
+            todo += [(r0, m, c0, c1), (m, r1, c0, c1)]
+        else:
+            m = (c0 + c1) // 2
+            todo += [(r0, r1, c0, m), (r0, r1, m, c1)]
+    return sorted(out)
+
+
+def _cover(want: np.ndarray, dirty: np.ndarray, tile: int, fine) -> tuple[list, np.ndarray] | None:
+    """Tiles over the wanted cells whose union has no pinch (two tiles meeting at a
+    corner only: add the clean cells beside it, up to 8 rounds); ``(leaves, (R - 1,
+    C - 1) covered cells)`` or None."""
+    for _ in range(8):  # rounds of pinches filled
+        leaves = _quad_leaves(want, dirty, tile, fine)
+        if leaves is None:
+            return None
+        m = np.zeros_like(want)
+        for r0, r1, c0, c1 in leaves:  # one per tile
+            m[r0:r1, c0:c1] = True
+        a, b, c, d = m[:-1, :-1], m[:-1, 1:], m[1:, :-1], m[1:, 1:]
+        pinch = (a & d & ~b & ~c) | (b & c & ~a & ~d)
+        if not pinch.any():
+            return leaves, m
+        add = np.zeros_like(want)
+        add[:-1, :-1] |= pinch & ~a
+        add[:-1, 1:] |= pinch & ~b
+        add[1:, :-1] |= pinch & ~c
+        add[1:, 1:] |= pinch & ~d
+        want = want | add
+    return None
+
+
+def _loops(edges: dict, m: np.ndarray) -> list:
+    """The boundary of the covered cells ``m`` as closed loops of tile edges, each
+    ``[(edge, param_line, (r, c) start), ...]`` running the way the tiles run them
+    (counter-clockwise about the cells)."""
+    from OCP.TopoDS import TopoDS
+
+    R, C = m.shape
+
+    def cell(r, c):
+        return bool(0 <= r < R and 0 <= c < C and m[r, c])
+
+    nxt = {}
+    for (horizontal, line, a, z), (e, pl) in edges.items():  # every tile edge
+        if horizontal:
+            above, below = cell(line, a), cell(line - 1, a)
+            if above == below:
+                continue
+            ends = ((line, a), (line, z)) if above else ((line, z), (line, a))
+            fwd = above
+        else:
+            right, left = cell(a, line), cell(a, line - 1)
+            if right == left:
+                continue
+            ends = ((z, line), (a, line)) if right else ((a, line), (z, line))
+            fwd = not right
+        nxt[ends[0]] = (e if fwd else TopoDS.Edge_s(e.Reversed()), pl, ends[0], ends[1])
+    loops = []
+    while nxt:  # one per loop
+        start = next(iter(nxt))
+        loop, at = [], start
+        while True:  # one per edge of the loop
+            e, pl, a, z = nxt.pop(at)
+            loop.append((e, pl, a))
+            at = z
+            if at == start:
+                break
+        loops.append(loop)
+    return loops
+
+
+def _loop_item(segs: np.ndarray, **kw) -> dict:
+    """A closed loop given by its oriented 2-D segments ``(K, 2, 2)`` mm: signed area
+    (Green's theorem, summed segment by segment: any order) and one point on it."""
+    a, b = segs[:, 0], segs[:, 1]
+    area = 0.5 * float((a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum())
+    return dict(kw, segs=segs, area=area, point=segs[0, 0])
+
+
+def _wire_segments(w, o, ex, ey, spacing: float) -> np.ndarray:
+    """A wire of the face as oriented 2-D segments ``(K, 2, 2)`` in the face frame
+    (mm): each edge sampled every <= ``spacing`` mm, run the way the wire runs it."""
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_REVERSED
+    from OCP.TopoDS import TopoDS
+
+    from .brep import edge_points
+
+    segs = []
+    for e in explore(w, TopAbs_EDGE):  # one per edge of the wire (its orientation composed in)
+        p = edge_points(TopoDS.Edge_s(e), spacing)
+        p = (p[::-1] if e.Orientation() == TopAbs_REVERSED else p) - o
+        q = np.stack([p @ ex, p @ ey], axis=-1)
+        segs.append(np.stack([q[:-1], q[1:]], axis=1))
+    return np.concatenate(segs)
+
+
+def _fine_index(fine, x: np.ndarray, y: np.ndarray) -> list:
+    """Rectangles ``(x0, x1, y0, y1)`` mm in the face frame as cell index rectangles."""
+    idx = []
+    for f in fine or ():  # one per tool: (x0, x1, y0, y1[, cells])
+        ca, cz = np.searchsorted(x, [f[0], f[1]]) + np.array([-1, 1])
+        ra, rz = np.searchsorted(y, [f[2], f[3]]) + np.array([-1, 1])
+        idx.append((max(int(ra), 0), int(rz), max(int(ca), 0), int(cz), *f[4:]))
+    return idx
+
+
+def _plane_regions(items: list) -> list | None:
+    """Group closed loops (:func:`_loop_item`, each
+    oriented with its region on the left) into faces: each counter-clockwise loop
+    with the clockwise loops it is the smallest to contain. None if a hole has no
+    loop around it."""
+    from .brep import inside
+
+    outers = [i for i in items if i["area"] > 0]
+    faces = [[o] for o in outers]
+    for hole in (i for i in items if i["area"] <= 0):  # one per hole
+        p = hole["point"]
+        best = None
+        for k, o in enumerate(outers):  # the loops around it
+            if inside(o["segs"], np.array([p[0]]), np.array([p[1]]))[0, 0] and (best is None or o["area"] < outers[best]["area"]):
+                best = k
+        if best is None:
+            return None
+        faces[best].append(hole)
+    return faces
+
+
+def _plane_face(b, surf, pln, loops: list):
+    """A planar face on ``surf`` (the face frame's plane ``pln``) bounded by
+    ``loops``: the part's own wires (``"wire"``, oriented for the outward normal) or
+    tile boundary loops (``"loop"``, run the tiles' way: reversed here)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.GeomAPI import GeomAPI
+    from OCP.gp import gp_Dir2d, gp_Pnt2d
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Wire
+
+    from .brep import TOLERANCE
+
+    f = TopoDS_Face()
+    b.MakeFace(f, surf, TOLERANCE)
+    for item in loops:  # outer loop, then holes
+        if "wire" in item:
+            b.Add(f, item["wire"])
+            for e in explore(item["wire"], TopAbs_EDGE):  # one per edge of the part's wire
+                edge = TopoDS.Edge_s(e)
+                curve = BRep_Tool.Curve_s(edge, 0.0, 0.0)
+                if curve is None:
+                    raise GeometryError("an edge of the face has no 3-D curve; rebuild the part (BRepLib.BuildCurves3d)")
+                b.UpdateEdge(edge, GeomAPI.To2d_s(curve, pln), f, TOLERANCE)
+            continue
+        w = TopoDS_Wire()
+        b.MakeWire(w)
+        for e, pl, _ in reversed(item["loop"]):  # one per tile edge on the loop
+            b.Add(w, e.Reversed())
+            b.UpdateEdge(TopoDS.Edge_s(e), Geom2d_Line(gp_Pnt2d(pl[0], pl[1]), gp_Dir2d(pl[2], pl[3])), f, TOLERANCE)
+        w.Closed(True)
+        b.Add(f, w)
+    return f
+
+
+def holed_plane_solid(shape: Any, face: Any, heights: np.ndarray, x: np.ndarray, y: np.ndarray, *, origin, xdir, normal,
+                      tile: int = TILE, fine=None, flatten_outline: bool = False):  # fmt: skip
+    """``shape`` with a planar ``face`` of any outline (holes, pockets, notches)
+    textured in place, **in tiles, without a boolean**: the grid cells where the
+    texture leaves the plane are covered by tiles (:func:`texcad.solid.tiled_grid_faces`,
+    at most ``tile`` cells a side, halved down to single cells where the face's
+    outline comes near: no tile touches it), and the rest of the face stays planar:
+    one planar face per region between the face's own wires and the tiles' boundary
+    loops (a texture ring around a hole leaves a planar island around it). Every edge
+    is shared: closed by construction. Arguments as
+    :func:`texcad.solid.textured_plane_face` (mm; ``heights`` exactly 0 on every cell
+    the outline crosses), ``fine`` as :func:`texcad.solid.tiled_plane_solid`.
+    ``flatten_outline``: set the heights to 0 on every cell within two cells of the
+    outline instead (a relief that runs on to the outline, such as an engraving's
+    20 um floor).
+
+    Returns:
+        The new shape, or None where the tiles cannot avoid the outline (a lifted
+        cell it touches) or the regions do not nest.
+    """
+    from OCP.BRep import BRep_Builder
+    from OCP.Geom import Geom_Plane
+    from OCP.TopoDS import TopoDS, TopoDS_Iterator
+
+    from .brep import _frame_pln
+
+    old = TopoDS.Face_s(to_topods(face))
+    o, ex, n = (np.asarray(a, np.float64) for a in (origin, xdir, normal))
+    ey = np.cross(n, ex)
+    h = np.asarray(heights, np.float64)
+    x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+    dirty, _ = _dirty_cells(old, o, ex, ey, x, y)
+    if flatten_outline:
+        near = np.zeros(h.shape, bool)
+        for a, b in ((slice(None, -1), slice(None, -1)), (slice(None, -1), slice(1, None)), (slice(1, None), slice(None, -1)), (slice(1, None), slice(1, None))):
+            near[a, b] |= dirty  # the 4 corners of each cell
+        h = np.where(near, 0.0, h)
+    up = h != 0
+    want = up[:-1, :-1] | up[:-1, 1:] | up[1:, :-1] | up[1:, 1:]
+    if not want.any():
+        return None
+    got = _cover(want, dirty, tile, _fine_index(fine, x, y))
+    if got is None:
+        return None
+    leaves, covered = got
+    grid = o + x[None, :, None] * ex + y[:, None, None] * ey + h[..., None] * n
+    edges: dict = {}
+    tiles, _ = tiled_grid_faces(grid, x, y, leaves=leaves, edges_out=edges)
+    items = []
+    for loop in _loops(edges, covered):  # the tiles' boundary loops, reversed for the plane
+        poly = np.array([(x[c], y[r]) for _, _, (r, c) in loop])[::-1]
+        items.append(_loop_item(np.stack([poly, np.roll(poly, -1, axis=0)], axis=1), loop=loop))
+    it = TopoDS_Iterator(old)  # the face's wires, its orientation composed in
+    while it.More():  # one per wire (outline and holes)
+        segs = _wire_segments(it.Value(), o, ex, ey, 0.25 * float(min(x[1] - x[0], y[1] - y[0])))
+        items.append(_loop_item(segs, wire=it.Value()))
+        it.Next()
+    regions = _plane_regions(items)
+    if regions is None:
+        return None
+    b = BRep_Builder()
+    pln = _frame_pln(o, n, ex)
+    surf = Geom_Plane(pln)
+    flats = [_plane_face(b, surf, pln, loops) for loops in regions]  # one per planar region
+    return _replace_faces(to_topods(shape), [(old, flats + list(tiles))])
