@@ -162,3 +162,32 @@ def test_pattern_of_textured_part(part, tmp_path):
         tx.patterned([Pos(0, 0, 0), Pos(20, 0, 0)])
     with pytest.raises(ParameterError, match="rigid"):
         tx.patterned([np.diag([2.0, 1.0, 1.0, 1.0])])
+
+
+def test_operations_on_a_part_without_brep_run_on_its_mesh():
+    """Faces flattened together (a band of planes and fillets) have no B-rep: a hole
+    drilled into such a part still gives the exact mesh result, and ``.shape`` of
+    the result says why there is none (never a silently missing STEP)."""
+    import warnings
+
+    import trimesh
+    from build123d import Axis, BuildPart, Box, Cylinder, Pos, fillet
+
+    with BuildPart() as bp:
+        Box(30, 20, 8)
+        fillet(bp.edges().filter_by(Axis.Z), 3)
+    sides = bp.part.faces().filter_by(lambda f: abs(f.normal_at().Z) < 0.1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tx = texcad.texture(bp.part, sides, "builtin:stones", height=0.5, pitch=0.3)
+    with pytest.raises(GeometryError):
+        tx.shape
+    drilled = tx - Pos(0, 0, 0) * Cylinder(2, 20)
+    assert tx.mesh.volume - drilled.mesh.volume == pytest.approx(np.pi * 4 * 8, rel=0.01)
+    assert trimesh.Trimesh(drilled.mesh.vertices, drilled.mesh.faces).is_watertight
+    with pytest.raises(GeometryError, match="STL or 3MF"):
+        drilled.shape
+    mirrored = drilled.mirrored((0, 0, 0), (1, 0, 0))
+    assert mirrored.mesh.volume == pytest.approx(drilled.mesh.volume, rel=1e-6)
+    with pytest.raises(GeometryError, match="no B-rep"):
+        mirrored.shape

@@ -109,11 +109,16 @@ def _history(part: Any) -> dict:
     """How to rebuild ``part``'s B-rep: ``make(fine)`` (the textured part in its own
     frame, or None), ``shape`` (used when ``make`` is None), ``steps`` (operations in
     that frame), ``to_world`` (that frame to the part's unplaced frame), the face
-    frame and pitch for the fine tiles, ``base`` (the untextured part)."""
+    frame and pitch for the fine tiles, ``base`` (the untextured part); for a part
+    whose B-rep cannot be made, ``no_brep`` (why), raised by :func:`_replay`."""
     hist = getattr(part, "_cad_history", None)
     if hist is not None:
         return hist
-    shape = part.shape  # builds and checks the B-rep, records the builder
+    try:
+        shape = part.shape  # builds and checks the B-rep, records the builder
+    except GeometryError as exc:  # no B-rep: the operations still run on the mesh
+        return {"make": None, "shape": None, "no_brep": str(exc), "steps": [], "to_world": np.eye(3, 4), "frame": None,
+                "base": part.info.get("_base_shape") if isinstance(part.info, dict) else None}
     placement = np.asarray(part._placement, np.float64)
     unplaced = _apply(shape, np.linalg.inv(_m4(placement))[:3]) if not np.allclose(placement, np.eye(3, 4)) else shape
     info = part.info
@@ -169,6 +174,11 @@ def _replay(hist: dict, cells: int | None = None):
     """The B-rep of a history, in its frame: the textured part (with fine tiles of
     ``cells`` cells a side, default :data:`texcad.solid.FINE`, under every tool) and
     the operations, in order."""
+    if hist.get("no_brep"):
+        raise GeometryError(
+            f"{hist['no_brep']} (the textured part had no B-rep, so neither has the result of CAD operations on it; "
+            "its mesh is exact: export STL or 3MF)"
+        )
     if hist["make"] is not None:
         rects = [tuple(s["fine"]) + ((cells,) if cells else ()) for s in hist["steps"] if s.get("fine") is not None]
         shape = hist["make"](fine=rects)
