@@ -17,18 +17,7 @@ from texcad.errors import ParameterError
 from texcad.pipeline.mesh import load_closed
 from texcad.solid.adaptive import build, coarse_mesh, edge_counts, measure, pitch_samples
 from texcad.solid.subdivide import coarsen
-
-
-def _box():
-    b = trimesh.creation.box((20.0, 20.0, 16.0))
-    b.apply_translation((0, 0, 8.0))
-    return b
-
-
-def _cylinder():
-    c = trimesh.creation.cylinder(radius=9.0, height=16.0, sections=40)
-    c.apply_translation((0, 0, 8.0))
-    return c
+from test_mesh_target import _box, _cylinder  # the same parts (tests/pipeline is on the path)
 
 
 def _top(tx, z0):
