@@ -79,6 +79,18 @@ def _fillet():
     return part, part.faces().filter_by(GeomType.TORUS)[0]
 
 
+def _reread(tx, path, eps=None):
+    """``tx`` written as STEP to ``path`` and read back: one valid closed solid whose
+    OCCT volume (``eps``, None: OCCT's default) is the mesh's within 0.1 %."""
+    tx.export(path)
+    back = texcad.io.read_step(path)
+    chk = check_shape(back)
+    assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
+    vol = occt_volume(back) if eps is None else occt_volume(back, eps)
+    assert vol == pytest.approx(tx.volume, rel=1e-3)
+    return back
+
+
 @pytest.mark.parametrize("make", [_cone, _sphere, _torus, _revolved, _bspline, _fillet], ids=lambda f: f.__name__[1:])
 def test_face_kind_step_is_one_solid_shown_as_texcads_mesh(make, tmp_path):
     part, face = make()
@@ -161,12 +173,7 @@ def test_open_extrusion_faces_are_tiles_sewn_in_place(tmp_path):
             assert faces > 100  # 200 x 200 cells in tiles
         assert tx.info["brep_volume"] == pytest.approx(tx.volume, rel=1e-3)
         assert occt_volume(shape, 1e-3) == pytest.approx(tx.volume, rel=1e-3)
-        path = tmp_path / "part.step"
-        tx.export(path)
-        back = texcad.io.read_step(path)
-        chk = check_shape(back)
-        assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
-        assert occt_volume(back, 1e-3) == pytest.approx(tx.volume, rel=1e-3)
+        back = _reread(tx, tmp_path / "part.step", 1e-3)
         shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
         assert _distance(shown.vertices, tx.mesh) < DEFLECTION
         assert _distance(tx.mesh.vertices, shown) < DEFLECTION
@@ -200,12 +207,7 @@ def test_engraved_and_centred_faces_have_their_step(make, mode, tmp_path):
         warnings.simplefilter("ignore", TexcadWarning)
         tx = texcad.texture(part, face, "builtin:stones", height=0.6, pitch=0.3, mode=mode)
     assert 0 <= tx.max_error <= 0.02
-    path = tmp_path / "part.step"
-    tx.export(path)
-    back = texcad.io.read_step(path)
-    chk = check_shape(back)
-    assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
-    assert occt_volume(back) == pytest.approx(tx.volume, rel=1e-3)
+    back = _reread(tx, tmp_path / "part.step")
     if mode == "engraved":  # cut in: less than the part
         assert occt_volume(back) < part.volume
     shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
@@ -259,12 +261,7 @@ def test_engraved_and_centred_planar_faces_have_their_step(mode, tmp_path):
     tx = texcad.texture(plate, top, "builtin:stones", height=0.6, pitch=0.3, mode=mode)
     faces, most = _poles(tx.shape)
     assert faces > len(plate.faces()) + 10 and most <= (texcad.solid.TILE + 1) ** 2
-    path = tmp_path / "part.step"
-    tx.export(path)
-    back = texcad.io.read_step(path)
-    chk = check_shape(back)
-    assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
-    assert occt_volume(back, 1e-3) == pytest.approx(tx.volume, rel=1e-3)
+    back = _reread(tx, tmp_path / "part.step", 1e-3)
     if mode == "engraved":  # cut in: less than the part
         assert occt_volume(back, 1e-3) < plate.volume - 100
     shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
