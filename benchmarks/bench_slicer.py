@@ -4,7 +4,7 @@
     python benchmarks/bench_slicer.py demo        [--timeout 900]
     python benchmarks/bench_slicer.py support     [--pitch 0.25]
     python benchmarks/bench_slicer.py perimeters  [--side 40]
-    python benchmarks/bench_slicer.py recipes     [--pitch 0.5] [--only T1-flat,sledgehammer]
+    python benchmarks/bench_slicer.py recipes     [--pitch 0.5] [--only T1-flat,sledgehammer] [--fast] [--compare]
 
 * ``demo``: the demo plate (800 x 800 px stones, 100 x 100 mm, as ``texcad demo``
   makes it) with one vertex per pixel (tolerance 0) and lean (default tolerance),
@@ -23,7 +23,8 @@
   (its own part of the 3MF), and the bare base part's support (sliced when there
   is support at all). ``--fast`` turns "detect bridging perimeters" off, which
   does not change the support but the slice time (a 74 k-triangle flat sample at
-  0.5 mm took 750 s with it on at load average 5).
+  0.5 mm took 750 s with it on at load average 5). ``--compare`` makes every part
+  on the pixel grid (tolerance 0) too and slices both, side by side.
 * ``perimeters``: what makes the default perimeter analysis slow: a smaller stones
   plate at several tolerances, ``overhangs`` on and off, with the G-code's
   perimeter and overhang-perimeter lengths.
@@ -173,7 +174,7 @@ def recipes(args) -> None:
 
     scripts = ["paper_samples", *RECIPE_DIRS]
     only = set(args.only.split(",")) if args.only else None
-    tols = (None,)  # the recipes' own (default) tolerance
+    tols = (0.0, None) if args.compare else (None,)  # the grid and/or the recipes' own (default) tolerance
     with tempfile.TemporaryDirectory() as tmp:
         for script in scripts:  # one recipe run per script and tolerance
             for tol in tols:
@@ -227,6 +228,8 @@ def main() -> None:
     ap.add_argument("--side", type=float, default=40.0, help="perimeters: plate side in mm (default 40)")
     ap.add_argument("--sledgehammer", action="store_true", help="support: also the sledgehammer recipe (slow)")
     ap.add_argument("--fast", action="store_true", help="recipes: 'detect bridging perimeters' off (support is unchanged)")
+    ap.add_argument("--compare", action="store_true",
+                    help="recipes: each part made twice, on the grid (tolerance 0) and lean (the default), sliced side by side")
     ap.add_argument("--only", default="", help="recipes: comma-separated paper sample names and recipe scripts")
     ap.add_argument("--tolerances", type=lambda t: [float(x) for x in t.split(",")], default=[0.0, 0.02, 0.05, 0.1],
                     help="perimeters: tolerances in mm (default 0,0.02,0.05,0.1)")
