@@ -161,3 +161,18 @@ def test_any_surface_mode_gives_one_closed_body(kind, mode, mapping, height, tol
         assert outside < 1e-3
     else:
         assert 0 < outside < height * 0.6 * 2 * surf.profile.length * surf.length
+
+
+def test_a_cut_deeper_than_the_wall_is_limited_with_a_warning():
+    """A 4 mm engraving in a 3 mm wall (a tube, R 10 mm): cut less deep where the wall
+    is too thin, with a TexcadWarning, and 0.4 of the wall left standing."""
+    from texcad.errors import TexcadWarning
+
+    surf = texcad.Surface.cylinder(10, 20, 3.0)
+    with pytest.warns(TexcadWarning, match="cut less deep"):
+        res = texcad.texture(surf, None, "builtin:stones", height=4.0, pitch=0.3, mode="engraved")
+    _solid_ok(res)
+    v = res.mesh.vertices.astype(np.float64)
+    r = np.hypot(v[:, 0], v[:, 2])
+    outer = r > 7.0 + 1e-3  # not the bore (r 7)
+    assert r[outer].min() >= 7.0 + 0.4 * 3.0 - 1e-3

@@ -34,6 +34,11 @@ __all__ = ["ModeSheets", "mode_sheets", "CUT_ABOVE", "CUT_FLOOR"]
 CUT_ABOVE = 0.05
 #: mm: the cutter reaches at least this far under the surface.
 CUT_FLOOR = 0.01
+#: Share of the base's wall thickness a cut leaves standing.
+WALL_KEPT = 0.4
+#: mm: the deepest cut stays this far above the slab's bottom (``depth`` mm in, less
+#: where the base is thin).
+SLAB_CLEARANCE = 0.1
 
 
 class ModeSheets(dict):
@@ -48,7 +53,12 @@ class ModeSheets(dict):
     * ``"slab"``: ``(R, C, 3)`` the centred slab's top: ``S``, but ``floor`` mm under
       the cut along the grid's outline;
     * ``"low"``: ``(R, C, 3)`` the envelope's bottom ``P - g c H v``, 2 ``floor`` mm
-      lower: what lies above it is the texture (for ``texture_mesh``).
+      lower: what lies above it is the texture (for ``texture_mesh``);
+    * ``"limited"``: how many grid points were cut less deep than ``t`` because the
+      base is not that thick under them (the cut stays :data:`SLAB_CLEARANCE` mm
+      above the slab's bottom, which :func:`texcad.mapping.map_texture` keeps
+      within 0.4 of the profile's material, and leaves :data:`WALL_KEPT` of the
+      base's wall ``thickness``).
     """
 
 
@@ -60,6 +70,15 @@ def _frames(profile: Profile, mapped: MappedSurface):
     else:
         direction = np.stack([np.zeros(len(mapped.s)), fc.facing.astype(np.float64)], axis=1)
     return fc.point, fc.normal, direction * mapped.factor[:, None]
+
+
+def _within(tv: np.ndarray, n: np.ndarray, reach: np.ndarray) -> tuple[np.ndarray, int]:
+    """Offsets ``tv`` ``(R, C, 2)`` mm scaled back where their normal component goes
+    deeper than ``reach`` ``(C,)`` mm under the surface; ``(offsets, how many were)``."""
+    tn = np.einsum("rck,ck->rc", tv, n)
+    deep = tn < -reach[None, :]
+    scale = np.where(deep, reach[None, :] / np.maximum(-tn, 1e-12), 1.0)
+    return tv * scale[..., None], int(deep.sum())
 
 
 def _place(P: np.ndarray, y: np.ndarray, offset: np.ndarray) -> np.ndarray:
@@ -83,6 +102,7 @@ def mode_sheets(
     floor: float = CUT_FLOOR,
     above: float = CUT_ABOVE,
     overlap: float = CUT_FLOOR,
+    thickness: float = float("inf"),
 ) -> ModeSheets:
     """The sheets of a raised, centred or engraved texture on a mapped surface.
 
@@ -97,6 +117,8 @@ def mode_sheets(
         overlap: mm: centred: the cut reaches this much deeper than ``S``, under the
             slab that fills it back up (more than twice the two sheets' own
             triangulation error, so they cannot cross).
+        thickness: mm: the base's wall under the surface; a cut keeps at least
+            :data:`WALL_KEPT` of it.
 
     Returns:
         :class:`ModeSheets` (see there); the offsets follow the module docstring,
@@ -105,12 +127,17 @@ def mode_sheets(
     P, n, v = _frames(profile, mapped)
     hv = mapped.top[..., [0, 2]].astype(np.float64) - P[None]  # h v, (R, C, 2) mm
     g = 1.0 if gain is None else np.asarray(gain, dtype=np.float64)[..., None]
-    tv = g * (hv - share * height * v[None])  # t v
+    # The cut stays above the slab's bottom (map_texture keeps that within 0.4 of the
+    # profile's own material) and leaves WALL_KEPT of the base's wall: deeper offsets
+    # are scaled back to that reach.
+    below = np.minimum(np.einsum("ck,ck->c", P - mapped.bottom[0][:, [0, 2]], n), (1.0 - WALL_KEPT) * thickness)
+    reach = np.maximum(below - SLAB_CLEARANCE - (overlap if share < 1 else 0.0) - floor, 0.0)
+    tv, limited = _within(g * (hv - share * height * v[None]), n, reach)  # t v
     tn = np.einsum("rck,ck->rc", tv, n)  # its normal component, mm (negative: under the surface)
     cut = np.where((tn < 0)[..., None], tv, 0.0) - np.maximum(0.0, floor + np.minimum(tn, 0.0))[..., None] * n[None]
     if share < 1:  # a slab fills the cut back up to S: cut deeper, so no face of the two lies on the other
         cut = cut - overlap * n[None]
-    low = -g * share * height * v[None] - 2.0 * floor * n[None]
+    low = _within(-g * share * height * v[None], n, reach)[0] - 2.0 * floor * n[None]
     outer = _place(P, np.asarray(mapped.y)[[0, -1]], above * n)
     # The slab's outline dips under the cut: its end walls stay inside the base, apart
     # from the cutter's (two walls in one plane make a union pinch).
@@ -121,4 +148,4 @@ def mode_sheets(
         edge[:, [0, -1]] = True
     slab[edge] = (cut - floor * n[None])[edge]
     return ModeSheets(surface=_place(P, mapped.y, tv), cut=_place(P, mapped.y, cut), outer=outer,
-                      low=_place(P, mapped.y, low), slab=_place(P, mapped.y, slab))
+                      low=_place(P, mapped.y, low), slab=_place(P, mapped.y, slab), limited=limited)

@@ -160,7 +160,8 @@ def textured_surface(
     )
     report(progress, 0.3, f"closing the {mapped.top.shape[0]} x {mapped.top.shape[1]} texture slab")
     lean = dict(closed=mapped.closed, tolerance=tolerance, build_dir=build_dir, critical_angle=critical_angle)
-    bodies = _bodies(surf.profile, mapped, share, full, gradient, lean)
+    wall = float(surf.thickness) if surf.thickness else float("inf")
+    bodies = _bodies(surf.profile, mapped, share, full, gradient, lean, wall)
     if overhang is not None:
         from ..printability import measured
 
@@ -227,7 +228,7 @@ def _inverted(inner: np.ndarray, outer: np.ndarray, profile, s, lean: dict) -> t
     return cutter, made, err
 
 
-def _bodies(profile, mapped, share: float, full: float, gradient: Any, lean: dict) -> dict:
+def _bodies(profile, mapped, share: float, full: float, gradient: Any, lean: dict, wall: float) -> dict:
     """The bodies that put the texture on (:mod:`texcad.mapping.modes`): ``slab`` to
     add, ``cutter`` to subtract, ``low`` (the envelope's cutter, for the texture
     alone), ``shown`` (the body whose ``"texture"`` faces are the part's textured
@@ -241,7 +242,16 @@ def _bodies(profile, mapped, share: float, full: float, gradient: Any, lean: dic
         slab, err = lean_mapped_slab(mapped.top, mapped.bottom, profile, s, **lean)
         return {"slab": slab, "cutter": None, "low": None, "shown": slab, "error": err, "triangles": slab.num_triangles}
     # Two lean sheets each within tolerance of their grids: 2 tolerance apart, they cannot cross.
-    sheets = mode_sheets(profile, mapped, share=share, height=full, gain=gain, overlap=CUT_FLOOR + 2.0 * lean["tolerance"])
+    sheets = mode_sheets(profile, mapped, share=share, height=full, gain=gain, overlap=CUT_FLOOR + 2.0 * lean["tolerance"],
+                         thickness=wall)
+    if sheets["limited"]:
+        import warnings
+
+        from ..errors import TexcadWarning
+
+        warnings.warn(f"the texture was cut less deep at {sheets['limited']} of {mapped.top.shape[0] * mapped.top.shape[1]} "
+                      "grid points, where the base is not thick enough under the surface for it; use a smaller height "
+                      "or a thicker base", TexcadWarning, stacklevel=3)
     slab = cutter = low = None
     err = 0.0
     if share < 1:
