@@ -176,3 +176,20 @@ def test_a_cut_deeper_than_the_wall_is_limited_with_a_warning():
     r = np.hypot(v[:, 0], v[:, 2])
     outer = r > 7.0 + 1e-3  # not the bore (r 7)
     assert r[outer].min() >= 7.0 + 0.4 * 3.0 - 1e-3
+
+
+def test_raised_gradient_keeps_its_outline_on_the_surface():
+    """Raised with a gradient: full height at the start end, none at the other; the
+    texture's first row stands on the surface (not dipped under it as a centred slab's
+    outline is)."""
+    surf = texcad.Surface.cylinder(10, 24)
+    res = _make(surf, "raised", mapping="angle", texture="builtin:diamond_knurl", gradient=(0, 0, 0, 0, 24, 0))
+    _solid_ok(res)
+    first = res.mapped.top[0].astype(np.float64)  # the grid's first row, as mapped
+    top = res.texture_mesh.vertices.astype(np.float64)
+    row0 = np.abs(top[:, 1] - first[0, 1]) < 1e-4
+    r = np.hypot(top[row0, 0], top[row0, 2])
+    assert r.max() > 10.0 + 0.7 * H  # the knurl's ridges at full height
+    v = res.mesh.vertices.astype(np.float64)
+    far = v[:, 1] > 22.5
+    assert np.hypot(v[far, 0], v[far, 2]).max() < 10.0 + 0.15 * H

@@ -254,8 +254,8 @@ def _bodies(profile, mapped, share: float, full: float, gradient: Any, lean: dic
                       "or a thicker base", TexcadWarning, stacklevel=3)
     slab = cutter = low = None
     err = 0.0
-    if share < 1:
-        slab, err = lean_mapped_slab(sheets["slab"], mapped.bottom, profile, s, **lean)
+    if share < 1:  # raised with a gradient: the surface itself; centred: its outline under the cut
+        slab, err = lean_mapped_slab(sheets["slab"] if share > 0 else sheets["surface"], mapped.bottom, profile, s, **lean)
     if share > 0:
         cutter, made, cut_err = _inverted(sheets["cut"], sheets["outer"], profile, s, lean)
         low = lambda: _inverted(sheets["low"], sheets["outer"], profile, s, dict(lean, tolerance=0.0, build_dir=None))[0]  # noqa: E731
