@@ -154,6 +154,9 @@ class MappedSurface:
         x_scale: texture x stretch (1 = physical scale kept; closed profiles fit a
             whole number of repeats).
         limits: where the height was limited to avoid self-intersection.
+        offset: ``(C, 2)`` float64 (x, z) offset per mm of texture height of every
+            column (the normal or +-z, times ``factor``): ``top = P + h offset``
+            (:mod:`texcad.mapping.modes` moves points along it).
     """
 
     top: np.ndarray
@@ -166,6 +169,7 @@ class MappedSurface:
     mapping: str
     x_scale: float = 1.0
     limits: list[HeightLimit] = field(default_factory=list)
+    offset: np.ndarray | None = None
 
     @property
     def bottom_grid(self) -> np.ndarray:
@@ -765,7 +769,7 @@ def map_texture(
             stacklevel=2,
         )
     report(progress, 1.0, "mapped")
-    return MappedSurface(top, bottom, profile.closed, s_all, y, w, heightmap, mapping, x_scale, limits)
+    return MappedSurface(top, bottom, profile.closed, s_all, y, w, heightmap, mapping, x_scale, limits, v)
 
 
 def _fit_columns(profile: Profile, heightmap: Heightmap, periodic_x: bool, length: float | None):

@@ -63,13 +63,10 @@ class ModeSheets(dict):
 
 
 def _frames(profile: Profile, mapped: MappedSurface):
-    """Per column: ``(P_xz (C, 2), unit normal (C, 2), v (C, 2))`` in mm and mm/mm."""
+    """Per column: ``(P_xz (C, 2), unit normal (C, 2), v (C, 2))`` in mm and mm/mm
+    (``v``: the mapping's own offset, :attr:`MappedSurface.offset`)."""
     fc = profile.at(mapped.s)
-    if mapped.mapping == "angle":
-        direction = fc.normal
-    else:
-        direction = np.stack([np.zeros(len(mapped.s)), fc.facing.astype(np.float64)], axis=1)
-    return fc.point, fc.normal, direction * mapped.factor[:, None]
+    return fc.point, fc.normal, mapped.offset
 
 
 def _within(tv: np.ndarray, n: np.ndarray, reach: np.ndarray) -> tuple[np.ndarray, int]:
