@@ -8,7 +8,8 @@ from hypothesis import given, settings, strategies as st
 
 from texcad.errors import GeometryError
 from texcad.solid import Mesh, fuse, grid_faces, heightfield_slab, to_manifold
-from texcad.solid.boolean import boundary_loops, clip_above_plane, closed_and_oriented, fuse_on_plane
+from texcad.solid import closed_and_oriented
+from texcad.solid.boolean import boundary_loops, clip_above_plane, fuse_on_plane
 from texcad.solid.mesh import heightfield_volume
 from texcad.sources import Heightmap
 

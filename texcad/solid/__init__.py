@@ -63,6 +63,7 @@ from .mesh import (
     heightfield_slab,
     grid_solid,
     edge_report,
+    closed_and_oriented,
     surface_slab,
 )
 from .rtin import (
@@ -79,7 +80,7 @@ from .occt import (
     as_array,
     compound,
 )
-from .intersect import self_intersections
+from .intersect import box_cells, self_intersections
 from .subdivide import (
     refine,
     tessellate,
@@ -142,6 +143,7 @@ __all__ = [
     'heightfield_slab',
     'grid_solid',
     'edge_report',
+    'closed_and_oriented',
     'surface_slab',
     'BLOCK',
     'rtin_triangles',
@@ -154,6 +156,7 @@ __all__ = [
     'as_array',
     'compound',
     'self_intersections',
+    'box_cells',
     'refine',
     'tessellate',
     'flip_edges',

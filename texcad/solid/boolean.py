@@ -19,7 +19,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from ..errors import GeometryError, ParameterError
-from .mesh import Mesh
+from .mesh import Mesh, _edge_keys, closed_and_oriented
 
 __all__ = [
     "shape_to_mesh",
@@ -29,7 +29,6 @@ __all__ = [
     "retain_freed_memory",
     "clip_above_plane",
     "boundary_loops",
-    "closed_and_oriented",
     "fuse_on_plane",
 ]
 
@@ -250,26 +249,6 @@ def clip_above_plane(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarra
     tris = np.concatenate([s[:, [0, 1, 2]], s[quad][:, [0, 2, 3]]])
     used, faces_out = _compact(np.concatenate([whole, tris]), n + len(pts))
     return np.concatenate([v, pts])[used], faces_out
-
-
-def _edge_keys(faces: np.ndarray, n: int) -> np.ndarray:
-    """Sorted keys of the directed edges of ``faces`` over ``n`` vertices: the
-    undirected edge ``(lo, hi)`` as ``2 (lo n + hi)``, plus 1 where it runs hi -> lo
-    (one sort finds boundary, duplicated and unpaired edges alike)."""
-    f = np.asarray(faces, dtype=np.int64)
-    a = f.reshape(-1)
-    b = f[:, [1, 2, 0]].reshape(-1)
-    return np.sort(2 * (np.minimum(a, b) * n + np.maximum(a, b)) + (a > b))
-
-
-def closed_and_oriented(faces: np.ndarray, num_vertices: int) -> bool:
-    """True if every directed edge of ``faces`` appears once and its reverse once
-    (one sort of the edge keys)."""
-    k = _edge_keys(faces, int(num_vertices))
-    if len(k) == 0 or len(k) % 2:
-        return False
-    first, second = k[0::2], k[1::2]
-    return bool((first % 2 == 0).all() and (second == first + 1).all() and (first[1:] > second[:-1]).all())
 
 
 def _compact(faces: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:

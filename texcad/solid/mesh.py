@@ -22,7 +22,7 @@ from ..util import require_memory
 from ..errors import GeometryError, ParameterError
 from ..sources import Heightmap
 
-__all__ = ["Mesh", "grid_faces", "heightfield_slab", "grid_solid", "edge_report", "surface_slab", "heightfield_volume"]
+__all__ = ["Mesh", "grid_faces", "heightfield_slab", "grid_solid", "edge_report", "closed_and_oriented", "surface_slab", "heightfield_volume"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,6 +128,26 @@ def edge_report(faces: np.ndarray) -> dict:
         "misoriented": dup_directed,
         "watertight": boundary == 0 and nonmanifold == 0 and dup_directed == 0,
     }
+
+
+def _edge_keys(faces: np.ndarray, n: int) -> np.ndarray:
+    """Sorted keys of the directed edges of ``faces`` over ``n`` vertices: the
+    undirected edge ``(lo, hi)`` as ``2 (lo n + hi)``, plus 1 where it runs hi -> lo
+    (one sort finds boundary, duplicated and unpaired edges alike)."""
+    f = np.asarray(faces, dtype=np.int64)
+    a = f.reshape(-1)
+    b = f[:, [1, 2, 0]].reshape(-1)
+    return np.sort(2 * (np.minimum(a, b) * n + np.maximum(a, b)) + (a > b))
+
+
+def closed_and_oriented(faces: np.ndarray, num_vertices: int) -> bool:
+    """True if every directed edge of ``faces`` appears once and its reverse once
+    (one sort of the edge keys)."""
+    k = _edge_keys(faces, int(num_vertices))
+    if len(k) == 0 or len(k) % 2:
+        return False
+    first, second = k[0::2], k[1::2]
+    return bool((first % 2 == 0).all() and (second == first + 1).all() and (first[1:] > second[:-1]).all())
 
 
 def grid_faces(rows: int, cols: int, *, wrap_x: bool = False, flip: bool = False) -> np.ndarray:
