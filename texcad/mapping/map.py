@@ -194,7 +194,8 @@ def slab_mesh(top: np.ndarray, bottom: np.ndarray, *, closed: bool = False) -> M
     ``2 C`` vertices instead of ``R C`` (like the flat slab's polygon bottom), which
     keeps the manifold3d union as fast as in the flat case.
 
-    Faces: the top grid (group ``"texture"``), the bottom, and end walls. The walls
+    Faces: the top grid (group ``"texture"``), the bottom (group ``"bottom"``), and
+    end walls. The walls
     at the first and last row are plane cross-sections ``y = const`` and are
     triangulated as polygons (manifold3d ``triangulate``: top row plus bottom row, or
     the two loops of a closed profile) rather than by straight top-to-bottom
@@ -263,7 +264,8 @@ def slab_mesh(top: np.ndarray, bottom: np.ndarray, *, closed: bool = False) -> M
             out = sense * (bottom[0, max(c, nb), [0, 2]] - bottom[0, min(c, nb), [0, 2]]).astype(np.float64)
             parts.append(_end_wall(top[:, c], bottom[:, c], idx[:, c], bidx[:, c], out))
     faces = np.concatenate(parts).astype(np.uint32)
-    return Mesh(verts, faces, {"texture": np.arange(len(ftop), dtype=np.uint32)})
+    bottom = np.arange(len(ftop), len(ftop) + len(fbot), dtype=np.uint32)
+    return Mesh(verts, faces, {"texture": np.arange(len(ftop), dtype=np.uint32), "bottom": bottom})
 
 
 def developed_field(top: np.ndarray, profile: Profile, s: np.ndarray, *, closed: bool) -> np.ndarray:
@@ -369,7 +371,9 @@ def lean_slab_mesh(
     mask[faces_all.ravel()] = True
     used = np.flatnonzero(mask)
     remap = np.cumsum(mask) - 1
-    mesh = Mesh(full.vertices[used], remap[faces_all].astype(np.uint32), {"texture": np.arange(len(top_faces), dtype=np.uint32)})
+    groups = {"texture": np.arange(len(top_faces), dtype=np.uint32),
+              "bottom": (full.groups["bottom"] - ntop + len(top_faces)).astype(np.uint32)}
+    mesh = Mesh(full.vertices[used], remap[faces_all].astype(np.uint32), groups)
     return mesh, err
 
 

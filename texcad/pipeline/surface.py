@@ -217,10 +217,9 @@ def _inverted(inner: np.ndarray, outer: np.ndarray, profile, s, lean: dict) -> t
     from ..solid import edge_report
 
     made, err = lean_mapped_slab(inner, outer, profile, s, **lean)
-    closed = lean["closed"]
-    sheets = len(made.groups["texture"]) + 2 * (inner.shape[1] - (0 if closed else 1)) * (outer.shape[0] - 1)
     faces = made.faces.copy()
-    faces[:sheets] = faces[:sheets, ::-1]
+    sheets = np.concatenate([made.groups["texture"], made.groups["bottom"]])
+    faces[sheets] = faces[sheets, ::-1]
     cutter = Mesh(made.vertices, faces, made.groups)
     if not edge_report(faces)["watertight"] or cutter.volume <= 0:
         raise GeometryError("the texture's cutter is not a closed solid (its textured side crosses the surface); "
