@@ -41,7 +41,8 @@ from __future__ import annotations
 
 import os
 import warnings
-from dataclasses import dataclass
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable
 
@@ -55,6 +56,7 @@ from ..printability.relief import limit_relief
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, edge_report, self_intersections
 from ..solid.adaptive import build, coarse_mesh, edge_counts, measure, pitch_samples
 from ..solid.subdivide import coarsen, face_normals, offset_directions, refine, vertex_normals
+from ..util import split_rows, threads
 from .result import Textured
 
 __all__ = ["MESH_SUFFIXES", "MODES", "MESH_OPTIONS", "Layer", "MeshTextured", "is_mesh_target", "load_closed", "texture_mesh"]
@@ -80,26 +82,26 @@ def is_mesh_target(target: Any) -> bool:
     return type(target).__name__ == "Trimesh" and hasattr(target, "faces") and hasattr(target, "vertices")
 
 
-def load_closed(target: Any) -> tuple[np.ndarray, np.ndarray, int, dict]:
+def load_closed(target: Any, *, crossing: bool = True) -> tuple[np.ndarray, np.ndarray, int, dict]:
     """Read and repair a mesh; ``(vertices float64 (N, 3) mm, faces int64 (M, 3),
     bodies, info)``.
 
     Repairs (trimesh): vertices merged where equal to 1e-8 mm, degenerate and
     duplicate triangles dropped, winding made consistent and outward per body.
+    ``crossing=False`` leaves the self-intersection test to the caller
+    (:func:`assert_uncrossed`, e.g. run beside other work).
 
     Raises:
         InputError: unreadable, empty, not closed after repair (the message counts
             the open and non-manifold edges), or its surface crosses itself
-            (:func:`texcad.solid.self_intersections`: two overlapping bodies in one
-            mesh, a fold).
+            (:func:`assert_uncrossed`).
     """
     import trimesh
 
     from ..io import read_mesh
 
-    name = "the mesh"
+    name = _name(target)
     if isinstance(target, (str, os.PathLike)):
-        name = repr(os.fspath(target))
         m = read_mesh(target)
         v, f = m.vertices, m.faces
     elif isinstance(target, Mesh):
@@ -120,20 +122,33 @@ def load_closed(target: Any) -> tuple[np.ndarray, np.ndarray, int, dict]:
             f"edges, {rep['misoriented']} misoriented); texcad textures closed solids: "
             "close the holes (e.g. in the CAD program or a mesh repair tool) and export it again"
         )
-    cross = self_intersections(tm.vertices, tm.faces)
+    if crossing:
+        assert_uncrossed(tm.vertices, tm.faces, name)
+    if tm.volume <= 0:
+        tm.invert()  # inside out as a whole: turn it right way out
+    bodies = int(tm.body_count)
+    info = {"input_triangles": int(len(f)), "repaired_triangles": int(len(tm.faces)), "bodies": bodies}
+    return np.array(tm.vertices, np.float64), np.array(tm.faces, np.int64), bodies, info
+
+
+def _name(target: Any) -> str:
+    return repr(os.fspath(target)) if isinstance(target, (str, os.PathLike)) else "the mesh"
+
+
+def assert_uncrossed(vertices: np.ndarray, faces: np.ndarray, name: str = "the mesh") -> None:
+    """InputError if the surface ``(N, 3)`` mm / ``(M, 3)`` crosses itself
+    (:func:`texcad.solid.self_intersections`: two overlapping bodies in one mesh, a
+    fold), naming where."""
+    v, f = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
+    cross = self_intersections(v, f)
     if len(cross):
-        at = np.asarray(tm.triangles_center)[cross[0]].mean(axis=0)
+        at = v[f[cross[0]]].reshape(-1, 3).mean(axis=0)
         raise InputError(
             f"{name} intersects itself: {len(cross)} pairs of its triangles cross (one near "
             f"({at[0]:.2f}, {at[1]:.2f}, {at[2]:.2f}) mm), so it encloses no well-defined solid; "
             "unite the overlapping bodies or undo the fold in the CAD program, or with manifold3d "
             "(Manifold.batch_boolean of the separate bodies) or trimesh.boolean.union, and export it again"
         )
-    if tm.volume <= 0:
-        tm.invert()  # inside out as a whole: turn it right way out
-    bodies = int(tm.body_count)
-    info = {"input_triangles": int(len(f)), "repaired_triangles": int(len(tm.faces)), "bodies": bodies}
-    return np.array(tm.vertices, np.float64), np.array(tm.faces, np.int64), bodies, info
 
 
 @dataclass
@@ -199,7 +214,6 @@ class Layer:
 
     def heights(self, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, dict]:
         """Texture heights ``h in [0, height]`` mm at ``points`` with unit ``normals``."""
-        from ..sources import Heightmap, builtin
         from ..sources.solid_textures import solid_texture
         from ..sources.textures import PREFIX, parse_texture_spec
 
@@ -215,6 +229,28 @@ class Layer:
             origin = proj.origin if proj.origin is not None else 0.5 * (points.min(0) + points.max(0))
             f = solid_texture(name, scale=self.scale * params.pop("scale", 1.0), origin=origin, axis=axis, **params)
             return H * np.clip(f(points), 0.0, 1.0), {"projection": "solid"}
+        sampler = self._sampler()
+        samples, info = proj.samples(points, normals, sampler.tile)
+        info["projection"] = proj.kind
+        if self.mask is not None:
+            info["mask"] = sample_heights(samples, _mask_sampler(self.mask, self.mask_size))
+        return np.clip(sample_heights(samples, sampler), 0.0, H), info
+
+    def with_projection(self, projection: Projection) -> "Layer":
+        """This layer with another projection (the texture's sampler kept)."""
+        out = replace(self, projection=projection)
+        if "_tile" in self.__dict__:
+            out.__dict__["_tile"] = self.__dict__["_tile"]
+        return out
+
+    def _sampler(self) -> TileSampler:
+        """The texture's tile sampler, made once per layer."""
+        from ..sources import Heightmap, builtin
+        from ..sources.textures import PREFIX
+
+        if "_tile" in self.__dict__:
+            return self.__dict__["_tile"]
+        H = float(self.height)
         if isinstance(self.texture, Heightmap):
             hm = self.texture if np.isclose(self.texture.max_height, H) else self.texture.scaled(H)
             sampler = TileSampler(hm, (self.scale, self.scale))
@@ -225,11 +261,8 @@ class Layer:
                 raise ParameterError(f"say how large one tile of the image {str(self.texture)!r} is: size=(w, d) in mm")
             hm = Heightmap.from_image(os.fspath(self.texture), size=self.size, height=H)
             sampler = TileSampler(hm, (self.scale, self.scale))
-        samples, info = proj.samples(points, normals, sampler.tile)
-        info["projection"] = proj.kind
-        if self.mask is not None:
-            info["mask"] = sample_heights(samples, _mask_sampler(self.mask, self.mask_size))
-        return np.clip(sample_heights(samples, sampler), 0.0, H), info
+        self.__dict__["_tile"] = sampler
+        return sampler
 
 
 def _mask_sampler(mask: Any, size: Any) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
@@ -322,7 +355,7 @@ def _nearest(border: np.ndarray, upto: float) -> Callable[[np.ndarray], np.ndarr
         return lambda p: np.full(len(p), np.inf)
     up = upto * (1 + 1e-9) if np.isfinite(upto) and upto > 0 else np.inf
     tree = cKDTree(border)
-    return lambda p: tree.query(p, workers=1, distance_upper_bound=up)[0]
+    return lambda p: tree.query(p, workers=threads(), distance_upper_bound=up)[0]
 
 
 def _gradient(points: np.ndarray, gradient: Any) -> np.ndarray:
@@ -362,18 +395,28 @@ def _refine_layers(layers, v, f, dirs, crit, tol):
 
 def _relief_at(layer: Layer, p: np.ndarray, unit: np.ndarray, dist: np.ndarray):
     """Displacement ``d`` and lowest displacement ``b`` (mm) of one layer at points
-    ``p`` ``(P, 3)`` of its region, with unit normals and distances to its border (mm)."""
+    ``p`` ``(P, 3)`` of its region, with unit normals and distances to its border (mm);
+    point by point, on every core (the projection fixed from all of ``p`` first)."""
+    layer = layer.with_projection(layer.projection.fixed(p))
+    if layer.projection.kind != "solid":
+        layer._sampler()  # once, before the threads
+    parts = split_rows(lambda r: _relief_rows(layer, p[r], unit[r], dist[r]), len(p))
+    if any(m is not None for *_, m in parts) and not any(np.any(m > 0) for *_, m in parts):
+        raise ParameterError("the mask covers none of the region: check mask_size (mm) and the projection's origin")
+    return np.concatenate([q[0] for q in parts]), np.concatenate([q[1] for q in parts]), parts[0][2]
+
+
+def _relief_rows(layer: Layer, p: np.ndarray, unit: np.ndarray, dist: np.ndarray):
+    """:func:`_relief_at` on some points, and the mask there (None without one)."""
     H = float(layer.height)
     R = H * (np.minimum(1.0, dist / layer.border) if layer.border > 0 else (dist > 0).astype(float))
     h, info = layer.heights(p, unit)
     m = info.pop("mask", None)
     if m is not None:
-        if not np.any(m > 0):
-            raise ParameterError("the mask covers none of the region: check mask_size (mm) and the projection's origin")
         R = R * m  # the mask scales the M-I ramp: 0 where it is black
     c = MODES[layer.mode]
     g = _gradient(p, layer.gradient)
-    return g * (np.minimum(h, R) - c * R), -g * c * R, info
+    return g * (np.minimum(h, R) - c * R), -g * c * R, info, m
 
 
 def _relief(layer: Layer, v, f, sel, normals, dist=None):
@@ -412,7 +455,7 @@ def _frozen(layers, c, s, masks):
         vin = np.zeros(len(c.v), dtype=bool)
         vin[c.f[m].ravel()] = True
         pts = np.concatenate([c.v[vin], s["xyz"][_sample_member(c, s, m)]])
-        out.append(Layer(**{**layer.__dict__, "projection": layer.projection.fixed(pts)}))
+        out.append(layer.with_projection(layer.projection.fixed(pts)))
     return out
 
 
@@ -522,8 +565,9 @@ def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
         ds = _sample_relief(layers, c, s, masks, queries, straddle)
         levels = np.maximum(levels, _first_levels(c, s, ds, d, tolerance))
         progress(0.14, "adaptive tessellation and measurement")
+    counts = per_face = None
     while True:  # per round: tessellate, measure, refine the faces still off (a few)
-        counts = edge_counts(c, levels, forced)
+        counts, before = edge_counts(c, levels, forced), counts
         out = build(c, counts)
         out["masks"] = _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol)
         parts, queries = _output_relief(layers, out)
@@ -534,7 +578,7 @@ def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
             levels = np.maximum(levels, _first_levels(c, s, ds, d, tolerance))
             progress(0.14, "adaptive tessellation and measurement")
             continue
-        per_face, err = measure(c, counts, out, d, s, ds)
+        per_face, err = _measure(c, counts, before, per_face, out, d, s, ds)
         rounds += 1
         bad = (per_face > tolerance) & (levels < c.level)
         progress(0.1 + 0.05 * min(rounds, 4), f"adaptive round {rounds}: {len(out['f'])} triangles, error {err:.4f} mm")
@@ -544,6 +588,19 @@ def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
     if err > tolerance:
         raise GeometryError(f"the adaptive mesh is {err:.4f} mm off the texture where {tolerance:g} mm was asked; use tolerance=0 (a report of this would help)")
     return out, parts, err
+
+
+def _measure(c, counts, before, per_face, out, d, s, ds):
+    """Per coarse face error and the largest (mm): after the first measurement only
+    the faces whose edge counts changed are measured again (the border stays at the
+    pitch grid, so elsewhere the triangles and their vertices' displacements are
+    those measured before)."""
+    if before is None or per_face is None:
+        return measure(c, counts, out, d, s, ds)
+    changed = np.any(counts[c.eid] != before[c.eid], axis=1)
+    new, _ = measure(c, counts, out, d, s, ds, faces=changed)
+    per_face = np.where(changed, new, per_face)
+    return per_face, float(per_face.max()) if len(per_face) else 0.0
 
 
 def _assert_solid(mesh: Mesh, bodies: int, what: str) -> None:
@@ -605,7 +662,20 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
     layers = [Layer.make(r, t, {**options, **dict(o)}) for r, t, o in raw]
     dirs = None if build_dir is None else build_directions(build_dir)
     progress(0.0, "reading the mesh")
-    v, f, bodies, info = load_closed(target)
+    v, f, bodies, info = load_closed(target, crossing=False)
+    with ThreadPoolExecutor(1) as pool:  # the self-intersection test runs beside the texturing
+        crossed = pool.submit(assert_uncrossed, v, f, _name(target))
+        try:
+            res = _displace(layers, v, f, bodies, info, dirs, crit, tolerance, progress)
+        except Exception:
+            crossed.result()  # a crossed input is the cause of what failed: say that first
+            raise
+        crossed.result()
+    return _result(*res)
+
+
+def _displace(layers, v, f, bodies, info, dirs, crit, tolerance, progress):
+    """Subdivide, sample, displace, limit and check (:func:`texture_mesh`)."""
     tol = 0.01 + 1e-6 * float(np.ptp(v, axis=0).max())
     progress(0.1, "subdividing the region")
     if tolerance > 0:
@@ -626,7 +696,7 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
     progress(0.6, "limiting overhangs")
     d2, limit = limit_relief(v, f, normals, d, build_dir=dirs, critical_angle=crit)
     if limit.folded_faces:
-        warnings.warn(f"the texture was lowered where {limit.folded_faces} faces would fold over (too deep for the curvature there)", TexcadWarning, stacklevel=2)
+        warnings.warn(f"the texture was lowered where {limit.folded_faces} faces would fold over (too deep for the curvature there)", TexcadWarning, stacklevel=3)
     out = Mesh((v + normals * d2[:, None]).astype(np.float32), f.astype(np.uint32), {"texture": np.flatnonzero((d2[f] != 0).any(axis=1))})
     progress(0.85, "checking the solid")
     _assert_solid(out, bodies, "textured mesh")
@@ -637,7 +707,7 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
     base = Mesh((v + normals * b[:, None]).astype(np.float32), f.astype(np.uint32))
     info.update(triangles=int(len(f)), layers=[p[2] for p in parts], kind="mesh", face="mesh", tolerance=tolerance, max_error=max_error,
                 no_brep="a mesh has no B-rep: it is textured as a mesh", region_faces=[int(m.sum()) for m in masks])
-    return _result(out, base, v, f, normals, b, d2, parts, limit, info)
+    return out, base, v, f, normals, b, d2, parts, limit, info
 
 
 def _difference(a: Mesh, b: Mesh) -> Mesh:

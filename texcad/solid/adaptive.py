@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..util import split_rows
 from .subdivide import _edges, edge_lengths, face_normals, offset_directions, tessellate, vertex_normals
 
 __all__ = ["Coarse", "coarse_mesh", "pitch_samples", "build", "measure"]
@@ -187,14 +188,21 @@ def _grid_xy(c: Coarse, out, tri: np.ndarray) -> np.ndarray:
     return xy
 
 
-def _in_faces(c: Coarse, out, d, dlen, s, ds, inner):
-    """Errors at the inner samples ``inner`` (indices into ``s``): each tested against
-    every output triangle of its face (a handful: faces are at most a few pitches),
-    the largest over the triangles that hold it."""
+def _face_triangles(c: Coarse, out) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Output triangles grouped by parent face: ``(order, first, count)``, the
+    triangles of face ``p`` being ``order[first[p]:first[p] + count[p]]``."""
     par = out["parent"]
     order = np.argsort(par, kind="stable")
     count = np.bincount(par, minlength=len(c.f))
-    first = np.cumsum(count) - count
+    return order, np.cumsum(count) - count, count
+
+
+def _in_faces(c: Coarse, out, groups, d, dlen, s, ds, inner):
+    """Errors at the inner samples ``inner`` (indices into ``s``): each tested against
+    every output triangle of its face (a handful: faces are at most a few pitches;
+    ``groups`` from :func:`_face_triangles`), the largest over the triangles that
+    hold it."""
+    order, first, count = groups
     fs = s["face"][inner]
     n = count[fs]
     k = np.repeat(np.arange(len(inner)), n)
@@ -218,7 +226,8 @@ def _in_faces(c: Coarse, out, d, dlen, s, ds, inner):
 
 
 def measure(
-    c: Coarse, counts: np.ndarray, out: dict, d: np.ndarray, s: dict, ds: np.ndarray, *, exhaustive: bool = False
+    c: Coarse, counts: np.ndarray, out: dict, d: np.ndarray, s: dict, ds: np.ndarray, *, exhaustive: bool = False,
+    faces: "np.ndarray | None" = None,
 ) -> tuple[np.ndarray, float]:
     """Per sample error (mm; module docstring) of the output ``out`` (:func:`build`)
     with vertex displacements ``d`` against the samples' displacements ``ds``
@@ -226,19 +235,26 @@ def measure(
 
     Where the output is the pitch grid itself (an edge cut into its pitch count, a
     face whose edges all are) the samples are its vertices, evaluated by the same
-    function: their error is 0 and they are skipped unless ``exhaustive``."""
+    function: their error is 0 and they are skipped unless ``exhaustive``. With
+    ``faces`` ``(M,)`` bool only the samples of those faces are measured (0
+    elsewhere): a face whose three edge counts are those of an earlier measurement
+    has the same triangles and vertices, so its error is that one's. The samples
+    are measured on every core (:func:`texcad.util.split_rows`)."""
     dlen = np.linalg.norm(out["dir"], axis=1)
     err = np.zeros(len(ds))
     e_exact = counts == c.n
     f_exact = np.all(e_exact[c.eid], axis=1)
     e, fc = s["edge"], s["face"]
     skip = ~exhaustive & np.where(e >= 0, e_exact[np.maximum(e, 0)], f_exact[np.maximum(fc, 0)])
+    if faces is not None:
+        skip |= ~np.where(e >= 0, faces[c.ef[np.maximum(e, 0)]].any(axis=1), faces[np.maximum(fc, 0)])
     on_edge = np.flatnonzero((e >= 0) & np.isfinite(ds) & ~skip)
     sub = {k: v[on_edge] for k, v in s.items()}
     err[on_edge] = _on_edges(c, counts, out, d, dlen, sub, ds[on_edge])
     inner = np.flatnonzero((e < 0) & np.isfinite(ds) & ~skip)
     if len(inner):
-        e_in = _in_faces(c, out, d, dlen, s, ds, inner)
+        groups = _face_triangles(c, out)
+        e_in = np.concatenate(split_rows(lambda r: _in_faces(c, out, groups, d, dlen, s, ds, inner[r]), len(inner)))
         if np.any(e_in < 0):
             raise AssertionError(f"{int((e_in < 0).sum())} samples lie in no output triangle")  # pragma: no cover
         err[inner] = e_in

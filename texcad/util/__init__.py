@@ -1,5 +1,5 @@
 """Shared plumbing for every stage: atomic file writes, parameter checks, memory
-estimates before big allocations, progress reporting.
+estimates before big allocations, progress reporting, row-parallel work on threads.
 """
 
 
@@ -8,6 +8,10 @@ from .atomic import (
 )
 from .checks import (
     positive,
+)
+from .parallel import (
+    split_rows,
+    threads,
 )
 from .progress import (
     Progress,
@@ -29,6 +33,8 @@ from .vectors import (
 __all__ = [
     'atomic_path',
     'positive',
+    'split_rows',
+    'threads',
     'Progress',
     'StageReporter',
     'report',

@@ -1,0 +1,42 @@
+"""Row-parallel numpy work on the machine's cores (threads: numpy releases the GIL
+inside its loops over large arrays).
+
+A function of rows (one point, one sample: no reduction over rows) gives the same
+bytes whether it runs on all rows at once or on pieces of them, so
+:func:`split_rows` cuts the rows into one contiguous piece per thread and returns
+the pieces' results in order. ``TEXCAD_THREADS`` (an integer >= 1) caps the threads;
+by default every core is used.
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from typing import Callable, TypeVar
+
+__all__ = ["threads", "split_rows"]
+
+T = TypeVar("T")
+
+
+def threads() -> int:
+    """Threads for row-parallel work: ``TEXCAD_THREADS`` if set (>= 1), else the
+    number of cores."""
+    env = os.environ.get("TEXCAD_THREADS", "").strip()
+    if env.isdigit() and int(env) >= 1:
+        return int(env)
+    return max(1, os.cpu_count() or 1)
+
+
+def split_rows(fn: Callable[[slice], T], n: int, *, min_rows: int = 50_000) -> list[T]:
+    """``[fn(slice(a, b)), ...]`` over contiguous pieces covering ``range(n)`` in
+    order, one per thread (:func:`threads`), each at least ``min_rows`` rows; a
+    single piece (no thread) when ``n < 2 min_rows`` or one thread is allowed. ``fn``
+    must treat rows independently, so that the concatenated results do not depend on
+    the cut."""
+    k = max(1, min(threads(), n // max(1, min_rows)))
+    if k == 1:
+        return [fn(slice(0, n))]
+    cuts = [n * i // k for i in range(k + 1)]
+    with ThreadPoolExecutor(k) as pool:
+        return list(pool.map(fn, [slice(a, b) for a, b in zip(cuts[:-1], cuts[1:])]))
