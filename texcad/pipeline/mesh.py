@@ -53,7 +53,7 @@ from ..mapping.projection import PROJECTIONS, Projection, TileSampler, parse_axi
 from ..mapping.region import Region
 from ..printability import build_directions, check_critical_angle
 from ..printability.relief import limit_relief
-from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, edge_report, self_intersections
+from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, edge_report, repair_closed, self_intersections
 from ..solid.adaptive import build, coarse_mesh, edge_counts, measure, pitch_samples
 from ..solid.subdivide import coarsen, face_normals, offset_directions, refine, vertex_normals
 from ..util import split_rows, threads
@@ -86,18 +86,16 @@ def load_closed(target: Any, *, crossing: bool = True) -> tuple[np.ndarray, np.n
     """Read and repair a mesh; ``(vertices float64 (N, 3) mm, faces int64 (M, 3),
     bodies, info)``.
 
-    Repairs (trimesh): vertices merged where equal to 1e-8 mm, degenerate and
-    duplicate triangles dropped, winding made consistent and outward per body.
-    ``crossing=False`` leaves the self-intersection test to the caller
-    (:func:`assert_uncrossed`, e.g. run beside other work).
+    Repairs (:func:`texcad.solid.repair_closed`): vertices merged where equal to
+    1e-8 mm, degenerate and duplicate triangles dropped, winding made consistent
+    and outward per body. ``crossing=False`` leaves the self-intersection test to
+    the caller (:func:`assert_uncrossed`, e.g. run beside other work).
 
     Raises:
         InputError: unreadable, empty, not closed after repair (the message counts
-            the open and non-manifold edges), or its surface crosses itself
-            (:func:`assert_uncrossed`).
+            the open and non-manifold edges), one-sided, or its surface crosses
+            itself (:func:`assert_uncrossed`).
     """
-    import trimesh
-
     from ..io import read_mesh
 
     name = _name(target)
@@ -110,25 +108,12 @@ def load_closed(target: Any, *, crossing: bool = True) -> tuple[np.ndarray, np.n
         v, f = np.asarray(target.vertices), np.asarray(target.faces)
     if len(f) == 0:
         raise InputError(f"{name} holds no triangles")
-    tm = trimesh.Trimesh(np.asarray(v, np.float64), np.asarray(f, np.int64), process=True, validate=False)
-    tm.update_faces(tm.nondegenerate_faces())
-    tm.update_faces(tm.unique_faces())
-    tm.remove_unreferenced_vertices()
-    trimesh.repair.fix_normals(tm, multibody=True)
-    rep = edge_report(np.asarray(tm.faces))
-    if not rep["watertight"] or not tm.is_watertight:
-        raise InputError(
-            f"{name} is not closed after repair ({rep['boundary']} open edges, {rep['nonmanifold']} non-manifold "
-            f"edges, {rep['misoriented']} misoriented); texcad textures closed solids: "
-            "close the holes (e.g. in the CAD program or a mesh repair tool) and export it again"
-        )
+    n_in = len(f)
+    v, f, bodies = repair_closed(v, f, name=name)
     if crossing:
-        assert_uncrossed(tm.vertices, tm.faces, name)
-    if tm.volume <= 0:
-        tm.invert()  # inside out as a whole: turn it right way out
-    bodies = int(tm.body_count)
-    info = {"input_triangles": int(len(f)), "repaired_triangles": int(len(tm.faces)), "bodies": bodies}
-    return np.array(tm.vertices, np.float64), np.array(tm.faces, np.int64), bodies, info
+        assert_uncrossed(v, f, name)
+    info = {"input_triangles": int(n_in), "repaired_triangles": int(len(f)), "bodies": bodies}
+    return v, f, bodies, info
 
 
 def _name(target: Any) -> str:

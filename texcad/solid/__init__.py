@@ -81,6 +81,7 @@ from .occt import (
     compound,
 )
 from .intersect import box_cells, self_intersections
+from .repair import repair_closed
 from .subdivide import (
     refine,
     tessellate,
@@ -156,6 +157,7 @@ __all__ = [
     'as_array',
     'compound',
     'self_intersections',
+    'repair_closed',
     'box_cells',
     'refine',
     'tessellate',
