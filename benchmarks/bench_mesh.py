@@ -7,9 +7,12 @@ uniform pitch grid), with the overhang limiter for +z, written as a 3MF and chec
 
 Prints seconds per stage (read + repair, subdivide, sample + displace + limit + the
 manifold3d check, write 3MF, texcad.check of the 3MF), triangle counts, and peak
-memory (resident set size). Usage:
+memory (resident set size). ``--allocator retain`` (the default) lets glibc keep
+freed memory for reuse, as the ``texcad`` CLI does
+(:func:`texcad.solid.retain_freed_memory`); ``default`` keeps glibc's defaults, as in
+a host process that calls the library. Usage:
 
-    python benchmarks/bench_mesh.py [--pitch 0.2] [--segments 624] [--tolerance 0.02]
+    python benchmarks/bench_mesh.py [--pitch 0.2] [--segments 624] [--tolerance 0.02] [--allocator retain]
 """
 
 from __future__ import annotations
@@ -43,7 +46,12 @@ def main() -> None:
     ap.add_argument("--segments", type=int, default=624)
     ap.add_argument("--texture", default="builtin:stones")
     ap.add_argument("--tolerance", type=float, default=0.02, help="mm (0: the uniform pitch grid)")
+    ap.add_argument("--allocator", choices=["retain", "default"], default="retain")
     args = ap.parse_args()
+    if args.allocator == "retain":
+        from texcad.solid import retain_freed_memory
+
+        retain_freed_memory()
     n = args.segments
     dome = m3d.Manifold.sphere(36.0, n).translate((0, 0, 52.0)) ^ m3d.Manifold.cube((80, 80, 40)).translate((-40, -40, 52.0))
     g = (m3d.Manifold.cylinder(52.0, 36.0, 36.0, n) + dome).to_mesh()
@@ -82,7 +90,8 @@ def main() -> None:
           f"overhang {rep.overhang_area_mm2:.2f} mm2; texture {float(face_areas(m)[tex].sum()):.0f} mm2, {over:.2f} mm2 of it overhanging")
     print(f"total        {t3 - t0:6.2f} s, CPU {c3 - c0:6.2f} s")
     print(f"peak memory  {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB (RSS)")
-    print(f"load         {os.getloadavg()[0]:.1f} (1-min load average, {os.cpu_count()} CPUs)")
+    print(f"load         {os.getloadavg()[0]:.1f} (1-min load average, {os.cpu_count()} CPUs); allocator: {args.allocator}, "
+          f"{texcad.util.threads()} threads")
 
 
 if __name__ == "__main__":

@@ -173,3 +173,40 @@ def test_no_overhang_after_the_3mf_rounds_the_vertices(tmp_path):
     part.export(tmp_path / "block.3mf", separate_texture=True)
     rep = texcad.check(tmp_path / "block.3mf", build_dir=(0, 0, 1))
     assert rep.watertight and rep.texture_overhang_area_mm2 == 0.0
+
+
+def test_carried_vertices_are_the_same_points():
+    """Two tessellations with different counts: the vertices :func:`carried` pairs
+    lie at the same place with the same normal and displacement direction (so a
+    later round may keep their texture values), and it pairs most of them."""
+    from texcad.solid.adaptive import carried
+
+    v, f, _, _ = load_closed(_cylinder())
+    v, f, _, _ = coarsen(v, f, np.ones(len(f), dtype=bool), 0.5)
+    c = coarse_mesh(v, f, np.full(len(f), 0.5))
+    none = np.zeros(len(c.edges), dtype=bool)
+    lv = np.maximum(1, c.level // 2)
+    c1 = edge_counts(c, lv, none)
+    lv2 = lv.copy()
+    lv2[::50] = c.level[::50]  # a few faces to their pitch level
+    c2 = edge_counts(c, lv2, none)
+    a, b = build(c, c1), build(c, c2)
+    new, old = carried(c, c1, c2, a, b)
+    assert len(np.unique(new)) == len(new) and len(np.unique(old)) == len(old)
+    assert 0.5 * len(b["v"]) < len(new) < len(b["v"])
+    for key in ("v", "normal", "dir"):
+        assert np.array_equal(b[key][new], a[key][old]), key
+
+
+def test_later_rounds_keep_values_without_changing_the_result(monkeypatch):
+    """Carrying vertex values from round to round gives the bytes of sampling anew."""
+    import texcad.pipeline.mesh as pm
+
+    kw = dict(height=0.8, pitch=0.5, projection="triplanar", build_dir=(0, 0, 1), border=1.5, tolerance=0.01)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        a = texcad.texture(_cylinder(), "not-bottom", "builtin:stones", **kw)
+        monkeypatch.setattr(pm, "carried", lambda *args: (np.zeros(0, np.int64), np.zeros(0, np.int64)))
+        b = texcad.texture(_cylinder(), "not-bottom", "builtin:stones", **kw)
+    assert a.info["adaptive_rounds"] >= 2  # a second round ran, with carried values
+    assert a.mesh.vertices.tobytes() == b.mesh.vertices.tobytes() and a.mesh.faces.tobytes() == b.mesh.faces.tobytes()

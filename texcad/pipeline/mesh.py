@@ -54,7 +54,7 @@ from ..mapping.region import Region
 from ..printability import build_directions, check_critical_angle
 from ..printability.relief import limit_relief
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, edge_report, repair_closed, self_intersections
-from ..solid.adaptive import build, coarse_mesh, edge_counts, measure, pitch_samples
+from ..solid.adaptive import build, carried, coarse_mesh, edge_counts, measure, pitch_samples
 from ..solid.subdivide import coarsen, face_normals, offset_directions, refine, vertex_normals
 from ..util import split_rows, threads
 from .result import Textured
@@ -461,17 +461,27 @@ def _sample_relief(layers, c, s, masks, queries, skip):
     return np.where(_sample_member(c, s, skip) | _sample_member(c, s, ~np.any(masks, axis=0)), np.nan, ds)
 
 
-def _output_relief(layers, out):
+def _output_relief(layers, out, carry=None):
     """Per layer ``(d, b, info, inside)`` at the output's vertices, its strict face
-    masks and each layer's border query."""
-    parts, masks, queries = [], [], []
-    for layer, m in zip(layers, out["masks"]):  # per layer
+    masks and each layer's border query. ``carry`` ``(ids, old ids, old parts)``:
+    vertices an earlier round had at the same place (:func:`carried`) keep its values
+    (layers with a mask are sampled anew: its check needs all points)."""
+    parts, queries = [], []
+    for k, (layer, m) in enumerate(zip(layers, out["masks"])):  # per layer
         q = _border_query(out["v"], out["f"], m, layer.border)
         inside = np.zeros(len(out["v"]), dtype=bool)
         inside[out["f"][m].ravel()] = True
+        todo = inside.copy()
+        keep = carry is not None and layer.mask is None
+        if keep:
+            todo[carry[0]] = False
         dist = np.full(len(out["v"]), np.nan)
-        dist[inside] = q(out["v"][inside])
+        dist[todo] = q(out["v"][todo])
         d, b, info, ins = _relief(layer, out["v"], out["f"], m, out["normal"], dist=dist)
+        if keep:
+            new, old, (od, ob, _, oins) = carry[0], carry[1], carry[2][k]
+            d[new], b[new], ins[new] = od[old], ob[old], oins[old]
+            info["vertices"] = int(inside.sum())
         parts.append((d, b, info, ins))
         queries.append(q)
     return parts, queries
@@ -550,12 +560,13 @@ def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
         ds = _sample_relief(layers, c, s, masks, queries, straddle)
         levels = np.maximum(levels, _first_levels(c, s, ds, d, tolerance))
         progress(0.14, "adaptive tessellation and measurement")
-    counts = per_face = None
+    counts = per_face = out = None
     while True:  # per round: tessellate, measure, refine the faces still off (a few)
-        counts, before = edge_counts(c, levels, forced), counts
+        counts, before, prev = edge_counts(c, levels, forced), counts, out
         out = build(c, counts)
         out["masks"] = _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol)
-        parts, queries = _output_relief(layers, out)
+        carry = None if per_face is None else (*carried(c, before, counts, prev, out), parts)
+        parts, queries = _output_relief(layers, out, carry)
         d = np.sum([p[0] for p in parts], axis=0)
         if ds is None:
             progress(0.13, "sampling the texture at the samples")
@@ -572,6 +583,7 @@ def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
         levels[bad] = c.level[bad]
     if err > tolerance:
         raise GeometryError(f"the adaptive mesh is {err:.4f} mm off the texture where {tolerance:g} mm was asked; use tolerance=0 (a report of this would help)")
+    out["rounds"] = rounds
     return out, parts, err
 
 
@@ -665,6 +677,7 @@ def _displace(layers, v, f, bodies, info, dirs, crit, tolerance, progress):
     progress(0.1, "subdividing the region")
     if tolerance > 0:
         out, parts, max_error = _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress)
+        info["adaptive_rounds"] = out["rounds"]
         v, f, masks, normals = out["v"], out["f"], out["masks"], out["dir"]
         _check_regions(layers, masks)
     else:

@@ -41,7 +41,7 @@ import numpy as np
 from ..util import split_rows
 from .subdivide import _edges, edge_lengths, face_normals, offset_directions, tessellate, vertex_normals
 
-__all__ = ["Coarse", "coarse_mesh", "pitch_samples", "build", "measure"]
+__all__ = ["Coarse", "coarse_mesh", "pitch_samples", "build", "carried", "measure"]
 
 
 @dataclass
@@ -141,8 +141,9 @@ def edge_counts(c: Coarse, levels: np.ndarray, forced: np.ndarray) -> np.ndarray
 def build(c: Coarse, counts: np.ndarray) -> dict:
     """Tessellate with ``counts`` ``(E,)`` pieces per edge
     (:func:`~texcad.solid.subdivide.tessellate`). Returns ``v`` ``(N', 3)`` mm, ``f``,
-    ``parent``, per vertex the unit ``normal`` and displacement direction ``dir``, and
-    ``edge_start`` ``(E,)`` (id of each edge's first inner point, -1 if none)."""
+    ``parent``, per vertex the unit ``normal`` and displacement direction ``dir``,
+    ``edge_start`` ``(E,)`` (id of each edge's first inner point, -1 if none) and
+    ``inner_start`` ``(M,)`` (id of each face's first inner point, -1 if none)."""
     cls: dict = {}
     v, f, parent = tessellate(c.v, c.f, counts[c.eid], classes=cls)
     nv = np.int64(len(c.v))
@@ -153,7 +154,30 @@ def build(c: Coarse, counts: np.ndarray) -> dict:
     fi = cls["inner_face"]
     normal = np.concatenate([c.vn, en, c.fn[fi]])
     direc = np.concatenate([c.vdir, ed, c.fn[fi]])
-    return {"v": v, "f": f, "parent": parent, "normal": normal, "dir": direc, "edge_start": start}
+    inner = np.full(len(c.f), -1, dtype=np.int64)
+    faces, first = np.unique(fi, return_index=True)
+    inner[faces] = len(v) - len(fi) + first  # inner points come last, face by face
+    return {"v": v, "f": f, "parent": parent, "normal": normal, "dir": direc, "edge_start": start, "inner_start": inner}
+
+
+def carried(c: Coarse, before: np.ndarray, counts: np.ndarray, old: dict, new: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices two tessellations (:func:`build`, edge counts ``before`` and
+    ``counts`` ``(E,)``) share at the same place: ``(ids in new, ids in old)``. The
+    corners always; an edge's inner points where its count is the same; a face's
+    inner points where its three counts are (its grid level and points then are)."""
+    nc = len(c.v)
+    same_e = np.flatnonzero((before == counts) & (counts > 1))
+    k = counts[same_e] - 1
+    same_f = np.flatnonzero(np.all(before[c.eid] == counts[c.eid], axis=1) & (new["inner_start"] >= 0))
+    lev = counts[c.eid[same_f]].max(axis=1)
+    q = (lev - 1) * (lev - 2) // 2  # inner points of a level-L grid
+    starts_new = np.r_[new["edge_start"][same_e], new["inner_start"][same_f]]
+    starts_old = np.r_[old["edge_start"][same_e], old["inner_start"][same_f]]
+    size = np.r_[k, q]
+    off = np.arange(int(size.sum())) - np.repeat(np.cumsum(size) - size, size)
+    ids_new = np.r_[np.arange(nc), np.repeat(starts_new, size) + off]
+    ids_old = np.r_[np.arange(nc), np.repeat(starts_old, size) + off]
+    return ids_new, ids_old
 
 
 def _on_edges(c: Coarse, counts, out, d, dlen, s, ds):
