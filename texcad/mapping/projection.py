@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..sources import Heightmap
+from ..util import colmax, colmin, rowsum
 
 __all__ = ["PROJECTIONS", "Projection", "TileSampler", "parse_axis", "sample_heights", "frame"]
 
@@ -147,7 +148,7 @@ class Projection:
         later calls on other points use the same ones."""
         p = np.asarray(points, dtype=np.float64)
         o = np.asarray(self.origin, dtype=np.float64) if self.origin is not None else (
-            0.5 * (p.min(axis=0) + p.max(axis=0)) if len(p) else np.zeros(3)
+            0.5 * (colmin(p) + colmax(p)) if len(p) else np.zeros(3)
         )
         r = self.radius
         if r is None and self.kind in ("cylindrical", "spherical") and len(p):
@@ -171,7 +172,7 @@ class Projection:
         p = np.asarray(points, dtype=np.float64)
         n = np.asarray(normals, dtype=np.float64)
         o = np.asarray(self.origin, dtype=np.float64) if self.origin is not None else (
-            0.5 * (p.min(axis=0) + p.max(axis=0)) if len(p) else np.zeros(3)
+            0.5 * (colmin(p) + colmax(p)) if len(p) else np.zeros(3)
         )
         q = p - o
         info: dict = {"origin": o.tolist(), "stretch": 1.0}
@@ -226,9 +227,9 @@ class Projection:
             w = t * t * (3 - 2 * t)
         else:
             w = (an >= np.cos(np.pi / 4)).astype(np.float64)
-        none = w.sum(axis=1) <= 1e-9
+        none = rowsum(w) <= 1e-9
         w[none] = np.eye(3)[np.argmax(an[none], axis=1)]
-        w /= w.sum(axis=1, keepdims=True)
+        w /= rowsum(w)[:, None]
         out = []
         for k in range(3):  # per axis
             a = np.eye(3)[k]

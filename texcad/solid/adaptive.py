@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..util import split_rows
+from ..util import rowall, rowany, rowdot, rowmax, rownorm, split_rows
 from .subdivide import _edges, edge_lengths, face_normals, offset_directions, tessellate, vertex_normals
 
 __all__ = ["Coarse", "coarse_mesh", "pitch_samples", "build", "carried", "measure"]
@@ -86,7 +86,7 @@ def coarse_mesh(vertices: np.ndarray, faces: np.ndarray, pitch: np.ndarray) -> C
     np.maximum.at(n, eid.ravel(), per.astype(np.int64).ravel())
     fn, _ = face_normals(v, f)
     vn = vertex_normals(v, f)
-    return Coarse(v, f, edges, eid, ef, n, n[eid].max(axis=1), fn, vn, offset_directions(v, f, vn))
+    return Coarse(v, f, edges, eid, ef, n, rowmax(n[eid]), fn, vn, offset_directions(v, f, vn))
 
 
 def _edge_frames(c: Coarse, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -96,8 +96,8 @@ def _edge_frames(c: Coarse, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if c.en is None:  # once per edge
         f1, f2 = c.ef[:, 0], c.ef[:, 1]
         s = c.fn[f1] + c.fn[f2]
-        n = s / np.maximum(np.linalg.norm(s, axis=1), 1e-300)[:, None]
-        cos = np.minimum((n * c.fn[f1]).sum(1), (n * c.fn[f2]).sum(1))
+        n = s / np.maximum(rownorm(s), 1e-300)[:, None]
+        cos = np.minimum(rowdot(n, c.fn[f1]), rowdot(n, c.fn[f2]))
         c.en, c.edir = n, n / np.clip(cos, 1.0 / 3.0, 1.0)[:, None]
     return c.en[e], c.edir[e]
 
@@ -134,7 +134,7 @@ def edge_counts(c: Coarse, levels: np.ndarray, forced: np.ndarray) -> np.ndarray
     """``(E,)`` pieces per edge: the finest ``ceil(n L / M)`` of its two faces at grid
     levels ``levels`` (``(M,)``), the pitch count ``n`` on ``forced`` edges."""
     s = levels / np.maximum(c.level, 1)
-    want = np.maximum(np.ceil(c.n[:, None] * s[c.ef] - 1e-9).max(axis=1), 1).astype(np.int64)
+    want = np.maximum(rowmax(np.ceil(c.n[:, None] * s[c.ef] - 1e-9)), 1).astype(np.int64)
     return np.where(forced, c.n, np.minimum(want, c.n))
 
 
@@ -168,8 +168,8 @@ def carried(c: Coarse, before: np.ndarray, counts: np.ndarray, old: dict, new: d
     nc = len(c.v)
     same_e = np.flatnonzero((before == counts) & (counts > 1))
     k = counts[same_e] - 1
-    same_f = np.flatnonzero(np.all(before[c.eid] == counts[c.eid], axis=1) & (new["inner_start"] >= 0))
-    lev = counts[c.eid[same_f]].max(axis=1)
+    same_f = np.flatnonzero(rowall(before[c.eid] == counts[c.eid]) & (new["inner_start"] >= 0))
+    lev = rowmax(counts[c.eid[same_f]])
     q = (lev - 1) * (lev - 2) // 2  # inner points of a level-L grid
     starts_new = np.r_[new["edge_start"][same_e], new["inner_start"][same_f]]
     starts_old = np.r_[old["edge_start"][same_e], old["inner_start"][same_f]]
@@ -201,12 +201,12 @@ def _grid_xy(c: Coarse, out, tri: np.ndarray) -> np.ndarray:
     p = out["parent"][tri]
     a = c.v[c.f[p, 0]]
     e1, e2 = c.v[c.f[p, 1]] - a, c.v[c.f[p, 2]] - a
-    g11, g12, g22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+    g11, g12, g22 = rowdot(e1, e1), rowdot(e1, e2), rowdot(e2, e2)
     m = c.level[p] / (g11 * g22 - g12 * g12)
     xy = np.empty((len(tri), 3, 2))
     for k in range(3):  # per corner
         r = out["v"][out["f"][tri, k]] - a
-        r1, r2 = (r * e1).sum(1), (r * e2).sum(1)
+        r1, r2 = rowdot(r, e1), rowdot(r, e2)
         xy[:, k, 0] = m * (g22 * r1 - g12 * r2)
         xy[:, k, 1] = m * (g11 * r2 - g12 * r1)
     return xy
@@ -245,7 +245,7 @@ def _in_faces(c: Coarse, out, groups, d, dlen, s, ds, inner):
     fv = out["f"][tri[hit]]
     val = l0[hit] * d[fv[:, 0]] + l1[hit] * d[fv[:, 1]] + l2[hit] * d[fv[:, 2]]
     err = np.full(len(inner), -1.0)
-    np.maximum.at(err, k[hit], np.abs(ds[inner][k[hit]] - val) * dlen[fv].max(axis=1))
+    np.maximum.at(err, k[hit], np.abs(ds[inner][k[hit]] - val) * rowmax(dlen[fv]))
     return err
 
 
@@ -264,14 +264,14 @@ def measure(
     elsewhere): a face whose three edge counts are those of an earlier measurement
     has the same triangles and vertices, so its error is that one's. The samples
     are measured on every core (:func:`texcad.util.split_rows`)."""
-    dlen = np.linalg.norm(out["dir"], axis=1)
+    dlen = rownorm(out["dir"])
     err = np.zeros(len(ds))
     e_exact = counts == c.n
-    f_exact = np.all(e_exact[c.eid], axis=1)
+    f_exact = rowall(e_exact[c.eid])
     e, fc = s["edge"], s["face"]
     skip = ~exhaustive & np.where(e >= 0, e_exact[np.maximum(e, 0)], f_exact[np.maximum(fc, 0)])
     if faces is not None:
-        skip |= ~np.where(e >= 0, faces[c.ef[np.maximum(e, 0)]].any(axis=1), faces[np.maximum(fc, 0)])
+        skip |= ~np.where(e >= 0, rowany(faces[c.ef[np.maximum(e, 0)]]), faces[np.maximum(fc, 0)])
     on_edge = np.flatnonzero((e >= 0) & np.isfinite(ds) & ~skip)
     sub = {k: v[on_edge] for k, v in s.items()}
     err[on_edge] = _on_edges(c, counts, out, d, dlen, sub, ds[on_edge])

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ParameterError
-from ..util import require_memory
+from ..util import require_memory, rowany, rowdot, rowmax, rownorm
 
 __all__ = ["refine", "coarsen", "ladder", "tessellate", "rows", "cross", "flip_edges", "vertex_normals", "offset_directions", "face_normals", "edge_lengths"]
 
@@ -69,7 +69,7 @@ def cross(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 def edge_lengths(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """``(M, 3)`` lengths in mm of each face's edges (corner k to corner k+1)."""
     v = rows(vertices, faces)
-    return np.linalg.norm(v[:, [1, 2, 0]] - v, axis=2)
+    return rownorm(v[:, [1, 2, 0]] - v)
 
 
 def _close(mark: np.ndarray, eid: np.ndarray, longest: np.ndarray) -> None:
@@ -77,7 +77,7 @@ def _close(mark: np.ndarray, eid: np.ndarray, longest: np.ndarray) -> None:
     ar = np.arange(len(eid))
     for _ in range(10_000):  # per propagation step (bounded by the longest-edge paths)
         fm = mark[eid]
-        need = fm.any(axis=1) & ~fm[ar, longest]
+        need = rowany(fm) & ~fm[ar, longest]
         if not need.any():
             return
         mark[eid[need, longest[need]]] = True
@@ -160,7 +160,7 @@ def _bisect(v, f, act, parent, coarse):
     turns the slivers' pieces into well-shaped triangles), until none is."""
     for _ in range(200):  # per round: every long face halves its longest edge
         edges, eid = _edges(f)
-        elen = np.linalg.norm(v[edges[:, 1]] - v[edges[:, 0]], axis=1)
+        elen = rownorm(v[edges[:, 1]] - v[edges[:, 0]])
         fl = elen[eid]
         longest = np.argmax(fl, axis=1)
         want = act & (fl[np.arange(len(f)), longest] > coarse)
@@ -236,7 +236,7 @@ def _quads(v, f, act, target):
     one end of a long side (``c0 -> c1`` and ``c2 -> c3`` are the long sides)."""
     edges, eid, order = _edges(f, slots=True)
     pair = order.reshape(-1, 2)
-    el = np.linalg.norm(v[edges[:, 1]] - v[edges[:, 0]], axis=1)
+    el = rownorm(v[edges[:, 1]] - v[edges[:, 0]])
     lf = el[eid]
     k = np.argmax(lf, axis=1)
     g1, g2 = pair[:, 0] // 3, pair[:, 1] // 3
@@ -277,7 +277,7 @@ def ladder(v: np.ndarray, f: np.ndarray, active: np.ndarray, target: float) -> t
     lo, hi = np.minimum(c[:, [0, 2]], c[:, [1, 3]]), np.maximum(c[:, [0, 2]], c[:, [1, 3]])
     key = lo * nv + hi  # (Q, 2): the long sides c0c1, c2c3
     uk, inv, cnt = np.unique(key.ravel(), return_inverse=True, return_counts=True)
-    ln = np.linalg.norm(v[uk % nv] - v[uk // nv], axis=1)
+    ln = rownorm(v[uk % nv] - v[uk // nv])
     pieces = np.where(cnt == 2, np.ceil(ln / target - 1e-9), 1).astype(np.int64)  # shared by two quads, or whole
     start = nv + np.concatenate([[0], np.cumsum(pieces - 1)[:-1]])
     e = np.repeat(np.arange(len(uk)), pieces - 1)
@@ -444,7 +444,7 @@ def tessellate(vertices: np.ndarray, faces: np.ndarray, counts: np.ndarray, *, c
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
     cnt = np.asarray(counts, dtype=np.int64)
-    level = cnt.max(axis=1)
+    level = rowmax(cnt)
     keep = np.flatnonzero(level <= 1)
     nv = np.int64(max(len(v), 1))
     g = f[:, [1, 2, 0]]
@@ -490,7 +490,7 @@ def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, n
     """Unit face normals ``(M, 3)`` and face areas ``(M,)`` in mm^2."""
     v = rows(vertices, faces)
     n = cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
-    ln = np.linalg.norm(n, axis=1)
+    ln = rownorm(n)
     return n / np.maximum(ln, 1e-300)[:, None], 0.5 * ln
 
 
@@ -501,14 +501,14 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     a, b, c = rows(v, faces[:, 0]), rows(v, faces[:, 1]), rows(v, faces[:, 2])
     e = (b - a, c - b, a - c)  # edge k from corner k to k + 1, (M, 3) each
     n = cross(e[0], -e[2])
-    twice = np.linalg.norm(n, axis=1)
+    twice = rownorm(n)
     fn = n / np.maximum(twice, 1e-300)[:, None]
     out = np.zeros_like(v)
     for k in range(3):  # per corner: the angle between edge k and the reversed edge k - 1
         ang = np.arctan2(twice, -np.einsum("ij,ij->i", e[k], e[(k + 2) % 3]))
         for c in range(3):  # per coordinate
             out[:, c] += np.bincount(faces[:, k], weights=fn[:, c] * ang, minlength=len(v))
-    ln = np.linalg.norm(out, axis=1)
+    ln = rownorm(out)
     return out / np.maximum(ln, 1e-300)[:, None]
 
 
@@ -523,7 +523,7 @@ def offset_directions(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarr
     v = np.asarray(vertices, dtype=np.float64)
     fn, _ = face_normals(v, faces)
     corner = faces.ravel()
-    dots = (np.repeat(fn, 3, axis=0) * rows(normals, corner)).sum(1)
+    dots = rowdot(np.repeat(fn, 3, axis=0), rows(normals, corner))
     c = np.ones(len(v))
     np.minimum.at(c, corner, dots)
     c = np.clip(c, 1.0 / cap, 1.0)

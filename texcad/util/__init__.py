@@ -19,6 +19,17 @@ from .progress import (
     report,
     subrange,
 )
+from .rows import (
+    colmax,
+    colmin,
+    rowall,
+    rowany,
+    rowdot,
+    rowmax,
+    rowmin,
+    rownorm,
+    rowsum,
+)
 from .resources import (
     available_memory,
     require_memory,
@@ -39,6 +50,15 @@ __all__ = [
     'StageReporter',
     'report',
     'subrange',
+    'colmax',
+    'colmin',
+    'rowall',
+    'rowany',
+    'rowdot',
+    'rowmax',
+    'rowmin',
+    'rownorm',
+    'rowsum',
     'available_memory',
     'require_memory',
     'texture_bytes',
