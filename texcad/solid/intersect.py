@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..util import colmax, colmin, rowdot, rowmax, rownorm
 from .subdivide import cross
 
 __all__ = ["self_intersections", "box_cells"]
@@ -37,12 +38,12 @@ def _touches(tri: np.ndarray, t: np.ndarray, centre: np.ndarray, r: float) -> np
     conservative, never drops a cell the triangle meets)."""
     p = np.take(tri, t, axis=0)
     n = cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-    ok = np.abs(((centre - p[:, 0]) * n).sum(1)) <= r
+    n /= np.maximum(rownorm(n), 1e-300)[:, None]
+    ok = np.abs(rowdot(centre - p[:, 0], n)) <= r
     for k in range(3):  # per edge: its side plane, normal pointing away from the triangle
         s = cross(p[:, (k + 1) % 3] - p[:, k], n)
-        s /= np.maximum(np.linalg.norm(s, axis=1, keepdims=True), 1e-300)
-        ok &= ((centre - p[:, k]) * s).sum(1) <= r
+        s /= np.maximum(rownorm(s), 1e-300)[:, None]
+        ok &= rowdot(centre - p[:, k], s) <= r
     return ok
 
 
@@ -62,15 +63,15 @@ def box_cells(c0: np.ndarray, c1: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
 def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, cell: float, budget: int, tri: np.ndarray) -> np.ndarray:
     """``(P, 2)`` pairs ``a < b`` of triangles that meet a common grid cell, boxes
     overlapping."""
-    c0 = np.floor((lo - lo.min(axis=0)) / cell).astype(np.int64)
-    c1 = np.floor((hi - lo.min(axis=0)) / cell).astype(np.int64)
+    c0 = np.floor((lo - colmin(lo)) / cell).astype(np.int64)
+    c1 = np.floor((hi - colmin(lo)) / cell).astype(np.int64)
     span = c1 - c0 + 1
-    ncell = span.prod(axis=1)
+    ncell = span[:, 0] * span[:, 1] * span[:, 2]
     if ncell.sum() > budget:  # a few huge triangles: coarser cells
         return _candidate_pairs(lo, hi, cell * 2.0, budget, tri)
     owner, ix, iy, iz = box_cells(c0, c1)
     big = np.flatnonzero(ncell[owner] > 1)  # a triangle in several cells: only those it may meet
-    centre = lo.min(axis=0) + (np.stack([ix[big], iy[big], iz[big]], 1) + 0.5) * cell
+    centre = colmin(lo) + (np.stack([ix[big], iy[big], iz[big]], 1) + 0.5) * cell
     keep = np.ones(len(owner), dtype=bool)
     keep[big] = _touches(tri, owner[big], centre, 0.5 * np.sqrt(3.0) * cell)
     owner, ix, iy, iz = owner[keep], ix[keep], iy[keep], iz[keep]
@@ -86,11 +87,13 @@ def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, cell: float, budget: int, t
     a = np.repeat(pos, cnt)
     b = a + 1 + np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
     ta, tb, kk = owner[a], owner[b], key[a]
-    ok = np.all((lo[ta] <= hi[tb]) & (lo[tb] <= hi[ta]), axis=1)
-    ta, tb, kk = ta[ok], tb[ok], kk[ok]
+    for lk, hk in zip(lo.T, hi.T):  # per axis: the boxes overlap along it
+        lk, hk = np.ascontiguousarray(lk), np.ascontiguousarray(hk)
+        ok = (lk[ta] <= hk[tb]) & (lk[tb] <= hk[ta])
+        ta, tb, kk = ta[ok], tb[ok], kk[ok]
     # each pair once: in the cell of the lowest corner of the two boxes' overlap
-    r = np.floor((np.maximum(lo[ta], lo[tb]) - lo.min(axis=0)) / cell).astype(np.int64)
-    first = (r[:, 0] + dim[0] * (r[:, 1] + dim[1] * r[:, 2])) == kk
+    r = [np.floor((np.maximum(lk[ta], lk[tb]) - lk.min()) / cell).astype(np.int64) for lk in map(np.ascontiguousarray, lo.T)]
+    first = (r[0] + dim[0] * (r[1] + dim[1] * r[2])) == kk
     return np.stack([np.minimum(ta, tb)[first], np.maximum(ta, tb)[first]], 1)
 
 
@@ -99,20 +102,20 @@ def _edges_cross(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     inside of triangle ``q[k]``."""
     a = q[:, 0]
     e1, e2 = q[:, 1] - a, q[:, 2] - a
-    scale = np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
+    scale = rownorm(e1) * rownorm(e2)
     hit = np.zeros(len(p), dtype=bool)
     for k in range(3):  # per edge of p
         o = p[:, k]
         d = p[:, (k + 1) % 3] - o
         pv = cross(d, e2)
-        det = (e1 * pv).sum(1)
-        ok = np.abs(det) > EPS * scale * np.linalg.norm(d, axis=1)
+        det = rowdot(e1, pv)
+        ok = np.abs(det) > EPS * scale * rownorm(d)
         inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
         tv = o - a
-        u = (tv * pv).sum(1) * inv
+        u = rowdot(tv, pv) * inv
         qv = cross(tv, e1)
-        v = (d * qv).sum(1) * inv
-        t = (e2 * qv).sum(1) * inv
+        v = rowdot(d, qv) * inv
+        t = rowdot(e2, qv) * inv
         hit |= ok & (u > EPS) & (v > EPS) & (u + v < 1 - EPS) & (t > EPS) & (t < 1 - EPS)
     return hit
 
@@ -134,9 +137,10 @@ def self_intersections(vertices: np.ndarray, faces: np.ndarray, *, budget: int =
     if len(f) < 2:
         return np.zeros((0, 2), dtype=np.int64)
     tri = np.take(v, f, axis=0)
-    lo, hi = tri.min(axis=1), tri.max(axis=1)
-    size = float(np.median((hi - lo).max(axis=1)))
-    extent = float((hi.max(axis=0) - lo.min(axis=0)).max())
+    lo = np.minimum(np.minimum(tri[:, 0], tri[:, 1]), tri[:, 2])
+    hi = np.maximum(np.maximum(tri[:, 0], tri[:, 1]), tri[:, 2])
+    size = float(np.median(rowmax(hi - lo)))
+    extent = float((colmax(hi) - colmin(lo)).max())
     cell = max(2.0 * size, extent / 512.0, 1e-9)
     pairs = _candidate_pairs(lo, hi, cell, budget, tri)
     fa, fb = f[pairs[:, 0]], f[pairs[:, 1]]
