@@ -30,3 +30,12 @@ def test_nan_propagates_as_in_numpy():
     a = np.array([[1.0, np.nan, 0.0], [2.0, 3.0, 1.0]])
     assert np.array_equal(rowmax(a), a.max(axis=1), equal_nan=True)
     assert np.array_equal(rowmin(a), a.min(axis=1), equal_nan=True)
+
+
+@pytest.mark.parametrize("top", [3, 10**6, 2**40, 2**62])
+def test_argsort_ints_is_the_stable_argsort(top):
+    from texcad.util import argsort_ints
+
+    key = np.random.default_rng(top % 97).integers(0, top, 100_000)  # many ties for small tops
+    assert np.array_equal(argsort_ints(key), np.argsort(key, kind="stable"))
+    assert argsort_ints(np.zeros(0, np.int64)).shape == (0,)

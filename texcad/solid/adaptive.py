@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..util import rowall, rowany, rowdot, rowmax, rownorm, split_rows
+from ..util import argsort_ints, rowall, rowany, rowdot, rowmax, rownorm, split_rows
 from .subdivide import _edges, edge_lengths, face_normals, offset_directions, tessellate, vertex_normals
 
 __all__ = ["Coarse", "coarse_mesh", "pitch_samples", "build", "carried", "measure"]
@@ -79,7 +79,7 @@ def coarse_mesh(vertices: np.ndarray, faces: np.ndarray, pitch: np.ndarray) -> C
     edge after refinement, mm (inf: the face is not refined but along its edges)."""
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
-    edges, eid, order = _edges(f, slots=True)
+    edges, eid, order = _edges(f, slots=True, stable=True)
     ef = (order // 3).reshape(-1, 2)  # closed: two slots per edge
     per = np.where(np.isfinite(pitch)[:, None], np.ceil(edge_lengths(v, f) / np.where(np.isfinite(pitch), pitch, 1.0)[:, None] - 1e-9), 1)
     n = np.ones(len(edges), dtype=np.int64)
@@ -216,7 +216,7 @@ def _face_triangles(c: Coarse, out) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     """Output triangles grouped by parent face: ``(order, first, count)``, the
     triangles of face ``p`` being ``order[first[p]:first[p] + count[p]]``."""
     par = out["parent"]
-    order = np.argsort(par, kind="stable")
+    order = argsort_ints(par)
     count = np.bincount(par, minlength=len(c.f))
     return order, np.cumsum(count) - count, count
 

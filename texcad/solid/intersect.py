@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..util import colmax, colmin, rowdot, rowmax, rownorm
+from ..util import argsort_ints, colmax, colmin, rowdot, rowmax, rownorm
 from .subdivide import cross
 
 __all__ = ["self_intersections", "box_cells"]
@@ -77,7 +77,7 @@ def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, cell: float, budget: int, t
     owner, ix, iy, iz = owner[keep], ix[keep], iy[keep], iz[keep]
     dim = c1.max(axis=0) + 1
     key = ix + dim[0] * (iy + dim[1] * iz)
-    order = np.argsort(key, kind="stable")
+    order = argsort_ints(key)
     key, owner = key[order], owner[order]
     start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
     size = np.diff(np.r_[start, len(key)])

@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..util import argsort_ints
 
 __all__ = ["repair_closed"]
 
@@ -63,7 +64,7 @@ def _edge_pairs(f: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict]:
     nv = np.int64(f.max() + 1)
     a, b = f.ravel(), f[:, [1, 2, 0]].ravel()
     key = np.minimum(a, b) * nv + np.maximum(a, b)
-    order = np.argsort(key, kind="stable")
+    order = argsort_ints(key)
     k = key[order]
     start = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])
     count = np.diff(np.r_[start, len(k)])

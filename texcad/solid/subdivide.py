@@ -25,22 +25,24 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ParameterError
-from ..util import require_memory, rowany, rowdot, rowmax, rownorm
+from ..util import argsort_ints, require_memory, rowany, rowdot, rowmax, rownorm
 
 __all__ = ["refine", "coarsen", "ladder", "tessellate", "rows", "cross", "flip_edges", "vertex_normals", "offset_directions", "face_normals", "edge_lengths"]
 
 _ROT = np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])
 
 
-def _edges(faces: np.ndarray, slots: bool = False):
+def _edges(faces: np.ndarray, slots: bool = False, stable: bool = False):
     """Unique undirected edges ``(E, 2)`` and, per face, its three edges' ids
     ``(M, 3)`` (local edge k runs from corner k to corner k+1); with ``slots`` also
-    the ``3M`` slots ``3 face + corner`` sorted by edge (consecutive per edge)."""
-    e = np.stack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]], axis=1).reshape(-1, 2)
-    e.sort(axis=1)
+    the ``3M`` slots ``3 face + corner`` sorted by edge (consecutive per edge; with
+    ``stable`` in slot order within an edge, else in the order of numpy's default
+    argsort, which the pitch grid's bytes were made with)."""
+    a, b = faces.reshape(-1), faces[:, [1, 2, 0]].reshape(-1)  # slot 3 face + k: corner k to k + 1
+    e = np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
     n = np.int64(e.max() + 1) if e.size else np.int64(1)
     key = e[:, 0] * n + e[:, 1]
-    order = np.argsort(key)
+    order = np.argsort(key) if slots and not stable else argsort_ints(key)
     ks = key[order]
     first = np.ones(len(ks), dtype=bool)
     first[1:] = ks[1:] != ks[:-1]

@@ -20,6 +20,7 @@ from .progress import (
     subrange,
 )
 from .rows import (
+    argsort_ints,
     colmax,
     colmin,
     rowall,
@@ -50,6 +51,7 @@ __all__ = [
     'StageReporter',
     'report',
     'subrange',
+    'argsort_ints',
     'colmax',
     'colmin',
     'rowall',
