@@ -56,7 +56,7 @@ from ..printability.relief import limit_relief
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, edge_report, repair_closed, self_intersections
 from ..solid.adaptive import build, carried, coarse_mesh, edge_counts, measure, pitch_samples
 from ..solid.subdivide import coarsen, face_normals, offset_directions, refine, vertex_normals
-from ..util import split_rows, threads
+from ..util import colmax, colmin, split_rows, threads
 from .result import Textured
 
 __all__ = ["MESH_SUFFIXES", "MODES", "MESH_OPTIONS", "Layer", "MeshTextured", "is_mesh_target", "load_closed", "texture_mesh"]
@@ -340,7 +340,18 @@ def _nearest(border: np.ndarray, upto: float) -> Callable[[np.ndarray], np.ndarr
         return lambda p: np.full(len(p), np.inf)
     up = upto * (1 + 1e-9) if np.isfinite(upto) and upto > 0 else np.inf
     tree = cKDTree(border)
-    return lambda p: tree.query(p, workers=threads(), distance_upper_bound=up)[0]
+    lo, hi = colmin(border) - up, colmax(border) + up  # farther from this box: farther than up
+
+    def dist(p: np.ndarray) -> np.ndarray:
+        out = np.full(len(p), np.inf)
+        near = np.ones(len(p), dtype=bool)
+        for k in range(3):  # per axis
+            near &= (p[:, k] >= lo[k]) & (p[:, k] <= hi[k])
+        idx = np.flatnonzero(near)
+        out[idx] = tree.query(p[idx], workers=threads(), distance_upper_bound=up)[0]
+        return out
+
+    return dist
 
 
 def _gradient(points: np.ndarray, gradient: Any) -> np.ndarray:
