@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..util import argsort_ints, rowall, rowany, rowdot, rowmax, rownorm, split_rows
-from .subdivide import _edges, edge_lengths, face_normals, offset_directions, tessellate, vertex_normals
+from .subdivide import _edges, edge_lengths, face_normals, offset_directions, rows, tessellate, vertex_normals
 
 __all__ = ["Coarse", "coarse_mesh", "pitch_samples", "build", "carried", "measure"]
 
@@ -58,6 +58,8 @@ class Coarse:
             displacement directions (:func:`~texcad.solid.subdivide.offset_directions`).
         en, edir: ``(E, 3)`` each edge's unit normal and displacement direction (made
             on first use).
+        grid: ``(M, 2, 3)`` each face's map to its grid coordinates (made on first
+            use, :func:`_grid_maps`).
     """
 
     v: np.ndarray
@@ -72,6 +74,7 @@ class Coarse:
     vdir: np.ndarray
     en: "np.ndarray | None" = None
     edir: "np.ndarray | None" = None
+    grid: "np.ndarray | None" = None
 
 
 def coarse_mesh(vertices: np.ndarray, faces: np.ndarray, pitch: np.ndarray) -> Coarse:
@@ -195,20 +198,30 @@ def _on_edges(c: Coarse, counts, out, d, dlen, s, ds):
     return np.abs(ds - (d[a] * (1 - fr) + d[b] * fr)) * np.maximum(dlen[a], dlen[b])
 
 
+def _grid_maps(c: Coarse) -> np.ndarray:
+    """``(M, 2, 3)`` per face the rows ``A``, ``B`` with ``(i, j) = (r . A, r . B)``
+    for ``r = x - a`` (the inverse of ``x = a + i/L e1 + j/L e2`` in the face's
+    plane, ``L`` its pitch level; made once)."""
+    if c.grid is None:
+        a = rows(c.v, c.f[:, 0])
+        e1, e2 = rows(c.v, c.f[:, 1]) - a, rows(c.v, c.f[:, 2]) - a
+        g11, g12, g22 = rowdot(e1, e1), rowdot(e1, e2), rowdot(e2, e2)
+        m = (c.level / (g11 * g22 - g12 * g12))[:, None]
+        c.grid = np.stack([m * (g22[:, None] * e1 - g12[:, None] * e2), m * (g11[:, None] * e2 - g12[:, None] * e1)], 1)
+    return c.grid
+
+
 def _grid_xy(c: Coarse, out, tri: np.ndarray) -> np.ndarray:
     """``(T, 3, 2)`` grid coordinates of output triangles' corners in their parent
     face: ``(i, j)`` of ``a + i/M (b - a) + j/M (c - a)``, ``M`` its pitch level."""
     p = out["parent"][tri]
-    a = c.v[c.f[p, 0]]
-    e1, e2 = c.v[c.f[p, 1]] - a, c.v[c.f[p, 2]] - a
-    g11, g12, g22 = rowdot(e1, e1), rowdot(e1, e2), rowdot(e2, e2)
-    m = c.level[p] / (g11 * g22 - g12 * g12)
+    g = np.take(_grid_maps(c), p, axis=0)
+    a = rows(c.v, np.take(c.f[:, 0], p))
     xy = np.empty((len(tri), 3, 2))
     for k in range(3):  # per corner
-        r = out["v"][out["f"][tri, k]] - a
-        r1, r2 = rowdot(r, e1), rowdot(r, e2)
-        xy[:, k, 0] = m * (g22 * r1 - g12 * r2)
-        xy[:, k, 1] = m * (g11 * r2 - g12 * r1)
+        r = rows(out["v"], np.take(out["f"][:, k], tri)) - a
+        xy[:, k, 0] = rowdot(r, g[:, 0])
+        xy[:, k, 1] = rowdot(r, g[:, 1])
     return xy
 
 
