@@ -86,3 +86,26 @@ def test_a_one_sided_surface_is_refused():
     assert edge_report(f)["boundary"] == 0 and edge_report(f)["nonmanifold"] == 0
     with pytest.raises(InputError, match="one-sided"):
         repair_closed(v, f)
+
+
+def test_a_cavity_faces_into_the_cavity_and_an_island_in_it_outward():
+    """A ball with a spherical cavity holding a free ball (three shells, each written
+    outward as trimesh's repair leaves them): the cavity's wall is turned to face into
+    the cavity, so the volume is outer - cavity + island (manifold3d's)."""
+    outer = m3d.Manifold.sphere(20.0, 64)
+    cavity = m3d.Manifold.sphere(12.0, 48)
+    island = m3d.Manifold.cube((6, 6, 6), True)
+    part = (outer - cavity) + island
+    shells = [outer, cavity, island]
+    vs, fs, off = [], [], 0
+    for s in shells:  # each shell written outward
+        g = s.to_mesh()
+        vs.append(np.asarray(g.vert_properties)[:, :3].astype(np.float64))
+        fs.append(np.asarray(g.tri_verts).astype(np.int64) + off)
+        off += len(vs[-1])
+    rv, rf, bodies = repair_closed(np.concatenate(vs), np.concatenate(fs))
+    assert bodies == 3
+    tm = trimesh.Trimesh(rv, rf, process=False)
+    assert tm.volume == pytest.approx(part.volume(), rel=1e-6)
+    vols = sorted(b.volume for b in tm.split(only_watertight=False))
+    assert vols[0] < 0 < vols[1]  # exactly one shell (the cavity's wall) inward

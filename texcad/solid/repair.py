@@ -14,9 +14,11 @@ What a downloaded STL/3MF/OBJ needs before it can be displaced, in order:
    triangle the parity of flips on its path to the root (pointer doubling:
    ``log2(depth)`` vectorized steps), and the flips are applied. A link that still
    disagrees means a one-sided (Moebius-like) body: InputError;
-5. outward: a body whose signed volume ``sum det(a, b, c) / 6`` is negative is turned
-   inside out (each body on its own, as ``trimesh.repair.fix_normals(multibody=True)``
-   does).
+5. outward: each shell's signed volume ``sum det(a, b, c) / 6`` is made positive,
+   except for a shell inside an odd number of others (a ray from one of its corners
+   crosses such a shell an odd number of times): that is a cavity's wall, which faces
+   into the cavity (negative volume). ``trimesh.repair.fix_normals(multibody=True)``
+   turns every shell outward, filling cavities.
 """
 
 from __future__ import annotations
@@ -132,6 +134,52 @@ def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-
         raise InputError(f"{name} has a one-sided (Moebius-like) body: no winding makes it closed and oriented; fix it in the CAD program")
     p = v[f]
     det = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])) * np.where(flip, -1.0, 1.0)
-    flip ^= (np.bincount(body, weights=det) < 0)[body]  # a body inside out as a whole
+    inward = _depths(p, body) % 2 == 1  # a cavity's shell faces into the cavity
+    flip ^= ((np.bincount(body, weights=det) < 0) != inward)[body]
     f[flip] = f[flip][:, ::-1]
     return v, f, int(body.max() + 1)
+
+
+#: A ray direction no mesh made of axis-aligned or 45-degree features runs along.
+_RAY = np.array([1.0, 0.0123456, 0.0234567]) / np.linalg.norm([1.0, 0.0123456, 0.0234567])
+
+
+def _crossings(pts: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """``(K,)`` how many triangles ``(T, 3, 3)`` the ray from each of ``pts``
+    ``(K, 3)`` along :data:`_RAY` passes through (Moller-Trumbore, in chunks)."""
+    a = tri[:, 0]
+    e1, e2 = tri[:, 1] - a, tri[:, 2] - a
+    pv = np.cross(_RAY, e2)
+    det = np.einsum("ij,ij->i", e1, pv)
+    ok = np.abs(det) > 1e-300
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    out = np.zeros(len(pts), dtype=np.int64)
+    step = max(1, 2_000_000 // max(len(tri), 1))
+    for k in range(0, len(pts), step):  # per chunk of points: (chunk, T) arrays
+        tv = pts[k : k + step, None, :] - a[None]
+        u = np.einsum("ktj,tj->kt", tv, pv) * inv
+        qv = np.cross(tv, e1[None])
+        w = np.einsum("j,ktj->kt", _RAY, qv) * inv
+        t = np.einsum("tj,ktj->kt", e2, qv) * inv
+        out[k : k + step] = (ok & (u >= 0) & (w >= 0) & (u + w <= 1) & (t > 0)).sum(axis=1)
+    return out
+
+
+def _depths(p: np.ndarray, body: np.ndarray) -> np.ndarray:
+    """``(B,)`` how many other shells enclose each shell (the parity of a ray from one
+    of its corners through each other shell whose box holds that corner)."""
+    nb = int(body.max()) + 1
+    depth = np.zeros(nb, dtype=np.int64)
+    if nb == 1:
+        return depth
+    order = np.argsort(body, kind="stable")
+    cut = np.searchsorted(body[order], np.arange(nb + 1))
+    lo = np.minimum.reduceat(p[order].min(axis=1), cut[:-1])
+    hi = np.maximum.reduceat(p[order].max(axis=1), cut[:-1])
+    probe = p[order[cut[:-1]], 0]  # a corner of each shell
+    for j in range(nb):  # per shell that may hold others (one box test each)
+        inside = np.flatnonzero(np.all((probe > lo[j]) & (probe < hi[j]), axis=1))
+        inside = inside[inside != j]
+        if len(inside):
+            depth[inside] += _crossings(probe[inside], p[order[cut[j] : cut[j + 1]]]) % 2
+    return depth
