@@ -218,14 +218,17 @@ class Layer:
         samples, info = proj.samples(points, normals, sampler.tile)
         info["projection"] = proj.kind
         if self.mask is not None:
-            info["mask"] = sample_heights(samples, _mask_sampler(self.mask, self.mask_size))
+            if "_mask" not in self.__dict__:
+                self.__dict__["_mask"] = _mask_sampler(self.mask, self.mask_size)
+            info["mask"] = sample_heights(samples, self.__dict__["_mask"])
         return np.clip(sample_heights(samples, sampler), 0.0, H), info
 
     def with_projection(self, projection: Projection) -> "Layer":
         """This layer with another projection (the texture's sampler kept)."""
         out = replace(self, projection=projection)
-        if "_tile" in self.__dict__:
-            out.__dict__["_tile"] = self.__dict__["_tile"]
+        for key in ("_tile", "_mask"):  # the samplers made so far
+            if key in self.__dict__:
+                out.__dict__[key] = self.__dict__[key]
         return out
 
     def _sampler(self) -> TileSampler:
@@ -395,7 +398,7 @@ def _relief_at(layer: Layer, p: np.ndarray, unit: np.ndarray, dist: np.ndarray):
     point by point, on every core (the projection fixed from all of ``p`` first)."""
     layer = layer.with_projection(layer.projection.fixed(p))
     if layer.projection.kind != "solid":
-        layer._sampler()  # once, before the threads
+        layer.heights(p[:1], unit[:1])  # the samplers made once, before the threads
     parts = split_rows(lambda r: _relief_rows(layer, p[r], unit[r], dist[r]), len(p))
     if any(m is not None for *_, m in parts) and not any(np.any(m > 0) for *_, m in parts):
         raise ParameterError("the mask covers none of the region: check mask_size (mm) and the projection's origin")
