@@ -50,3 +50,28 @@ def test_an_error_in_a_piece_reaches_the_caller(monkeypatch):
 
     with pytest.raises(ValueError, match="second piece"):
         split_rows(fn, 10_000, min_rows=10)
+
+
+@pytest.mark.parametrize("n_threads", ["1", "2"])
+def test_beside_runs_a_job_and_hands_back_its_result_or_error(monkeypatch, n_threads):
+    import threading
+
+    from texcad.util import beside
+
+    monkeypatch.setenv("TEXCAD_THREADS", n_threads)
+    seen = []
+
+    def job(x):
+        seen.append(threading.get_ident())
+        if x < 0:
+            raise ValueError("negative")
+        return 2 * x
+
+    with beside(job, 21) as j:
+        pass
+    assert j.result() == 42
+    assert (seen[0] == threading.get_ident()) == (n_threads == "1")  # a second thread only when allowed
+    with beside(job, -1) as j:
+        pass
+    with pytest.raises(ValueError, match="negative"):
+        j.result()

@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import os
 import warnings
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable
@@ -56,7 +55,7 @@ from ..printability.relief import limit_relief
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, edge_report, repair_closed, self_intersections
 from ..solid.adaptive import build, carried, coarse_mesh, edge_counts, measure, pitch_samples
 from ..solid.subdivide import coarsen, face_normals, offset_directions, refine, vertex_normals
-from ..util import colmax, colmin, rowany, split_rows, threads
+from ..util import beside, colmax, colmin, rowany, split_rows, threads
 from .result import Textured
 
 __all__ = ["MESH_SUFFIXES", "MODES", "MESH_OPTIONS", "Layer", "MeshTextured", "is_mesh_target", "load_closed", "texture_mesh"]
@@ -673,8 +672,7 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
     dirs = None if build_dir is None else build_directions(build_dir)
     progress(0.0, "reading the mesh")
     v, f, bodies, info = load_closed(target, crossing=False)
-    with ThreadPoolExecutor(1) as pool:  # the self-intersection test runs beside the texturing
-        crossed = pool.submit(assert_uncrossed, v, f, _name(target))
+    with beside(assert_uncrossed, v, f, _name(target)) as crossed:  # the self-intersection test
         try:
             res = _displace(layers, v, f, bodies, info, dirs, crit, tolerance, progress)
         except Exception:
@@ -705,8 +703,7 @@ def _displace(layers, v, f, bodies, info, dirs, crit, tolerance, progress):
     d = np.sum([p[0] for p in parts], axis=0)
     b = np.sum([p[1] for p in parts], axis=0)
     progress(0.6, "limiting overhangs")
-    with ThreadPoolExecutor(1) as pool:  # the topology is checked beside the limiter
-        closed = pool.submit(_assert_closed, f, len(v), bodies, "textured mesh")
+    with beside(_assert_closed, f, len(v), bodies, "textured mesh") as closed:  # the topology, beside the limiter
         d2, limit = limit_relief(v, f, normals, d, build_dir=dirs, critical_angle=crit)
         if limit.folded_faces:
             warnings.warn(f"the texture was lowered where {limit.folded_faces} faces would fold over (too deep for the curvature there)", TexcadWarning, stacklevel=3)

@@ -10,6 +10,7 @@ from .checks import (
     positive,
 )
 from .parallel import (
+    beside,
     split_rows,
     threads,
 )
@@ -45,6 +46,7 @@ from .vectors import (
 __all__ = [
     'atomic_path',
     'positive',
+    'beside',
     'split_rows',
     'threads',
     'Progress',

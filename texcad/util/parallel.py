@@ -5,16 +5,18 @@ A function of rows (one point, one sample: no reduction over rows) gives the sam
 bytes whether it runs on all rows at once or on pieces of them, so
 :func:`split_rows` cuts the rows into one contiguous piece per thread and returns
 the pieces' results in order. ``TEXCAD_THREADS`` (an integer >= 1) caps the threads;
-by default every core is used.
+by default every core is used. :func:`beside` runs one independent job on a second
+thread while the caller goes on.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
-from concurrent.futures import ThreadPoolExecutor
-from typing import Callable, TypeVar
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any, Callable, Iterator, TypeVar
 
-__all__ = ["threads", "split_rows"]
+__all__ = ["threads", "split_rows", "beside"]
 
 T = TypeVar("T")
 
@@ -40,3 +42,21 @@ def split_rows(fn: Callable[[slice], T], n: int, *, min_rows: int = 50_000) -> l
     cuts = [n * i // k for i in range(k + 1)]
     with ThreadPoolExecutor(k) as pool:
         return list(pool.map(fn, [slice(a, b) for a, b in zip(cuts[:-1], cuts[1:])]))
+
+
+@contextlib.contextmanager
+def beside(fn: Callable[..., T], *args: Any) -> Iterator["Future[T]"]:
+    """``with beside(fn, *args) as job: ...``: ``fn(*args)`` runs on a second thread
+    while the block runs (first, on this thread, where :func:`threads` is 1);
+    ``job.result()`` returns its value or raises its exception. Leaving the block
+    waits for the job."""
+    if threads() < 2:
+        job: Future = Future()
+        try:
+            job.set_result(fn(*args))
+        except Exception as exc:  # handed to the caller by job.result()
+            job.set_exception(exc)
+        yield job
+        return
+    with ThreadPoolExecutor(1) as pool:
+        yield pool.submit(fn, *args)
