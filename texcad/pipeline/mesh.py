@@ -3,8 +3,10 @@
 The job, for each texture *layer* ``(region, texture, options)``:
 
 1. read and repair the mesh (merge duplicate vertices, drop degenerate and duplicate
-   triangles, make the winding consistent and outward); refuse it unless every body
-   is closed (:func:`load_closed`);
+   triangles, make the winding consistent, each shell outward and a cavity's wall
+   inward: :func:`texcad.solid.repair_closed`); refuse it unless every body is
+   closed (:func:`load_closed`) and its surface does not cross itself (tested on a
+   second thread while the steps below run);
 2. pick the region's faces (:class:`texcad.mapping.Region`; never the bed face by
    default, and with ``build_dir`` never a face that overhangs by itself) and refine
    only them, conforming (the mesh stays closed): with ``tolerance=0`` until no edge
@@ -25,8 +27,12 @@ The job, for each texture *layer* ``(region, texture, options)``:
    kept) and ``c = 1/2`` centred, ``g in [0, 1]`` the depth gradient along an axis;
 6. limit: no displaced face may overhang for ``build_dir`` nor fold over
    (:func:`texcad.printability.limit_relief`);
-7. check: the result is accepted by manifold3d (closed, oriented 2-manifold) with
-   as many bodies as the input, else GeometryError.
+7. check: the result is closed and oriented (every directed edge once, and its
+   reverse once; tested beside the limiter, the topology not depending on the
+   displacements) with as many bodies as the input, and finite, else GeometryError.
+
+Sampling and measuring run on every core (:func:`texcad.util.split_rows`, the same
+bytes as on one).
 
 The result is a :class:`MeshTextured` (a :class:`texcad.Textured`): ``mesh`` is the
 displaced mesh, ``base_mesh`` the part with every texture at its lowest (the surface
