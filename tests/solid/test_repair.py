@@ -109,3 +109,13 @@ def test_a_cavity_faces_into_the_cavity_and_an_island_in_it_outward():
     assert tm.volume == pytest.approx(part.volume(), rel=1e-6)
     vols = sorted(b.volume for b in tm.split(only_watertight=False))
     assert vols[0] < 0 < vols[1]  # exactly one shell (the cavity's wall) inward
+
+
+def test_non_finite_vertices_and_bad_indices_are_refused():
+    v, f, _ = _bodies()
+    v2 = v.copy()
+    v2[f[3, 0]] = np.nan
+    with pytest.raises(InputError, match="1 vertices that are not finite"):
+        repair_closed(v2, f)
+    with pytest.raises(InputError, match="index missing vertices"):
+        repair_closed(v, np.concatenate([f, [[0, 1, len(v)]]]))

@@ -116,9 +116,16 @@ def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-
         name: how error messages call the mesh.
 
     Raises:
-        InputError: no triangle left, open or non-manifold edges, or a one-sided body.
+        InputError: a vertex index out of range or a vertex that is not finite, no
+            triangle left, open or non-manifold edges, or a one-sided body.
     """
-    v, f = _merge(np.asarray(vertices, np.float64), np.asarray(faces, np.int64), merge)
+    v, f = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
+    if f.size and (f.min() < 0 or f.max() >= len(v)):
+        raise InputError(f"{name} has triangles that index missing vertices ({int(f.min())} .. {int(f.max())} of {len(v)}); export it again")
+    bad = ~np.isfinite(v).all(axis=1)
+    if bad[np.unique(f)].any():
+        raise InputError(f"{name} has {int(bad[np.unique(f)].sum())} vertices that are not finite numbers (NaN or inf); export it again")
+    v, f = _merge(v, f, merge)
     v, f = _clean(v, f)
     if not len(f):
         raise InputError(f"{name} holds no triangles (after dropping degenerate ones)")
