@@ -58,68 +58,78 @@ class ReliefLimit:
     removed_mm3: float
 
 
-_BLOCK = 1 << 13  # faces per block of the first test: its temporaries stay in the cache
+_BLOCK = 8192  # faces per block of the first test: its temporaries stay in the cache
 
-# Face data is laid out coordinate first: corners ``(3, 3, F)`` (coordinate, corner,
-# face), normals ``(3, F)``, so that every operation runs over contiguous rows of faces
-# (4 times faster than over ``(F, 3)`` rows of 3); the operations are those of
-# ``cross`` and ``np.linalg.norm`` in their order, so the bits are the same.
+# Face data is laid out coordinate first: corners ``(..., 3, 3, F)`` (coordinate,
+# corner, face), normals ``(..., 3, F)``, so that every operation runs over contiguous
+# rows of faces (4 times faster than over ``(F, 3)`` rows of 3), and both writers'
+# positions go through each operation at once (a leading axis of 2); the operations
+# are those of ``cross`` and ``np.linalg.norm`` in their order, so the bits are the same.
 
 
 def _cross(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Cross product of ``(3, F)`` arrays (coordinate first), as :func:`cross` does it."""
+    """Cross product of ``(..., 3, F)`` arrays (coordinate second to last), as
+    :func:`cross` does it."""
     out = np.empty(np.broadcast_shapes(x.shape, y.shape))
-    np.subtract(x[1] * y[2], x[2] * y[1], out=out[0])
-    np.subtract(x[2] * y[0], x[0] * y[2], out=out[1])
-    np.subtract(x[0] * y[1], x[1] * y[0], out=out[2])
+    for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):  # per coordinate
+        np.subtract(x[..., j, :] * y[..., k, :], x[..., k, :] * y[..., j, :], out=out[..., i, :])
     return out
 
 
 def _unit(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit normals ``(3, F)`` and their lengths ``(F,)`` of the faces with corners ``p``
-    ``(3, 3, F)`` mm (``np.linalg.norm`` sums the squares left to right, as here)."""
-    n = _cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    ln = np.sqrt((n[0] * n[0] + n[1] * n[1]) + n[2] * n[2])
-    n /= np.maximum(ln, 1e-300)
+    """Unit normals ``(..., 3, F)`` and their lengths ``(..., F)`` of the faces with
+    corners ``p`` ``(..., 3, 3, F)`` mm (``np.linalg.norm`` sums the squares left to
+    right, as here)."""
+    n = _cross(p[..., 1, :] - p[..., 0, :], p[..., 2, :] - p[..., 0, :])
+    x, y, z = n[..., 0, :], n[..., 1, :], n[..., 2, :]
+    ln = np.sqrt((x * x + y * y) + z * z)
+    n /= np.maximum(ln, 1e-300)[..., None, :]
     return n, ln
 
 
-def _steep(n: np.ndarray, dirs, cos_limit: float) -> np.ndarray:
-    """``any(-n . d > cos_limit)`` over the build directions ``d`` (all False without),
-    face by face in a fixed order (no BLAS call, whose last bit can depend on the
-    batch). An axis direction (one component +-1, the others 0) takes that component
-    alone: ``n . d`` is exactly that (the zeros add nothing)."""
-    out = np.zeros(n.shape[1], dtype=bool)
+def _directions(dirs) -> tuple:
+    """The build directions as :func:`_steep` takes them: ``(k, s)`` for an axis
+    direction ``s e_k`` (one component +-1, the others 0: ``n . d`` is exactly ``s n_k``,
+    the zeros add nothing), else ``(None, d)``."""
+    plan = []
     for d in () if dirs is None else dirs:  # per build direction
         k = int(np.argmax(np.abs(d)))
-        if np.count_nonzero(d) == 1 and abs(d[k]) == 1.0:
-            out |= (n[k] > cos_limit) if d[k] < 0 else (-n[k] > cos_limit)
+        axis = np.count_nonzero(d) == 1 and abs(d[k]) == 1.0
+        plan.append((k, float(d[k])) if axis else (None, tuple(float(c) for c in d)))
+    return tuple(plan)
+
+
+def _steep(n: np.ndarray, plan: tuple, cos_limit: float) -> np.ndarray:
+    """``any(-n . d > cos_limit)`` over the build directions (all False without), face
+    by face in a fixed order (no BLAS call, whose last bit can depend on the batch);
+    ``-x > c`` is tested as ``x < -c``, the same for every float."""
+    out = np.zeros(n.shape[:-2] + n.shape[-1:], dtype=bool)
+    for k, d in plan:  # per build direction
+        if k is None:
+            out |= (n[..., 0, :] * d[0] + n[..., 1, :] * d[1]) + n[..., 2, :] * d[2] < -cos_limit
         else:
-            out |= -((n[0] * d[0] + n[1] * d[1]) + n[2] * d[2]) > cos_limit
+            out |= (n[..., k, :] > cos_limit) if d < 0 else (n[..., k, :] < -cos_limit)
     return out
 
 
-def _bad(p: np.ndarray, n0: np.ndarray, dirs, cos_limit: float) -> tuple[np.ndarray, np.ndarray]:
-    """Overhang and fold flags of faces with corners ``p`` ``(3, 3, F)`` mm and
-    undisplaced unit normals ``n0`` ``(3, F)``."""
-    n, ln = _unit(p)
-    fold = ((n[0] * n0[0] + n[1] * n0[1]) + n[2] * n0[2] <= 0.0) | (ln <= 1e-300)
-    return _steep(n, dirs, cos_limit), fold
+def _as_written(p: np.ndarray) -> np.ndarray:
+    """Positions ``(2, ...)`` as the writers store them: float32 (STL) and float32
+    rounded to 0.1 um (3MF's ``%.4f``). A face of 0.01 mm turns by half a degree when
+    rounded, more than the limiter's margin: both must pass."""
+    w = np.empty((2,) + p.shape)
+    w[0] = p.astype(np.float32)
+    np.round(w[0], 4, out=w[1])
+    return w
 
 
-def _as_written(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions as the writers store them: float32 (STL) and float32 rounded to
-    0.1 um (3MF's ``%.4f``). A face of 0.01 mm turns by half a degree when rounded,
-    more than the limiter's margin: both must pass."""
-    p32 = p.astype(np.float32).astype(np.float64)
-    return p32, np.round(p32, 4)
-
-
-def _test(p: np.ndarray, n0: np.ndarray, dirs, cos_limit: float) -> tuple[np.ndarray, np.ndarray]:
-    """Overhang and fold flags of faces with displaced corners ``p`` ``(3, 3, F)``, as
-    either writer stores them."""
-    (o1, f1), (o2, f2) = (_bad(q, n0, dirs, cos_limit) for q in _as_written(p))
-    return o1 | o2, f1 | f2
+def _test(p: np.ndarray, n0: np.ndarray, plan: tuple, cos_limit: float) -> tuple[np.ndarray, np.ndarray]:
+    """Overhang and fold flags ``(F,)`` of faces with displaced corners ``p``
+    ``(3, 3, F)`` mm (either writer's positions) and undisplaced unit normals ``n0``
+    ``(3, F)``."""
+    n, ln = _unit(_as_written(p))
+    fold = ((n[:, 0] * n0[0] + n[:, 1] * n0[1]) + n[:, 2] * n0[2] <= 0.0) | (ln <= 1e-300)
+    over = _steep(n, plan, cos_limit)
+    return over[0] | over[1], fold[0] | fold[1]
 
 
 def _corners(ctx, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -130,21 +140,34 @@ def _corners(ctx, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _offending(ctx, t, dd):
     """Overhang and fold flags of the faces with vertices ``t`` ``(3, F)`` and corner
-    displacements ``dd`` ``(3, F)``."""
-    p0, dn = _corners(ctx, t)
-    return _test(p0 + dn * dd, _unit(p0)[0], ctx[3], ctx[4])
+    displacements ``dd`` ``(3, F)``, block by block."""
+    over, fold = np.empty(t.shape[1], dtype=bool), np.empty(t.shape[1], dtype=bool)
+    for a in range(0, t.shape[1], _BLOCK):  # per block of faces
+        b = slice(a, a + _BLOCK)
+        p0, dn = _corners(ctx, t[:, b])
+        over[b], fold[b] = _test(p0 + dn * dd[:, b], _unit(p0)[0], ctx[5], ctx[4])
+    return over, fold
 
 
 def _largest_factor(ctx, p0, dn, n0, base, mask):
     """Per offending face (corners ``p0``, directions ``dn``, normals ``n0``): the largest
     factor s in [0, 1] on the displacements ``base`` ``(3, F)`` of its corners in
     ``mask`` (the others kept) that makes it pass (12 bisection steps); 0 if even s = 0
-    does not."""
+    does not. Block by block: a block's arrays stay in the cache through its steps."""
+    lo = np.zeros(n0.shape[1])
+    for a in range(0, len(lo), _BLOCK):  # per block of faces
+        b = slice(a, a + _BLOCK)
+        lo[b] = _bisect(ctx, p0[..., b], dn[..., b], n0[:, b], base[:, b], mask[:, b])
+    return lo
+
+
+def _bisect(ctx, p0, dn, n0, base, mask):
+    """:func:`_largest_factor` on one block."""
     lo, hi = np.zeros(n0.shape[1]), np.ones(n0.shape[1])
     keep = 1.0 - mask
-    for _ in range(12):  # per bisection step, all offending faces at once
+    for _ in range(12):  # per bisection step, all the block's faces at once
         mid = 0.5 * (lo + hi)
-        o, fo = _test(p0 + dn * (base * (keep + mask * mid)), n0, ctx[3], ctx[4])
+        o, fo = _test(p0 + dn * (base * (keep + mask * mid)), n0, ctx[5], ctx[4])
         ok = ~(o | fo)
         lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
     return lo
@@ -210,17 +233,19 @@ def _faces_at(f: np.ndarray, n: int):
 def _first(ctx, out):
     """Overhang and fold flags of every face with a displaced corner (the others
     False), from one displaced position per vertex, block by block."""
-    v0, nrm, f, dirs, cos_limit = ctx
+    v0, nrm, f, dirs, cos_limit, plan = ctx
     over, fold = np.empty(len(f), dtype=bool), np.empty(len(f), dtype=bool)
     pos = _as_written(v0 + nrm * out)
     moved = out != 0
     for a in range(0, len(f), _BLOCK):  # per block of faces
         t = np.ascontiguousarray(f[a:a + _BLOCK].T)
         n0 = _unit(np.take(v0, t, axis=1))[0]
-        (o1, f1), (o2, f2) = (_bad(np.take(p, t, axis=1), n0, dirs, cos_limit) for p in pos)
+        n, ln = _unit(np.take(pos, t, axis=2))
+        fo = ((n[:, 0] * n0[0] + n[:, 1] * n0[1]) + n[:, 2] * n0[2] <= 0.0) | (ln <= 1e-300)
+        ov = _steep(n, plan, cos_limit)
         m = moved[t]
         live = m[0] | m[1] | m[2]
-        over[a:a + _BLOCK], fold[a:a + _BLOCK] = (o1 | o2) & live, (f1 | f2) & live
+        over[a:a + _BLOCK], fold[a:a + _BLOCK] = (ov[0] | ov[1]) & live, (fo[0] | fo[1]) & live
     return over, fold
 
 
@@ -305,7 +330,7 @@ def limit_relief(
     cos_limit = 0.0
     if dirs is not None:
         cos_limit = float(np.cos(np.radians(min(89.9, check_critical_angle(critical_angle) + margin))))
-    ctx = (np.ascontiguousarray(v0.T), np.ascontiguousarray(nrm.T), faces, dirs, cos_limit)
+    ctx = (np.ascontiguousarray(v0.T), np.ascontiguousarray(nrm.T), faces, dirs, cos_limit, _directions(dirs))
     over, fold = _first(ctx, out)
     faces_of = _faces_at(faces, len(v0))
     first = (int(over.sum()), int(fold.sum()))
