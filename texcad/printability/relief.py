@@ -28,7 +28,11 @@ rounded to 0.1 um (3MF), since a face of 0.01 mm turns by half a degree when rou
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import nullcontext
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -58,6 +62,7 @@ class ReliefLimit:
     removed_mm3: float
 
 
+_THREADS = True  # the first test and the incidence on two threads
 _BLOCK = 8192  # faces per block of the first test: its temporaries stay in the cache
 
 # Face data is laid out coordinate first: corners ``(..., 3, 3, F)`` (coordinate,
@@ -132,20 +137,50 @@ def _test(p: np.ndarray, n0: np.ndarray, plan: tuple, cos_limit: float) -> tuple
     return over[0] | over[1], fold[0] | fold[1]
 
 
-def _corners(ctx, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+class _Ctx(NamedTuple):
+    """What every step reads: ``v0``, ``nrm`` ``(3, N)`` undisplaced positions (mm) and
+    displacement directions, coordinate first; ``f`` ``(3, M)`` faces; ``dirs`` the build
+    directions ``(K, 3)`` or None, ``plan`` the same for :func:`_steep`; ``cos_limit``;
+    ``pool`` 2 threads or None."""
+
+    v0: np.ndarray
+    nrm: np.ndarray
+    f: np.ndarray
+    dirs: np.ndarray | None
+    plan: tuple
+    cos_limit: float
+    pool: ThreadPoolExecutor | None
+
+
+def _blocks(ctx: _Ctx, n: int, fn) -> None:
+    """``fn(b)`` for the slices ``b`` of ``_BLOCK`` faces of ``n``, on the pool's two
+    threads when there are several (numpy releases the GIL in its loops; each block
+    writes only its own slice, so the order does not change the result)."""
+    blocks = [slice(a, a + _BLOCK) for a in range(0, n, _BLOCK)]
+    if ctx.pool is None or len(blocks) < 2:
+        for b in blocks:  # per block of faces
+            fn(b)
+    else:
+        for _ in ctx.pool.map(fn, blocks):  # per block of faces (re-raises errors)
+            pass
+
+
+def _corners(ctx: _Ctx, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Undisplaced corners and displacement directions ``(3, 3, F)`` of the faces with
     vertex indices ``t`` ``(3, F)``."""
-    return np.take(ctx[0], t, axis=1), np.take(ctx[1], t, axis=1)
+    return np.take(ctx.v0, t, axis=1), np.take(ctx.nrm, t, axis=1)
 
 
 def _offending(ctx, t, dd):
     """Overhang and fold flags of the faces with vertices ``t`` ``(3, F)`` and corner
     displacements ``dd`` ``(3, F)``, block by block."""
     over, fold = np.empty(t.shape[1], dtype=bool), np.empty(t.shape[1], dtype=bool)
-    for a in range(0, t.shape[1], _BLOCK):  # per block of faces
-        b = slice(a, a + _BLOCK)
+
+    def block(b: slice) -> None:
         p0, dn = _corners(ctx, t[:, b])
-        over[b], fold[b] = _test(p0 + dn * dd[:, b], _unit(p0)[0], ctx[5], ctx[4])
+        over[b], fold[b] = _test(p0 + dn * dd[:, b], _unit(p0)[0], ctx.plan, ctx.cos_limit)
+
+    _blocks(ctx, t.shape[1], block)
     return over, fold
 
 
@@ -155,9 +190,11 @@ def _largest_factor(ctx, p0, dn, n0, base, mask):
     ``mask`` (the others kept) that makes it pass (12 bisection steps); 0 if even s = 0
     does not. Block by block: a block's arrays stay in the cache through its steps."""
     lo = np.zeros(n0.shape[1])
-    for a in range(0, len(lo), _BLOCK):  # per block of faces
-        b = slice(a, a + _BLOCK)
+
+    def block(b: slice) -> None:
         lo[b] = _bisect(ctx, p0[..., b], dn[..., b], n0[:, b], base[:, b], mask[:, b])
+
+    _blocks(ctx, len(lo), block)
     return lo
 
 
@@ -167,7 +204,7 @@ def _bisect(ctx, p0, dn, n0, base, mask):
     keep = 1.0 - mask
     for _ in range(12):  # per bisection step, all the block's faces at once
         mid = 0.5 * (lo + hi)
-        o, fo = _test(p0 + dn * (base * (keep + mask * mid)), n0, ctx[5], ctx[4])
+        o, fo = _test(p0 + dn * (base * (keep + mask * mid)), n0, ctx.plan, ctx.cos_limit)
         ok = ~(o | fo)
         lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
     return lo
@@ -212,40 +249,46 @@ def _distinct(idx: np.ndarray, n: int) -> np.ndarray:
 
 
 def _faces_at(f: np.ndarray, n: int):
-    """Vertex -> face incidence: ``faces_of(verts)`` gives the faces (indices into
-    ``f``) at any of ``verts``, sorted and unique, in time proportional to the answer.
-    One sort of ``vertex << bits | face`` keys (a plain sort, 4 times faster than a
-    stable argsort of the vertices)."""
-    bits = max(1, int(len(f)).bit_length())
-    key = np.sort((f.astype(np.int64) << bits | np.arange(len(f))[:, None]).ravel())
-    start = np.concatenate([[0], np.cumsum(np.bincount(f.ravel(), minlength=n))])
+    """Vertex -> face incidence of the faces ``f`` ``(3, M)``: ``faces_of(verts)`` gives
+    the faces (indices into ``M``) at any of ``verts``, sorted and unique, in time
+    proportional to the answer. One sort of ``vertex << bits | face`` keys (a plain
+    sort, 4 times faster than a stable argsort of the vertices)."""
+    m = f.shape[1]
+    bits = max(1, m.bit_length())
+    key = f.astype(np.int64) << bits
+    key |= np.arange(m)
+    key = key.ravel()
+    key.sort()
+    start = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(f.ravel(), minlength=n), out=start[1:])
     low = (1 << bits) - 1
 
     def faces_of(verts: np.ndarray) -> np.ndarray:
         lo, cnt = start[verts], start[verts + 1] - start[verts]
-        total = int(cnt.sum())
-        offs = np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        return _distinct(key[np.repeat(lo, cnt) + offs] & low, len(f))
+        at = np.arange(int(cnt.sum())) + np.repeat(lo - (np.cumsum(cnt) - cnt), cnt)
+        return _distinct(np.take(key, at) & low, m)
 
     return faces_of
 
 
-def _first(ctx, out):
+def _first(ctx: _Ctx, out: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Overhang and fold flags of every face with a displaced corner (the others
     False), from one displaced position per vertex, block by block."""
-    v0, nrm, f, dirs, cos_limit, plan = ctx
-    over, fold = np.empty(len(f), dtype=bool), np.empty(len(f), dtype=bool)
-    pos = _as_written(v0 + nrm * out)
+    over, fold = np.empty(ctx.f.shape[1], dtype=bool), np.empty(ctx.f.shape[1], dtype=bool)
+    pos = _as_written(ctx.v0 + ctx.nrm * out)
     moved = out != 0
-    for a in range(0, len(f), _BLOCK):  # per block of faces
-        t = np.ascontiguousarray(f[a:a + _BLOCK].T)
-        n0 = _unit(np.take(v0, t, axis=1))[0]
+
+    def block(b: slice) -> None:
+        t = np.ascontiguousarray(ctx.f[:, b])
+        n0 = _unit(np.take(ctx.v0, t, axis=1))[0]
         n, ln = _unit(np.take(pos, t, axis=2))
         fo = ((n[:, 0] * n0[0] + n[:, 1] * n0[1]) + n[:, 2] * n0[2] <= 0.0) | (ln <= 1e-300)
-        ov = _steep(n, plan, cos_limit)
+        ov = _steep(n, ctx.plan, ctx.cos_limit)
         m = moved[t]
         live = m[0] | m[1] | m[2]
-        over[a:a + _BLOCK], fold[a:a + _BLOCK] = (ov[0] | ov[1]) & live, (fo[0] | fo[1]) & live
+        over[b], fold[b] = (ov[0] | ov[1]) & live, (fo[0] | fo[1]) & live
+
+    _blocks(ctx, ctx.f.shape[1], block)
     return over, fold
 
 
@@ -256,7 +299,7 @@ def _lower(ctx, out, t, over, scale, fac):
     base = out[t]
     p0, dn = _corners(ctx, t)
     n0 = _unit(p0)[0]
-    mask = _corner_to_lower(ctx[3], p0, n0, over, base)
+    mask = _corner_to_lower(ctx.dirs, p0, n0, over, base)
     s = 0.98 * _largest_factor(ctx, p0, dn, n0, base, mask) * scale
     np.minimum.at(fac, t.ravel(), np.where(mask > 0, s, 1.0).ravel())
     touched = _distinct(t.ravel(), len(fac))
@@ -269,7 +312,7 @@ def _lower(ctx, out, t, over, scale, fac):
 def _rounds(ctx, out, rounds, shrink, first, faces_of):
     """The limiter's rounds, in place on ``out``; ``first`` the flags of every face,
     ``faces_of`` from :func:`_faces_at`."""
-    f, n = ctx[2], len(out)
+    f, n = ctx.f, len(out)
     fac = np.ones(n)
     over, fold = first
     idx = np.flatnonzero(over | fold)  # round 0: every face was tested, these offend
@@ -277,7 +320,7 @@ def _rounds(ctx, out, rounds, shrink, first, faces_of):
     for r in range(rounds + n + 1):  # per round; only faces near a change are looked at
         if not len(idx):
             break
-        t = np.ascontiguousarray(f[idx].T)
+        t = np.take(f, idx, axis=1)
         dd = out[t]
         if r:
             over, fold = _offending(ctx, t, dd)
@@ -330,15 +373,18 @@ def limit_relief(
     cos_limit = 0.0
     if dirs is not None:
         cos_limit = float(np.cos(np.radians(min(89.9, check_critical_angle(critical_angle) + margin))))
-    ctx = (np.ascontiguousarray(v0.T), np.ascontiguousarray(nrm.T), faces, dirs, cos_limit, _directions(dirs))
-    over, fold = _first(ctx, out)
-    faces_of = _faces_at(faces, len(v0))
-    first = (int(over.sum()), int(fold.sum()))
-    _rounds(ctx, out, rounds, shrink, (over, fold), faces_of)
+    with ThreadPoolExecutor(2) if _THREADS and (os.cpu_count() or 1) > 1 else nullcontext() as pool:
+        ctx = _Ctx(np.ascontiguousarray(v0.T), np.ascontiguousarray(nrm.T), np.ascontiguousarray(faces.T), dirs,
+                   _directions(dirs), cos_limit, pool)
+        incidence = pool.submit(_faces_at, ctx.f, len(v0)) if pool else None  # beside the first test
+        over, fold = _first(ctx, out)
+        faces_of = incidence.result() if pool else _faces_at(ctx.f, len(v0))
+        first = (int(over.sum()), int(fold.sum()))
+        _rounds(ctx._replace(pool=None), out, rounds, shrink, (over, fold), faces_of)
     low = out != d0
-    near = faces[faces_of(np.flatnonzero(low))]  # the faces at a lowered vertex, in order
+    near = rows(faces, faces_of(np.flatnonzero(low)))  # the faces at a lowered vertex, in order
     area = np.zeros(len(v0))
-    p = v0[near]
+    p = rows(v0, near)
     fa = 0.5 * np.linalg.norm(cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
     for k in range(3):  # per corner
         area += np.bincount(near[:, k], weights=fa / 3.0, minlength=len(v0))
