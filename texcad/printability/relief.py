@@ -72,24 +72,29 @@ _BLOCK = 8192  # faces per block of the first test: its temporaries stay in the 
 # are those of ``cross`` and ``np.linalg.norm`` in their order, so the bits are the same.
 
 
-def _cross(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Cross product of ``(..., 3, F)`` arrays (coordinate second to last), as
-    :func:`cross` does it."""
-    out = np.empty(np.broadcast_shapes(x.shape, y.shape))
-    for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):  # per coordinate
-        np.subtract(x[..., j, :] * y[..., k, :], x[..., k, :] * y[..., j, :], out=out[..., i, :])
-    return out
-
-
 def _unit(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit normals ``(..., 3, F)`` and their lengths ``(..., F)`` of the faces with
-    corners ``p`` ``(..., 3, 3, F)`` mm (``np.linalg.norm`` sums the squares left to
-    right, as here)."""
-    n = _cross(p[..., 1, :] - p[..., 0, :], p[..., 2, :] - p[..., 0, :])
-    x, y, z = n[..., 0, :], n[..., 1, :], n[..., 2, :]
-    ln = np.sqrt((x * x + y * y) + z * z)
+    corners ``p`` ``(..., 3, 3, F)`` mm. The edges' coordinates are stored as x, y, z,
+    x, y so that the cross product is two products of slices and one difference:
+    component by component the products and differences of :func:`cross`, and
+    ``np.linalg.norm`` sums the squares left to right, as here."""
+    e = np.empty(p.shape[:-3] + (5, 2, p.shape[-1]))
+    np.subtract(p[..., 1:, :], p[..., :1, :], out=e[..., :3, :, :])  # corners 1 and 2 minus 0
+    e[..., 3:, :, :] = e[..., :2, :, :]
+    a, b = e[..., 0, :], e[..., 1, :]
+    n = a[..., 1:4, :] * b[..., 2:5, :]
+    n -= a[..., 2:5, :] * b[..., 1:4, :]
+    sq = n * n
+    ln = np.sqrt((sq[..., 0, :] + sq[..., 1, :]) + sq[..., 2, :])
     n /= np.maximum(ln, 1e-300)[..., None, :]
     return n, ln
+
+
+def _folds(n: np.ndarray, ln: np.ndarray, n0: np.ndarray) -> np.ndarray:
+    """Faces turned by 90 degrees or more from ``n0`` ``(3, F)`` (or degenerate), from
+    their unit normals ``n`` ``(..., 3, F)`` and lengths ``ln``."""
+    c = n * n0
+    return ((c[..., 0, :] + c[..., 1, :]) + c[..., 2, :] <= 0.0) | (ln <= 1e-300)
 
 
 def _directions(dirs) -> tuple:
@@ -132,7 +137,7 @@ def _test(p: np.ndarray, n0: np.ndarray, plan: tuple, cos_limit: float) -> tuple
     ``(3, 3, F)`` mm (either writer's positions) and undisplaced unit normals ``n0``
     ``(3, F)``."""
     n, ln = _unit(_as_written(p))
-    fold = ((n[:, 0] * n0[0] + n[:, 1] * n0[1]) + n[:, 2] * n0[2] <= 0.0) | (ln <= 1e-300)
+    fold = _folds(n, ln, n0)
     over = _steep(n, plan, cos_limit)
     return over[0] | over[1], fold[0] | fold[1]
 
@@ -282,7 +287,7 @@ def _first(ctx: _Ctx, out: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         t = np.ascontiguousarray(ctx.f[:, b])
         n0 = _unit(np.take(ctx.v0, t, axis=1))[0]
         n, ln = _unit(np.take(pos, t, axis=2))
-        fo = ((n[:, 0] * n0[0] + n[:, 1] * n0[1]) + n[:, 2] * n0[2] <= 0.0) | (ln <= 1e-300)
+        fo = _folds(n, ln, n0)
         ov = _steep(n, ctx.plan, ctx.cos_limit)
         m = moved[t]
         live = m[0] | m[1] | m[2]
