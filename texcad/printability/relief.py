@@ -18,12 +18,24 @@ bisection steps; ``s = 0`` is the undisplaced corner), and every vertex takes th
 smallest factor of its offending faces (times ``0.98 shrink^(round // 10)``, so that it
 converges where neighbours keep disturbing each other); after ``rounds`` rounds what
 still offends is set to 0. Only faces next to a changed vertex are looked at again.
-On ``benchmarks/bench_mesh.py``'s 5.5 M faces this lowers 44 600 vertices and removes
-8.7 mm3 of relief, where lowering all three corners lowered 2 M and zeroed 1 M.
+On ``benchmarks/bench_mesh.py`` (983 620 faces, 19 349 of them overhanging at first)
+25 rounds lower 32 557 vertices and remove 286 mm3 of relief; 24 faces still offend
+then, and setting them to 0 makes their neighbours offend in turn: 154 more rounds
+zero 30 642 more vertices and remove 743 mm3 more (61 299 lowered, 32 500 zeroed, 1029 mm3
+of the 11 024 mm3 relief in all).
 The first test of every face is made on the displaced vertices (one position per
 vertex, not per corner); later rounds look only at the faces next to a change. Every
 test is made on the positions as the writers store them: float32 (STL) and float32
 rounded to 0.1 um (3MF), since a face of 0.01 mm turns by half a degree when rounded.
+
+Speed: face data is laid out coordinate first (every operation runs over contiguous
+rows of faces), both writers' positions go through each operation at once, faces are
+taken in blocks of 8192 (the temporaries stay in the cache; the first test's blocks
+and the vertex-to-face incidence run on two threads, numpy releasing the GIL) and the
+bisection runs block by block. Every face's test is the same sequence of float
+operations whatever the block or thread (those of ``cross`` and ``np.linalg.norm``,
+in their order), so the result is the same bytes: 0.27 s on the benchmark where the
+plain version took 1.0-1.2 s, with the same ``d'`` to the bit.
 """
 
 from __future__ import annotations
