@@ -30,9 +30,8 @@ rounded to 0.1 um (3MF), since a face of 0.01 mm turns by half a degree when rou
 
 Speed: face data is laid out coordinate first (every operation runs over contiguous
 rows of faces), both writers' positions go through each operation at once, faces are
-taken in blocks of 8192 (the temporaries stay in the cache; the first test's blocks
-and the vertex-to-face incidence run on two threads, numpy releasing the GIL) and the
-bisection runs block by block. Every face's test is the same sequence of float
+taken in blocks of 8192 (the temporaries stay in the cache) and the bisection runs
+block by block (``_THREADS`` puts the first test's blocks on two threads). Every face's test is the same sequence of float
 operations whatever the block or thread (those of ``cross`` and ``np.linalg.norm``,
 in their order), so the result is the same bytes: 0.27 s on the benchmark where the
 plain version took 1.0-1.2 s, with the same ``d'`` to the bit.
@@ -74,7 +73,11 @@ class ReliefLimit:
     removed_mm3: float
 
 
-_THREADS = True  # the first test and the incidence on two threads
+# The first test's blocks and the incidence on two threads (numpy releases the GIL in
+# its loops). Off: on the shared 2-core machine (load 2.3) it took 0.50 s wall where one
+# thread took 0.28 s (threads wait for the GIL while the other is preempted); the bytes
+# are the same either way (tests/printability/test_relief.py).
+_THREADS = False
 _BLOCK = 8192  # faces per block of the first test: its temporaries stay in the cache
 
 # Face data is laid out coordinate first: corners ``(..., 3, 3, F)`` (coordinate,
