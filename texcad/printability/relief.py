@@ -389,6 +389,7 @@ def limit_relief(
         ``(d', report)`` with ``|d'_i| <= |d_i|`` and the same signs.
     """
     v0 = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces)
     nrm = np.asarray(normals, dtype=np.float64)
     d0 = np.asarray(d, dtype=np.float64)
     out = d0.copy()
