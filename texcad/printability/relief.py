@@ -77,9 +77,10 @@ class ReliefLimit:
 
 
 # The first test's blocks and the incidence on two threads (numpy releases the GIL in
-# its loops). Off: on the shared 2-core machine (load 2.3) it took 0.50 s wall where one
-# thread took 0.28 s (threads wait for the GIL while the other is preempted); the bytes
-# are the same either way (tests/printability/test_relief.py).
+# its loops). Off: on the shared 2-core machine (loads 1.5-2.4, 3 runs each) the limiter
+# took 0.35-0.50 s wall with two threads and 0.28-0.40 s with one (a thread waits for the
+# GIL while the other is preempted); the bytes are the same either way
+# (tests/printability/test_relief.py).
 _THREADS = False
 _BLOCK = 8192  # faces per block of the first test: its temporaries stay in the cache
 
