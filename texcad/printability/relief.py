@@ -18,17 +18,35 @@ bisection steps; ``s = 0`` is the undisplaced corner), and every vertex takes th
 smallest factor of its offending faces (times ``0.98 shrink^(round // 10)``, so that it
 converges where neighbours keep disturbing each other); after ``rounds`` rounds what
 still offends is set to 0. Only faces next to a changed vertex are looked at again.
-On ``benchmarks/bench_mesh.py``'s 5.5 M faces this lowers 44 600 vertices and removes
-8.7 mm3 of relief, where lowering all three corners lowered 2 M and zeroed 1 M.
+On ``benchmarks/bench_mesh.py`` (983 620 faces, 19 349 of them overhanging at first)
+25 rounds lower 32 557 vertices and remove 286 mm3 of relief; 24 faces still offend
+then, and setting them to 0 makes their neighbours offend in turn: 154 more rounds
+zero 30 642 more vertices and remove 743 mm3 more (61 299 lowered, 32 500 zeroed, 1029 mm3
+of the 11 024 mm3 relief in all).
 The first test of every face is made on the displaced vertices (one position per
 vertex, not per corner); later rounds look only at the faces next to a change. Every
 test is made on the positions as the writers store them: float32 (STL) and float32
 rounded to 0.1 um (3MF), since a face of 0.01 mm turns by half a degree when rounded.
+
+Speed: face data is laid out coordinate first (every operation runs over contiguous
+rows of faces), both writers' positions go through each operation at once, faces are
+taken in blocks of 8192 (the temporaries stay in the cache), the bisection runs block
+by block and the vertex-to-face incidence is one sort of keys (``_THREADS`` puts the
+first test's blocks on two threads). Every face's test is the same sequence of float
+operations whatever the block or thread (those of ``cross`` and ``np.linalg.norm``,
+in their order), so the result does not depend on them: the same bytes as the plain
+version's on the benchmark, the mesh tests and random spheres. On the benchmark it
+takes 0.25-0.30 s CPU (0.26-0.40 s wall, load 2.3-3.3) where the plain version took
+1.1-1.3 s CPU in the same runs.
 """
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import nullcontext
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -58,132 +76,285 @@ class ReliefLimit:
     removed_mm3: float
 
 
-def _bad(v, f, n0, dirs, cos_limit):
-    p = rows(v, f)
-    n = cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    ln = np.linalg.norm(n, axis=1)
-    n = n / np.maximum(ln, 1e-300)[:, None]
-    fold = ((n * n0).sum(1) <= 0.0) | (ln <= 1e-300)
-    over = np.zeros(len(f), dtype=bool) if dirs is None else np.any(-(n @ dirs.T) > cos_limit, axis=1)
+# The first test's blocks and the incidence on two threads (numpy releases the GIL in
+# its loops). Off: on the shared 2-core machine (loads 1.5-2.4, 3 runs each) the limiter
+# took 0.35-0.50 s wall with two threads and 0.28-0.40 s with one (a thread waits for the
+# GIL while the other is preempted); the bytes are the same either way
+# (tests/printability/test_relief.py).
+_THREADS = False
+_BLOCK = 8192  # faces per block of the first test: its temporaries stay in the cache
+
+# Face data is laid out coordinate first: corners ``(..., 3, 3, F)`` (coordinate,
+# corner, face), normals ``(..., 3, F)``, so that every operation runs over contiguous
+# rows of faces (4 times faster than over ``(F, 3)`` rows of 3), and both writers'
+# positions go through each operation at once (a leading axis of 2); the operations
+# are those of ``cross`` and ``np.linalg.norm`` in their order, so the bits are the same.
+
+
+def _unit(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit normals ``(..., 3, F)`` and their lengths ``(..., F)`` of the faces with
+    corners ``p`` ``(..., 3, 3, F)`` mm. The edges' coordinates are stored as x, y, z,
+    x, y so that the cross product is two products of slices and one difference:
+    component by component the products and differences of :func:`cross`, and
+    ``np.linalg.norm`` sums the squares left to right, as here."""
+    e = np.empty(p.shape[:-3] + (5, 2, p.shape[-1]))
+    np.subtract(p[..., 1:, :], p[..., :1, :], out=e[..., :3, :, :])  # corners 1 and 2 minus 0
+    e[..., 3:, :, :] = e[..., :2, :, :]
+    a, b = e[..., 0, :], e[..., 1, :]
+    n = a[..., 1:4, :] * b[..., 2:5, :]
+    n -= a[..., 2:5, :] * b[..., 1:4, :]
+    sq = n * n
+    ln = np.sqrt((sq[..., 0, :] + sq[..., 1, :]) + sq[..., 2, :])
+    n /= np.maximum(ln, 1e-300)[..., None, :]
+    return n, ln
+
+
+def _folds(n: np.ndarray, ln: np.ndarray, n0: np.ndarray) -> np.ndarray:
+    """Faces turned by 90 degrees or more from ``n0`` ``(3, F)`` (or degenerate), from
+    their unit normals ``n`` ``(..., 3, F)`` and lengths ``ln``."""
+    c = n * n0
+    return ((c[..., 0, :] + c[..., 1, :]) + c[..., 2, :] <= 0.0) | (ln <= 1e-300)
+
+
+def _directions(dirs) -> tuple:
+    """The build directions as :func:`_steep` takes them: ``(k, s)`` for an axis
+    direction ``s e_k`` (one component +-1, the others 0: ``n . d`` is exactly ``s n_k``,
+    the zeros add nothing), else ``(None, d)``."""
+    plan = []
+    for d in () if dirs is None else dirs:  # per build direction
+        k = int(np.argmax(np.abs(d)))
+        axis = np.count_nonzero(d) == 1 and abs(d[k]) == 1.0
+        plan.append((k, float(d[k])) if axis else (None, tuple(float(c) for c in d)))
+    return tuple(plan)
+
+
+def _steep(n: np.ndarray, plan: tuple, cos_limit: float) -> np.ndarray:
+    """``any(-n . d > cos_limit)`` over the build directions (all False without), face
+    by face in a fixed order (no BLAS call, whose last bit can depend on the batch);
+    ``-x > c`` is tested as ``x < -c``, the same for every float."""
+    out = np.zeros(n.shape[:-2] + n.shape[-1:], dtype=bool)
+    for k, d in plan:  # per build direction
+        if k is None:
+            out |= (n[..., 0, :] * d[0] + n[..., 1, :] * d[1]) + n[..., 2, :] * d[2] < -cos_limit
+        else:
+            out |= (n[..., k, :] > cos_limit) if d < 0 else (n[..., k, :] < -cos_limit)
+    return out
+
+
+def _as_written(p: np.ndarray) -> np.ndarray:
+    """Positions ``(2, ...)`` as the writers store them: float32 (STL) and float32
+    rounded to 0.1 um (3MF's ``%.4f``). A face of 0.01 mm turns by half a degree when
+    rounded, more than the limiter's margin: both must pass."""
+    w = np.empty((2,) + p.shape)
+    w[0] = p.astype(np.float32)
+    np.round(w[0], 4, out=w[1])
+    return w
+
+
+def _test(p: np.ndarray, n0: np.ndarray, plan: tuple, cos_limit: float) -> tuple[np.ndarray, np.ndarray]:
+    """Overhang and fold flags ``(F,)`` of faces with displaced corners ``p``
+    ``(3, 3, F)`` mm (either writer's positions) and undisplaced unit normals ``n0``
+    ``(3, F)``."""
+    n, ln = _unit(_as_written(p))
+    fold = _folds(n, ln, n0)
+    over = _steep(n, plan, cos_limit)
+    return over[0] | over[1], fold[0] | fold[1]
+
+
+class _Ctx(NamedTuple):
+    """What every step reads: ``v0``, ``nrm`` ``(3, N)`` undisplaced positions (mm) and
+    displacement directions, coordinate first; ``f`` ``(3, M)`` faces; ``dirs`` the build
+    directions ``(K, 3)`` or None, ``plan`` the same for :func:`_steep`; ``cos_limit``;
+    ``pool`` 2 threads or None."""
+
+    v0: np.ndarray
+    nrm: np.ndarray
+    f: np.ndarray
+    dirs: np.ndarray | None
+    plan: tuple
+    cos_limit: float
+    pool: ThreadPoolExecutor | None
+
+
+def _blocks(ctx: _Ctx, n: int, fn) -> None:
+    """``fn(b)`` for the slices ``b`` of ``_BLOCK`` faces of ``n``, on the pool's two
+    threads when there are several (numpy releases the GIL in its loops; each block
+    writes only its own slice, so the order does not change the result)."""
+    blocks = [slice(a, a + _BLOCK) for a in range(0, n, _BLOCK)]
+    if ctx.pool is None or len(blocks) < 2:
+        for b in blocks:  # per block of faces
+            fn(b)
+    else:
+        for _ in ctx.pool.map(fn, blocks):  # per block of faces (re-raises errors)
+            pass
+
+
+def _corners(ctx: _Ctx, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Undisplaced corners and displacement directions ``(3, 3, F)`` of the faces with
+    vertex indices ``t`` ``(3, F)``."""
+    return np.take(ctx.v0, t, axis=1), np.take(ctx.nrm, t, axis=1)
+
+
+def _offending(ctx, t, dd):
+    """Overhang and fold flags of the faces with vertices ``t`` ``(3, F)`` and corner
+    displacements ``dd`` ``(3, F)``, block by block."""
+    over, fold = np.empty(t.shape[1], dtype=bool), np.empty(t.shape[1], dtype=bool)
+
+    def block(b: slice) -> None:
+        p0, dn = _corners(ctx, t[:, b])
+        over[b], fold[b] = _test(p0 + dn * dd[:, b], _unit(p0)[0], ctx.plan, ctx.cos_limit)
+
+    _blocks(ctx, t.shape[1], block)
     return over, fold
 
 
-def _as_written(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions as the writers store them: float32 (STL) and float32 rounded to
-    0.1 um (3MF's ``%.4f``). A face of 0.01 mm turns by half a degree when rounded,
-    more than the limiter's margin: both must pass."""
-    p32 = p.astype(np.float32).astype(np.float64)
-    return p32, np.round(p32, 4)
+def _largest_factor(ctx, p0, dn, n0, base, mask):
+    """Per offending face (corners ``p0``, directions ``dn``, normals ``n0``): the largest
+    factor s in [0, 1] on the displacements ``base`` ``(3, F)`` of its corners in
+    ``mask`` (the others kept) that makes it pass (12 bisection steps); 0 if even s = 0
+    does not. Block by block: a block's arrays stay in the cache through its steps."""
+    lo = np.zeros(n0.shape[1])
+
+    def block(b: slice) -> None:
+        lo[b] = _bisect(ctx, p0[..., b], dn[..., b], n0[:, b], base[:, b], mask[:, b])
+
+    _blocks(ctx, len(lo), block)
+    return lo
 
 
-def _offending(ctx, idx, dd):
-    """Overhang and fold flags of the faces ``f[idx]`` with displacements ``dd``."""
-    v0, nrm, f, n0, dirs, cos_limit = ctx
-    fi = f[idx]
-    tri = np.arange(3 * len(idx)).reshape(-1, 3)
-    flags = [_bad(vv.reshape(-1, 3), tri, n0[idx], dirs, cos_limit) for vv in _as_written(rows(v0, fi) + rows(nrm, fi) * dd[..., None])]
-    return flags[0][0] | flags[1][0], flags[0][1] | flags[1][1]
-
-
-def _largest_factor(ctx, bad, base, mask):
-    """Per offending face: the largest factor s in [0, 1] on the displacements of its
-    corners in ``mask`` ``(F, 3)`` (the others kept) that makes it pass (12 bisection
-    steps); 0 if even s = 0 does not."""
-    lo, hi = np.zeros(len(bad)), np.ones(len(bad))
+def _bisect(ctx, p0, dn, n0, base, mask):
+    """:func:`_largest_factor` on one block."""
+    lo, hi = np.zeros(n0.shape[1]), np.ones(n0.shape[1])
     keep = 1.0 - mask
-    for _ in range(12):  # per bisection step, all offending faces at once
+    for _ in range(12):  # per bisection step, all the block's faces at once
         mid = 0.5 * (lo + hi)
-        o, fo = _offending(ctx, bad, base * (keep + mask * mid[:, None]))
+        o, fo = _test(p0 + dn * (base * (keep + mask * mid)), n0, ctx.plan, ctx.cos_limit)
         ok = ~(o | fo)
         lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
     return lo
 
 
-def _corner_to_lower(ctx, bad, over, base):
-    """``(F, 3)`` mask of the corner whose displacement, moved towards 0, makes an
+def _corner_to_lower(dirs, p0, n0, over, base):
+    """``(3, F)`` mask of the corner whose displacement, moved towards 0, makes an
     overhanging face steep no more: its highest corner along the build direction
     it overhangs most for when that one is raised (``d > 0``), else its lowest when that
     one is sunk (``d < 0``); all three corners for a fold or when neither applies."""
-    v0, nrm, f, n0, dirs, cos_limit = ctx
     mask = np.ones(base.shape)
     if dirs is None or not over.any():
         return mask
     k = np.flatnonzero(over)
-    fi = f[bad[k]]
-    worst = dirs[np.argmax(n0[bad[k]] @ -dirs.T, axis=1)]  # (K, 3)
-    h = (v0[fi] * worst[:, None, :]).sum(2)
-    top, bot = np.argmax(h, axis=1), np.argmin(h, axis=1)
+    w = dirs[np.argmax(np.ascontiguousarray(n0[:, k].T) @ -dirs.T, axis=1)].T  # (3, K)
+    q = p0[:, :, k]
+    h = (q[0] * w[0] + q[1] * w[1]) + q[2] * w[2]  # (corner, K)
+    top, bot = np.argmax(h, axis=0), np.argmin(h, axis=0)
     ar = np.arange(len(k))
-    up, down = base[k, top] > 0, base[k, bot] < 0
+    up, down = base[top, k] > 0, base[bot, k] < 0
     pick = np.where(up, top, bot)
     one = up | down
-    m = np.zeros((len(k), 3))
-    m[ar[one], pick[one]] = 1.0
-    m[~one] = 1.0
-    mask[k] = m
+    m = np.zeros((3, len(k)))
+    m[pick[one], ar[one]] = 1.0
+    m[:, ~one] = 1.0
+    mask[:, k] = m
     return mask
 
 
 def _distinct(idx: np.ndarray, n: int) -> np.ndarray:
-    """``np.unique(idx)`` for indices in ``0..n-1``, by a mask (no hashing or sorting)."""
+    """``np.unique(idx)`` for indices in ``0..n-1``: by a sort when there are few (20
+    times faster than ``np.unique``, which hashes), by a mask of ``n`` when many."""
+    if len(idx) * 8 < n:
+        s = np.sort(idx)
+        keep = np.empty(len(s), dtype=bool)
+        keep[:1] = True
+        np.not_equal(s[1:], s[:-1], out=keep[1:])
+        return s[keep]
     mark = np.zeros(n, dtype=bool)
     mark[idx] = True
     return np.flatnonzero(mark)
 
 
 def _faces_at(f: np.ndarray, n: int):
-    """Vertex -> face incidence: ``faces_of(verts)`` gives the faces (indices into
-    ``f``) at any of ``verts``, sorted and unique, in time proportional to the answer."""
-    corner = f.ravel()
-    order = np.argsort(corner, kind="stable") // 3
-    start = np.concatenate([[0], np.cumsum(np.bincount(corner, minlength=n))])
+    """Vertex -> face incidence of the faces ``f`` ``(3, M)``: ``faces_of(verts)`` gives
+    the faces (indices into ``M``) at any of ``verts``, sorted and unique, in time
+    proportional to the answer. One sort of ``vertex << bits | face`` keys (a plain
+    sort, 4 times faster than a stable argsort of the vertices)."""
+    m = f.shape[1]
+    bits = max(1, m.bit_length())
+    key = f.astype(np.int64) << bits
+    key |= np.arange(m)
+    key = key.ravel()
+    key.sort()
+    start = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(f.ravel(), minlength=n), out=start[1:])
+    low = (1 << bits) - 1
 
     def faces_of(verts: np.ndarray) -> np.ndarray:
         lo, cnt = start[verts], start[verts + 1] - start[verts]
-        total = int(cnt.sum())
-        offs = np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        return _distinct(order[np.repeat(lo, cnt) + offs], len(f))
+        at = np.arange(int(cnt.sum())) + np.repeat(lo - (np.cumsum(cnt) - cnt), cnt)
+        return _distinct(np.take(key, at) & low, m)
 
     return faces_of
 
 
-def _all_offending(ctx, out):
-    """Overhang and fold flags of every face, from one displaced position per vertex."""
-    v0, nrm, f, n0, dirs, cos_limit = ctx
-    used = _distinct(f.ravel(), len(v0))
-    pos = np.zeros((len(v0), 3))
-    pos[used] = v0[used] + nrm[used] * out[used, None]
-    flags = [_bad(p, f, n0, dirs, cos_limit) for p in _as_written(pos)]
-    return flags[0][0] | flags[1][0], flags[0][1] | flags[1][1]
+def _first(ctx: _Ctx, out: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Overhang and fold flags of every face with a displaced corner (the others
+    False), from one displaced position per vertex, block by block."""
+    over, fold = np.empty(ctx.f.shape[1], dtype=bool), np.empty(ctx.f.shape[1], dtype=bool)
+    pos = _as_written(ctx.v0 + ctx.nrm * out)
+    moved = out != 0
+
+    def block(b: slice) -> None:
+        t = np.ascontiguousarray(ctx.f[:, b])
+        n0 = _unit(np.take(ctx.v0, t, axis=1))[0]
+        n, ln = _unit(np.take(pos, t, axis=2))
+        fo = _folds(n, ln, n0)
+        ov = _steep(n, ctx.plan, ctx.cos_limit)
+        m = moved[t]
+        live = m[0] | m[1] | m[2]
+        over[b], fold[b] = (ov[0] | ov[1]) & live, (fo[0] | fo[1]) & live
+
+    _blocks(ctx, ctx.f.shape[1], block)
+    return over, fold
 
 
-def _rounds(ctx, out, rounds, shrink, first):
-    """The limiter's rounds, in place on ``out``; ``first`` the flags of every face."""
-    v0, f = ctx[0], ctx[2]
-    faces_of = _faces_at(f, len(v0))
-    idx = np.arange(len(f))
-    for r in range(rounds + len(v0) + 1):  # per round; only faces near a change are looked at
+def _lower(ctx, out, t, over, scale, fac):
+    """One shrinking round on the offending faces with vertices ``t`` ``(3, F)``: every
+    vertex takes the smallest factor of its offending faces (times ``scale``); returns
+    the lowered vertices. ``fac`` ``(N,)`` is all ones before and after."""
+    base = out[t]
+    p0, dn = _corners(ctx, t)
+    n0 = _unit(p0)[0]
+    mask = _corner_to_lower(ctx.dirs, p0, n0, over, base)
+    s = 0.98 * _largest_factor(ctx, p0, dn, n0, base, mask) * scale
+    np.minimum.at(fac, t.ravel(), np.where(mask > 0, s, 1.0).ravel())
+    touched = _distinct(t.ravel(), len(fac))
+    verts = touched[fac[touched] < 1.0]
+    out[verts] *= fac[verts]
+    fac[touched] = 1.0
+    return verts
+
+
+def _rounds(ctx, out, rounds, shrink, first, faces_of):
+    """The limiter's rounds, in place on ``out``; ``first`` the flags of every face,
+    ``faces_of`` from :func:`_faces_at`."""
+    f, n = ctx.f, len(out)
+    fac = np.ones(n)
+    over, fold = first
+    idx = np.flatnonzero(over | fold)  # round 0: every face was tested, these offend
+    over, fold = over[idx], fold[idx]
+    for r in range(rounds + n + 1):  # per round; only faces near a change are looked at
         if not len(idx):
             break
-        dd = out[f[idx]]
-        over, fold = _offending(ctx, idx, dd) if r else first
-        bad = idx[(over | fold) & (dd != 0).any(axis=1)]  # an undisplaced face is as it was
-        if not len(bad):
+        t = np.take(f, idx, axis=1)
+        dd = out[t]
+        if r:
+            over, fold = _offending(ctx, t, dd)
+        sel = (over | fold) & (dd != 0).any(axis=0)  # an undisplaced face is as it was
+        if not sel.any():
             break
-        fb = f[bad]
-        if r < rounds:  # every vertex takes the smallest factor of its offending faces
-            sel = ((over | fold) & (dd != 0).any(axis=1))
-            base = out[fb]
-            mask = _corner_to_lower(ctx, bad, (over & ~fold)[sel], base)
-            lo = _largest_factor(ctx, bad, base, mask)
-            fac = np.ones(len(v0))
-            s = 0.98 * lo * shrink ** (r // 10)
-            for k in range(3):  # per corner
-                np.minimum.at(fac, fb[:, k], np.where(mask[:, k] > 0, s, 1.0))
-            verts = np.flatnonzero(fac < 1.0)
-            out[verts] *= fac[verts]
+        if r < rounds:
+            verts = _lower(ctx, out, t[:, sel], (over & ~fold)[sel], shrink ** (r // 10), fac)
         else:
-            verts = _distinct(fb.ravel(), len(v0))
+            verts = _distinct(t[:, sel].ravel(), n)
             out[verts] = 0.0
         idx = faces_of(verts)
 
@@ -219,6 +390,7 @@ def limit_relief(
         ``(d', report)`` with ``|d'_i| <= |d_i|`` and the same signs.
     """
     v0 = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces)
     nrm = np.asarray(normals, dtype=np.float64)
     d0 = np.asarray(d, dtype=np.float64)
     out = d0.copy()
@@ -226,19 +398,18 @@ def limit_relief(
     cos_limit = 0.0
     if dirs is not None:
         cos_limit = float(np.cos(np.radians(min(89.9, check_critical_angle(critical_angle) + margin))))
-    live = np.flatnonzero((out[faces] != 0).any(axis=1))
-    f = faces[live]
-    p0 = rows(v0, f)
-    n0 = cross(p0[:, 1] - p0[:, 0], p0[:, 2] - p0[:, 0])
-    n0 /= np.maximum(np.linalg.norm(n0, axis=1), 1e-300)[:, None]
-    ctx = (v0, nrm, f, n0, dirs, cos_limit)
-    over, fold = _all_offending(ctx, out)
-    first = (int(over.sum()), int(fold.sum()))
-    _rounds(ctx, out, rounds, shrink, (over, fold))
+    with ThreadPoolExecutor(2) if _THREADS and (os.cpu_count() or 1) > 1 else nullcontext() as pool:
+        ctx = _Ctx(np.ascontiguousarray(v0.T), np.ascontiguousarray(nrm.T), np.ascontiguousarray(faces.T), dirs,
+                   _directions(dirs), cos_limit, pool)
+        incidence = pool.submit(_faces_at, ctx.f, len(v0)) if pool else None  # beside the first test
+        over, fold = _first(ctx, out)
+        faces_of = incidence.result() if pool else _faces_at(ctx.f, len(v0))
+        first = (int(over.sum()), int(fold.sum()))
+        _rounds(ctx._replace(pool=None), out, rounds, shrink, (over, fold), faces_of)
     low = out != d0
-    near = faces[low[faces].any(axis=1)]  # the faces at a lowered vertex
+    near = rows(faces, faces_of(np.flatnonzero(low)))  # the faces at a lowered vertex, in order
     area = np.zeros(len(v0))
-    p = v0[near]
+    p = rows(v0, near)
     fa = 0.5 * np.linalg.norm(cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
     for k in range(3):  # per corner
         area += np.bincount(near[:, k], weights=fa / 3.0, minlength=len(v0))

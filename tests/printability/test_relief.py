@@ -1,0 +1,112 @@
+"""The overhang limiter for displaced meshes (texcad.printability.limit_relief).
+
+Every result is checked with an independent computation (np.cross on the positions as
+the STL and 3MF writers store them): no displaced face overhangs or folds over, the
+displacements only shrink, and the figures of the report match a plain count. The
+limiter works block by block and on two threads: the bytes must not depend on either.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from texcad.printability import limit_relief, relief
+
+CRIT = 45.0  # degrees
+MARGIN = 1.0  # degrees, limit_relief's default
+
+
+def sphere(seed: int, subdivisions: int = 4, radius: float = 10.0):
+    """An icosphere (mm) with a rough relief ``d`` (mm, raised and sunk, 0 on a third
+    of the vertices): plenty of overhanging faces, and folds where it sinks deeper
+    than the radius."""
+    m = trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius)
+    rng = np.random.default_rng(seed)
+    v = np.asarray(m.vertices, dtype=np.float64)
+    d = rng.uniform(-1.0, 2.0, len(v))
+    d[rng.random(len(v)) < 0.3] = 0.0
+    d[rng.random(len(v)) < 0.01] = -1.5 * radius  # through the centre: folds
+    return v, np.asarray(m.faces, dtype=np.int64), np.asarray(m.vertex_normals, dtype=np.float64), d
+
+
+def written_normals(p: np.ndarray, f: np.ndarray) -> list[np.ndarray]:
+    """Unit face normals ``(M, 3)`` of the positions ``p`` as float32 (STL) and float32
+    rounded to 0.1 um (3MF); NaN for a degenerate face."""
+    p32 = p.astype(np.float32).astype(np.float64)
+    out = []
+    for q in (p32, np.round(p32, 4)):
+        t = q[f]
+        n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out.append(n / np.linalg.norm(n, axis=1)[:, None])
+    return out
+
+
+def offending(v, f, nrm, d, dirs, angle) -> tuple[np.ndarray, np.ndarray]:
+    """Faces with a displaced corner that overhang (beyond ``angle`` degrees) or fold
+    over (turned by 90 degrees or more, or degenerate) as either writer stores them."""
+    t = v[f]
+    n0 = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    live = (d[f] != 0).any(axis=1)
+    over, fold = np.zeros(len(f), bool), np.zeros(len(f), bool)
+    for n in written_normals(v + nrm * d[:, None], f):
+        fold |= ~((n * n0).sum(1) > 0)  # NaN counts as folded
+        if dirs is not None:
+            dd = np.atleast_2d(np.asarray(dirs, dtype=np.float64))
+            dd = dd / np.linalg.norm(dd, axis=1)[:, None]
+            over |= (-(n @ dd.T) > np.cos(np.radians(angle))).any(axis=1)
+    return over & live, fold & live
+
+
+@pytest.mark.parametrize("dirs", [(0, 0, 1), (0, 0, -1), (0, -0.5, 1), [(0, 0, 1), (1, 0, 1)]])
+def test_no_displaced_face_overhangs_or_folds_as_written(dirs):
+    v, f, nrm, d = sphere(seed=3)
+    over, fold = offending(v, f, nrm, d, dirs, CRIT)
+    assert over.sum() > 100 and fold.sum() > 10  # the input is bad where it should be
+    d2, rep = limit_relief(v, f, nrm, d, build_dir=dirs, critical_angle=CRIT)
+    over, fold = offending(v, f, nrm, d2, dirs, CRIT)
+    assert over.sum() == 0 and fold.sum() == 0
+    assert np.all(np.abs(d2) <= np.abs(d)) and np.all(d2 * d >= 0)  # only lowered, never flipped
+    assert rep.lowered == int((d2 != d).sum()) > 0
+    assert rep.zeroed == int(((d2 != d) & (d2 == 0)).sum())
+
+
+def test_report_counts_what_overhung_and_folded_before():
+    v, f, nrm, d = sphere(seed=5)
+    over, fold = offending(v, f, nrm, d, (0, 0, 1), CRIT + MARGIN)
+    _, rep = limit_relief(v, f, nrm, d, build_dir=(0, 0, 1), critical_angle=CRIT)
+    assert (rep.overhang_faces, rep.folded_faces) == (int(over.sum()), int(fold.sum()))
+    t = v[f]
+    area = np.zeros(len(v))
+    a = 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
+    np.add.at(area, f.ravel(), np.repeat(a / 3.0, 3))
+    d2, _ = limit_relief(v, f, nrm, d, build_dir=(0, 0, 1), critical_angle=CRIT)
+    assert rep.removed_mm3 == pytest.approx(float((np.abs(d - d2) * area).sum()), rel=1e-9)
+
+
+def test_without_a_build_direction_only_folds_are_undone():
+    v, f, nrm, d = sphere(seed=7)
+    d2, rep = limit_relief(v, f, nrm, d)
+    assert rep.overhang_faces == 0 and rep.folded_faces > 10
+    over, fold = offending(v, f, nrm, d2, (0, 0, 1), CRIT)
+    assert fold.sum() == 0 and over.sum() > 0  # overhangs were left alone
+
+
+def test_same_bytes_for_any_block_size_and_thread_count(monkeypatch):
+    v, f, nrm, d = sphere(seed=11, subdivisions=5)  # 20 480 faces
+    runs = []
+    for block, threads in [(relief._BLOCK, False), (relief._BLOCK, True), (1000, True), (64, False)]:
+        monkeypatch.setattr(relief, "_BLOCK", block)
+        monkeypatch.setattr(relief, "_THREADS", threads)
+        d2, rep = limit_relief(v, f, nrm, d, build_dir=[(0, 0, 1), (0.3, 0.2, 1)], critical_angle=40.0)
+        runs.append((d2.tobytes(), rep))
+    assert runs[0][1].lowered > 0
+    assert all(r == runs[0] for r in runs[1:])
+
+
+def test_nothing_to_do_on_an_undisplaced_mesh():
+    v, f, nrm, d = sphere(seed=1)
+    d2, rep = limit_relief(v, f, nrm, np.zeros_like(d), build_dir=(0, 0, 1))
+    assert not d2.any() and rep.lowered == rep.overhang_faces == rep.folded_faces == 0
