@@ -75,6 +75,9 @@ def main() -> None:
     print(f"input        {src.num_triangles} triangles, {src.area:.0f} mm2 with the bed face (STL)")
     print(f"textured     {tx.mesh.num_triangles} triangles at pitch {args.pitch} mm, {args.texture}, triplanar, +z limiter, "
           f"tolerance {args.tolerance:g} mm: measured error {tx.max_error:.4f} mm")
+    lim = tx.limits
+    print(f"limiter      {lim.overhang_faces} facets overhanging at first; {lim.lowered} vertices lowered, {lim.zeroed} of them to 0, "
+          f"{lim.removed_mm3:.0f} mm3 of relief removed")
     print("  stage (wall s / CPU s)")
     for (a, b), name in zip(zip(marks[:-1], marks[1:]), ["start"] + names):
         print(f"  {name:<24s} {b[0] - a[0]:6.2f} {b[1] - a[1]:6.2f}")
