@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import json
 import os
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Sequence
 
@@ -452,32 +453,35 @@ def check(
         source, items, hm_from_part = _items(part)
     heightmap = heightmap if heightmap is not None else hm_from_part
     notes: list[str] = []
-    if len(items) == 1:  # nothing to unite: the same test as manifold3d's, vectorized
-        mans, ids, manif = [None], None, [_closed_manifold(items[0][1])]
-    else:
-        mans, ids = _manifolds([m for _, m in items])
-        manif = [man is not None for man in mans]
-    # manifold3d accepts only closed, consistently oriented 2-manifolds (every edge
-    # shared by exactly two faces, opposite ways): those are watertight; the others
-    # are counted edge by edge.
-    water = [ok or bool(edge_report(m.faces)["watertight"]) for ok, (_, m) in zip(manif, items)]
-    if textured_part:
-        mesh = items[0][1]
-        texture_mask = _texture_faces(mesh, part.texture_mesh, part.base_mesh)
-    else:
-        mesh, texture_mask = _mesh_and_texture(items, mans, ids, manif, notes)
+    with ThreadPoolExecutor(2) as pool:  # independent measures side by side (numpy releases the GIL)
+        if len(items) == 1:  # nothing to unite: the same test as manifold3d's, vectorized
+            mans, ids, manif = [None], None, [pool.submit(_closed_manifold, items[0][1])]
+        else:
+            mans, ids = _manifolds([m for _, m in items])
+            manif = [man is not None for man in mans]
+        if textured_part:
+            mesh = items[0][1]
+            texture_mask = _texture_faces(mesh, part.texture_mesh, part.base_mesh)
+        else:
+            mesh, texture_mask = _mesh_and_texture(items, mans, ids, manif, notes)
+        over_f = pool.submit(overhang_mask, mesh, d, crit, plate_tolerance=plate_tolerance)
+        area_f, shells_f = pool.submit(face_areas, mesh), pool.submit(_shells, mesh)
+        volume_f = pool.submit(lambda: (float(mesh.volume), mesh.bounds))
+        manif = [ok.result() if isinstance(ok, Future) else ok for ok in manif]
+        # manifold3d accepts only closed, consistently oriented 2-manifolds (every edge
+        # shared by exactly two faces, opposite ways): those are watertight; the others
+        # are counted edge by edge.
+        water = [ok or bool(edge_report(m.faces)["watertight"]) for ok, (_, m) in zip(manif, items)]
+        over, area, (volume, (lo, hi)) = over_f.result(), area_f.result(), volume_f.result()
     if texture_mask is None:
         notes.append("the input does not say which faces are texture (use a texcad 3MF with a 'texture' object); whole-part numbers only")
-    over = overhang_mask(mesh, d, crit, plate_tolerance=plate_tolerance)
-    area = face_areas(mesh)
-    lo, hi = mesh.bounds
     rep = CheckReport(
         source=source,
         objects=[n for n, _ in items],
         watertight=all(water),
         manifold=all(manif),
-        shells=_shells(mesh),
-        volume_mm3=float(mesh.volume),
+        shells=shells_f.result(),
+        volume_mm3=volume,
         bounds_mm=[lo.tolist(), hi.tolist()],
         triangles=mesh.num_triangles,
         build_dir=d.tolist(),
