@@ -132,3 +132,23 @@ def test_a_broken_number_is_an_input_error(tmp_path):
         z.writestr("3D/3dmodel.model", _model(vs, ts))
     with pytest.raises(InputError, match="not a number"):
         read_part(path)
+
+
+def test_a_damaged_model_is_an_input_error(tmp_path):
+    """The model is inflated on a second thread while it is parsed: a flipped byte
+    in the compressed data (bad deflate stream or CRC) is an InputError, and the
+    intact file reads the same as ever."""
+    m = _sphere(30)
+    path = tmp_path / "ok.3mf"
+    write_3mf(m, path)
+    (_, back), = read_part(path)
+    assert np.array_equal(back.faces, m.faces)
+    info = zipfile.ZipFile(path).getinfo("3D/3dmodel.model")
+    data = bytearray(path.read_bytes())
+    start = info.header_offset + 30 + len(info.filename.encode()) + len(info.extra)
+    for k, at in enumerate((start + info.compress_size // 2, start + info.compress_size - 3)):
+        bad = bytearray(data)
+        bad[at] ^= 0x5A
+        (tmp_path / f"bad{k}.3mf").write_bytes(bytes(bad))
+        with pytest.raises(InputError, match="damaged"):
+            read_part(tmp_path / f"bad{k}.3mf")

@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import os
 import re
+import threading
 import zipfile
+import zlib
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -186,14 +188,20 @@ def _fast_column(xml: bytes, span: tuple[int, int], tag: bytes, names: Sequence[
         part = _column_piece(xml, a, words, (s, e), tag, names, integer)
         if part is None:
             return None
-        if integer and part.dtype != np.int64:
-            if not np.array_equal(part, np.round(part)):
-                raise InputError(f"3MF: a <{tag.decode()}> element has a non-integer index")
         parts.append(part)
         s = e
+    return _joined(parts, tag, integer)
+
+
+def _joined(parts: list[np.ndarray], tag: bytes, integer: bool) -> np.ndarray | None:
+    """The pieces of a column as one array (int64 for indices, checked to be whole
+    numbers), or None if there are none."""
     if not parts or sum(len(p) for p in parts) == 0:
         return None
-    return np.concatenate(parts).astype(np.int64 if integer else np.float64, copy=False)
+    out = np.concatenate(parts)
+    if integer and out.dtype != np.int64 and not np.array_equal(out, np.round(out)):
+        raise InputError(f"3MF: a <{tag.decode()}> element has a non-integer index")
+    return out.astype(np.int64 if integer else np.float64, copy=False)
 
 
 def _column_piece(block: bytes, a: np.ndarray, words: np.ndarray, span: tuple[int, int], tag: bytes,
@@ -262,14 +270,17 @@ def _same_names(a: np.ndarray, words: np.ndarray, op: np.ndarray, tag: bytes, na
     return bool(np.array_equal(w & keys[:, 1], np.broadcast_to(keys[:, 0], w.shape)))
 
 
-def _column(xml: bytes, span: tuple[int, int], tag: bytes, names: Sequence[bytes], dtype) -> np.ndarray:
+def _column(xml: bytes, span: tuple[int, int], tag: bytes, names: Sequence[bytes], dtype, known: dict | None = None) -> np.ndarray:
     """All ``names`` attributes of every ``<tag .../>`` in ``xml[span[0]:span[1]]`` as
     an array ``(n, len(names))``, parsed in C (numpy on the bytes, or one regex per
-    attribute for unusual layouts)."""
+    attribute for unusual layouts); taken from ``known`` (``{start: (end, array)}``,
+    blocks read while the file was inflated) where it holds this very span."""
+    if known and known.get(span[0], (None,))[0] == span[1]:
+        return known[span[0]][1].astype(dtype, copy=False)
     fast = _fast_column(xml, span, tag, names, np.issubdtype(np.dtype(dtype), np.integer))
     if fast is not None:
         return fast.astype(dtype, copy=False)
-    block = xml[span[0] : span[1]]
+    block = bytes(xml[span[0] : span[1]])
     elems = re.findall(rb"<" + tag + rb"\b([^>]*)>", block)
     if not elems:
         return np.zeros((0, len(names)), dtype=dtype)
@@ -290,14 +301,16 @@ def _elements(xml: bytes, tag: bytes) -> list[tuple[bytes, bytes]]:
 
 
 def _spans(
-    xml: bytes, tag: bytes, lo: int = 0, hi: int | None = None, *, first: bool = False, last: bool = False
+    xml: bytes, tag: bytes, lo: int = 0, hi: int | None = None, *, first: bool = False, last: bool = False,
+    known: dict | None = None,
 ) -> list[tuple[int, int, int, int]]:
     """``(attributes start, end, content start, end)`` offsets of every non-nested
     ``<tag ...>content</tag>`` (or empty ``<tag .../>``) in ``xml[lo:hi]``, found with
     ``bytes.find`` (no copies, no regex over megabytes). ``first``: only the first one.
     ``last``: only the first one, its end tag looked for from ``hi`` backwards (an
     element that is the last in the range, as a ``<mesh>`` in its object: no scan
-    over its megabytes)."""
+    over its megabytes). ``known``: blocks ``{start: (end, ...)}`` that hold no end
+    tag (read while inflating): end tags are not looked for inside them."""
     out: list[tuple[int, int, int, int]] = []
     hi = len(xml) if hi is None else hi
     open_, close = b"<" + tag, b"</" + tag + b">"
@@ -317,12 +330,27 @@ def _spans(
             out.append((j, k - 1, k, k))
             pos = k + 1
             continue
-        e = xml.rfind(close, k + 1, hi) if last else xml.find(close, k + 1, hi)
+        e = xml.rfind(close, k + 1, hi) if last else _find_outside(xml, close, k + 1, hi, known)
         if e < 0:
             raise InputError(f"3MF: <{tag.decode()}> element without </{tag.decode()}>")
         out.append((j, k, k + 1, e))
         pos = e + len(close)
     return out
+
+
+def _find_outside(xml: bytes, sub: bytes, pos: int, hi: int, known: dict | None) -> int:
+    """``xml.find(sub, pos, hi)``, jumping over the ``known`` blocks (which hold no
+    ``</``: each ends at the first one after its start)."""
+    for start, (end, _) in sorted((known or {}).items()):  # per known block
+        if end <= pos or start < pos:
+            continue
+        if start >= hi:
+            break
+        i = xml.find(sub, pos, start)
+        if i >= 0:
+            return i
+        pos = end
+    return xml.find(sub, pos, hi)
 
 
 def _transform(text: str | None) -> np.ndarray:
@@ -347,6 +375,139 @@ def _unit_scale(xml: bytes, path: Path) -> float:
     return UNITS_MM[unit]
 
 
+_XYZ, _V123 = (b"x", b"y", b"z"), (b"v1", b"v2", b"v3")
+
+
+class _Inflating:
+    """A zip entry inflated on a second thread (zlib releases the GIL) into a
+    bytearray of its final size, ``data``, of which the first ``ready`` bytes are
+    there; the CRC and size are checked at the end."""
+
+    def __init__(self, path: Path, info: zipfile.ZipInfo) -> None:
+        self.data = bytearray(info.file_size)
+        self.ready, self.done, self.error = 0, False, None
+        self._cond = threading.Condition()
+        self._thread = threading.Thread(target=self._run, args=(path, info), daemon=True)
+        self._thread.start()
+
+    @classmethod
+    def start(cls, path: Path, info: zipfile.ZipInfo) -> "_Inflating | None":
+        """Start inflating ``info``; None for what this does not read (encrypted,
+        other methods than deflate and store, empty)."""
+        if info.flag_bits & 1 or info.compress_type not in (zipfile.ZIP_DEFLATED, zipfile.ZIP_STORED) or not info.file_size:
+            return None
+        return cls(path, info)
+
+    def _run(self, path: Path, info: zipfile.ZipInfo) -> None:
+        try:
+            with open(path, "rb") as fh:
+                fh.seek(info.header_offset)
+                head = fh.read(30)
+                if head[:4] != b"PK\x03\x04":
+                    raise zipfile.BadZipFile("bad local file header")
+                fh.seek(info.header_offset + 30 + int.from_bytes(head[26:28], "little") + int.from_bytes(head[28:30], "little"))
+                unz = zlib.decompressobj(-15) if info.compress_type == zipfile.ZIP_DEFLATED else None
+                left, crc = info.compress_size, 0
+                while left > 0:  # per MB of compressed input
+                    raw = fh.read(min(left, 1 << 20))
+                    if not raw:
+                        raise zipfile.BadZipFile("truncated")
+                    left -= len(raw)
+                    out = raw if unz is None else unz.decompress(raw) + (unz.flush() if left == 0 else b"")
+                    crc = self._put(out, crc)
+                if self.ready != len(self.data) or crc != info.CRC:
+                    raise zipfile.BadZipFile("bad CRC-32 or size")
+        except (OSError, zlib.error, zipfile.BadZipFile) as exc:
+            self.error = exc
+        finally:
+            with self._cond:
+                self.done = True
+                self._cond.notify_all()
+
+    def _put(self, out: bytes, crc: int) -> int:
+        pos = self.ready
+        if pos + len(out) > len(self.data):
+            raise zipfile.BadZipFile("longer than its stated size")
+        self.data[pos : pos + len(out)] = out
+        with self._cond:
+            self.ready = pos + len(out)
+            self._cond.notify_all()
+        return zlib.crc32(out, crc)
+
+    def wait(self, n: int) -> int:
+        """Block until ``n`` bytes are there (or all there are); returns how many."""
+        with self._cond:
+            while self.ready < n and not self.done:
+                self._cond.wait()
+            return self.ready
+
+    def find(self, sub: bytes, pos: int) -> int:
+        """``data.find(sub, pos)``, waiting for the bytes as they come."""
+        while True:  # per wait for more bytes
+            ready = self.ready
+            i = self.data.find(sub, pos, ready)
+            if i >= 0 or (self.done and ready == self.ready):
+                return i
+            pos = max(pos, ready - len(sub) + 1)
+            self.wait(ready + 1)
+
+    def finish(self, path: Path) -> bytearray:
+        """All the bytes, once inflated and checked."""
+        self._thread.join()
+        if self.error is not None:
+            raise InputError(f"{str(path)!r}: its 3D model is damaged ({self.error}); export it again")
+        return self.data
+
+
+def _stream_meshes(src: _Inflating) -> dict[int, tuple[int, np.ndarray]]:
+    """While the model inflates: each ``<vertices>`` block and the ``<triangles>``
+    block after it parsed as its bytes arrive (:func:`_column_piece`, piece by piece),
+    as ``{content start: (content end, array)}``. Best effort: a block of another
+    layout, or any error, ends this and the rest is read once inflated."""
+    xml = src.data
+    a = np.frombuffer(xml, dtype=np.uint8)
+    words = np.ndarray((max(len(a) - 7, 0),), dtype="<u8", buffer=xml, strides=(1,))
+    found: dict[int, tuple[int, np.ndarray]] = {}
+    pos = 0
+    try:
+        while True:  # per mesh
+            for opening, tag, names, integer in ((b"<vertices", b"vertex", _XYZ, False), (b"<triangles", b"triangle", _V123, True)):
+                k = src.find(b">", max(src.find(opening, pos), pos))
+                if k < 0 or src.find(opening, pos) < 0 or xml[k - 1] == 47:  # no more, or empty
+                    return found
+                got = _stream_column(src, a, words, k + 1, tag, names, integer)
+                if got is None:
+                    return found
+                found[k + 1] = got
+                pos = got[0]
+    except InputError:
+        return found
+
+
+def _stream_column(src: _Inflating, a: np.ndarray, words: np.ndarray, start: int, tag: bytes,
+                   names: Sequence[bytes], integer: bool) -> tuple[int, np.ndarray] | None:
+    """``(end, array)`` of the block starting at ``start``, read in pieces of about 1 MB
+    as they are inflated; it ends at the first ``</``. None if not read."""
+    xml, parts, s = src.data, [], start
+    while True:  # per piece
+        ready = src.wait(s + _BLOCK + 1)
+        e = xml.find(b">", min(s + _BLOCK, ready - 1), ready) + 1
+        close = xml.find(b"</", s, e or ready)
+        if close < 0 and e == 0:
+            if src.done:
+                return None
+            src.wait(ready + 1)
+            continue
+        part = _column_piece(xml, a, words, (s, close if close >= 0 else e), tag, names, integer)
+        if part is None:
+            return None
+        parts.append(part)
+        if close >= 0:
+            out = _joined(parts, tag, integer)
+            return None if out is None else (close, out)
+        s = e
+
+
 def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
     try:
         z = zipfile.ZipFile(path)
@@ -364,16 +525,22 @@ def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
         except KeyError:
             pass
         try:
-            xml = z.read(target)
+            info = z.getinfo(target)
         except KeyError:
             raise InputError(f"{str(path)!r} has no 3D model part ({target}); is it a 3MF file?") from None
+        src = _Inflating.start(path, info)
+        xml = z.read(target) if src is None else b""
         try:  # multi-part objects (texcad.io.write_3mf, PrusaSlicer): triangle ranges per part
             volumes = _slic3r_volumes(z.read("Metadata/Slic3r_PE_model.config"))
         except KeyError:
             volumes = {}
+    known: dict = {}
+    if src is not None:
+        known = _stream_meshes(src)
+        xml = src.finish(path)
     scale = _unit_scale(xml, path)
     objects: dict[str, dict[str, Any]] = {}
-    for h0, h1, b0, b1 in _spans(xml, b"object"):  # per object
+    for h0, h1, b0, b1 in _spans(xml, b"object", known=known):  # per object
         a = _attrs(xml[h0:h1])
         oid = a.get("id")
         if oid is None:
@@ -381,7 +548,7 @@ def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
         entry: dict[str, Any] = {"name": _xml_unescape(a.get("name", f"object {oid}"))}
         rest = xml[b0:b1] if xml.find(b"<mesh", b0, b1) < 0 else b""
         for _, _, m0, m1 in _spans(xml, b"mesh", b0, b1, last=True):  # its mesh, if any
-            entry["mesh"] = _mesh_arrays(xml, (m0, m1), oid)
+            entry["mesh"] = _mesh_arrays(xml, (m0, m1), oid, known)
             rest = xml[b0 : xml.rfind(b"<mesh", b0, m0)] + xml[m1:b1]  # components lie outside the mesh
         comps = [(_attrs(c).get("objectid"), _transform(_attrs(c).get("transform"))) for c in re.findall(rb"<component\b([^>]*)/?>", rest)]
         entry["components"] = comps
@@ -418,13 +585,13 @@ def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
     return out
 
 
-def _mesh_arrays(xml: bytes, span: tuple[int, int], oid: str) -> tuple[np.ndarray, np.ndarray]:
+def _mesh_arrays(xml: bytes, span: tuple[int, int], oid: str, known: dict) -> tuple[np.ndarray, np.ndarray]:
     """``(vertices (N, 3) float64, triangles (M, 3) int64)`` of the ``<mesh>`` whose
-    content is ``xml[span[0]:span[1]]``."""
-    vs = next(iter(_spans(xml, b"vertices", *span, first=True)), None)
+    content is ``xml[span[0]:span[1]]`` (blocks in ``known`` are taken from there)."""
+    vs = next(iter(_spans(xml, b"vertices", *span, first=True, known=known)), None)
     ts = next(iter(_spans(xml, b"triangles", vs[3] if vs else span[0], span[1], last=True)), None)
-    v = _column(xml, vs[2:] if vs else (0, 0), b"vertex", (b"x", b"y", b"z"), np.float64)
-    t = _column(xml, ts[2:] if ts else (0, 0), b"triangle", (b"v1", b"v2", b"v3"), np.int64)
+    v = _column(xml, vs[2:] if vs else (0, 0), b"vertex", _XYZ, np.float64, known)
+    t = _column(xml, ts[2:] if ts else (0, 0), b"triangle", _V123, np.int64, known)
     if len(t) and (t.min() < 0 or t.max() >= len(v)):
         raise InputError(f"3MF object {oid}: a triangle refers to a missing vertex")
     return v, t
