@@ -4,6 +4,7 @@ model's ``unit`` applied), vectorized, as named :class:`~texcad.solid.Mesh` obje
 
 from __future__ import annotations
 
+import mmap
 import os
 import re
 import threading
@@ -205,9 +206,10 @@ def _joined(parts: list[np.ndarray], tag: bytes, integer: bool) -> np.ndarray | 
 
 
 def _column_piece(block: bytes, a: np.ndarray, words: np.ndarray, span: tuple[int, int], tag: bytes,
-                  names: Sequence[bytes], integer: bool) -> np.ndarray | None:
+                  names: Sequence[bytes], integer: bool, strict: bool = False) -> np.ndarray | None:
     """The ``names`` values of the ``<tag>`` elements in ``block[span[0]:span[1]]`` as
-    an ``(m, len(names))`` array (see :func:`_fast_column`), or None."""
+    an ``(m, len(names))`` array (see :func:`_fast_column`), or None. ``strict``: None
+    also if the piece holds any other markup (every ``<`` opens one of the elements)."""
     s, e = span
     q = np.flatnonzero(a[s:e] == 34) + s  # '"'
     k = len(names)
@@ -220,9 +222,9 @@ def _column_piece(block: bytes, a: np.ndarray, words: np.ndarray, span: tuple[in
         if nid is not None and sorted(nid) == list(range(k)) and _same_names(a, words, op, tag, names, nid):
             vals = _parse_decimals(a, op + 1, cl, integer=integer).reshape(m, k)  # the same order in every element
             return vals[:, np.argsort(nid)]
-    m = block.count(b"<" + tag, s, e)
-    if m == 0:
-        return np.zeros((0, k)) if len(op) == 0 else None
+    lt, m = m, block[s:e].count(b"<" + tag)
+    if m == 0 or (strict and lt != m):
+        return np.zeros((0, k)) if len(op) == 0 and not (strict and lt) else None
     nid = _attribute_names(a, words, op, names)
     if nid is None or any(int((nid == j).sum()) != m for j in range(k)):
         return None
@@ -340,7 +342,7 @@ def _spans(
 
 def _find_outside(xml: bytes, sub: bytes, pos: int, hi: int, known: dict | None) -> int:
     """``xml.find(sub, pos, hi)``, jumping over the ``known`` blocks (which hold no
-    ``</``: each ends at the first one after its start)."""
+    other ``<`` than their elements')."""
     for start, (end, _) in sorted((known or {}).items()):  # per known block
         if end <= pos or start < pos:
             continue
@@ -380,11 +382,12 @@ _XYZ, _V123 = (b"x", b"y", b"z"), (b"v1", b"v2", b"v3")
 
 class _Inflating:
     """A zip entry inflated on a second thread (zlib releases the GIL) into a
-    bytearray of its final size, ``data``, of which the first ``ready`` bytes are
-    there; the CRC and size are checked at the end."""
+    buffer of its final size, ``data`` (anonymous memory: its pages are zeroed as
+    the inflating thread first writes them, not all at once here), of which the first
+    ``ready`` bytes are there; the CRC and size are checked at the end."""
 
     def __init__(self, path: Path, info: zipfile.ZipInfo) -> None:
-        self.data = bytearray(info.file_size)
+        self.data = mmap.mmap(-1, info.file_size)
         self.ready, self.done, self.error = 0, False, None
         self._cond = threading.Condition()
         self._thread = threading.Thread(target=self._run, args=(path, info), daemon=True)
@@ -451,7 +454,7 @@ class _Inflating:
             pos = max(pos, ready - len(sub) + 1)
             self.wait(ready + 1)
 
-    def finish(self, path: Path) -> bytearray:
+    def finish(self, path: Path) -> mmap.mmap:
         """All the bytes, once inflated and checked."""
         self._thread.join()
         if self.error is not None:
@@ -471,11 +474,12 @@ def _stream_meshes(src: _Inflating) -> dict[int, tuple[int, np.ndarray]]:
     pos = 0
     try:
         while True:  # per mesh
-            for opening, tag, names, integer in ((b"<vertices", b"vertex", _XYZ, False), (b"<triangles", b"triangle", _V123, True)):
-                k = src.find(b">", max(src.find(opening, pos), pos))
-                if k < 0 or src.find(opening, pos) < 0 or xml[k - 1] == 47:  # no more, or empty
+            for block, tag, names, integer in ((b"vertices", b"vertex", _XYZ, False), (b"triangles", b"triangle", _V123, True)):
+                i = src.find(b"<" + block, pos)
+                k = src.find(b">", i) if i >= 0 else -1
+                if k < 0 or xml[k - 1] == 47:  # no more, or empty
                     return found
-                got = _stream_column(src, a, words, k + 1, tag, names, integer)
+                got = _stream_column(src, a, words, (k + 1, b"</" + block + b">"), tag, names, integer)
                 if got is None:
                     return found
                 found[k + 1] = got
@@ -484,21 +488,22 @@ def _stream_meshes(src: _Inflating) -> dict[int, tuple[int, np.ndarray]]:
         return found
 
 
-def _stream_column(src: _Inflating, a: np.ndarray, words: np.ndarray, start: int, tag: bytes,
+def _stream_column(src: _Inflating, a: np.ndarray, words: np.ndarray, where: tuple[int, bytes], tag: bytes,
                    names: Sequence[bytes], integer: bool) -> tuple[int, np.ndarray] | None:
-    """``(end, array)`` of the block starting at ``start``, read in pieces of about 1 MB
-    as they are inflated; it ends at the first ``</``. None if not read."""
-    xml, parts, s = src.data, [], start
+    """``(end, array)`` of the block starting at ``where[0]`` and ending at its end tag
+    ``where[1]``, read in pieces of about 1 MB as they are inflated. None if not read,
+    or if it holds any other markup than its elements (a known block has no ``</``)."""
+    xml, parts, (s, close_tag) = src.data, [], where
     while True:  # per piece
         ready = src.wait(s + _BLOCK + 1)
         e = xml.find(b">", min(s + _BLOCK, ready - 1), ready) + 1
-        close = xml.find(b"</", s, e or ready)
+        close = xml.find(close_tag, s, e or ready)
         if close < 0 and e == 0:
             if src.done:
                 return None
             src.wait(ready + 1)
             continue
-        part = _column_piece(xml, a, words, (s, close if close >= 0 else e), tag, names, integer)
+        part = _column_piece(xml, a, words, (s, close if close >= 0 else e), tag, names, integer, strict=True)
         if part is None:
             return None
         parts.append(part)
