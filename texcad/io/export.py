@@ -107,7 +107,7 @@ def _fmt_rows(template: str, arr: np.ndarray) -> bytes:
     return ((template * len(arr)) % tuple(arr.ravel().tolist())).encode("ascii")
 
 
-_ROWS = 1 << 17  # rows per chunk of the bulk formatter
+_ROWS = 1 << 15  # rows per chunk of the bulk formatter and per piece the writer compresses
 
 
 def _digits(k: np.ndarray, width: int, keep: int) -> np.ndarray:
