@@ -205,7 +205,7 @@ def _object_xml(oid: int, name: str, mesh: Mesh) -> bytes:
 def _size_bound(mesh: Mesh) -> int:
     """An upper bound of the bytes :func:`_object_parts` writes for ``mesh``: rows times
     their widest form (``%.4f`` of ``|x| < 10^9`` takes at most 15 characters; larger
-    values at most 50; indices at most 10 digits), plus the name's 1 kB of slack."""
+    values at most 50; indices at most 10 digits); the name, head and tail not counted."""
     big = len(mesh.vertices) and not float(np.abs(mesh.vertices).max()) < 1e9
     return len(mesh.vertices) * (27 + 3 * (50 if big else 15)) + len(mesh.faces) * 62
 
