@@ -117,11 +117,16 @@ def _decimal_chunk(a: np.ndarray, start: np.ndarray, stop: np.ndarray, integer: 
     t = np.take(a, (stop - width)[None, :] + rows, mode="clip")  # (width, n), right-aligned
     used = rows >= width - length  # the value's own bytes
     dig = (t - np.uint8(48) < 10) & used
+    lead = a[start]
+    neg = lead == 45  # '-'
+    if integer:  # indices: digits only (a sign allowed), read as one integer each
+        count = (dig + np.uint16(32) * (used & ~dig)).sum(axis=0, dtype=np.uint16)
+        if np.all((count >> 5 == (neg | (lead == 43))) & (count & 31 >= 1) & (length <= width)):
+            mant = np.einsum("i,ij->j", _TEN[width - 1 :: -1], (t - np.uint8(48)) * dig).astype(np.int64)
+            return np.where(neg, -mant, mant)
     dot = (t == 46) & used
     # One sum counts digits (bits 0-4), dots (bits 5-9) and other characters (10-14).
     count = (dig + np.uint16(32) * dot + np.uint16(1024) * (used & ~dig & ~dot)).sum(axis=0, dtype=np.uint16)
-    lead = a[start]
-    neg = lead == 45  # '-'
     ndig = count & 31
     plain = (length <= width) & (count >> 10 == (neg | (lead == 43))) & (count >> 5 & 31 <= 1) & (ndig >= 1)
     d = (t - np.uint8(48)) * dig
@@ -134,9 +139,6 @@ def _decimal_chunk(a: np.ndarray, start: np.ndarray, stop: np.ndarray, integer: 
             weight[: at[0]] /= 10.0  # digits before the dot
             weight[at[0]] = 0.0
         mant = np.einsum("i,ij->j", weight, d)  # exact: integers < 2^53
-        if integer and not dec and plain.all():
-            mant = mant.astype(np.int64)
-            return np.where(neg, -mant, mant)
         vals = mant / _TEN[dec]  # one correctly rounded division: float(text)
     else:  # dots in several places: the digits with the dot as a 0, then the 0 dropped
         big = np.einsum("i,ij->j", _TEN[width - 1 :: -1], d)  # int * 10^(dec + 1) + frac, exact
