@@ -466,14 +466,16 @@ def check(
         else:
             mesh, texture_mask = _mesh_and_texture(items, mans, ids, manif, notes)
         over_f = pool.submit(overhang_mask, mesh, d, crit, plate_tolerance=plate_tolerance)
-        area_f, shells_f = pool.submit(face_areas, mesh), pool.submit(_shells, mesh)
+        shells_f = pool.submit(_shells, mesh)
         volume_f = pool.submit(lambda: (float(mesh.volume), mesh.bounds))
         manif = [ok.result() if isinstance(ok, Future) else ok for ok in manif]
         # manifold3d accepts only closed, consistently oriented 2-manifolds (every edge
         # shared by exactly two faces, opposite ways): those are watertight; the others
         # are counted edge by edge.
         water = [ok or bool(edge_report(m.faces)["watertight"]) for ok, (_, m) in zip(manif, items)]
-        over, area, (volume, (lo, hi)) = over_f.result(), area_f.result(), volume_f.result()
+        over = over_f.result()
+        area = _areas_of(mesh, over if texture_mask is None else over | texture_mask)
+        volume, (lo, hi) = volume_f.result()
     if texture_mask is None:
         notes.append("the input does not say which faces are texture (use a texcad 3MF with a 'texture' object); whole-part numbers only")
     rep = CheckReport(
@@ -502,6 +504,20 @@ def check(
         render_check(mesh, d, over, texture_mask, png, width=png_width)
         rep.png = os.fspath(png)
     return rep
+
+
+def _areas_of(mesh: Mesh, which: np.ndarray) -> np.ndarray:
+    """``(M,)`` face areas in mm^2 (:func:`texcad.printability.face_areas`) where
+    ``which`` is set, 0 elsewhere: the report sums only overhanging and texture faces
+    (none, on a part without overhangs or texture objects). Each face's area is
+    computed alone, so the values are those of the whole mesh's."""
+    if which.all():
+        return face_areas(mesh)
+    area = np.zeros(len(which))
+    idx = np.flatnonzero(which)
+    if len(idx):
+        area[idx] = face_areas(Mesh(mesh.vertices, mesh.faces[idx]))
+    return area
 
 
 def _one_blas_thread():
