@@ -36,7 +36,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Sequence
 
@@ -455,8 +455,8 @@ def check(
     heightmap = heightmap if heightmap is not None else hm_from_part
     notes: list[str] = []
     with ThreadPoolExecutor(2) as pool, _one_blas_thread():  # independent measures side by side (numpy releases the GIL)
-        if len(items) == 1:  # nothing to unite: the same test as manifold3d's, vectorized
-            mans, ids, manif = [None], None, [pool.submit(_closed_manifold, items[0][1])]
+        if len(items) == 1:  # nothing to unite: the same test as manifold3d's, vectorized (below)
+            mans, ids, manif = [None], None, []
         else:
             mans, ids = _manifolds([m for _, m in items])
             manif = [man is not None for man in mans]
@@ -465,10 +465,10 @@ def check(
             texture_mask = _texture_faces(mesh, part.texture_mesh, part.base_mesh)
         else:
             mesh, texture_mask = _mesh_and_texture(items, mans, ids, manif, notes)
-        over_f = pool.submit(overhang_mask, mesh, d, crit, plate_tolerance=plate_tolerance)
-        shells_f = pool.submit(_shells, mesh)
+        over_f = pool.submit(overhang_mask, mesh, d, crit, plate_tolerance=plate_tolerance)  # the longest first
         volume_f = pool.submit(lambda: (float(mesh.volume), mesh.bounds))
-        manif = [ok.result() if isinstance(ok, Future) else ok for ok in manif]
+        shells_f = pool.submit(_shells, mesh)
+        manif = manif or [pool.submit(_closed_manifold, items[0][1]).result()]
         # manifold3d accepts only closed, consistently oriented 2-manifolds (every edge
         # shared by exactly two faces, opposite ways): those are watertight; the others
         # are counted edge by edge.
