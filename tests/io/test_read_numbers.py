@@ -152,3 +152,19 @@ def test_a_damaged_model_is_an_input_error(tmp_path):
         (tmp_path / f"bad{k}.3mf").write_bytes(bytes(bad))
         with pytest.raises(InputError, match="damaged"):
             read_part(tmp_path / f"bad{k}.3mf")
+
+
+@pytest.mark.parametrize("block", [rd._BLOCK, 300])
+def test_several_objects_stream_in_order(tmp_path, monkeypatch, block):
+    """A trimesh scene of two meshes (two objects, build items, namespaces): each
+    object's blocks are read as they are inflated, whole or in pieces of 300 bytes."""
+    import trimesh
+
+    a = trimesh.creation.icosphere(3, 5.0)
+    b = trimesh.creation.box((3, 4, 5))
+    b.apply_translation((20, 0, 0))
+    trimesh.Scene([a, b]).export(tmp_path / "scene.3mf")
+    monkeypatch.setattr(rd, "_BLOCK", block)
+    parts = read_part(tmp_path / "scene.3mf")
+    assert [m.num_triangles for _, m in parts] == [len(a.faces), len(b.faces)]
+    assert [m.volume for _, m in parts] == pytest.approx([a.volume, b.volume], rel=1e-6)
