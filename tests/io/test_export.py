@@ -95,3 +95,32 @@ def test_3mf_rows_in_bulk_are_the_bytes_percent_gives():
     assert _triangle_rows(t) == _fmt_rows('<triangle v1="%d" v2="%d" v3="%d"/>\n', t)
     big = np.array([[1e10, 0, 0], [np.nan, 0, 0]], np.float32)[:1]  # too large for the bulk path: % writes it
     assert _vertex_rows(big) == _fmt_rows('<vertex x="%.4f" y="%.4f" z="%.4f"/>\n', big.astype(np.float64))
+
+
+def test_3mf_streamed_is_the_bytes_writestr_gives(tmp_path, monkeypatch):
+    """The model is formatted in pieces and compressed on a second thread while the
+    next piece is formatted: the file is byte for byte the one ``writestr`` of the
+    whole model gives (one piece or hundreds, one part or two)."""
+    import importlib
+
+    ex = importlib.import_module("texcad.io.export")  # the module (texcad.io.export is also a function)
+    tm = trimesh.creation.icosphere(subdivisions=5, radius=20.0)  # 20 480 triangles
+    sphere = texcad.Mesh(tm.vertices.astype(np.float32), tm.faces.astype(np.uint32))
+    parts = [("base", sphere), ("texture", sphere.translated((50, 0, 0)))]
+    streamed = {}
+    for rows in (ex._ROWS, 1000):
+        monkeypatch.setattr(ex, "_ROWS", rows)
+        for label, obj in (("one", sphere), ("two", parts)):
+            ex.write_3mf(obj, tmp_path / f"{label}{rows}.3mf")
+            streamed[label, rows] = (tmp_path / f"{label}{rows}.3mf").read_bytes()
+
+    def whole(z, info, pieces, bound):  # the writer before streaming
+        z.writestr(info, b"".join(pieces), compresslevel=1)
+
+    monkeypatch.setattr(ex, "_write_streamed", whole)
+    for label, obj in (("one", sphere), ("two", parts)):
+        ex.write_3mf(obj, tmp_path / f"{label}.3mf")
+        ref = (tmp_path / f"{label}.3mf").read_bytes()
+        assert streamed[label, ex._ROWS] == ref and streamed[label, 1000] == ref
+    with zipfile.ZipFile(tmp_path / "two.3mf") as z:
+        assert z.testzip() is None and len(z.read("3D/3dmodel.model")) > 2_000_000

@@ -7,11 +7,13 @@ leaves a half-written file.
 
 from __future__ import annotations
 
+import collections
+import itertools
 import os
 import zipfile
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Any
-from typing import Sequence
+from typing import Any, Iterable, Iterator, Sequence
 
 import numpy as np
 
@@ -51,8 +53,6 @@ def write_stl(mesh: Mesh, path: str | os.PathLike, *, header: str = "texcad bina
     # chunk's bytes do not depend on the split.
     starts = range(0, len(f), _STL_CHUNK)
     if len(starts) > 1 and (os.cpu_count() or 1) > 1:
-        from concurrent.futures import ThreadPoolExecutor
-
         with ThreadPoolExecutor(2) as pool:
             list(pool.map(lambda a: _stl_records(mesh.vertices, f[a : a + _STL_CHUNK], rec[a : a + _STL_CHUNK]), starts))
     else:
@@ -107,7 +107,7 @@ def _fmt_rows(template: str, arr: np.ndarray) -> bytes:
     return ((template * len(arr)) % tuple(arr.ravel().tolist())).encode("ascii")
 
 
-_ROWS = 1 << 17  # rows per chunk of the bulk formatter
+_ROWS = 1 << 15  # rows per chunk of the bulk formatter and per piece the writer compresses
 
 
 def _digits(k: np.ndarray, width: int, keep: int) -> np.ndarray:
@@ -183,19 +183,31 @@ def _triangle_rows(t: np.ndarray) -> bytes:
     return b"".join(out)
 
 
-def _object_xml(oid: int, name: str, mesh: Mesh) -> bytes:
+def _object_parts(oid: int, name: str, mesh: Mesh) -> Iterator[bytes]:
+    """The ``<object>`` element of ``mesh`` in pieces of at most ``_ROWS`` rows, each
+    formatted when asked for (a generator), so that a writer can compress one piece
+    while the next is formatted. Joined, they are the same bytes for any split."""
     # 0.1 um resolution: far below any printer's, and exact for texcad's float32 grid.
-    verts = _vertex_rows(mesh.vertices)
-    tris = _triangle_rows(mesh.faces)
-    return b"".join(
-        [
-            f'<object id="{oid}" type="model" name="{name}"><mesh><vertices>\n'.encode(),
-            verts,
-            b"</vertices><triangles>\n",
-            tris,
-            b"</triangles></mesh></object>\n",
-        ]
-    )
+    yield f'<object id="{oid}" type="model" name="{name}"><mesh><vertices>\n'.encode()
+    for a in range(0, len(mesh.vertices), _ROWS):  # per chunk of rows
+        yield _vertex_rows(mesh.vertices[a : a + _ROWS])
+    yield b"</vertices><triangles>\n"
+    for a in range(0, len(mesh.faces), _ROWS):  # per chunk of rows
+        yield _triangle_rows(mesh.faces[a : a + _ROWS])
+    yield b"</triangles></mesh></object>\n"
+
+
+def _object_xml(oid: int, name: str, mesh: Mesh) -> bytes:
+    """The ``<object>`` element of ``mesh`` as one string of bytes."""
+    return b"".join(_object_parts(oid, name, mesh))
+
+
+def _size_bound(mesh: Mesh) -> int:
+    """An upper bound of the bytes :func:`_object_parts` writes for ``mesh``: rows times
+    their widest form (``%.4f`` of ``|x| < 10^9`` takes at most 15 characters; larger
+    values at most 50; indices at most 10 digits); the name, head and tail not counted."""
+    big = len(mesh.vertices) and not float(np.abs(mesh.vertices).max()) < 1e9
+    return len(mesh.vertices) * (27 + 3 * (50 if big else 15)) + len(mesh.faces) * 62
 
 
 def write_3mf(
@@ -228,48 +240,80 @@ def write_3mf(
         _require_watertight(m, path)
     config = None
     if len(items) == 1:
-        obj = _object_xml(1, _xml_escape(name if isinstance(mesh, Mesh) else items[0][0]), items[0][1])
+        label, part = _xml_escape(name if isinstance(mesh, Mesh) else items[0][0]), items[0][1]
     else:
-        v_off = np.cumsum([0] + [len(m.vertices) for _, m in items])
-        t_off = np.cumsum([0] + [len(m.faces) for _, m in items])
-        merged = Mesh(
-            np.concatenate([m.vertices for _, m in items]),
-            np.concatenate([m.faces.astype(np.int64) + int(o) for (_, m), o in zip(items, v_off)]),
-        )
-        obj = _object_xml(1, _xml_escape(name), merged)
-        vols = "".join(
-            f'  <volume firstid="{int(t_off[i])}" lastid="{int(t_off[i + 1]) - 1}">\n'
-            f'   <metadata type="volume" key="name" value="{_xml_escape(n)}"/>\n'
-            '   <metadata type="volume" key="volume_type" value="ModelPart"/>\n'
-            "  </volume>\n"
-            for i, (n, _) in enumerate(items)
-        )
-        config = (
-            '<?xml version="1.0" encoding="UTF-8"?>\n<config>\n <object id="1" instances_count="1">\n'
-            f'  <metadata type="object" key="name" value="{_xml_escape(name)}"/>\n{vols} </object>\n</config>\n'
-        ).encode()
-    model = b"".join(
-        [
-            b'<?xml version="1.0" encoding="UTF-8"?>\n'
-            b'<model unit="millimeter" xml:lang="en-US" '
-            b'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02">\n'
-            b'<metadata name="Application">texcad</metadata>\n<resources>\n',
-            obj,
-            b"</resources>\n",
-            b'<build><item objectid="1"/></build>\n',
-            b"</model>\n",
-        ]
+        label, part, config = _merged(items, name)
+    head = (
+        b'<?xml version="1.0" encoding="UTF-8"?>\n'
+        b'<model unit="millimeter" xml:lang="en-US" '
+        b'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02">\n'
+        b'<metadata name="Application">texcad</metadata>\n<resources>\n'
     )
-    files = [("[Content_Types].xml", _CT), ("_rels/.rels", _RELS), ("3D/3dmodel.model", model)]
-    if config is not None:
-        files.append((SLIC3R_CONFIG, config))
+    tail = b"</resources>\n" b'<build><item objectid="1"/></build>\n' b"</model>\n"
+    model = itertools.chain([head], _object_parts(1, label, part), [tail])
+    bound = len(head) + len(tail) + len(label.encode()) + 128 + _size_bound(part)
     with atomic_path(path) as tmp:
         with zipfile.ZipFile(tmp, "w") as z:
-            for arcname, data in files:
-                # A fixed timestamp keeps the bytes identical for identical inputs.
-                info = zipfile.ZipInfo(arcname, date_time=(1980, 1, 1, 0, 0, 0))
-                info.compress_type = zipfile.ZIP_DEFLATED
-                z.writestr(info, data, compresslevel=1)
+            for arcname, data in (("[Content_Types].xml", _CT), ("_rels/.rels", _RELS)):
+                z.writestr(_zip_info(arcname), data, compresslevel=1)
+            _write_streamed(z, _zip_info("3D/3dmodel.model"), model, bound)
+            if config is not None:
+                z.writestr(_zip_info(SLIC3R_CONFIG), config, compresslevel=1)
+
+
+def _merged(items: list[tuple[str, Mesh]], name: str) -> tuple[str, Mesh, bytes]:
+    """Parts as one object: (escaped name, the parts' meshes one after the other,
+    ``Metadata/Slic3r_PE_model.config`` naming each part's triangle range)."""
+    v_off = np.cumsum([0] + [len(m.vertices) for _, m in items])
+    t_off = np.cumsum([0] + [len(m.faces) for _, m in items])
+    merged = Mesh(
+        np.concatenate([m.vertices for _, m in items]),
+        np.concatenate([m.faces.astype(np.int64) + int(o) for (_, m), o in zip(items, v_off)]),
+    )
+    vols = "".join(
+        f'  <volume firstid="{int(t_off[i])}" lastid="{int(t_off[i + 1]) - 1}">\n'
+        f'   <metadata type="volume" key="name" value="{_xml_escape(n)}"/>\n'
+        '   <metadata type="volume" key="volume_type" value="ModelPart"/>\n'
+        "  </volume>\n"
+        for i, (n, _) in enumerate(items)
+    )
+    config = (
+        '<?xml version="1.0" encoding="UTF-8"?>\n<config>\n <object id="1" instances_count="1">\n'
+        f'  <metadata type="object" key="name" value="{_xml_escape(name)}"/>\n{vols} </object>\n</config>\n'
+    ).encode()
+    return _xml_escape(name), merged, config
+
+
+def _zip_info(arcname: str) -> zipfile.ZipInfo:
+    """A deflated entry with a fixed timestamp (identical bytes for identical inputs)."""
+    info = zipfile.ZipInfo(arcname, date_time=(1980, 1, 1, 0, 0, 0))
+    info.compress_type = zipfile.ZIP_DEFLATED
+    return info
+
+
+def _write_streamed(z: zipfile.ZipFile, info: zipfile.ZipInfo, pieces: Iterable[bytes], bound: int) -> None:
+    """Write an entry made of ``pieces`` (formatted lazily), deflated at level 1: the
+    same bytes as ``z.writestr(info, b"".join(pieces), compresslevel=1)`` (zlib's
+    stream does not depend on how its input is split; the local header is rewritten
+    with the CRC and sizes at the end either way), but each piece is checksummed and
+    compressed on a second thread (zlib releases the GIL) while the next is formatted.
+    ``bound`` (bytes, at least the entry's size) decides ZIP64 as ``writestr`` would
+    with the true size; an entry that might need ZIP64 goes through ``writestr``."""
+    if bound * 1.05 > zipfile.ZIP64_LIMIT:
+        z.writestr(info, b"".join(pieces), compresslevel=1)
+        return
+    info._compresslevel = 1  # what writestr(..., compresslevel=1) sets
+    pending: collections.deque = collections.deque()
+    with z.open(info, "w") as dest, ThreadPoolExecutor(1) as pool:
+        for piece in pieces:  # per chunk of rows
+            pending.append(pool.submit(dest.write, piece))
+            while len(pending) > _QUEUE:  # hold a few formatted pieces, not the file
+                pending.popleft().result()
+        for job in pending:
+            job.result()
+
+
+_QUEUE = 4  # pieces formatted ahead of the compressor
 
 
 #: The part list of a multi-part object (PrusaSlicer's 3MF metadata).

@@ -1,12 +1,19 @@
 """Mesh files in: STL (binary and ASCII) and 3MF (components, transforms and the
 model's ``unit`` applied), vectorized, as named :class:`~texcad.solid.Mesh` objects in mm.
+
+A 3MF's model is inflated on a second thread while the main thread parses its
+``<vertex>`` and ``<triangle>`` elements as their bytes arrive, with numpy: the
+numbers are the same doubles as ``float()`` gives for their text.
 """
 
 from __future__ import annotations
 
+import mmap
 import os
 import re
+import threading
 import zipfile
+import zlib
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -76,92 +83,212 @@ def _xml_unescape(s: str) -> str:
     return s.replace("&quot;", '"').replace("&lt;", "<").replace("&gt;", ">").replace("&apos;", "'").replace("&amp;", "&")
 
 
-def _parse_decimals(a: np.ndarray, start: np.ndarray, stop: np.ndarray) -> np.ndarray | None:
-    """Parse the byte ranges ``a[start:stop]`` as plain decimals (``-12.345``, ``7``),
-    vectorized over the values (in cache-sized chunks) with a loop over character
-    positions: mantissa as int64, then one correctly rounded division by
-    ``10**decimals`` (the same double as ``float(text)``). ``None`` if any value has
-    another form (exponents, ...)."""
-    n = len(start)
-    if n == 0:
-        return np.zeros(0)
-    out = np.empty(n, dtype=np.float64)
-    step = 1 << 17
-    last = len(a) - 1
-    for k in range(0, n, step):  # per chunk of values
-        st, length = start[k : k + step], stop[k : k + step] - start[k : k + step]
-        width = int(length.max())
-        if width > 19 or length.min() < 1:
-            return None
-        m = len(st)
-        mant = np.zeros(m, dtype=np.int64)
-        ndig = np.zeros(m, dtype=np.int64)
-        dec = np.zeros(m, dtype=np.int64)
-        seen_dot = np.zeros(m, dtype=bool)
-        neg = a[st] == 45  # '-'
-        lead = neg | (a[st] == 43)  # '+'
-        for j in range(width):  # per character position
-            live = j < length
-            c = a[np.minimum(st + j, last)].astype(np.int64) - 48
-            dig = live & (c >= 0) & (c <= 9)
-            dot = live & (c == -2)  # '.'
-            bad = live & ~dig & ~dot
-            if j == 0:
-                bad &= ~lead
-            if bad.any() or (dot & seen_dot).any():
-                return None
-            mant = np.where(dig, mant * 10 + c, mant)
-            ndig += dig
-            dec += dig & seen_dot
-            seen_dot |= dot
-        if ndig.min() < 1 or ndig.max() > 15:  # mantissa < 2**53: exact
-            return None
-        vals = mant.astype(np.float64) / 10.0**dec
-        out[k : k + step] = np.where(neg, -vals, vals)
+_CHUNK = 1 << 16  # values per chunk of the decimal parser (its arrays stay in cache)
+_TEN = 10.0 ** np.arange(23)  # exact powers of ten as doubles, 10^0 .. 10^22
+
+
+def _parse_decimals(a: np.ndarray, start: np.ndarray, stop: np.ndarray, *, integer: bool = False) -> np.ndarray:
+    """The byte ranges ``a[start:stop]`` as numbers, each the same double as
+    ``float(text)`` (int64 with ``integer=True`` when all are plain integers).
+
+    Plain decimals (``-12.345``, ``7``, ``+.5``; at most 15 characters) are parsed with
+    numpy, in chunks: the values right-aligned in a ``(width, n)`` byte matrix, the
+    digits weighted by their powers of ten in one matrix product (integers below
+    ``10^15 < 2^53``: exact), then one correctly rounded division by
+    ``10**decimals``. Any other form (exponents, longer values, spaces, ``inf``) goes
+    through numpy's string-to-float conversion.
+
+    Raises:
+        InputError: a value that is not a number.
+    """
+    out = np.empty(len(start), dtype=np.int64 if integer else np.float64)
+    for k in range(0, len(start), _CHUNK):  # per chunk of values
+        vals = _decimal_chunk(a, start[k : k + _CHUNK], stop[k : k + _CHUNK], integer)
+        if integer and vals.dtype != np.int64:
+            return _parse_decimals(a, start, stop)
+        out[k : k + _CHUNK] = vals
     return out
 
 
-def _fast_column(block: bytes, tag: bytes, names: Sequence[bytes]) -> np.ndarray | None:
+def _decimal_chunk(a: np.ndarray, start: np.ndarray, stop: np.ndarray, integer: bool) -> np.ndarray:
+    """:func:`_parse_decimals` of one chunk: int64 if ``integer`` and every value is a
+    plain integer, else float64."""
+    length = stop - start
+    if len(length) == 0:
+        return np.zeros(0, dtype=np.int64 if integer else np.float64)
+    width = int(min(length.max(), 15))
+    rows = np.arange(width)[:, None]
+    t = np.take(a, (stop - width)[None, :] + rows, mode="clip")  # (width, n), right-aligned
+    used = rows >= width - length  # the value's own bytes
+    dig = (t - np.uint8(48) < 10) & used
+    lead = a[start]
+    neg = lead == 45  # '-'
+    if integer:  # indices: digits only (a sign allowed), read as one integer each
+        count = (dig + np.uint16(32) * (used & ~dig)).sum(axis=0, dtype=np.uint16)
+        if np.all((count >> 5 == (neg | (lead == 43))) & (count & 31 >= 1) & (length <= width)):
+            mant = np.einsum("i,ij->j", _TEN[width - 1 :: -1], (t - np.uint8(48)) * dig).astype(np.int64)
+            return np.where(neg, -mant, mant)
+    dot = (t == 46) & used
+    # One sum counts digits (bits 0-4), dots (bits 5-9) and other characters (10-14).
+    count = (dig + np.uint16(32) * dot + np.uint16(1024) * (used & ~dig & ~dot)).sum(axis=0, dtype=np.uint16)
+    ndig = count & 31
+    plain = (length <= width) & (count >> 10 == (neg | (lead == 43))) & (count >> 5 & 31 <= 1) & (ndig >= 1)
+    d = (t - np.uint8(48)) * dig
+    has_dot = dot.any(axis=0)
+    at = (dot * rows.astype(np.uint8)).sum(axis=0, dtype=np.uint8)  # the dot's row
+    if not has_dot.any() or (has_dot.all() and (at == at[0]).all()):  # one layout: digits by weight
+        weight, dec = _TEN[width - 1 :: -1].copy(), 0  # 10^(width - 1 - row)
+        if has_dot[0]:
+            dec = width - 1 - int(at[0])
+            weight[: at[0]] /= 10.0  # digits before the dot
+            weight[at[0]] = 0.0
+        mant = np.einsum("i,ij->j", weight, d)  # exact: integers < 2^53
+        vals = mant / _TEN[dec]  # one correctly rounded division: float(text)
+    else:  # dots in several places: the digits with the dot as a 0, then the 0 dropped
+        big = np.einsum("i,ij->j", _TEN[width - 1 :: -1], d)  # int * 10^(dec + 1) + frac, exact
+        dec = np.where(has_dot, width - 1 - at, 0)
+        head = np.floor(big / _TEN[dec + 1])
+        vals = np.where(has_dot, head * _TEN[dec] + (big - head * _TEN[dec + 1]), big) / _TEN[dec]
+    vals = np.where(neg, -vals, vals)
+    if not plain.all():
+        other = np.flatnonzero(~plain)
+        vals[other] = _parse_general(a, start[other], stop[other])
+    return vals
+
+
+def _parse_general(a: np.ndarray, start: np.ndarray, stop: np.ndarray) -> np.ndarray:
+    """float64 of ``a[start:stop]`` in any form ``float()`` takes, by numpy's
+    string-to-float conversion (vectorized, slower than the plain path)."""
+    width = int((stop - start).max())
+    rows = np.arange(width)[None, :]
+    txt = np.take(a, start[:, None] + rows, mode="clip")
+    txt[rows >= (stop - start)[:, None]] = 0  # bytes past the value's end
+    try:
+        return np.ascontiguousarray(txt).view(f"S{width}").ravel().astype(np.float64)
+    except ValueError:
+        bad = next(bytes(a[i:j]) for i, j in zip(start, stop) if not _is_number(bytes(a[i:j])))
+        raise InputError(f"3MF: {bad[:40]!r} is not a number; the file is damaged, export it again") from None
+
+
+def _is_number(text: bytes) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+_BLOCK = 1 << 20  # bytes per piece of a <vertices> or <triangles> block read at once
+
+
+def _fast_column(xml: bytes, span: tuple[int, int], tag: bytes, names: Sequence[bytes], integer: bool = False) -> np.ndarray | None:
     """:func:`_column` for the common layout (``name="value"``, double quotes), on
-    the bytes with numpy: quote positions delimit values, the bytes before ``="``
-    name them, and all wanted values are parsed at once. ``None`` if the layout
+    the bytes with numpy, in pieces of about 1 MB that end after a ``>`` (arrays that
+    stay in cache): quote positions delimit values, the bytes before ``="`` name them,
+    and all wanted values of a piece are parsed at once. ``None`` if the layout
     differs (the regex path then handles it)."""
-    n = block.count(b"<" + tag)
-    a = np.frombuffer(block, dtype=np.uint8)
-    q = np.flatnonzero(a == 34)  # '"'
-    if n == 0 or len(q) % 2:
+    a = np.frombuffer(xml, dtype=np.uint8)
+    words = np.ndarray((max(len(a) - 7, 0),), dtype="<u8", buffer=xml, strides=(1,))
+    parts, (s, end) = [], span
+    while s < end:  # per piece
+        e = xml.find(b">", min(s + _BLOCK, end - 1), end) + 1 or end
+        part = _column_piece(xml, a, words, (s, e), tag, names, integer)
+        if part is None:
+            return None
+        parts.append(part)
+        s = e
+    return _joined(parts, tag, integer)
+
+
+def _joined(parts: list[np.ndarray], tag: bytes, integer: bool) -> np.ndarray | None:
+    """The pieces of a column as one array (int64 for indices, checked to be whole
+    numbers), or None if there are none."""
+    if not parts or sum(len(p) for p in parts) == 0:
+        return None
+    out = np.concatenate(parts)
+    if integer and out.dtype != np.int64 and not np.array_equal(out, np.round(out)):
+        raise InputError(f"3MF: a <{tag.decode()}> element has a non-integer index")
+    return out.astype(np.int64 if integer else np.float64, copy=False)
+
+
+def _column_piece(block: bytes, a: np.ndarray, words: np.ndarray, span: tuple[int, int], tag: bytes,
+                  names: Sequence[bytes], integer: bool, strict: bool = False) -> np.ndarray | None:
+    """The ``names`` values of the ``<tag>`` elements in ``block[span[0]:span[1]]`` as
+    an ``(m, len(names))`` array (see :func:`_fast_column`), or None. ``strict``: None
+    also if the piece holds any other markup (every ``<`` opens one of the elements)."""
+    s, e = span
+    q = np.flatnonzero(a[s:e] == 34) + s  # '"'
+    k = len(names)
+    if len(q) % 2 or (len(q) and (q[0] < 8 or ((q[1::2] - q[0::2]) < 2).any())):  # room for a name, non-empty
         return None
     op, cl = q[0::2], q[1::2]
-    if (op < 3).any() or (a[op - 1] != 61).any() or ((cl - op) < 2).any():  # '=' before, non-empty
+    m = int(np.count_nonzero(a[s:e] == 60))  # '<': elements, if they all are <tag .../>
+    if m and len(op) == m * k:
+        nid = _attribute_names(a, words, op[:k], names)
+        if nid is not None and sorted(nid) == list(range(k)) and _same_names(a, words, op, tag, names, nid):
+            vals = _parse_decimals(a, op + 1, cl, integer=integer).reshape(m, k)  # the same order in every element
+            return vals[:, np.argsort(nid)]
+    lt, m = m, block[s:e].count(b"<" + tag)
+    if m == 0 or (strict and lt != m):
+        return np.zeros((0, k)) if len(op) == 0 and not (strict and lt) else None
+    nid = _attribute_names(a, words, op, names)
+    if nid is None or any(int((nid == j).sum()) != m for j in range(k)):
         return None
+    sel = nid >= 0
+    vals = _parse_decimals(a, op[sel] + 1, cl[sel], integer=integer)
+    ids = nid[sel]
+    return np.stack([vals[ids == j] for j in range(k)], axis=1)
+
+
+_SPACE = np.zeros(256, dtype=bool)
+_SPACE[[9, 10, 13, 32]] = True  # XML white space
+
+
+def _name_key(pat: bytes) -> tuple[int, int]:
+    """``(key, mask)``: ``pat`` (at most 8 bytes, e.g. ``b' x='``) as the last bytes
+    of a little-endian uint64 (the 8 bytes before an opening quote)."""
+    shift = 8 * (8 - len(pat))
+    return int.from_bytes(pat, "little") << shift, ((1 << (8 * len(pat))) - 1) << shift
+
+
+def _attribute_names(a: np.ndarray, words: np.ndarray, op: np.ndarray, names: Sequence[bytes]) -> np.ndarray | None:
+    """For each opening quote ``op``, which of ``names`` the attribute is (-1: another
+    one): white space, the name, ``=`` just before the quote. ``words`` are the 8 bytes
+    at each position as a little-endian uint64 (a strided view: one gather); ``None``
+    if a name is longer than 7 bytes or a quote has no ``=`` before it."""
+    if (a[op - 1] != 61).any() or max(len(nm) for nm in names) > 6:
+        return None
+    w = words[op - 8]
     nid = np.full(len(op), -1, dtype=np.int64)
     for k, nm in enumerate(names):  # per attribute name
-        L = len(nm)
-        ok = np.isin(a[np.maximum(op - 2 - L, 0)], np.frombuffer(b" \t\r\n", dtype=np.uint8))
-        for i, ch in enumerate(nm):
-            ok &= a[op - 1 - L + i] == ch
-        nid[ok] = k
-    sel = nid >= 0
-    if any(int((nid == k).sum()) != n for k in range(len(names))):
-        return None
-    vals = _parse_decimals(a, op[sel] + 1, cl[sel])
-    if vals is None:
-        return None
-    ids = nid[sel]
-    return np.stack([vals[ids == k] for k in range(len(names))], axis=1)
+        key, mask = _name_key(nm + b"=")
+        hit = (w & np.uint64(mask)) == np.uint64(key)
+        hit &= _SPACE[a[op - 2 - len(nm)]]
+        nid[hit] = k
+    return nid
 
 
-def _column(block: bytes, tag: bytes, names: Sequence[bytes], dtype) -> np.ndarray:
-    """All ``names`` attributes of every ``<tag .../>`` in ``block`` as an array
-    ``(n, len(names))``, parsed in C (numpy on the bytes, or one regex per
-    attribute for unusual layouts)."""
-    fast = _fast_column(block, tag, names)
+def _same_names(a: np.ndarray, words: np.ndarray, op: np.ndarray, tag: bytes, names: Sequence[bytes], nid: np.ndarray) -> bool:
+    """Every element is ``<tag`` with its attributes ``names[nid[0]], names[nid[1]],
+    ...`` in this order, each after one space: one gather and one compare for all
+    quotes (the 8 bytes before the first quote hold the tag's end)."""
+    keys = np.array([_name_key(b" " + names[j] + b"=") for j in nid], dtype=np.uint64)
+    keys[0] = _name_key((b"<" + tag + b" " + names[nid[0]] + b"=")[-8:])
+    w = words[op - 8].reshape(-1, len(nid))
+    return bool(np.array_equal(w & keys[:, 1], np.broadcast_to(keys[:, 0], w.shape)))
+
+
+def _column(xml: bytes, span: tuple[int, int], tag: bytes, names: Sequence[bytes], dtype, known: dict | None = None) -> np.ndarray:
+    """All ``names`` attributes of every ``<tag .../>`` in ``xml[span[0]:span[1]]`` as
+    an array ``(n, len(names))``, parsed in C (numpy on the bytes, or one regex per
+    attribute for unusual layouts); taken from ``known`` (``{start: (end, array)}``,
+    blocks read while the file was inflated) where it holds this very span."""
+    if known and known.get(span[0], (None,))[0] == span[1]:
+        return known[span[0]][1].astype(dtype, copy=False)
+    fast = _fast_column(xml, span, tag, names, np.issubdtype(np.dtype(dtype), np.integer))
     if fast is not None:
-        if np.issubdtype(np.dtype(dtype), np.integer):
-            if not np.array_equal(fast, np.round(fast)):
-                raise InputError(f"3MF: a <{tag.decode()}> element has a non-integer index")
-            return fast.astype(dtype)
-        return fast.astype(dtype)
+        return fast.astype(dtype, copy=False)
+    block = bytes(xml[span[0] : span[1]])
     elems = re.findall(rb"<" + tag + rb"\b([^>]*)>", block)
     if not elems:
         return np.zeros((0, len(names)), dtype=dtype)
@@ -178,29 +305,60 @@ def _column(block: bytes, tag: bytes, names: Sequence[bytes], dtype) -> np.ndarr
 def _elements(xml: bytes, tag: bytes) -> list[tuple[bytes, bytes]]:
     """``(attributes, content)`` of every non-nested ``<tag ...>content</tag>`` (or
     empty ``<tag .../>``), found with ``bytes.find`` (no regex over megabytes)."""
-    out = []
+    return [(xml[h0:h1], xml[c0:c1]) for h0, h1, c0, c1 in _spans(xml, tag)]
+
+
+def _spans(
+    xml: bytes, tag: bytes, lo: int = 0, hi: int | None = None, *, first: bool = False, last: bool = False,
+    known: dict | None = None,
+) -> list[tuple[int, int, int, int]]:
+    """``(attributes start, end, content start, end)`` offsets of every non-nested
+    ``<tag ...>content</tag>`` (or empty ``<tag .../>``) in ``xml[lo:hi]``, found with
+    ``bytes.find`` (no copies, no regex over megabytes). ``first``: only the first one.
+    ``last``: only the first one, its end tag looked for from ``hi`` backwards (an
+    element that is the last in the range, as a ``<mesh>`` in its object: no scan
+    over its megabytes). ``known``: blocks ``{start: (end, ...)}`` that hold no end
+    tag (read while inflating): end tags are not looked for inside them."""
+    out: list[tuple[int, int, int, int]] = []
+    hi = len(xml) if hi is None else hi
     open_, close = b"<" + tag, b"</" + tag + b">"
-    pos = 0
-    while True:  # per element
-        i = xml.find(open_, pos)
+    pos = lo
+    while not ((first or last) and out):  # per element
+        i = xml.find(open_, pos, hi)
         if i < 0:
             return out
         j = i + len(open_)
-        if j < len(xml) and xml[j : j + 1] not in (b" ", b"\t", b"\r", b"\n", b">", b"/"):
+        if j < hi and xml[j : j + 1] not in (b" ", b"\t", b"\r", b"\n", b">", b"/"):
             pos = j  # a longer tag name (e.g. <objects>)
             continue
-        k = xml.find(b">", j)
+        k = xml.find(b">", j, hi)
         if k < 0:
             raise InputError(f"3MF: unterminated <{tag.decode()}> element")
         if xml[k - 1 : k] == b"/":
-            out.append((xml[j : k - 1], b""))
+            out.append((j, k - 1, k, k))
             pos = k + 1
             continue
-        e = xml.find(close, k + 1)
+        e = xml.rfind(close, k + 1, hi) if last else _find_outside(xml, close, k + 1, hi, known)
         if e < 0:
             raise InputError(f"3MF: <{tag.decode()}> element without </{tag.decode()}>")
-        out.append((xml[j:k], xml[k + 1 : e]))
+        out.append((j, k, k + 1, e))
         pos = e + len(close)
+    return out
+
+
+def _find_outside(xml: bytes, sub: bytes, pos: int, hi: int, known: dict | None) -> int:
+    """``xml.find(sub, pos, hi)``, jumping over the ``known`` blocks (which hold no
+    other ``<`` than their elements')."""
+    for start, (end, _) in sorted((known or {}).items()):  # per known block
+        if end <= pos or start < pos:
+            continue
+        if start >= hi:
+            break
+        i = xml.find(sub, pos, start)
+        if i >= 0:
+            return i
+        pos = end
+    return xml.find(sub, pos, hi)
 
 
 def _transform(text: str | None) -> np.ndarray:
@@ -225,6 +383,142 @@ def _unit_scale(xml: bytes, path: Path) -> float:
     return UNITS_MM[unit]
 
 
+_XYZ, _V123 = (b"x", b"y", b"z"), (b"v1", b"v2", b"v3")
+
+
+class _Inflating:
+    """A zip entry inflated on a second thread (zlib releases the GIL) into a
+    buffer of its final size, ``data`` (anonymous memory: its pages are zeroed as
+    the inflating thread first writes them, not all at once here), of which the first
+    ``ready`` bytes are there; the CRC and size are checked at the end."""
+
+    def __init__(self, path: Path, info: zipfile.ZipInfo) -> None:
+        self.data = mmap.mmap(-1, info.file_size)
+        self.ready, self.done, self.error = 0, False, None
+        self._cond = threading.Condition()
+        self._thread = threading.Thread(target=self._run, args=(path, info), daemon=True)
+        self._thread.start()
+
+    @classmethod
+    def start(cls, path: Path, info: zipfile.ZipInfo) -> "_Inflating | None":
+        """Start inflating ``info``; None for what this does not read (encrypted,
+        other methods than deflate and store, empty)."""
+        if info.flag_bits & 1 or info.compress_type not in (zipfile.ZIP_DEFLATED, zipfile.ZIP_STORED) or not info.file_size:
+            return None
+        return cls(path, info)
+
+    def _run(self, path: Path, info: zipfile.ZipInfo) -> None:
+        try:
+            with open(path, "rb") as fh:
+                fh.seek(info.header_offset)
+                head = fh.read(30)
+                if head[:4] != b"PK\x03\x04":
+                    raise zipfile.BadZipFile("bad local file header")
+                fh.seek(info.header_offset + 30 + int.from_bytes(head[26:28], "little") + int.from_bytes(head[28:30], "little"))
+                unz = zlib.decompressobj(-15) if info.compress_type == zipfile.ZIP_DEFLATED else None
+                left, crc = info.compress_size, 0
+                while left > 0:  # per MB of compressed input
+                    raw = fh.read(min(left, 1 << 20))
+                    if not raw:
+                        raise zipfile.BadZipFile("truncated")
+                    left -= len(raw)
+                    out = raw if unz is None else unz.decompress(raw) + (unz.flush() if left == 0 else b"")
+                    crc = self._put(out, crc)
+                if self.ready != len(self.data) or crc != info.CRC:
+                    raise zipfile.BadZipFile("bad CRC-32 or size")
+        except (OSError, zlib.error, zipfile.BadZipFile) as exc:
+            self.error = exc
+        finally:
+            with self._cond:
+                self.done = True
+                self._cond.notify_all()
+
+    def _put(self, out: bytes, crc: int) -> int:
+        pos = self.ready
+        if pos + len(out) > len(self.data):
+            raise zipfile.BadZipFile("longer than its stated size")
+        self.data[pos : pos + len(out)] = out
+        with self._cond:
+            self.ready = pos + len(out)
+            self._cond.notify_all()
+        return zlib.crc32(out, crc)
+
+    def wait(self, n: int) -> int:
+        """Block until ``n`` bytes are there (or all there are); returns how many."""
+        with self._cond:
+            while self.ready < n and not self.done:
+                self._cond.wait()
+            return self.ready
+
+    def find(self, sub: bytes, pos: int) -> int:
+        """``data.find(sub, pos)``, waiting for the bytes as they come."""
+        while True:  # per wait for more bytes
+            ready = self.ready
+            i = self.data.find(sub, pos, ready)
+            if i >= 0 or (self.done and ready == self.ready):
+                return i
+            pos = max(pos, ready - len(sub) + 1)
+            self.wait(ready + 1)
+
+    def finish(self, path: Path) -> mmap.mmap:
+        """All the bytes, once inflated and checked."""
+        self._thread.join()
+        if self.error is not None:
+            raise InputError(f"{str(path)!r}: its 3D model is damaged ({self.error}); export it again")
+        return self.data
+
+
+def _stream_meshes(src: _Inflating) -> dict[int, tuple[int, np.ndarray]]:
+    """While the model inflates: each ``<vertices>`` block and the ``<triangles>``
+    block after it parsed as its bytes arrive (:func:`_column_piece`, piece by piece),
+    as ``{content start: (content end, array)}``. Best effort: a block of another
+    layout, or any error, ends this and the rest is read once inflated."""
+    xml = src.data
+    a = np.frombuffer(xml, dtype=np.uint8)
+    words = np.ndarray((max(len(a) - 7, 0),), dtype="<u8", buffer=xml, strides=(1,))
+    found: dict[int, tuple[int, np.ndarray]] = {}
+    pos = 0
+    try:
+        while True:  # per mesh
+            for block, tag, names, integer in ((b"vertices", b"vertex", _XYZ, False), (b"triangles", b"triangle", _V123, True)):
+                i = src.find(b"<" + block, pos)
+                k = src.find(b">", i) if i >= 0 else -1
+                if k < 0 or xml[k - 1] == 47:  # no more, or empty
+                    return found
+                got = _stream_column(src, a, words, (k + 1, b"</" + block + b">"), tag, names, integer)
+                if got is None:
+                    return found
+                found[k + 1] = got
+                pos = got[0]
+    except InputError:
+        return found
+
+
+def _stream_column(src: _Inflating, a: np.ndarray, words: np.ndarray, where: tuple[int, bytes], tag: bytes,
+                   names: Sequence[bytes], integer: bool) -> tuple[int, np.ndarray] | None:
+    """``(end, array)`` of the block starting at ``where[0]`` and ending at its end tag
+    ``where[1]``, read in pieces of about 1 MB as they are inflated. None if not read,
+    or if it holds any other markup than its elements (a known block has no ``</``)."""
+    xml, parts, (s, close_tag) = src.data, [], where
+    while True:  # per piece
+        ready = src.wait(s + _BLOCK + 1)
+        e = xml.find(b">", min(s + _BLOCK, ready - 1), ready) + 1
+        close = xml.find(close_tag, s, e or ready)
+        if close < 0 and e == 0:
+            if src.done:
+                return None
+            src.wait(ready + 1)
+            continue
+        part = _column_piece(xml, a, words, (s, close if close >= 0 else e), tag, names, integer, strict=True)
+        if part is None:
+            return None
+        parts.append(part)
+        if close >= 0:
+            out = _joined(parts, tag, integer)
+            return None if out is None else (close, out)
+        s = e
+
+
 def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
     try:
         z = zipfile.ZipFile(path)
@@ -242,33 +536,37 @@ def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
         except KeyError:
             pass
         try:
-            xml = z.read(target)
+            info = z.getinfo(target)
         except KeyError:
             raise InputError(f"{str(path)!r} has no 3D model part ({target}); is it a 3MF file?") from None
+        src = _Inflating.start(path, info)
+        xml = z.read(target) if src is None else b""
         try:  # multi-part objects (texcad.io.write_3mf, PrusaSlicer): triangle ranges per part
             volumes = _slic3r_volumes(z.read("Metadata/Slic3r_PE_model.config"))
         except KeyError:
             volumes = {}
+    known: dict = {}
+    if src is not None:
+        known = _stream_meshes(src)
+        xml = src.finish(path)
     scale = _unit_scale(xml, path)
     objects: dict[str, dict[str, Any]] = {}
-    for head, body in _elements(xml, b"object"):  # per object
-        a = _attrs(head)
+    for h0, h1, b0, b1 in _spans(xml, b"object", known=known):  # per object
+        a = _attrs(xml[h0:h1])
         oid = a.get("id")
         if oid is None:
             continue
         entry: dict[str, Any] = {"name": _xml_unescape(a.get("name", f"object {oid}"))}
-        if b"<mesh" in body:
-            vs = next(iter(_elements(body, b"vertices")), (b"", b""))[1]
-            ts = next(iter(_elements(body, b"triangles")), (b"", b""))[1]
-            v = _column(vs, b"vertex", (b"x", b"y", b"z"), np.float64)
-            t = _column(ts, b"triangle", (b"v1", b"v2", b"v3"), np.int64)
-            if len(t) and (t.min() < 0 or t.max() >= len(v)):
-                raise InputError(f"3MF object {oid}: a triangle refers to a missing vertex")
-            entry["mesh"] = (v, t)
-        comps = [(_attrs(c).get("objectid"), _transform(_attrs(c).get("transform"))) for c in re.findall(rb"<component\b([^>]*)/?>", body)]
+        rest = xml[b0:b1] if xml.find(b"<mesh", b0, b1) < 0 else b""
+        for _, _, m0, m1 in _spans(xml, b"mesh", b0, b1, last=True):  # its mesh, if any
+            entry["mesh"] = _mesh_arrays(xml, (m0, m1), oid, known)
+            rest = xml[b0 : xml.rfind(b"<mesh", b0, m0)] + xml[m1:b1]  # components lie outside the mesh
+        comps = [(_attrs(c).get("objectid"), _transform(_attrs(c).get("transform"))) for c in re.findall(rb"<component\b([^>]*)/?>", rest)]
         entry["components"] = comps
         objects[oid] = entry
-    items = [(_attrs(i).get("objectid"), _transform(_attrs(i).get("transform"))) for i in re.findall(rb"<item\b([^>]*)/?>", xml)]
+    build = _spans(xml, b"build", xml.rfind(b"<build"), last=True) if xml.rfind(b"<build") >= 0 else []
+    where = xml[build[0][2] : build[0][3]] if build else xml
+    items = [(_attrs(i).get("objectid"), _transform(_attrs(i).get("transform"))) for i in re.findall(rb"<item\b([^>]*)/?>", where)]
     if not items:
         items = [(oid, np.eye(4)) for oid, e in objects.items() if "mesh" in e]
     out: list[tuple[str, Mesh]] = []
@@ -296,6 +594,18 @@ def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
     if not out:
         raise InputError(f"{str(path)!r} holds no mesh objects")
     return out
+
+
+def _mesh_arrays(xml: bytes, span: tuple[int, int], oid: str, known: dict) -> tuple[np.ndarray, np.ndarray]:
+    """``(vertices (N, 3) float64, triangles (M, 3) int64)`` of the ``<mesh>`` whose
+    content is ``xml[span[0]:span[1]]`` (blocks in ``known`` are taken from there)."""
+    vs = next(iter(_spans(xml, b"vertices", *span, first=True, known=known)), None)
+    ts = next(iter(_spans(xml, b"triangles", vs[3] if vs else span[0], span[1], last=True)), None)
+    v = _column(xml, vs[2:] if vs else (0, 0), b"vertex", _XYZ, np.float64, known)
+    t = _column(xml, ts[2:] if ts else (0, 0), b"triangle", _V123, np.int64, known)
+    if len(t) and (t.min() < 0 or t.max() >= len(v)):
+        raise InputError(f"3MF object {oid}: a triangle refers to a missing vertex")
+    return v, t
 
 
 def _slic3r_volumes(xml: bytes) -> dict[str, list[tuple[str, int, int]]]:
