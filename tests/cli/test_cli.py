@@ -120,3 +120,25 @@ def test_make_takes_a_tolerance(tmp_path, capsys):
         tris[tol] = len(m.faces)
     assert errs["0"] == 0.0 and 0 < errs["0.05"] <= 0.05
     assert tris["0.05"] < 0.5 * tris["0"]
+
+
+def test_texturing_a_mesh_file_loads_no_cad_library(tmp_path):
+    """``texcad texture PART.stl`` is a mesh job: build123d, OCP and CadQuery (3 s to
+    import) stay unloaded, and the 3MF it writes is watertight."""
+    import manifold3d as m3d
+
+    from texcad.io import write_stl
+    from texcad.solid import Mesh
+
+    g = (m3d.Manifold.cylinder(12.0, 8.0, 8.0, 48)).to_mesh()
+    write_stl(Mesh(g.vert_properties[:, :3], g.tri_verts), tmp_path / "part.stl")
+    out = tmp_path / "part.3mf"
+    code = (
+        "import sys; from texcad.cli import main; "
+        f"rc = main(['texture', {str(tmp_path / 'part.stl')!r}, '--pitch', '1', '-q', '-o', {str(out)!r}]); "
+        "print(rc, sorted(m for m in ('build123d', 'OCP', 'cadquery') if m in sys.modules))"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert r.stdout.strip().splitlines()[-1] == "0 []"
+    m = texcad.io.read_mesh(out)
+    assert trimesh.Trimesh(m.vertices, m.faces, process=False).is_watertight

@@ -97,6 +97,8 @@ def _gradient(text: str) -> tuple:
 
 
 def run(args: argparse.Namespace) -> int:
+    if Path(args.part).suffix.lower() in MESH_SUFFIXES:  # STL / 3MF / OBJ: _texture_mesh.py, no CAD library
+        return run_mesh(args)
     from build123d import Compound
 
     from .. import texture
@@ -104,8 +106,6 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import TexcadWarning
     from ..util import StageReporter
 
-    if Path(args.part).suffix.lower() in MESH_SUFFIXES:  # STL / 3MF / OBJ: _texture_mesh.py
-        return run_mesh(args)
     t0 = time.perf_counter()
     part = Compound(read_step(args.part))
     faces = []
