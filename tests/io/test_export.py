@@ -124,3 +124,26 @@ def test_3mf_streamed_is_the_bytes_writestr_gives(tmp_path, monkeypatch):
         assert streamed[label, ex._ROWS] == ref and streamed[label, 1000] == ref
     with zipfile.ZipFile(tmp_path / "two.3mf") as z:
         assert z.testzip() is None and len(z.read("3D/3dmodel.model")) > 2_000_000
+
+
+@pytest.mark.parametrize("suffix", [".3mf", ".stl"])
+def test_one_thread_writes_and_reads_the_same_bytes(tmp_path, monkeypatch, suffix):
+    """``TEXCAD_THREADS=1`` (no second thread for deflating, inflating or STL rows)
+    gives the file and the mesh that two threads give."""
+    import manifold3d as m3d
+
+    from texcad.io import read_mesh
+    from texcad.solid import Mesh
+
+    g = m3d.Manifold.sphere(10.0, 400).to_mesh()  # ~320 k triangles: several pieces
+    mesh = Mesh(g.vert_properties[:, :3], g.tri_verts)
+    files, meshes = [], []
+    for n in ("1", "2"):
+        monkeypatch.setenv("TEXCAD_THREADS", n)
+        (tmp_path / n).mkdir()
+        out = tmp_path / n / f"part{suffix}"  # the same name: a 3MF holds it
+        export(mesh, out)
+        files.append(out.read_bytes())
+        meshes.append(read_mesh(out))
+    assert files[0] == files[1]
+    assert np.array_equal(meshes[0].vertices, meshes[1].vertices) and np.array_equal(meshes[0].faces, meshes[1].faces)

@@ -17,7 +17,7 @@ from typing import Any, Iterable, Iterator, Sequence
 
 import numpy as np
 
-from ..util import atomic_path
+from ..util import atomic_path, threads
 from ..errors import GeometryError, ParameterError
 from ..solid import Mesh
 
@@ -52,7 +52,7 @@ def write_stl(mesh: Mesh, path: str | os.PathLike, *, header: str = "texcad bina
     # Records in cache-sized chunks, on two threads (numpy releases the GIL); each
     # chunk's bytes do not depend on the split.
     starts = range(0, len(f), _STL_CHUNK)
-    if len(starts) > 1 and (os.cpu_count() or 1) > 1:
+    if len(starts) > 1 and threads() > 1:
         with ThreadPoolExecutor(2) as pool:
             list(pool.map(lambda a: _stl_records(mesh.vertices, f[a : a + _STL_CHUNK], rec[a : a + _STL_CHUNK]), starts))
     else:
@@ -303,6 +303,11 @@ def _write_streamed(z: zipfile.ZipFile, info: zipfile.ZipInfo, pieces: Iterable[
         z.writestr(info, b"".join(pieces), compresslevel=1)
         return
     info._compresslevel = 1  # what writestr(..., compresslevel=1) sets
+    if threads() < 2:  # TEXCAD_THREADS=1: formatted and deflated in turn on this thread
+        with z.open(info, "w") as dest:
+            for piece in pieces:  # per chunk of rows
+                dest.write(piece)
+        return
     pending: collections.deque = collections.deque()
     with z.open(info, "w") as dest, ThreadPoolExecutor(1) as pool:
         for piece in pieces:  # per chunk of rows

@@ -20,6 +20,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..errors import InputError
+from ..util import threads
 from ..solid import Mesh
 
 __all__ = ["read_part", "read_mesh", "load_mesh", "UNITS_MM"]
@@ -397,7 +398,10 @@ class _Inflating:
         self.ready, self.done, self.error = 0, False, None
         self._cond = threading.Condition()
         self._thread = threading.Thread(target=self._run, args=(path, info), daemon=True)
-        self._thread.start()
+        if threads() > 1:
+            self._thread.start()
+        else:  # TEXCAD_THREADS=1: all of it first, on this thread
+            self._thread.run()
 
     @classmethod
     def start(cls, path: Path, info: zipfile.ZipInfo) -> "_Inflating | None":
@@ -462,7 +466,8 @@ class _Inflating:
 
     def finish(self, path: Path) -> mmap.mmap:
         """All the bytes, once inflated and checked."""
-        self._thread.join()
+        if self._thread.ident is not None:  # started (not run on this thread)
+            self._thread.join()
         if self.error is not None:
             raise InputError(f"{str(path)!r}: its 3D model is damaged ({self.error}); export it again")
         return self.data

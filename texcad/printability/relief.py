@@ -51,6 +51,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..solid.subdivide import cross, rows
+from ..util import threads
 from .overhang import build_directions, check_critical_angle
 
 __all__ = ["ReliefLimit", "limit_relief"]
@@ -398,7 +399,7 @@ def limit_relief(
     cos_limit = 0.0
     if dirs is not None:
         cos_limit = float(np.cos(np.radians(min(89.9, check_critical_angle(critical_angle) + margin))))
-    with ThreadPoolExecutor(2) if _THREADS and (os.cpu_count() or 1) > 1 else nullcontext() as pool:
+    with ThreadPoolExecutor(2) if _THREADS and threads() > 1 else nullcontext() as pool:
         ctx = _Ctx(np.ascontiguousarray(v0.T), np.ascontiguousarray(nrm.T), np.ascontiguousarray(faces.T), dirs,
                    _directions(dirs), cos_limit, pool)
         incidence = pool.submit(_faces_at, ctx.f, len(v0)) if pool else None  # beside the first test

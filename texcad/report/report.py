@@ -43,6 +43,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..errors import ParameterError
+from ..util import threads
 from ..sources import Heightmap
 from ..io import read_part
 from ..solid import Mesh, box_cells, closed_and_oriented, edge_report
@@ -454,7 +455,7 @@ def check(
         source, items, hm_from_part = _items(part)
     heightmap = heightmap if heightmap is not None else hm_from_part
     notes: list[str] = []
-    with ThreadPoolExecutor(2) as pool, _one_blas_thread():  # independent measures side by side (numpy releases the GIL)
+    with ThreadPoolExecutor(min(2, threads())) as pool, _one_blas_thread():  # independent measures side by side (numpy releases the GIL)
         if len(items) == 1:  # nothing to unite: the same test as manifold3d's, vectorized (below)
             mans, ids, manif = [None], None, []
         else:
