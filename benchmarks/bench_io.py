@@ -39,14 +39,11 @@ export_module = importlib.import_module("texcad.io.export")
 
 def bench_mesh() -> Mesh:
     """The textured mesh of ``bench_mesh.py`` (default options)."""
-    import manifold3d as m3d
+    from bench_mesh import bench_part  # this script's folder is on the path
 
     from texcad.io import write_stl
 
-    n = 624
-    dome = m3d.Manifold.sphere(36.0, n).translate((0, 0, 52.0)) ^ m3d.Manifold.cube((80, 80, 40)).translate((-40, -40, 52.0))
-    g = (m3d.Manifold.cylinder(52.0, 36.0, 36.0, n) + dome).to_mesh()
-    src = Mesh(np.asarray(g.vert_properties)[:, :3], np.asarray(g.tri_verts))
+    src = bench_part()
     with tempfile.TemporaryDirectory() as tmp:
         stl = Path(tmp) / "part.stl"
         write_stl(src, stl)

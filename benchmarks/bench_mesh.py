@@ -40,6 +40,14 @@ def stages(progress_log: list):
     return cb
 
 
+def bench_part(n: int = 624) -> Mesh:
+    """The input part: a cylinder (r 36 mm, 52 mm high, ``n`` sides) with a dome on top,
+    as manifold3d tessellates them (long strips on the side, a fine dome)."""
+    dome = m3d.Manifold.sphere(36.0, n).translate((0, 0, 52.0)) ^ m3d.Manifold.cube((80, 80, 40)).translate((-40, -40, 52.0))
+    g = (m3d.Manifold.cylinder(52.0, 36.0, 36.0, n) + dome).to_mesh()
+    return Mesh(np.asarray(g.vert_properties)[:, :3], np.asarray(g.tri_verts))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--pitch", type=float, default=0.2)
@@ -52,10 +60,7 @@ def main() -> None:
         from texcad.solid import retain_freed_memory
 
         retain_freed_memory()
-    n = args.segments
-    dome = m3d.Manifold.sphere(36.0, n).translate((0, 0, 52.0)) ^ m3d.Manifold.cube((80, 80, 40)).translate((-40, -40, 52.0))
-    g = (m3d.Manifold.cylinder(52.0, 36.0, 36.0, n) + dome).to_mesh()
-    src = Mesh(np.asarray(g.vert_properties)[:, :3], np.asarray(g.tri_verts))
+    src = bench_part(args.segments)
     with tempfile.TemporaryDirectory() as tmp:
         stl = Path(tmp) / "part.stl"
         write_stl(src, stl)
