@@ -110,3 +110,63 @@ def test_nothing_to_do_on_an_undisplaced_mesh():
     v, f, nrm, d = sphere(seed=1)
     d2, rep = limit_relief(v, f, nrm, np.zeros_like(d), build_dir=(0, 0, 1))
     assert not d2.any() and rep.lowered == rep.overhang_faces == rep.folded_faces == 0
+
+
+def _steep_ridges_trimesh(v: np.ndarray, f: np.ndarray, d=(0.0, 0.0, 1.0), limit_deg: float = 45.0) -> int:
+    """Convex edges (trimesh's face adjacency) rising less than ``limit_deg`` whose
+    contour corner moves between their faces' horizontal normals: counted edge by
+    edge, independently of texcad's code."""
+    import trimesh
+
+    tm = trimesh.Trimesh(v, f, process=False)
+    d = np.asarray(d, float)
+    n = tm.face_normals
+    count = 0
+    for (f1, f2), (a, b), convex in zip(tm.face_adjacency, tm.face_adjacency_edges, tm.face_adjacency_convex):
+        e = v[b] - v[a]
+        if not convex or abs(e @ d) < 1e-9 * np.linalg.norm(e):
+            continue
+        e = e if e @ d > 0 else -e
+        u = e - (e @ d) * d
+        if np.degrees(np.arctan2(e @ d, np.linalg.norm(u))) >= limit_deg:
+            continue
+        h1, h2 = n[f1] - (n[f1] @ d) * d, n[f2] - (n[f2] @ d) * d
+        s12, s1u, su2 = np.cross(h1, h2) @ d, np.cross(h1, u) @ d, np.cross(u, h2) @ d
+        count += bool(s12 != 0 and s1u * s12 >= 0 and su2 * s12 >= 0)
+    return count
+
+
+def test_no_steep_ridge_is_left_where_the_faces_alone_would_leave_many():
+    """Pyramids (a diamond knurl) on a cylinder's side: limited facet by facet only,
+    many of their edges rise less than 45 degrees while moving outwards (a slicer
+    supports those); limited at the ridges too, none does (trimesh's adjacency, edge
+    by edge), and no face overhangs either."""
+    import warnings
+
+    import manifold3d as m3d
+
+    import texcad
+    from texcad.printability import face_areas, overhang_mask
+    from texcad.solid import Mesh
+
+    g = m3d.Manifold.cylinder(8.0, 6.0, 6.0, 64).to_mesh()
+    part = Mesh(g.vert_properties[:, :3], g.tri_verts)
+    import functools
+
+    import texcad.pipeline.mesh as pm
+
+    kw = dict(height=1.0, pitch=0.3, projection="cylindrical", build_dir=(0, 0, 1), tolerance=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tx = texcad.texture(part, "not-bottom", "builtin:diamond_knurl", **kw)
+        keep = pm.limit_relief
+        pm.limit_relief = functools.partial(limit_relief, ridges=False)
+        try:
+            flat = texcad.texture(part, "not-bottom", "builtin:diamond_knurl", **kw)
+        finally:
+            pm.limit_relief = keep
+    f = tx.mesh.faces.astype(np.int64)
+    assert tx.limits.steep_ridges > 50
+    assert _steep_ridges_trimesh(flat.mesh.vertices.astype(np.float64), f) > 50  # the check can fail
+    assert _steep_ridges_trimesh(tx.mesh.vertices.astype(np.float64), f) == 0
+    assert face_areas(tx.mesh)[overhang_mask(tx.mesh, (0, 0, 1), 45.0)].sum() == 0.0
