@@ -23,6 +23,15 @@ the shrinking settles within 60 rounds (the default): 32 665 vertices lowered, 1
 of them to 0, 287 mm3 of the 11 024 mm3 relief removed. With 25 rounds 24 faces still
 offended then, and setting them to 0 made their neighbours offend in turn: 154 more
 rounds zeroed 30 642 more vertices and removed 743 mm3 more.
+Then the ridges (``ridges=True``, with build directions): a convex edge whose
+contour corner moves outwards as the layers rise (its horizontal run points between
+its two faces' horizontal normals) must itself rise at the critical angle or more,
+however steep its faces (a pyramid's edges are less steep than its faces), or a
+slicer's layer test supports it (:func:`_steep_ridges`). The end that is raised (or
+sunk) is shrunk by 0.8 per round (to 0 after ``rounds``), and the faces around it go
+through the facet rounds again, until no such edge is left. On the benchmark this
+lowers 2 395 more vertices (9 mm3), and PrusaSlicer's support under the part went
+from 35.9 m to 0.
 The first test of every face is made on the displaced vertices (one position per
 vertex, not per corner); later rounds look only at the faces next to a change. Every
 test is made on the positions as the writers store them: float32 (STL) and float32
