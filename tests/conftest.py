@@ -71,3 +71,28 @@ def distance_to_mesh(q, V, F, k=12):
         inside &= (np.cross(v - u, foot - u) * n).sum(-1) >= -1e-12
     edge = np.minimum.reduce([_seg_dist(p, a, b), _seg_dist(p, b, c), _seg_dist(p, c, a)])
     return np.where(inside, np.abs(d), edge).min(axis=1)
+
+
+def knurled_cylinder(r: float, h: float, sides: int, *, ridges: bool, **options):
+    """A cylinder mesh (mm) with a raised diamond knurl (cylindrical projection,
+    limited for +z), its ridges limited or (``ridges=False``) its facets only."""
+    import functools
+    import warnings
+
+    import manifold3d as m3d
+
+    import texcad.pipeline.mesh as pm
+    from texcad.printability import limit_relief
+    from texcad.solid import Mesh
+
+    g = m3d.Manifold.cylinder(h, r, r, sides).to_mesh()
+    part = Mesh(g.vert_properties[:, :3], g.tri_verts)
+    keep = pm.limit_relief
+    pm.limit_relief = functools.partial(limit_relief, ridges=ridges)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return texcad.texture(part, "not-bottom", "builtin:diamond_knurl", height=1.0, projection="cylindrical",
+                                  build_dir=(0, 0, 1), **options)
+    finally:
+        pm.limit_relief = keep

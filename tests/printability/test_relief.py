@@ -141,30 +141,11 @@ def test_no_steep_ridge_is_left_where_the_faces_alone_would_leave_many():
     many of their edges rise less than 45 degrees while moving outwards (a slicer
     supports those); limited at the ridges too, none does (trimesh's adjacency, edge
     by edge), and no face overhangs either."""
-    import warnings
-
-    import manifold3d as m3d
-
-    import texcad
+    from conftest import knurled_cylinder
     from texcad.printability import face_areas, overhang_mask
-    from texcad.solid import Mesh
 
-    g = m3d.Manifold.cylinder(8.0, 6.0, 6.0, 64).to_mesh()
-    part = Mesh(g.vert_properties[:, :3], g.tri_verts)
-    import functools
-
-    import texcad.pipeline.mesh as pm
-
-    kw = dict(height=1.0, pitch=0.3, projection="cylindrical", build_dir=(0, 0, 1), tolerance=0)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        tx = texcad.texture(part, "not-bottom", "builtin:diamond_knurl", **kw)
-        keep = pm.limit_relief
-        pm.limit_relief = functools.partial(limit_relief, ridges=False)
-        try:
-            flat = texcad.texture(part, "not-bottom", "builtin:diamond_knurl", **kw)
-        finally:
-            pm.limit_relief = keep
+    tx = knurled_cylinder(6.0, 8.0, 64, ridges=True, pitch=0.3, tolerance=0)
+    flat = knurled_cylinder(6.0, 8.0, 64, ridges=False, pitch=0.3, tolerance=0)
     f = tx.mesh.faces.astype(np.int64)
     assert tx.limits.steep_ridges > 50
     assert _steep_ridges_trimesh(flat.mesh.vertices.astype(np.float64), f) > 50  # the check can fail

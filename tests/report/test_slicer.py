@@ -93,27 +93,10 @@ def test_a_knurled_mesh_limited_at_its_ridges_needs_almost_no_support():
     pyramids' edges rise less steeply than their faces, and the slicer supports them
     (43 m on a 24 mm cylinder when this test was written). Limited at the ridges too
     (the default) the support falls to under a tenth."""
-    import functools
-    import warnings
+    from conftest import knurled_cylinder
 
-    import manifold3d as m3d
-
-    import texcad.pipeline.mesh as pm
-    from texcad.printability import limit_relief
-    from texcad.solid import Mesh
-
-    g = m3d.Manifold.cylinder(12.0, 8.0, 8.0, 96).to_mesh()
-    part = Mesh(g.vert_properties[:, :3], g.tri_verts)
-    kw = dict(height=1.0, pitch=0.3, projection="cylindrical", build_dir=(0, 0, 1))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        ridged = texcad.texture(part, "not-bottom", "builtin:diamond_knurl", **kw)
-        pm_limit = pm.limit_relief
-        pm.limit_relief = functools.partial(limit_relief, ridges=False)
-        try:
-            facets_only = texcad.texture(part, "not-bottom", "builtin:diamond_knurl", **kw)
-        finally:
-            pm.limit_relief = pm_limit
+    ridged = knurled_cylinder(8.0, 12.0, 96, ridges=True, pitch=0.3)
+    facets_only = knurled_cylinder(8.0, 12.0, 96, ridges=False, pitch=0.3)
     assert ridged.limits.steep_ridges > 100 and facets_only.limits.steep_ridges == 0
     a = slicer.slice_mesh(ridged.mesh, config={**SUPPORT, "overhangs": False})
     b = slicer.slice_mesh(facets_only.mesh, config={**SUPPORT, "overhangs": False})
