@@ -128,3 +128,21 @@ def test_walls_stay_valid_when_the_boundary_dips_towards_the_bottom(rows, cols, 
     hf = h.astype(np.float64)
     a, b, c, d = hf[:-1, :-1], hf[:-1, 1:], hf[1:, 1:], hf[1:, :-1]
     assert np.isclose(slab.volume, 0.4 * 0.6 * (((a + b + c) + (a + c + d)) / 6 + depth).sum(), rtol=1e-4, atol=1e-9)
+
+
+def test_edge_slot_pairs_and_shells():
+    """Two boxes: every edge's two slots run through it opposite ways, two shells;
+    an extra fin (an edge on three faces) or a hole gives no pairs."""
+    import manifold3d as m3d
+
+    from texcad.solid import edge_slot_pairs, shells
+
+    g = (m3d.Manifold.cube((1, 1, 1)) + m3d.Manifold.cube((1, 1, 1)).translate((3, 0, 0))).to_mesh()
+    f = np.asarray(g.tri_verts).astype(np.int64)
+    pairs = edge_slot_pairs(f)
+    assert pairs.shape == (3 * len(f) // 2, 2)
+    a, b = f.ravel(), f[:, [1, 2, 0]].ravel()
+    assert np.array_equal(a[pairs[:, 0]], b[pairs[:, 1]]) and np.array_equal(b[pairs[:, 0]], a[pairs[:, 1]])
+    assert shells(f, len(g.vert_properties)) == 2
+    assert edge_slot_pairs(np.concatenate([f, [[f[0, 0], f[0, 1], len(g.vert_properties)]]])) is None
+    assert edge_slot_pairs(f[1:]) is None

@@ -58,7 +58,7 @@ from ..mapping.projection import PROJECTIONS, Projection, TileSampler, parse_axi
 from ..mapping.region import Region
 from ..printability import build_directions, check_critical_angle
 from ..printability.relief import limit_relief
-from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, edge_report, repair_closed, self_intersections
+from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, closed_and_oriented, edge_report, repair_closed, self_intersections, shells
 from ..solid.adaptive import build, carried, coarse_mesh, edge_counts, measure, pitch_samples
 from ..solid.subdivide import coarsen, face_normals, offset_directions, refine, vertex_normals
 from ..util import beside, colmax, colmin, rowany, split_rows, threads
@@ -620,24 +620,15 @@ def _measure(c, counts, before, per_face, out, d, s, ds):
 
 
 def _assert_closed(faces: np.ndarray, nv: int, bodies: int, what: str) -> None:
-    """Closed and oriented (every directed edge once, and its reverse once: two sorts)
-    with ``bodies`` connected bodies (scipy), else GeometryError: the topology of a
-    displaced mesh, which does not depend on where its vertices move. (manifold3d's
-    check of the same costs 14 s at 5 M triangles; the tests run it too.)"""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    f = faces.astype(np.int64)
-    a, b = f.ravel(), f[:, [1, 2, 0]].ravel()
-    fwd, rev = np.sort(a * nv + b), np.sort(b * nv + a)
-    if not (np.array_equal(fwd, rev) and np.all(fwd[1:] != fwd[:-1])):
-        rep = edge_report(f)
+    """Closed and oriented (:func:`texcad.solid.closed_and_oriented`) with ``bodies``
+    connected bodies (:func:`texcad.solid.shells`), else GeometryError: the topology
+    of a displaced mesh, which does not depend on where its vertices move.
+    (manifold3d's check of the same costs 14 s at 5 M triangles; the tests run it too.)"""
+    if not closed_and_oriented(faces, nv):
+        rep = edge_report(faces)
         raise GeometryError(f"the {what} is not a closed oriented solid ({rep['boundary']} open, {rep['nonmanifold']} "
                             f"non-manifold, {rep['misoriented']} misoriented edges); use a smaller height")
-    g = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(int(nv), int(nv)))
-    used = np.zeros(int(nv), dtype=bool)
-    used[a] = True
-    n = len(np.unique(connected_components(g, directed=False)[1][used]))
+    n = shells(faces, nv)
     if n != bodies:
         raise GeometryError(f"the {what} has {n} bodies where the input had {bodies}")
 

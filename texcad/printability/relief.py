@@ -59,8 +59,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..solid import edge_slot_pairs
 from ..solid.subdivide import cross, rows
-from ..util import argsort_ints, beside, threads
+from ..util import beside, threads
 from .overhang import build_directions, check_critical_angle
 
 __all__ = ["ReliefLimit", "limit_relief"]
@@ -385,18 +386,16 @@ class _Edges(NamedTuple):
     eid: np.ndarray
 
 
-def _edge_table(f: np.ndarray, n: int) -> "_Edges | None":
+def _edge_table(f: np.ndarray) -> "_Edges | None":
     """:class:`_Edges` of the faces ``f`` ``(3, M)``; None unless every edge is shared
     by exactly two faces."""
     m = f.shape[1]
+    pair = edge_slot_pairs(f.T)
+    if pair is None:
+        return None
     a, b, c = f.T.ravel(), f[[1, 2, 0]].T.ravel(), f[[2, 0, 1]].T.ravel()  # slot 3 face + k: corner k -> k + 1
-    key = np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)
-    order = argsort_ints(key)
-    pair = order.reshape(-1, 2)
-    if len(order) % 2 or np.any(key[pair[:, 0]] != key[pair[:, 1]]):
-        return None  # not every edge is shared by exactly two faces
     eid = np.empty(3 * m, dtype=np.int64)
-    eid[order] = np.repeat(np.arange(len(pair)), 2)
+    eid[pair.ravel()] = np.repeat(np.arange(len(pair)), 2)
     return _Edges(a[pair[:, 0]], b[pair[:, 0]], pair[:, 0] // 3, pair[:, 1] // 3, c[pair[:, 1]], eid.reshape(m, 3))
 
 
@@ -533,7 +532,7 @@ def limit_relief(
         cos_limit = float(np.cos(np.radians(min(89.9, check_critical_angle(critical_angle) + margin))))
     want = ridges and dirs is not None
     with ThreadPoolExecutor(2) if _THREADS and threads() > 1 else nullcontext() as pool, \
-            beside(_edge_table, np.ascontiguousarray(faces.T), len(v0)) if want else nullcontext() as table:
+            beside(_edge_table, np.ascontiguousarray(faces.T)) if want else nullcontext() as table:
         ctx = _Ctx(np.ascontiguousarray(v0.T), np.ascontiguousarray(nrm.T), np.ascontiguousarray(faces.T), dirs,
                    _directions(dirs), cos_limit, pool)
         incidence = pool.submit(_faces_at, ctx.f, len(v0)) if pool else None  # beside the first test

@@ -46,7 +46,7 @@ from ..errors import ParameterError
 from ..util import threads
 from ..sources import Heightmap
 from ..io import read_part
-from ..solid import Mesh, box_cells, closed_and_oriented, edge_report
+from ..solid import Mesh, box_cells, closed_and_oriented, edge_report, shells
 from ..printability import (
     DEFAULT_CRITICAL_ANGLE,
     ThinFeatures,
@@ -385,21 +385,6 @@ def _texture_faces(fused: Mesh, texture: Mesh, base: Mesh) -> np.ndarray:
     return mask
 
 
-def _shells(mesh: Mesh) -> int:
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    f = mesh.faces.astype(np.int64)
-    if len(f) == 0:
-        return 0
-    n = len(mesh.vertices)
-    i = np.concatenate([f[:, 0], f[:, 1]])
-    j = np.concatenate([f[:, 1], f[:, 2]])
-    g = coo_matrix((np.ones(len(i), dtype=np.int8), (i, j)), shape=(n, n))
-    _, lab = connected_components(g, directed=False)
-    return int(np.count_nonzero(np.bincount(lab[f[:, 0]])))  # components that own a face
-
-
 def check(
     part: Any,
     *,
@@ -468,7 +453,7 @@ def check(
             mesh, texture_mask = _mesh_and_texture(items, mans, ids, manif, notes)
         over_f = pool.submit(overhang_mask, mesh, d, crit, plate_tolerance=plate_tolerance)  # the longest first
         volume_f = pool.submit(lambda: (float(mesh.volume), mesh.bounds))
-        shells_f = pool.submit(_shells, mesh)
+        shells_f = pool.submit(shells, mesh.faces, len(mesh.vertices))
         manif = manif or [pool.submit(_closed_manifold, items[0][1]).result()]
         # manifold3d accepts only closed, consistently oriented 2-manifolds (every edge
         # shared by exactly two faces, opposite ways): those are watertight; the others

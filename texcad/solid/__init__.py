@@ -64,6 +64,8 @@ from .mesh import (
     grid_solid,
     edge_report,
     closed_and_oriented,
+    shells,
+    edge_slot_pairs,
     surface_slab,
 )
 from .rtin import (
@@ -145,6 +147,8 @@ __all__ = [
     'grid_solid',
     'edge_report',
     'closed_and_oriented',
+    'shells',
+    'edge_slot_pairs',
     'surface_slab',
     'BLOCK',
     'rtin_triangles',

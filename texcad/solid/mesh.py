@@ -18,11 +18,11 @@ from typing import Sequence
 
 import numpy as np
 
-from ..util import require_memory
+from ..util import argsort_ints, require_memory
 from ..errors import GeometryError, ParameterError
 from ..sources import Heightmap
 
-__all__ = ["Mesh", "grid_faces", "heightfield_slab", "grid_solid", "edge_report", "closed_and_oriented", "surface_slab", "heightfield_volume"]
+__all__ = ["Mesh", "grid_faces", "heightfield_slab", "grid_solid", "edge_report", "closed_and_oriented", "edge_slot_pairs", "shells", "surface_slab", "heightfield_volume"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,6 +148,39 @@ def closed_and_oriented(faces: np.ndarray, num_vertices: int) -> bool:
         return False
     first, second = k[0::2], k[1::2]
     return bool((first % 2 == 0).all() and (second == first + 1).all() and (first[1:] > second[:-1]).all())
+
+
+def edge_slot_pairs(faces: np.ndarray) -> "np.ndarray | None":
+    """``(E, 2)``: for each undirected edge of ``faces`` ``(M, 3)`` its two *slots*
+    ``3 face + k`` (slot ``k`` runs from corner ``k`` to ``k + 1``), edges in the order
+    of their keys; None unless every edge belongs to exactly two slots (closed and
+    manifold; :func:`edge_report` counts what is wrong)."""
+    f = np.asarray(faces, dtype=np.int64)
+    if not f.size:
+        return None
+    n = int(f.max()) + 1
+    a, b = f.reshape(-1), f[:, [1, 2, 0]].reshape(-1)
+    key = np.minimum(a, b) * n + np.maximum(a, b)
+    order = argsort_ints(key)
+    k = key[order]
+    if len(k) % 2 or np.any(k[0::2] != k[1::2]) or np.any(k[2::2] == k[1:-1:2]):
+        return None
+    return order.reshape(-1, 2)
+
+
+def shells(faces: np.ndarray, num_vertices: int) -> int:
+    """Connected pieces of the surface ``faces`` ``(M, 3)`` (through shared vertices;
+    vertices no face uses do not count)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    f = np.asarray(faces, dtype=np.int64)
+    if len(f) == 0:
+        return 0
+    n = int(num_vertices)
+    g = coo_matrix((np.ones(2 * len(f), dtype=np.int8), (np.r_[f[:, 0], f[:, 1]], np.r_[f[:, 1], f[:, 2]])), shape=(n, n))
+    _, lab = connected_components(g, directed=False)
+    return int(np.count_nonzero(np.bincount(lab[f[:, 0]])))  # components that own a face
 
 
 def grid_faces(rows: int, cols: int, *, wrap_x: bool = False, flip: bool = False) -> np.ndarray:

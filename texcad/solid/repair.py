@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..util import argsort_ints
+from .mesh import edge_report, edge_slot_pairs
 
 __all__ = ["repair_closed"]
 
@@ -60,21 +60,15 @@ def _clean(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return v[used], remap[f]
 
 
-def _edge_pairs(f: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict]:
+def _edge_pairs(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each undirected edge's two triangles ``(E, 2)`` and whether they run through it
-    the same way ``(E,)``; InputError if an edge has not exactly two."""
-    nv = np.int64(f.max() + 1)
+    the same way ``(E,)``; None, None unless every edge has exactly two."""
+    slot = edge_slot_pairs(f)
+    if slot is None:
+        return None, None
     a, b = f.ravel(), f[:, [1, 2, 0]].ravel()
-    key = np.minimum(a, b) * nv + np.maximum(a, b)
-    order = argsort_ints(key)
-    k = key[order]
-    start = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])
-    count = np.diff(np.r_[start, len(k)])
-    if np.any(count != 2):
-        return None, None, {"boundary": int((count == 1).sum()), "nonmanifold": int((count > 2).sum())}
-    slot = order.reshape(-1, 2)
     same = (a[slot[:, 0]] < b[slot[:, 0]]) == (a[slot[:, 1]] < b[slot[:, 1]])
-    return slot // 3, same, {}
+    return slot // 3, same
 
 
 def _parity(tri: np.ndarray, same: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
@@ -129,8 +123,9 @@ def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-
     v, f = _clean(v, f)
     if not len(f):
         raise InputError(f"{name} holds no triangles (after dropping degenerate ones)")
-    tri, same, bad = _edge_pairs(f)
-    if bad:
+    tri, same = _edge_pairs(f)
+    if tri is None:
+        bad = edge_report(f)
         raise InputError(
             f"{name} is not closed after repair ({bad['boundary']} open edges, {bad['nonmanifold']} non-manifold "
             "edges); texcad textures closed solids: close the holes (e.g. in the CAD program or a mesh repair "
