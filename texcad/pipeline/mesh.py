@@ -321,12 +321,18 @@ def _border_distance(v: np.ndarray, f: np.ndarray, sel: np.ndarray, upto: float 
     """Per vertex: distance (mm) to the nearest vertex shared by a region face and a
     face outside it (inf when the region has no border, or farther than ``upto``);
     NaN off the region."""
+    return _distances(v, f, sel, _border_query(v, f, sel, upto))[0]
+
+
+def _distances(v: np.ndarray, f: np.ndarray, sel: np.ndarray, query, skip: "np.ndarray | None" = None):
+    """``(dist, inside)``: each vertex's distance by ``query`` where it belongs to a
+    face of ``sel`` and not to ``skip`` (NaN elsewhere), and which vertices belong."""
     inside = np.zeros(len(v), dtype=bool)
     inside[f[sel].ravel()] = True
+    todo = inside if skip is None else inside & ~skip
     dist = np.full(len(v), np.nan)
-    idx = np.flatnonzero(inside)
-    dist[idx] = _border_query(v, f, sel, upto)(v[idx])
-    return dist
+    dist[todo] = query(v[todo])
+    return dist, inside
 
 
 def _border_query(v: np.ndarray, f: np.ndarray, sel: np.ndarray, upto: float = np.inf) -> Callable[[np.ndarray], np.ndarray]:
@@ -488,14 +494,12 @@ def _output_relief(layers, out, carry=None):
     parts, queries = [], []
     for k, (layer, m) in enumerate(zip(layers, out["masks"])):  # per layer
         q = _border_query(out["v"], out["f"], m, layer.border)
-        inside = np.zeros(len(out["v"]), dtype=bool)
-        inside[out["f"][m].ravel()] = True
-        todo = inside.copy()
         keep = carry is not None and layer.mask is None
+        skip = None
         if keep:
-            todo[carry[0]] = False
-        dist = np.full(len(out["v"]), np.nan)
-        dist[todo] = q(out["v"][todo])
+            skip = np.zeros(len(out["v"]), dtype=bool)
+            skip[carry[0]] = True
+        dist, inside = _distances(out["v"], out["f"], m, q, skip)
         d, b, info, ins = _relief(layer, out["v"], out["f"], m, out["normal"], dist=dist)
         if keep:
             new, old, (od, ob, _, oins) = carry[0], carry[1], carry[2][k]
@@ -516,11 +520,7 @@ def _coarse_relief(layers, c, s, masks):
         be = m[c.ef[:, 0]] != m[c.ef[:, 1]]
         on = (s["edge"] >= 0) & be[np.maximum(s["edge"], 0)]
         q = _nearest(np.concatenate([c.v[np.unique(c.edges[be])], s["xyz"][on]]), layer.border)
-        inside = np.zeros(len(c.v), dtype=bool)
-        inside[c.f[m].ravel()] = True
-        dist = np.full(len(c.v), np.nan)
-        dist[inside] = q(c.v[inside])
-        d += _relief(layer, c.v, c.f, m, c.vn, dist=dist)[0]
+        d += _relief(layer, c.v, c.f, m, c.vn, dist=_distances(c.v, c.f, m, q)[0])[0]
         queries.append(q)
     return queries, d
 
