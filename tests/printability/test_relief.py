@@ -112,10 +112,11 @@ def test_nothing_to_do_on_an_undisplaced_mesh():
     assert not d2.any() and rep.lowered == rep.overhang_faces == rep.folded_faces == 0
 
 
-def _steep_ridges_trimesh(v: np.ndarray, f: np.ndarray, d=(0.0, 0.0, 1.0), limit_deg: float = 45.0) -> int:
+def _steep_ridges_trimesh(v: np.ndarray, f: np.ndarray, d=(0.0, 0.0, 1.0), limit_deg: float = 45.0, moved=None) -> int:
     """Convex edges (trimesh's face adjacency) rising less than ``limit_deg`` whose
     contour corner moves between their faces' horizontal normals: counted edge by
-    edge, independently of texcad's code."""
+    edge, independently of texcad's code (with ``moved`` ``(N,)`` bool: only edges
+    with a moved end; the others are the part's own surface)."""
     import trimesh
 
     tm = trimesh.Trimesh(v, f, process=False)
@@ -124,7 +125,7 @@ def _steep_ridges_trimesh(v: np.ndarray, f: np.ndarray, d=(0.0, 0.0, 1.0), limit
     count = 0
     for (f1, f2), (a, b), convex in zip(tm.face_adjacency, tm.face_adjacency_edges, tm.face_adjacency_convex):
         e = v[b] - v[a]
-        if not convex or abs(e @ d) < 1e-9 * np.linalg.norm(e):
+        if not convex or abs(e @ d) < 1e-9 * np.linalg.norm(e) or (moved is not None and not (moved[a] or moved[b])):
             continue
         e = e if e @ d > 0 else -e
         u = e - (e @ d) * d
@@ -148,6 +149,22 @@ def test_no_steep_ridge_is_left_where_the_faces_alone_would_leave_many():
     flat = knurled_cylinder(6.0, 8.0, 64, ridges=False, pitch=0.3, tolerance=0)
     f = tx.mesh.faces.astype(np.int64)
     assert tx.limits.steep_ridges > 50
-    assert _steep_ridges_trimesh(flat.mesh.vertices.astype(np.float64), f) > 50  # the check can fail
+    assert _steep_ridges_trimesh(flat.mesh.vertices.astype(np.float64), flat.mesh.faces.astype(np.int64)) > 50  # the check can fail
     assert _steep_ridges_trimesh(tx.mesh.vertices.astype(np.float64), f) == 0
     assert face_areas(tx.mesh)[overhang_mask(tx.mesh, (0, 0, 1), 45.0)].sum() == 0.0
+
+
+def test_sunk_ridges_move_their_lower_end():
+    """An engraved relief on a ball: a steep ridge is mended by moving its *lower* end
+    back towards the surface (moving the upper one outwards would flatten it), so the
+    ridges cost little beyond the faces' limits, and none is left (checked edge by
+    edge with trimesh's adjacency)."""
+    m = trimesh.creation.icosphere(subdivisions=4, radius=10.0)
+    v, f = np.asarray(m.vertices), np.asarray(m.faces)
+    n = v / np.linalg.norm(v, axis=1)[:, None]
+    d = -np.random.default_rng(0).uniform(0.2, 2.0, len(v))
+    faces_only, a = limit_relief(v, f, n, d, build_dir=(0, 0, 1), ridges=False)
+    ridged, b = limit_relief(v, f, n, d, build_dir=(0, 0, 1))
+    assert b.steep_ridges > 50 and _steep_ridges_trimesh(v + n * faces_only[:, None], f, moved=faces_only != 0) > 50
+    assert _steep_ridges_trimesh(v + n * ridged[:, None], f, moved=ridged != 0) == 0
+    assert b.removed_mm3 < 1.25 * a.removed_mm3  # 289 against 267 mm3; the upper ends cost 394

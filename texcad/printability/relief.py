@@ -51,7 +51,7 @@ takes 0.25-0.30 s CPU (0.26-0.40 s wall, load 2.3-3.3) where the plain version t
 
 from __future__ import annotations
 
-import os
+import itertools
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import nullcontext
 from dataclasses import dataclass
@@ -400,11 +400,8 @@ def _edge_table(f: np.ndarray) -> "_Edges | None":
 
 
 def _ridge_normals(p: np.ndarray, f: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Unit normals ``(3, F)`` of ``faces`` at positions ``p`` ``(3, N)``."""
-    q = np.take(p, np.take(f, faces, axis=1), axis=1)  # (3 coords, 3 corners, F)
-    e1, e2 = q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]
-    n = np.stack([e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]])
-    return n / np.maximum(np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), 1e-300)
+    """Unit normals ``(3, F)`` of ``faces`` at positions ``p`` ``(3, N)`` (:func:`_unit`)."""
+    return _unit(np.take(p, np.take(f, faces, axis=1), axis=1))[0]
 
 
 def _steep_ridges(ctx: _Ctx, out: np.ndarray, tab: _Edges, sel: np.ndarray, tan_limit: float) -> tuple[np.ndarray, np.ndarray]:
@@ -449,27 +446,32 @@ def _ridge_test(ctx: _Ctx, p: np.ndarray, out: np.ndarray, tab: _Edges, sel: np.
         u = (e - np.outer(d, ez)) * np.where(ez < 0, -1.0, 1.0)
         h1, h2 = n1 - np.outer(d, d @ n1), n2 - np.outer(d, d @ n2)
         s12, s1u, su2 = (d @ np.cross(h1, h2, axis=0)), (d @ np.cross(h1, u, axis=0)), (d @ np.cross(u, h2, axis=0))
-        inside = (s12 != 0) & (s1u * s12 >= 0) & (su2 * s12 >= 0)
+        big = np.abs(s12) > 1e-9 * np.sqrt((h1 * h1).sum(axis=0) * (h2 * h2).sum(axis=0))  # not (anti)parallel
+        inside = big & (s1u * s12 >= 0) & (su2 * s12 >= 0)
         flat = np.sqrt((u * u).sum(axis=0)) * tan_limit > np.abs(ez)
         hit = convex & inside & flat
         upper = np.where(hit & ~bad, up, upper)
         bad |= hit
     low = np.where(upper == a, b, a)
-    return bad, np.where(out[upper] != 0, upper, low)  # the raised or sunk end moves back towards the surface
+    # as for faces: the upper end when it is raised, the lower when it is sunk (moving
+    # either towards the surface steepens the edge), else the end that is displaced
+    end = np.where(out[upper] > 0, upper, np.where(out[low] < 0, low, np.where(out[upper] != 0, upper, low)))
+    return bad, end
 
 
 def _ridges(ctx: _Ctx, out: np.ndarray, faces_of, rounds: int, shrink: float, tan_limit: float, tab: "_Edges | None") -> int:
     """Lower the displacements until no steep ridge is left (:func:`_steep_ridges`),
     each round shrinking the offending ridges' ends by 0.8 (after ``rounds`` rounds:
     to 0) and then running the facet rounds (``shrink``) on the faces around them
-    again; only edges near a change are looked at again. Returns the steep ridges
-    found first."""
+    again; only edges near a change are looked at again. Every steep ridge has a
+    displaced end, and from round ``rounds`` on one is set to 0 each round, so the
+    loop ends with none left. Returns the steep ridges found first."""
     n = len(out)
     if tab is None:  # not every edge shared by two faces
         return 0
     sel = np.arange(len(tab.a))
     found = None
-    for r in range(2 * rounds + 1):  # per round
+    for r in itertools.count():  # per round
         bad, end = _steep_ridges(ctx, out, tab, sel, tan_limit)
         found = int(bad.sum()) if found is None else found
         if not bad.any():
@@ -554,8 +556,8 @@ def limit_relief(
     rep = ReliefLimit(
         lowered=int(low.sum()),
         zeroed=int((low & (out == 0)).sum()),
-        overhang_faces=first[0] if first else 0,
-        folded_faces=first[1] if first else 0,
+        overhang_faces=first[0],
+        folded_faces=first[1],
         removed_mm3=float((np.abs(d0 - out) * area).sum()),
         steep_ridges=steep,
     )
