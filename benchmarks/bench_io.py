@@ -76,14 +76,13 @@ def main() -> None:
         mesh = bench_mesh()
         if args.save:
             np.savez(args.save, vertices=mesh.vertices, faces=mesh.faces)
-    mesh.__dict__["is_watertight"] = mesh.is_watertight  # as texture() hands it over: known
+    mesh.is_watertight  # known before writing, as texture() hands it over (cached)
     load0 = os.getloadavg()[0]
     r = args.repeat
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "part.3mf"
         name = "part"
-        parts = getattr(export_module, "_object_parts", None)  # (the one-piece formatter before this work)
-        fmt = timed(lambda: b"".join(parts(1, name, mesh)) if parts else export_module._object_xml(1, name, mesh), r)
+        fmt = timed(lambda: b"".join(export_module._object_parts(1, name, mesh)), r)
         model = fmt[2]
         deflate = timed(lambda: zlib.compressobj(1, zlib.DEFLATED, -15).compress(model), r)
         write = timed(lambda: write_3mf(mesh, path, name=name), r)

@@ -197,11 +197,6 @@ def _object_parts(oid: int, name: str, mesh: Mesh) -> Iterator[bytes]:
     yield b"</triangles></mesh></object>\n"
 
 
-def _object_xml(oid: int, name: str, mesh: Mesh) -> bytes:
-    """The ``<object>`` element of ``mesh`` as one string of bytes."""
-    return b"".join(_object_parts(oid, name, mesh))
-
-
 def _size_bound(mesh: Mesh) -> int:
     """An upper bound of the bytes :func:`_object_parts` writes for ``mesh``: rows times
     their widest form (``%.4f`` of ``|x| < 10^9`` takes at most 15 characters; larger

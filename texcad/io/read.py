@@ -9,6 +9,8 @@ numbers are the same doubles as ``float()`` gives for their text.
 from __future__ import annotations
 
 import mmap
+import bisect
+import functools
 import os
 import re
 import threading
@@ -311,7 +313,7 @@ def _elements(xml: bytes, tag: bytes) -> list[tuple[bytes, bytes]]:
 
 def _spans(
     xml: bytes, tag: bytes, lo: int = 0, hi: int | None = None, *, first: bool = False, last: bool = False,
-    known: dict | None = None,
+    known: "_Blocks | None" = None,
 ) -> list[tuple[int, int, int, int]]:
     """``(attributes start, end, content start, end)`` offsets of every non-nested
     ``<tag ...>content</tag>`` (or empty ``<tag .../>``) in ``xml[lo:hi]``, found with
@@ -347,18 +349,29 @@ def _spans(
     return out
 
 
-def _find_outside(xml: bytes, sub: bytes, pos: int, hi: int, known: dict | None) -> int:
+class _Blocks(dict):
+    """Blocks read while inflating, ``{start: (end, values)}``; ``starts`` sorted
+    (made once, after they are all read)."""
+
+    @functools.cached_property
+    def starts(self) -> list[int]:
+        return sorted(self)
+
+
+def _find_outside(xml: bytes, sub: bytes, pos: int, hi: int, known: "_Blocks | None") -> int:
     """``xml.find(sub, pos, hi)``, jumping over the ``known`` blocks (which hold no
-    other ``<`` than their elements')."""
-    for start, (end, _) in sorted((known or {}).items()):  # per known block
-        if end <= pos or start < pos:
-            continue
+    other ``<`` than their elements'); the first block at or after ``pos`` is found by
+    bisection, so a model of many objects reads in time linear in its size."""
+    if not known:
+        return xml.find(sub, pos, hi)
+    starts = known.starts
+    for start in starts[bisect.bisect_left(starts, pos):]:  # per known block from pos on
         if start >= hi:
             break
         i = xml.find(sub, pos, start)
         if i >= 0:
             return i
-        pos = end
+        pos = known[start][0]
     return xml.find(sub, pos, hi)
 
 
@@ -481,7 +494,7 @@ def _stream_meshes(src: _Inflating) -> dict[int, tuple[int, np.ndarray]]:
     xml = src.data
     a = np.frombuffer(xml, dtype=np.uint8)
     words = np.ndarray((max(len(a) - 7, 0),), dtype="<u8", buffer=xml, strides=(1,))
-    found: dict[int, tuple[int, np.ndarray]] = {}
+    found = _Blocks()
     pos = 0
     try:
         while True:  # per mesh
