@@ -43,7 +43,8 @@ def run(pitch: float, out: Path, scale: float, tolerance: float) -> dict:
 
     from texcad.io import write_stl
     from texcad.pipeline import faces as F
-    from texcad.solid import to_manifold, to_topods
+    from texcad.solid import to_manifold
+    from texcad.brep import to_topods
 
     part = knob(scale)
     cone = part.faces().filter_by(GeomType.CONE).sort_by(Axis.Z)[0]

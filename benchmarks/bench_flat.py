@@ -54,7 +54,7 @@ def run(pixels: int, out: Path, how: str = "union") -> dict[str, float]:
     t1, c1 = time.perf_counter(), time.process_time()
     slab = texcad.solid.heightfield_slab(hm, depth=0.5)
     t2 = time.perf_counter()
-    base = texcad.solid.shape_to_mesh(texcad.pipeline.plate_base((100, 100), 5))
+    base = texcad.brep.shape_to_mesh(texcad.pipeline.plate_base((100, 100), 5))
     fused = texcad.solid.fuse(base, slab) if how == "union" else fuse_on_plane(base, slab.vertices, slab.faces)[0]
     t3 = time.perf_counter()
     texcad.io.write_stl(fused, out / "bench.stl")

@@ -77,7 +77,7 @@ def bench_cylinder(repeat: int, pitch: float, out: Path) -> None:
         t3 = time.perf_counter()
         slab = ms.solid()
         t4 = time.perf_counter()
-        base = texcad.solid.shape_to_mesh(surf.base)
+        base = texcad.brep.shape_to_mesh(surf.base)
         t5 = time.perf_counter()
         fused = texcad.solid.fuse(base, slab)
         t6 = time.perf_counter()

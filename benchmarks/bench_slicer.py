@@ -113,14 +113,14 @@ def support(args) -> None:
         d = orientation(tilt, "+y")
         for margin in (0.1, SLICER_MARGIN):
             lim, _ = limit_overhangs(hm, d, margin=margin)
-            tp = texcad.textured_plate(lim, size=(20, 20), thickness=4, tolerance=0)
+            tp = texcad.pipeline.textured_plate(lim, size=(20, 20), thickness=4, tolerance=0)
             report(f"knurl plate tilt {tilt}, margin {margin:g}", tp.mesh, tp.texture_mesh, d, tp.base_mesh)
-        tp = texcad.textured_plate(hm, size=(20, 20), thickness=4, tolerance=0)
+        tp = texcad.pipeline.textured_plate(hm, size=(20, 20), thickness=4, tolerance=0)
         report(f"knurl plate tilt {tilt}, not limited", tp.mesh, tp.texture_mesh, d, tp.base_mesh)
     box = Box(20, 16, 12, align=(Align.MIN, Align.MIN, Align.MIN))
     side = box.faces().sort_by(Axis.X)[-1]
     up = (0.0, 0.0, 1.0)
-    bare = texcad.solid.shape_to_mesh(box)
+    bare = texcad.brep.shape_to_mesh(box)
     for name in ("diamond_knurl", "stones"):
         t = texcad.builtin(name, size=(16, 12), pitch=pitch, height=1.0)
         for bd in (None, up):
@@ -134,7 +134,7 @@ def support(args) -> None:
 
         g = runpy.run_path(str(Path(__file__).resolve().parents[1] / "recipes" / "sledgehammer.py"))
         part = g["part"]
-        report("sledgehammer (recipe), +y", part.mesh, part.texture_mesh, (0, 1, 0), texcad.solid.shape_to_mesh(g["handle"]))
+        report("sledgehammer (recipe), +y", part.mesh, part.texture_mesh, (0, 1, 0), texcad.brep.shape_to_mesh(g["handle"]))
 
 
 #: Recipes that print along a build direction: script -> build direction (world frame).
@@ -211,7 +211,7 @@ def perimeters(args) -> None:
     side = args.side
     hm = texcad.builtin("stones", size=(side, side), pitch=0.125, height=2.0)
     for tol in args.tolerances:
-        tp = texcad.textured_plate(hm, size=(side, side), thickness=3, tolerance=tol)
+        tp = texcad.pipeline.textured_plate(hm, size=(side, side), thickness=3, tolerance=tol)
         # PrusaSlicer's "resolution" simplifies the slice contours (0 = off): if the
         # time goes with the contours' vertex count, it goes down with it.
         cfgs = [({}, "defaults"), ({"overhangs": False}, "overhangs off"), ({"resolution": args.resolution}, f"resolution {args.resolution:g}")]

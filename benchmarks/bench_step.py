@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 import texcad
-from texcad.solid import check_shape, occt_volume, shape_to_mesh
+from texcad.brep import check_shape, occt_volume, shape_to_mesh
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -214,7 +214,7 @@ def run_sledgehammer(out: Path) -> None:
         "import texcad\n"
         "part = texcad.texture(g['handle'], g['grip_face'], g['grip'], mapping='angle', periodic_x=True, build_dir=(0, 1, 0))\n"
         "t0 = time.perf_counter(); shape = part.shape; t1 = time.perf_counter()\n"
-        "print(f'  sledgehammer grip B-rep (grid {part.info[\"grid\"]}, {texcad.solid.check_shape(shape)[\"faces\"]} faces) '\n"
+        "print(f'  sledgehammer grip B-rep (grid {part.info[\"grid\"]}, {texcad.brep.check_shape(shape)[\"faces\"]} faces) '\n"
         "      f'{t1 - t0:7.1f} s, {part.info[\"brep_volume\"]:.1f} mm3 vs mesh {part.volume:.1f} mm3', flush=True)\n"
     )
     print("sledgehammer (recipes/sledgehammer.py)")

@@ -5,8 +5,8 @@
 A synthetic 40 x 40 mm scan of the built-in "stones" (640 000 points, tilted 5 deg,
 30 um sensor noise, 2 % outliers up to 3 mm off) is shown as raw point heights binned
 to pixels (the tilt dominates; outliers are the speckles), then the heightmap
-texcad.scan_to_heightmap recovers from it (texcad.render_heightmap), then that heightmap on a
-45 x 45 mm plate (texcad.textured_plate, rendered). Deterministic (seeded).
+texcad.sources.scan_to_heightmap recovers from it (texcad.render.render_heightmap), then that heightmap on a
+45 x 45 mm plate (texcad.pipeline.textured_plate, rendered). Deterministic (seeded).
 """
 
 from __future__ import annotations

@@ -110,7 +110,7 @@ print(f"distance  paper's algorithm 1 without texcad's fade: gap up to {2 * join
 # for the picture of figure 15.
 body = {"A": split(handle, Plane.XY, keep=Keep.TOP), "B": split(handle, Plane.XY, keep=Keep.BOTTOM)}
 halves = {
-    mapping: [(f"half {k}", texcad.solid.fuse(texcad.solid.shape_to_mesh(body[k]), piece.solid())) for k, piece in zip("AB", pair)]
+    mapping: [(f"half {k}", texcad.solid.fuse(texcad.brep.shape_to_mesh(body[k]), piece.solid())) for k, piece in zip("AB", pair)]
     for mapping, pair in pieces.items()
 }
 texcad.io.write_3mf(halves["angle"], OUT / "sledgehammer_halves.3mf", name="sledgehammer halves")
@@ -130,7 +130,7 @@ results.update(
     triangles=m.num_triangles,
     watertight=bool(m.is_watertight),
     volume_mm3=m.volume,
-    step_volume_mm3=texcad.solid.volume(part.shape),
+    step_volume_mm3=texcad.brep.volume(part.shape),
     step_mb=step_mb,
     halves_watertight=all(h.is_watertight for _, h in halves["angle"]),
     halves_volume_mm3=sum(h.volume for _, h in halves["angle"]),

@@ -15,7 +15,7 @@ import texcad
 
 ROOT = Path(texcad.__file__).parent
 #: The stages in the order data flows; a stage may import only from stages before it.
-LAYERS = ["errors", "util", "sources", "synthesis", "solid", "io", "mapping", "printability", "render", "report", "pipeline", "cli"]
+LAYERS = ["errors", "util", "sources", "synthesis", "solid", "brep", "io", "mapping", "printability", "render", "report", "pipeline", "cli"]
 
 
 def _package(module: str) -> str:
@@ -133,14 +133,11 @@ def test_functions_are_short():
     assert not long, "\n".join(long)
 
 
-def test_old_names_are_aliases_that_warn():
-    with pytest.warns(DeprecationWarning, match="texcad.pipeline.textured_plate"):
-        f = texcad.textured_plate
-    from texcad.pipeline import textured_plate
-
-    assert f is textured_plate
-    with pytest.raises(AttributeError):
-        texcad.no_such_name
+def test_texcad_01_names_are_gone():
+    """texcad 0.3 dropped the names kept from 0.1 (issue 26): one name per thing."""
+    for old in ("textured_plate", "write_stl", "render_part", "heightfield_slab", "fuse", "brep_faces"):
+        with pytest.raises(AttributeError):
+            getattr(texcad, old)
 
 
 def test_import_is_light():

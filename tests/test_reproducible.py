@@ -70,7 +70,7 @@ def test_3mf_holds_the_same_mesh_as_the_stl(outputs, name):
 @pytest.mark.parametrize("name", sorted(n for n in TEXCAD_0_1 if n.endswith(".step")))
 def test_step_is_the_stl_solid(outputs, name):
     from texcad.io import read_mesh, read_step
-    from texcad.solid import check_shape, volume
+    from texcad.brep import check_shape, volume
 
     shape = read_step(outputs / name)
     chk = check_shape(shape)

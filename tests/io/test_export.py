@@ -11,7 +11,7 @@ from texcad import GeometryError, ParameterError, export
 
 @pytest.fixture
 def part(small_hm):
-    return texcad.textured_plate(small_hm, size=small_hm.size, thickness=3).mesh
+    return texcad.pipeline.textured_plate(small_hm, size=small_hm.size, thickness=3).mesh
 
 
 def test_binary_stl_round_trip(tmp_path, part):
@@ -40,9 +40,9 @@ def test_3mf_one_object_of_two_parts(tmp_path, small_hm):
 
     from texcad.io import read_part
 
-    tp = texcad.textured_plate(small_hm, size=small_hm.size, thickness=3)
+    tp = texcad.pipeline.textured_plate(small_hm, size=small_hm.size, thickness=3)
     p = tmp_path / "two.3mf"
-    texcad.write_3mf([("base", tp.base_mesh), ("texture", tp.texture_mesh)], p)
+    texcad.io.write_3mf([("base", tp.base_mesh), ("texture", tp.texture_mesh)], p)
     z = zipfile.ZipFile(p)
     xml = z.read("3D/3dmodel.model").decode()
     assert xml.count("<object ") == 1 and xml.count("<item ") == 1 and "<component" not in xml

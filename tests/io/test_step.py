@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import texcad
-from texcad.solid import check_shape, occt_volume, shape_to_mesh
+from texcad.brep import check_shape, occt_volume, shape_to_mesh
 
 DEFLECTION = 0.1  # mm, what CQ-editor / ocp_vscode use on a part this size
 

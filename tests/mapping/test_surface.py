@@ -183,7 +183,7 @@ def test_bad_profiles_are_refused_with_reasons():
 
 @pytest.mark.parametrize("kind", ["plate", "cylinder", "arc", "sine"])
 def test_named_surfaces_have_the_profile_on_their_base(kind):
-    from texcad.solid import shape_to_mesh
+    from texcad.brep import shape_to_mesh
 
     surf = Surface.named(kind, length=10.0, width=40.0, period=20.0)
     mesh = shape_to_mesh(surf.base)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from texcad.solid import brep
+from texcad.brep import solids as brep
 import texcad
 from texcad.errors import GeometryError, ParameterError, TexcadWarning
 

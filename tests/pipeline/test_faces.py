@@ -15,7 +15,7 @@ import texcad
 from texcad.errors import GeometryError, ParameterError, TexcadError, TexcadWarning
 from texcad.pipeline.faces import part_tessellation
 from texcad.printability import face_areas, overhang_mask, unit_normals
-from texcad.solid import to_topods
+from texcad.brep import to_topods
 
 PITCH = 0.5
 
@@ -183,7 +183,7 @@ def test_knurled_cone_and_top_in_one_call():
     assert 12 / r_ref - 0.03 < dy[2] < 15 / r_ref + 0.03
     # B-rep: the cones on their own (u, v), the planar top in tiles; checked (valid,
     # one solid, volume within 0.1 % of the mesh) when made.
-    chk = texcad.solid.check_shape(tx.shape)
+    chk = texcad.brep.check_shape(tx.shape)
     assert chk["valid"] and chk["solids"] == 1
 
 
@@ -576,7 +576,7 @@ def test_modes_on_every_face_kind(case, mode):
 
 
 def test_engraved_plane_has_its_step(tmp_path):
-    """Engraved planar faces get their B-rep in tiles (texcad.pipeline.brep_faces):
+    """Engraved planar faces get their B-rep in tiles (texcad.brep.targets):
     the STEP re-reads as one valid solid with the mesh's volume (OCCT, 0.1 %)."""
     from build123d import Axis, Box
 
@@ -584,8 +584,8 @@ def test_engraved_plane_has_its_step(tmp_path):
     tx = texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:pins", height=1.0, pitch=0.5, mode="engraved")
     tx.export(tmp_path / "x.step")
     back = texcad.io.read_step(tmp_path / "x.step")
-    chk = texcad.solid.check_shape(back)
+    chk = texcad.brep.check_shape(back)
     assert chk["valid"] and chk["solids"] == 1
-    assert texcad.solid.occt_volume(back, 1e-4) == pytest.approx(tx.volume, rel=1e-3)  # (eps 1e-3 stops early: 2e-3)
+    assert texcad.brep.occt_volume(back, 1e-4) == pytest.approx(tx.volume, rel=1e-3)  # (eps 1e-3 stops early: 2e-3)
     tx.export(tmp_path / "x.stl")
     assert trimesh.load(tmp_path / "x.stl").is_watertight

@@ -66,7 +66,7 @@ def test_lean_extruded_face_keeps_its_brep_and_ops():
     assert 0 < r.max_error <= 0.02
     slack = r.info["volume_slack"]
     assert slack == pytest.approx(0.02 * 2 * np.pi * 8 * 20, rel=0.02)
-    from texcad.solid import volume
+    from texcad.brep import volume
 
     assert abs(volume(r.shape) - r.mesh.volume) <= 1e-3 * r.mesh.volume + slack
     cut = r - Pos(8, 0, 0) * Box(4, 4, 30)

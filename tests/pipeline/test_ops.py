@@ -7,7 +7,7 @@ import pytest
 import texcad
 from texcad.errors import GeometryError, ParameterError
 from texcad.pipeline import ops
-from texcad.solid import check_shape, occt_volume
+from texcad.brep import check_shape, occt_volume
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +33,7 @@ def test_textured_b_rep_is_tiles_with_texcads_mesh(part):
     from OCP.BRep import BRep_Tool
     from OCP.TopLoc import TopLoc_Location
     from OCP.TopoDS import TopoDS
-    from texcad.solid import explore, surface_grid
+    from texcad.brep import explore, surface_grid
     from OCP.TopAbs import TopAbs_FACE
 
     _, tx = part

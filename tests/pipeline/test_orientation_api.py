@@ -1,7 +1,7 @@
 """Print orientation on the curved-surface and CAD paths: ``build_dir`` / ``critical_angle``.
 
-``texcad.textured_surface`` and ``texcad.texture`` take the same option as
-``texcad.textured_plate``: with it, ``texcad.check`` finds no overhanging texture face
+``texcad.pipeline.textured_surface`` and ``texcad.texture`` take the same option as
+``texcad.pipeline.textured_plate``: with it, ``texcad.check`` finds no overhanging texture face
 for that build direction (paper, sections 3.1-3.3); without it, it does.
 """
 
@@ -55,8 +55,8 @@ def test_textured_surface_build_dir_removes_texture_overhang(surface, mapping, p
     surf = surface()
     hm = noise(int(100 / pitch) - 1, int(surf.profile.length / pitch) - 1, pitch)
     d = orientation(60, "+x")
-    plain = texcad.textured_surface(surf, hm, mapping=mapping)
-    fixed = texcad.textured_surface(surf, hm, mapping=mapping, build_dir=d)
+    plain = texcad.pipeline.textured_surface(surf, hm, mapping=mapping)
+    fixed = texcad.pipeline.textured_surface(surf, hm, mapping=mapping, build_dir=d)
     assert plain.limits is None
     assert texture_overhang(plain, d) > 10.0  # mm2
     assert texture_overhang(fixed, d) == 0.0
@@ -72,7 +72,7 @@ def test_textured_surface_build_dir_leaves_printable_texture_alone():
     # Tilted 0 degrees the arc's steepest point tilts 36 degrees: nothing overhangs.
     surf = arc_surface()
     hm = noise(199, 199)
-    part = texcad.textured_surface(surf, hm, mapping="distance", build_dir=(0, 0, 1))
+    part = texcad.pipeline.textured_surface(surf, hm, mapping="distance", build_dir=(0, 0, 1))
     assert part.limits.removed_volume_mm3 == 0.0 and part.limits.ramped_borders == ()
     assert np.array_equal(part.heightmap.heights, hm.heights)
 
@@ -83,8 +83,8 @@ def test_textured_surface_closed_profile_upright():
     # its lower border and every texture facet facing down are fixed, across the seam too.
     surf = texcad.Surface.cylinder(20.0, 60.0)
     d = (0.0, 1.0, 0.0)
-    plain = texcad.textured_surface(surf, "builtin:stones:scale=0.5", pitch=PITCH, mapping="angle")
-    fixed = texcad.textured_surface(surf, "builtin:stones:scale=0.5", pitch=PITCH, mapping="angle", build_dir=d)
+    plain = texcad.pipeline.textured_surface(surf, "builtin:stones:scale=0.5", pitch=PITCH, mapping="angle")
+    fixed = texcad.pipeline.textured_surface(surf, "builtin:stones:scale=0.5", pitch=PITCH, mapping="angle", build_dir=d)
     assert texture_overhang(plain, d) > 100.0
     assert texture_overhang(fixed, d) == 0.0
     assert fixed.limits.ramped_borders == ("y0",)
@@ -96,11 +96,11 @@ def test_textured_surface_build_dir_errors():
     surf = arc_surface()
     hm = noise(40, 40)
     with pytest.raises(ParameterError, match="non-zero"):
-        texcad.textured_surface(surf, hm, build_dir=(0, 0, 0))
+        texcad.pipeline.textured_surface(surf, hm, build_dir=(0, 0, 0))
     with pytest.raises(ParameterError, match="critical_angle"):
-        texcad.textured_surface(surf, hm, build_dir=(0, 0, 1), critical_angle=95)
+        texcad.pipeline.textured_surface(surf, hm, build_dir=(0, 0, 1), critical_angle=95)
     with pytest.raises(ParameterError, match="mapping='angle'"):
-        texcad.textured_surface(texcad.Surface.cylinder(10.0, 20.0), "builtin:sand", pitch=1.0, mapping="distance", build_dir=(0, 0, 1))
+        texcad.pipeline.textured_surface(texcad.Surface.cylinder(10.0, 20.0), "builtin:sand", pitch=1.0, mapping="distance", build_dir=(0, 0, 1))
 
 
 # -- texcad.texture on build123d parts (build direction in world coordinates) -------------
@@ -135,7 +135,7 @@ def test_texture_top_face_tilted(tmp_path):
     fixed = texcad.texture(box, top, hm, build_dir=d)  # with the B-rep
     assert check_3mf(plain, d, tmp_path / "plain.3mf") > 0.0
     assert check_3mf(fixed, d, tmp_path / "fixed.3mf") == 0.0
-    assert texcad.solid.brep.check_shape(fixed.wrapped)["valid"]
+    assert texcad.brep.solids.check_shape(fixed.wrapped)["valid"]
 
 
 def test_texture_curved_face_world_build_dir(tmp_path):
@@ -154,8 +154,8 @@ def test_texture_curved_face_world_build_dir(tmp_path):
     assert fixed.limits.remaining_overhang_mm2 == 0.0 and len(fixed.limits.ramped_borders) == 1
     # STEP: one valid solid.
     fixed.export_step(tmp_path / "fixed.step")
-    shape = texcad.read_step(tmp_path / "fixed.step")
-    chk = texcad.solid.brep.check_shape(shape)
+    shape = texcad.io.read_step(tmp_path / "fixed.step")
+    chk = texcad.brep.solids.check_shape(shape)
     assert chk["valid"] and chk["solids"] == 1
 
 

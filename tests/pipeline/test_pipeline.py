@@ -6,29 +6,29 @@ from texcad import GeometryError
 
 
 def test_textured_plate_builtin(tmp_path):
-    tp = texcad.textured_plate("builtin:diamond_knurl", size=(20, 10), thickness=4, height=1.0, pitch=0.25)
+    tp = texcad.pipeline.textured_plate("builtin:diamond_knurl", size=(20, 10), thickness=4, height=1.0, pitch=0.25)
     m = tp.mesh
     assert m.is_watertight
     lo, hi = m.bounds
     assert np.allclose(lo, [0, 0, -4], atol=1e-4) and np.allclose(hi[:2], [20, 10], atol=1e-4)
     assert np.isclose(hi[2], 1.0, atol=1e-3)
-    assert len(texcad.to_manifold(m).decompose()) == 1
+    assert len(texcad.solid.to_manifold(m).decompose()) == 1
 
 
 def test_texture_larger_than_plate_is_rejected(small_hm):
     with pytest.raises(GeometryError, match="larger"):
-        texcad.textured_plate(small_hm, size=(10, 10))
+        texcad.pipeline.textured_plate(small_hm, size=(10, 10))
 
 
 def test_slab_deeper_than_plate_is_rejected(small_hm):
     with pytest.raises(GeometryError, match="reach"):
-        texcad.textured_plate(small_hm, size=small_hm.size, thickness=1.0, depth=2.0)
+        texcad.pipeline.textured_plate(small_hm, size=small_hm.size, thickness=1.0, depth=2.0)
 
 
 def test_same_inputs_same_bytes(tmp_path):
     for run in ("a", "b"):
         (tmp_path / run).mkdir()
-        tp = texcad.textured_plate("builtin:stones", size=(12, 12), thickness=2, pitch=0.25)
+        tp = texcad.pipeline.textured_plate("builtin:stones", size=(12, 12), thickness=2, pitch=0.25)
         texcad.export(tp.mesh, tmp_path / run / "part.stl")
         texcad.export(tp.mesh, tmp_path / run / "part.3mf")
     for f in ("part.stl", "part.3mf"):
@@ -38,10 +38,10 @@ def test_same_inputs_same_bytes(tmp_path):
 def test_stl_of_a_fused_plate_reads_back_exactly(tmp_path):
     """More than one STL chunk (65536 triangles): records in order, corners exact,
     unit outward normals."""
-    tp = texcad.textured_plate("builtin:stones", size=(50, 50), thickness=2, pitch=0.25, tolerance=0)
+    tp = texcad.pipeline.textured_plate("builtin:stones", size=(50, 50), thickness=2, pitch=0.25, tolerance=0)
     m = tp.mesh
     assert m.num_triangles > 65536
-    texcad.write_stl(m, tmp_path / "p.stl")
+    texcad.io.write_stl(m, tmp_path / "p.stl")
     raw = (tmp_path / "p.stl").read_bytes()
     dt = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
     assert np.frombuffer(raw[80:84], "<u4")[0] == m.num_triangles and len(raw) == 84 + 50 * m.num_triangles

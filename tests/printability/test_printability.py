@@ -97,7 +97,7 @@ def mapped_sample(hm: texcad.Heightmap, kind: str, offset: str = "normal", thick
 
 
 def flat_part(hm):
-    return texcad.textured_plate(hm, size=hm.size, thickness=5.0)
+    return texcad.pipeline.textured_plate(hm, size=hm.size, thickness=5.0)
 
 
 # -- orientation and the overhang rule --------------------------------------------------
@@ -138,7 +138,7 @@ def test_overhang_rule_45(normal_deg, expect):
 
 
 def test_faces_on_build_plate_do_not_count():
-    slab = texcad.heightfield_slab(texcad.builtin("ridges", size=5, pitch=0.5, height=1), depth=1.0)
+    slab = texcad.solid.heightfield_slab(texcad.builtin("ridges", size=5, pitch=0.5, height=1), depth=1.0)
     bottom = slab.face_normals()[:, 2] < -0.99
     assert bottom.any() and not overhang_mask(slab, (0, 0, 1))[bottom].any()
     # Upside down: the bottom is now on top and the texture faces the build plate.
@@ -172,10 +172,10 @@ def test_edge_ramp_keeps_upward_borders_at_low_tilt(textures):
 def test_limiter_no_facet_overhangs_on_mesh(textures, tilt, toward):
     hm = textures[3]
     d = orientation(tilt, toward)
-    slab0 = texcad.heightfield_slab(hm, origin=(3.0, -7.0, 0.0))
+    slab0 = texcad.solid.heightfield_slab(hm, origin=(3.0, -7.0, 0.0))
     before = overhang_area(slab0, d, faces=slab0.groups["texture"])
     out, rep = limit_overhangs(hm, d)
-    slab = texcad.heightfield_slab(out, origin=(3.0, -7.0, 0.0))
+    slab = texcad.solid.heightfield_slab(out, origin=(3.0, -7.0, 0.0))
     assert before > 0
     assert overhang_area(slab, d, faces=slab.groups["texture"]) == 0.0
     assert np.all(out.heights <= hm.heights)
@@ -196,7 +196,7 @@ def test_limiter_for_a_set_of_directions(textures):
     hm = textures[2].resampled(1.0)
     dirs = [orientation(a, "+y") for a in (0, 15, 30, 45, 60, 75, 90)] + [orientation(70, "-x")]
     out, rep = limit_overhangs(hm, dirs)
-    slab = texcad.heightfield_slab(out)
+    slab = texcad.solid.heightfield_slab(out)
     for d in dirs:
         assert overhang_area(slab, d, faces=slab.groups["texture"]) == 0.0
     assert set(rep.ramped_borders) == {"y0", "x1"}
@@ -226,7 +226,7 @@ def test_property_limited_slab_never_overhangs(rows, cols, seed, tilt, toward, p
     hm = texcad.Heightmap((rng.random((rows, cols)) * 3).astype(np.float32), (px, py))
     d = orientation(tilt, toward)
     out, rep = limit_overhangs(hm, d)
-    slab = texcad.heightfield_slab(out, origin=(11.0, 23.0, 1.0))
+    slab = texcad.solid.heightfield_slab(out, origin=(11.0, 23.0, 1.0))
     assert slab.is_watertight
     assert np.all(out.heights <= hm.heights)
     assert overhang_area(slab, d, faces=slab.groups["texture"]) == 0.0

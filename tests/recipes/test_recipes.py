@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 import trimesh
 
-from texcad.solid import brep
+from texcad.brep import solids as brep
 import texcad.io
 from conftest import assert_heightmap_picture, assert_picture
 

@@ -56,12 +56,12 @@ def test_stl_watertight(run):
 def test_step_one_valid_solid(run):
     out, _, table = run
     for r in table["samples"]:
-        shape = texcad.read_step(out / f"{r['sample']}.step")
-        chk = texcad.solid.brep.check_shape(shape)
+        shape = texcad.io.read_step(out / f"{r['sample']}.step")
+        chk = texcad.brep.solids.check_shape(shape)
         assert chk["valid"] and chk["solids"] == 1, (r["sample"], chk)
         # Same body as the STL (the B-rep and the mesh differ only by the bilinear term).
         vol = trimesh.load(out / f"{r['sample']}.stl").volume
-        assert texcad.solid.brep.volume(shape) == pytest.approx(vol, rel=2e-3)
+        assert texcad.brep.solids.volume(shape) == pytest.approx(vol, rel=2e-3)
 
 
 def test_texture_overhang_zero_at_table2_orientation(run):

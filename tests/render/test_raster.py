@@ -86,7 +86,7 @@ def test_render_box_silhouette_area():
 
 def test_height_image_of_a_slab_recovers_the_heightmap():
     hm = texcad.builtin("ridges", size=10, pitch=0.25, height=1.0)
-    slab = texcad.heightfield_slab(hm, depth=0.5)
+    slab = texcad.solid.heightfield_slab(hm, depth=0.5)
     heights, mask, pitch = height_image(slab, (0, 0, 1), 0.25, faces=slab.groups["texture"])
     assert pitch == 0.25 and mask.mean() > 0.9
     assert abs(float(heights[mask].max()) - float(hm.heights.max() - hm.heights.min())) < 0.02

@@ -25,7 +25,7 @@ SIZE, PITCH = 20.0, 0.5  # mm: a small demo-like plate
 
 @pytest.fixture(scope="module")
 def plate():
-    return texcad.textured_plate("builtin:stones", size=(SIZE, SIZE), thickness=3.0, height=1.0, pitch=PITCH)
+    return texcad.pipeline.textured_plate("builtin:stones", size=(SIZE, SIZE), thickness=3.0, height=1.0, pitch=PITCH)
 
 
 @pytest.fixture(scope="module")
@@ -104,7 +104,7 @@ def test_base_walls_are_not_counted_as_texture():
     # side wall overhangs; the slab's buried wall lies in the same plane and must not
     # be reported as texture (whatever the union attributes it to).
     hm = texcad.Heightmap(np.zeros((20, 20), np.float32), 0.5)
-    part = texcad.textured_plate(hm, size=hm.size, thickness=3.0)
+    part = texcad.pipeline.textured_plate(hm, size=hm.size, thickness=3.0)
     d = orientation(60, "+y")
     rep = check([("base", part.base_mesh), ("texture", part.texture_mesh)], build_dir=d)
     wall = 10.0 * 3.0  # the y = 0 wall of the plate, 10 x 3 mm
@@ -121,7 +121,7 @@ def test_texture_border_wall_counts_until_ramped():
 
     def texture_overhang(h):
         # one vertex per pixel: the wall's area is the trapezoid of the pixel heights
-        part = texcad.textured_plate(h, size=hm.size, thickness=2.0, tolerance=0)
+        part = texcad.pipeline.textured_plate(h, size=hm.size, thickness=2.0, tolerance=0)
         rep = check([("base", part.base_mesh), ("texture", part.texture_mesh)], build_dir=d)
         top = overhang_area(part.texture_mesh, d, faces=part.texture_mesh.groups["texture"])
         return rep.texture_overhang_area_mm2, top
@@ -207,7 +207,7 @@ def test_nozzle_thin_features(files, capsys):
 
 
 def test_read_part_ascii_and_binary_agree(tmp_path, plate):
-    small = texcad.heightfield_slab(texcad.builtin("ridges", size=4, pitch=0.5, height=0.5), depth=0.5)
+    small = texcad.solid.heightfield_slab(texcad.builtin("ridges", size=4, pitch=0.5, height=0.5), depth=0.5)
     tm = trimesh.Trimesh(small.vertices, small.faces, process=False)
     (tmp_path / "a.stl").write_text(trimesh.exchange.stl.export_stl_ascii(tm))
     write_stl(small, tmp_path / "b.stl")
@@ -236,7 +236,7 @@ def test_3mf_other_layouts(tmp_path):
     the same part as texcad's own layout (the numpy path)."""
     import zipfile
 
-    slab = texcad.heightfield_slab(texcad.builtin("ridges", size=3, pitch=0.5, height=0.5), depth=0.5)
+    slab = texcad.solid.heightfield_slab(texcad.builtin("ridges", size=3, pitch=0.5, height=0.5), depth=0.5)
     v, f = slab.vertices.astype(np.float64), slab.faces
     verts = "".join(f"<vertex z='{z:.6e}' y='{y:.6e}' x='{x:.6e}'/>" for x, y, z in v)
     tris = "".join(f'<triangle v3="{c}" p1="0" v1="{a}" v2="{b}"/>' for a, b, c in f)

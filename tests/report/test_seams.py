@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import texcad
-from texcad import ParameterError, seam_gap
+from texcad import ParameterError
+from texcad.report import seam_gap
 
 R = 10.0
 
@@ -19,8 +20,8 @@ def halves(mapping: str, pitch: float = 0.5):
     b = texcad.Heightmap(np.concatenate([h[:, n // 2 :], h[:, :1]], axis=1), (p, 0.5))
     upper = texcad.Profile.arc(R, 180)
     lower = texcad.Profile.parametric(lambda t: (R * np.cos(t), R * np.sin(t)), 0.0, -np.pi)
-    ma = texcad.map_texture(upper, a, mapping=mapping, length=6.0)
-    mb = texcad.map_texture(lower, b, mapping=mapping, length=6.0)
+    ma = texcad.mapping.map_texture(upper, a, mapping=mapping, length=6.0)
+    mb = texcad.mapping.map_texture(lower, b, mapping=mapping, length=6.0)
     return ma, mb, h
 
 

@@ -42,7 +42,7 @@ def test_limited_texture_needs_no_support_at_the_critical_angle(box_side):
     up = (0.0, 0.0, 1.0)
     free = texcad.texture(box, side, hm, brep=False)
     fixed = texcad.texture(box, side, hm, brep=False, build_dir=up, critical_angle=45)
-    bare = slicer.slice_mesh(texcad.solid.shape_to_mesh(box), config=SUPPORT)
+    bare = slicer.slice_mesh(texcad.brep.shape_to_mesh(box), config=SUPPORT)
     a = slicer.slice_mesh(free.mesh, config=SUPPORT)
     b = slicer.slice_mesh(fixed.mesh, config=SUPPORT)
     assert bare.returncode == a.returncode == b.returncode == 0
@@ -65,7 +65,7 @@ def test_limiter_margin_is_what_the_slicer_needs():
     out = {}
     for margin in (0.1, SLICER_MARGIN):
         lim, _ = limit_overhangs(hm, d, margin=margin)
-        tp = texcad.textured_plate(lim, size=(20, 20), thickness=4, tolerance=0)
+        tp = texcad.pipeline.textured_plate(lim, size=(20, 20), thickness=4, tolerance=0)
         out[margin] = slicer.slice_mesh(tp.mesh, build_dir=d, config=SUPPORT)
     bare = slicer.slice_mesh(tp.base_mesh, build_dir=d, config=SUPPORT)
     assert bare.support_mm == 0.0

@@ -118,8 +118,8 @@ def test_bad_tolerance_is_a_parameter_error(bad):
 
 def test_textured_plate_reports_its_measured_error():
     kw = dict(size=(30, 20), thickness=3, height=1.5, pitch=0.125)
-    lean_part = texcad.textured_plate("builtin:stones", tolerance=0.02, **kw)
-    dense = texcad.textured_plate("builtin:stones", tolerance=0, **kw)
+    lean_part = texcad.pipeline.textured_plate("builtin:stones", tolerance=0.02, **kw)
+    dense = texcad.pipeline.textured_plate("builtin:stones", tolerance=0, **kw)
     assert lean_part.mesh.is_watertight and lean_part.texture_mesh.is_watertight
     assert 0 < lean_part.max_error <= 0.02 + 1e-6
     assert dense.max_error <= 1e-6

@@ -4,7 +4,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import texcad
-from texcad import Heightmap, edge_report, grid_solid, heightfield_slab
+from texcad import Heightmap
+from texcad.solid import edge_report, grid_solid, heightfield_slab
 
 
 def _trimesh(m):
@@ -56,7 +57,7 @@ def test_walls_fall_back_to_a_bottom_ring_when_a_boundary_touches_the_bottom():
     slab = heightfield_slab(hm, depth=1.0)
     ring = 2 * (6 + 7) - 4
     assert len(slab.vertices) == 6 * 7 + ring and slab.is_watertight
-    assert np.isclose(texcad.to_manifold(slab).volume(), slab.volume, rtol=1e-6)
+    assert np.isclose(texcad.solid.to_manifold(slab).volume(), slab.volume, rtol=1e-6)
     # Lifting the boundary by 0.5 mm gives polygon walls and adds exactly that layer.
     lifted = heightfield_slab(Heightmap(h + np.float32(0.5), (0.5, 0.5)), depth=1.0)
     assert len(lifted.vertices) == 6 * 7 + 4 and lifted.is_watertight
@@ -83,7 +84,7 @@ def test_random_heightfields_are_watertight_solids(rows, cols, seed, height, dep
     slab = heightfield_slab(Heightmap(h, (0.3, 0.7)), depth=depth)
     rep = edge_report(slab.faces)
     assert rep["watertight"], rep
-    man = texcad.to_manifold(slab)  # raises if manifold3d disagrees
+    man = texcad.solid.to_manifold(slab)  # raises if manifold3d disagrees
     assert np.isclose(man.volume(), slab.volume, rtol=1e-4)
     assert _trimesh(slab).is_winding_consistent
     # Volume is the integral of (h + depth) over the footprint: the mean height of
@@ -102,7 +103,7 @@ def test_grid_solid_tube_closes_on_shared_vertices():
     bottom = top * np.array([0.8, 1, 0.8])
     tube = grid_solid(top, bottom, wrap_x=True)
     assert tube.is_watertight
-    man = texcad.to_manifold(tube)
+    man = texcad.solid.to_manifold(tube)
     assert man.genus() == 1
     polygon_area = 0.5 * n * np.sin(2 * np.pi / n) * (r**2 - (0.8 * r) ** 2)
     assert np.isclose(tube.volume, polygon_area * 5, rtol=1e-5)
@@ -124,7 +125,7 @@ def test_walls_stay_valid_when_the_boundary_dips_towards_the_bottom(rows, cols, 
     h = np.maximum(h, -depth).astype(np.float32)
     slab = heightfield_slab(Heightmap(h, (0.4, 0.6)), depth=depth)
     assert edge_report(slab.faces)["watertight"] and _trimesh(slab).is_winding_consistent
-    assert np.isclose(texcad.to_manifold(slab).volume(), slab.volume, rtol=1e-4)
+    assert np.isclose(texcad.solid.to_manifold(slab).volume(), slab.volume, rtol=1e-4)
     hf = h.astype(np.float64)
     a, b, c, d = hf[:-1, :-1], hf[:-1, 1:], hf[1:, 1:], hf[1:, :-1]
     assert np.isclose(slab.volume, 0.4 * 0.6 * (((a + b + c) + (a + c + d)) / 6 + depth).sum(), rtol=1e-4, atol=1e-9)

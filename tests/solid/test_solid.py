@@ -2,7 +2,9 @@ import numpy as np
 import pytest
 
 import texcad
-from texcad import GeometryError, ParameterError, fuse, heightfield_slab, shape_to_mesh
+from texcad import GeometryError, ParameterError
+from texcad.solid import fuse, heightfield_slab
+from texcad.brep import shape_to_mesh
 
 
 def test_shape_to_mesh_build123d_and_cadquery():
@@ -32,7 +34,7 @@ def test_fuse_texture_onto_plate_is_one_watertight_shell(kernel, small_hm):
     slab = heightfield_slab(small_hm, depth=0.5)
     part = fuse(base, slab)
     assert part.is_watertight
-    man = texcad.to_manifold(part)
+    man = texcad.solid.to_manifold(part)
     assert len(man.decompose()) == 1
     # Union volume = base + slab - the part of the slab inside the base.
     rows, cols = small_hm.shape
@@ -54,7 +56,7 @@ def test_fuse_is_a_manifold3d_union_whatever_the_wall_layout(small_hm):
     from texcad.solid.mesh import _ring_walls_slab, grid_faces
 
     w, d = small_hm.size
-    base = shape_to_mesh(texcad.plate_base((w, d), 3))
+    base = shape_to_mesh(texcad.pipeline.plate_base((w, d), 3))
     slab = heightfield_slab(small_hm, depth=0.5)
     rows, cols = small_hm.shape
     n = rows * cols
@@ -77,7 +79,7 @@ def test_fuse_is_a_manifold3d_union_whatever_the_wall_layout(small_hm):
 
 
 def test_fuse_is_deterministic(small_hm):
-    base = shape_to_mesh(texcad.plate_base(small_hm.size, 3))
+    base = shape_to_mesh(texcad.pipeline.plate_base(small_hm.size, 3))
     a = fuse(base, heightfield_slab(small_hm, depth=0.5))
     b = fuse(base, heightfield_slab(small_hm, depth=0.5))
     assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)
@@ -94,11 +96,11 @@ def test_retain_freed_memory_keeps_fuse_exact(small_hm):
         "from texcad.solid import retain_freed_memory\n"
         "tuned = retain_freed_memory()\n"
         "hm = texcad.builtin('stones', size=(30, 20), pitch=0.5, height=1.5)\n"
-        "part = texcad.fuse(texcad.shape_to_mesh(texcad.plate_base(hm.size, 3)), texcad.heightfield_slab(hm, depth=0.5))\n"
+        "part = texcad.solid.fuse(texcad.brep.shape_to_mesh(texcad.pipeline.plate_base(hm.size, 3)), texcad.solid.heightfield_slab(hm, depth=0.5))\n"
         "print(tuned, repr(part.volume), part.num_triangles)\n"
     )
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout.split()
-    base = shape_to_mesh(texcad.plate_base(small_hm.size, 3))
+    base = shape_to_mesh(texcad.pipeline.plate_base(small_hm.size, 3))
     here = fuse(base, heightfield_slab(small_hm, depth=0.5))
     assert out[0] == ("True" if sys.platform.startswith("linux") else out[0])
     assert float(out[1]) == here.volume and int(out[2]) == here.num_triangles

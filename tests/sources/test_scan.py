@@ -236,8 +236,8 @@ def test_mesh_readers_and_top_surface(tmp_path, ext):
 
 def test_closed_mesh_gives_its_top_surface(tmp_path):
     hm0 = texcad.builtin("pins", size=9, pitch=0.2, height=1.0)
-    slab = texcad.heightfield_slab(hm0, depth=2.0)
-    texcad.write_stl(slab, tmp_path / "slab.stl")
+    slab = texcad.solid.heightfield_slab(hm0, depth=2.0)
+    texcad.io.write_stl(slab, tmp_path / "slab.stl")
     hm, rep = scan_to_heightmap(tmp_path / "slab.stl", pitch=0.2)
     assert hm.shape == hm0.shape
     assert np.abs(hm.heights - hm0.heights).max() < 1e-4

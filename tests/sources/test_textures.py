@@ -6,9 +6,9 @@ from texcad.sources import BUILTINS
 
 
 def test_at_least_three_builtins_default_first():
-    names = texcad.builtin_names()
+    names = texcad.sources.builtin_names()
     assert len(names) >= 3
-    assert names[0] == texcad.DEFAULT_TEXTURE
+    assert names[0] == texcad.sources.DEFAULT_TEXTURE
 
 
 @pytest.mark.parametrize("name", list(BUILTINS))
@@ -49,7 +49,7 @@ REQUIRED = {
 
 
 def test_library_has_the_textures_for_am_parts():
-    names = texcad.builtin_names()
+    names = texcad.sources.builtin_names()
     assert len(names) >= 12 and REQUIRED <= set(names)
     for name in names:
         tex = BUILTINS[name]
@@ -138,7 +138,7 @@ def test_contact_sheet_renders_every_texture(tmp_path):
         r, c = divmod(k, 5)
         x0, y0 = 8 + c * 72, 24 + r * 90 + 18
         pic = a[y0 : y0 + 64, x0 : x0 + 64]
-        assert pic.std() > 5, texcad.builtin_names()[k]
+        assert pic.std() > 5, texcad.sources.builtin_names()[k]
     with pytest.raises(texcad.ParameterError):
         contact_sheet(tmp_path / "bad.png", ["nope"])
     assert not (tmp_path / "bad.png").exists()

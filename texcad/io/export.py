@@ -357,7 +357,7 @@ def export(obj: Any, path: str | os.PathLike, *, separate_texture: bool = False,
     elif isinstance(obj, Mesh) or isinstance(obj, (list, tuple)):
         meshes = obj
     else:
-        from ..solid import shape_to_mesh
+        from ..brep import shape_to_mesh
 
         meshes = shape_to_mesh(obj)
     if suffix == ".stl":

@@ -705,7 +705,7 @@ def load_mesh(path: str | os.PathLike, *, tolerance: float = 0.01) -> Mesh:
 
     STEP: texcad's texture faces (degree-1 B-spline grids) are meshed from their
     poles, every other face by OCCT with ``tolerance`` mm (see
-    :func:`texcad.solid.shape_mesh`): a mesh for looking at, not for printing.
+    :func:`texcad.brep.shape_mesh`): a mesh for looking at, not for printing.
 
     Raises:
         InputError: missing or unreadable file.
@@ -718,7 +718,7 @@ def load_mesh(path: str | os.PathLike, *, tolerance: float = 0.01) -> Mesh:
         raise InputError(f"{str(p)!r} does not exist")
     suffix = p.suffix.lower()
     if suffix in (".step", ".stp"):
-        from ..solid import shape_mesh
+        from ..brep import shape_mesh
         from .step import read_step
 
         return shape_mesh(read_step(p), tolerance=tolerance)

@@ -10,7 +10,7 @@ import re
 from typing import Any
 
 from ..errors import GeometryError, InputError
-from ..solid import to_topods
+from ..brep import to_topods
 from ..util import atomic_path
 from .step_tiles import tiled_step_text
 
@@ -53,7 +53,7 @@ def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part"
     the same bytes.
 
     Faces that carry a triangulation (texcad's texture tiles carry texcad's own
-    mesh, see :func:`texcad.solid.tiled_grid_faces`) are written with it as AP242
+    mesh, see :func:`texcad.brep.tiled_grid_faces`) are written with it as AP242
     tessellated geometry (``TRIANGULATED_FACE`` next to the B-spline face): OCCT's
     STEP reader attaches it to the face again, and its mesher
     (``BRepMesh_IncrementalMesh``, what CQ-editor, ocp_vscode and FreeCAD run to show

@@ -28,7 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from ..solid import grid_faces, surface_grid, tile_grid
+from ..solid import grid_faces
+from ..brep import surface_grid, tile_grid
 
 __all__ = ["tiled_step_text"]
 
@@ -131,7 +132,7 @@ def _stand_in(b, face, surf) -> None:
 
 
 def _grids(tiles: list) -> list:
-    """Each tile's ``(grid, u, v)``: remembered by texcad (:func:`texcad.solid.tile_grid`)
+    """Each tile's ``(grid, u, v)``: remembered by texcad (:func:`texcad.brep.tile_grid`)
     or read from OCCT."""
     out = []
     for _, _, surf in tiles:  # one per tile

@@ -795,7 +795,7 @@ def _cad_wire(obj: Any):
     from OCP.TopoDS import TopoDS, TopoDS_Vertex
 
     from ..errors import ParameterError
-    from ..solid import explore as _explore, to_topods as _topods
+    from ..brep import explore as _explore, to_topods as _topods
 
     try:
         shape = _topods(obj)

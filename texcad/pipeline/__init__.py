@@ -10,7 +10,6 @@ from .cad import (
 from .faces import (
     texture_any_faces,
     face_list,
-    part_tessellation,
     FADE_FULL,
     FADE_ZERO,
     FLOOR_CURVED,
@@ -56,7 +55,6 @@ __all__ = [
     'LIFT',
     'texture_any_faces',
     'face_list',
-    'part_tessellation',
     'FADE_FULL',
     'FADE_ZERO',
     'FLOOR_CURVED',

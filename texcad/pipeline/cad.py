@@ -33,7 +33,7 @@ Which faces
   border). The texture therefore lies on the selected face only, and the textured
   surface meets the face's own edges at height 0: the B-rep keeps the body's edges
   and swaps the textured part of the face's plane for B-spline tiles
-  (:func:`texcad.solid.brep.textured_plane_solid`; with holes or notches inside the
+  (:func:`texcad.brep.solids.textured_plane_solid`; with holes or notches inside the
   texture, tiles that keep clear of the outline and one planar face per region
   around them), and the mesh is the body's mesh with the relief above the face
   stitched in (a lean relief on an unobstructed face, no boolean:
@@ -44,23 +44,23 @@ Which faces
   (``mapping="distance"``, algorithm 1, or ``"angle"``, algorithm 2) and the slab is
   unioned with manifold3d for the mesh. B-rep: a closed band (a cylinder) is split
   by the end rows' planes and its middle replaced by wrapped tiles, without a
-  boolean (:func:`texcad.solid.brep.textured_extrusion_solid`); an open profile's
+  boolean (:func:`texcad.brep.solids.textured_extrusion_solid`); an open profile's
   face is replaced by tiles on its own (u, v) sewn to its boundary edges, split at
-  the tile corners (:func:`texcad.solid.open_extrusion_solid`).
+  the tile corners (:func:`texcad.brep.open_extrusion_solid`).
 
 * **Any other face, several faces at once, chaining** (cones, spheres, tori, surfaces
   of revolution, B-splines, fillets, partial strips, trimmed faces; a list, a
   ``ShapeList`` or a CadQuery selection; a :class:`Textured` as the part): the general
   method of :mod:`texcad.pipeline.faces` (a texture grid on a parameterization of the
   face in mm, fused as a mesh; ``Textured.distortion`` reports the texture scale). Their
-  B-rep (:mod:`texcad.pipeline.brep_faces`): each face parameterized on its own (u, v)
+  B-rep (:mod:`texcad.brep.targets`): each face parameterized on its own (u, v)
   becomes a degree-1 B-spline on that parameter space in its place; faces flattened
   together, and chained textures, have none: ``.shape`` raises ``GeometryError``
   naming the STL / 3MF outputs.
 
 Checks: the B-rep must be one valid solid (``BRepCheck``) per input solid and must
 enclose the mesh's volume within 0.1 % (:data:`VOLUME_TOLERANCE`; they differ only by
-the bilinear-vs-triangle term of :mod:`texcad.solid.brep`); OCCT's boolean occasionally
+the bilinear-vs-triangle term of :mod:`texcad.brep.solids`); OCCT's boolean occasionally
 returns a "valid" solid that lost material, and then ``.shape`` raises
 ``GeometryError`` (the meshes are fine). A lean mesh (``tolerance``) may differ from
 the one-pole-per-pixel B-rep by its tolerance times the area (``info["volume_slack"]``).
@@ -73,9 +73,10 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from ..solid import brep as _brep
-from . import brep_faces as _brep_faces
-from ..solid import as_array, explore, solids_of, to_topods
+from ..brep import solids as _brep
+from ..brep import targets as _brep_faces
+from ..brep import plane_frame
+from ..brep import as_array, explore, solids_of, to_topods
 from ..errors import GeometryError, ParameterError
 from ..sources import Heightmap
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, heightfield_slab, mesh_error
@@ -145,41 +146,6 @@ def _unit(v: np.ndarray) -> np.ndarray:
 # ------------------------------------------------------------------------------------------
 # Planar faces
 # ------------------------------------------------------------------------------------------
-def _plane_frame(face, rotation: float):
-    """``(point, xdir, ydir, normal)`` of a planar face; ``normal`` points out of the
-    body, ``(xdir, ydir, normal)`` is right-handed, ``ydir`` points towards world +z
-    (x along world x on horizontal faces), turned by ``rotation`` degrees about the
-    normal."""
-    from OCP.BRepAdaptor import BRepAdaptor_Surface
-    from OCP.TopAbs import TopAbs_REVERSED
-
-    ad = BRepAdaptor_Surface(face)
-    pln = ad.Plane()
-    p0 = as_array(pln.Location())
-    # The surface's own normal is XDir x YDir: the axis for a right-handed plane
-    # frame, minus the axis for a left-handed one (e.g. the bottom annulus of a
-    # revolved part); the face's orientation flips it once more.
-    pos = pln.Position()
-    n = np.cross(as_array(pos.XDirection()), as_array(pos.YDirection()))
-    n = n / np.linalg.norm(n)
-    if face.Orientation() == TopAbs_REVERSED:
-        n = -n
-    if abs(n[2]) > 0.999:
-        ex = _unit(np.array([1.0, 0.0, 0.0]) - n[0] * n)
-        ey = np.cross(n, ex)
-    else:
-        ey = _unit(np.array([0.0, 0.0, 1.0]) - n[2] * n)
-        ex = np.cross(ey, n)
-    a = np.radians(float(rotation))
-    ex, ey = np.cos(a) * ex + np.sin(a) * ey, -np.sin(a) * ex + np.cos(a) * ey
-    return p0, ex, ey, n
-
-
-def plane_frame(face, rotation: float = 0.0):
-    """Public name of :func:`_plane_frame` for :mod:`texcad.pipeline.faces`."""
-    return _plane_frame(face, rotation)
-
-
 def _local(points: np.ndarray, origin: np.ndarray, axes: np.ndarray) -> np.ndarray:
     return (np.asarray(points, np.float64) - origin) @ axes.T
 
@@ -235,7 +201,7 @@ def _texture_plane(
 
     from ..sources import load_texture
 
-    p0, ex, ey, n = _plane_frame(face, rotation)
+    p0, ex, ey, n = plane_frame(face, rotation)
     axes = np.stack([ex, ey, n])
     report(progress, 0.02, "reading the face outline")
     spacing0 = 0.5 * (min(tex.pitch) if isinstance(tex, Heightmap) else pitch)
@@ -675,8 +641,8 @@ def _check_options(mapping: str, height: float, pitch: float, depth: float, edge
 
 def _base_mesh(topo) -> Mesh:
     """The part's tessellation, welded and checked closed (healed if needed:
-    :func:`texcad.pipeline.faces.part_tessellation`)."""
-    from .faces import part_tessellation
+    :func:`texcad.brep.part_tessellation`)."""
+    from ..brep import part_tessellation
 
     return part_tessellation(topo).mesh
 
@@ -739,7 +705,7 @@ def _texture_general(part, topo, prev, faces, texture, *, progress, **opts):
         info["critical_angle"] = float(opts["critical_angle"])
     limits = _general_limits(res, opts) if opts.get("build_dir") is not None else None
     shape = None
-    if prev is None:  # the B-rep on first use: each face textured on its own (u, v) (texcad.solid.uv_textured_solid)
+    if prev is None:  # the B-rep on first use: each face textured on its own (u, v) (texcad.brep.uv_textured_solid)
         def make(fine=None):  # fine: (x0, x1, y0, y1) mm in a lone planar face's frame (CAD operations)
             return _brep_faces.general_brep(topo, res, info["no_brep"], opts["rotation"], fine=fine)
 

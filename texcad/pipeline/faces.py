@@ -49,7 +49,7 @@ goes the same way:
 
 STEP: a face parameterized on its own ``(u, v)`` (one curved face) gets a B-rep, the
 textured face as a degree-1 B-spline on that parameter space in place of the face
-(:mod:`texcad.pipeline.brep_faces`, :func:`texcad.solid.uv_textured_solid`); faces
+(:mod:`texcad.brep.targets`, :func:`texcad.brep.uv_textured_solid`); faces
 flattened together (bands, LSCM) have none: ``Textured.shape`` raises
 :class:`~texcad.errors.GeometryError` that says so and names the STL / 3MF outputs.
 """
@@ -65,11 +65,13 @@ import numpy as np
 
 from ..errors import GeometryError, ParameterError, TexcadWarning
 from ..sources import Heightmap
-from ..solid import Mesh, as_array, edge_report, explore, from_manifold, to_manifold
+from ..solid import Mesh, edge_report, from_manifold, to_manifold
+from ..brep import as_array
 from ..util import Progress, report, smoothstep
+from ..brep.tessellation import TESSELLATION, FaceMesh, PartMesh, part_tessellation
 from .mesh import _gradient
 
-__all__ = ["texture_any_faces", "face_list", "part_tessellation", "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED"]
+__all__ = ["texture_any_faces", "face_list", "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED"]
 
 #: Local texture scale (either direction, or its inverse) down to which the full height is kept.
 FADE_FULL = 0.55
@@ -80,116 +82,6 @@ FLOOR_CURVED = 0.01
 #: Tangent edges: faces whose normals differ by less than this across their common
 #: edge (degrees) are one patch.
 SMOOTH_ANGLE = 12.0
-#: mm: chord error of the part's tessellation.
-TESSELLATION = 0.01
-
-
-@dataclass
-class FaceMesh:
-    """One B-rep face's triangles: ``points`` (N, 3) mm, ``tris`` (M, 3) outward,
-    ``uv`` (N, 2) the face's own parameters, ``kind`` (``"plane"``, ``"cone"``...)."""
-
-    face: Any
-    points: np.ndarray
-    tris: np.ndarray
-    uv: np.ndarray
-    kind: str
-
-
-@dataclass
-class PartMesh:
-    """The part's tessellation: per-face meshes and the welded whole."""
-
-    faces: list
-    mesh: Mesh
-    face_of_tri: np.ndarray
-
-
-# ------------------------------------------------------------------------------------------
-# Tessellation
-# ------------------------------------------------------------------------------------------
-def _face_kind(face) -> str:
-    from OCP.BRepAdaptor import BRepAdaptor_Surface
-
-    return BRepAdaptor_Surface(face).GetType().name.removeprefix("GeomAbs_").lower()
-
-
-def _face_triangles(face) -> "FaceMesh | None":
-    from OCP.BRep import BRep_Tool
-    from OCP.TopAbs import TopAbs_REVERSED
-    from OCP.TopLoc import TopLoc_Location
-
-    loc = TopLoc_Location()
-    poly = BRep_Tool.Triangulation_s(face, loc)
-    if poly is None:
-        return None
-    trsf = loc.Transformation()
-    nn, nt = poly.NbNodes(), poly.NbTriangles()
-    pts = np.empty((nn, 3))
-    uv = np.zeros((nn, 2))
-    has_uv = poly.HasUVNodes()
-    for i in range(nn):  # OCP exposes nodes one by one (per node of the coarse mesh)
-        p = poly.Node(i + 1).Transformed(trsf)
-        pts[i] = (p.X(), p.Y(), p.Z())
-        if has_uv:
-            q = poly.UVNode(i + 1)
-            uv[i] = (q.X(), q.Y())
-    tri = np.array([poly.Triangle(i + 1).Get() for i in range(nt)], dtype=np.int64).reshape(-1, 3) - 1
-    if face.Orientation() == TopAbs_REVERSED:
-        tri = tri[:, ::-1]
-    return FaceMesh(face, pts, tri, uv, _face_kind(face))
-
-
-def part_tessellation(topo, tolerance: float = TESSELLATION) -> PartMesh:
-    """Tessellate ``topo`` (OCCT, ``tolerance`` mm chord error) into per-face meshes
-    and one welded mesh; checked closed (manifold3d) and healed if needed (finer
-    tessellation, then a wider weld).
-
-    Raises:
-        GeometryError: no watertight tessellation could be made.
-    """
-    from OCP.BRepMesh import BRepMesh_IncrementalMesh
-    from OCP.TopAbs import TopAbs_FACE
-    from OCP.TopoDS import TopoDS
-
-    last = None
-    for tol, weld in ((tolerance, 1e-5), (tolerance / 3, 1e-5), (tolerance / 3, 1e-3)):  # healing attempts
-        BRepMesh_IncrementalMesh(topo, tol, False, 0.1, True)
-        fms = [_face_triangles(TopoDS.Face_s(f)) for f in explore(topo, TopAbs_FACE)]
-        pm = _weld(fms, weld)
-        try:
-            to_manifold(pm.mesh)
-            return pm
-        except GeometryError as e:
-            last = e
-    raise GeometryError(
-        f"OCCT's tessellation of the part is not a closed solid even after healing ({last}); "
-        "check the part with a CAD tool (is it one closed solid?) or fix its faces"
-    )
-
-
-def _weld(fms: list, weld: float) -> PartMesh:
-    verts, tris, fid, offs = [], [], [], []
-    off = 0
-    for k, fm in enumerate(fms):  # per B-rep face
-        offs.append(off)
-        if fm is None:
-            continue
-        verts.append(fm.points)
-        tris.append(fm.tris + off)
-        fid.append(np.full(len(fm.tris), k))
-        off += len(fm.points)
-    if not tris:
-        raise GeometryError("the part has no faces to tessellate")
-    v = np.concatenate(verts)
-    f = np.concatenate(tris)
-    _, first, inv = np.unique(np.round(v / weld).astype(np.int64), axis=0, return_index=True, return_inverse=True)
-    inv = inv.ravel()
-    f = inv[f]
-    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
-    return PartMesh(fms, Mesh(v[first].astype(np.float32), f[keep].astype(np.uint32)), np.concatenate(fid)[keep])
-
-
 # ------------------------------------------------------------------------------------------
 # Faces: selection and patches
 # ------------------------------------------------------------------------------------------
@@ -244,7 +136,7 @@ def _patches(pm: PartMesh, idx: list[int]) -> list[list[int]]:
 # Parameterization of a patch
 # ------------------------------------------------------------------------------------------
 def _plane_xy(fm: FaceMesh, rotation: float) -> np.ndarray:
-    from .cad import plane_frame
+    from ..brep import plane_frame
 
     p0, ex, ey, n = plane_frame(fm.face, rotation)
     q = fm.points - p0
@@ -776,7 +668,7 @@ def _slab(top: np.ndarray, bottom: np.ndarray, top_tri: np.ndarray, bottom_tri: 
 def _face_indices(pm: PartMesh, topo, faces: list) -> list[int]:
     from OCP.TopAbs import TopAbs_FACE
 
-    from ..solid import to_topods
+    from ..brep import to_topods
 
     out = []
     for face in faces:  # per selected face
@@ -855,7 +747,7 @@ def texture_any_faces(topo, faces: list, tex: Any, *, base_mesh: Mesh | None = N
     import manifold3d as m3d
 
     from ..mapping import Distortion
-    from ..solid import solids_of
+    from ..brep import solids_of
 
     report(progress, 0.02, "tessellating the part (OCCT)")
     pm = part_tessellation(topo)
@@ -924,7 +816,7 @@ def texture_any_faces(topo, faces: list, tex: Any, *, base_mesh: Mesh | None = N
         "solids": len(solids_of(topo)),
         "max_error": max(r["max_error"] for r in reliefs),
         "textured_area": float(sum(r["cells"].sum() * np.prod(r["heightmap"].pitch) for r in reliefs)),
-        "reliefs": reliefs,  # for the B-rep (texcad.pipeline.cad: texcad.solid.uv_textured_solid)
+        "reliefs": reliefs,  # for the B-rep (texcad.pipeline.cad: texcad.brep.uv_textured_solid)
     }
 
 

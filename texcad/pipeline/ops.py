@@ -6,8 +6,8 @@
   fused mesh, and OCCT's boolean of the textured B-rep. OCCT's boolean misses the
   intersection of a tool with a degree-1 B-spline face of many cells (it then returns
   a "valid" solid that kept the material, or two solids for a union), so the B-rep is
-  rebuilt for the operation with tiles of at most :data:`texcad.solid.FINE` x
-  :data:`~texcad.solid.FINE` cells where the tool's bounding box meets the texture
+  rebuilt for the operation with tiles of at most :data:`texcad.brep.FINE` x
+  :data:`~texcad.brep.FINE` cells where the tool's bounding box meets the texture
   (planar faces; measured: 20 of 20 random cuts and bosses right, against 17 of 20
   with 4- to 24-cell tiles; on open profiles such as the sine sample, where the
   grid's poles lie in the tool's bounding box), and the operations made so far are
@@ -24,9 +24,9 @@
 
 Every B-rep result must be valid (``BRepCheck_Analyzer``), have as many solids as the
 mesh and enclose the mesh's volume within :data:`OP_VOLUME_TOLERANCE`, integrated by
-:func:`texcad.solid.volume` (exact on the untrimmed tiles, OCCT's Gauss integration on
+:func:`texcad.brep.volume` (exact on the untrimmed tiles, OCCT's Gauss integration on
 the few fine tiles a tool trimmed: 2e-5 from the mesh for a hole in the demo plate;
-OCCT's adaptive :func:`texcad.solid.occt_volume` at 1e-4 agrees as closely but takes
+OCCT's adaptive :func:`texcad.brep.occt_volume` at 1e-4 agrees as closely but takes
 seconds per hundred tiles); otherwise :class:`texcad.GeometryError` is raised instead
 of giving a silently wrong part.
 """
@@ -38,18 +38,8 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..errors import GeometryError, ParameterError
-from ..solid import (
-    FINE,
-    occt_boolean,
-    Mesh,
-    check_shape,
-    from_manifold,
-    shape_to_mesh,
-    to_manifold,
-    to_topods,
-    transformed_shape,
-    volume,
-)
+from ..solid import Mesh, from_manifold, to_manifold
+from ..brep import FINE, occt_boolean, check_shape, shape_to_mesh, to_topods, transformed_shape, volume
 
 __all__ = ["cad_op", "fillet", "mirror", "pattern", "OPS", "OP_VOLUME_TOLERANCE"]
 
@@ -172,7 +162,7 @@ FINE_TRIES = (FINE, 3, 1)
 
 def _replay(hist: dict, cells: int | None = None):
     """The B-rep of a history, in its frame: the textured part (with fine tiles of
-    ``cells`` cells a side, default :data:`texcad.solid.FINE`, under every tool) and
+    ``cells`` cells a side, default :data:`texcad.brep.FINE`, under every tool) and
     the operations, in order."""
     if hist.get("no_brep"):
         raise GeometryError(
@@ -455,7 +445,7 @@ def pattern(part: Any, locations: Any) -> Any:
     with one body per copy and body of ``part``.
 
     The mesh holds the moved copies side by side; the B-rep (on first use) is a
-    compound of the copies (:func:`texcad.solid.transformed_shape`: geometry and the
+    compound of the copies (:func:`texcad.brep.transformed_shape`: geometry and the
     tiles' meshes copied), checked like every operation (valid, one solid per body,
     volume within :data:`OP_VOLUME_TOLERANCE` of the mesh's).
 

@@ -15,7 +15,8 @@ from ..errors import GeometryError, ParameterError
 from ..sources import Heightmap
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, heightfield_slab, mesh_error
 from ..util import Progress, fitting_pitch, report, require_memory, texture_bytes
-from ..solid import fuse, shape_to_mesh
+from ..solid import fuse
+from ..brep import shape_to_mesh
 from ..solid.boolean import fuse_on_plane
 from ..solid.mesh import heightfield_volume
 from ..sources import load_texture

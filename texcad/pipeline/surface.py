@@ -10,7 +10,8 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..mapping import Surface, fit_texture, lean_slab_mesh, map_texture
-from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, from_manifold, shape_to_mesh, to_manifold
+from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, from_manifold, to_manifold
+from ..brep import shape_to_mesh
 from ..sources import Heightmap
 from ..util import Progress, fitting_pitch, report, require_memory, subrange, texture_bytes
 from .result import Textured

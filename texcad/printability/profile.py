@@ -49,7 +49,7 @@ from ..mapping import Profile
 __all__ = ["limit_on_profile", "measured"]
 
 #: mm: ramped borders end this far below the surface (2x the base's tessellation
-#: tolerance in :func:`texcad.solid.shape_to_mesh`), so that their walls lie inside it.
+#: tolerance in :func:`texcad.brep.shape_to_mesh`), so that their walls lie inside it.
 SINK = 0.02
 #: Passes over the three copies of a closed texture before giving up (each pass only lowers).
 _MAX_PASSES = 12

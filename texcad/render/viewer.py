@@ -8,7 +8,8 @@ from typing import Any, Sequence
 
 from ..errors import ResourceError
 from ..io import load_mesh
-from ..solid import Mesh, mesh_face, shape_to_mesh
+from ..solid import Mesh
+from ..brep import mesh_face, shape_to_mesh
 from .raster import render_mesh, write_png
 
 __all__ = ["render_part", "show", "display_shape"]
@@ -57,7 +58,7 @@ def render_part(
 def display_shape(obj: Any):
     """What :func:`show` sends to a viewer: for a :class:`texcad.Textured`, texcad's
     fused mesh as a triangulation-only ``TopoDS_Face`` (see
-    :func:`texcad.solid.mesh_face`; OCCT-based viewers would otherwise tessellate
+    :func:`texcad.brep.mesh_face`; OCCT-based viewers would otherwise tessellate
     the large B-spline faces themselves, which takes minutes); a Mesh the same way;
     any other object as it is. Also the object to hand to CQ-editor's ``show_object``."""
     if isinstance(obj, Mesh):

@@ -1,48 +1,13 @@
-"""Stage 5, solids: meshes, watertight slabs, the manifold3d union, OCCT shapes and the
-B-rep (the texture as B-spline faces sewn into the body).
+"""Stage 5, solids as meshes: watertight slabs, lean triangulations, the manifold3d union,
+repair. numpy, scipy and manifold3d only; everything OCCT is in :mod:`texcad.brep`.
 """
 
 
 from .boolean import (
-    shape_to_mesh,
     to_manifold,
     from_manifold,
     fuse,
     retain_freed_memory,
-)
-from .brep_faces import (
-    uv_textured_solid,
-    open_extrusion_solid,
-)
-from .brep import (
-    grid_surface,
-    grid_face,
-    grid_brep,
-    textured_plane_face,
-    replace_face,
-    tiled_grid_faces,
-    tile_grid,
-    transformed_shape,
-    tiled_plane_solid,
-    textured_plane_solid,
-    textured_band_solid,
-    textured_extrusion_solid,
-    TILE,
-    FINE,
-    occt_volume,
-    OCCT_EPS,
-    occt_boolean,
-    fuse_solids,
-    check_shape,
-    volume,
-    surface_grid,
-    grid_flux,
-    shape_mesh,
-    mesh_face,
-    edge_points,
-    face_segments,
-    inside,
-    sample_segments,
 )
 from .lean import (
     DEFAULT_TOLERANCE,
@@ -74,14 +39,6 @@ from .rtin import (
     grid_error,
     lean_grid,
 )
-from .occt import (
-    to_topods,
-    explore,
-    solids_of,
-    faces_of,
-    as_array,
-    compound,
-)
 from .intersect import box_cells, self_intersections
 from .repair import repair_closed
 from .subdivide import (
@@ -95,41 +52,11 @@ from .subdivide import (
 )
 
 __all__ = [
-    'shape_to_mesh',
     'to_manifold',
     'from_manifold',
     'fuse',
     'retain_freed_memory',
-    'grid_surface',
-    'grid_face',
-    'grid_brep',
-    'textured_plane_face',
-    'replace_face',
-    'tiled_grid_faces',
-    'tile_grid',
-    'uv_textured_solid',
-    'open_extrusion_solid',
-    'transformed_shape',
-    'tiled_plane_solid',
-    'textured_plane_solid',
-    'textured_band_solid',
-    'textured_extrusion_solid',
     'TILE',
-    'FINE',
-    'occt_volume',
-    'OCCT_EPS',
-    'occt_boolean',
-    'fuse_solids',
-    'check_shape',
-    'volume',
-    'surface_grid',
-    'grid_flux',
-    'shape_mesh',
-    'mesh_face',
-    'edge_points',
-    'face_segments',
-    'inside',
-    'sample_segments',
     'DEFAULT_TOLERANCE',
     'MAX_FRACTION',
     'check_tolerance',
@@ -154,12 +81,6 @@ __all__ = [
     'rtin_triangles',
     'grid_error',
     'lean_grid',
-    'to_topods',
-    'explore',
-    'solids_of',
-    'faces_of',
-    'as_array',
-    'compound',
     'self_intersections',
     'repair_closed',
     'box_cells',

@@ -22,7 +22,6 @@ from ..errors import GeometryError, ParameterError
 from .mesh import Mesh, _edge_keys, closed_and_oriented
 
 __all__ = [
-    "shape_to_mesh",
     "to_manifold",
     "from_manifold",
     "fuse",
@@ -33,77 +32,8 @@ __all__ = [
 ]
 
 
-def shape_to_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: float = 0.1) -> Mesh:
-    """Tessellate a build123d/CadQuery/OCP shape into a closed :class:`Mesh`.
-
-    Args:
-        shape: build123d ``Shape``, CadQuery ``Workplane``/``Shape`` or ``TopoDS_Shape``.
-        tolerance: linear deflection in mm (max distance of the triangles from the
-            true surface).
-        angular_tolerance: angular deflection in radians.
-
-    Raises:
-        ParameterError: the object is not a shape.
-        GeometryError: the shape has no faces or does not tessellate.
-    """
-    from OCP.BRep import BRep_Tool
-    from OCP.BRepMesh import BRepMesh_IncrementalMesh
-    from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
-    from OCP.TopExp import TopExp_Explorer
-    from OCP.TopLoc import TopLoc_Location
-    from OCP.TopoDS import TopoDS
-
-    from .occt import to_topods
-
-    try:
-        topo = to_topods(shape)
-    except ParameterError:
-        raise ParameterError(
-            f"cannot use a {type(shape).__name__} as a base body; pass a build123d Part/Solid, "
-            "a CadQuery Workplane/Shape, a texcad Mesh or a manifold3d Manifold"
-        ) from None
-    BRepMesh_IncrementalMesh(topo, tolerance, False, angular_tolerance, True)
-    verts: list[np.ndarray] = []
-    tris: list[np.ndarray] = []
-    offset = 0
-    exp = TopExp_Explorer(topo, TopAbs_FACE)
-    while exp.More():  # one iteration per B-rep face, not per vertex
-        face = TopoDS.Face_s(exp.Current())
-        loc = TopLoc_Location()
-        poly = BRep_Tool.Triangulation_s(face, loc)
-        exp.Next()
-        if poly is None:
-            continue
-        trsf = loc.Transformation()
-        nn, nt = poly.NbNodes(), poly.NbTriangles()
-        pts = np.empty((nn, 3), dtype=np.float64)
-        for i in range(nn):  # OCP exposes nodes one by one; base bodies are small
-            p = poly.Node(i + 1).Transformed(trsf)
-            pts[i] = (p.X(), p.Y(), p.Z())
-        tri = np.empty((nt, 3), dtype=np.int64)
-        for i in range(nt):
-            tri[i] = poly.Triangle(i + 1).Get()
-        tri -= 1
-        if face.Orientation() == TopAbs_REVERSED:
-            tri = tri[:, ::-1]
-        verts.append(pts)
-        tris.append(tri + offset)
-        offset += nn
-    if not tris:
-        raise GeometryError("the base shape has no faces to tessellate; is it an empty or 2-D shape?")
-    v = np.concatenate(verts)
-    f = np.concatenate(tris)
-    # Faces are tessellated separately: weld the copies of shared edge vertices.
-    _, inv = np.unique(np.round(v / (tolerance * 1e-3)).astype(np.int64), axis=0, return_inverse=True)
-    first = np.full(inv.max() + 1, -1, dtype=np.int64)
-    first[inv[::-1]] = np.arange(len(v))[::-1]
-    f = inv.ravel()[f]
-    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
-    return Mesh(v[first], f[keep])
-
-
 def to_manifold(obj: Any):
-    """A ``manifold3d.Manifold`` from a Mesh, a CAD shape or a Manifold.
+    """A ``manifold3d.Manifold`` from a :class:`Mesh` or a Manifold.
 
     Raises:
         GeometryError: the mesh is not an oriented, closed 2-manifold.
@@ -112,7 +42,12 @@ def to_manifold(obj: Any):
 
     if isinstance(obj, m3d.Manifold):
         return obj
-    mesh = obj if isinstance(obj, Mesh) else shape_to_mesh(obj)
+    if not isinstance(obj, Mesh):
+        raise ParameterError(
+            f"cannot make a manifold3d solid of a {type(obj).__name__}; pass a texcad Mesh "
+            "(a CAD shape: tessellate it first with texcad.brep.shape_to_mesh(shape))"
+        )
+    mesh = obj
     man = m3d.Manifold(m3d.Mesh(vert_properties=mesh.vertices, tri_verts=mesh.faces))
     status = man.status()
     if status != m3d.Error.NoError:

@@ -61,7 +61,7 @@ from ..errors import GeometryError, ParameterError
 from .occt import as_array, explore, solids_of, to_topods
 
 if TYPE_CHECKING:
-    from .mesh import Mesh
+    from ..solid.mesh import Mesh
 
 __all__ = [
     "grid_surface",
@@ -843,8 +843,8 @@ def shape_mesh(shape: Any, *, tolerance: float = 0.05) -> "Mesh":
     from OCP.TopAbs import TopAbs_FACE
     from OCP.TopoDS import TopoDS, TopoDS_Compound
 
-    from .mesh import Mesh, grid_faces
-    from .boolean import shape_to_mesh
+    from ..solid.mesh import Mesh, grid_faces
+    from .tessellation import shape_to_mesh
 
     topo = to_topods(shape)
     rest = TopoDS_Compound()
@@ -1011,7 +1011,7 @@ def _tile_text(grids: list, us: list, vs: list, triangulate: bool) -> str:
     """OCCT ``.brep`` text of a compound of natural-bounds faces, one per degree-1 grid
     (with its triangulation: the grid's two triangles per cell, UV = the knots), one
     formatting call per array."""
-    from .mesh import grid_faces
+    from ..solid.mesh import grid_faces
 
     n = len(grids)
     surfs, tris, shapes = [], [], []
@@ -1486,7 +1486,7 @@ def textured_plane_solid(
     else as one B-spline face trimmed by the face's own wires
     (:func:`textured_plane_face` + :func:`replace_face`: the same solid, slower for
     OCCT's mesher and booleans)."""
-    from .brep_faces import holed_plane_solid
+    from .uvfaces import holed_plane_solid
 
     frame = dict(origin=origin, xdir=xdir, normal=normal)
     out = tiled_plane_solid(shape, face, heights, x, y, tile=tile, fine=fine, **frame)

@@ -1,7 +1,7 @@
 """The B-rep of faces textured by the general method (:mod:`texcad.pipeline.faces`):
 each textured face that was parameterized on its own ``(u, v)`` becomes a degree-1
 B-spline on that parameter space in place of the face
-(:func:`texcad.solid.uv_textured_solid`); other patches (several faces flattened
+(:func:`texcad.brep.uv_textured_solid`); other patches (several faces flattened
 together) raise the clear error that names the mesh outputs."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..errors import GeometryError
-from ..solid import uv_textured_solid
+from .uvfaces import uv_textured_solid
 
 __all__ = ["general_brep"]
 
@@ -19,9 +19,9 @@ def general_brep(topo: Any, res: dict, no_brep: str, rotation: float = 0.0, fine
     ``res`` on the part ``topo`` (mm; ``rotation``: the texture's turn on planar
     faces, degrees; ``fine``: rectangles ``(x0, x1, y0, y1)`` mm in a planar face's
     frame where its tiles are small, for a CAD operation's tool). Curved faces:
-    :func:`texcad.solid.uv_textured_solid`; planar faces (engraved, centred, with a
+    :func:`texcad.brep.uv_textured_solid`; planar faces (engraved, centred, with a
     gradient): tiles in the face's frame
-    (:func:`texcad.solid.brep_faces.holed_plane_solid`).
+    (:func:`texcad.brep.uvfaces.holed_plane_solid`).
 
     Raises:
         GeometryError: a patch has no B-rep this way (the message ``no_brep`` says
@@ -53,8 +53,8 @@ def _plane_brep(shape: Any, r: dict, rotation: float, fine=None):
     outline (the mesh's 20 um floor there is not carried over)."""
     import numpy as np
 
-    from ..solid.brep_faces import holed_plane_solid
-    from .cad import plane_frame
+    from .uvfaces import holed_plane_solid
+    from .frames import plane_frame
 
     p0, ex, _, n = plane_frame(r["face"], rotation)
     g, cells = r["grid"], r["cells"]
@@ -71,12 +71,13 @@ def _plane_brep(shape: Any, r: dict, rotation: float, fine=None):
 
 def extrusion_brep(topo: Any, face: Any, top, bottom, *, closed: bool, base=None, fine=None):
     """The textured B-rep of a face of an extruded profile (grids in world mm, as
-    :func:`texcad.solid.textured_extrusion_solid`; ``base`` ``(C, 3)``: the face
+    :func:`texcad.brep.textured_extrusion_solid`; ``base`` ``(C, 3)``: the face
     under the grid's first row): an open profile's face is replaced in place by tiles
-    (:func:`texcad.solid.open_extrusion_solid`, no boolean; ``fine``: boxes ``(lo,
+    (:func:`texcad.brep.open_extrusion_solid`, no boolean; ``fine``: boxes ``(lo,
     hi)`` mm where the tiles are small, for a CAD operation's tool); closed bands and
-    anything else go to :func:`texcad.solid.textured_extrusion_solid`."""
-    from ..solid import open_extrusion_solid, textured_extrusion_solid
+    anything else go to :func:`texcad.brep.textured_extrusion_solid`."""
+    from .uvfaces import open_extrusion_solid
+    from .solids import textured_extrusion_solid
 
     if not closed:
         out = open_extrusion_solid(topo, face, top, base, fine=fine)

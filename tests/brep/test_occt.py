@@ -1,4 +1,4 @@
-"""texcad.solid.occt: the one adapter from build123d, CadQuery and OCP objects to OCCT
+"""texcad.brep.occt: the one adapter from build123d, CadQuery and OCP objects to OCCT
 shapes, used by every stage (meshing, B-rep, faces, profiles)."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import pytest
 from build123d import Box, BuildPart, Pos
 
 from texcad import ParameterError
-from texcad.solid import faces_of, shape_to_mesh, solids_of, to_topods
+from texcad.brep import faces_of, shape_to_mesh, solids_of, to_topods
 
 
 def test_every_wrapper_gives_the_same_shape():

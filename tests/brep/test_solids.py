@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from texcad.solid import brep
+from texcad.brep import solids as brep
 import texcad.io
 from texcad.errors import InputError, ParameterError
 from texcad.solid import grid_solid as mesh_grid_solid
@@ -41,7 +41,7 @@ def test_grid_solid_matches_mesh_volume_exactly():
     assert chk == {"valid": True, "solids": 1, "faces": 6, "closed": True}
     mesh = mesh_grid_solid(top.astype(np.float32), bottom.astype(np.float32))
     # Same corner heights: the bilinear and the triangle volume are identical (the
-    # difference telescopes to the corners, see texcad.solid.brep).
+    # difference telescopes to the corners, see texcad.brep.solids).
     assert brep.volume(solid) == pytest.approx(mesh.volume, rel=1e-6)
     assert brep.occt_volume(solid) == pytest.approx(mesh.volume, rel=1e-4)  # OCCT's own integrator
     # ... and a ruled (2-row) bottom gives the same solid.
@@ -68,8 +68,9 @@ def test_closed_band_slab_and_fuse_with_cylinder():
     # Volume of the union: cylinder + slab - the part of the slab inside (r 9.5..10).
     inside = np.pi * (10**2 - 9.5**2) * 16
     assert brep.volume(fused) == pytest.approx(cyl.volume + brep.volume(slab) - inside, rel=1e-3)
-    # OCCT's integrator against manifold3d's union of the meshes: independent of texcad.solid.volume
-    from texcad.solid import fuse, shape_to_mesh
+    # OCCT's integrator against manifold3d's union of the meshes: independent of texcad.brep.volume
+    from texcad.solid import fuse
+    from texcad.brep import shape_to_mesh
 
     assert brep.occt_volume(fused) == pytest.approx(fuse(shape_to_mesh(cyl, tolerance=0.002), ring).volume, rel=3e-3)
 
@@ -149,7 +150,7 @@ def test_tiles_share_edges_and_refine_locally():
     x, y = g[0, :, 0], g[:, 0, 1]
     faces, boundary = brep.tiled_grid_faces(g, x, y, tile=16, fine=[(10, 20, 10, 30)])
     assert len(faces) > 4 * 4  # 3 x 4 coarse tiles, some split into 2 x 2-cell tiles
-    shell = texcad.solid.compound(faces)
+    shell = texcad.brep.compound(faces)
     # Every inner edge is shared by exactly two tiles (no T-junctions), the border by one.
     emap = TopTools_IndexedDataMapOfShapeListOfShape()
     TopExp.MapShapesAndAncestors_s(shell, TopAbs_EDGE, TopAbs_FACE, emap)
@@ -181,6 +182,6 @@ def test_cylinder_band_without_boolean(boss):
     assert not called  # no OCCT boolean
     chk = brep.check_shape(shape)
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
-    assert chk["faces"] > len(texcad.solid.faces_of(body)) + 4  # tiles and two rings
+    assert chk["faces"] > len(texcad.brep.faces_of(body)) + 4  # tiles and two rings
     assert brep.volume(shape) == pytest.approx(tx.volume, rel=1e-4)
     assert brep.occt_volume(shape) == pytest.approx(tx.volume, rel=1e-3)

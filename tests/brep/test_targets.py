@@ -1,5 +1,5 @@
-"""The B-rep of faces textured by the general method (texcad.pipeline.brep_faces,
-texcad.solid.uv_textured_solid): each face kind's STEP re-read is one valid solid
+"""The B-rep of faces textured by the general method (texcad.brep.targets,
+texcad.brep.uv_textured_solid): each face kind's STEP re-read is one valid solid
 whose OCCT volume (BRepGProp, eps 1e-4) is within 0.1 % of texcad's mesh, and whose
 shown mesh (BRepMesh_IncrementalMesh at 0.1 mm, what CAD viewers run) lies within
 the deflection of texcad's mesh both ways."""
@@ -11,7 +11,7 @@ import pytest
 
 import texcad
 from texcad.errors import GeometryError, TexcadWarning
-from texcad.solid import check_shape, occt_volume, shape_to_mesh
+from texcad.brep import check_shape, occt_volume, shape_to_mesh
 
 DEFLECTION = 0.1  # mm
 
@@ -139,7 +139,7 @@ def _poles(shape):
     from OCP.TopAbs import TopAbs_FACE
     from OCP.TopoDS import TopoDS
 
-    from texcad.solid import explore
+    from texcad.brep import explore
 
     faces = explore(shape, TopAbs_FACE)
     most = 0

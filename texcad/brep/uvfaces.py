@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import GeometryError
-from .brep import TILE, TOLERANCE, _remember_tile, _replace_faces, _tile_text, tiled_grid_faces
+from .solids import TILE, TOLERANCE, _remember_tile, _replace_faces, _tile_text, tiled_grid_faces
 from .occt import explore, to_topods
 
 __all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid"]
@@ -195,7 +195,7 @@ def _new_face(face, u, v, top):
     from OCP.BRep import BRep_Builder, BRep_Tool
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_FORWARD, TopAbs_REVERSED, TopAbs_VERTEX
     from OCP.TopLoc import TopLoc_Location
-    from OCP.TopoDS import TopoDS, TopoDS_Edge, TopoDS_Face, TopoDS_Iterator, TopoDS_Wire
+    from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Iterator, TopoDS_Wire
 
     fwd = TopoDS.Face_s(face.Oriented(TopAbs_FORWARD))
     surf, tri = _grid_face(u, v, top)
@@ -321,7 +321,7 @@ def open_extrusion_solid(shape: Any, face: Any, top: np.ndarray, base: np.ndarra
     from OCP.BRepAdaptor import BRepAdaptor_Surface
     from OCP.BRepTools import BRepTools
     from OCP.gp import gp_Pnt, gp_Vec
-    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopAbs import TopAbs_FORWARD
     from OCP.TopoDS import TopoDS
 
     old = TopoDS.Face_s(to_topods(face))
@@ -648,7 +648,7 @@ def _dirty_cells(old, o, ex, ey, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarr
     centre lies outside the face; ``segs`` the outline in the face frame (mm)."""
     from scipy.ndimage import binary_dilation
 
-    from .brep import face_segments, inside, sample_segments
+    from .solids import face_segments, inside, sample_segments
 
     step = 0.25 * float(min(x[1] - x[0], y[1] - y[0]))
     seg3 = face_segments(old, step) - o
@@ -668,7 +668,7 @@ def _quad_leaves(want: np.ndarray, dirty: np.ndarray, tile: int, fine) -> list |
     """Rectangles of cells ``(r0, r1, c0, c1)`` covering every ``want`` cell with
     clean cells only: :func:`~texcad.solid.brep._leaves` tiles, halved until clean
     (down to single cells); None if a wanted cell is dirty."""
-    from .brep import _leaves
+    from .solids import _leaves
 
     if (want & dirty).any():
         return None
@@ -772,7 +772,7 @@ def _wire_segments(w, o, ex, ey, spacing: float) -> np.ndarray:
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_REVERSED
     from OCP.TopoDS import TopoDS
 
-    from .brep import edge_points
+    from .solids import edge_points
 
     segs = []
     for e in explore(w, TopAbs_EDGE):  # one per edge of the wire (its orientation composed in)
@@ -798,7 +798,7 @@ def _plane_regions(items: list) -> list | None:
     oriented with its region on the left) into faces: each counter-clockwise loop
     with the clockwise loops it is the smallest to contain. None if a hole has no
     loop around it."""
-    from .brep import inside
+    from .solids import inside
 
     outers = [i for i in items if i["area"] > 0]
     faces = [[o] for o in outers]
@@ -825,7 +825,7 @@ def _plane_face(b, surf, pln, loops: list):
     from OCP.TopAbs import TopAbs_EDGE
     from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Wire
 
-    from .brep import TOLERANCE
+    from .solids import TOLERANCE
 
     f = TopoDS_Face()
     b.MakeFace(f, surf, TOLERANCE)
@@ -873,7 +873,7 @@ def holed_plane_solid(shape: Any, face: Any, heights: np.ndarray, x: np.ndarray,
     from OCP.Geom import Geom_Plane
     from OCP.TopoDS import TopoDS, TopoDS_Iterator
 
-    from .brep import _frame_pln
+    from .solids import _frame_pln
 
     old = TopoDS.Face_s(to_topods(face))
     o, ex, n = (np.asarray(a, np.float64) for a in (origin, xdir, normal))

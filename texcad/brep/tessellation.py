@@ -1,0 +1,198 @@
+"""OCCT tessellation: a CAD shape as a texcad :class:`~texcad.solid.Mesh`, and a part
+as per-face meshes (with each face's own ``(u, v)``) plus the welded whole, checked
+closed. Chord errors in mm, angles in radians (OCCT's convention).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import GeometryError, ParameterError
+from ..solid import Mesh, to_manifold
+from .occt import explore
+
+__all__ = ["shape_to_mesh", "part_tessellation", "FaceMesh", "PartMesh", "TESSELLATION"]
+
+
+def shape_to_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: float = 0.1) -> Mesh:
+    """Tessellate a build123d/CadQuery/OCP shape into a closed :class:`Mesh`.
+
+    Args:
+        shape: build123d ``Shape``, CadQuery ``Workplane``/``Shape`` or ``TopoDS_Shape``.
+        tolerance: linear deflection in mm (max distance of the triangles from the
+            true surface).
+        angular_tolerance: angular deflection in radians.
+
+    Raises:
+        ParameterError: the object is not a shape.
+        GeometryError: the shape has no faces or does not tessellate.
+    """
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS
+
+    from .occt import to_topods
+
+    try:
+        topo = to_topods(shape)
+    except ParameterError:
+        raise ParameterError(
+            f"cannot use a {type(shape).__name__} as a base body; pass a build123d Part/Solid, "
+            "a CadQuery Workplane/Shape, a texcad Mesh or a manifold3d Manifold"
+        ) from None
+    BRepMesh_IncrementalMesh(topo, tolerance, False, angular_tolerance, True)
+    verts: list[np.ndarray] = []
+    tris: list[np.ndarray] = []
+    offset = 0
+    exp = TopExp_Explorer(topo, TopAbs_FACE)
+    while exp.More():  # one iteration per B-rep face, not per vertex
+        face = TopoDS.Face_s(exp.Current())
+        loc = TopLoc_Location()
+        poly = BRep_Tool.Triangulation_s(face, loc)
+        exp.Next()
+        if poly is None:
+            continue
+        trsf = loc.Transformation()
+        nn, nt = poly.NbNodes(), poly.NbTriangles()
+        pts = np.empty((nn, 3), dtype=np.float64)
+        for i in range(nn):  # OCP exposes nodes one by one; base bodies are small
+            p = poly.Node(i + 1).Transformed(trsf)
+            pts[i] = (p.X(), p.Y(), p.Z())
+        tri = np.empty((nt, 3), dtype=np.int64)
+        for i in range(nt):
+            tri[i] = poly.Triangle(i + 1).Get()
+        tri -= 1
+        if face.Orientation() == TopAbs_REVERSED:
+            tri = tri[:, ::-1]
+        verts.append(pts)
+        tris.append(tri + offset)
+        offset += nn
+    if not tris:
+        raise GeometryError("the base shape has no faces to tessellate; is it an empty or 2-D shape?")
+    v = np.concatenate(verts)
+    f = np.concatenate(tris)
+    # Faces are tessellated separately: weld the copies of shared edge vertices.
+    _, inv = np.unique(np.round(v / (tolerance * 1e-3)).astype(np.int64), axis=0, return_inverse=True)
+    first = np.full(inv.max() + 1, -1, dtype=np.int64)
+    first[inv[::-1]] = np.arange(len(v))[::-1]
+    f = inv.ravel()[f]
+    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+    return Mesh(v[first], f[keep])
+
+
+#: mm: chord error of the part's tessellation.
+TESSELLATION = 0.01
+
+
+@dataclass
+class FaceMesh:
+    """One B-rep face's triangles: ``points`` (N, 3) mm, ``tris`` (M, 3) outward,
+    ``uv`` (N, 2) the face's own parameters, ``kind`` (``"plane"``, ``"cone"``...)."""
+
+    face: Any
+    points: np.ndarray
+    tris: np.ndarray
+    uv: np.ndarray
+    kind: str
+
+
+@dataclass
+class PartMesh:
+    """The part's tessellation: per-face meshes and the welded whole."""
+
+    faces: list
+    mesh: Mesh
+    face_of_tri: np.ndarray
+
+
+# ------------------------------------------------------------------------------------------
+# Tessellation
+# ------------------------------------------------------------------------------------------
+def _face_kind(face) -> str:
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+
+    return BRepAdaptor_Surface(face).GetType().name.removeprefix("GeomAbs_").lower()
+
+
+def _face_triangles(face) -> "FaceMesh | None":
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_REVERSED
+    from OCP.TopLoc import TopLoc_Location
+
+    loc = TopLoc_Location()
+    poly = BRep_Tool.Triangulation_s(face, loc)
+    if poly is None:
+        return None
+    trsf = loc.Transformation()
+    nn, nt = poly.NbNodes(), poly.NbTriangles()
+    pts = np.empty((nn, 3))
+    uv = np.zeros((nn, 2))
+    has_uv = poly.HasUVNodes()
+    for i in range(nn):  # OCP exposes nodes one by one (per node of the coarse mesh)
+        p = poly.Node(i + 1).Transformed(trsf)
+        pts[i] = (p.X(), p.Y(), p.Z())
+        if has_uv:
+            q = poly.UVNode(i + 1)
+            uv[i] = (q.X(), q.Y())
+    tri = np.array([poly.Triangle(i + 1).Get() for i in range(nt)], dtype=np.int64).reshape(-1, 3) - 1
+    if face.Orientation() == TopAbs_REVERSED:
+        tri = tri[:, ::-1]
+    return FaceMesh(face, pts, tri, uv, _face_kind(face))
+
+
+def part_tessellation(topo, tolerance: float = TESSELLATION) -> PartMesh:
+    """Tessellate ``topo`` (OCCT, ``tolerance`` mm chord error) into per-face meshes
+    and one welded mesh; checked closed (manifold3d) and healed if needed (finer
+    tessellation, then a wider weld).
+
+    Raises:
+        GeometryError: no watertight tessellation could be made.
+    """
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+
+    last = None
+    for tol, weld in ((tolerance, 1e-5), (tolerance / 3, 1e-5), (tolerance / 3, 1e-3)):  # healing attempts
+        BRepMesh_IncrementalMesh(topo, tol, False, 0.1, True)
+        fms = [_face_triangles(TopoDS.Face_s(f)) for f in explore(topo, TopAbs_FACE)]
+        pm = _weld(fms, weld)
+        try:
+            to_manifold(pm.mesh)
+            return pm
+        except GeometryError as e:
+            last = e
+    raise GeometryError(
+        f"OCCT's tessellation of the part is not a closed solid even after healing ({last}); "
+        "check the part with a CAD tool (is it one closed solid?) or fix its faces"
+    )
+
+
+def _weld(fms: list, weld: float) -> PartMesh:
+    verts, tris, fid, offs = [], [], [], []
+    off = 0
+    for k, fm in enumerate(fms):  # per B-rep face
+        offs.append(off)
+        if fm is None:
+            continue
+        verts.append(fm.points)
+        tris.append(fm.tris + off)
+        fid.append(np.full(len(fm.tris), k))
+        off += len(fm.points)
+    if not tris:
+        raise GeometryError("the part has no faces to tessellate")
+    v = np.concatenate(verts)
+    f = np.concatenate(tris)
+    _, first, inv = np.unique(np.round(v / weld).astype(np.int64), axis=0, return_index=True, return_inverse=True)
+    inv = inv.ravel()
+    f = inv[f]
+    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+    return PartMesh(fms, Mesh(v[first].astype(np.float32), f[keep].astype(np.uint32)), np.concatenate(fid)[keep])
+
+
