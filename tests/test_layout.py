@@ -15,7 +15,7 @@ import texcad
 
 ROOT = Path(texcad.__file__).parent
 #: The stages in the order data flows; a stage may import only from stages before it.
-LAYERS = ["errors", "util", "sources", "synthesis", "solid", "brep", "io", "mapping", "printability", "render", "report", "pipeline", "cli"]
+LAYERS = ["errors", "util", "sources", "synthesis", "solid", "brep", "io", "mapping", "printability", "render", "report", "options", "contracts", "targets", "pipeline", "cli", "batch"]
 
 
 def _package(module: str) -> str:

@@ -666,13 +666,12 @@ def _chain_base(part: Any):
     prev = part if isinstance(part, Textured) else getattr(part, "texcad", None)
     if not isinstance(prev, Textured):
         return _part_shape(part), None
-    chain = getattr(prev, "_texcad_base", None)
-    if chain is None or not np.allclose(prev._placement, np.eye(3, 4), rtol=0, atol=1e-12):
+    if prev.stages is None or prev.stages.placement.topo is None or not prev.is_unmoved:
         raise ParameterError(
             "this textured result cannot be textured again (it was moved, or did not come from a CAD part); "
             "texture all faces in one call: texcad.texture(part, [face1, face2, ...], texture)"
         )
-    return chain[0], prev
+    return prev.stages.placement.topo, prev
 
 
 def _texture_general(part, topo, prev, faces, texture, *, progress, **opts):
@@ -680,7 +679,11 @@ def _texture_general(part, topo, prev, faces, texture, *, progress, **opts):
     from .faces import texture_any_faces
     from .result import Textured
 
-    done = list(prev._texcad_base[1]) if prev is not None else []
+    done = []
+    st = prev.stages if prev is not None else None
+    while st is not None:  # the faces textured by the chain so far
+        done += list(st.placement.face_ids)
+        st = st.placement.previous
     res = texture_any_faces(topo, faces, texture, base_mesh=prev.mesh if prev is not None else None, progress=progress, **opts)
     again = sorted(set(done) & set(res["face_indices"]))
     if again:
@@ -709,22 +712,23 @@ def _texture_general(part, topo, prev, faces, texture, *, progress, **opts):
         def make(fine=None):  # fine: (x0, x1, y0, y1) mm in a lone planar face's frame (CAD operations)
             return _brep_faces.general_brep(topo, res, info["no_brep"], opts["rotation"], fine=fine)
 
-        def shape():
-            return checked_brep(make, topo, res["mesh"], info)
-
+        shape = make
         lone = res["reliefs"][0] if len(res["reliefs"]) == 1 else None
         if lone is not None and lone["face"] is not None and lone["tables"] is None:  # one planar face
             p0, ex, ey, _ = plane_frame(lone["face"], opts["rotation"])
             info["fine_frame"] = (p0.tolist(), ex.tolist(), ey.tolist(), float(opts["pitch"]))
 
-    out = Textured(
+    from ..targets.legacy import legacy_stages
+
+    stages = legacy_stages(
         mesh=res["mesh"], texture_mesh=res["texture_mesh"], base_mesh=res["base_mesh"], shape=shape,
-        heightmap=res["heightmap"], limits=limits, distortion=res["distortion"], info=info, kind="face",
+        heightmap=res["heightmap"], limits=limits, distortion=res["distortion"], info=info, kind="faces", result_kind="face",
         max_error=res["max_error"],  # 3-D, lean mesh vs the texture grid (0: the grid itself)
+        topo=topo, face_ids=tuple(res["face_indices"]), bodies=len(solids_of(topo)),
+        previous=prev.stages if prev is not None else None,
     )
-    out._texcad_base = (topo, done + list(res["face_indices"]))
     report(progress, 1.0, "textured")
-    return out
+    return Textured(stages)
 
 
 def _general_limits(res: dict, opts: dict):
@@ -840,12 +844,10 @@ def texture_faces(
                                 critical_angle=critical_angle, progress=progress, tolerance=tolerance,
                                 mode=mode, gradient=gradient)
     report(progress, 1.0, "textured")
-    out = _result(res, topo, brep, dirs, critical_angle)
-    out._texcad_base = (topo, [_face_index(topo, f)])
-    return out
+    return _result(res, topo, brep, dirs, critical_angle, _face_index(topo, f))
 
 
-def _result(res: dict, topo, brep: bool, dirs, critical_angle: float):
+def _result(res: dict, topo, brep: bool, dirs, critical_angle: float, face_index: int):
     """The :class:`Textured` of one planar or extruded face, with its B-rep made on
     first use and checked (:func:`checked_brep`)."""
     from .result import Textured
@@ -855,22 +857,14 @@ def _result(res: dict, topo, brep: bool, dirs, critical_angle: float):
     if dirs is not None:
         info["build_dir"] = dirs.tolist()
         info["critical_angle"] = float(critical_angle)
-    make_shape = res["shape"]
-    shape = None
-    if make_shape is not None:
-        def shape():
-            return checked_brep(make_shape, topo, res["mesh"], info)
-    else:
+    shape = res["shape"]
+    if shape is None:
         info["no_brep"] = "textured with brep=False; texture it again with brep=True for STEP"
-    return Textured(
-        mesh=res["mesh"],
-        texture_mesh=res["texture_mesh"],
-        base_mesh=res["base_mesh"],
-        shape=shape,
-        heightmap=res["heightmap"],
-        limits=res["limits"],
-        height_limits=res.get("height_limits"),
-        max_error=res.get("max_error", 0.0),
-        info=info,
-        kind="face",
-    )
+    from ..targets.legacy import legacy_stages
+
+    return Textured(legacy_stages(
+        mesh=res["mesh"], texture_mesh=res["texture_mesh"], base_mesh=res["base_mesh"], shape=shape,
+        heightmap=res["heightmap"], limits=res["limits"], height_limits=res.get("height_limits"),
+        max_error=res.get("max_error", 0.0), info=info, kind=info["face"], result_kind="face", topo=topo,
+        face_ids=(face_index,), bodies=len(solids_of(topo)), brep=brep,
+    ))

@@ -64,7 +64,7 @@ from ..solid.subdivide import coarsen, face_normals, offset_directions, refine, 
 from ..util import beside, colmax, colmin, rowany, split_rows, threads
 from .result import Textured
 
-__all__ = ["MESH_SUFFIXES", "MODES", "MESH_OPTIONS", "Layer", "MeshTextured", "is_mesh_target", "load_closed", "texture_mesh"]
+__all__ = ["MESH_SUFFIXES", "MODES", "MESH_OPTIONS", "Layer", "is_mesh_target", "load_closed", "texture_mesh"]
 
 MESH_SUFFIXES = (".stl", ".3mf", ".obj")
 #: How far (mm) the base lies under the regions in ``base_mesh`` (texture bodies have
@@ -287,34 +287,6 @@ def _mask_sampler(mask: Any, size: Any) -> Callable[[np.ndarray, np.ndarray], np
         return np.where(inside, val, 0.0)
 
     return f
-
-
-class MeshTextured(Textured):
-    """A textured mesh: a :class:`texcad.Textured` (``kind == "mesh"``) that also
-    holds one texture body per layer (:attr:`layer_meshes`)."""
-
-    def __init__(self, *, layers: "Callable[[], list[Mesh]]", **kwargs: Any) -> None:
-        super().__init__(kind="mesh", **kwargs)
-        self._layers = layers
-
-    @property
-    def layer_meshes(self) -> list[Mesh]:
-        """One closed texture body per layer (``layer_k - base``), mm."""
-        if callable(self._layers):
-            self._layers = self._layers()
-        return list(self._layers)
-
-    def export(self, path: "str | os.PathLike", *, separate_texture: bool = False, name: str | None = None) -> Path:
-        """As :meth:`texcad.Textured.export`; a ``.3mf`` with ``separate_texture``
-        holds the base and every layer's texture (``texture 1``, ``texture 2`` ...)
-        as objects of one build item, so each can get its own filament."""
-        if separate_texture and Path(path).suffix.lower() == ".3mf":
-            from ..io import write_3mf
-
-            objs = [("base", self.base_mesh)] + [(f"texture {k + 1}", m) for k, m in enumerate(self.layer_meshes)]
-            write_3mf(objs, path, name=name or Path(path).stem)
-            return Path(path)
-        return super().export(path, separate_texture=separate_texture, name=name)
 
 
 def _border_distance(v: np.ndarray, f: np.ndarray, sel: np.ndarray, upto: float = np.inf) -> np.ndarray:
@@ -633,7 +605,7 @@ def _assert_closed(faces: np.ndarray, nv: int, bodies: int, what: str) -> None:
         raise GeometryError(f"the {what} has {n} bodies where the input had {bodies}")
 
 
-def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones", **options: Any) -> MeshTextured:
+def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones", **options: Any) -> Textured:
     """Texture a closed mesh (module docstring gives the method). Lengths mm, degrees.
 
     Args:
@@ -730,7 +702,7 @@ def _difference(a: Mesh, b: Mesh) -> Mesh:
     return from_manifold(m3d.Manifold.compose(pieces) if pieces else m3d.Manifold())
 
 
-def _result(out, base, v, f, normals, b, d2, parts, limit, info) -> MeshTextured:
+def _result(out, base, v, f, normals, b, d2, parts, limit, info) -> Textured:
     def texture_body():
         return _difference(out, base)
 
@@ -741,5 +713,8 @@ def _result(out, base, v, f, normals, b, d2, parts, limit, info) -> MeshTextured
             res.append(_difference(mk, base))
         return res
 
-    return MeshTextured(mesh=out, base_mesh=base, texture_mesh=texture_body, layers=layer_bodies, limits=limit, info=info,
-                        max_error=info["max_error"])
+    from ..targets.legacy import legacy_stages
+
+    return Textured(legacy_stages(mesh=out, base_mesh=base, texture_mesh=texture_body, layers=layer_bodies, limits=limit,
+                                  info=info, max_error=info["max_error"], kind="mesh", result_kind="mesh",
+                                  bodies=info["bodies"]))

@@ -101,37 +101,30 @@ def _history(part: Any) -> dict:
     that frame), ``to_world`` (that frame to the part's unplaced frame), the face
     frame and pitch for the fine tiles, ``base`` (the untextured part); for a part
     whose B-rep cannot be made, ``no_brep`` (why), raised by :func:`_replay`."""
-    hist = getattr(part, "_cad_history", None)
+    hist = part.history
     if hist is not None:
         return hist
     try:
-        shape = part.shape  # builds and checks the B-rep, records the builder
+        shape = part.shape  # builds and checks the B-rep
     except GeometryError as exc:  # no B-rep: the operations still run on the mesh
         return {"make": None, "shape": None, "no_brep": str(exc), "steps": [], "to_world": np.eye(3, 4), "frame": None,
-                "base": part.info.get("_base_shape") if isinstance(part.info, dict) else None}
-    placement = np.asarray(part._placement, np.float64)
+                "base": part.base_shape}
+    placement = part.placement
     unplaced = _apply(shape, np.linalg.inv(_m4(placement))[:3]) if not np.allclose(placement, np.eye(3, 4)) else shape
     info = part.info
-    open_profile = info.get("face") == "extrusion" and not info.get("closed", True)
-    plane = info.get("face") == "plane" and ("origin" in info or "fine_frame" in info)
-    make = info.get("_make_shape") if plane or open_profile else None
-    frame = None
-    if make is not None and open_profile:  # fine tiles where the grid's poles lie in the tool's box
-        frame = ("box", 2.0 * float(max(part.heightmap.pitch)))
-    elif make is not None and "fine_frame" in info:  # a planar face done by the general method (engraved, centred)
+    frame = part.fine_frame()  # the adapter's frame for fine tiles under a tool
+    if frame is None and info.get("face") == "extrusion" and not info.get("closed", True):
+        frame = ("box", 2.0 * float(max(part.heightmap.pitch)))  # fine tiles where the grid's poles lie in the tool's box
+    elif frame is None and "fine_frame" in info:  # a planar face done by the general method (engraved, centred)
         o, ex, ey, pitch = info["fine_frame"]
         frame = (np.asarray(o), np.asarray(ex), np.asarray(ey), float(pitch))
-    elif make is not None:
-        frame = (np.asarray(info["origin"]), np.asarray(info["xdir"]), np.asarray(info["ydir"]))
-        x = np.asarray(info["x"], np.float64)
-        frame += (float(x[1] - x[0]),)
-    return {"make": make, "shape": unplaced, "steps": [], "to_world": np.eye(3, 4), "frame": frame,
-            "base": info.get("_base_shape")}  # fmt: skip
+    make = part.brep if frame is not None else None
+    return {"make": make, "shape": unplaced, "steps": [], "to_world": np.eye(3, 4), "frame": frame, "base": part.base_shape}
 
 
 def _world(part: Any, hist: dict) -> np.ndarray:
     """History frame -> world, where the part is now (``(3, 4)``)."""
-    return (_m4(part._placement) @ _m4(hist["to_world"]))[:3]
+    return (_m4(part.placement) @ _m4(hist["to_world"]))[:3]
 
 
 def _fine_rect(tool_local, frame) -> tuple:
@@ -258,20 +251,10 @@ def _checked(shape, mesh: Mesh, op: str, bodies: int, info: dict | None = None):
 
 
 def _derived(part: Any, *, mesh, texture_mesh, base_mesh, shape, info, hist) -> Any:
-    out = type(part)(
-        mesh=mesh,
-        texture_mesh=texture_mesh,
-        base_mesh=base_mesh,
-        shape=shape,
-        heightmap=part.heightmap,
-        limits=part.limits,
-        height_limits=part.height_limits,
-        distortion=part.distortion,
-        info=info,
-        kind=part.kind,
-    )
-    out._cad_history = hist
-    return out
+    from .result import Textured
+
+    return Textured.derived(part, mesh=mesh, texture_mesh=texture_mesh, base_mesh=base_mesh, shape=shape, info=info,
+                            history=hist)
 
 
 def _info(part: Any, what: str) -> dict:
@@ -312,7 +295,7 @@ def cad_op(part: Any, tool: Any, op: str) -> Any:
         return _mesh_op(part.base_mesh, tool_mesh, op)
 
     shape, hist = None, None
-    if part._shape is not None and not isinstance(tool, Mesh):
+    if part.has_brep and not isinstance(tool, Mesh):
         src = _history(part)
         world = _world(part, src)
         other = tool.shape if _is_textured(tool) else to_topods(tool)
@@ -398,7 +381,7 @@ def mirror(part: Any, origin: Sequence[float] = (0.0, 0.0, 0.0), normal: Sequenc
     meshes (vertices reflected, triangles turned to keep them outward) and B-rep
     (``BRepBuilderAPI_Transform``) alike; later operations still get fine tiles."""
     m = _mirror_matrix(origin, normal)
-    hist_src = _history(part) if part._shape is not None else None
+    hist_src = _history(part) if part.has_brep else None
     hist, shape = None, None
     if hist_src is not None:
         world = (_m4(m) @ _m4(_world(part, hist_src)))[:3]
@@ -460,7 +443,7 @@ def pattern(part: Any, locations: Any) -> Any:
     mesh = _side_by_side(copies)
     info = _info(part, f"pattern x{len(copies)}")
     shape = None
-    if part._shape is not None:
+    if part.has_brep:
 
         def shape():
             from OCP.BRep import BRep_Builder

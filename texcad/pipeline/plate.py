@@ -134,16 +134,13 @@ def textured_plate(
     report(progress, 0.9, "measuring the surface error at every pixel centre")
     err = mesh_error(hm.heights, hm.pitch, origin, slab.vertices, slab.faces[slab.groups["texture"]])
     report(progress, 1.0, "fused")
-    return Textured(
-        mesh=fused,
-        texture_mesh=slab,
-        base_mesh=base_mesh,
-        heightmap=hm,
-        limits=limits,
-        max_error=err,
+    from ..targets.legacy import legacy_stages
+
+    return Textured(legacy_stages(
+        mesh=fused, texture_mesh=slab, base_mesh=base_mesh, heightmap=hm, limits=limits, max_error=err,
         info={"face": "plate", "grid": hm.shape, "size": (w, d), "thickness": float(thickness), "fuse": how},
-        kind="plate",
-    )
+        kind="plate", result_kind="plate",
+    ))
 
 
 def _fuse_plate(base_mesh: Mesh, slab: Mesh, hm: Heightmap, tolerance: float) -> tuple[Mesh, str]:

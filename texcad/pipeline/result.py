@@ -1,10 +1,11 @@
 """The one result type of :func:`texcad.texture`: :class:`Textured`.
 
-Every target (a plate, a 2.5D surface, faces of a build123d or CadQuery part) gives a
-:class:`Textured` with the same attributes and methods. Its meshes are made by the
-texturing itself (they are what STL and 3MF are written from); its B-rep
-(:attr:`Textured.shape`, for STEP and further CAD work) is made on first use, so STL
-and 3MF users never wait for it.
+Every target (a planar or curved face, several faces, a 2.5D surface, a plate, a
+mesh) gives a :class:`Textured` with the same attributes and methods. It holds the
+:class:`~texcad.contracts.Stages` it came from; what is made on demand (the texture
+body, the measured error, the B-rep) is made by that target's adapter from them, so
+STL and 3MF users never wait for a B-rep. Results of CAD operations
+(:mod:`texcad.pipeline.ops`) are :class:`Textured` too, derived from their parent.
 """
 
 from __future__ import annotations
@@ -15,12 +16,14 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..contracts import Stages
 from ..errors import GeometryError, ParameterError
 from ..solid import Mesh
 
-__all__ = ["Textured", "as_textured"]
+__all__ = ["Textured", "as_textured", "checked_brep", "VOLUME_TOLERANCE"]
 
-MeshSource = "Mesh | Callable[[], Mesh] | None"
+#: Largest relative difference between the B-rep's and the mesh's volume accepted.
+VOLUME_TOLERANCE = 1e-3
 
 
 def _transformed(mesh: Mesh, m: np.ndarray) -> Mesh:
@@ -48,88 +51,122 @@ def _matrix(location: Any) -> np.ndarray:
     return m[:3]
 
 
+def checked_brep(shape: Any, bodies: int, mesh: Mesh, slack: float = 0.0) -> tuple[Any, float]:
+    """``(shape, volume)``: a B-rep checked against its mesh: one valid solid
+    (``BRepCheck_Analyzer``) per body, enclosing the mesh's volume within
+    :data:`VOLUME_TOLERANCE` plus ``slack`` mm^3 (a lean mesh's tolerance times its area).
+
+    Raises:
+        GeometryError: the B-rep is invalid or encloses another volume.
+    """
+    from ..brep import check_shape, volume
+
+    chk = check_shape(shape)
+    if not chk["valid"] or chk["solids"] != bodies:
+        raise GeometryError(f"the textured B-rep is not valid ({chk}); the meshes are fine: write STL or 3MF, and please report this")
+    vb, vm = volume(shape), float(mesh.volume)
+    if abs(vb - vm) > VOLUME_TOLERANCE * abs(vm) + slack:
+        raise GeometryError(
+            f"the textured B-rep encloses {vb:.1f} mm3 but the mesh {vm:.1f} mm3 (OCCT's union went wrong); "
+            "the meshes are fine: write STL or 3MF"
+        )
+    return shape, vb
+
+
 class Textured:
     """A textured part: texcad's meshes, the texture as applied, and the B-rep on
     demand. All lengths in mm.
 
     Attributes:
-        heightmap: the texture as applied (heights in mm: clipped and ramped on planar
-            faces, lowered by the overhang limiter), or None where several faces
-            were textured (see ``info["faces"]``).
-        limits: the overhang limiter's :class:`texcad.printability.LimitReport` for
-            ``build_dir``, or None without a build direction.
-        height_limits: where the height was limited so that the relief cannot
-            intersect itself (:class:`texcad.mapping.HeightLimit`, curved faces).
-        distortion: texture scale relative to the nominal mm on mapped faces
-            (:class:`texcad.mapping.Distortion`), or None on planar faces.
-        mapped: the :class:`texcad.mapping.MappedSurface` of a 2.5D surface (vertex
-            grids in mm), or None.
-        max_error: the measured largest height error in mm of the texture surface
-            at any pixel centre (:func:`texcad.solid.mesh_error`, sampled
-            independently of the triangulation; 0 with ``tolerance=0``), computed on
-            first use.
-        info: what was done (face kind, frame, grid size, mapping...).
+        stages: the :class:`~texcad.contracts.Stages` it came from (None for the
+            results of CAD operations, which keep their parent's).
+        heightmap: the texture as applied (heights in mm: clipped and ramped, lowered
+            by the overhang limiter), or None where several faces were textured.
+        limits: the overhang limiter's report for ``build_dir``, or None.
+        height_limits: where the height was limited so that the relief cannot cross
+            itself (curved faces).
+        distortion: texture scale against the nominal mm on mapped faces, or None.
+        mapped: the :class:`texcad.mapping.MappedSurface` of a 2.5D surface, or None.
+        gate: what the gate measured (:class:`texcad.report.gate.GateReport`).
+        info: what was done (face kind, grid size, fuse path...), plain values.
+        kind: ``"face"``, ``"surface"``, ``"plate"`` or ``"mesh"``.
     """
 
-    def __init__(
-        self,
-        *,
-        mesh: "Mesh | Callable[[], Mesh]",
-        texture_mesh: "Mesh | Callable[[], Mesh] | None" = None,
-        base_mesh: "Mesh | Callable[[], Mesh] | None" = None,
-        shape: Any = None,
-        heightmap: Any = None,
-        limits: Any = None,
-        height_limits: list | None = None,
-        distortion: Any = None,
-        mapped: Any = None,
-        max_error: "float | Callable[[], float] | None" = None,
-        info: dict | None = None,
-        kind: str = "mesh",
-    ) -> None:
-        self._mesh = mesh
-        self._texture_mesh = texture_mesh
-        self._base_mesh = base_mesh
-        self._shape = shape
+    def __init__(self, stages: Stages) -> None:
+        self.stages = stages
+        r = stages.relief
+        self._mesh: Any = stages.fused.mesh
+        self._base_mesh: Any = stages.fused.base_mesh
+        self._texture_mesh: Any = None
+        self._shape: Any = None
+        self._brep_volume: "float | None" = None
+        self._max_error: Any = r.max_error
+        self._derived: "dict | None" = None
         self._placement = np.eye(3, 4)
-        self.heightmap = heightmap
-        self.limits = limits
-        self.height_limits = list(height_limits or [])
-        self.distortion = distortion
-        self.mapped = mapped
-        self._max_error = max_error
-        self.info = info if info is not None else {}
-        self.kind = kind
+        self.heightmap = r.heightmap
+        self.limits = r.limits
+        self.height_limits = list(r.height_limits)
+        self.distortion = r.distortion
+        self.mapped = r.mapped
+        self.gate = stages.gate
+        self.info = dict(stages.fused.info)
+        self.kind = stages.adapter.result_kind
+
+    @classmethod
+    def derived(cls, parent: "Textured", *, mesh: Mesh, base_mesh: "Mesh | Callable[[], Mesh]",
+                texture_mesh: "Mesh | Callable[[], Mesh]", shape: "Callable[[], Any] | None", info: dict, history: Any,
+                layer_meshes: "Callable[[], list] | None" = None) -> "Textured":
+        """A result made from ``parent`` by a CAD operation (:mod:`texcad.pipeline.ops`):
+        its meshes, the B-rep's maker (or None) and the operation history."""
+        out = object.__new__(cls)
+        out.__dict__.update(parent.__dict__)
+        out._mesh, out._base_mesh, out._texture_mesh = mesh, base_mesh, texture_mesh
+        out._shape, out._brep_volume, out._placement = None, None, np.eye(3, 4)
+        out._derived = {"shape": shape, "history": history, "layers": layer_meshes}
+        out.info = info
+        return out
 
     def __repr__(self) -> str:
         m = self.mesh
         return f"Textured({self.info.get('face', self.kind)}, {m.num_triangles} triangles, {m.volume:.1f} mm3)"
 
     # -- meshes --------------------------------------------------------------------------
-    def _placed(self, attr: str, what: str) -> Mesh:
+    def _made(self, attr: str, make: Callable[[], Any]) -> Any:
         value = getattr(self, attr)
         if value is None:
-            raise GeometryError(f"this result carries no {what}")
-        if callable(value):
+            value = make()
+        elif callable(value) and not isinstance(value, Mesh):
             value = value()
-            setattr(self, attr, value)
-        return _transformed(value, self._placement)
+        setattr(self, attr, value)
+        return value
 
     @property
     def mesh(self) -> Mesh:
         """The fused, watertight mesh (base + texture), mm, where the part is now."""
-        return self._placed("_mesh", "mesh")
+        return _transformed(self._mesh, self._placement)
 
     @property
     def texture_mesh(self) -> Mesh:
-        """The texture alone (watertight; touches the base without overlapping it),
-        mm. Made on first use (one manifold3d difference)."""
-        return self._placed("_texture_mesh", "texture mesh")
+        """The texture alone (closed; touches the base without overlapping it), mm.
+        Made on first use."""
+        return _transformed(self._made("_texture_mesh", lambda: self.stages.adapter.texture_mesh(self.stages)), self._placement)
 
     @property
     def base_mesh(self) -> Mesh:
-        """The base body's mesh, mm."""
-        return self._placed("_base_mesh", "base mesh")
+        """The base the texture is measured against, mm (the part; for meshes, the
+        part with every texture at its lowest)."""
+        return _transformed(self._made("_base_mesh", lambda: None), self._placement)
+
+    @property
+    def layer_meshes(self) -> list[Mesh]:
+        """One closed texture body per layer (one unless several textures were put
+        on one part), mm."""
+        if self._derived is not None:
+            make = self._derived.get("layers")
+            return [self.texture_mesh] if make is None else [_transformed(m, self._placement) for m in make()]
+        if "_layers" not in self.__dict__:
+            self.__dict__["_layers"] = self.stages.adapter.layer_meshes(self.stages)
+        return [_transformed(m, self._placement) for m in self.__dict__["_layers"]]
 
     @property
     def volume(self) -> float:
@@ -138,30 +175,63 @@ class Textured:
 
     @property
     def max_error(self) -> "float | None":
-        """Measured largest height error in mm of the texture surface at any pixel
-        centre (computed on first use; None if unknown)."""
-        if callable(self._max_error):
-            self._max_error = float(self._max_error())
-        return self._max_error
+        """Measured largest height error in mm of the texture surface at the pitch
+        grid's points (computed on first use; None if unknown)."""
+        if self._max_error is None and self._derived is None:
+            self._max_error = self.stages.adapter.max_error(self.stages)
+        return None if self._max_error is None else float(self._max_error)
 
     # -- B-rep ---------------------------------------------------------------------------
     @property
+    def has_brep(self) -> bool:
+        """Whether this result can have a B-rep at all (it may still fail its check)."""
+        if self._derived is not None:
+            return self._derived["shape"] is not None
+        return self.stages.placement.topo is not None and self.stages.options.brep
+
+    def brep(self, fine: Any = None) -> Any:
+        """The textured B-rep in the part's own frame (not moved), unchecked;
+        ``fine``: regions tiled finely (CAD operations, :mod:`texcad.pipeline.ops`)."""
+        if self._derived is not None:
+            raise GeometryError("a result of CAD operations is rebuilt from its history; use .shape")
+        return self.stages.adapter.brep(self.stages, fine=fine)
+
+    @property
+    def base_shape(self) -> Any:
+        """The untextured part's OCCT shape (CAD targets), or None."""
+        return self.stages.placement.topo if self.stages is not None else None
+
+    @property
+    def history(self) -> Any:
+        """The CAD operations made on this result (:mod:`texcad.pipeline.ops`), or None."""
+        return None if self._derived is None else self._derived["history"]
+
+    def fine_frame(self) -> Any:
+        """The frame in which CAD operations ask for fine tiles, or None."""
+        return self.stages.adapter.fine_frame(self.stages) if self._derived is None else None
+
+    @property
     def shape(self):
         """The textured B-rep as an OCP ``TopoDS_Shape`` (the texture as B-spline
-        faces sewn into the body). Made on first use and checked against the mesh
-        (valid, one solid per input solid, volume within 0.1 %).
+        faces sewn into the body), where the part is now. Made on first use and checked
+        against the mesh (valid, one solid per body, volume within 0.1 %).
 
         Raises:
             GeometryError: no B-rep can be made for this result (the message says why
                 and names the mesh outputs).
         """
         if self._shape is None:
-            raise GeometryError(
-                f"this {self.kind} result has no B-rep ({self.info.get('no_brep', 'made from a mesh')}); "
-                "write STL or 3MF instead"
-            )
-        if callable(self._shape):
-            self._shape = self._shape()
+            if self._derived is not None:
+                make = self._derived["shape"]
+                if make is None:
+                    raise GeometryError(f"this {self.kind} result has no B-rep ({self.info.get('no_brep', 'made from a mesh')}); "
+                                        "write STL or 3MF instead")
+                self._shape = make()
+            else:
+                st = self.stages
+                slack = float(self.info.get("volume_slack", 0.0))
+                self._shape, self._brep_volume = checked_brep(self.brep(), st.placement.bodies, st.fused.mesh, slack)
+                self.info["brep_volume"] = self._brep_volume
         shape = self._shape
         if not np.allclose(self._placement, np.eye(3, 4), rtol=0, atol=1e-12):
             from OCP.gp import gp_Trsf
@@ -175,9 +245,7 @@ class Textured:
 
     @property
     def wrapped(self):
-        """:attr:`shape`, under the name build123d and CadQuery objects use, so that a
-        :class:`Textured` can be handed to their functions (``export_step``,
-        ``show_object``)."""
+        """:attr:`shape`, under the name build123d and CadQuery objects use."""
         return self.shape
 
     @property
@@ -195,6 +263,16 @@ class Textured:
         return cq.Workplane("XY").newObject([cq.Shape.cast(self.shape)])
 
     # -- placement -----------------------------------------------------------------------
+    @property
+    def placement(self) -> np.ndarray:
+        """Where the part is now against where it was textured: a ``(3, 4)`` matrix."""
+        return self._placement.copy()
+
+    @property
+    def is_unmoved(self) -> bool:
+        """Not moved since texturing (chaining needs the part where it was)."""
+        return bool(np.allclose(self._placement, np.eye(3, 4), rtol=0, atol=1e-12))
+
     def moved(self, location: Any) -> "Textured":
         """A copy moved by ``location`` (a build123d ``Location``, e.g. ``Pos(10, 0,
         0)``, ``Rot(0, 0, 90)``, or a ``(3, 4)`` matrix): meshes and B-rep move
@@ -203,8 +281,7 @@ class Textured:
         out = object.__new__(Textured)
         out.__dict__.update(self.__dict__)
         out.info = dict(self.info)
-        m4 = np.vstack([m, [0, 0, 0, 1]]) @ np.vstack([self._placement, [0, 0, 0, 1]])
-        out._placement = m4[:3]
+        out._placement = (np.vstack([m, [0, 0, 0, 1]]) @ np.vstack([self._placement, [0, 0, 0, 1]]))[:3]
         return out
 
     def __rmul__(self, location: Any) -> "Textured":
@@ -231,15 +308,14 @@ class Textured:
         return cad_op(self, tool, "common")
 
     def fillet(self, edges: Any, radius: float) -> "Textured":
-        """Round ``edges`` (from ``self.part.edges()`` or the original part, away from
-        the texture) to ``radius`` mm; see :func:`texcad.pipeline.ops.fillet`."""
+        """Round ``edges`` (away from the texture) to ``radius`` mm; see
+        :func:`texcad.pipeline.ops.fillet`."""
         from .ops import fillet
 
         return fillet(self, edges, radius)
 
     def mirrored(self, origin: Any = (0.0, 0.0, 0.0), normal: Any = (1.0, 0.0, 0.0)) -> "Textured":
-        """A mirror image about the plane through ``origin`` (mm) with ``normal``;
-        see :func:`texcad.pipeline.ops.mirror`."""
+        """A mirror image about the plane through ``origin`` (mm) with ``normal``."""
         from .ops import mirror
 
         return mirror(self, origin, normal)
@@ -255,14 +331,20 @@ class Textured:
     # -- output --------------------------------------------------------------------------
     def export(self, path: "str | os.PathLike", *, separate_texture: bool = False, name: str | None = None) -> Path:
         """Write by the file's extension: ``.stl`` (binary, mm) and ``.3mf`` from the
-        mesh (``separate_texture``: the texture as its own object, so a slicer can
-        give it another filament), ``.step``/``.stp`` from the B-rep, ``.png`` a
-        picture (:meth:`render`). Atomic: a failure leaves no file."""
-        from ..io import export
+        mesh (``separate_texture``: the base and each texture as parts of one object,
+        so a slicer can give each texture its own filament), ``.step``/``.stp`` from
+        the B-rep, ``.png`` a picture (:meth:`render`). Atomic: a failure leaves no file."""
+        from ..io import export, write_3mf
 
-        if Path(path).suffix.lower() == ".png":
-            return self.render(path)
-        return export(self, path, separate_texture=separate_texture, name=name)
+        p = Path(path)
+        if p.suffix.lower() == ".png":
+            return self.render(p)
+        if separate_texture and p.suffix.lower() == ".3mf":
+            layers = self.layer_meshes
+            names = ["texture"] if len(layers) == 1 and self.kind != "mesh" else [f"texture {k + 1}" for k in range(len(layers))]
+            write_3mf([("base", self.base_mesh)] + list(zip(names, layers)), p, name=name or p.stem)
+            return p
+        return export(self, p, separate_texture=separate_texture, name=name)
 
     def render(self, path: "str | os.PathLike", **kwargs: Any) -> Path:
         """PNG picture of the mesh (see :func:`texcad.render.render_part`)."""
@@ -282,26 +364,6 @@ class Textured:
         from ..report import check
 
         return check(self, **kwargs)
-
-    # -- aliases kept for one release ----------------------------------------------------
-    def export_stl(self, path: "str | os.PathLike") -> Path:
-        """Deprecated alias of ``export(path)`` with a ``.stl`` path."""
-        return self._export_as(path, ".stl")
-
-    def export_3mf(self, path: "str | os.PathLike", *, separate_texture: bool = False, name: str | None = None) -> Path:
-        """Deprecated alias of ``export(path)`` with a ``.3mf`` path."""
-        return self._export_as(path, ".3mf", separate_texture=separate_texture, name=name)
-
-    def export_step(self, path: "str | os.PathLike", *, name: str | None = None) -> Path:
-        """Deprecated alias of ``export(path)`` with a ``.step`` path."""
-        return self._export_as(path, (".step", ".stp"), name=name)
-
-    def _export_as(self, path: Any, suffixes: Any, **kwargs: Any) -> Path:
-        if isinstance(suffixes, str):
-            suffixes = (suffixes,)
-        if Path(path).suffix.lower() not in suffixes:
-            raise ParameterError(f"{str(path)!r} must end in {' or '.join(suffixes)}")
-        return self.export(path, **kwargs)
 
 
 def as_textured(obj: Any) -> Textured:

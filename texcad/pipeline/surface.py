@@ -172,19 +172,15 @@ def textured_surface(
     report(progress, 0.5, f"fusing {bodies['triangles']} texture triangles onto the base (manifold3d)")
     fused, texture_mesh = _apply(base_mesh, bodies)
     report(progress, 1.0, "fused")
-    return Textured(
-        mesh=fused,
-        texture_mesh=texture_mesh,
-        base_mesh=base_mesh,
-        heightmap=mapped.heightmap,
-        limits=overhang,
-        height_limits=list(mapped.limits),
-        mapped=mapped,
-        max_error=bodies["error"],
+    from ..targets.legacy import legacy_stages
+
+    return Textured(legacy_stages(
+        mesh=fused, texture_mesh=texture_mesh, base_mesh=base_mesh, heightmap=mapped.heightmap, limits=overhang,
+        height_limits=list(mapped.limits), mapped=mapped, max_error=bodies["error"],
         info={"face": "surface", "mapping": mapping, "grid": tuple(mapped.top.shape[:2]), "closed": mapped.closed,
-              "tolerance": tolerance, "mode": mode},
-        kind="surface",
-    )
+              "tolerance": tolerance, "mode": mode, "no_brep": "a 2.5D surface is textured as a mesh"},
+        kind="surface", result_kind="surface",
+    ))
 
 
 def _share(mode: str) -> float:

@@ -22,25 +22,46 @@ from typing import Any
 
 from ..errors import ParameterError
 from ..mapping import Profile, Surface
+from ..options import Options
 from ..sources import DEFAULT_TEXTURE, Heightmap
 from .result import Textured
 
 __all__ = ["texture"]
 
-#: Options every target takes (mm and degrees); the rest depend on the target.
-COMMON = ("height", "pitch", "mapping", "depth", "periodic_x", "transition", "build_dir", "critical_angle", "progress")
-FACE_ONLY = ("edge_angle", "rotation", "offset", "brep", "tolerance", "mode", "gradient")
-FACE_OPTIONS = COMMON + FACE_ONLY
-SURFACE_OPTIONS = COMMON + ("length", "base", "thickness", "tolerance", "mode", "gradient")
+def _legacy(target: Any, where: Any, texture: Any, o: Options) -> Textured:
+    """Targets whose adapters are not written yet: their handlers, with the options
+    validated once (one set of defaults)."""
+    from .mesh import is_mesh_target
 
+    if is_mesh_target(target):
+        from .mesh import MESH_OPTIONS, texture_mesh
 
-def _only(options: dict, allowed: tuple[str, ...], target: str) -> dict:
-    bad = sorted(set(options) - set(allowed))
-    if bad:
+        names = [n for n in MESH_OPTIONS if n in o.given or n in ("height", "pitch", "mode", "tolerance", "critical_angle")]
+        o.refuse(set(MESH_OPTIONS), "a mesh")
+        return texture_mesh(target, "all" if where is None else where, texture, **o.as_kwargs(names))
+    if isinstance(target, (Surface, Profile)):
+        if where is not None:
+            raise ParameterError("a Surface is textured whole: pass where=None")
+        from .surface import textured_surface
+
+        o.refuse(set(SURFACE_OPTIONS), "a Surface")
+        names = [n for n in SURFACE_OPTIONS if n in o.given or n in ("height", "pitch", "mapping", "tolerance", "mode", "critical_angle")]
+        return textured_surface(target, texture, **o.as_kwargs(names))
+    if where is None:
         raise ParameterError(
-            f"{', '.join(bad)}: not an option when texturing {target}; the options are {', '.join(sorted(allowed))}"
+            "say which face to texture: texcad.texture(part, part.faces().sort_by(Axis.Z)[-1], texture) "
+            "(build123d) or texcad.texture(wp, wp.faces('>Z'), texture) (CadQuery)"
         )
-    return options
+    from .cad import texture_faces
+
+    o.refuse(set(FACE_OPTIONS), "a CAD part")
+    return texture_faces(target, where, texture, **o.as_kwargs([n for n in FACE_OPTIONS if n != "progress"]), progress=o.progress)
+
+
+#: Options of the targets that still run their own handler (mm and degrees).
+COMMON = ("height", "pitch", "mapping", "depth", "periodic_x", "transition", "build_dir", "critical_angle", "progress")
+FACE_OPTIONS = COMMON + ("edge_angle", "rotation", "offset", "brep", "tolerance", "mode", "gradient")
+SURFACE_OPTIONS = COMMON + ("length", "base", "thickness", "tolerance", "mode", "gradient")
 
 
 def texture(
@@ -102,25 +123,17 @@ def texture(
         ParameterError: the face is not on the part, an unknown option, a bad value.
         GeometryError: the face cannot be textured or a boolean failed.
     """
-    from .mesh import is_mesh_target
+    o = Options.make(**options)
+    if not isinstance(texture, Heightmap):
+        texture = os.fspath(texture)
+    from ..targets import ADAPTERS
 
-    if is_mesh_target(target):  # STL / 3MF / OBJ, a texcad Mesh or a trimesh: texcad.pipeline.mesh
-        from .mesh import texture_mesh
+    if any(a.accepts(target, where, o) for a in ADAPTERS):
+        from ..targets import Decline
+        from .driver import run
 
-        return texture_mesh(target, "all" if where is None else where, texture, **options)
-    if isinstance(target, (Surface, Profile)):
-        if where is not None:
-            raise ParameterError("a Surface is textured whole: pass where=None")
-        from .surface import textured_surface
-
-        opts = _only(options, SURFACE_OPTIONS, "a Surface")
-        opts.setdefault("mapping", "angle")
-        return textured_surface(target, texture, **opts)
-    if where is None:
-        raise ParameterError(
-            "say which face to texture: texcad.texture(part, part.faces().sort_by(Axis.Z)[-1], texture) "
-            "(build123d) or texcad.texture(wp, wp.faces('>Z'), texture) (CadQuery)"
-        )
-    from .cad import texture_faces
-
-    return texture_faces(target, where, texture, **_only(options, FACE_OPTIONS, "a CAD part"))
+        try:
+            return run(target, where, texture, o)
+        except Decline:
+            pass
+    return _legacy(target, where, texture, o)

@@ -37,6 +37,7 @@ from .resources import (
     require_memory,
     texture_bytes,
     fitting_pitch,
+    memory_limit,
 )
 from .vectors import (
     parse_vector,
@@ -67,6 +68,7 @@ __all__ = [
     'require_memory',
     'texture_bytes',
     'fitting_pitch',
+    'memory_limit',
     'parse_vector',
     'smoothstep',
 ]

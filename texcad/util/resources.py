@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+
 import os
 
 from ..errors import ResourceError
@@ -58,11 +61,39 @@ def _cgroup_left() -> int:
         return 1 << 62
 
 
+#: The caller's bound on the job's memory (bytes), set by :func:`memory_limit`.
+_BOUND: "contextvars.ContextVar[int | None]" = contextvars.ContextVar("texcad_max_memory", default=None)
+
+
+def _rss() -> int:
+    """Bytes this process holds now (resident set)."""
+    try:
+        with open("/proc/self/statm") as fh:
+            return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
+@contextlib.contextmanager
+def memory_limit(nbytes: "int | None"):
+    """Within the block, :func:`available_memory` leaves at most ``nbytes`` bytes to
+    the job in all (what the process holds counts), so the memory guards refuse what
+    would not fit in it and name the pitch that does. None: no bound of its own."""
+    token = _BOUND.set(None if nbytes is None else int(nbytes))
+    try:
+        yield
+    finally:
+        _BOUND.reset(token)
+
+
 def available_memory() -> int:
     """Bytes of memory this process can still use now: the least of the machine's
-    available memory (MemAvailable), what its address-space limit leaves and what its
-    container's memory limit leaves."""
-    return min(_meminfo_available(), _address_space_left(), _cgroup_left())
+    available memory (MemAvailable), what its address-space limit leaves, what its
+    container's memory limit leaves, and what the caller's bound
+    (:func:`memory_limit`, ``max_memory=``) leaves."""
+    have = min(_meminfo_available(), _address_space_left(), _cgroup_left())
+    bound = _BOUND.get()
+    return have if bound is None else max(0, min(have, bound - _rss()))
 
 
 def texture_bytes(pixels: float, tolerance: float) -> float:

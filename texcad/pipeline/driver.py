@@ -1,0 +1,66 @@
+"""The one driver: :func:`run` takes every target through the same stages.
+
+    options (validated once)
+      -> adapter.place    where the texture goes (frames, parameterization, region)
+      -> adapter.relief   the texture loaded, fitted, ramped, limited and meshed
+      -> adapter.fuse     the relief joined to the part
+      -> gate             the one independent check (texcad.report.gate)
+      -> Textured         the one result
+
+The adapter is chosen from :data:`texcad.targets.ADAPTERS` (the first that accepts
+the target; one may decline after looking closer, e.g. a cylinder face that is not a
+full strip of its extrusion). Progress fractions and the memory bound are the
+driver's; what differs per target kind is in its adapter.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..contracts import Stages
+from ..errors import ParameterError
+from ..options import Options
+from ..report.gate import gate
+from ..targets import ADAPTERS, Decline
+from ..util import memory_limit
+from .result import Textured
+
+__all__ = ["run"]
+
+
+def _candidates(target: Any, where: Any, options: Options) -> list:
+    found = [a for a in ADAPTERS if a.accepts(target, where, options)]
+    if not found:
+        raise ParameterError(
+            f"cannot texture a {type(target).__name__}: pass a build123d / CadQuery part with its face(s), a "
+            "texcad.Surface or Profile, a texcad.Plate, or a mesh (a .stl / .3mf / .obj path, a texcad Mesh, a trimesh)"
+        )
+    return found
+
+
+def run(target: Any, where: Any, texture: Any, options: Options) -> Textured:
+    """Texture ``target`` at ``where`` with ``texture`` (see :func:`texcad.texture`):
+    place, relief, fuse, gate. Lengths in mm, angles in degrees.
+
+    Raises:
+        TexcadError: a bad target, option or texture (ParameterError, InputError), a
+            geometry that cannot be made or fails the gate (GeometryError), or more
+            memory than allowed (ResourceError).
+    """
+    with memory_limit(options.max_memory):
+        cands = _candidates(target, where, options)
+        for k, adapter in enumerate(cands):  # the first that does not decline
+            options.refuse(adapter.options, adapter.label)
+            try:
+                placement = adapter.place(target, where, texture, options)
+            except Decline:
+                if k == len(cands) - 1:
+                    raise
+                continue
+            relief = adapter.relief(placement, texture, options)
+            fused = adapter.fuse(placement, relief, options)
+            options.report(0.92, "checking the result (texcad's gate)")
+            report = gate(fused.mesh, adapter.expectation(placement, relief, fused))
+            options.report(1.0, "textured")
+            return Textured(Stages(adapter, options, placement, relief, fused, report))
+    raise AssertionError("unreachable")

@@ -1,0 +1,16 @@
+"""Stage adapters, one per kind of target: each places the texture on its target
+(frames, parameterization, outline, region) and says how to make the relief, join
+it to the part and make its B-rep (:class:`~texcad.targets.base.Adapter`).
+
+:data:`ADAPTERS` is the registry the driver (:func:`texcad.pipeline.driver.run`)
+asks in order; the first adapter that accepts a target (and does not decline on a
+closer look) textures it.
+"""
+
+from .base import Adapter, Decline
+from .plane import PlaneAdapter
+
+#: The adapters, in the order the driver asks them.
+ADAPTERS: list = [PlaneAdapter()]
+
+__all__ = ["ADAPTERS", "Adapter", "Decline", "PlaneAdapter"]

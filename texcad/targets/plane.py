@@ -1,0 +1,330 @@
+"""Adapter: one planar face of a CAD part (any outline, holes included).
+
+**Place.** The face's frame (x along world x on horizontal faces, y towards world +z
+otherwise, ``rotation`` turns it; :func:`texcad.brep.plane_frame`), its outline as 2-D
+segments, a pixel grid over the outline's bounding rectangle, and the distance ``d``
+(mm) of every grid vertex from the nearest vertex outside the face or under other
+parts of the body within the texture height.
+
+**Relief.** The texture fitted to the face (centred, ``offset``), then the paper's
+edge modification M-I (section 2.1.3) on every border,
+
+    h' = min(h, tan(edge_angle) * max(0, d - 3 sqrt(px^2 + py^2)))
+
+(0 on every cell the outline crosses, then rising at ``edge_angle``), a floor of
+:data:`FLOOR` mm inside the ramp, the overhang limiter for ``build_dir``
+(:func:`texcad.printability.limit_overhangs`) and the slab mesh (lean within
+``tolerance``, or one vertex per pixel).
+
+**Fuse.** A lean relief on an unobstructed face is stitched into the body's mesh
+without a boolean (:func:`texcad.solid.boolean.fuse_on_plane`, checked); otherwise
+manifold3d's union. **B-rep**: the textured part of the plane becomes B-spline tiles
+sewn to the face's own edges (:func:`texcad.brep.textured_plane_solid`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..brep import face_segments, inside, plane_frame, sample_segments, textured_plane_solid
+from ..contracts import Fused, Placement, Relief, Stages
+from ..errors import GeometryError, ParameterError
+from ..options import Mode, Options
+from ..sources import Heightmap
+from ..solid import Mesh, from_manifold, fuse, heightfield_slab, mesh_error, to_manifold
+from ..solid.boolean import fuse_on_plane
+from ..solid.mesh import heightfield_volume
+from ..util import fitting_pitch, require_memory, texture_bytes
+from .base import Adapter, Decline
+from .cad import body_count, cad_part, face_list, is_cad_target, selected_surface, tessellation
+
+__all__ = ["PlaneAdapter", "FLOOR"]
+
+#: mm: the texture is at least this high inside its ramp, so that it never touches the
+#: face along isolated lines or points (a union would keep pinched vertices there).
+FLOOR = 1e-3
+
+
+@dataclass(frozen=True)
+class PlaneFrame:
+    """A planar face placed: frame (mm, unit vectors), outline (local 2-D segments
+    ``(S, 2, 2)`` centred on the bounding rectangle ``lo..hi``), the base mesh in the
+    face's frame (z = 0 on the face), and the footprint of body material above the
+    face (``obstruction``, segments, or None)."""
+
+    face: Any
+    origin: np.ndarray
+    axes: np.ndarray
+    segments: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    base_local: Mesh
+
+
+@dataclass(frozen=True)
+class PlaneFused:
+    """The fused mesh in the face's frame, and the stitched relief (or None after a union)."""
+
+    local: Mesh
+    stitched: "Mesh | None"
+
+
+@dataclass(frozen=True)
+class PlaneRelief:
+    """The relief on a planar face: heights ``h`` (R, C) mm on pixel centres ``xs``,
+    ``ys`` (face frame), the meshed field ``h_mesh`` (-1 mm off the face), the slab,
+    and whether body material lies over the face."""
+
+    h: np.ndarray
+    h_mesh: np.ndarray
+    xs: np.ndarray
+    ys: np.ndarray
+    slab: Mesh
+    slab_origin: tuple
+    tolerance: float
+    obstructed: bool
+
+
+def _local(points: np.ndarray, origin: np.ndarray, axes: np.ndarray) -> np.ndarray:
+    return (np.asarray(points, np.float64) - origin) @ axes.T
+
+
+def _place_heightmap(hm: Heightmap, xs_k: np.ndarray, ys_k: np.ndarray) -> np.ndarray:
+    """Heights on the grid columns/rows ``k`` (integer pixel indices of ``hm``; 0 mm
+    outside the texture)."""
+    rows, cols = hm.shape
+    h = np.zeros((len(ys_k), len(xs_k)), dtype=np.float32)
+    cm = (xs_k >= 0) & (xs_k < cols)
+    rm = (ys_k >= 0) & (ys_k < rows)
+    if cm.any() and rm.any():
+        h[np.ix_(rm, cm)] = hm.heights[np.ix_(ys_k[rm], xs_k[cm])]
+    return h
+
+
+def _obstruction_segments(base_local: Mesh, lo: np.ndarray, hi: np.ndarray, top: float) -> np.ndarray | None:
+    """Footprint (2-D segments) of body material above the face plane within ``top``
+    mm, over the rectangle ``lo..hi`` (local frame): texture there would run into the body."""
+    import manifold3d as m3d
+
+    z0 = 1e-3
+    if top <= z0:
+        return None
+    box = m3d.Manifold.cube((float(hi[0] - lo[0]), float(hi[1] - lo[1]), float(top))).translate((float(lo[0]), float(lo[1]), z0))
+    above = to_manifold(base_local) ^ box
+    if above.is_empty() or above.volume() < 1e-9:
+        return None
+    segs = [np.stack([p, np.roll(p, -1, axis=0)], axis=1) for p in above.project().to_polygons() if len(p) >= 3]  # per polygon
+    return np.concatenate(segs) if segs else None
+
+
+def _require_relief(hm: Heightmap, tex: Any) -> None:
+    if not float(hm.heights.max()) > 0:
+        raise ParameterError(
+            f"the texture {tex if isinstance(tex, str) else 'heightmap'!s} is flat (0 mm everywhere) at a pitch of "
+            f"{min(hm.pitch):.3g} mm: its features are finer than the pitch; use a smaller pitch"
+        )
+
+
+def _check_flat_outline(h: np.ndarray, xs: np.ndarray, ys: np.ndarray, pts: np.ndarray) -> None:
+    """The bilinear surface must be exactly 0 mm along the outline (so the face's
+    edges lie on it): check at the outline samples."""
+    px, py = xs[1] - xs[0], ys[1] - ys[0]
+    fx = np.clip((pts[:, 0] - xs[0]) / px, 0, len(xs) - 1.000001)
+    fy = np.clip((pts[:, 1] - ys[0]) / py, 0, len(ys) - 1.000001)
+    c, r = fx.astype(np.int64), fy.astype(np.int64)
+    cells = np.maximum.reduce([h[r, c], h[r + 1, c], h[r, c + 1], h[r + 1, c + 1]])
+    if cells.max() > 0:
+        raise GeometryError("internal: the texture does not vanish along the face outline; please report this")
+
+
+class PlaneAdapter(Adapter):
+    kind = "plane"
+    label = "a planar face"
+    options = frozenset({"height", "pitch", "tolerance", "build_dir", "critical_angle", "rotation", "edge_angle",
+                         "offset", "brep", "mode", "mapping", "depth"})
+
+    def accepts(self, target: Any, where: Any, options: Options) -> bool:
+        if options.mode is not Mode.RAISED or options.gradient is not None or not is_cad_target(target) or where is None:
+            return False
+        return len(face_list(where)) == 1 and not hasattr(target, "stages")
+
+    # -- place --------------------------------------------------------------------------
+    def place(self, target: Any, where: Any, texture: Any, options: Options) -> Placement:
+        from OCP.BRepAdaptor import BRepAdaptor_Surface
+        from OCP.GeomAbs import GeomAbs_Plane
+
+        cp = cad_part(target, where)
+        face = cp.faces[0]
+        if BRepAdaptor_Surface(face).GetType() != GeomAbs_Plane:
+            raise Decline("not a planar face")
+        options.report(0.02, "reading the face outline")
+        p0, ex, ey, n = plane_frame(face, options.rotation)
+        axes = np.stack([ex, ey, n])
+        segs3 = face_segments(face, 0.5 * (min(texture.pitch) if isinstance(texture, Heightmap) else options.pitch))
+        segs = _local(segs3.reshape(-1, 3), p0, axes).reshape(-1, 2, 3)
+        off_plane = float(np.abs(segs[..., 2]).max())
+        if off_plane > 1e-4:
+            raise GeometryError(f"the face's edges leave its plane by {off_plane:.3g} mm; is the face really planar?")
+        segs = segs[..., :2]
+        lo, hi = segs.reshape(-1, 2).min(axis=0), segs.reshape(-1, 2).max(axis=0)
+        centre = (lo + hi) / 2
+        origin = p0 + centre[0] * ex + centre[1] * ey
+        pm = tessellation(cp.topo)
+        base = pm.mesh
+        base_local = Mesh(_local(base.vertices, origin, axes), base.faces)
+        z = base_local.vertices[:, 2]
+        snap = max(1e-5, 4 * float(np.finfo(np.float32).eps) * float(np.abs(base.vertices).max()))
+        z[np.abs(z) < snap] = 0.0  # the face's own vertices: exactly on the plane z = 0
+        frame = PlaneFrame(face, origin, axes, segs - centre, lo - centre, hi - centre, base_local)
+        return Placement("plane", base, body_count(cp.topo), selected_surface(pm, cp.face_ids), cp.topo, cp.face_ids, None, frame)
+
+    # -- relief -------------------------------------------------------------------------
+    def _grid(self, fr: PlaneFrame, texture: Any, options: Options):
+        """The texture fitted to the face and laid on the pixel grid over the outline."""
+        from ..sources import load_texture
+
+        size = fr.hi - fr.lo
+        options.report(0.05, f"loading texture for the {size[0]:.1f} x {size[1]:.1f} mm face")
+        hm = load_texture(texture, size=(float(size[0]), float(size[1])), pitch=options.pitch, height=options.height)
+        _require_relief(hm, texture)
+        px, py = hm.pitch
+        rows, cols = hm.shape
+        # Pixel (r, c) of the texture sits at x0 + (c + 1/2) px: centred, then offset.
+        x0 = -cols * px / 2 + float(options.offset[0])
+        y0 = -rows * py / 2 + float(options.offset[1])
+        kx = np.arange(int(np.floor((fr.lo[0] - x0) / px - 0.5)) - 2, int(np.ceil((fr.hi[0] - x0) / px - 0.5)) + 3)
+        ky = np.arange(int(np.floor((fr.lo[1] - y0) / py - 0.5)) - 2, int(np.ceil((fr.hi[1] - y0) / py - 0.5)) + 3)
+        need = texture_bytes(len(kx) * len(ky), options.tolerance)
+        require_memory(need, f"a {len(ky)} x {len(kx)} px texture on the face", f"use pitch >= {fitting_pitch(min(px, py), need):.3g} mm")
+        return _place_heightmap(hm, kx, ky), x0 + (kx + 0.5) * px, y0 + (ky + 0.5) * py, (px, py)
+
+    def _ramp(self, fr: PlaneFrame, h: np.ndarray, xs: np.ndarray, ys: np.ndarray, edge_angle: float):
+        """M-I ramps at the outline and at body material over the face: ``(h, dist,
+        obstructed)``."""
+        from scipy.ndimage import distance_transform_edt
+
+        px, py = xs[1] - xs[0], ys[1] - ys[0]
+        mask = inside(fr.segments, xs, ys)
+        all_segs = [fr.segments]
+        obst = _obstruction_segments(fr.base_local, np.array([xs[0], ys[0]]), np.array([xs[-1], ys[-1]]), float(h.max()) + 1e-3)
+        if obst is not None:
+            mask &= ~inside(obst, xs, ys)
+            all_segs.append(obst)
+        pts = sample_segments(np.concatenate(all_segs), 0.5 * min(px, py))
+        ci = np.clip(np.rint((pts[:, 0] - xs[0]) / px).astype(np.int64), 0, len(xs) - 1)
+        ri = np.clip(np.rint((pts[:, 1] - ys[0]) / py).astype(np.int64), 0, len(ys) - 1)
+        mask[ri, ci] = False
+        dist = distance_transform_edt(mask, sampling=(py, px))
+        # Zero band: every vertex of a cell the outline crosses lies within 1.75 diagonals
+        # of a marked boundary pixel (cell diagonal + half a sample step + half a diagonal).
+        margin = 3.0 * float(np.hypot(px, py))
+        ramp = np.where(dist > margin, np.inf, 0.0) if edge_angle >= 90.0 else np.tan(np.radians(edge_angle)) * np.maximum(dist - margin, 0.0)
+        h = np.where(mask, np.minimum(h, ramp), 0.0)
+        # FLOOR (1 um) under the texture inside the ramp: no contact of relief and face
+        # along lines and points; max() keeps the M-I ramp and the limiter's bounds.
+        h = np.where(mask, np.maximum(h, np.minimum(FLOOR, ramp)), 0.0).astype(np.float32)
+        return h, dist, obst is not None, margin
+
+    def relief(self, placement: Placement, texture: Any, options: Options) -> Relief:
+        fr: PlaneFrame = placement.data
+        h, xs, ys, (px, py) = self._grid(fr, texture, options)
+        options.report(0.1, f"clipping the {len(ys)} x {len(xs)} texture to the face outline")
+        h, dist, obstructed, margin = self._ramp(fr, h, xs, ys, options.edge_angle)
+        nominal = heightfield_volume(h, (px, py))[0]
+        limits, dirs = None, options.directions
+        if dirs is not None:
+            from ..printability import limit_overhangs
+
+            options.report(0.2, f"limiting overhangs to {options.critical_angle:g} deg")
+            lowered, limits = limit_overhangs(Heightmap(h, (px, py)), dirs @ fr.axes.T, options.critical_angle)
+            h = lowered.heights
+        if not (h > 0).any():
+            raise GeometryError(
+                f"no texture is left on the face: it is too small or narrow for a {margin:.2f} mm border band "
+                "at this pitch (or the overhang limiter removed it all); use a smaller pitch or a larger face"
+            )
+        _check_flat_outline(h, xs, ys, sample_segments(fr.segments, 0.5 * min(px, py)))
+        options.report(0.3, "meshing the relief")
+        # The relief above the face: vertices near and outside the outline go to -1 mm,
+        # so that trimming at z = 0 leaves only what lies inside the outline, on the face.
+        h_mesh = np.where(dist > 1.75 * float(np.hypot(px, py)), h, np.float32(-1.0))
+        slab_origin = (xs[0] - px / 2, ys[0] - py / 2, 0.0)
+        tolerance = options.tolerance
+        if dirs is not None and tolerance > 0:
+            from ..printability import printable_lean_slab
+
+            # lean facets keep the limiter's angle too (else a finer tolerance, down to 0)
+            slab, tolerance = printable_lean_slab(Heightmap(h_mesh, (px, py)), dirs @ fr.axes.T, options.critical_angle,
+                                                  tolerance=tolerance, depth=1.0, origin=slab_origin)
+        else:
+            slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin, tolerance=tolerance)
+        vol, slack = heightfield_volume(h_mesh, (px, py))
+        data = PlaneRelief(h, h_mesh, xs, ys, slab, slab_origin, float(tolerance), obstructed)
+        return Relief(
+            heightmap=Heightmap(h, (px, py)), limits=limits, volume=vol,
+            volume_slack=slack + float(tolerance) * px * py * h_mesh.size + 1e-3 * abs(vol),
+            nominal_volume=nominal, reach=float(h.max()) + 1e-3, data=data,
+        )
+
+    # -- fuse ---------------------------------------------------------------------------
+    def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
+        fr: PlaneFrame = placement.data
+        r: PlaneRelief = relief.data
+        options.report(0.4, f"fusing {r.slab.num_triangles} texture triangles onto the part")
+        how, stitched = "manifold3d", None
+        field = Heightmap(r.h_mesh, relief.heightmap.pitch)
+        if not r.obstructed and r.tolerance > 0:
+            vol, slack = heightfield_volume(field.heights, field.pitch)
+            expect = (vol, slack + r.tolerance * field.pitch[0] * field.pitch[1] * field.heights.size)
+            try:
+                fused_local, stitched = fuse_on_plane(fr.base_local, r.slab.vertices, r.slab.faces[r.slab.groups["texture"]], expect=expect)
+                how = "stitched"
+            except GeometryError as exc:
+                how = f"manifold3d (the stitch failed a check: {exc})"
+        if stitched is None:
+            fused_local = fuse(fr.base_local, to_manifold(r.slab).trim_by_plane((0.0, 0.0, 1.0), 0.0))
+        px = float(r.xs[1] - r.xs[0])
+        info = {
+            "face": "plane", "origin": fr.origin.tolist(), "xdir": fr.axes[0].tolist(), "ydir": fr.axes[1].tolist(),
+            "normal": fr.axes[2].tolist(), "grid": (len(r.ys), len(r.xs)), "obstructed": r.obstructed, "fuse": how,
+            "tolerance": r.tolerance, "pitch": px,
+            # the lean surface may enclose up to tolerance x area more or less than the B-rep
+            "volume_slack": r.tolerance * px * float(r.ys[1] - r.ys[0]) * r.h_mesh.size,
+        }
+        return Fused(self._world(fused_local, fr), placement.base, info, PlaneFused(fused_local, stitched))
+
+    @staticmethod
+    def _world(m: Mesh, fr: PlaneFrame) -> Mesh:
+        v = np.einsum("ij,jk->ik", m.vertices.astype(np.float64), fr.axes) + fr.origin  # 6 x faster than @ here
+        out = Mesh(v.astype(np.float32), m.faces)
+        out.__dict__["is_watertight"] = m.__dict__.get("is_watertight", None) or m.is_watertight
+        return out
+
+    # -- on demand ----------------------------------------------------------------------
+    def texture_mesh(self, stages: Stages) -> Mesh:
+        """(base + relief) - base in the face frame (manifold3d resolves the shared
+        plane consistently this way round); a stitched relief is that already."""
+        fr: PlaneFrame = stages.placement.data
+        f: PlaneFused = stages.fused.data
+        return self._world(f.stitched or from_manifold(to_manifold(f.local) - to_manifold(fr.base_local)), fr)
+
+    def max_error(self, stages: Stages) -> float:
+        r: PlaneRelief = stages.relief.data
+        s = r.slab
+        return mesh_error(r.h_mesh, stages.relief.heightmap.pitch, r.slab_origin, s.vertices, s.faces[s.groups["texture"]])
+
+    def brep(self, stages: Stages, fine: Any = None) -> Any:
+        if not stages.options.brep:
+            raise GeometryError("textured with brep=False; texture it again with brep=True for STEP")
+        fr: PlaneFrame = stages.placement.data
+        r: PlaneRelief = stages.relief.data
+        return textured_plane_solid(stages.placement.topo, fr.face, r.h, r.xs, r.ys, origin=fr.origin, xdir=fr.axes[0],
+                                    normal=fr.axes[2], fine=fine)
+
+    def fine_frame(self, stages: Stages) -> Any:
+        fr: PlaneFrame = stages.placement.data
+        r: PlaneRelief = stages.relief.data
+        return (fr.origin, fr.axes[0], fr.axes[1], float(r.xs[1] - r.xs[0]))
