@@ -3,7 +3,7 @@
     python docs/make_projections_figure.py [--out docs/projections.png] [--pitch 0.3]
 
 One dome-topped cylinder (a curved mesh with a seam line and a pole, r 12 mm),
-textured with the same stones (1 mm) by each projection of texcad.pipeline.mesh:
+textured with the same stones (1 mm) by each projection of texcad.targets.mesh:
 planar along +x, cylindrical about z, spherical, triplanar and cubic (20 degree blend),
 and the solid 3-D stones, which need no projection. The bed face stays flat in every
 one. Deterministic: same inputs, same bytes.

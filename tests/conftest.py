@@ -81,7 +81,7 @@ def knurled_cylinder(r: float, h: float, sides: int, *, ridges: bool, **options)
 
     import manifold3d as m3d
 
-    import texcad.pipeline.mesh as pm
+    import texcad.targets.mesh as pm
     from texcad.printability import limit_relief
     from texcad.solid import Mesh
 

@@ -208,8 +208,9 @@ class Options:
         for n in names:
             v = getattr(self, n)
             out[n] = v.value if isinstance(v, enum.Enum) else v
-        if "build_dir" in out:
-            out["build_dir"] = self.directions
+        if "build_dir" in out and self.build_dir is not None:  # one direction as a (3,) vector, several as (K, 3)
+            d = self.directions
+            out["build_dir"] = d[0] if len(d) == 1 else d
         return out
 
 

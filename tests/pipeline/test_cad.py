@@ -105,7 +105,7 @@ def test_step_stl_3mf(made, tmp_path, lib, kind):
         import cadquery as cq
 
         assert isinstance(res.workplane, cq.Workplane) and res.workplane.val().isValid()
-    stl, mf, step = tx.export_stl(tmp_path / "p.stl"), tx.export_3mf(tmp_path / "p.3mf", separate_texture=True), tx.export_step(tmp_path / "p.step")
+    stl, mf, step = tx.export(tmp_path / "p.stl"), tx.export(tmp_path / "p.3mf", separate_texture=True), tx.export(tmp_path / "p.step")
     m = trimesh.load(stl)
     assert m.is_watertight and m.is_winding_consistent
     shape = texcad.io.read_step(step)
@@ -237,7 +237,7 @@ def test_brep_false_is_mesh_only(tmp_path):
     tx = texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], TEX, height=1.0, pitch=PITCH, brep=False)
     assert tx.mesh.is_watertight and tx.volume > box.volume
     with pytest.raises(GeometryError, match="brep=True"):
-        tx.export_step(tmp_path / "x.step")
+        tx.export(tmp_path / "x.step")
 
 
 def test_render_and_cli_render(made, tmp_path):
@@ -247,8 +247,8 @@ def test_render_and_cli_render(made, tmp_path):
     png = texcad.render.render_part(tx, tmp_path / "a.png", width=160)
     img = np.asarray(Image.open(png))
     assert img.shape[1] == 160 and img.std() > 10  # a picture, not a blank
-    tx.export_step(tmp_path / "c.step")
-    tx.export_stl(tmp_path / "c.stl")
+    tx.export(tmp_path / "c.step")
+    tx.export(tmp_path / "c.stl")
     from texcad.cli import main
 
     for src in ("c.step", "c.stl"):

@@ -388,7 +388,7 @@ def test_cli_selects_several_faces_and_prints_distortion(tmp_path, capsys):
 
 
 def test_tessellation_that_needs_healing_is_retried(monkeypatch):
-    import texcad.pipeline.faces as F
+    import texcad.brep.tessellation as F
     from texcad.solid import Mesh
 
     part = knob()

@@ -43,8 +43,8 @@ def test_surface_with_build_dir_is_lean_and_support_free():
     d = orientation(30, "+x")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        grid = texcad.texture(surf, None, "builtin:stones", height=1.0, tolerance=0, build_dir=d, mapping="distance")
-        lean = texcad.texture(surf, None, "builtin:stones", height=1.0, tolerance=0.02, build_dir=d, mapping="distance")
+        grid = texcad.texture(surf, None, "builtin:stones", height=1.0, pitch=0.125, tolerance=0, build_dir=d, mapping="distance")
+        lean = texcad.texture(surf, None, "builtin:stones", height=1.0, pitch=0.125, tolerance=0.02, build_dir=d, mapping="distance")
     assert lean.mesh.num_triangles < 0.6 * grid.mesh.num_triangles
     assert 0 < lean.max_error <= 0.02
     assert edge_report(lean.mesh.faces)["watertight"]
@@ -75,7 +75,7 @@ def test_lean_extruded_face_keeps_its_brep_and_ops():
 
 def _union_instead(monkeypatch):
     """Make the planar-face and plate paths use manifold3d's union (the stitch refused)."""
-    import texcad.pipeline.cad as cad
+    import texcad.targets.plane as cad
     import texcad.pipeline.plate as plate
     from texcad.errors import GeometryError
 

@@ -15,7 +15,7 @@ import trimesh
 import texcad
 from texcad.errors import InputError, ParameterError
 from texcad.mapping.region import Region
-from texcad.pipeline.mesh import MeshTextured
+from texcad import Textured
 from texcad.printability import face_areas, overhang_mask
 from texcad.solid import Mesh
 
@@ -80,7 +80,7 @@ def _texture(tm, proj, mode, **kw):
 def test_projection_mode_guarantees(shape, proj, mode):
     tm = SHAPES[shape]()
     r = _texture(tm, proj, mode)
-    assert isinstance(r, MeshTextured) and r.kind == "mesh"
+    assert isinstance(r, Textured) and r.kind == "mesh"
     out = r.mesh
     t = trimesh.Trimesh(out.vertices, out.faces, process=False)
     assert t.is_watertight and t.is_winding_consistent

@@ -14,7 +14,7 @@ import trimesh
 
 import texcad
 from texcad.errors import ParameterError
-from texcad.pipeline.mesh import load_closed
+from texcad.targets.mesh import load_closed
 from texcad.solid.adaptive import build, coarse_mesh, edge_counts, measure, pitch_samples
 from texcad.solid.subdivide import coarsen
 from test_mesh_target import _box, _cylinder  # the same parts (tests/pipeline is on the path)
@@ -200,7 +200,7 @@ def test_carried_vertices_are_the_same_points():
 
 def test_later_rounds_keep_values_without_changing_the_result(monkeypatch):
     """Carrying vertex values from round to round gives the bytes of sampling anew."""
-    import texcad.pipeline.mesh as pm
+    import texcad.targets.mesh as pm
 
     kw = dict(height=0.8, pitch=0.5, projection="triplanar", build_dir=(0, 0, 1), border=1.5, tolerance=0.01)
     with warnings.catch_warnings():

@@ -105,7 +105,7 @@ def test_textured_surface_build_dir_errors():
 
 # -- texcad.texture on build123d parts (build direction in world coordinates) -------------
 def check_3mf(tx, d, path) -> float:
-    tx.export_3mf(path, separate_texture=True)
+    tx.export(path, separate_texture=True)
     return texture_overhang(path, d)
 
 
@@ -153,7 +153,7 @@ def test_texture_curved_face_world_build_dir(tmp_path):
     # One end of the arc faces down: its border is ramped (which one depends on the face frame).
     assert fixed.limits.remaining_overhang_mm2 == 0.0 and len(fixed.limits.ramped_borders) == 1
     # STEP: one valid solid.
-    fixed.export_step(tmp_path / "fixed.step")
+    fixed.export(tmp_path / "fixed.step")
     shape = texcad.io.read_step(tmp_path / "fixed.step")
     chk = texcad.brep.solids.check_shape(shape)
     assert chk["valid"] and chk["solids"] == 1
@@ -170,7 +170,7 @@ def test_texture_planar_knurl_valleys_stay_manifold(tmp_path, monkeypatch):
 
     def stl_watertight(tolerance: float = 0.0) -> bool:  # 0: manifold3d's union; > 0: the lean relief stitched in
         tx = texcad.texture(box, top, "builtin:diamond_knurl", height=1.0, pitch=0.125, brep=False, tolerance=tolerance)
-        tx.export_stl(tmp_path / "knurl.stl")
+        tx.export(tmp_path / "knurl.stl")
         return trimesh.load(tmp_path / "knurl.stl").is_watertight
 
     assert stl_watertight() and stl_watertight(0.02)

@@ -80,7 +80,7 @@ def test_prusaslicer_keeps_base_and_texture_as_one_object(tmp_path, box_side):
     box, side = box_side
     tx = texcad.texture(box, side, "builtin:stones", height=1.0, pitch=0.5, brep=False)
     src, out = tmp_path / "part.3mf", tmp_path / "resaved.3mf"
-    tx.export_3mf(src, separate_texture=True)
+    tx.export(src, separate_texture=True)
     r = subprocess.run([slicer.find_slicer(), "--export-3mf", "--output", str(out), str(src)], capture_output=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     cfg = zipfile.ZipFile(out).read("Metadata/Slic3r_PE_model.config").decode()

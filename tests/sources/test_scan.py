@@ -207,7 +207,7 @@ def test_point_cloud_readers(tmp_path, cloud, fmt):
     assert np.allclose(data.points, cloud, atol=1e-5)
     hm, rep = scan_to_heightmap(path, pitch=0.3)
     assert rep.kind == "points" and rep.source == str(path) and hm.shape[0] > 30
-    assert Heightmap.from_scan(path, pitch=0.3).heights.tobytes() == hm.heights.tobytes()
+    assert texcad.sources.scan_to_heightmap(path, pitch=0.3)[0].heights.tobytes() == hm.heights.tobytes()
 
 
 def _surface_mesh(n=61, size=12.0):

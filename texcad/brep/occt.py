@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["to_topods", "explore", "solids_of", "faces_of", "as_array", "compound"]
+__all__ = ["to_topods", "explore", "solids_of", "faces_of", "as_array", "compound", "matrix_of"]
 
 
 def compound(shapes: list):
@@ -98,3 +98,17 @@ def faces_of(shape: Any) -> list:
 def as_array(v) -> np.ndarray:
     """An OCP ``gp_Pnt``/``gp_Dir``/``gp_Vec``/``gp_XYZ`` as a ``(3,)`` float64 array."""
     return np.array(v.Coord(), dtype=np.float64)
+
+
+def matrix_of(location: Any) -> np.ndarray:
+    """``(3, 4)`` float64 matrix of a build123d ``Location``, an OCP ``gp_Trsf`` /
+    ``TopLoc_Location`` or a ``(3, 4)``/``(4, 4)`` array."""
+    trsf = getattr(location, "wrapped", location)
+    if hasattr(trsf, "Transformation"):
+        trsf = trsf.Transformation()
+    if hasattr(trsf, "Value"):
+        return np.array([[trsf.Value(i, j) for j in range(1, 5)] for i in range(1, 4)], dtype=np.float64)
+    m = np.asarray(location, dtype=np.float64)
+    if m.shape not in ((3, 4), (4, 4)):
+        raise ParameterError(f"a placement is a build123d Location or a (3, 4) / (4, 4) matrix, got {m.shape}")
+    return m[:3]

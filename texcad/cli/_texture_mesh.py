@@ -1,5 +1,5 @@
 """``texcad texture PART.stl|.3mf|.obj``: the mesh branch of ``texcad texture``
-(:func:`texcad.pipeline.mesh.texture_mesh`)."""
+(:func:`texcad.targets.mesh.MeshAdapter`)."""
 
 from __future__ import annotations
 

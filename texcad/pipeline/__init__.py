@@ -14,15 +14,6 @@ from .faces import (
     FADE_ZERO,
     FLOOR_CURVED,
 )
-from .mesh import (
-    MESH_SUFFIXES,
-    MODES,
-    MESH_OPTIONS,
-    Layer,
-    is_mesh_target,
-    load_closed,
-    texture_mesh,
-)
 from .ops import (
     cad_op,
     fillet,
@@ -57,13 +48,6 @@ __all__ = [
     'FADE_FULL',
     'FADE_ZERO',
     'FLOOR_CURVED',
-    'MESH_SUFFIXES',
-    'MODES',
-    'MESH_OPTIONS',
-    'Layer',
-    'is_mesh_target',
-    'load_closed',
-    'texture_mesh',
     'cad_op',
     'fillet',
     'mirror',

@@ -69,7 +69,7 @@ from ..solid import Mesh, edge_report, from_manifold, to_manifold
 from ..brep import as_array
 from ..util import Progress, report, smoothstep
 from ..brep.tessellation import TESSELLATION, FaceMesh, PartMesh, part_tessellation
-from .mesh import _gradient
+from ..targets.mesh import _gradient
 
 __all__ = ["texture_any_faces", "face_list", "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED"]
 
@@ -438,7 +438,7 @@ def _surfaces(g: dict, opts: dict) -> dict:
     face where it would be at or above it (engraved) and ``2 FLOOR_CURVED`` along the
     outline band. Heights above the face are capped at ``0.9 / kappa`` on concave
     sides, depths below it at ``0.9 / kappa`` on convex ones (self-intersection)."""
-    from .mesh import MODES
+    from ..targets.mesh import MODES
 
     mode = opts.get("mode", "raised")
     if mode not in MODES:

@@ -39,6 +39,7 @@ import numpy as np
 
 from ..errors import GeometryError, ParameterError
 from ..solid import Mesh, from_manifold, to_manifold
+from ..brep.occt import matrix_of
 from ..brep import FINE, occt_boolean, check_shape, shape_to_mesh, to_topods, transformed_shape, volume
 
 __all__ = ["cad_op", "fillet", "mirror", "pattern", "OPS", "OP_VOLUME_TOLERANCE"]
@@ -251,9 +252,12 @@ def _checked(shape, mesh: Mesh, op: str, bodies: int, info: dict | None = None):
 
 
 def _derived(part: Any, *, mesh, texture_mesh, base_mesh, shape, info, hist) -> Any:
-    from .result import Textured
+    """The result of an operation, its mesh through the gate's shell checks first."""
+    from ..report.gate import GateReport, gate_shells
 
-    return Textured.derived(part, mesh=mesh, texture_mesh=texture_mesh, base_mesh=base_mesh, shape=shape, info=info,
+    mesh = mesh() if callable(mesh) else mesh
+    info = dict(info, gate=GateReport(gate_shells(mesh, what=f"result of {(info.get('operations') or ['a CAD operation'])[-1]}")).to_dict())
+    return type(part).derived(part, mesh=mesh, texture_mesh=texture_mesh, base_mesh=base_mesh, shape=shape, info=info,
                             history=hist)
 
 
@@ -407,12 +411,10 @@ def _placements(locations: Any) -> list[np.ndarray]:
     """``(3, 4)`` matrices of a pattern's placements: a build123d ``Locations`` /
     ``GridLocations`` / ``PolarLocations``, or a list of ``Location``s, ``Pos``es or
     matrices."""
-    from .result import _matrix
-
     items = getattr(locations, "locations", locations)
     if hasattr(items, "wrapped") or (isinstance(items, np.ndarray) and items.ndim == 2):
         items = [items]
-    mats = [_matrix(loc) for loc in items]  # one per copy
+    mats = [matrix_of(loc) for loc in items]  # one per copy
     if not mats:
         raise ParameterError("a pattern needs at least one placement, e.g. [Pos(0, 0, 0), Pos(120, 0, 0)]")
     for m in mats:  # one per copy

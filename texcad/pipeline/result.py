@@ -16,6 +16,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..brep.occt import matrix_of
 from ..contracts import Stages
 from ..errors import GeometryError, ParameterError
 from ..solid import Mesh
@@ -35,20 +36,6 @@ def _transformed(mesh: Mesh, m: np.ndarray) -> Mesh:
     if "is_watertight" in mesh.__dict__:
         out.__dict__["is_watertight"] = mesh.__dict__["is_watertight"]
     return out
-
-
-def _matrix(location: Any) -> np.ndarray:
-    """``(3, 4)`` float64 matrix of a build123d ``Location``, an OCP ``gp_Trsf`` /
-    ``TopLoc_Location`` or a ``(3, 4)``/``(4, 4)`` array."""
-    trsf = getattr(location, "wrapped", location)
-    if hasattr(trsf, "Transformation"):
-        trsf = trsf.Transformation()
-    if hasattr(trsf, "Value"):
-        return np.array([[trsf.Value(i, j) for j in range(1, 5)] for i in range(1, 4)], dtype=np.float64)
-    m = np.asarray(location, dtype=np.float64)
-    if m.shape not in ((3, 4), (4, 4)):
-        raise ParameterError(f"a placement is a build123d Location or a (3, 4) / (4, 4) matrix, got {m.shape}")
-    return m[:3]
 
 
 def checked_brep(shape: Any, bodies: int, mesh: Mesh, slack: float = 0.0) -> tuple[Any, float]:
@@ -143,7 +130,7 @@ class Textured:
     @property
     def mesh(self) -> Mesh:
         """The fused, watertight mesh (base + texture), mm, where the part is now."""
-        return _transformed(self._mesh, self._placement)
+        return _transformed(self._made("_mesh", lambda: None), self._placement)
 
     @property
     def texture_mesh(self) -> Mesh:
@@ -277,7 +264,7 @@ class Textured:
         """A copy moved by ``location`` (a build123d ``Location``, e.g. ``Pos(10, 0,
         0)``, ``Rot(0, 0, 90)``, or a ``(3, 4)`` matrix): meshes and B-rep move
         together; ``Pos(10, 0, 0) * textured`` does the same."""
-        m = _matrix(location)
+        m = matrix_of(location)
         out = object.__new__(Textured)
         out.__dict__.update(self.__dict__)
         out.info = dict(self.info)

@@ -185,7 +185,7 @@ def textured_surface(
 
 def _share(mode: str) -> float:
     """The mode's share ``c`` of the height that goes under the surface."""
-    from .mesh import MODES
+    from ..targets.mesh import MODES
 
     if mode not in MODES:
         raise ParameterError(f"mode {mode!r}: use 'raised', 'engraved' (cut in, the envelope kept) or 'centred'")
@@ -230,7 +230,7 @@ def _bodies(profile, mapped, share: float, full: float, gradient: Any, lean: dic
     alone), ``shown`` (the body whose ``"texture"`` faces are the part's textured
     surface, outward), ``error`` (mm) and ``triangles``."""
     from ..mapping import CUT_FLOOR, mode_sheets
-    from .mesh import _gradient
+    from ..targets.mesh import _gradient
 
     s = mapped.s
     gain = None if gradient is None else _gradient(mapped.top.reshape(-1, 3).astype(np.float64), gradient).reshape(mapped.top.shape[:2])

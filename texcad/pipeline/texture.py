@@ -10,13 +10,14 @@ The target says which pipeline runs:
   (:func:`texcad.pipeline.surface.textured_surface`);
 * a mesh (a path ending in .stl / .3mf / .obj, a :class:`texcad.Mesh`, a
   ``trimesh.Trimesh``): ``where`` is a region such as ``"normal:+x:70"`` or a list of
-  layers (:func:`texcad.pipeline.mesh.texture_mesh`).
+  layers (:func:`texcad.targets.mesh.MeshAdapter`).
 
 Every target gives a :class:`texcad.Textured`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from typing import Any
 
@@ -31,14 +32,6 @@ __all__ = ["texture"]
 def _legacy(target: Any, where: Any, texture: Any, o: Options) -> Textured:
     """Targets whose adapters are not written yet: their handlers, with the options
     validated once (one set of defaults)."""
-    from .mesh import is_mesh_target
-
-    if is_mesh_target(target):
-        from .mesh import MESH_OPTIONS, texture_mesh
-
-        names = [n for n in MESH_OPTIONS if n in o.given or n in ("height", "pitch", "mode", "tolerance", "critical_angle")]
-        o.refuse(set(MESH_OPTIONS), "a mesh")
-        return texture_mesh(target, "all" if where is None else where, texture, **o.as_kwargs(names))
     if isinstance(target, (Surface, Profile)):
         if where is not None:
             raise ParameterError("a Surface is textured whole: pass where=None")
@@ -126,6 +119,8 @@ def texture(
     o = Options.make(**options)
     if not isinstance(texture, Heightmap):
         texture = os.fspath(texture)
+    elif "height" not in o.given and texture.max_height > 0:  # a Heightmap keeps its own heights unless told
+        o = dataclasses.replace(o, height=float(texture.max_height))
     from ..targets import ADAPTERS
 
     if any(a.accepts(target, where, o) for a in ADAPTERS):

@@ -1,7 +1,7 @@
 """The overhang limiter for a displaced mesh (a texture as vertex displacements).
 
 A mesh textured by displacing its vertices ``p_i`` along their normals ``n_i`` by
-``d_i`` mm (:mod:`texcad.pipeline.mesh`) prints without support for the build
+``d_i`` mm (:mod:`texcad.targets.mesh`) prints without support for the build
 directions ``D`` when no displaced face overhangs: ``-n_f . d <= cos(alpha_crit)``
 for every displaced face ``f`` and every ``d`` in ``D`` (paper, section 2.1.3; the
 faces of the undisplaced surface are left out of the region beforehand when they

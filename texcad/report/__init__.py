@@ -1,7 +1,16 @@
-"""Checks on finished parts: watertight, manifold, volume, overhang area, seam gap.
+"""Checks on finished parts: the gate every result passes, watertight, manifold, volume,
+overhang area, seam gap, slicers.
 """
 
 
+from .gate import (
+    Expectation,
+    GateReport,
+    ShellReport,
+    gate,
+    gate_shells,
+    shell_report,
+)
 from .report import (
     CheckReport,
     check,
@@ -21,6 +30,12 @@ from .slicer import (
 )
 
 __all__ = [
+    'Expectation',
+    'GateReport',
+    'ShellReport',
+    'gate',
+    'gate_shells',
+    'shell_report',
     'CheckReport',
     'check',
     'render_check',

@@ -41,7 +41,7 @@ import numpy as np
 from ..errors import GeometryError, TexcadWarning
 from ..solid import Mesh
 
-__all__ = ["Expectation", "GateReport", "gate", "shell_report", "ShellReport", "VANISHED", "MANIFOLD3D_MAX"]
+__all__ = ["Expectation", "GateReport", "gate", "gate_shells", "shell_report", "ShellReport", "VANISHED", "MANIFOLD3D_MAX"]
 
 #: Applied texture volume below this share of the nominal one: a TexcadWarning.
 VANISHED = 0.5
@@ -331,6 +331,15 @@ def _reach(mesh: Mesh, ex: Expectation) -> tuple[float, float, int]:
 # ------------------------------------------------------------------------------------------
 # The gate
 # ------------------------------------------------------------------------------------------
+def gate_shells(mesh: Mesh, *, what: str = "result") -> ShellReport:
+    """Checks 1-3 alone (a result whose body count and volume are not known ahead,
+    e.g. after a CAD operation): the figures, or GeometryError."""
+    sr = shell_report(mesh)
+    if not sr.manifold:
+        raise GeometryError(f"the {what} failed texcad's gate: {sr.problem()}; please report this")
+    return sr
+
+
 def gate(mesh: Mesh, ex: Expectation, *, what: str = "textured part") -> GateReport:
     """Check ``mesh`` against ``ex`` (module docstring): return the figures, or raise.
 

@@ -6,7 +6,9 @@ A part is read from STL or 3MF (or given as meshes) and measured:
   (:func:`texcad.solid.edge_report`), for every object in the file;
 * **manifold**: every object is a closed, oriented 2-manifold, as manifold3d
   requires (tested with sorts for a single object; several objects are handed to
-  manifold3d, which unites them);
+  manifold3d, which unites them), and passes the gate's shell checks
+  (:func:`texcad.report.gate.shell_report`): no shell faces inwards unless it is a
+  cavity, no body lies in or across another (a note names the figures);
 * **shells, volume, bounding box, triangles** of the whole part (several objects
   are united with manifold3d first, as a slicer would);
 * **overhang area** (mm^2) for a build direction and critical angle, by the rule of
@@ -47,6 +49,7 @@ from ..util import threads
 from ..sources import Heightmap
 from ..io import read_part
 from ..solid import Mesh, box_cells, closed_and_oriented, edge_report, shells
+from .gate import shell_report
 from ..printability import (
     DEFAULT_CRITICAL_ANGLE,
     ThinFeatures,
@@ -455,6 +458,7 @@ def check(
         volume_f = pool.submit(lambda: (float(mesh.volume), mesh.bounds))
         shells_f = pool.submit(shells, mesh.faces, len(mesh.vertices))
         manif = manif or [pool.submit(_closed_manifold, items[0][1]).result()]
+        manif = _gate_shells(items, manif, notes)
         # manifold3d accepts only closed, consistently oriented 2-manifolds (every edge
         # shared by exactly two faces, opposite ways): those are watertight; the others
         # are counted edge by edge.
@@ -490,6 +494,18 @@ def check(
         render_check(mesh, d, over, texture_mask, png, width=png_width)
         rep.png = os.fspath(png)
     return rep
+
+
+def _gate_shells(items: list, manif: list, notes: list[str]) -> list[bool]:
+    """The gate's own shell checks, object by object (:func:`texcad.report.gate.shell_report`):
+    no inside-out shell, no body in or across another; a note names each problem."""
+    out = []
+    for (name, m), ok in zip(items, manif):  # per object
+        problem = shell_report(m).problem() if ok else ""
+        if problem:
+            notes.append(f"{name}: {problem}")
+        out.append(ok and not problem)
+    return out
 
 
 def _areas_of(mesh: Mesh, which: np.ndarray) -> np.ndarray:

@@ -29,7 +29,7 @@ normals; a point inside a face: its normal), which is what
 
 Faces whose error exceeds the tolerance are set to their pitch level, where the
 mesh has a vertex at every sample (error 0): the driver
-(:func:`texcad.pipeline.mesh.texture_mesh`) repeats until none does.
+(:func:`texcad.targets.mesh.MeshAdapter`) repeats until none does.
 """
 
 from __future__ import annotations

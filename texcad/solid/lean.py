@@ -194,7 +194,7 @@ def tiled_triangulation(
     Returns:
         ``(rc, faces)`` as :func:`triangulate` (every tile border point kept), or None.
     """
-    from .mesh import grid_faces
+    from .grid import grid_faces
 
     h = np.asarray(heights, dtype=np.float32)
     rows, cols = h.shape

@@ -18,6 +18,8 @@ from typing import Sequence
 
 import numpy as np
 
+from .grid import grid_faces
+
 from ..util import argsort_ints, require_memory
 from ..errors import GeometryError, ParameterError
 from ..sources import Heightmap
@@ -181,30 +183,6 @@ def shells(faces: np.ndarray, num_vertices: int) -> int:
     g = coo_matrix((np.ones(2 * len(f), dtype=np.int8), (np.r_[f[:, 0], f[:, 1]], np.r_[f[:, 1], f[:, 2]])), shape=(n, n))
     _, lab = connected_components(g, directed=False)
     return int(np.count_nonzero(np.bincount(lab[f[:, 0]])))  # components that own a face
-
-
-def grid_faces(rows: int, cols: int, *, wrap_x: bool = False, flip: bool = False) -> np.ndarray:
-    """Triangles of a ``rows x cols`` vertex grid (row-major indices).
-
-    Each cell ``(r, c)`` becomes two triangles, counter-clockwise when the grid is
-    seen with x (columns) to the right and y (rows) up. With ``wrap_x`` the last
-    column connects back to the first (a closed band).
-
-    Returns:
-        ``(2 (rows-1) cols', 3)`` uint32 indices, ``cols' = cols`` if ``wrap_x``
-        else ``cols - 1``.
-    """
-    idx = np.arange(rows * cols, dtype=np.uint32).reshape(rows, cols)
-    right = np.roll(idx, -1, axis=1) if wrap_x else idx[:, 1:]
-    left = idx if wrap_x else idx[:, :-1]
-    a, b = left[:-1], right[:-1]  # bottom-left, bottom-right of each cell
-    d, c = left[1:], right[1:]  # top-left, top-right
-    tri = np.empty((a.size * 2, 3), dtype=np.uint32)
-    tri[0::2, 0], tri[0::2, 1], tri[0::2, 2] = a.ravel(), b.ravel(), c.ravel()
-    tri[1::2, 0], tri[1::2, 1], tri[1::2, 2] = a.ravel(), c.ravel(), d.ravel()
-    if flip:
-        tri[:, [1, 2]] = tri[:, [2, 1]]
-    return tri
 
 
 def _ring(rows: int, cols: int) -> np.ndarray:

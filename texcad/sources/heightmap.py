@@ -265,18 +265,6 @@ class Heightmap:
             return cls((gray * hmax).astype(np.float32), (w / shape[1], d / shape[0]))
         return cls((gray * hmax).astype(np.float32), src)
 
-    @classmethod
-    def from_scan(cls, path: "str | os.PathLike | np.ndarray", *, pitch: float, **options) -> "Heightmap":
-        """Heightmap of a 3-D scan (point cloud or mesh) at ``pitch`` mm per pixel.
-
-        A thin wrapper over :func:`texcad.sources.scan_to_heightmap` (see there for the
-        steps and ``options``: ``form_degree``, ``outlier_sigma``, ``crop``,
-        ``fill_holes``, ``base_percentile``, ...) that drops the report.
-        """
-        from .scan import scan_to_heightmap
-
-        return scan_to_heightmap(path, pitch=pitch, **options)[0]
-
     # -- properties --------------------------------------------------------------
     @property
     def shape(self) -> tuple[int, int]:

@@ -8,9 +8,10 @@ closer look) textures it.
 """
 
 from .base import Adapter, Decline
+from .mesh import MeshAdapter
 from .plane import PlaneAdapter
 
 #: The adapters, in the order the driver asks them.
-ADAPTERS: list = [PlaneAdapter()]
+ADAPTERS: list = [MeshAdapter(), PlaneAdapter()]
 
-__all__ = ["ADAPTERS", "Adapter", "Decline", "PlaneAdapter"]
+__all__ = ["ADAPTERS", "Adapter", "Decline", "MeshAdapter", "PlaneAdapter"]

@@ -62,9 +62,12 @@ from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, closed_and_oriente
 from ..solid.adaptive import build, carried, coarse_mesh, edge_counts, measure, pitch_samples
 from ..solid.subdivide import coarsen, face_normals, offset_directions, refine, vertex_normals
 from ..util import beside, colmax, colmin, rowany, split_rows, threads
-from .result import Textured
+from ..contracts import Fused, Placement, Relief, Stages
+from ..options import Options
+from ..report.gate import Expectation
+from .base import Adapter
 
-__all__ = ["MESH_SUFFIXES", "MODES", "MESH_OPTIONS", "Layer", "is_mesh_target", "load_closed", "texture_mesh"]
+__all__ = ["MESH_SUFFIXES", "MODES", "MESH_OPTIONS", "Layer", "MeshAdapter", "is_mesh_target", "load_closed"]
 
 MESH_SUFFIXES = (".stl", ".3mf", ".obj")
 #: How far (mm) the base lies under the regions in ``base_mesh`` (texture bodies have
@@ -605,54 +608,120 @@ def _assert_closed(faces: np.ndarray, nv: int, bodies: int, what: str) -> None:
         raise GeometryError(f"the {what} has {n} bodies where the input had {bodies}")
 
 
-def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones", **options: Any) -> Textured:
-    """Texture a closed mesh (module docstring gives the method). Lengths mm, degrees.
+@dataclass(frozen=True)
+class MeshPlace:
+    """A mesh placed: its repaired vertices ``(N, 3)`` float64 mm and faces ``(M, 3)``,
+    the layers (region, texture, options each), its name for messages and what the
+    repair did."""
 
-    Args:
-        target: a path ``.stl``/``.3mf``/``.obj``, a :class:`texcad.Mesh` or a
-            ``trimesh.Trimesh``: one or more closed bodies.
-        where: the region (:class:`texcad.mapping.Region` or its string, e.g.
-            ``"normal:+x:70"``), or a list of layers ``(region, texture, {options})``
-            (each layer's options override the call's).
-        texture: ``builtin:NAME[:k=v]``, an image (with ``size``) or a Heightmap.
-        **options: ``height`` (1 mm), ``mode`` (``raised``/``engraved``/``centred``),
-            ``projection`` (``triplanar``; ``planar:+x``, ``cylindrical:+z``,
-            ``spherical``, ``cubic``, ``solid`` or a Projection) with ``axis``,
-            ``origin``, ``radius``, ``blend`` (20 deg), ``rotation``,
-            ``local_radius``; ``border`` (2 mm fade), ``gradient`` ``(start, end)``,
-            ``scale``, ``size`` (image tile, mm), ``pitch`` (0.5 mm, longest edge),
-            ``build_dir`` / ``critical_angle`` (45 deg), ``tolerance`` (0.02 mm:
-            largest distance, along the displacement, between the mesh and the
-            texture at every point of the pitch grid; 0: the pitch grid itself).
-
-    Raises:
-        InputError: the mesh is not closed. ParameterError: a bad option or an empty
-        region. GeometryError: the result is not a closed solid.
-    """
-    bad = sorted(set(options) - set(MESH_OPTIONS))
-    if bad:
-        raise ParameterError(f"{', '.join(bad)}: not an option when texturing a mesh; the options are {', '.join(sorted(MESH_OPTIONS))}")
-    build_dir = options.pop("build_dir", None)
-    crit = check_critical_angle(options.pop("critical_angle", 45.0))
-    progress = options.pop("progress", None) or (lambda fr, msg: None)
-    tolerance = check_tolerance(options.pop("tolerance", DEFAULT_TOLERANCE))
-    raw = where if isinstance(where, list) else [(where, texture, {})]
-    layers = [Layer.make(r, t, {**options, **dict(o)}) for r, t, o in raw]
-    dirs = None if build_dir is None else build_directions(build_dir)
-    progress(0.0, "reading the mesh")
-    v, f, bodies, info = load_closed(target, crossing=False)
-    with beside(assert_uncrossed, v, f, _name(target)) as crossed:  # the self-intersection test
-        try:
-            res = _displace(layers, v, f, bodies, info, dirs, crit, tolerance, progress)
-        except Exception:
-            crossed.result()  # a crossed input is the cause of what failed: say that first
-            raise
-        crossed.result()
-    return _result(*res)
+    vertices: np.ndarray
+    faces: np.ndarray
+    layers: tuple
+    name: str
+    info: dict
 
 
-def _displace(layers, v, f, bodies, info, dirs, crit, tolerance, progress):
-    """Subdivide, sample, displace, limit and check (:func:`texture_mesh`)."""
+@dataclass(frozen=True)
+class MeshRelief:
+    """The relief on a mesh: the refined mesh ``v`` (mm), ``f``, the offset directions
+    ``normals``, the displacement ``d`` (mm) of each vertex after the limiter, the
+    lowest displacement ``b`` (every texture at its lowest, :data:`SKIN` under the
+    regions), each layer's ``(d, b, info, inside)`` and the region's face mask."""
+
+    v: np.ndarray
+    f: np.ndarray
+    normals: np.ndarray
+    d: np.ndarray
+    b: np.ndarray
+    parts: tuple
+    region: np.ndarray
+
+
+def _layers(where: Any, texture: Any, o: Options) -> tuple:
+    """The layers of a call: ``where`` a region (or its string) or a list of layers
+    ``(region, texture, {options})``, each layer's options over the call's."""
+    names = [n for n in LAYER_OPTIONS if getattr(o, n) is not None and (n in o.given or n in ("height", "mode", "pitch", "border", "scale"))]
+    base = o.as_kwargs(names)
+    raw = where if isinstance(where, list) else [("all" if where is None else where, texture, {})]
+    return tuple(Layer.make(r, t, {**base, **dict(opts)}) for r, t, opts in raw)
+
+
+def _vertex_areas(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """A third of the area (mm^2) of every face around each vertex."""
+    p = v[f]
+    a = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    return np.bincount(f.ravel(), weights=np.repeat(a / 3.0, 3), minlength=len(v))
+
+
+class MeshAdapter(Adapter):
+    """A closed mesh (STL, 3MF, OBJ, a :class:`texcad.Mesh`, a ``trimesh.Trimesh``):
+    its region(s) refined, displaced along the offset directions and limited (module
+    docstring). The displaced mesh is the fused mesh; a mesh has no B-rep."""
+
+    kind = "mesh"
+    label = "a mesh"
+    result_kind = "mesh"
+    options = frozenset(MESH_OPTIONS) - {"progress"}
+
+    def accepts(self, target: Any, where: Any, options: Options) -> bool:
+        return is_mesh_target(target)
+
+    def place(self, target: Any, where: Any, texture: Any, options: Options) -> Placement:
+        layers = _layers(where, texture, options)
+        options.report(0.0, "reading the mesh")
+        v, f, bodies, info = load_closed(target, crossing=False)
+        base = Mesh(v.astype(np.float32), f.astype(np.uint32))
+        return Placement("mesh", base, bodies, None, data=MeshPlace(v, f, layers, _name(target), info))
+
+    def relief(self, placement: Placement, texture: Any, options: Options) -> Relief:
+        mp: MeshPlace = placement.data
+        progress = options.report
+        with beside(assert_uncrossed, mp.vertices, mp.faces, mp.name) as crossed:  # the self-intersection test
+            try:
+                r, d, limit, max_error = _displace(list(mp.layers), mp.vertices, mp.faces, mp.info, options.directions,
+                                                   options.critical_angle, options.tolerance, progress)
+            except Exception:
+                crossed.result()  # a crossed input is the cause of what failed: say that first
+                raise
+            crossed.result()
+        area = _vertex_areas(r.v, r.f)
+        vol, nominal = float((r.d * area).sum()), float((d * area).sum())
+        region_area = float(area[np.unique(r.f[r.region])].sum())
+        slack = 0.05 * float((np.abs(r.d) * area).sum()) + 2.0 * options.tolerance * region_area + 1e-6
+        reach = float(np.abs(d).max(initial=0.0)) + options.tolerance + 0.01
+        return Relief(heightmap=None, limits=limit, volume=vol, volume_slack=slack, nominal_volume=nominal,
+                      reach=reach, max_error=max_error, data=r)
+
+    def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
+        r: MeshRelief = relief.data
+        options.report(0.85, "the displaced mesh")
+        out = Mesh((r.v + r.normals * r.d[:, None]).astype(np.float32), r.f.astype(np.uint32),
+                   {"texture": np.flatnonzero(rowany(r.d[r.f] != 0))})
+        if not np.all(np.isfinite(out.vertices)):
+            raise GeometryError("the textured mesh has vertices that are not finite numbers; check the texture and the height")
+        base = Mesh((r.v + r.normals * r.b[:, None]).astype(np.float32), r.f.astype(np.uint32))
+        return Fused(out, base, dict(placement.data.info), None)
+
+    def expectation(self, placement: Placement, relief: Relief, fused: Fused) -> Expectation:
+        r: MeshRelief = relief.data
+        ex = super().expectation(placement, relief, fused)
+        return Expectation(**{**ex.__dict__, "selected": (r.v, r.f[r.region])})
+
+    def texture_mesh(self, stages: Stages) -> Mesh:
+        return _difference(stages.fused.mesh, stages.fused.base_mesh)
+
+    def layer_meshes(self, stages: Stages) -> list:
+        r: MeshRelief = stages.relief.data
+        res = []
+        for *_, inside in r.parts:  # per layer: its own relief on the base
+            mk = Mesh((r.v + r.normals * np.where(inside, r.d, r.b)[:, None]).astype(np.float32), r.f.astype(np.uint32))
+            res.append(_difference(mk, stages.fused.base_mesh))
+        return res
+
+
+def _displace(layers, v, f, info, dirs, crit, tolerance, progress):
+    """Subdivide, sample, displace and limit (module docstring, steps 2-6):
+    ``(MeshRelief, displacement before the limiter, limiter report, max error)``."""
     tol = 0.01 + 1e-6 * float(np.ptp(v, axis=0).max())
     progress(0.1, "subdividing the region")
     if tolerance > 0:
@@ -672,23 +741,15 @@ def _displace(layers, v, f, bodies, info, dirs, crit, tolerance, progress):
     d = np.sum([p[0] for p in parts], axis=0)
     b = np.sum([p[1] for p in parts], axis=0)
     progress(0.6, "limiting overhangs")
-    with beside(_assert_closed, f, len(v), bodies, "textured mesh") as closed:  # the topology, beside the limiter
-        d2, limit = limit_relief(v, f, normals, d, build_dir=dirs, critical_angle=crit)
-        if limit.folded_faces:
-            warnings.warn(f"the texture was lowered where {limit.folded_faces} faces would fold over (too deep for the curvature there)", TexcadWarning, stacklevel=3)
-        out = Mesh((v + normals * d2[:, None]).astype(np.float32), f.astype(np.uint32), {"texture": np.flatnonzero(rowany(d2[f] != 0))})
-        progress(0.85, "checking the solid")
-        closed.result()
-    if not np.all(np.isfinite(out.vertices)):
-        raise GeometryError("the textured mesh has vertices that are not finite numbers; check the texture and the height")
-    progress(0.9, "base mesh")
+    d2, limit = limit_relief(v, f, normals, d, build_dir=dirs, critical_angle=crit)
+    if limit.folded_faces:
+        warnings.warn(f"the texture was lowered where {limit.folded_faces} faces would fold over (too deep for the curvature there)", TexcadWarning, stacklevel=3)
     # the base lies SKIN mm under every region, so no texture body has parts of zero thickness
-    inside = np.any([p[3] for p in parts], axis=0)
-    b = b - SKIN * inside
-    base = Mesh((v + normals * b[:, None]).astype(np.float32), f.astype(np.uint32))
+    b = b - SKIN * np.any([p[3] for p in parts], axis=0)
     info.update(triangles=int(len(f)), layers=[p[2] for p in parts], kind="mesh", face="mesh", tolerance=tolerance, max_error=max_error,
                 no_brep="a mesh has no B-rep: it is textured as a mesh", region_faces=[int(m.sum()) for m in masks])
-    return out, base, v, f, normals, b, d2, parts, limit, info
+    region = np.any(masks, axis=0)
+    return MeshRelief(v, f, normals, d2, b, tuple(parts), region), d, limit, max_error
 
 
 def _difference(a: Mesh, b: Mesh) -> Mesh:
@@ -700,21 +761,3 @@ def _difference(a: Mesh, b: Mesh) -> Mesh:
 
     pieces = [p for p in (to_manifold(a) - to_manifold(b)).decompose() if p.volume() > 1e-6]  # per shell
     return from_manifold(m3d.Manifold.compose(pieces) if pieces else m3d.Manifold())
-
-
-def _result(out, base, v, f, normals, b, d2, parts, limit, info) -> Textured:
-    def texture_body():
-        return _difference(out, base)
-
-    def layer_bodies():
-        res = []
-        for *_, inside in parts:  # per layer: its own relief on the base
-            mk = Mesh((v + normals * np.where(inside, d2, b)[:, None]).astype(np.float32), f.astype(np.uint32))
-            res.append(_difference(mk, base))
-        return res
-
-    from ..targets.legacy import legacy_stages
-
-    return Textured(legacy_stages(mesh=out, base_mesh=base, texture_mesh=texture_body, layers=layer_bodies, limits=limit,
-                                  info=info, max_error=info["max_error"], kind="mesh", result_kind="mesh",
-                                  bodies=info["bodies"]))
