@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from ..options import DEFAULTS
+
 import argparse
 
 __all__ = ["positive_float", "shape", "vector", "add_orientation", "limits_line", "nonnegative_float", "add_tolerance"]
@@ -36,7 +38,7 @@ def add_tolerance(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--tolerance",
         type=nonnegative_float,
-        default=DEFAULT_TOLERANCE,
+        default=DEFAULTS.tolerance,
         metavar="MM",
         help=f"largest error of the texture mesh, mm: at every pixel centre (CAD faces, surfaces) or every point of "
         f"the pitch grid (meshes) (default {DEFAULT_TOLERANCE:g}; 0 = one vertex per pixel / the pitch grid)",
@@ -79,7 +81,7 @@ def add_orientation(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--critical-angle",
         type=positive_float,
-        default=45.0,
+        default=DEFAULTS.critical_angle,
         metavar="DEG",
         help="with --build-dir: smallest printable angle between a downward face and the build plate (default 45)",
     )

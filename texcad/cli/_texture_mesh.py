@@ -7,6 +7,7 @@ import argparse
 import time
 import warnings
 
+from ..options import DEFAULTS
 from ._args import positive_float
 
 MESH_SUFFIXES = (".stl", ".3mf", ".obj")
@@ -21,9 +22,9 @@ def add_mesh_arguments(t: argparse.ArgumentParser) -> None:
                    "texture (and mode); repeat for several textures in one part")
     g.add_argument("--projection", default="triplanar",
                    help="planar:+x (any axis), cylindrical[:+z], spherical, triplanar, cubic or solid (default triplanar)")
-    g.add_argument("--border", type=float, default=2.0, help="fade width at the region's border, mm (default 2)")
-    g.add_argument("--blend", type=float, default=20.0, help="triplanar / cubic blend width, degrees (default 20)")
-    g.add_argument("--scale", type=positive_float, default=1.0, help="texture scale factor (default 1)")
+    g.add_argument("--border", type=float, default=DEFAULTS.border, help="fade width at the region's border, mm (default 2)")
+    g.add_argument("--blend", type=float, default=DEFAULTS.blend, help="triplanar / cubic blend width, degrees (default 20)")
+    g.add_argument("--scale", type=positive_float, default=DEFAULTS.scale, help="texture scale factor (default 1)")
 
 
 def run_mesh(args: argparse.Namespace) -> int:

@@ -16,6 +16,7 @@ import time
 import warnings
 from pathlib import Path
 
+from ..options import DEFAULTS
 from ._args import add_orientation, add_tolerance, limits_line, positive_float
 from ._texture_mesh import MESH_SUFFIXES, add_mesh_arguments, run_mesh
 
@@ -165,8 +166,8 @@ def add(sub: argparse._SubParsersAction) -> None:
         "revolution, extrusion: the largest), TYPE:i, TYPE:all, normal:x,y,z, or a face index (default top)",
     )
     t.add_argument("--texture", default="builtin:stones", help="builtin:NAME[:k=v] or an image (default builtin:stones)")
-    t.add_argument("--height", type=positive_float, default=1.0, help="texture height in mm (default 1)")
-    t.add_argument("--pitch", type=positive_float, default=0.25, help="mm per pixel (default 0.25)")
+    t.add_argument("--height", type=positive_float, default=DEFAULTS.height, help=f"texture height in mm (default {DEFAULTS.height:g})")
+    t.add_argument("--pitch", type=positive_float, default=DEFAULTS.pitch, help=f"mm per pixel; on meshes the longest edge (default {DEFAULTS.pitch:g})")
     t.add_argument("--mapping", choices=("angle", "distance"), default="angle", help="curved faces: algorithm 2 (angle) or 1 (distance)")
     t.add_argument("--rotation", type=float, default=0.0, help="planar faces: turn the texture, degrees")
     t.add_argument("--mode", choices=("raised", "engraved", "centred"), default="raised",

@@ -63,58 +63,49 @@ def texture(
     texture: "str | os.PathLike | Heightmap" = f"builtin:{DEFAULT_TEXTURE}",
     **options: Any,
 ) -> Textured:
-    """Texture a part: the one verb of texcad.
+    """Texture a part: the one verb of texcad. Lengths in mm, angles in degrees.
+
+    Every target runs the same stages (:func:`texcad.pipeline.driver.run`): the
+    options are validated once (:class:`texcad.options.Options`), the target's
+    adapter places the texture, makes the relief and fuses it, and the result passes
+    texcad's gate (:mod:`texcad.report.gate`) before it is returned.
 
     Args:
         target: what to texture: a build123d ``Part``/``Solid``/``Compound`` or
             ``BuildPart``, a CadQuery ``Workplane`` or ``Shape``, an OCP
-            ``TopoDS_Shape`` holding solids; or a 2.5D :class:`~texcad.Surface` /
-            :class:`~texcad.Profile`.
-        where: CAD parts: the face to texture, chosen with selectors, e.g.
-            ``part.faces().sort_by(Axis.Z)[-1]`` or ``wp.faces(">Z")``. Surfaces:
-            None (the whole surface).
+            ``TopoDS_Shape`` holding solids, an earlier result (chaining); a 2.5D
+            :class:`~texcad.Surface` / :class:`~texcad.Profile`; or a mesh (a path
+            ending in .stl / .3mf / .obj, a :class:`texcad.Mesh`, a ``trimesh.Trimesh``).
+        where: CAD parts: the face(s), chosen with selectors, e.g.
+            ``part.faces().sort_by(Axis.Z)[-1]`` or ``wp.faces(">Z")``; surfaces: None;
+            meshes: a region such as ``"normal:+x:70"`` (default: every face but the
+            bed face) or a list of layers ``(region, texture, {options})``.
         texture: ``"builtin:NAME[:key=value,...]"``, an image path (white = ``height``
-            mm, black = on the surface; stretched over the face), or a
-            :class:`~texcad.Heightmap` (used at its own pitch, centred).
-        **options: all lengths in mm, angles in degrees:
-
-            * ``height`` (2.0): maximum texture height, mm (built-ins and images);
-            * ``pitch`` (0.125): mm per pixel for built-ins: one mesh vertex per pixel;
-            * ``mapping`` (``"angle"``): curved faces and surfaces: ``"angle"``
-              (algorithm 2, heights along the normal) or ``"distance"`` (algorithm 1,
-              heights along z);
-            * ``depth``: how far the texture slab reaches into the body, mm;
-            * ``build_dir`` / ``critical_angle`` (45): make the texture print without
-              support for this build direction ``(3,)`` (or each of a ``(K, 3)`` set),
-              in the part's frame (:func:`texcad.printability.orientation`);
-            * ``periodic_x``, ``transition``: closed profiles, fades (see
-              :func:`texcad.mapping.map_texture`);
-            * planar CAD faces: ``edge_angle`` (45: the M-I ramp at the outline),
-              ``rotation`` (degrees about the normal), ``offset`` (``(dx, dy)`` mm);
-            * CAD parts: ``brep`` (True: ``.shape`` can be made; it is made on first
-              use either way);
-            * surfaces: ``length`` (extrusion length of a profile, mm), ``base``,
-              ``thickness`` (mm);
-            * CAD faces and surfaces: ``tolerance`` (0.02): largest distance in mm
-              from the mesh to the exact texture at any pixel centre (a lean mesh,
-              measured and reported as ``.max_error``; 0: one vertex per pixel);
-              meshes: the same default, measured at every point of the pitch grid
-              (0: the pitch grid itself);
-            * CAD faces and surfaces: ``mode`` (``"raised"``; ``"engraved"``: cut
-              into the part, its outer envelope kept; ``"centred"``: half and half)
-              and ``gradient`` (``(start, end)`` points, mm: full depth at ``start``,
-              none at ``end``);
-            * ``progress``: a ``progress(fraction, message)`` callback.
+            mm, black = on the surface), or a :class:`~texcad.Heightmap` (used at its
+            own pitch and heights unless ``height`` is given).
+        **options: the fields of :class:`texcad.options.Options`, with the defaults
+            the ``texcad`` command uses too: ``height`` (1 mm), ``pitch`` (0.25 mm),
+            ``mode`` (raised / engraved / centred), ``tolerance`` (0.02 mm),
+            ``build_dir`` and ``critical_angle`` (45 degrees), ``gradient``,
+            ``rotation``, ``max_memory``, ``progress``; for CAD faces and surfaces
+            ``mapping``, ``depth``, ``edge_angle``, ``offset``, ``periodic_x``,
+            ``transition``, ``brep``; for surfaces ``length``, ``base``,
+            ``thickness``; for meshes ``projection``, ``axis``, ``origin``, ``radius``,
+            ``blend``, ``local_radius``, ``border``, ``scale``, ``size``, ``mask``,
+            ``mask_size``. An option that does not apply to the target is refused.
 
     Returns:
         A :class:`texcad.Textured`: ``mesh`` (fused, watertight), ``texture_mesh``,
-        ``base_mesh``, ``heightmap``, ``limits``; ``export(path)`` by extension
-        (``.stl``, ``.3mf``, ``.step``, ``.png``), ``render``, ``show``, ``check``;
-        ``shape`` / ``part`` / ``workplane`` for the B-rep.
+        ``base_mesh``, ``heightmap``, ``limits``, ``gate`` (the gate's figures);
+        ``export(path)`` by extension (``.stl``, ``.3mf``, ``.step``, ``.png``),
+        ``render``, ``show``, ``check``; ``shape`` / ``part`` / ``workplane`` for the
+        B-rep; ``-``, ``+``, ``&``, ``fillet``, ``mirrored``, ``patterned``.
 
     Raises:
         ParameterError: the face is not on the part, an unknown option, a bad value.
-        GeometryError: the face cannot be textured or a boolean failed.
+        InputError: an unreadable or broken input file.
+        GeometryError: the texture cannot be made, or the result failed the gate.
+        ResourceError: more memory than the machine (or ``max_memory``) allows.
     """
     o = Options.make(**options)
     if not isinstance(texture, Heightmap):
