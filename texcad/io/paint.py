@@ -33,14 +33,18 @@ depth places the children. Corners are barycentric, exact (dyadic fractions).
 
 from __future__ import annotations
 
+import os
+import re
+import zipfile
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import numpy as np
 
 from ..errors import InputError, ParameterError
 
-__all__ = ["PAINT_KINDS", "ATTRIBUTES", "Painted", "decode", "encode_states", "paint_by_points", "tree_string"]
+__all__ = ["PAINT_KINDS", "ATTRIBUTES", "Painted", "decode", "encode_states", "paint_by_points", "tree_string", "Project", "read_project", "split_painted"]
 
 #: What each kind of paint is called in a project's ``<triangle>`` attributes
 #: (PrusaSlicer first, then BambuStudio / OrcaSlicer).
@@ -154,16 +158,14 @@ def decode(strings: Sequence[str]) -> Painted:
     w = np.where(leaf, -1, sides)
     s = np.cumsum(w)
     before = s - w
-    order = np.lexsort((np.arange(len(s)), s))
-    key_s, key_i = s[order], np.arange(len(s))[order]
-    # end of the subtree at t: first t' >= t with s[t'] == before[t] - 1
-    lo = np.searchsorted(key_s, before - 1, side="left")
-    hi = np.searchsorted(key_s, before - 1, side="right")
-    end = np.full(len(s), -1, dtype=np.int64)
-    if len(s):
-        pos = lo + _count_below(key_s, key_i, lo, hi, np.arange(len(s)))
-        okp = pos < hi
-        end[okp] = key_i[np.minimum(pos, len(key_i) - 1)][okp]
+    # end of the subtree at t: the first t' >= t with s[t'] == before[t] - 1 (s falls by
+    # one at a time), found by one search in the nodes sorted by (s, position)
+    big = np.int64(len(s) + 1)
+    comb = np.sort((s - s.min(initial=0) + 1) * big + np.arange(len(s)))
+    q = (before - 1 - s.min(initial=0) + 1) * big + np.arange(len(s))
+    pos = np.minimum(np.searchsorted(comb, q), max(len(comb) - 1, 0))
+    hit = comb[pos] // big == (before - 1 - s.min(initial=0) + 1) if len(s) else np.zeros(0, dtype=bool)
+    end = np.where(hit, comb[pos] % big, -1) if len(s) else np.zeros(0, dtype=np.int64)
     tstart = np.searchsorted(own, np.arange(len(strings)))  # each string's root node
     tlast = np.r_[tstart[1:], len(tok)] - 1
     good = (tlast >= tstart) & (end[np.minimum(tstart, len(tok) - 1)] == tlast)
@@ -175,21 +177,6 @@ def decode(strings: Sequence[str]) -> Painted:
         raise InputError(f"paint string {k} ({strings[k][:40]!r}) is damaged (its subdivision tree is incomplete or "
                          "malformed); paint that triangle again in the slicer and save the project")
     return _place(tstart, code, sides, state, end, len(strings))
-
-
-def _count_below(key_s, key_i, lo, hi, t):
-    """For each query, how many of ``key_i[lo:hi]`` (sorted) are below ``t``."""
-    # key_i is sorted within each run of equal key_s: binary search inside [lo, hi)
-    out = np.zeros(len(t), dtype=np.int64)
-    width = hi - lo
-    step = 1 << int(max(int(width.max(initial=0)), 1)).bit_length()
-    while step:  # branch-free binary search, all queries at once
-        cand = out + step
-        idx = lo + cand - 1
-        take = (cand <= width) & (key_i[np.clip(idx, 0, len(key_i) - 1)] < t)
-        out = np.where(take, cand, out)
-        step >>= 1
-    return out
 
 
 def _place(tstart, code, sides, state, end, n):
@@ -347,3 +334,293 @@ def _leaf_codes(state: np.ndarray) -> np.ndarray:
     out[:, 1] = np.where(s < 3, -1, np.where(s < 18, s - 3, 15))
     out[:, 2] = np.where(s < 18, -1, s - 18)
     return out
+
+
+# --- projects: PrusaSlicer / OrcaSlicer (one model part) and BambuStudio (object files) ---
+
+_UNITS = {"micron": 0.001, "millimeter": 1.0, "centimeter": 10.0, "inch": 25.4, "foot": 304.8, "meter": 1000.0}
+_TRI = re.compile(rb"<(?:\w+:)?triangle\b([^>]*?)/?>")
+_V123 = re.compile(rb'^\s*v1="(\d+)"\s+v2="(\d+)"\s+v3="(\d+)"')
+_VERT = re.compile(rb'<(?:\w+:)?vertex\s+x="([^"]*)"\s+y="([^"]*)"\s+z="([^"]*)"')
+_ATTR = re.compile(rb'([\w:]+)\s*=\s*"([^"]*)"')
+_OBJECT = re.compile(rb"<(?:\w+:)?object\b([^>]*)>(.*?)</(?:\w+:)?object>", re.S)
+_COMPONENT = re.compile(rb"<(?:\w+:)?component\b([^>]*?)/?>")
+_ITEM = re.compile(rb"<(?:\w+:)?item\b([^>]*?)/?>")
+
+
+@dataclass(frozen=True)
+class Project:
+    """A slicer project's meshes with their paint, placed as the build places them.
+
+    Attributes:
+        vertices: ``(N, 3)`` float64, mm, in the build's frame (item, component and
+            unit transforms applied).
+        faces: ``(M, 3)`` int64 (one triangle per ``<triangle>`` read, in file order).
+        paint: ``{kind: list of M strings}`` for each kind in :data:`ATTRIBUTES` the
+            file holds (``""``: not painted).
+        parts: ``(object name, part name, first face, end face)`` per mesh placed.
+        dialect: ``"prusa"`` (``slic3rpe:`` attributes) or ``"bambu"`` (``paint_*``),
+            ``""`` without paint.
+        path: the file read.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    paint: dict
+    parts: tuple
+    dialect: str
+    path: str
+
+    def states(self, kind: str = "color") -> list[int]:
+        """The painted states of ``kind`` (sorted, 0 left out)."""
+        if kind not in self.paint:
+            return []
+        s = [x for x in self.paint[kind] if x]
+        return sorted(int(v) for v in np.unique(decode(s).state) if v) if s else []
+
+
+def _attrs(blob: bytes) -> dict:
+    return {k.decode(): v.decode("utf-8", "replace") for k, v in _ATTR.findall(blob)}
+
+
+def _matrix(text: "str | None") -> np.ndarray:
+    m = np.eye(4)
+    if text:
+        v = np.array(text.split(), dtype=np.float64)
+        if v.size != 12:
+            raise InputError(f"3MF transform must have 12 numbers, got {text!r}")
+        m[:3, :3], m[3, :3] = v[:9].reshape(3, 3), v[9:]
+    return m
+
+
+def _model_objects(xml: bytes, where: str) -> dict:
+    """``{id: {"name", "mesh": (v, f, paint), "components": [(path, id, 4x4)]}}`` of a
+    model part (the regex reads the layout slicers write: ``x y z`` and ``v1 v2 v3``
+    first)."""
+    out = {}
+    for head, body in _OBJECT.findall(xml):  # per object
+        a = _attrs(head)
+        entry = {"name": a.get("name", f"object {a.get('id')}"), "components": [], "mesh": None}
+        if b"<mesh" in body or b":mesh" in body:
+            v = np.array(_VERT.findall(body), dtype=np.float64).reshape(-1, 3)
+            tris = _TRI.findall(body)
+            idx = [_V123.match(t) for t in tris]
+            if any(m is None for m in idx):
+                raise InputError(f"{where}: a <triangle> of object {a.get('id')} lacks v1, v2, v3; export the project again")
+            f = np.array([m.groups() for m in idx], dtype=np.int64).reshape(-1, 3)
+            if len(f) and (f.min() < 0 or f.max() >= len(v)):
+                raise InputError(f"{where}: object {a.get('id')} has a triangle that refers to a missing vertex")
+            paint = {}
+            for kind, names in ATTRIBUTES.items():  # per kind of paint
+                for name in names:
+                    key = name.encode() + b'="'
+                    if key in body:
+                        pat = re.compile(re.escape(name.encode()) + rb'="([^"]*)"')
+                        paint[kind] = [(m.group(1).decode() if (m := pat.search(t)) else "") for t in tris]
+                        paint.setdefault("_dialect", "prusa" if name.startswith("slic3rpe:") else "bambu")
+            entry["mesh"] = (v, f, paint)
+        for c in _COMPONENT.findall(body):  # per component
+            ca = _attrs(c)
+            path = next((val for k, val in ca.items() if k.endswith("path")), None)
+            entry["components"].append((path, ca.get("objectid"), _matrix(ca.get("transform"))))
+        out[a.get("id")] = entry
+    return out
+
+
+def read_project(path: "str | os.PathLike") -> Project:
+    """Read a 3MF project's meshes and paint (PrusaSlicer, OrcaSlicer, BambuStudio):
+    build items, components (also in other model parts, ``p:path``) and transforms
+    applied, the model's unit made mm.
+
+    Raises:
+        InputError: not a 3MF, no model, a damaged mesh or a cyclic component.
+    """
+    p = Path(os.fspath(path))
+    try:
+        z = zipfile.ZipFile(p)
+    except (zipfile.BadZipFile, FileNotFoundError, IsADirectoryError):
+        raise InputError(f"{str(p)!r} is not a 3MF (zip) project; save the project again from the slicer") from None
+    with z:
+        names = set(z.namelist())
+        root = "3D/3dmodel.model"
+        if "_rels/.rels" in names:
+            m = re.search(rb'Target="/?([^"]+\.model)"', z.read("_rels/.rels"))
+            root = m.group(1).decode() if m else root
+        if root not in names:
+            raise InputError(f"{str(p)!r} has no 3D model part ({root}); is it a 3MF project?")
+        models: dict = {}
+
+        def model(name: str) -> tuple[dict, float]:
+            if name not in models:
+                if name not in names:
+                    raise InputError(f"{str(p)!r}: a component refers to the missing part {name!r}")
+                xml = z.read(name)
+                head = re.search(rb"<(?:\w+:)?model\b([^>]*)>", xml)
+                unit = _attrs(head.group(1)).get("unit", "millimeter") if head else "millimeter"
+                if unit not in _UNITS:
+                    raise InputError(f"{str(p)!r}: unknown 3MF unit {unit!r}")
+                models[name] = (_model_objects(xml, f"{p.name}:{name}"), _UNITS[unit])
+            return models[name]
+
+        objs, scale = model(root)
+        xml = z.read(root)
+        items = [(_attrs(i).get("objectid"), _matrix(_attrs(i).get("transform"))) for i in _ITEM.findall(xml[xml.rfind(b"<build"):])]
+        verts, faces, paint, parts, off = [], [], {}, [], 0
+        dialect = ""
+
+        def walk(part: str, oid: str, tf: np.ndarray, top: str, depth: int) -> None:
+            nonlocal off, dialect
+            table, sc = model(part)
+            if oid not in table or depth > 16:
+                raise InputError(f"{str(p)!r}: the build refers to a missing or cyclic object {oid!r}")
+            e = table[oid]
+            if e["mesh"] is not None:
+                v, f, pt = e["mesh"]
+                vv = (v * sc) @ tf[:3, :3] + tf[3, :3]
+                verts.append(vv)
+                faces.append(f + off)
+                for kind in ATTRIBUTES:  # per kind: this mesh's strings (or none)
+                    if kind in pt or kind in paint:
+                        paint.setdefault(kind, [""] * sum(len(x) for x in faces[:-1]))
+                        paint[kind].extend(pt.get(kind, [""] * len(f)))
+                dialect = dialect or pt.get("_dialect", "")
+                n0 = sum(len(x) for x in faces[:-1])
+                parts.append((top, e["name"], n0, n0 + len(f)))
+                off += len(v)
+            for cpath, cid, ctf in e["components"]:  # per component
+                walk(cpath.lstrip("/") if cpath else part, cid, ctf @ tf, top, depth + 1)
+
+        for oid, tf in items:  # per build item
+            walk(root, oid, tf, objs.get(oid, {}).get("name", str(oid)), 0)
+    if not faces:
+        raise InputError(f"{str(p)!r} holds no mesh objects in its build")
+    return Project(np.concatenate(verts), np.concatenate(faces), paint, tuple(parts), dialect, str(p))
+
+
+# --- splitting painted triangles into their sub-triangles, conforming ---
+
+_KEY = np.dtype([("t", "<i8"), ("a", "<i8"), ("b", "<i8"), ("c", "<i8")])
+
+
+def _keys(rows: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(rows, dtype=np.int64).view(_KEY).ravel()
+
+
+def _point_keys(face: np.ndarray, lat: np.ndarray, faces: np.ndarray, full: int) -> np.ndarray:
+    """Global key rows ``(P, 4)`` of lattice points ``lat`` ``(P, 3)`` (barycentric
+    times ``full``) of faces ``face``: ``(0, vertex)`` at a corner, ``(1, u, v, t)`` on
+    the edge ``u < v`` (``t`` the weight of ``v``), ``(2, face, i, j)`` inside."""
+    zero = lat == 0
+    nz = zero.sum(axis=1)
+    fv = faces[face]
+    out = np.zeros((len(lat), 4), dtype=np.int64)
+    corner = nz == 2
+    out[corner, 0] = 0
+    out[corner, 1] = fv[corner, np.argmax(lat[corner], axis=1)]
+    edge = np.flatnonzero(nz == 1)
+    z = np.argmax(zero[edge], axis=1)
+    i1, i2 = (z + 1) % 3, (z + 2) % 3
+    u, v = fv[edge, i1], fv[edge, i2]
+    wu, wv = lat[edge, i1], lat[edge, i2]
+    out[edge, 0] = 1
+    out[edge, 1], out[edge, 2] = np.minimum(u, v), np.maximum(u, v)
+    out[edge, 3] = np.where(u < v, wv, wu)
+    inner = nz == 0
+    out[inner, 0] = 2
+    out[inner, 1], out[inner, 2], out[inner, 3] = face[inner], lat[inner, 1], lat[inner, 2]
+    return out
+
+
+def split_painted(vertices: np.ndarray, faces: np.ndarray, strings: Sequence[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The mesh with every painted triangle cut into its sub-triangles, conforming:
+    where a sub-triangle's edge holds a vertex of another (a finer neighbour, in the
+    same triangle or across a mesh edge) it is cut into a fan around its centroid, so
+    the mesh stays closed and the paint's borders are mesh edges.
+
+    Args:
+        vertices: ``(N, 3)`` mm. faces: ``(M, 3)``. strings: ``M`` paint strings.
+
+    Returns:
+        ``(vertices (N', 3) float64 mm, faces (M', 3) int64, state (M',) int64,
+        parent (M',) int64)``: equal vertices welded; each face's state and the input
+        triangle it lies in.
+    """
+    v = np.asarray(vertices, np.float64)
+    uniq, inv = np.unique(v, axis=0, return_inverse=True)
+    v, f = uniq, inv.ravel()[np.asarray(faces, np.int64)]
+    m = len(f)
+    painted = np.flatnonzero(np.fromiter((bool(s) for s in strings), dtype=bool, count=m))
+    dec = decode([strings[i] for i in painted])
+    ltri = painted[dec.triangle]
+    depth_f = np.zeros(m, dtype=np.int64)
+    np.maximum.at(depth_f, ltri, dec.depth)
+    whole = np.zeros(m, dtype=np.int64)
+    flat = dec.depth == 0
+    whole[ltri[flat]] = dec.state[flat]
+    G = int(depth_f.max(initial=0))
+    if G == 0:  # whole triangles only: nothing to cut
+        return v, f, whole, np.arange(m)
+    if G > 24:
+        raise InputError(f"paint subdivided {G} levels deep (more than 24); paint with a larger brush in the slicer")
+    full = 1 << G
+    # neighbours across each edge; a face is cut if it or a neighbour is subdivided
+    e = np.sort(np.stack([f, f[:, [1, 2, 0]]], axis=2).reshape(-1, 2), axis=1)
+    _, eid = np.unique(e, axis=0, return_inverse=True)
+    eid = eid.ravel()
+    deep = np.zeros(eid.max() + 1, dtype=np.int64)
+    np.maximum.at(deep, eid, np.repeat(depth_f, 3))
+    local = np.maximum(depth_f, deep[eid].reshape(m, 3).max(axis=1))  # lattice level a face needs
+    cut = local > 0
+    # leaves of cut faces: decoded ones, and whole faces as one leaf
+    sub = cut[ltri] & (depth_f[ltri] > 0)
+    lone = np.flatnonzero(cut & (depth_f == 0))
+    lf = np.concatenate([ltri[sub], lone])
+    lat = np.concatenate([np.rint(dec.corners[sub] * full).astype(np.int64), np.broadcast_to(np.eye(3, dtype=np.int64) * full, (len(lone), 3, 3))])
+    lstate = np.concatenate([dec.state[sub], whole[lone]])
+    keys = _keys(_point_keys(np.repeat(lf, 3), lat.reshape(-1, 3), f, full))
+    table, first = np.unique(keys, return_index=True)
+    corner_id = np.searchsorted(table, keys).reshape(-1, 3)
+    # extra points on each leaf edge: lattice candidates at the face's own level
+    P, Q = lat, lat[:, [1, 2, 0]]
+    step = (1 << (G - local[lf]))[:, None, None]
+    d = (Q - P) // step
+    g = np.gcd.reduce(np.abs(d), axis=2)  # (L, 3) lattice steps along each edge
+    cnt = np.maximum(g - 1, 0).ravel()
+    which = np.repeat(np.arange(len(cnt)), cnt)  # (leaf*3 + edge) of each candidate
+    mstep = np.arange(len(which)) - np.repeat(np.cumsum(cnt) - cnt, cnt) + 1
+    le, ed = which // 3, which % 3
+    cand = P[le, ed] + (d[le, ed] // g.ravel()[which][:, None]) * step[le, 0] * mstep[:, None]
+    ck = _keys(_point_keys(lf[le], cand, f, full))
+    pos = np.minimum(np.searchsorted(table, ck), len(table) - 1)
+    on = table[pos] == ck
+    extra_leaf, extra_edge, extra_id, extra_m = le[on], ed[on], pos[on], mstep[on]
+    # new vertices: the lattice points, then the centroids of leaves that get a fan
+    pts_lat = lat.reshape(-1, 3)[first]
+    pts_face = np.repeat(lf, 3)[first]
+    pos_new = np.einsum("pj,pjk->pk", pts_lat / full, v[f[pts_face]])
+    is_vertex = table["t"] == 0
+    vid = np.where(is_vertex, table["a"], len(v) + np.cumsum(~is_vertex) - 1)
+    verts = np.concatenate([v, pos_new[~is_vertex]])
+    fan = np.zeros(len(lf), dtype=bool)
+    fan[extra_leaf] = True
+    cen = len(verts) + np.cumsum(fan) - 1
+    verts = np.concatenate([verts, np.einsum("lj,ljk->lk", lat[fan].mean(axis=1) / full, v[f[lf[fan]]])])
+    # plain leaves as they are; fanned ones: their boundary (corners and extra points in order) to the centroid
+    plain = ~fan
+    tri_plain = vid[corner_id[plain]]
+    ring_leaf = np.concatenate([np.repeat(np.flatnonzero(fan), 3), extra_leaf])
+    ring_edge = np.concatenate([np.tile(np.arange(3), int(fan.sum())), extra_edge])
+    ring_m = np.concatenate([np.zeros(3 * int(fan.sum()), dtype=np.int64), extra_m])
+    ring_v = np.concatenate([vid[corner_id[fan].ravel()], vid[extra_id]])
+    order = np.lexsort((ring_m, ring_edge, ring_leaf))
+    rl, rv = ring_leaf[order], ring_v[order]
+    nxt = np.r_[rv[1:], 0]
+    startpos = np.r_[True, rl[1:] != rl[:-1]]
+    endpos = np.r_[rl[1:] != rl[:-1], True]
+    nxt[endpos] = rv[np.flatnonzero(startpos)]  # close each ring
+    tri_fan = np.stack([rv, nxt, cen[rl]], axis=1)
+    keep = np.flatnonzero(~cut)
+    out_f = np.concatenate([f[keep], tri_plain, tri_fan])
+    out_s = np.concatenate([whole[keep], lstate[plain], lstate[rl]])
+    out_p = np.concatenate([keep, lf[plain], lf[rl]])
+    return verts, out_f, out_s, out_p
