@@ -44,7 +44,7 @@ import numpy as np
 
 from ..errors import InputError, ParameterError
 
-__all__ = ["PAINT_KINDS", "ATTRIBUTES", "Painted", "decode", "encode_states", "paint_by_points", "tree_string", "Project", "read_project", "split_painted"]
+__all__ = ["PAINT_KINDS", "ATTRIBUTES", "Painted", "decode", "encode_states", "paint_by_points", "tree_string", "Project", "read_project", "split_painted", "write_painted_3mf"]
 
 #: What each kind of paint is called in a project's ``<triangle>`` attributes
 #: (PrusaSlicer first, then BambuStudio / OrcaSlicer).
@@ -624,3 +624,69 @@ def split_painted(vertices: np.ndarray, faces: np.ndarray, strings: Sequence[str
     out_s = np.concatenate([whole[keep], lstate[plain], lstate[rl]])
     out_p = np.concatenate([keep, lf[plain], lf[rl]])
     return verts, out_f, out_s, out_p
+
+
+_CT = (b'<?xml version="1.0" encoding="UTF-8"?>\n<Types xmlns="http://schemas.openxmlformats.org/package/2006/content-types">'
+       b'<Default Extension="rels" ContentType="application/vnd.openxmlformats-package.relationships+xml"/>'
+       b'<Default Extension="model" ContentType="application/vnd.ms-package.3dmanufacturing-3dmodel+xml"/></Types>\n')
+_RELS = (b'<?xml version="1.0" encoding="UTF-8"?>\n<Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships">'
+         b'<Relationship Target="/3D/3dmodel.model" Id="rel0" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>\n')
+_NS = 'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"'
+
+
+def _mesh_xml(v: np.ndarray, f: np.ndarray, attrs: dict) -> str:
+    rows = [f'<vertex x="{x:.6g}" y="{y:.6g}" z="{z:.6g}"/>' for x, y, z in np.asarray(v, np.float64).tolist()]
+    tris = []
+    for k, (a, b, c) in enumerate(np.asarray(f, np.int64).tolist()):  # per triangle (a test/recipe writer)
+        extra = "".join(f' {name}="{vals[k]}"' for name, vals in attrs.items() if vals[k])
+        tris.append(f'<triangle v1="{a}" v2="{b}" v3="{c}"{extra}/>')
+    return "<mesh><vertices>" + "\n".join(rows) + "</vertices><triangles>" + "\n".join(tris) + "</triangles></mesh>"
+
+
+def write_painted_3mf(path: "str | os.PathLike", objects: Sequence[tuple], *, dialect: str = "prusa") -> None:
+    """Write a slicer project with paint (for tests, recipes and examples).
+
+    Args:
+        objects: ``(name, vertices (N, 3) mm, faces (M, 3), {kind: M strings},
+            transform)`` per object; ``transform`` a 3x4 / 4x4 matrix (the build
+            item's, column-vector convention: ``x' = R x + t``) or None.
+        dialect: ``"prusa"`` (PrusaSlicer / OrcaSlicer: ``slic3rpe:`` attributes in
+            the model) or ``"bambu"`` (BambuStudio: ``paint_*`` attributes, each mesh
+            in ``3D/Objects/object_N.model`` reached through a component).
+    """
+    if dialect not in ("prusa", "bambu"):
+        raise ParameterError(f"dialect must be 'prusa' or 'bambu', got {dialect!r}")
+    col = 0 if dialect == "prusa" else 1
+    res, items, extra = [], [], {}
+    for k, (name, v, f, paint, tf) in enumerate(objects):  # per object
+        attrs = {ATTRIBUTES[kind][col]: list(vals) for kind, vals in paint.items()}
+        m = np.eye(4) if tf is None else np.vstack([np.asarray(tf, np.float64)[:3, :4], [0, 0, 0, 1]])
+        t = " ".join(f"{x:.9g}" for x in [*m[:3, :3].T.ravel(), *m[:3, 3]])
+        oid = 2 * k + 1
+        if dialect == "prusa":
+            res.append(f'<object id="{oid}" type="model" name="{name}">{_mesh_xml(v, f, attrs)}</object>')
+        else:
+            part = f"3D/Objects/object_{oid}.model"
+            extra[part] = (f'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" {_NS} '
+                           'xmlns:p="http://schemas.microsoft.com/3dmanufacturing/production/2015/06" requiredextensions="p">'
+                           f'<resources><object id="{oid}" type="model">{_mesh_xml(v, f, attrs)}</object></resources><build/></model>\n')
+            res.append(f'<object id="{oid + 1}" type="model" name="{name}"><components>'
+                       f'<component p:path="/{part}" objectid="{oid}"/></components></object>')
+            oid += 1
+        items.append(f'<item objectid="{oid}" transform="{t}" printable="1"/>')
+    ns = _NS + (' xmlns:slic3rpe="http://schemas.slic3r.org/3mf/2017/06"' if dialect == "prusa" else
+                ' xmlns:p="http://schemas.microsoft.com/3dmanufacturing/production/2015/06" requiredextensions="p"')
+    app = "PrusaSlicer-2.9.0" if dialect == "prusa" else "BambuStudio-02.00.00.00"
+    model = (f'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xml:lang="en-US" {ns}>\n'
+             f'<metadata name="Application">{app}</metadata>\n'
+             + (' <metadata name="slic3rpe:Version3mf">1</metadata>\n' if dialect == "prusa" else "")
+             + f'<resources>\n{chr(10).join(res)}\n</resources>\n<build>{"".join(items)}</build>\n</model>\n')
+    from ..util import atomic_path
+
+    with atomic_path(path) as tmp:
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("[Content_Types].xml", _CT)
+            z.writestr("_rels/.rels", _RELS)
+            z.writestr("3D/3dmodel.model", model)
+            for name, text in extra.items():  # per object file (BambuStudio)
+                z.writestr(name, text)

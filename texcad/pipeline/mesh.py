@@ -55,7 +55,7 @@ import numpy as np
 
 from ..errors import GeometryError, InputError, ParameterError, TexcadWarning
 from ..mapping.projection import PROJECTIONS, Projection, TileSampler, parse_axis, sample_heights
-from ..mapping.region import Region
+from ..mapping.region import Region, resolve_paint, zone_layers
 from ..printability import build_directions, check_critical_angle
 from ..printability.relief import limit_relief
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, closed_and_oriented, edge_report, repair_closed, self_intersections, shells
@@ -311,7 +311,8 @@ class MeshTextured(Textured):
         if separate_texture and Path(path).suffix.lower() == ".3mf":
             from ..io import write_3mf
 
-            objs = [("base", self.base_mesh)] + [(f"texture {k + 1}", m) for k, m in enumerate(self.layer_meshes)]
+            zones = self.info.get("zones") or []
+            objs = [("base", self.base_mesh)] + [(zones[k] if k < len(zones) else f"texture {k + 1}", m) for k, m in enumerate(self.layer_meshes)]
             write_3mf(objs, path, name=name or Path(path).stem)
             return Path(path)
         return super().export(path, separate_texture=separate_texture, name=name)
@@ -379,8 +380,9 @@ def _gradient(points: np.ndarray, gradient: Any) -> np.ndarray:
     return np.clip(1.0 - t, 0.0, 1.0)
 
 
-def _select(layer: Layer, v, f, fn, dirs, crit, tol, loose):
-    sel = layer.region.select(v, f, fn, build_dir=dirs[0] if dirs is not None else np.array([0.0, 0, 1]), tolerance=tol, loose=loose)
+def _select(layer: Layer, v, f, fn, dirs, crit, tol, loose, ids=None):
+    """The layer's faces; ``ids``: each face's input face (what paint regions need)."""
+    sel = layer.region.select(v, f, fn, build_dir=dirs[0] if dirs is not None else np.array([0.0, 0, 1]), tolerance=tol, loose=loose, ids=ids)
     if dirs is not None:  # a face that overhangs by itself cannot carry a support-free texture
         sel &= ~np.any(-(fn @ dirs.T) > np.cos(np.radians(min(89.9, crit + 1.0))), axis=1)
     return sel
@@ -395,11 +397,12 @@ def _check_regions(layers, masks) -> None:
 def _refine_layers(layers, v, f, dirs, crit, tol):
     """Refine each layer's region to its pitch; returns v, f, per-layer face masks."""
     fn, _ = face_normals(v, f)
+    ids = np.arange(len(f))
     for layer in layers:  # per layer
-        sel = _select(layer, v, f, fn, dirs, crit, tol, loose=True)
+        sel = _select(layer, v, f, fn, dirs, crit, tol, loose=True, ids=ids)
         v, f, parent = refine(v, f, sel, layer.pitch)
-        fn = fn[parent]  # every piece lies in its parent's plane
-    masks = [_select(layer, v, f, fn, dirs, crit, tol, loose=False) for layer in layers]
+        fn, ids = fn[parent], ids[parent]  # every piece lies in its parent's plane
+    masks = [_select(layer, v, f, fn, dirs, crit, tol, loose=False, ids=ids) for layer in layers]
     return v, f, masks
 
 
@@ -450,11 +453,12 @@ def _coarse_layers(layers, v, f, dirs, crit, tol):
     outside every region)."""
     fn, _ = face_normals(v, f)
     pitch = np.full(len(f), np.inf)
+    ids = np.arange(len(f))
     for layer in layers:  # per layer
-        sel = _select(layer, v, f, fn, dirs, crit, tol, loose=True)
+        sel = _select(layer, v, f, fn, dirs, crit, tol, loose=True, ids=ids)
         v, f, _, parent = coarsen(v, f, sel, layer.pitch, ladders=True)
-        fn, pitch = fn[parent], np.where(sel[parent], np.minimum(pitch[parent], layer.pitch), pitch[parent])
-    return v, f, fn, pitch
+        fn, pitch, ids = fn[parent], np.where(sel[parent], np.minimum(pitch[parent], layer.pitch), pitch[parent]), ids[parent]
+    return v, f, fn, pitch, ids
 
 
 def _frozen(layers, c, s, masks):
@@ -546,7 +550,7 @@ def _first_levels(c, s, ds, d, tolerance):
     return np.clip(np.ceil(np.sqrt(e1 * scale / tolerance) - 1e-9), 1, np.maximum(c.level, 1)).astype(np.int64)
 
 
-def _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol):
+def _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol, ids=None):
     """Each layer's faces of the output: its coarse faces' pieces, and where a face
     straddles a box or sphere region's boundary, the pieces it selects itself."""
     par = out["parent"]
@@ -554,7 +558,8 @@ def _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol):
     cut = np.flatnonzero(straddle[par])
     for k, layer in enumerate(layers):  # per layer
         if len(cut):
-            res[k, cut] = _select(layer, out["v"], out["f"][cut], fn[par[cut]], dirs, crit, tol, loose=False)
+            res[k, cut] = _select(layer, out["v"], out["f"][cut], fn[par[cut]], dirs, crit, tol, loose=False,
+                                  ids=None if ids is None else ids[par[cut]])
     return list(res)
 
 
@@ -563,11 +568,11 @@ def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
     the coarsest grid level whose displacement stays within ``tolerance`` mm of the
     pitch grid's samples. Returns the output (``v``, ``f``, ``parent``, ``normal``,
     ``dir``, ``masks``), the layers' reliefs and the measured largest error (mm)."""
-    v, f, fn, pitch = _coarse_layers(layers, v, f, dirs, crit, tol)
+    v, f, fn, pitch, ids = _coarse_layers(layers, v, f, dirs, crit, tol)
     progress(0.12, "pitch-grid samples")
     c = coarse_mesh(v, f, pitch)
     s = pitch_samples(c)
-    masks = np.array([_select(layer, v, f, fn, dirs, crit, tol, loose=False) for layer in layers])
+    masks = np.array([_select(layer, v, f, fn, dirs, crit, tol, loose=False, ids=ids) for layer in layers])
     straddle = ~np.all([layer.region.settled(v, f) for layer in layers], axis=0) & np.isfinite(pitch)
     forced = np.any(masks[:, c.ef[:, 0]] != masks[:, c.ef[:, 1]], axis=0) | straddle[c.ef].any(axis=1)
     layers = _frozen(layers, c, s, masks)
@@ -583,7 +588,7 @@ def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
     while True:  # per round: tessellate, measure, refine the faces still off (a few)
         counts, before, prev = edge_counts(c, levels, forced), counts, out
         out = build(c, counts)
-        out["masks"] = _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol)
+        out["masks"] = _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol, ids)
         carry = None if per_face is None else (*carried(c, before, counts, prev, out), parts)
         parts, queries = _output_relief(layers, out, carry)
         d = np.sum([p[0] for p in parts], axis=0)
@@ -664,8 +669,12 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
     crit = check_critical_angle(options.pop("critical_angle", 45.0))
     progress = options.pop("progress", None) or (lambda fr, msg: None)
     tolerance = check_tolerance(options.pop("tolerance", DEFAULT_TOLERANCE))
-    raw = where if isinstance(where, list) else [(where, texture, {})]
+    raw = zone_layers(where, texture)  # a region, a list of layers or a mapping {region: texture}
     layers = [Layer.make(r, t, {**options, **dict(o)}) for r, t, o in raw]
+    # --- paint regions (texcad.mapping.region.resolve_paint): the project cut along its paint
+    target, regions, painted = resolve_paint(target, [layer.region for layer in layers])
+    layers = [replace(layer, region=r) for layer, r in zip(layers, regions)]
+    # ---
     dirs = None if build_dir is None else build_directions(build_dir)
     progress(0.0, "reading the mesh")
     v, f, bodies, info = load_closed(target, crossing=False)
@@ -676,7 +685,17 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
             crossed.result()  # a crossed input is the cause of what failed: say that first
             raise
         crossed.result()
+    res[-1]["zones"] = [_zone_name(r, t) for r, t, _ in raw]
+    if painted is not None:
+        res[-1]["paint"] = {"kind": painted.kind, "project": painted.project.path, "dialect": painted.project.dialect}
     return _result(*res)
+
+
+def _zone_name(region: Any, texture: Any) -> str:
+    """A layer's name in the output (3MF part names): its region and texture."""
+    r = region if isinstance(region, str) else getattr(region, "kind", "region")
+    t = texture if isinstance(texture, str) else type(texture).__name__
+    return f"{r} {t}"
 
 
 def _displace(layers, v, f, bodies, info, dirs, crit, tolerance, progress):
