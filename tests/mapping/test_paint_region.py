@@ -1,0 +1,175 @@
+"""paint:N regions and zones on meshes: only the painted area moves (checked against
+the paint's own geometry, decoded by a plain sequential reader, not texcad's), each
+zone gets its own texture with a clean border, and the 3MF keeps each zone a part."""
+
+import re
+import shutil
+import subprocess
+import zipfile
+
+import numpy as np
+import pytest
+
+import texcad
+from texcad.errors import InputError, ParameterError
+from texcad.io.paint import encode_states, paint_by_points, write_painted_3mf
+from texcad.mapping.region import Region
+
+
+def _leaves(s):
+    """[(corners (3, 3) barycentric, state)] of one paint string (PrusaSlicer's
+    TriangleSelector::deserialize, written out plainly)."""
+    nib, pos, out = [int(c, 16) for c in reversed(s or "0")], [0], []
+
+    def nxt():
+        pos[0] += 1
+        return nib[pos[0] - 1]
+
+    def node(c):
+        code = nxt()
+        k = code & 3
+        if k == 0:
+            st = code >> 2
+            out.append((c, st if st < 3 else 3 + nxt()))
+            return
+        a, b, cc = c[(code >> 2) % 3], c[((code >> 2) + 1) % 3], c[((code >> 2) + 2) % 3]
+        mab, mbc, mca = (a + b) / 2, (b + cc) / 2, (cc + a) / 2
+        kids = {1: [(a, b, mbc), (mbc, cc, a)], 2: [(a, mab, mca), (mab, b, mca), (b, cc, mca)],
+                3: [(a, mab, mca), (mab, b, mbc), (mbc, cc, mca), (mab, mbc, mca)]}[k]
+        for i in range(k, -1, -1):
+            node(np.array(kids[i]))
+
+    node(np.eye(3))
+    return out
+
+
+def _box():
+    import trimesh
+
+    m = trimesh.creation.box(extents=[40, 30, 20])
+    m.apply_translation([0, 0, 10])
+    return np.asarray(m.vertices), np.asarray(m.faces)
+
+
+def _zones(p):
+    """Two touching zones on the +y face (y = 15): 1 for -14 < x < 0, 2 for 0 < x < 14,
+    both 4 < z < 16 mm."""
+    on = (p[:, 1] > 14.99) & (p[:, 2] > 4) & (p[:, 2] < 16)
+    return np.where(on & (p[:, 0] > -14) & (p[:, 0] < 0), 1, np.where(on & (p[:, 0] > 0) & (p[:, 0] < 14), 2, 0))
+
+
+@pytest.fixture(params=["prusa", "bambu"])
+def painted_box(request, tmp_path):
+    v, f = _box()
+    strings = paint_by_points(v[f], _zones, 5)
+    path = tmp_path / f"box_{request.param}.3mf"
+    tf = np.array([[1, 0, 0, 100], [0, 1, 0, 100], [0, 0, 1, 0]], float)
+    write_painted_3mf(path, [("box", v, f, {"color": strings}, tf)], dialect=request.param)
+    tri = v[f] + [100, 100, 0]
+    leaves = {1: [], 2: []}
+    for t, s in zip(tri, strings):  # per painted triangle: its leaves in space
+        for c, st in _leaves(s):
+            if st in leaves:
+                leaves[st].append(c @ t)
+    return path, {k: np.array(x) for k, x in leaves.items()}
+
+
+def _inside(pts, tris, tol=1e-3):
+    """Which points (x, z) lie in any of the triangles (x, z) (brute force)."""
+    a, b, c = tris[:, 0][:, [0, 2]], tris[:, 1][:, [0, 2]], tris[:, 2][:, [0, 2]]
+    p = pts[:, None, [0, 2]]
+
+    def side(u, w):
+        return (w[None, :, 0] - u[None, :, 0]) * (p[..., 1] - u[None, :, 1]) - (w[None, :, 1] - u[None, :, 1]) * (p[..., 0] - u[None, :, 0])
+
+    s1, s2, s3 = side(a, b), side(b, c), side(c, a)
+    return (((s1 >= -tol) & (s2 >= -tol) & (s3 >= -tol)) | ((s1 <= tol) & (s2 <= tol) & (s3 <= tol))).any(axis=1)
+
+
+def test_only_the_painted_zones_move_each_with_its_texture(painted_box, tmp_path):
+    path, leaves = painted_box
+    zones = {"paint:1": ("builtin:stones", {"height": 0.4}), "paint:2": ("builtin:diamond_knurl", {"height": 0.8}), "normal:+z:30": None}
+    tx = texcad.texture(path, zones, pitch=0.5, border=1.0)
+    v = tx.mesh.vertices.astype(np.float64)
+    assert tx.mesh.is_watertight and tx.info["zones"] == ["paint:1 builtin:stones", "paint:2 builtin:diamond_knurl"]
+    lo, hi = np.array([80, 85, 0.0]), np.array([120, 115, 20.0])
+    inside_box = np.all((v >= lo - 1e-3) & (v <= hi + 1e-3), axis=1)
+    on_surface = inside_box & np.any((np.abs(v - lo) < 1e-3) | (np.abs(v - hi) < 1e-3), axis=1)
+    moved = ~on_surface
+    assert moved.sum() > 500
+    # every moved vertex stands out of the +y face, over the paint of its zone
+    assert np.all(v[moved, 1] > 115)
+    in1, in2 = _inside(v[moved], leaves[1]), _inside(v[moved], leaves[2])
+    assert np.all(in1 | in2)
+    rise = v[moved, 1] - 115
+    assert rise[in1 & ~in2].max() <= 0.4 + 1e-3 and rise[in2 & ~in1].max() > 0.5  # each zone its own height
+    # clean border between the zones: nothing on x = 100 moves
+    assert not np.any(moved & (np.abs(v[:, 0] - 100) < 1e-3))
+    # and inside the zones, away from their borders (1 mm), most vertices moved
+    face = on_surface & (np.abs(v[:, 1] - 115) < 1e-3) | moved
+    core = face & (np.abs(v[:, 0] - 100) > 1.5) & (np.abs(v[:, 0] - 100) < 12.5) & (v[:, 2] > 5.5) & (v[:, 2] < 14.5)
+    assert moved[core].mean() > 0.5
+    # the zones stay parts: one object, base + one part per zone
+    out = tmp_path / "zones.3mf"
+    tx.export(out, separate_texture=True)
+    with zipfile.ZipFile(out) as z:
+        cfg = z.read("Metadata/Slic3r_PE_model.config").decode()
+    assert re.findall(r'key="name" value="([^"]*)"', cfg)[1:] == ["base", "paint:1 builtin:stones", "paint:2 builtin:diamond_knurl"]
+    if shutil.which("prusa-slicer"):
+        info = subprocess.run(["prusa-slicer", "--info", str(out)], capture_output=True, text=True, timeout=300).stdout
+        assert info.count("number_of_parts") == 1 and re.search(r"number_of_parts\s*=\s*3", info)
+        assert "manifold = yes" in info
+
+
+def test_whole_painted_triangles(tmp_path):
+    """Triangles painted whole (no subdivision): the region is those faces."""
+    import trimesh
+
+    m = trimesh.creation.cylinder(radius=10, height=30, sections=24)
+    m.apply_translation([0, 0, 15])
+    v, f = np.asarray(m.vertices), np.asarray(m.faces)
+    c = v[f].mean(axis=1)
+    side = np.abs(np.einsum("ij,ij->i", np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), [[0, 0, 1]])) < 1e-6
+    state = (side & (c[:, 0] > 3)).astype(int) * 2
+    path = tmp_path / "cyl.3mf"
+    write_painted_3mf(path, [("cyl", v, f, {"color": encode_states(state)}, None)])
+    tx = texcad.texture(path, "paint:2", "builtin:diamond_knurl", height=0.5, pitch=0.5, border=1.0)
+    out = tx.mesh.vertices.astype(np.float64)
+    r = np.hypot(out[:, 0], out[:, 1])
+    moved = r > 10 + 1e-3  # outside the cylinder's circumscribed radius: raised
+    painted = f[state == 2]
+    ang = np.degrees(np.arctan2(v[painted][..., 1], v[painted][..., 0]))
+    assert moved.sum() > 100
+    a = np.degrees(np.arctan2(out[moved, 1], out[moved, 0]))
+    assert a.min() >= ang.min() - 1e-6 and a.max() <= ang.max() + 1e-6
+    assert np.all(out[moved, 0] > 0)
+
+
+def test_paint_errors_list_what_the_file_holds(painted_box, tmp_path):
+    path, _ = painted_box
+    with pytest.raises(InputError, match=r"no triangle is painted paint:5; the file holds color 1, 2"):
+        texcad.texture(path, "paint:5", "builtin:stones")
+    with pytest.raises(InputError, match=r"holds no fuzzy paint \(it holds: color 1, 2\)"):
+        texcad.texture(path, "paint:fuzzy", "builtin:stones")
+    v, f = _box()
+    plain = tmp_path / "plain.3mf"
+    write_painted_3mf(plain, [("box", v, f, {}, None)])
+    with pytest.raises(InputError, match="no paint at all"):
+        texcad.texture(plain, "paint:1", "builtin:stones")
+    stl = tmp_path / "box.stl"
+    texcad.Mesh(v, f).export(stl) if hasattr(texcad.Mesh, "export") else texcad.io.write_stl(texcad.Mesh(v, f), stl)
+    with pytest.raises(ParameterError, match="painted project's .3mf"):
+        texcad.texture(stl, "paint:1", "builtin:stones")
+    damaged = tmp_path / "damaged.3mf"
+    write_painted_3mf(damaged, [("box", v, f, {"color": ["13"] + [""] * (len(f) - 1)}, None)])
+    with pytest.raises(InputError, match="damaged"):
+        texcad.texture(damaged, "paint:1", "builtin:stones")
+
+
+def test_region_strings():
+    assert Region.parse("paint:2") == Region("paint", paint="color", state=2)
+    assert Region.parse("paint:fuzzy") == Region("paint", paint="fuzzy", state=1)
+    assert Region.parse("paint:support:2") == Region("paint", paint="support", state=2)
+    assert Region.parse("not:paint:3").invert
+    with pytest.raises(ParameterError, match="paint:N"):
+        Region.parse("paint:x")
