@@ -173,3 +173,17 @@ def test_region_strings():
     assert Region.parse("not:paint:3").invert
     with pytest.raises(ParameterError, match="paint:N"):
         Region.parse("paint:x")
+
+
+def test_cli_region_paint(painted_box, tmp_path, capsys):
+    from texcad.cli import main
+
+    path, _ = painted_box
+    out = tmp_path / "cli.3mf"
+    assert main(["texture", str(path), "--region", "paint:2@builtin:diamond_knurl", "--region", "paint:1@builtin:stones",
+                 "--pitch", "0.5", "--height", "0.5", "-o", str(out), "--separate-texture", "-q"]) == 0
+    with zipfile.ZipFile(out) as z:
+        names = re.findall(r'key="name" value="([^"]*)"', z.read("Metadata/Slic3r_PE_model.config").decode())
+    assert names[1:] == ["base", "paint:2 builtin:diamond_knurl", "paint:1 builtin:stones"]
+    assert main(["texture", str(path), "--region", "paint:7", "-o", str(tmp_path / "x.stl"), "-q"]) != 0
+    assert "the file holds color 1, 2" in capsys.readouterr().err
