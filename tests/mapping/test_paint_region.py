@@ -187,3 +187,44 @@ def test_cli_region_paint(painted_box, tmp_path, capsys):
     assert names[1:] == ["base", "paint:2 builtin:diamond_knurl", "paint:1 builtin:stones"]
     assert main(["texture", str(path), "--region", "paint:7", "-o", str(tmp_path / "x.stl"), "-q"]) != 0
     assert "the file holds color 1, 2" in capsys.readouterr().err
+
+
+def test_the_rest_of_the_project_survives(tmp_path):
+    """A project of two objects: the painted box is textured and written back as one
+    object of parts (each colour zone on its extruder); the other object, its support
+    paint and the project's other files are kept."""
+    import trimesh
+
+    from texcad.io.paint import read_project
+
+    v, f = _box()
+    strings = paint_by_points(v[f], _zones, 5)
+    peg = trimesh.creation.cylinder(radius=5, height=10)
+    peg.apply_translation([0, 0, 5])
+    pv, pf = np.asarray(peg.vertices), np.asarray(peg.faces)
+    support = encode_states((pv[pf].mean(axis=1)[:, 2] < 1).astype(int))
+    src = tmp_path / "project.3mf"
+    write_painted_3mf(src, [("box", v, f, {"color": strings}, np.array([[1, 0, 0, 100], [0, 1, 0, 100], [0, 0, 1, 0]], float)),
+                            ("peg", pv, pf, {"support": support}, np.array([[1, 0, 0, 150], [0, 1, 0, 60], [0, 0, 1, 0]], float))])
+    with zipfile.ZipFile(src, "a") as z:
+        z.writestr("Metadata/Slic3r_PE.config", "; layer_height = 0.15\n")
+        z.writestr("Metadata/Slic3r_PE_model.config", '<?xml version="1.0" encoding="UTF-8"?>\n<config>\n <object id="1" instances_count="1">\n'
+                   '  <metadata type="object" key="name" value="box"/>\n  <metadata type="object" key="fill_density" value="35%"/>\n'
+                   '  <volume firstid="0" lastid="11"><metadata type="volume" key="name" value="box"/></volume>\n </object>\n</config>\n')
+    tx = texcad.texture(src, {"paint:1": "builtin:stones", "paint:2": "builtin:diamond_knurl"}, height=0.6, pitch=0.5, border=1.0)
+    assert np.allclose(tx.mesh.bounds[0], [80, 85, 0]) and tx.mesh.bounds[1][0] <= 120 + 1e-4  # the box only
+    out = tmp_path / "out.3mf"
+    tx.export(out, separate_texture=True)
+    p = read_project(out)
+    assert [(k, n) for k, n, *_ in p.parts] == [(0, "box"), (1, "peg")]
+    assert p.states("support") == [1] and p.paint["support"][p.parts[1][3]:] == support  # the peg's paint, unchanged
+    assert np.allclose(p.vertices[-len(pv):], pv + [150, 60, 0], atol=1e-4)
+    with zipfile.ZipFile(out) as z:
+        assert z.read("Metadata/Slic3r_PE.config") == b"; layer_height = 0.15\n"
+        cfg = z.read("Metadata/Slic3r_PE_model.config").decode()
+    assert 'key="fill_density" value="35%"' in cfg
+    assert re.findall(r'key="name" value="([^"]*)"', cfg) == ["box", "base", "paint:1 builtin:stones", "paint:2 builtin:diamond_knurl"]
+    assert re.findall(r'key="extruder" value="(\d+)"', cfg) == ["1", "2"]
+    if shutil.which("prusa-slicer"):
+        info = subprocess.run(["prusa-slicer", "--info", str(out)], capture_output=True, text=True, timeout=300).stdout
+        assert [int(n) for n in re.findall(r"number_of_parts\s*=\s*(\d+)", info)] == [3, 1]

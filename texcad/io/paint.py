@@ -44,7 +44,7 @@ import numpy as np
 
 from ..errors import InputError, ParameterError
 
-__all__ = ["PAINT_KINDS", "ATTRIBUTES", "Painted", "decode", "encode_states", "paint_by_points", "tree_string", "Project", "read_project", "split_painted", "write_painted_3mf"]
+__all__ = ["PAINT_KINDS", "ATTRIBUTES", "Painted", "decode", "encode_states", "paint_by_points", "tree_string", "Project", "read_project", "split_painted", "write_painted_3mf", "write_zones"]
 
 #: What each kind of paint is called in a project's ``<triangle>`` attributes
 #: (PrusaSlicer first, then BambuStudio / OrcaSlicer).
@@ -358,7 +358,10 @@ class Project:
         faces: ``(M, 3)`` int64 (one triangle per ``<triangle>`` read, in file order).
         paint: ``{kind: list of M strings}`` for each kind in :data:`ATTRIBUTES` the
             file holds (``""``: not painted).
-        parts: ``(object name, part name, first face, end face)`` per mesh placed.
+        parts: ``(build item index, object name, part name, first face, end face)``
+            per mesh placed.
+        items: ``(object id, 4x4 transform)`` per build item (row-vector convention:
+            ``x' = x @ T[:3, :3] + T[3, :3]``).
         dialect: ``"prusa"`` (``slic3rpe:`` attributes) or ``"bambu"`` (``paint_*``),
             ``""`` without paint.
         path: the file read.
@@ -370,6 +373,7 @@ class Project:
     parts: tuple
     dialect: str
     path: str
+    items: tuple = ()
 
     def states(self, kind: str = "color") -> list[int]:
         """The painted states of ``kind`` (sorted, 0 left out)."""
@@ -468,7 +472,7 @@ def read_project(path: "str | os.PathLike") -> Project:
         verts, faces, paint, parts, off = [], [], {}, [], 0
         dialect = ""
 
-        def walk(part: str, oid: str, tf: np.ndarray, top: str, depth: int) -> None:
+        def walk(part: str, oid: str, tf: np.ndarray, top: tuple, depth: int) -> None:
             nonlocal off, dialect
             table, sc = model(part)
             if oid not in table or depth > 16:
@@ -485,16 +489,16 @@ def read_project(path: "str | os.PathLike") -> Project:
                         paint[kind].extend(pt.get(kind, [""] * len(f)))
                 dialect = dialect or pt.get("_dialect", "")
                 n0 = sum(len(x) for x in faces[:-1])
-                parts.append((top, e["name"], n0, n0 + len(f)))
+                parts.append((*top, e["name"], n0, n0 + len(f)))
                 off += len(v)
             for cpath, cid, ctf in e["components"]:  # per component
                 walk(cpath.lstrip("/") if cpath else part, cid, ctf @ tf, top, depth + 1)
 
-        for oid, tf in items:  # per build item
-            walk(root, oid, tf, objs.get(oid, {}).get("name", str(oid)), 0)
+        for k, (oid, tf) in enumerate(items):  # per build item
+            walk(root, oid, tf, (k, objs.get(oid, {}).get("name", str(oid))), 0)
     if not faces:
         raise InputError(f"{str(p)!r} holds no mesh objects in its build")
-    return Project(np.concatenate(verts), np.concatenate(faces), paint, tuple(parts), dialect, str(p))
+    return Project(np.concatenate(verts), np.concatenate(faces), paint, tuple(parts), dialect, str(p), tuple(items))
 
 
 # --- splitting painted triangles into their sub-triangles, conforming ---
@@ -690,3 +694,102 @@ def write_painted_3mf(path: "str | os.PathLike", objects: Sequence[tuple], *, di
             z.writestr("3D/3dmodel.model", model)
             for name, text in extra.items():  # per object file (BambuStudio)
                 z.writestr(name, text)
+
+
+# --- writing the zones back into the project ---
+
+_PE_CONFIG = "Metadata/Slic3r_PE_model.config"
+
+
+def _object_element(oid: str, name: str, meshes: Sequence, inv: np.ndarray) -> tuple[str, list]:
+    """The ``<object>`` of the zones (one mesh, the parts one after the other, in the
+    object's frame ``x @ inv[:3, :3] + inv[3, :3]``) and each part's triangle range."""
+    vs, fs, ranges, voff, foff = [], [], [], 0, 0
+    for m in meshes:  # per part
+        v = np.asarray(m.vertices, np.float64) @ inv[:3, :3] + inv[3, :3]
+        vs.append(v)
+        fs.append(np.asarray(m.faces, np.int64) + voff)
+        ranges.append((foff, foff + len(m.faces) - 1))
+        voff, foff = voff + len(v), foff + len(m.faces)
+    v, f = np.concatenate(vs), np.concatenate(fs)
+    vtx = "\n".join(f'<vertex x="{x:.6f}" y="{y:.6f}" z="{z:.6f}"/>' for x, y, z in v.tolist())
+    tri = "\n".join(f'<triangle v1="{a}" v2="{b}" v3="{c}"/>' for a, b, c in f.tolist())
+    xml = (f'<object id="{oid}" type="model" name="{_esc(name)}"><mesh><vertices>\n{vtx}\n</vertices>'
+           f'<triangles>\n{tri}\n</triangles></mesh></object>')
+    return xml, ranges
+
+
+def _esc(s: str) -> str:
+    return s.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
+
+
+def write_zones(paint: dict, base: Any, zones: Sequence, names: Sequence[str], path: "str | os.PathLike") -> None:
+    """Write textured zones back into their slicer project (PrusaSlicer / OrcaSlicer
+    dialect): the painted object becomes one object made of parts, ``base`` and one
+    part per zone (named ``names``; a ``paint:N`` zone of multi-material paint gets
+    extruder ``N``); every other object, the build, the print settings and the other
+    objects' paint are copied unchanged. A BambuStudio project, whose objects live in
+    their own model parts, is written as a new project with the textured object
+    alone (:func:`texcad.io.write_3mf`).
+
+    Args:
+        paint: ``info["paint"]`` of a result textured with paint regions (``project``
+            path, ``dialect``, ``items`` textured, ``extruders`` per zone).
+        base, zones: meshes in the build's frame (mm). path: the ``.3mf`` to write.
+    """
+    from ..util import atomic_path
+    from .export import write_3mf
+
+    parts = [("base", base)] + [(n, z) for n, z in zip(names, zones)]
+    src = Path(paint["project"])
+    if paint.get("dialect") != "prusa":
+        import warnings
+
+        from ..errors import TexcadWarning
+
+        warnings.warn(f"{src.name} is a BambuStudio project: {Path(path).name} holds the textured object alone "
+                      "(base and one part per zone); the project's other objects are not copied", TexcadWarning, stacklevel=3)
+        write_3mf(parts, path, name=src.stem)
+        return
+    project = read_project(src)
+    items = list(paint["items"])
+    oid, tf = project.items[items[0]]
+    with zipfile.ZipFile(src) as z:
+        entries = {n: z.read(n) for n in z.namelist()}
+    model = entries["3D/3dmodel.model"].decode("utf-8")
+    gone = {project.items[k][0] for k in items}
+    for obj in re.findall(r"<object\b[^>]*>.*?</object>", model, flags=re.S):  # per object: the textured ones go
+        m = re.search(r'\bid="([^"]*)"', obj)
+        if m and m.group(1) in gone:
+            model = model.replace(obj, "" if m.group(1) != oid else "\x00")
+    name = next((n for k, n, *_ in project.parts if k == items[0]), src.stem)
+    xml, ranges = _object_element(oid, name, [m for _, m in parts], np.linalg.inv(tf))
+    model = model.replace("\x00", xml)
+    for k in items[1:]:  # the other textured items are in this object now
+        model = re.sub(r'<item\b[^>]*objectid="%s"[^>]*/>' % re.escape(project.items[k][0]), "", model, count=1)
+    entries["3D/3dmodel.model"] = model.encode("utf-8")
+    entries[_PE_CONFIG] = _zone_config(entries.get(_PE_CONFIG, b"").decode("utf-8"), oid, name, parts, ranges,
+                                       [None] + list(paint.get("extruders", [None] * len(zones))))
+    with atomic_path(path) as tmp:
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+            for n, data in entries.items():  # per entry: copied, or rewritten above
+                z.writestr(n, data)
+
+
+def _zone_config(cfg: str, oid: str, name: str, parts: Sequence, ranges: Sequence, extruders: Sequence) -> bytes:
+    """PrusaSlicer's model config with the textured object's volumes replaced (its
+    object settings kept), or a new config naming the parts."""
+    vols = "".join(
+        f'  <volume firstid="{a}" lastid="{b}">\n   <metadata type="volume" key="name" value="{_esc(n)}"/>\n'
+        '   <metadata type="volume" key="volume_type" value="ModelPart"/>\n'
+        + (f'   <metadata type="volume" key="extruder" value="{e}"/>\n' if e else "") + "  </volume>\n"
+        for (n, _), (a, b), e in zip(parts, ranges, extruders))
+    m = re.search(r'<object\s+id="%s"[^>]*>(.*?)</object>' % re.escape(oid), cfg, flags=re.S)
+    if m:
+        keep = "".join(re.findall(r'\s*<metadata type="object"[^>]*/>', m.group(1)))
+        new = f'<object id="{oid}" instances_count="1">{keep}\n{vols} </object>'
+        return (cfg[: m.start()] + new + cfg[m.end():]).encode("utf-8")
+    body = f' <object id="{oid}" instances_count="1">\n  <metadata type="object" key="name" value="{_esc(name)}"/>\n{vols} </object>\n'
+    if "</config>" in cfg:
+        return cfg.replace("</config>", body + "</config>").encode("utf-8")
+    return f'<?xml version="1.0" encoding="UTF-8"?>\n<config>\n{body}</config>\n'.encode("utf-8")

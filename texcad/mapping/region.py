@@ -255,12 +255,15 @@ class PaintedTarget:
         state: ``(M,)`` int64, each face's state of the kind of paint used.
         kind: the kind of paint (``color``, ``fuzzy``, ``support``, ``seam``).
         project: the :class:`texcad.io.paint.Project` read.
+        items: the build items textured (those painted with a state asked for; the
+            others are left out of ``mesh`` and kept as they are on export).
     """
 
     mesh: Any
     state: np.ndarray
     kind: str
     project: Any
+    items: tuple = ()
 
 
 def _paint_summary(project) -> str:
@@ -308,17 +311,24 @@ def resolve_paint(target: Any, regions: "list[Region]") -> "tuple[Any, list[Regi
     if kind not in project.paint or not any(project.paint[kind]):
         raise InputError(f"{name} holds no {kind} paint" + (f" (it holds: {have})" if have else " (no paint at all)")
                          + "; paint the zone in PrusaSlicer, OrcaSlicer or BambuStudio and save the project")
-    v, f, state, _ = split_painted(project.vertices, project.faces, project.paint[kind])
+    v, f, state, parent = split_painted(project.vertices, project.faces, project.paint[kind])
     for r in wanted:  # per paint region: is its state there?
         if not (state == r.state).any():
             raise InputError(f"{name}: no triangle is painted {_region_name(r)}; the file holds {have}")
+    item = np.zeros(len(project.faces), dtype=np.int64)
+    for k, *_, a, b in project.parts:  # per mesh placed: its build item
+        item[a:b] = k
+    items = np.unique(item[parent[np.isin(state, [r.state for r in wanted])]])
+    keep = np.isin(item[parent], items)  # the painted objects only: the rest stays as it is
+    used, f = np.unique(f[keep], return_inverse=True)
+    v, f, state = v[used], f.reshape(-1, 3), state[keep]
     v32 = v.astype(np.float32).astype(np.float64)
     v2, f2, _ = repair_closed(v32, f, name=name)
     state2 = _match_faces(v32, f, v2, f2, state)
     mesh = Mesh(v2, f2)
     out = [Region("paint", paint=r.paint, state=r.state, bottom=r.bottom, invert=r.invert, faces=state2 == r.state)
            if r.kind == "paint" else r for r in regions]
-    return mesh, out, PaintedTarget(mesh, state2, kind, project)
+    return mesh, out, PaintedTarget(mesh, state2, kind, project, tuple(int(i) for i in items))
 
 
 def _match_faces(v, f, v2, f2, values):

@@ -308,6 +308,11 @@ class MeshTextured(Textured):
         """As :meth:`texcad.Textured.export`; a ``.3mf`` with ``separate_texture``
         holds the base and every layer's texture (``texture 1``, ``texture 2`` ...)
         as objects of one build item, so each can get its own filament."""
+        if separate_texture and Path(path).suffix.lower() == ".3mf" and "paint" in self.info:  # back into the slicer project
+            from ..io.paint import write_zones
+
+            write_zones(self.info["paint"], self.base_mesh, self.layer_meshes, self.info["zones"], path)
+            return Path(path)
         if separate_texture and Path(path).suffix.lower() == ".3mf":
             from ..io import write_3mf
 
@@ -687,7 +692,8 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
         crossed.result()
     res[-1]["zones"] = [_zone_name(r, t) for r, t, _ in raw]
     if painted is not None:
-        res[-1]["paint"] = {"kind": painted.kind, "project": painted.project.path, "dialect": painted.project.dialect}
+        res[-1]["paint"] = {"kind": painted.kind, "project": painted.project.path, "dialect": painted.project.dialect, "items": painted.items,
+                            "extruders": [r.state if r.kind == "paint" and r.paint == "color" else None for r in regions]}
     return _result(*res)
 
 
