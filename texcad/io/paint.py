@@ -584,20 +584,7 @@ def split_painted(vertices: np.ndarray, faces: np.ndarray, strings: Sequence[str
     keys = _keys(_point_keys(np.repeat(lf, 3), lat.reshape(-1, 3), f, full))
     table, first = np.unique(keys, return_index=True)
     corner_id = np.searchsorted(table, keys).reshape(-1, 3)
-    # extra points on each leaf edge: lattice candidates at the face's own level
-    P, Q = lat, lat[:, [1, 2, 0]]
-    step = (1 << (G - local[lf]))[:, None, None]
-    d = (Q - P) // step
-    g = np.gcd.reduce(np.abs(d), axis=2)  # (L, 3) lattice steps along each edge
-    cnt = np.maximum(g - 1, 0).ravel()
-    which = np.repeat(np.arange(len(cnt)), cnt)  # (leaf*3 + edge) of each candidate
-    mstep = np.arange(len(which)) - np.repeat(np.cumsum(cnt) - cnt, cnt) + 1
-    le, ed = which // 3, which % 3
-    cand = P[le, ed] + (d[le, ed] // g.ravel()[which][:, None]) * step[le, 0] * mstep[:, None]
-    ck = _keys(_point_keys(lf[le], cand, f, full))
-    pos = np.minimum(np.searchsorted(table, ck), len(table) - 1)
-    on = table[pos] == ck
-    extra_leaf, extra_edge, extra_id, extra_m = le[on], ed[on], pos[on], mstep[on]
+    extra_leaf, extra_edge, extra_id, extra_m = _edge_points(lat, lf, local, G, table, f, full)
     # new vertices: the lattice points, then the centroids of leaves that get a fan
     pts_lat = lat.reshape(-1, 3)[first]
     pts_face = np.repeat(lf, 3)[first]
@@ -628,6 +615,25 @@ def split_painted(vertices: np.ndarray, faces: np.ndarray, strings: Sequence[str
     out_s = np.concatenate([whole[keep], lstate[plain], lstate[rl]])
     out_p = np.concatenate([keep, lf[plain], lf[rl]])
     return verts, out_f, out_s, out_p
+
+
+def _edge_points(lat, lf, local, G, table, f, full):
+    """The known points (``table``) that lie inside the leaves' edges: each edge's
+    lattice points at its face's level (``2**local``) looked up. Returns, per point
+    found, its leaf, edge (0..2), vertex row in ``table`` and step along the edge."""
+    P, Q = lat, lat[:, [1, 2, 0]]
+    step = (1 << (G - local[lf]))[:, None, None]
+    d = (Q - P) // step
+    g = np.gcd.reduce(np.abs(d), axis=2)  # (L, 3) lattice steps along each edge
+    cnt = np.maximum(g - 1, 0).ravel()
+    which = np.repeat(np.arange(len(cnt)), cnt)  # (leaf*3 + edge) of each candidate
+    mstep = np.arange(len(which)) - np.repeat(np.cumsum(cnt) - cnt, cnt) + 1
+    le, ed = which // 3, which % 3
+    cand = P[le, ed] + (d[le, ed] // g.ravel()[which][:, None]) * step[le, 0] * mstep[:, None]
+    ck = _keys(_point_keys(lf[le], cand, f, full))
+    pos = np.minimum(np.searchsorted(table, ck), len(table) - 1)
+    on = table[pos] == ck
+    return le[on], ed[on], pos[on], mstep[on]
 
 
 _CT = (b'<?xml version="1.0" encoding="UTF-8"?>\n<Types xmlns="http://schemas.openxmlformats.org/package/2006/content-types">'
