@@ -690,7 +690,8 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
             crossed.result()  # a crossed input is the cause of what failed: say that first
             raise
         crossed.result()
-    res[-1]["zones"] = [_zone_name(r, t) for r, t, _ in raw]
+    if painted is not None or isinstance(where, dict):  # zones: their 3MF parts named by region and texture
+        res[-1]["zones"] = [_zone_name(r, t) for r, t, _ in raw]
     if painted is not None:
         res[-1]["paint"] = {"kind": painted.kind, "project": painted.project.path, "dialect": painted.project.dialect, "items": painted.items,
                             "extruders": [r.state if r.kind == "paint" and r.paint == "color" else None for r in regions]}
