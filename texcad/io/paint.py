@@ -645,7 +645,7 @@ _NS = 'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"'
 
 
 def _mesh_xml(v: np.ndarray, f: np.ndarray, attrs: dict) -> str:
-    rows = [f'<vertex x="{x:.6g}" y="{y:.6g}" z="{z:.6g}"/>' for x, y, z in np.asarray(v, np.float64).tolist()]
+    rows = [f'<vertex x="{x:.9g}" y="{y:.9g}" z="{z:.9g}"/>' for x, y, z in np.asarray(v, np.float64).tolist()]
     tris = []
     for k, (a, b, c) in enumerate(np.asarray(f, np.int64).tolist()):  # per triangle (a test/recipe writer)
         extra = "".join(f' {name}="{vals[k]}"' for name, vals in attrs.items() if vals[k])
