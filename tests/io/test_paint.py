@@ -222,3 +222,20 @@ def test_prusaslicer_reads_and_writes_our_strings(tmp_path):
     assert len(face) > 20
     assert abs(face[:, :2].min() - lo - 17.0) < 0.8 and abs(face[:, :2].max() - lo - 27.5) < 0.8
     assert 4.0 <= face[:, 3].min() <= 4.8 and 12.6 <= face[:, 3].max() <= 13.4
+
+
+def test_modifiers_are_not_the_surface(tmp_path):
+    """A PrusaSlicer object whose mesh holds a modifier volume: its triangles are left out."""
+    v, f = _icosphere()
+    strings = encode_states(np.ones(len(f), dtype=int))
+    vv, ff = np.concatenate([v, v * 0.3]), np.concatenate([f, f + len(v)])
+    path = tmp_path / "mod.3mf"
+    write_painted_3mf(path, [("ball", vv, ff, {"color": strings + [""] * len(f)}, None)])
+    with zipfile.ZipFile(path, "a") as z:
+        z.writestr("Metadata/Slic3r_PE_model.config",
+                   f'<config><object id="1" instances_count="1"><volume firstid="0" lastid="{len(f) - 1}">'
+                   '<metadata type="volume" key="volume_type" value="ModelPart"/></volume>'
+                   f'<volume firstid="{len(f)}" lastid="{2 * len(f) - 1}">'
+                   '<metadata type="volume" key="volume_type" value="ParameterModifier"/></volume></object></config>')
+    p = read_project(path)
+    assert len(p.faces) == len(f) and p.paint["color"] == strings

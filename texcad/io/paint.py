@@ -431,10 +431,39 @@ def _model_objects(xml: bytes, where: str) -> dict:
     return out
 
 
+def _not_model_parts(z: zipfile.ZipFile, names: set) -> tuple[dict, set]:
+    """What is not part of an object's surface: PrusaSlicer's volumes of another
+    type (modifiers, negative volumes, support enforcers / blockers) as ``{object id:
+    [(first, last triangle)]}``, and BambuStudio's parts of another subtype as
+    ``{(object id, part id)}``."""
+    ranges: dict = {}
+    others: set = set()
+    if "Metadata/Slic3r_PE_model.config" in names:
+        cfg = z.read("Metadata/Slic3r_PE_model.config")
+        for head, body in re.findall(rb"<object\b([^>]*)>(.*?)</object>", cfg, flags=re.S):  # per object
+            oid = _attrs(head).get("id")
+            for vh, vb in re.findall(rb"<volume\b([^>]*)>(.*?)</volume>", body, flags=re.S):  # per volume
+                t = re.search(rb'key="volume_type"\s+value="([^"]*)"', vb)
+                va = _attrs(vh)
+                if t and t.group(1) != b"ModelPart" and "firstid" in va and "lastid" in va:
+                    ranges.setdefault(oid, []).append((int(va["firstid"]), int(va["lastid"])))
+    if "Metadata/model_settings.config" in names:
+        cfg = z.read("Metadata/model_settings.config")
+        for head, body in re.findall(rb"<object\b([^>]*)>(.*?)</object>", cfg, flags=re.S):  # per object
+            oid = _attrs(head).get("id")
+            for ph in re.findall(rb"<part\b([^>]*)>", body):  # per part
+                pa = _attrs(ph)
+                if pa.get("subtype", "normal_part") != "normal_part":
+                    others.add((oid, pa.get("id")))
+    return ranges, others
+
+
 def read_project(path: "str | os.PathLike") -> Project:
     """Read a 3MF project's meshes and paint (PrusaSlicer, OrcaSlicer, BambuStudio):
     build items, components (also in other model parts, ``p:path``) and transforms
-    applied, the model's unit made mm.
+    applied, the model's unit made mm; modifiers, negative volumes and support
+    enforcers / blockers (PrusaSlicer volume types, BambuStudio part subtypes) left
+    out.
 
     Raises:
         InputError: not a 3MF, no model, a damaged mesh or a cyclic component.
@@ -467,6 +496,7 @@ def read_project(path: "str | os.PathLike") -> Project:
             return models[name]
 
         objs, scale = model(root)
+        ranges, others = _not_model_parts(z, names)
         xml = z.read(root)
         items = [(_attrs(i).get("objectid"), _matrix(_attrs(i).get("transform"))) for i in _ITEM.findall(xml[xml.rfind(b"<build"):])]
         verts, faces, paint, parts, off = [], [], {}, [], 0
@@ -478,8 +508,13 @@ def read_project(path: "str | os.PathLike") -> Project:
             if oid not in table or depth > 16:
                 raise InputError(f"{str(p)!r}: the build refers to a missing or cyclic object {oid!r}")
             e = table[oid]
-            if e["mesh"] is not None:
+            if e["mesh"] is not None and (items[top[0]][0], oid) not in others:
                 v, f, pt = e["mesh"]
+                if depth == 0 and oid in ranges:  # modifiers and the like are not the part's surface
+                    keep = np.ones(len(f), dtype=bool)
+                    for a, b in ranges[oid]:
+                        keep[a : b + 1] = False
+                    f, pt = f[keep], {k: ([x for x, q in zip(val, keep) if q] if k != "_dialect" else val) for k, val in pt.items()}
                 vv = (v * sc) @ tf[:3, :3] + tf[3, :3]
                 verts.append(vv)
                 faces.append(f + off)
