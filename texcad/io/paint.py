@@ -272,14 +272,11 @@ def paint_by_points(tri: np.ndarray, state_at: Callable[[np.ndarray], np.ndarray
     n, depth = len(tri), int(depth)
     if not 0 <= depth <= 12:
         raise ParameterError(f"paint depth must be 0..12 levels, got {depth!r}")
-    boxes = [np.broadcast_to(np.eye(3), (n, 1, 3, 3)).copy()]
-    for _ in range(depth):  # per level from the root: every node into its 4 children, in child order
-        b = boxes[-1]
-        six = np.concatenate([b, 0.5 * (b + b[:, :, [1, 2, 0]])], axis=2)
-        kids = [six[:, :, _TABLE[3, j]] for j in range(4)]
-        boxes.append(np.stack(kids, axis=2).reshape(n, -1, 3, 3))
-    fine = boxes[-1]
-    cen = np.einsum("tnj,tjk->tnk", fine.mean(axis=2), tri)
+    box = np.eye(3)[None]  # the same for every triangle: barycentric, in child order
+    for _ in range(depth):  # per level from the root: every node into its 4 children
+        six = np.concatenate([box, 0.5 * (box + box[:, [1, 2, 0]])], axis=1)
+        box = np.stack([six[:, _TABLE[3, j]] for j in range(4)], axis=1).reshape(-1, 3, 3)
+    cen = box.mean(axis=1)[None] @ tri  # (T, 4**depth, 3) mm
     st = np.asarray(state_at(cen.reshape(-1, 3)), dtype=np.int64).reshape(n, -1)
     states, uniform = [st], [np.ones_like(st, dtype=bool)]
     for _ in range(depth):  # bottom up: a node is uniform when its 4 children are, with one state
