@@ -228,3 +228,18 @@ def test_the_rest_of_the_project_survives(tmp_path):
     if shutil.which("prusa-slicer"):
         info = subprocess.run(["prusa-slicer", "--info", str(out)], capture_output=True, text=True, timeout=300).stdout
         assert [int(n) for n in re.findall(r"number_of_parts\s*=\s*(\d+)", info)] == [3, 1]
+
+
+def test_a_mask_inside_a_painted_zone(painted_box):
+    """A mask in a planar projection scales the height inside the paint: its black
+    half (x < 100 mm) leaves the painted zone 1 flat, its white half textures zone 2."""
+    path, leaves = painted_box
+    mask = np.zeros((80, 4))  # planar +y: u along +z (columns), v along +x (rows, 0.5 mm each)
+    mask[40:, :] = 1.0  # white on the +x half (bilinear: grey over the middle 0.5 mm)
+    tx = texcad.texture(path, {"paint:1": "builtin:stones", "paint:2": "builtin:stones"}, projection="planar:+y",
+                        origin=(100, 115, 10), mask=mask, mask_size=(20, 40), height=0.6, pitch=0.5, border=1.0)
+    v = tx.mesh.vertices.astype(np.float64)
+    moved = v[:, 1] > 115 + 1e-3
+    assert moved.sum() > 200 and np.all(v[moved, 0] > 100 - 0.5)
+    assert np.all(_inside(v[moved], leaves[1]) | _inside(v[moved], leaves[2]))
+    assert (v[moved, 0] > 101).mean() > 0.8  # the white half of the mask is zone 2
