@@ -243,3 +243,29 @@ def test_a_mask_inside_a_painted_zone(painted_box):
     assert moved.sum() > 200 and np.all(v[moved, 0] > 100 - 0.5)
     assert np.all(_inside(v[moved], leaves[1]) | _inside(v[moved], leaves[2]))
     assert (v[moved, 0] > 101).mean() > 0.8  # the white half of the mask is zone 2
+
+
+@pytest.mark.skipif(shutil.which("prusa-slicer") is None, reason="needs prusa-slicer")
+def test_a_project_prusaslicer_saved(tmp_path):
+    """A project saved by PrusaSlicer itself (its model config, volume matrices and
+    print settings): textured and written back, it re-opens as one object of a base
+    and the zone, the zone on extruder 2, the print settings kept."""
+    v, f = _box()
+    src = tmp_path / "ours.3mf"
+    write_painted_3mf(src, [("box", v, f, {"color": paint_by_points(v[f], _zones, 5)}, None)])
+    saved = tmp_path / "saved.3mf"
+    subprocess.run(["prusa-slicer", "--export-3mf", "-o", str(saved), str(src)], check=True, capture_output=True, timeout=300)
+    tx = texcad.texture(saved, "paint:2", "builtin:diamond_knurl", height=0.6, pitch=0.5, border=1.0)
+    out = tmp_path / "out.3mf"
+    tx.export(out, separate_texture=True)
+    with zipfile.ZipFile(saved) as a, zipfile.ZipFile(out) as b:
+        assert set(a.namelist()) <= set(b.namelist())
+        for name in a.namelist():  # everything but the model and its config is copied as it was
+            if name not in ("3D/3dmodel.model", "Metadata/Slic3r_PE_model.config"):
+                assert a.read(name) == b.read(name), name
+        cfg = b.read("Metadata/Slic3r_PE_model.config").decode()
+    assert re.findall(r'key="extruder" value="(\d+)"', cfg) == ["2"]
+    info = subprocess.run(["prusa-slicer", "--info", str(out)], capture_output=True, text=True, timeout=300).stdout
+    assert re.findall(r"number_of_parts\s*=\s*(\d+)", info) == ["2"] and "manifold = yes" in info
+    size = [float(x) for x in re.findall(r"size_[xyz] = ([\d.]+)", info)]
+    assert np.allclose(size, [40, 30.6, 20], atol=0.01)  # the box, 0.6 mm of knurl on its +y face
