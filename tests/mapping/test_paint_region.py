@@ -74,6 +74,14 @@ def painted_box(request, tmp_path):
     return path, {k: np.array(x) for k, x in leaves.items()}
 
 
+def _part_names(path):
+    """The part names of a written project (PrusaSlicer volumes or BambuStudio parts)."""
+    with zipfile.ZipFile(path) as z:
+        if "Metadata/Slic3r_PE_model.config" in z.namelist():
+            return re.findall(r'<volume\b.*?key="name" value="([^"]*)"', z.read("Metadata/Slic3r_PE_model.config").decode(), re.S)
+        return re.findall(r'<part\b.*?key="name" value="([^"]*)"', z.read("Metadata/model_settings.config").decode(), re.S)
+
+
 def _inside(pts, tris, tol=1e-3):
     """Which points (x, z) lie in any of the triangles (x, z) (brute force)."""
     a, b, c = tris[:, 0][:, [0, 2]], tris[:, 1][:, [0, 2]], tris[:, 2][:, [0, 2]]
@@ -112,10 +120,8 @@ def test_only_the_painted_zones_move_each_with_its_texture(painted_box, tmp_path
     # the zones stay parts: one object, base + one part per zone
     out = tmp_path / "zones.3mf"
     tx.export(out, separate_texture=True)
-    with zipfile.ZipFile(out) as z:
-        cfg = z.read("Metadata/Slic3r_PE_model.config").decode()
-    assert re.findall(r'key="name" value="([^"]*)"', cfg)[1:] == ["base", "paint:1 builtin:stones", "paint:2 builtin:diamond_knurl"]
-    if shutil.which("prusa-slicer"):
+    assert _part_names(out) == ["base", "paint:1 builtin:stones", "paint:2 builtin:diamond_knurl"]
+    if shutil.which("prusa-slicer") and "bambu" not in path.name:  # PrusaSlicer 2.5 reads no BambuStudio project
         info = subprocess.run(["prusa-slicer", "--info", str(out)], capture_output=True, text=True, timeout=300).stdout
         assert info.count("number_of_parts") == 1 and re.search(r"number_of_parts\s*=\s*3", info)
         assert "manifold = yes" in info
@@ -182,9 +188,7 @@ def test_cli_region_paint(painted_box, tmp_path, capsys):
     out = tmp_path / "cli.3mf"
     assert main(["texture", str(path), "--region", "paint:2@builtin:diamond_knurl", "--region", "paint:1@builtin:stones",
                  "--pitch", "0.5", "--height", "0.5", "-o", str(out), "--separate-texture", "-q"]) == 0
-    with zipfile.ZipFile(out) as z:
-        names = re.findall(r'key="name" value="([^"]*)"', z.read("Metadata/Slic3r_PE_model.config").decode())
-    assert names[1:] == ["base", "paint:2 builtin:diamond_knurl", "paint:1 builtin:stones"]
+    assert _part_names(out) == ["base", "paint:2 builtin:diamond_knurl", "paint:1 builtin:stones"]
     assert main(["texture", str(path), "--region", "paint:7", "-o", str(tmp_path / "x.stl"), "-q"]) != 0
     assert "the file holds color 1, 2" in capsys.readouterr().err
 
@@ -269,3 +273,40 @@ def test_a_project_prusaslicer_saved(tmp_path):
     assert re.findall(r"number_of_parts\s*=\s*(\d+)", info) == ["2"] and "manifold = yes" in info
     size = [float(x) for x in re.findall(r"size_[xyz] = ([\d.]+)", info)]
     assert np.allclose(size, [40, 30.6, 20], atol=0.01)  # the box, 0.6 mm of knurl on its +y face
+
+
+def test_a_bambu_project_survives(tmp_path):
+    """BambuStudio dialect: the painted object's components become one part per zone
+    (a new object file), the other object and its paint and the settings are kept."""
+    import trimesh
+
+    from texcad.io.paint import read_project
+
+    v, f = _box()
+    peg = trimesh.creation.cylinder(radius=5, height=10)
+    peg.apply_translation([0, 0, 5])
+    pv, pf = np.asarray(peg.vertices), np.asarray(peg.faces)
+    support = encode_states((pv[pf].mean(axis=1)[:, 2] < 1).astype(int))
+    src = tmp_path / "bambu.3mf"
+    write_painted_3mf(src, [("box", v, f, {"color": paint_by_points(v[f], _zones, 5)}, np.array([[1, 0, 0, 100], [0, 1, 0, 100], [0, 0, 1, 0]], float)),
+                            ("peg", pv, pf, {"support": support}, np.array([[1, 0, 0, 150], [0, 1, 0, 60], [0, 0, 1, 0]], float))],
+                      dialect="bambu")
+    with zipfile.ZipFile(src, "a") as z:
+        z.writestr("Metadata/project_settings.config", '{"layer_height": "0.16"}')
+        z.writestr("Metadata/model_settings.config", '<?xml version="1.0" encoding="UTF-8"?>\n<config>\n  <object id="2">\n'
+                   '    <metadata key="name" value="box"/>\n    <metadata key="wall_loops" value="4"/>\n'
+                   '    <part id="1" subtype="normal_part">\n      <metadata key="name" value="box"/>\n    </part>\n  </object>\n</config>\n')
+    tx = texcad.texture(src, {"paint:1": "builtin:stones", "paint:2": "builtin:diamond_knurl"}, height=0.6, pitch=0.5, border=1.0)
+    out = tmp_path / "out.3mf"
+    tx.export(out, separate_texture=True)
+    p = read_project(out)
+    assert [(k, n) for k, _, n, *_ in p.parts] == [(0, "base"), (0, "paint:1 builtin:stones"), (0, "paint:2 builtin:diamond_knurl"), (1, "object 3")]
+    box = p.vertices[: -len(pv)]
+    assert np.allclose(box.min(axis=0), tx.mesh.bounds[0], atol=1e-4) and np.allclose(box.max(axis=0), tx.mesh.bounds[1], atol=1e-4)
+    assert p.paint["support"][-len(pf):] == support and np.allclose(p.vertices[-len(pv):], pv + [150, 60, 0], atol=1e-4)
+    with zipfile.ZipFile(out) as z:
+        assert z.read("Metadata/project_settings.config") == b'{"layer_height": "0.16"}'
+        cfg = z.read("Metadata/model_settings.config").decode()
+        assert "texcad_zones_2.model" in z.read("3D/_rels/3dmodel.model.rels").decode()
+    assert 'key="wall_loops" value="4"' in cfg
+    assert re.findall(r'key="extruder" value="(\d+)"', cfg) == ["1", "2"]

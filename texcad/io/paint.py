@@ -766,9 +766,11 @@ def write_zones(paint: dict, base: Any, zones: Sequence, names: Sequence[str], p
     dialect): the painted object becomes one object made of parts, ``base`` and one
     part per zone (named ``names``; a ``paint:N`` zone of multi-material paint gets
     extruder ``N``); every other object, the build, the print settings and the other
-    objects' paint are copied unchanged. A BambuStudio project, whose objects live in
-    their own model parts, is written as a new project with the textured object
-    alone (:func:`texcad.io.write_3mf`).
+    objects' paint are copied unchanged. In a BambuStudio project the object's
+    components are replaced by the parts, in a new object file
+    (``3D/Objects/texcad_zones_ID.model``) named in the model's relationships and in
+    ``Metadata/model_settings.config``. Without a dialect (no paint read), a new
+    3MF of the parts (:func:`texcad.io.write_3mf`).
 
     Args:
         paint: ``info["paint"]`` of a result textured with paint regions (``project``
@@ -780,20 +782,28 @@ def write_zones(paint: dict, base: Any, zones: Sequence, names: Sequence[str], p
 
     parts = [("base", base)] + [(n, z) for n, z in zip(names, zones)]
     src = Path(paint["project"])
-    if paint.get("dialect") != "prusa":
-        import warnings
-
-        from ..errors import TexcadWarning
-
-        warnings.warn(f"{src.name} is a BambuStudio project: {Path(path).name} holds the textured object alone "
-                      "(base and one part per zone); the project's other objects are not copied", TexcadWarning, stacklevel=3)
-        write_3mf(parts, path, name=src.stem)
-        return
     project = read_project(src)
     items = list(paint["items"])
     oid, tf = project.items[items[0]]
     with zipfile.ZipFile(src) as z:
         entries = {n: z.read(n) for n in z.namelist()}
+    extruders = [None] + list(paint.get("extruders", [None] * len(zones)))
+    if paint.get("dialect") == "bambu" and "3D/3dmodel.model" in entries:
+        _bambu_zones(entries, project, items, parts, extruders)
+    elif paint.get("dialect") != "prusa":
+        write_3mf(parts, path, name=src.stem)
+        return
+    else:
+        _prusa_zones(entries, project, items, parts, extruders, src)
+    with atomic_path(path) as tmp:
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+            for n, data in entries.items():  # per entry: copied, or rewritten above
+                z.writestr(n, data)
+
+
+def _prusa_zones(entries: dict, project: Project, items: list, parts: list, extruders: list, src: Path) -> None:
+    """The PrusaSlicer project's model and config with the textured object replaced."""
+    oid, tf = project.items[items[0]]
     model = entries["3D/3dmodel.model"].decode("utf-8")
     gone = {project.items[k][0] for k in items}
     for obj in re.findall(r"<object\b[^>]*>.*?</object>", model, flags=re.S):  # per object: the textured ones go
@@ -806,12 +816,51 @@ def write_zones(paint: dict, base: Any, zones: Sequence, names: Sequence[str], p
     for k in items[1:]:  # the other textured items are in this object now
         model = re.sub(r'<item\b[^>]*objectid="%s"[^>]*/>' % re.escape(project.items[k][0]), "", model, count=1)
     entries["3D/3dmodel.model"] = model.encode("utf-8")
-    entries[_PE_CONFIG] = _zone_config(entries.get(_PE_CONFIG, b"").decode("utf-8"), oid, name, parts, ranges,
-                                       [None] + list(paint.get("extruders", [None] * len(zones))))
-    with atomic_path(path) as tmp:
-        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
-            for n, data in entries.items():  # per entry: copied, or rewritten above
-                z.writestr(n, data)
+    entries[_PE_CONFIG] = _zone_config(entries.get(_PE_CONFIG, b"").decode("utf-8"), oid, name, parts, ranges, extruders)
+
+
+def _bambu_zones(entries: dict, project: Project, items: list, parts: list, extruders: list) -> None:
+    """The BambuStudio project with the textured object's components replaced by one
+    mesh per part in a new object file (``3D/Objects/texcad_zones_ID.model``), listed
+    in the model's relationships and in ``Metadata/model_settings.config``."""
+    oid, tf = project.items[items[0]]
+    inv = np.linalg.inv(tf)
+    name = f"3D/Objects/texcad_zones_{oid}.model"
+    objs = []
+    for k, (pname, m) in enumerate(parts):  # per part: its own mesh object
+        xml, _ = _object_element(str(k + 1), pname, [m], inv)
+        objs.append(xml)
+    entries[name] = (f'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xml:lang="en-US" {_NS} '
+                     'xmlns:p="http://schemas.microsoft.com/3dmanufacturing/production/2015/06" requiredextensions="p">\n'
+                     f'<resources>\n{chr(10).join(objs)}\n</resources>\n<build/>\n</model>\n').encode("utf-8")
+    model = entries["3D/3dmodel.model"].decode("utf-8")
+    comps = "".join(f'<component p:path="/{name}" objectid="{k + 1}"/>' for k in range(len(parts)))
+    m = re.search(r'(<object\b[^>]*\bid="%s"[^>]*>)(.*?)(</object>)' % re.escape(oid), model, flags=re.S)
+    if m is None:
+        raise InputError(f"{project.path!r}: the textured object {oid} is not in the model; save the project again")
+    model = model[: m.start()] + m.group(1) + f"<components>{comps}</components>" + m.group(3) + model[m.end():]
+    for k in items[1:]:  # the other textured items are in this object now
+        model = re.sub(r'<item\b[^>]*objectid="%s"[^>]*/>' % re.escape(project.items[k][0]), "", model, count=1)
+    entries["3D/3dmodel.model"] = model.encode("utf-8")
+    rels = entries.get("3D/_rels/3dmodel.model.rels", b'<?xml version="1.0" encoding="UTF-8"?>\n<Relationships '
+                       b'xmlns="http://schemas.openxmlformats.org/package/2006/relationships">\n</Relationships>\n').decode("utf-8")
+    rel = f' <Relationship Target="/{name}" Id="rel-texcad-{oid}" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/>\n'
+    entries["3D/_rels/3dmodel.model.rels"] = rels.replace("</Relationships>", rel + "</Relationships>").encode("utf-8")
+    vols = "".join(
+        f'    <part id="{k + 1}" subtype="normal_part">\n      <metadata key="name" value="{_esc(n)}"/>\n'
+        '      <metadata key="matrix" value="1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1"/>\n'
+        + (f'      <metadata key="extruder" value="{e}"/>\n' if e else "") + "    </part>\n"
+        for k, ((n, _), e) in enumerate(zip(parts, extruders)))
+    cfg = entries.get("Metadata/model_settings.config", b"").decode("utf-8")
+    m = re.search(r'<object\s+id="%s"[^>]*>(.*?)</object>' % re.escape(oid), cfg, flags=re.S)
+    if m:
+        keep = "".join(re.findall(r'\s*<metadata key="[^"]*" value="[^"]*"/>', m.group(1).split("<part")[0]))
+        cfg = cfg[: m.start()] + f'<object id="{oid}">{keep}\n{vols}  </object>' + cfg[m.end():]
+    else:
+        body = f'  <object id="{oid}">\n{vols}  </object>\n'
+        cfg = cfg.replace("</config>", body + "</config>") if "</config>" in cfg else (
+            f'<?xml version="1.0" encoding="UTF-8"?>\n<config>\n{body}</config>\n')
+    entries["Metadata/model_settings.config"] = cfg.encode("utf-8")
 
 
 def _zone_config(cfg: str, oid: str, name: str, parts: Sequence, ranges: Sequence, extruders: Sequence) -> bytes:
