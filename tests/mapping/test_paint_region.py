@@ -310,3 +310,32 @@ def test_a_bambu_project_survives(tmp_path):
         assert "texcad_zones_2.model" in z.read("3D/_rels/3dmodel.model.rels").decode()
     assert 'key="wall_loops" value="4"' in cfg
     assert re.findall(r'key="extruder" value="(\d+)"', cfg) == ["1", "2"]
+
+
+def test_instances_of_a_painted_object(tmp_path):
+    """Two build items of one painted object: it is textured once, and written back
+    every instance carries the texture (the items keep their places)."""
+    from texcad.io.paint import read_project
+
+    v, f = _box()
+    src = tmp_path / "two.3mf"
+    write_painted_3mf(src, [("box", v, f, {"color": paint_by_points(v[f], _zones, 4)}, None)])
+    with zipfile.ZipFile(src) as z:
+        entries = {n: z.read(n) for n in z.namelist()}
+    model = entries["3D/3dmodel.model"].decode()
+    item = re.search(r"<item\b[^>]*/>", model).group(0)
+    entries["3D/3dmodel.model"] = model.replace(item, item + item.replace("1 0 0 0 1 0 0 0 1 0 0 0", "1 0 0 0 1 0 0 0 1 60 0 0")).encode()
+    with zipfile.ZipFile(src, "w") as z:
+        for n, data in entries.items():
+            z.writestr(n, data)
+    assert len(read_project(src).items) == 2
+    tx = texcad.texture(src, "paint:2", "builtin:diamond_knurl", height=0.6, pitch=0.8, border=1.0)
+    assert tx.mesh.bounds[1][0] <= 20 + 1e-4  # the first instance only
+    out = tmp_path / "out.3mf"
+    tx.export(out, separate_texture=True)
+    p = read_project(out)
+    assert len(p.items) == 2 and len(p.parts) == 2
+    (k0, *_, a0, b0), (k1, *_, a1, b1) = p.parts
+    f0, f1 = p.faces[a0:b0], p.faces[a1:b1]
+    assert np.allclose(p.vertices[f1].reshape(-1, 3).max(axis=0) - p.vertices[f0].reshape(-1, 3).max(axis=0), [60, 0, 0], atol=1e-4)
+    assert p.vertices[f0].reshape(-1, 3).max(axis=0)[1] > 15.5  # the knurl on both

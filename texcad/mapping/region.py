@@ -319,6 +319,10 @@ def resolve_paint(target: Any, regions: "list[Region]") -> "tuple[Any, list[Regi
     for k, *_, a, b in project.parts:  # per mesh placed: its build item
         item[a:b] = k
     items = np.unique(item[parent[np.isin(state, [r.state for r in wanted])]])
+    first: dict = {}
+    for k in items.tolist():  # instances of one object: texture the first (written back, every instance has it)
+        first.setdefault(project.items[k][0], k)
+    items = np.array(sorted(first.values()), dtype=np.int64)
     keep = np.isin(item[parent], items)  # the painted objects only: the rest stays as it is
     used, f = np.unique(f[keep], return_inverse=True)
     v, f, state = v[used], f.reshape(-1, 3), state[keep]
