@@ -650,8 +650,10 @@ def texture_mesh(target: Any, where: Any = "all", texture: Any = "builtin:stones
         target: a path ``.stl``/``.3mf``/``.obj``, a :class:`texcad.Mesh` or a
             ``trimesh.Trimesh``: one or more closed bodies.
         where: the region (:class:`texcad.mapping.Region` or its string, e.g.
-            ``"normal:+x:70"``), or a list of layers ``(region, texture, {options})``
-            (each layer's options override the call's).
+            ``"normal:+x:70"``; ``"paint:2"`` on a slicer project: the surface painted
+            with state 2), a list of layers ``(region, texture, {options})`` (each
+            layer's options override the call's), or a mapping of zones ``{region:
+            texture or (texture, {options}) or None}``.
         texture: ``builtin:NAME[:k=v]``, an image (with ``size``) or a Heightmap.
         **options: ``height`` (1 mm), ``mode`` (``raised``/``engraved``/``centred``),
             ``projection`` (``triplanar``; ``planar:+x``, ``cylindrical:+z``,
