@@ -16,21 +16,37 @@ String forms (CLI): ``"all"``, ``"not-bottom"`` (the same: the bed face is never
 textured by default), ``"all+bottom"``, ``"normal:+x:70"`` or ``"normal:0,1,1:30"``,
 ``"box:x0,y0,z0,x1,y1,z1"``, ``"sphere:x,y,z,r"``; ``"not:SPEC"`` is every face but
 those of ``SPEC`` (e.g. ``"not:normal:+z:30"``: the sides and below, not the top).
+
+Slicer paint (``kind="paint"``, on a 3MF project: :mod:`texcad.io.paint`):
+``"paint:2"`` is the surface painted with state 2 (multi-material paint: extruder /
+filament 2), ``"paint:fuzzy"`` the fuzzy-skin paint, ``"paint:support"`` /
+``"paint:seam"`` the enforcers (``"paint:support:2"``: the blockers). The project's
+painted triangles are first cut along their sub-triangles
+(:func:`resolve_paint`), so the painted area's border is made of mesh edges and the
+region is exactly the painted faces.
+
+Several zones (:func:`zone_layers`): a mapping ``{region: texture}`` (``None``: leave
+that region alone) becomes one texture layer per zone.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Sequence
+import os
+from dataclasses import dataclass, field
+from typing import Any, Sequence
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import InputError, ParameterError
 from .projection import parse_axis
+from ..io.paint import PAINT_KINDS
 
-__all__ = ["Region", "REGION_KINDS", "bed_faces"]
+__all__ = ["Region", "REGION_KINDS", "bed_faces", "resolve_paint", "zone_layers", "PaintedTarget"]
 
-REGION_KINDS = ("all", "normal", "box", "sphere")
+REGION_KINDS = ("all", "normal", "box", "sphere", "paint")
+#: ``paint:WORD`` names: the kind of paint (:data:`texcad.io.paint.ATTRIBUTES`) and its default state.
+PAINT_WORDS = {"fuzzy": ("fuzzy", 1), "support": ("support", 1), "supports": ("support", 1), "seam": ("seam", 1),
+               "color": ("color", None), "colour": ("color", None)}
 
 
 def _numbers(text: str, count: int, what: str) -> list[float]:
@@ -64,6 +80,10 @@ class Region:
         center, radius: ``sphere``, mm.
         bottom: texture the bed face too (default False).
         invert: every face *not* selected by the rest (the bed face still left out).
+        paint, state: ``paint``: the kind of slicer paint (``color``, ``fuzzy``,
+            ``support``, ``seam``) and its state (``color``: extruder number).
+        faces: ``paint``: ``(M,)`` bool, the painted faces of the mesh after
+            :func:`resolve_paint` (set by it; not compared).
     """
 
     kind: str = "all"
@@ -75,6 +95,9 @@ class Region:
     radius: float | None = None
     bottom: bool = False
     invert: bool = False
+    paint: str = "color"
+    state: int = 1
+    faces: Any = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.kind not in REGION_KINDS:
@@ -86,6 +109,9 @@ class Region:
         if self.kind == "box":
             if self.lo is None or self.hi is None or np.any(np.asarray(self.hi, float) <= np.asarray(self.lo, float)):
                 raise ParameterError(f"a box region needs lo < hi in x, y and z (mm), got {self.lo!r}, {self.hi!r}")
+        if self.kind == "paint" and (self.paint not in PAINT_KINDS or not isinstance(self.state, (int, np.integer)) or not 1 <= self.state <= 33):
+            raise ParameterError(f"a paint region is paint:N (N = 1..33, the painted state / extruder) or paint:fuzzy, "
+                                 f"paint:support, paint:seam; got kind {self.paint!r}, state {self.state!r}")
         if self.kind == "sphere" and (self.center is None or self.radius is None or not self.radius > 0):
             raise ParameterError("a sphere region needs a center (x, y, z) and a positive radius in mm")
 
@@ -107,6 +133,8 @@ class Region:
         if s in ("all+bottom", "everything"):
             return cls(bottom=True)
         kind, _, rest = s.partition(":")
+        if kind == "paint":
+            return cls._parse_paint(spec, rest)
         if kind == "normal":
             d, _, a = rest.rpartition(":")
             try:
@@ -123,15 +151,32 @@ class Region:
             return cls("sphere", center=tuple(v[:3]), radius=v[3])
         raise ParameterError(
             f"unknown region {spec!r}; use all, not-bottom, all+bottom, normal:+x:70, box:x0,y0,z0,x1,y1,z1, "
-            "sphere:x,y,z,r or not:REGION"
+            "sphere:x,y,z,r, paint:N, paint:fuzzy or not:REGION"
         )
+
+    @classmethod
+    def _parse_paint(cls, spec: str, rest: str) -> "Region":
+        """``paint:N``, ``paint:color:N``, ``paint:fuzzy``, ``paint:support[:N]``, ``paint:seam[:N]``."""
+        word, _, num = rest.partition(":")
+        if word in PAINT_WORDS:
+            kind, state = PAINT_WORDS[word]
+        else:
+            kind, state, num = "color", None, word
+        try:
+            state = int(num) if num else state
+        except ValueError:
+            state = None
+        if state is None:
+            raise ParameterError(f"region {spec!r}: write paint:N (N the painted state, e.g. paint:2 for extruder 2), "
+                                 "paint:fuzzy, paint:support or paint:seam")
+        return cls("paint", paint=kind, state=state)
 
     def settled(self, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
         """``(M,)`` bool: faces whose every piece after subdivision is selected as the
         face is (``all`` and ``normal`` regions: every face; ``box`` and ``sphere``:
         faces with all three corners inside, or whose bounding box misses the
         region's; the rest straddle its boundary)."""
-        if self.kind in ("all", "normal"):
+        if self.kind in ("all", "normal", "paint"):
             return np.ones(len(faces), dtype=bool)
         tri = vertices[faces]
         if self.kind == "box":
@@ -153,15 +198,19 @@ class Region:
         build_dir: np.ndarray,
         tolerance: float,
         loose: bool = False,
+        ids: "np.ndarray | None" = None,
     ) -> np.ndarray:
         """``(M,)`` bool: the faces in the region.
 
         ``loose``: box and sphere regions take every face whose bounding box meets
         the region's (a superset, used before subdivision; afterwards the centroid
-        decides).
+        decides). ``ids``: each face's face of the mesh the region was resolved on
+        (``paint`` regions: faces after subdivision inherit their parent's paint).
         """
         tri = vertices[faces]
-        if self.kind == "all":
+        if self.kind == "paint":
+            sel = self._painted(len(faces), ids)
+        elif self.kind == "all":
             sel = np.ones(len(faces), dtype=bool)
         elif self.kind == "normal":
             sel = normals @ parse_axis(self.direction) >= np.cos(np.radians(float(self.angle))) - 1e-12
@@ -183,3 +232,134 @@ class Region:
         if not self.bottom:
             sel &= ~bed_faces(vertices, faces, normals, build_dir, tolerance)
         return sel
+
+    def _painted(self, m: int, ids: "np.ndarray | None") -> np.ndarray:
+        if self.faces is None:
+            raise ParameterError(f"the region paint:{self.state} reads a slicer project's paint: texture the project's "
+                                 ".3mf file itself (texcad.texture('project.3mf', 'paint:2', ...))")
+        mask = np.asarray(self.faces, dtype=bool)
+        if ids is None:
+            if len(mask) != m:
+                raise ParameterError(f"a paint region marks {len(mask)} faces but the mesh has {m}")
+            return mask.copy()
+        return mask[np.asarray(ids)]
+
+
+@dataclass(frozen=True)
+class PaintedTarget:
+    """A slicer project made ready for paint regions (:func:`resolve_paint`).
+
+    Attributes:
+        mesh: the project's meshes (build frame, mm) with the painted triangles cut
+            into their sub-triangles, repaired (what texturing reads unchanged).
+        state: ``(M,)`` int64, each face's state of the kind of paint used.
+        kind: the kind of paint (``color``, ``fuzzy``, ``support``, ``seam``).
+        project: the :class:`texcad.io.paint.Project` read.
+        items: the build items textured (those painted with a state asked for; the
+            others are left out of ``mesh`` and kept as they are on export).
+    """
+
+    mesh: Any
+    state: np.ndarray
+    kind: str
+    project: Any
+    items: tuple = ()
+
+
+def _paint_summary(project) -> str:
+    parts = []
+    for kind in project.paint:  # per kind of paint in the file
+        st = project.states(kind)
+        if st:
+            parts.append(f"{kind} " + ", ".join(str(s) for s in st))
+    return "; ".join(parts)
+
+
+def _region_name(r: "Region") -> str:
+    return f"paint:{r.state}" if r.paint == "color" else f"paint:{r.paint}" + (f":{r.state}" if r.state != 1 else "")
+
+
+def resolve_paint(target: Any, regions: "list[Region]") -> "tuple[Any, list[Region], PaintedTarget | None]":
+    """Give ``paint`` regions their faces: read the project ``target`` (a ``.3mf``
+    path), cut its painted triangles along their sub-triangles
+    (:func:`texcad.io.paint.split_painted`), repair the mesh and mark each region's
+    faces. Returns ``(mesh, regions, PaintedTarget)``; without paint regions the
+    target and regions unchanged and None.
+
+    Raises:
+        InputError: the project holds no paint of that kind or no face of that state
+            (the message lists the paint the file holds), or a damaged paint string.
+        ParameterError: paint regions on a target that is not a 3MF project, or of
+            two kinds of paint in one call.
+    """
+    from ..io.paint import read_project, split_painted
+    from ..solid import Mesh, repair_closed
+
+    wanted = [r for r in regions if r.kind == "paint"]
+    if not wanted:
+        return target, regions, None
+    if not (isinstance(target, (str, os.PathLike)) and os.fspath(target).lower().endswith(".3mf")):
+        raise ParameterError(f"{_region_name(wanted[0])} reads slicer paint: texture the painted project's .3mf file "
+                             "(PrusaSlicer, OrcaSlicer or BambuStudio), not a mesh")
+    kinds = sorted({r.paint for r in wanted})
+    if len(kinds) > 1:
+        raise ParameterError(f"paint regions of one kind per call, got {', '.join(kinds)}; texture the result again for the other")
+    kind = kinds[0]
+    project = read_project(target)
+    name = repr(os.path.basename(os.fspath(target)))
+    have = _paint_summary(project)
+    if kind not in project.paint or not any(project.paint[kind]):
+        raise InputError(f"{name} holds no {kind} paint" + (f" (it holds: {have})" if have else " (no paint at all)")
+                         + "; paint the zone in PrusaSlicer, OrcaSlicer or BambuStudio and save the project")
+    v, f, state, parent = split_painted(project.vertices, project.faces, project.paint[kind])
+    for r in wanted:  # per paint region: is its state there?
+        if not (state == r.state).any():
+            raise InputError(f"{name}: no triangle is painted {_region_name(r)}; the file holds {have}")
+    item = np.zeros(len(project.faces), dtype=np.int64)
+    for k, *_, a, b in project.parts:  # per mesh placed: its build item
+        item[a:b] = k
+    items = np.unique(item[parent[np.isin(state, [r.state for r in wanted])]])
+    first: dict = {}
+    for k in items.tolist():  # instances of one object: texture the first (written back, every instance has it)
+        first.setdefault(project.items[k][0], k)
+    items = np.array(sorted(first.values()), dtype=np.int64)
+    keep = np.isin(item[parent], items)  # the painted objects only: the rest stays as it is
+    used, f = np.unique(f[keep], return_inverse=True)
+    v, f, state = v[used], f.reshape(-1, 3), state[keep]
+    v32 = v.astype(np.float32).astype(np.float64)
+    v2, f2, _ = repair_closed(v32, f, name=name)
+    state2 = _match_faces(v32, f, v2, f2, state)
+    mesh = Mesh(v2, f2)
+    out = [Region("paint", paint=r.paint, state=r.state, bottom=r.bottom, invert=r.invert, faces=state2 == r.state)
+           if r.kind == "paint" else r for r in regions]
+    return mesh, out, PaintedTarget(mesh, state2, kind, project, tuple(int(i) for i in items))
+
+
+def _match_faces(v, f, v2, f2, values):
+    """``values`` of faces ``f`` carried to the repaired faces ``f2`` (the same
+    triangles, some dropped or turned: matched by their sorted corners)."""
+    if len(f2) == len(f) and np.allclose(np.sort(v[f].sum(axis=1), axis=0), np.sort(v2[f2].sum(axis=1), axis=0)):
+        same = np.all(np.isclose(v[f].sum(axis=1), v2[f2].sum(axis=1)), axis=1)
+        if same.all():
+            return values.copy()
+    from scipy.spatial import cKDTree
+
+    _, idx = cKDTree(v[f].mean(axis=1)).query(v2[f2].mean(axis=1))
+    return values[idx]
+
+
+def zone_layers(where: Any, texture: Any) -> list:
+    """Texture layers ``(region, texture, {options})`` from ``where``: a mapping
+    ``{region: texture}`` (a texture, ``(texture, {options})``, or ``None`` to leave
+    the region alone), a list of layers (as it is), or one region (with ``texture``)."""
+    if isinstance(where, dict):
+        out = []
+        for region, spec in where.items():  # per zone
+            if spec is None:
+                continue
+            tex, opts = (spec[0], dict(spec[1])) if isinstance(spec, tuple) else (spec, {})
+            out.append((region, tex, opts))
+        if not out:
+            raise ParameterError("every zone of the mapping has texture None: give at least one zone a texture")
+        return out
+    return where if isinstance(where, list) else [(where, texture, {})]

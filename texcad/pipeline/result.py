@@ -326,9 +326,16 @@ class Textured:
         p = Path(path)
         if p.suffix.lower() == ".png":
             return self.render(p)
+        if separate_texture and p.suffix.lower() == ".3mf" and "paint" in self.info:  # back into the slicer project
+            from ..io.paint import write_zones
+
+            write_zones(self.info["paint"], self.base_mesh, self.layer_meshes, self.info["zones"], p)
+            return p
         if separate_texture and p.suffix.lower() == ".3mf":
             layers = self.layer_meshes
             names = ["texture"] if len(layers) == 1 and self.kind != "mesh" else [f"texture {k + 1}" for k in range(len(layers))]
+            zones = self.info.get("zones") or []
+            names = [zones[k] if k < len(zones) else n for k, n in enumerate(names)]
             write_3mf([("base", self.base_mesh)] + list(zip(names, layers)), p, name=name or p.stem)
             return p
         return export(self, p, separate_texture=separate_texture, name=name)

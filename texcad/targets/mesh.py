@@ -55,7 +55,7 @@ import numpy as np
 
 from ..errors import GeometryError, InputError, ParameterError, TexcadWarning
 from ..mapping.projection import PROJECTIONS, Projection, TileSampler, parse_axis, sample_heights
-from ..mapping.region import Region
+from ..mapping.region import Region, resolve_paint, zone_layers
 from ..printability import build_directions, check_critical_angle
 from ..printability.relief import limit_relief
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, closed_and_oriented, edge_report, repair_closed, self_intersections, shells
@@ -354,8 +354,9 @@ def _gradient(points: np.ndarray, gradient: Any) -> np.ndarray:
     return np.clip(1.0 - t, 0.0, 1.0)
 
 
-def _select(layer: Layer, v, f, fn, dirs, crit, tol, loose):
-    sel = layer.region.select(v, f, fn, build_dir=dirs[0] if dirs is not None else np.array([0.0, 0, 1]), tolerance=tol, loose=loose)
+def _select(layer: Layer, v, f, fn, dirs, crit, tol, loose, ids=None):
+    """The layer's faces; ``ids``: each face's input face (what paint regions need)."""
+    sel = layer.region.select(v, f, fn, build_dir=dirs[0] if dirs is not None else np.array([0.0, 0, 1]), tolerance=tol, loose=loose, ids=ids)
     if dirs is not None:  # a face that overhangs by itself cannot carry a support-free texture
         sel &= ~np.any(-(fn @ dirs.T) > np.cos(np.radians(min(89.9, crit + 1.0))), axis=1)
     return sel
@@ -370,11 +371,12 @@ def _check_regions(layers, masks) -> None:
 def _refine_layers(layers, v, f, dirs, crit, tol):
     """Refine each layer's region to its pitch; returns v, f, per-layer face masks."""
     fn, _ = face_normals(v, f)
+    ids = np.arange(len(f))
     for layer in layers:  # per layer
-        sel = _select(layer, v, f, fn, dirs, crit, tol, loose=True)
+        sel = _select(layer, v, f, fn, dirs, crit, tol, loose=True, ids=ids)
         v, f, parent = refine(v, f, sel, layer.pitch)
-        fn = fn[parent]  # every piece lies in its parent's plane
-    masks = [_select(layer, v, f, fn, dirs, crit, tol, loose=False) for layer in layers]
+        fn, ids = fn[parent], ids[parent]  # every piece lies in its parent's plane
+    masks = [_select(layer, v, f, fn, dirs, crit, tol, loose=False, ids=ids) for layer in layers]
     return v, f, masks
 
 
@@ -425,11 +427,12 @@ def _coarse_layers(layers, v, f, dirs, crit, tol):
     outside every region)."""
     fn, _ = face_normals(v, f)
     pitch = np.full(len(f), np.inf)
+    ids = np.arange(len(f))
     for layer in layers:  # per layer
-        sel = _select(layer, v, f, fn, dirs, crit, tol, loose=True)
+        sel = _select(layer, v, f, fn, dirs, crit, tol, loose=True, ids=ids)
         v, f, _, parent = coarsen(v, f, sel, layer.pitch, ladders=True)
-        fn, pitch = fn[parent], np.where(sel[parent], np.minimum(pitch[parent], layer.pitch), pitch[parent])
-    return v, f, fn, pitch
+        fn, pitch, ids = fn[parent], np.where(sel[parent], np.minimum(pitch[parent], layer.pitch), pitch[parent]), ids[parent]
+    return v, f, fn, pitch, ids
 
 
 def _frozen(layers, c, s, masks):
@@ -521,7 +524,7 @@ def _first_levels(c, s, ds, d, tolerance):
     return np.clip(np.ceil(np.sqrt(e1 * scale / tolerance) - 1e-9), 1, np.maximum(c.level, 1)).astype(np.int64)
 
 
-def _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol):
+def _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol, ids=None):
     """Each layer's faces of the output: its coarse faces' pieces, and where a face
     straddles a box or sphere region's boundary, the pieces it selects itself."""
     par = out["parent"]
@@ -529,7 +532,8 @@ def _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol):
     cut = np.flatnonzero(straddle[par])
     for k, layer in enumerate(layers):  # per layer
         if len(cut):
-            res[k, cut] = _select(layer, out["v"], out["f"][cut], fn[par[cut]], dirs, crit, tol, loose=False)
+            res[k, cut] = _select(layer, out["v"], out["f"][cut], fn[par[cut]], dirs, crit, tol, loose=False,
+                                  ids=None if ids is None else ids[par[cut]])
     return list(res)
 
 
@@ -538,11 +542,11 @@ def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
     the coarsest grid level whose displacement stays within ``tolerance`` mm of the
     pitch grid's samples. Returns the output (``v``, ``f``, ``parent``, ``normal``,
     ``dir``, ``masks``), the layers' reliefs and the measured largest error (mm)."""
-    v, f, fn, pitch = _coarse_layers(layers, v, f, dirs, crit, tol)
+    v, f, fn, pitch, ids = _coarse_layers(layers, v, f, dirs, crit, tol)
     progress(0.12, "pitch-grid samples")
     c = coarse_mesh(v, f, pitch)
     s = pitch_samples(c)
-    masks = np.array([_select(layer, v, f, fn, dirs, crit, tol, loose=False) for layer in layers])
+    masks = np.array([_select(layer, v, f, fn, dirs, crit, tol, loose=False, ids=ids) for layer in layers])
     straddle = ~np.all([layer.region.settled(v, f) for layer in layers], axis=0) & np.isfinite(pitch)
     forced = np.any(masks[:, c.ef[:, 0]] != masks[:, c.ef[:, 1]], axis=0) | straddle[c.ef].any(axis=1)
     layers = _frozen(layers, c, s, masks)
@@ -558,7 +562,7 @@ def _adaptive(layers, v, f, dirs, crit, tol, tolerance, progress):
     while True:  # per round: tessellate, measure, refine the faces still off (a few)
         counts, before, prev = edge_counts(c, levels, forced), counts, out
         out = build(c, counts)
-        out["masks"] = _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol)
+        out["masks"] = _output_masks(layers, out, masks, straddle, fn, dirs, crit, tol, ids)
         carry = None if per_face is None else (*carried(c, before, counts, prev, out), parts)
         parts, queries = _output_relief(layers, out, carry)
         d = np.sum([p[0] for p in parts], axis=0)
@@ -637,13 +641,20 @@ class MeshRelief:
     region: np.ndarray
 
 
+def _zone_name(region: Any, texture: Any) -> str:
+    """A layer's name in the output (3MF part names): its region and texture."""
+    r = region if isinstance(region, str) else getattr(region, "kind", "region")
+    t = texture if isinstance(texture, str) else type(texture).__name__
+    return f"{r} {t}"
+
+
 def _layers(where: Any, texture: Any, o: Options) -> tuple:
     """The layers of a call: ``where`` a region (or its string) or a list of layers
     ``(region, texture, {options})``, each layer's options over the call's."""
     names = [n for n in LAYER_OPTIONS if getattr(o, n) is not None and (n in o.given or n in ("height", "mode", "pitch", "border", "scale"))]
     base = o.as_kwargs(names)
-    raw = where if isinstance(where, list) else [("all" if where is None else where, texture, {})]
-    return tuple(Layer.make(r, t, {**base, **dict(opts)}) for r, t, opts in raw)
+    raw = zone_layers("all" if where is None else where, texture)  # a region, a list of layers or a mapping {region: texture}
+    return tuple(Layer.make(r, t, {**base, **dict(opts)}) for r, t, opts in raw), raw
 
 
 def _vertex_areas(v: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -667,9 +678,18 @@ class MeshAdapter(Adapter):
         return is_mesh_target(target)
 
     def place(self, target: Any, where: Any, texture: Any, options: Options) -> Placement:
-        layers = _layers(where, texture, options)
+        layers, raw = _layers(where, texture, options)
+        # paint regions (texcad.mapping.region.resolve_paint): the project cut along its paint
+        target, regions, painted = resolve_paint(target, [layer.region for layer in layers])
+        layers = tuple(replace(layer, region=r) for layer, r in zip(layers, regions))
         options.report(0.0, "reading the mesh")
         v, f, bodies, info = load_closed(target, crossing=False)
+        if painted is not None or isinstance(where, dict):  # zones: their 3MF parts named by region and texture
+            info["zones"] = [_zone_name(r, t) for r, t, _ in raw]
+        if painted is not None:
+            info["paint"] = {"kind": painted.kind, "project": painted.project.path, "dialect": painted.project.dialect,
+                             "items": painted.items,
+                             "extruders": [r.state if r.kind == "paint" and r.paint == "color" else None for r in regions]}
         base = Mesh(v.astype(np.float32), f.astype(np.uint32))
         return Placement("mesh", base, bodies, None, data=MeshPlace(v, f, layers, _name(target), info))
 
