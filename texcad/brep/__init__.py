@@ -21,7 +21,6 @@ from .solids import (
     tile_grid,
     transformed_shape,
     tiled_plane_solid,
-    textured_plane_solid,
     textured_band_solid,
     textured_extrusion_solid,
     TILE,
@@ -42,6 +41,7 @@ from .solids import (
     sample_segments,
 )
 from .uvfaces import (
+    textured_plane_solid,
     uv_textured_solid,
     open_extrusion_solid,
 )

@@ -73,7 +73,6 @@ __all__ = [
     "tile_grid",
     "transformed_shape",
     "tiled_plane_solid",
-    "textured_plane_solid",
     "textured_band_solid",
     "textured_extrusion_solid",
     "TILE",
@@ -1464,37 +1463,6 @@ def tiled_plane_solid(
     for f in [flat, *tiles]:  # one per tile
         b.Add(patch, f)
     return _replace_by_faces(to_topods(shape), old, patch)
-
-
-def textured_plane_solid(
-    shape: Any,
-    face: Any,
-    heights: np.ndarray,
-    x: np.ndarray,
-    y: np.ndarray,
-    *,
-    origin: Sequence[float],
-    xdir: Sequence[float],
-    normal: Sequence[float],
-    tile: int = TILE,
-    fine: Sequence | None = None,
-):
-    """``shape`` with the planar ``face`` textured in place (arguments as
-    :func:`textured_plane_face`, mm; ``fine`` as :func:`tiled_plane_solid`): in
-    tiles that carry texcad's mesh (:func:`tiled_plane_solid`) where the textured
-    rectangle lies inside the face,
-    else as one B-spline face trimmed by the face's own wires
-    (:func:`textured_plane_face` + :func:`replace_face`: the same solid, slower for
-    OCCT's mesher and booleans)."""
-    from .uvfaces import holed_plane_solid
-
-    frame = dict(origin=origin, xdir=xdir, normal=normal)
-    out = tiled_plane_solid(shape, face, heights, x, y, tile=tile, fine=fine, **frame)
-    if out is None:  # an outline inside the textured rectangle (holes, pockets, notches)
-        out = holed_plane_solid(shape, face, heights, x, y, tile=tile, fine=fine, **frame)
-    if out is not None:
-        return out
-    return replace_face(shape, face, textured_plane_face(face, heights, x, y, **frame))
 
 
 def _replace_by_faces(shape, old, patch):

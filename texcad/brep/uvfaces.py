@@ -36,15 +36,25 @@ poles reliably, not one face of hundreds of thousands):
 from __future__ import annotations
 
 import io
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
 from ..errors import GeometryError
-from .solids import TILE, TOLERANCE, _remember_tile, _replace_faces, _tile_text, tiled_grid_faces
+from .solids import (
+    TILE,
+    TOLERANCE,
+    _remember_tile,
+    _replace_faces,
+    _tile_text,
+    replace_face,
+    textured_plane_face,
+    tiled_grid_faces,
+    tiled_plane_solid,
+)
 from .occt import explore, to_topods
 
-__all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid"]
+__all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid", "textured_plane_solid"]
 
 
 def _surface_rows(face, u: np.ndarray, v: np.ndarray):
@@ -914,3 +924,32 @@ def holed_plane_solid(shape: Any, face: Any, heights: np.ndarray, x: np.ndarray,
     surf = Geom_Plane(pln)
     flats = [_plane_face(b, surf, pln, loops) for loops in regions]  # one per planar region
     return _replace_faces(to_topods(shape), [(old, flats + list(tiles))])
+
+
+def textured_plane_solid(
+    shape: Any,
+    face: Any,
+    heights: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    *,
+    origin: Sequence[float],
+    xdir: Sequence[float],
+    normal: Sequence[float],
+    tile: int = TILE,
+    fine: Sequence | None = None,
+):
+    """``shape`` with the planar ``face`` textured in place (arguments as
+    :func:`textured_plane_face`, mm; ``fine`` as :func:`tiled_plane_solid`): in
+    tiles that carry texcad's mesh (:func:`tiled_plane_solid`) where the textured
+    rectangle lies inside the face,
+    else as one B-spline face trimmed by the face's own wires
+    (:func:`textured_plane_face` + :func:`~texcad.brep.solids.replace_face`: the same solid, slower for
+    OCCT's mesher and booleans)."""
+    frame = dict(origin=origin, xdir=xdir, normal=normal)
+    out = tiled_plane_solid(shape, face, heights, x, y, tile=tile, fine=fine, **frame)
+    if out is None:  # an outline inside the textured rectangle (holes, pockets, notches)
+        out = holed_plane_solid(shape, face, heights, x, y, tile=tile, fine=fine, **frame)
+    if out is not None:
+        return out
+    return replace_face(shape, face, textured_plane_face(face, heights, x, y, **frame))
