@@ -97,7 +97,7 @@ class Options:
             each of several), in the part's frame; None: no overhang limit.
         critical_angle: the steepest overhang that prints without support, degrees
             from the build plate (45).
-        gradient: ``((x0, y0, z0), (x1, y1, z1))`` mm: full height at the first
+        gradient: ``((x0, y0, z0), (x1, y1, z1))`` (or the six numbers flat) mm: full height at the first
             point, none at the second; or None.
         rotation: turns the texture about the face normal (planar faces) or the
             projection axis (meshes), degrees (0).
@@ -272,9 +272,10 @@ def _validate(name: str, v: Any) -> Any:
         return _pair(name, v)
     if name == "gradient":
         try:
-            a, b = (tuple(float(c) for c in p) for p in v)
+            flat = [float(c) for c in v] if len(v) == 6 else None  # (x0, y0, z0, x1, y1, z1) as the CLI gives it
+            a, b = (tuple(flat[:3]), tuple(flat[3:])) if flat else (tuple(float(c) for c in p) for p in v)
         except (TypeError, ValueError):
-            raise ParameterError(f"gradient must be two points ((x0, y0, z0), (x1, y1, z1)) in mm, got {v!r}") from None
+            raise ParameterError(f"gradient must be two points ((x0, y0, z0), (x1, y1, z1)) or six numbers in mm, got {v!r}") from None
         if len(a) != 3 or len(b) != 3 or a == b or not all(map(math.isfinite, a + b)):
             raise ParameterError(f"gradient must be two different finite points (mm), got {v!r}")
         return a, b

@@ -32,7 +32,7 @@ def test_fuse_texture_onto_plate_is_one_watertight_shell(kernel, small_hm):
 
         base = cq.Workplane("XY").box(w, d, 3, centered=(False, False, False)).translate((0, 0, -3))
     slab = heightfield_slab(small_hm, depth=0.5)
-    part = fuse(base, slab)
+    part = fuse(shape_to_mesh(base), slab)  # texcad.solid takes meshes: the CAD part tessellated first
     assert part.is_watertight
     man = texcad.solid.to_manifold(part)
     assert len(man.decompose()) == 1

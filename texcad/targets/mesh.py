@@ -708,7 +708,8 @@ class MeshAdapter(Adapter):
         vol, nominal = float((r.d * area).sum()), float((d * area).sum())
         region_area = float(area[np.unique(r.f[r.region])].sum())
         slack = 0.05 * float((np.abs(r.d) * area).sum()) + 2.0 * options.tolerance * region_area + 1e-6
-        reach = float(np.abs(d).max(initial=0.0)) + options.tolerance + 0.01
+        stretch = np.linalg.norm(r.normals, axis=1)  # offset directions are mitred at edges: |n| >= 1
+        reach = float((stretch * np.maximum(np.abs(d), np.abs(r.d))).max(initial=0.0)) + options.tolerance + 0.01
         return Relief(heightmap=None, limits=limit, volume=vol, volume_slack=slack, nominal_volume=nominal,
                       reach=reach, max_error=max_error, data=r)
 
