@@ -140,11 +140,26 @@ def _check_flat_outline(h: np.ndarray, xs: np.ndarray, ys: np.ndarray, pts: np.n
         raise GeometryError("internal: the texture does not vanish along the face outline; please report this")
 
 
+def _masked(h: np.ndarray, fr: PlaneFrame, xs: np.ndarray, ys: np.ndarray, options: Options) -> np.ndarray:
+    """``h`` (mm) scaled by ``options.mask`` (values in [0, 1]: 0 no texture, 1 the
+    full height), stretched over ``options.mask_size`` mm of the face's texture
+    coordinates (default: the face's bounding rectangle), centred on the face and
+    sampled bilinearly at the grid ``(xs, ys)`` mm; 0 outside the mask. Heights
+    are scaled before the ramps and the limiter, so both still hold."""
+    if options.mask is None:
+        return h
+    from .mesh import _mask_sampler
+
+    size = options.mask_size if options.mask_size is not None else tuple(float(t) for t in fr.hi - fr.lo)
+    gx, gy = np.meshgrid(xs, ys)
+    return (h * _mask_sampler(options.mask, size)(gx, gy)).astype(h.dtype)
+
+
 class PlaneAdapter(Adapter):
     kind = "plane"
     label = "a planar face"
     options = frozenset({"height", "pitch", "tolerance", "build_dir", "critical_angle", "rotation", "edge_angle",
-                         "offset", "brep", "mode", "mapping", "depth"})
+                         "offset", "brep", "mode", "mapping", "depth", "mask", "mask_size"})
 
     def accepts(self, target: Any, where: Any, options: Options) -> bool:
         if options.mode is not Mode.RAISED or options.gradient is not None or not is_cad_target(target) or where is None:
@@ -199,7 +214,8 @@ class PlaneAdapter(Adapter):
         ky = np.arange(int(np.floor((fr.lo[1] - y0) / py - 0.5)) - 2, int(np.ceil((fr.hi[1] - y0) / py - 0.5)) + 3)
         need = texture_bytes(len(kx) * len(ky), options.tolerance)
         require_memory(need, f"a {len(ky)} x {len(kx)} px texture on the face", f"use pitch >= {fitting_pitch(min(px, py), need):.3g} mm")
-        return _place_heightmap(hm, kx, ky), x0 + (kx + 0.5) * px, y0 + (ky + 0.5) * py, (px, py)
+        xs, ys = x0 + (kx + 0.5) * px, y0 + (ky + 0.5) * py
+        return _masked(_place_heightmap(hm, kx, ky), fr, xs, ys, options), xs, ys, (px, py)
 
     def _ramp(self, fr: PlaneFrame, h: np.ndarray, xs: np.ndarray, ys: np.ndarray, edge_angle: float):
         """M-I ramps at the outline and at body material over the face: ``(h, dist,

@@ -1,0 +1,46 @@
+"""The planar-face adapter (texcad.targets.plane): a mask on the face's texture
+coordinates scales the height (issue 31), and keeps the ramps and the gate."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import texcad
+
+
+@pytest.fixture(scope="module")
+def box():
+    from build123d import Axis, Box
+
+    b = Box(40, 20, 5)
+    return b, b.faces().sort_by(Axis.Z)[-1]
+
+
+def test_a_mask_keeps_the_texture_only_where_it_is_white(box):
+    part, top = box
+    half = np.zeros((20, 40))
+    half[:, 20:] = 1.0  # the right half (+x) white
+    full = texcad.texture(part, top, "builtin:stones", pitch=0.5, height=1.0)
+    masked = texcad.texture(part, top, "builtin:stones", pitch=0.5, height=1.0, mask=half)
+    xs = masked.stages.relief.data.xs
+    h, h0 = masked.heightmap.heights, full.heightmap.heights
+    assert h[:, xs < -1.0].max() <= 0.0011  # the 1 um floor, no texture
+    np.testing.assert_array_equal(h[:, xs > 1.0], h0[:, xs > 1.0])
+    # the gate checked the volume against the masked texture's own integral: about half
+    added, added0 = masked.mesh.volume - 4000.0, full.mesh.volume - 4000.0
+    assert 0.4 * added0 < added < 0.6 * added0
+    assert masked.gate.shells.bodies == 1
+
+
+def test_a_grey_mask_scales_the_height(box):
+    part, top = box
+    r = texcad.texture(part, top, "builtin:stones", pitch=0.5, height=1.0, mask=np.full((4, 4), 0.5))
+    full = texcad.texture(part, top, "builtin:stones", pitch=0.5, height=1.0)
+    assert r.heightmap.heights.max() == pytest.approx(0.5 * full.heightmap.heights.max(), abs=0.01)
+
+
+def test_a_bad_mask_is_refused(box):
+    part, top = box
+    with pytest.raises(texcad.ParameterError, match="mask"):
+        texcad.texture(part, top, "builtin:stones", pitch=0.5, mask=np.full((4, 4), 2.0))
