@@ -28,14 +28,11 @@ from .result import Textured
 __all__ = ["run"]
 
 
-def _candidates(target: Any, where: Any, options: Options) -> list:
-    found = [a for a in ADAPTERS if a.accepts(target, where, options)]
-    if not found:
-        raise ParameterError(
-            f"cannot texture a {type(target).__name__}: pass a build123d / CadQuery part with its face(s), a "
-            "texcad.Surface or Profile, a texcad.Plate, or a mesh (a .stl / .3mf / .obj path, a texcad Mesh, a trimesh)"
-        )
-    return found
+def _refused(target: Any) -> ParameterError:
+    return ParameterError(
+        f"cannot texture a {type(target).__name__}: pass a build123d / CadQuery part with its face(s), a "
+        "texcad.Surface or Profile, a texcad.Plate, or a mesh (a .stl / .3mf / .obj path, a texcad Mesh, a trimesh)"
+    )
 
 
 def run(target: Any, where: Any, texture: Any, options: Options) -> Textured:
@@ -48,14 +45,15 @@ def run(target: Any, where: Any, texture: Any, options: Options) -> Textured:
             memory than allowed (ResourceError).
     """
     with memory_limit(options.max_memory):
-        cands = _candidates(target, where, options)
-        for k, adapter in enumerate(cands):  # the first that does not decline
+        declined = None
+        for adapter in ADAPTERS:  # asked in order (lazily: a mesh never loads OCCT); the first that does not decline
+            if not adapter.accepts(target, where, options):
+                continue
             options.refuse(adapter.options, adapter.label)
             try:
                 placement = adapter.place(target, where, texture, options)
-            except Decline:
-                if k == len(cands) - 1:
-                    raise
+            except Decline as exc:
+                declined = exc
                 continue
             relief = adapter.relief(placement, texture, options)
             fused = adapter.fuse(placement, relief, options)
@@ -63,4 +61,4 @@ def run(target: Any, where: Any, texture: Any, options: Options) -> Textured:
             report = gate(fused.mesh, adapter.expectation(placement, relief, fused))
             options.report(1.0, "textured")
             return Textured(Stages(adapter, options, placement, relief, fused, report))
-    raise AssertionError("unreachable")
+    raise declined if declined is not None else _refused(target)
