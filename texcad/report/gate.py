@@ -47,8 +47,6 @@ __all__ = ["Expectation", "GateReport", "gate", "gate_shells", "shell_report", "
 VANISHED = 0.5
 #: manifold3d is asked too (check 1) up to this many triangles.
 MANIFOLD3D_MAX = 300_000
-#: At most this many points sample a surface for the reach check.
-SAMPLES_MAX = 2_000_000
 
 
 @dataclass(frozen=True)
@@ -279,84 +277,39 @@ def shell_report(mesh: Mesh) -> ShellReport:
 # ------------------------------------------------------------------------------------------
 # Check 5: reach
 # ------------------------------------------------------------------------------------------
-def _longest_first(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``tri`` (n, 3, 3) with each triangle's corners rolled so that its longest edge
-    runs from corner 0 to corner 1, and that edge's length (mm)."""
-    e = np.linalg.norm(tri - np.roll(tri, -1, axis=1), axis=2)  # edge k: corner k -> k + 1
-    k = np.argmax(e, axis=1)
-    idx = (np.arange(3)[None, :] + k[:, None]) % 3
-    return np.take_along_axis(tri, idx[:, :, None], axis=1), e[np.arange(len(e)), k]
+def _distances(pts: np.ndarray, v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Exact distance (mm) of each point to the triangles ``(v, f)`` (libigl's
+    AABB tree: ``point_mesh_squared_distance``)."""
+    import igl
 
-
-def _densified(v: np.ndarray, f: np.ndarray, spacing: float) -> np.ndarray:
-    """Points within ``spacing / sqrt(3)`` mm of every point of the triangles ``(v,
-    f)``: the corners of the triangles once every edge is at most ``spacing``. A
-    longer triangle is bisected at the midpoint of its longest edge, level by level
-    (vectorized): slivers give about ``2 L / spacing`` pieces, not ``4^k``. Corners of
-    the triangles that are small already are taken once each."""
-    f = np.asarray(f, dtype=np.int64)
-    v = np.asarray(v, dtype=np.float64)
-    tri, longest = _longest_first(v[f])
-    small = longest <= spacing
-    out = [v[np.unique(f[small])]]
-    tri = tri[~small]
-    while len(tri):  # per level of bisection (about 2 log2(longest edge / spacing))
-        a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-        m = 0.5 * (a + b)
-        tri, longest = _longest_first(np.concatenate([np.stack((a, m, c), axis=1), np.stack((m, b, c), axis=1)]))
-        small = longest <= spacing
-        out.append(tri[small].reshape(-1, 3))
-        tri = tri[~small]
-    return np.concatenate(out)
-
-
-def _sample_spacing(v: np.ndarray, f: np.ndarray, spacing: float) -> float:
-    """``spacing`` widened so that the surface needs at most :data:`SAMPLES_MAX` points."""
-    p = v.astype(np.float64)[np.asarray(f, dtype=np.int64)]
-    area = 0.5 * float(np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1).sum())
-    return max(spacing, float(np.sqrt(4.0 * area / SAMPLES_MAX)))
-
-
-def _near_triangles(v: np.ndarray, f: np.ndarray, pts: np.ndarray, radius: float) -> np.ndarray:
-    """Indices of the triangles ``(v, f)`` that may pass within ``radius`` mm of a
-    point of ``pts``: their centroid lies within ``radius`` plus the triangle's own
-    reach (its farthest corner from the centroid)."""
-    from scipy.spatial import cKDTree
-
-    tri = v[f]
-    c = tri.mean(axis=1)
-    r = np.linalg.norm(tri - c[:, None], axis=2).max(axis=1)
-    d, _ = cKDTree(pts).query(c, workers=2)
-    return np.flatnonzero(d <= radius + r)
+    d2, _, _ = igl.point_mesh_squared_distance(
+        np.ascontiguousarray(pts, dtype=np.float64), np.ascontiguousarray(v, dtype=np.float64),
+        np.ascontiguousarray(f, dtype=np.int64),
+    )
+    return np.sqrt(d2)
 
 
 def _reach(mesh: Mesh, ex: Expectation) -> tuple[float, float, int]:
     """``(farthest, allowed, count)``: the largest distance (mm) of a vertex off the
-    base surface from the selected surface, what is allowed, and how many exceed it.
-
-    The distance to the nearest vertex of the selected surface bounds the distance to
-    the surface from above, so a vertex within the allowance there passes (a k-d tree
-    of the surface's vertices); only the others are measured again against dense
-    samples (within ``spacing``) of the triangles near them, and then against the
-    base (a vertex on the base is not relief)."""
+    base surface from the selected surface, what is allowed (the texture's reach,
+    the slack and a margin of a quarter of the height, at least 0.05 mm), and how
+    many vertices exceed it. Distances are exact point-triangle distances; a vertex
+    within the margin of the base's surface is not relief. The distance to the
+    nearest vertex of the selected surface bounds the distance to the surface from
+    above: a vertex within the allowance there passes without an exact distance."""
     from scipy.spatial import cKDTree
 
-    sv, sf = np.asarray(ex.selected[0], dtype=np.float64), np.asarray(ex.selected[1], dtype=np.int64)
-    spacing = max(0.25 * ex.height, 0.05)
-    allowed = ex.height + ex.reach_slack + spacing
+    margin = max(0.25 * ex.height, 0.05)
+    allowed = ex.height + ex.reach_slack + margin
     pts = np.asarray(mesh.vertices, dtype=np.float64)
-    d_sel, _ = cKDTree(sv[np.unique(sf)]).query(pts, workers=2)
+    sv, sf = np.asarray(ex.selected[0], dtype=np.float64), np.asarray(ex.selected[1], dtype=np.int64)
+    d_sel, _ = cKDTree(sv[np.unique(sf)]).query(pts, workers=2)  # to the nearest vertex: an upper bound
     far = np.flatnonzero(d_sel > allowed)
-    if len(far):  # a closer look
-        near = sf[_near_triangles(sv, sf, pts[far], float(d_sel[far].max()))]
-        fine = _sample_spacing(sv, near, spacing)
-        d_far, _ = cKDTree(_densified(sv, near, fine)).query(pts[far], workers=2)
-        d_sel[far] = np.minimum(d_sel[far], d_far - (fine - spacing))
+    if len(far):  # exact distances for those
+        d_sel[far] = _distances(pts[far], sv, sf)
         far = far[d_sel[far] > allowed]
     if len(far) and ex.base is not None:
-        bspacing = _sample_spacing(ex.base.vertices, ex.base.faces, spacing)
-        d_base, _ = cKDTree(_densified(ex.base.vertices, ex.base.faces, bspacing)).query(pts[far], workers=2)
-        far = far[d_base > bspacing + ex.reach_slack]
+        far = far[_distances(pts[far], ex.base.vertices, ex.base.faces) > margin + ex.reach_slack]
     farthest = float(d_sel[far].max()) if len(far) else float(min(d_sel.max(initial=0.0), allowed))
     return farthest, allowed, len(far)
 
