@@ -187,3 +187,39 @@ def test_relative_links_resolve() -> None:
             if not path.exists():
                 broken.append(f"{_rel(page)}: {target}")
     assert not broken, "broken relative links:\n" + "\n".join(broken)
+
+
+# --------------------------------------------------------------------------------------
+# What the docs name exists
+# --------------------------------------------------------------------------------------
+def _resolves(dotted: str) -> bool:
+    import importlib
+
+    parts = dotted.split(".")
+    for i in range(len(parts), 0, -1):
+        try:
+            obj = importlib.import_module(".".join(parts[:i]))
+        except ImportError:
+            continue
+        try:
+            for attr in parts[i:]:
+                obj = getattr(obj, attr)
+        except AttributeError:
+            return False
+        return True
+    return False
+
+
+def test_named_modules_files_and_functions_exist() -> None:
+    """Every ``texcad.x.y`` the docs name resolves, and every repository file they name
+    in backticks (``texcad/...py``, ``tests/...``, ``benchmarks/...``, ``recipes/...``) exists."""
+    missing = []
+    for page in _pages():
+        text = page.read_text(encoding="utf-8")
+        for path in set(re.findall(r"`((?:texcad|tests|benchmarks|recipes|docs)/[\w/.-]+\.py)`", text)):
+            if not (ROOT / path).exists():
+                missing.append(f"{_rel(page)}: {path}")
+        for name in set(re.findall(r"\btexcad(?:\.[A-Za-z_]\w*)+", text)):
+            if not _resolves(name.rstrip(".")):
+                missing.append(f"{_rel(page)}: {name}")
+    assert not missing, "the docs name things that do not exist:\n" + "\n".join(sorted(missing))
