@@ -18,6 +18,7 @@ from pathlib import Path
 
 from ..options import DEFAULTS
 from ._args import add_orientation, add_tolerance, limits_line, positive_float
+from ._outputs import check_outputs, write_outputs
 from ._texture_mesh import MESH_SUFFIXES, add_mesh_arguments, run_mesh
 
 #: ``--face`` words: the planar face whose outward normal points that way (largest
@@ -100,6 +101,13 @@ def _gradient(text: str) -> tuple:
 def run(args: argparse.Namespace) -> int:
     if Path(args.part).suffix.lower() in MESH_SUFFIXES:  # STL / 3MF / OBJ: _texture_mesh.py, no CAD library
         return run_mesh(args)
+    from ..errors import ParameterError
+
+    for flag, given in (("--region", args.region), ("--union", args.union)):  # mesh options: refused, not ignored
+        if given:
+            raise ParameterError(f"{flag} applies to mesh parts (.stl, .3mf, .obj), not to the STEP part {args.part!r}; "
+                                 "pick its faces with --face (list them with: texcad faces PART.step)")
+    check_outputs(args.out, (".stl", ".3mf", ".step", ".stp", ".png"))
     from build123d import Compound
 
     from .. import texture
@@ -131,8 +139,7 @@ def run(args: argparse.Namespace) -> int:
             gradient=args.gradient,
             progress=None if args.quiet else StageReporter(),
         )
-    for out in args.out:
-        tx.export(out, separate_texture=args.separate_texture)
+    write_outputs(tx, args.out, separate_texture=args.separate_texture)
     m = tx.mesh
     print(f"faces        {', '.join(args.face or ['top'])}: {len(faces)} face(s) ({tx.info['face']}, grid {tx.info['grid'][0]} x {tx.info['grid'][1]})")
     for k, patch in enumerate(tx.info.get("faces") or []):  # per patch of smoothly joined faces
