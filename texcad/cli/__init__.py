@@ -24,7 +24,7 @@ __all__ = ["main", "entry", "build_parser", "commands"]
 
 #: Commands listed first by ``texcad --help``; every other public module of this
 #: package is a command too and follows in alphabetical order.
-FIRST = ("demo", "make", "texture", "synth", "check", "render", "textures", "scan")
+FIRST = ("demo", "make", "texture", "faces", "synth", "check", "render", "textures", "scan")
 
 
 def commands() -> list[str]:
