@@ -6,7 +6,10 @@ face index, ``TYPE`` (the largest face of that kind: ``cylinder``, ``cone``,
 ``sphere``, ``torus``, ``bspline``, ``revolution``, ``extrusion``...), ``TYPE:i``
 (the i-th face of that kind in the part's order), ``TYPE:all``, or
 ``normal:x,y,z`` (every face whose normal at its centre is within 10 degrees of
-that direction).
+that direction); ``solid:K/SELECTOR`` restricts any of these to solid K of an
+assembly. In an assembly the solid that owns the faces is textured and the other
+solids are written beside it as they were (``texcad faces PART.step`` lists faces
+and solids).
 """
 
 from __future__ import annotations
@@ -115,12 +118,23 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import TexcadWarning
     from ..util import StageReporter
 
+    from ..brep.assembly import solid_selector, split_assembly
+
     t0 = time.perf_counter()
     part = Compound(read_step(args.part))
+    solids = part.solids()
     faces = []
-    for which in args.face or ["top"]:  # per --face
-        faces += [f for f in pick_faces(part, which) if not any(f.is_same(g) for g in faces)]
+    for which in args.face or ["top"]:  # per --face: on the whole part, or on solid K (solid:K/top)
+        k, sel = solid_selector(which)
+        if k is not None and k >= len(solids):
+            raise ParameterError(f"--face {which}: the part has {len(solids)} solid(s), 0..{len(solids) - 1}")
+        scope = part if k is None else solids[k]
+        faces += [f for f in pick_faces(scope, sel) if not any(f.is_same(g) for g in faces)]
     face = faces[0] if len(faces) == 1 else faces
+    owner, others = None, []
+    if len(solids) > 1:  # an assembly: the solid that owns the faces is textured, the others kept
+        owner, target, others = split_assembly(part, faces)
+        part = Compound([target]) if not isinstance(target, Compound) else target
     with warnings.catch_warnings():
         if args.quiet:
             warnings.simplefilter("ignore", TexcadWarning)
@@ -139,8 +153,15 @@ def run(args: argparse.Namespace) -> int:
             gradient=args.gradient,
             progress=None if args.quiet else StageReporter(),
         )
-    write_outputs(tx, args.out, separate_texture=args.separate_texture)
+    result = tx
+    if others:
+        from ._assembly import AssemblyResult
+
+        result = AssemblyResult(tx, owner, others)
+    write_outputs(result, args.out, separate_texture=args.separate_texture)
     m = tx.mesh
+    if owner is not None:
+        print(f"solid        {owner} of {len(solids)} textured; the other {len(others)} kept as they were (separate bodies)")
     print(f"faces        {', '.join(args.face or ['top'])}: {len(faces)} face(s) ({tx.info['face']}, grid {tx.info['grid'][0]} x {tx.info['grid'][1]})")
     for k, patch in enumerate(tx.info.get("faces") or []):  # per patch of smoothly joined faces
         dx, dy = patch["distortion"]["x"], patch["distortion"]["y"]
