@@ -134,3 +134,21 @@ def test_a_write_that_fails_leaves_no_file(tmp_path):
             raise RuntimeError("boom")
     assert list(tmp_path.iterdir()) == []
     os.chmod(tmp_path, 0o755)
+
+
+def test_an_image_texture_on_a_mesh_takes_its_tile_size(tmp_path, capsys):
+    import numpy as np
+    from PIL import Image
+
+    img = tmp_path / "tex.png"
+    Image.fromarray((np.indices((64, 64)).sum(0) % 16 * 16).astype(np.uint8)).save(img)
+    ball = tmp_path / "ball.stl"
+    trimesh.creation.icosphere(3, radius=10.0).export(ball)
+    out = tmp_path / "ballt.stl"
+    base = ["texture", str(ball), "--texture", str(img), "--pitch", "2", "--height", "0.5", "-q", "-o", str(out)]
+    assert main(base) == 2 and "size" in _one_line_error(capsys)
+    assert main(base + ["--size", "10,10"]) == 0
+    m = texcad.io.read_mesh(out)
+    assert m.is_watertight and m.volume > trimesh.creation.icosphere(3, radius=10.0).volume
+    with pytest.raises(SystemExit):
+        main(base + ["--size", "10,-1"])

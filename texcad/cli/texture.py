@@ -106,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
         return run_mesh(args)
     from ..errors import ParameterError
 
-    for flag, given in (("--region", args.region), ("--union", args.union)):  # mesh options: refused, not ignored
+    for flag, given in (("--region", args.region), ("--union", args.union), ("--size", args.size)):  # mesh options: refused
         if given:
             raise ParameterError(f"{flag} applies to mesh parts (.stl, .3mf, .obj), not to the STEP part {args.part!r}; "
                                  "pick its faces with --face (list them with: texcad faces PART.step)")
