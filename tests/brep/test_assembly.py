@@ -68,3 +68,52 @@ def test_faces_of_several_solids_are_one_line(assembly, tmp_path, capsys):
     assert "texture one solid at a time" in capsys.readouterr().err
     assert main(["texture", str(assembly), "--face", "solid:7/top", "-o", str(tmp_path / "x.stl")]) == 2
     assert "3 solid(s)" in capsys.readouterr().err
+
+
+# --- an open OCCT tessellation, healed by sewing (texcad.brep.tessellation) -----------
+
+def _unsewn_solid():
+    """A tube whose faces do not share edges: the planar ends as NURBS copies, the
+    cylinders as copies, put in one shell unsewn (as some CAD exports are): each face
+    discretizes its own copy of an edge differently, so the default tessellation is open."""
+    from build123d import Cylinder, Pos
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Copy, BRepBuilderAPI_NurbsConvert
+    from OCP.TopoDS import TopoDS_Shell, TopoDS_Solid
+
+    b, shell = BRep_Builder(), TopoDS_Shell()
+    b.MakeShell(shell)
+    for f in (Cylinder(10, 20) - Pos(3, 0, 0) * Cylinder(2, 20)).faces():  # per face: its own edges
+        w = BRepBuilderAPI_NurbsConvert(f.wrapped, True).Shape() if f.geom_type.name == "PLANE" else BRepBuilderAPI_Copy(f.wrapped).Shape()
+        b.Add(shell, w)
+    solid = TopoDS_Solid()
+    b.MakeSolid(solid)
+    b.Add(solid, shell)
+    return solid
+
+
+def test_an_open_tessellation_is_healed_by_sewing():
+    import math
+
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+
+    from texcad.brep import explore, part_tessellation
+    from texcad.brep import tessellation as tess
+    from texcad.errors import GeometryError
+    from texcad.solid import to_manifold
+
+    solid = _unsewn_solid()
+    BRepMesh_IncrementalMesh(solid, tess.TESSELLATION, False, 0.1, True)
+    own = [TopoDS.Face_s(f) for f in explore(solid, TopAbs_FACE)]
+    plain = tess._weld([tess._face_triangles(f) for f in own], 1e-3)
+    with pytest.raises(GeometryError):  # the default tessellation, even welded wide, is open
+        to_manifold(plain.mesh)
+    assert "open or non-manifold edges on faces" in tess._open_faces(plain)
+    pm = part_tessellation(solid)
+    m = to_manifold(pm.mesh)
+    assert m.volume() == pytest.approx(math.pi * (100 - 4) * 20, rel=5e-3)
+    for fm in pm.faces:  # the sewn faces' triangles stand for the part's own faces
+        assert any(fm.face.IsSame(f) for f in own)
+    assert len(pm.faces) == len(own)
