@@ -101,6 +101,29 @@ def _gradient(text: str) -> tuple:
     return g[:3], g[3:]
 
 
+def _assembly_faces(part, selectors: list) -> tuple:
+    """``(part to texture, faces, owner, others)``: the faces the ``--face``
+    selectors name (``solid:K/SELECTOR`` on solid K alone); in an assembly the part
+    to texture is the solid ``owner`` that holds them, ``others`` the other solids."""
+    from build123d import Compound
+
+    from ..brep.assembly import solid_selector, split_assembly
+    from ..errors import ParameterError
+
+    solids = part.solids()
+    faces = []
+    for which in selectors:  # per --face: on the whole part, or on solid K (solid:K/top)
+        k, sel = solid_selector(which)
+        if k is not None and k >= len(solids):
+            raise ParameterError(f"--face {which}: the part has {len(solids)} solid(s), 0..{len(solids) - 1}")
+        scope = part if k is None else solids[k]
+        faces += [f for f in pick_faces(scope, sel) if not any(f.is_same(g) for g in faces)]
+    if len(solids) < 2:
+        return part, faces, None, []
+    owner, target, others = split_assembly(part, faces)  # the solid that owns the faces is textured, the others kept
+    return Compound([target]), faces, owner, others
+
+
 def run(args: argparse.Namespace) -> int:
     if Path(args.part).suffix.lower() in MESH_SUFFIXES:  # STL / 3MF / OBJ: _texture_mesh.py, no CAD library
         return run_mesh(args)
@@ -118,23 +141,11 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import TexcadWarning
     from ..util import StageReporter
 
-    from ..brep.assembly import solid_selector, split_assembly
-
     t0 = time.perf_counter()
     part = Compound(read_step(args.part))
     solids = part.solids()
-    faces = []
-    for which in args.face or ["top"]:  # per --face: on the whole part, or on solid K (solid:K/top)
-        k, sel = solid_selector(which)
-        if k is not None and k >= len(solids):
-            raise ParameterError(f"--face {which}: the part has {len(solids)} solid(s), 0..{len(solids) - 1}")
-        scope = part if k is None else solids[k]
-        faces += [f for f in pick_faces(scope, sel) if not any(f.is_same(g) for g in faces)]
+    part, faces, owner, others = _assembly_faces(part, args.face or ["top"])
     face = faces[0] if len(faces) == 1 else faces
-    owner, others = None, []
-    if len(solids) > 1:  # an assembly: the solid that owns the faces is textured, the others kept
-        owner, target, others = split_assembly(part, faces)
-        part = Compound([target]) if not isinstance(target, Compound) else target
     with warnings.catch_warnings():
         if args.quiet:
             warnings.simplefilter("ignore", TexcadWarning)
