@@ -151,3 +151,11 @@ def test_broad_phase_matches_all_pairs():
     for _ in range(40):  # random crossing tetrahedra beside a fine sphere
         v, f = _with_fine_sphere(rng.uniform(0, 10, (8, 3)))
         assert self_intersections(v, f).tolist() == [list(p) for p in _brute(v, f)]
+
+
+def test_union_cannot_undo_a_fold_and_says_so():
+    b = trimesh.creation.box((10.0, 10.0, 10.0))
+    v = np.array(b.vertices)
+    v[int(np.argmax(v.sum(1)))] = (-2.0, -1.5, -12.0)  # a corner pushed through the far side
+    with pytest.raises(InputError, match="inside one body.*cannot undo a fold"):
+        texcad.texture(trimesh.Trimesh(v, b.faces, process=False), "all", "builtin:ridges", pitch=2.0, union=True)

@@ -786,6 +786,15 @@ def _separate_bodies(v: np.ndarray, f: np.ndarray, bodies: int, info: dict, name
 
     split = split_bodies(v, f)
     found = overlapping_bodies(v, f, split=split)
+    if not found and union:  # nothing to unite: a crossing inside one body is beyond a union
+        cross = self_intersections(v, f)
+        if len(cross):
+            at = v[f[cross[0]]].reshape(-1, 3).mean(axis=0)
+            raise InputError(
+                f"{name} crosses itself inside one body ({len(cross)} pairs of triangles, one near ({at[0]:.2f}, "
+                f"{at[1]:.2f}, {at[2]:.2f}) mm): union=True unites separate bodies but cannot undo a fold within one; "
+                "repair the mesh in a mesh tool (e.g. a 'make solid' or remesh repair) and export it again"
+            )
     if not found:
         return v, f, bodies
     if not union:
