@@ -115,7 +115,8 @@ class Options:
 
     Meshes: projection (``triplanar``), axis, origin, radius, blend (20 degrees),
     local_radius, border (2 mm fade at the region's border), scale (1), size (an
-    image tile, ``(w, d)`` mm), mask, mask_size.
+    image tile, ``(w, d)`` mm), mask, mask_size; union: unite overlapping or touching
+    bodies first (manifold3d) instead of refusing them (False).
     """
 
     height: float = 1.0
@@ -152,6 +153,7 @@ class Options:
     size: Optional[tuple] = None
     mask: Any = None
     mask_size: Optional[tuple] = None
+    union: bool = False
     #: the names the caller gave (the rest are defaults)
     given: frozenset = field(default=frozenset(), compare=False, repr=False)
 
@@ -286,6 +288,10 @@ def _validate(name: str, v: Any) -> Any:
             raise ParameterError(f"progress must be a callable progress(fraction, message), got {v!r}")
         return v
     if name == "brep":
+        return bool(v)
+    if name == "union":
+        if not isinstance(v, (bool, int)) or v not in (0, 1):
+            raise ParameterError(f"union must be True or False, got {v!r}")
         return bool(v)
     if name in ("length", "thickness", "radius", "local_radius", "transition"):
         return _positive(name, v)

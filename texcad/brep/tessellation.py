@@ -148,20 +148,36 @@ def _face_triangles(face) -> "FaceMesh | None":
 
 def part_tessellation(topo, tolerance: float = TESSELLATION) -> PartMesh:
     """Tessellate ``topo`` (OCCT, ``tolerance`` mm chord error) into per-face meshes
-    and one welded mesh; checked closed (manifold3d) and healed if needed (finer
-    tessellation, then a wider weld).
+    and one welded mesh; checked closed (manifold3d) and healed if needed, in order:
+    a finer tessellation; the same after dropping every triangulation the file
+    carried (``BRepTools::Clean``: a STEP file's own, possibly open, meshes are
+    otherwise kept); a wider weld; and last the faces sewn along their edges
+    (``BRepBuilderAPI_Sewing``, so that neighbours share one edge discretization),
+    the sewn faces' triangles reported for the original faces.
 
     Raises:
-        GeometryError: no watertight tessellation could be made.
+        GeometryError: no watertight tessellation could be made; the message names
+            the faces with open edges and their count.
     """
     from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.BRepTools import BRepTools
     from OCP.TopAbs import TopAbs_FACE
     from OCP.TopoDS import TopoDS
 
-    last = None
-    for tol, weld in ((tolerance, 1e-5), (tolerance / 3, 1e-5), (tolerance / 3, 1e-3)):  # healing attempts
-        BRepMesh_IncrementalMesh(topo, tol, False, 0.1, True)
-        fms = [_face_triangles(TopoDS.Face_s(f)) for f in explore(topo, TopAbs_FACE)]
+    last, pm = None, None
+    attempts = ((tolerance, 1e-5, ""), (tolerance / 3, 1e-5, ""), (tolerance / 3, 1e-5, "clean"),
+                (tolerance / 3, 1e-3, "clean"), (tolerance / 3, 1e-3, "sew"))
+    for tol, weld, how in attempts:  # healing attempts
+        shape, back = topo, None
+        if how == "sew":
+            shape, back = _sewn(topo, max(10 * tol, 1e-3))
+        if how:
+            BRepTools.Clean_s(shape)
+        BRepMesh_IncrementalMesh(shape, tol, False, 0.1, True)
+        faces = [TopoDS.Face_s(f) for f in explore(shape, TopAbs_FACE)]
+        fms = [_face_triangles(f) for f in faces]
+        if back is not None:  # the sewn faces' triangles, for the part's own faces
+            fms = [None if fm is None else FaceMesh(back.get(k, fm.face), fm.points, fm.tris, fm.uv, fm.kind) for k, fm in enumerate(fms)]
         pm = _weld(fms, weld)
         try:
             to_manifold(pm.mesh)
@@ -169,9 +185,46 @@ def part_tessellation(topo, tolerance: float = TESSELLATION) -> PartMesh:
         except GeometryError as e:
             last = e
     raise GeometryError(
-        f"OCCT's tessellation of the part is not a closed solid even after healing ({last}); "
-        "check the part with a CAD tool (is it one closed solid?) or fix its faces"
+        f"OCCT's tessellation of the part is not a closed solid even after healing (finer, re-meshed, welded and sewn: "
+        f"{_open_faces(pm)}); the part's faces do not meet along shared edges: sew them in the CAD program "
+        "(e.g. 'stitch'/'knit' surfaces, or export the solid as one closed body) or texture an STL of the part instead"
     )
+
+
+def _sewn(topo, tol: float) -> tuple[Any, dict]:
+    """``topo`` sewn along its edges (``tol`` mm), and for each face of the result (by
+    its index in the result's face order) the original face it came from."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Sewing
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+
+    sew = BRepBuilderAPI_Sewing(tol)
+    sew.Add(topo)
+    sew.Perform()
+    shape = sew.SewedShape()
+    new = [TopoDS.Face_s(f) for f in explore(shape, TopAbs_FACE)]
+    back: dict = {}
+    for old in explore(topo, TopAbs_FACE):  # per original face: the face it became
+        made = sew.ModifiedSubShape(old) if sew.IsModifiedSubShape(old) else old
+        k = next((k for k, f in enumerate(new) if f.IsSame(made)), None)
+        if k is not None:
+            back[k] = TopoDS.Face_s(old)
+    return shape, back
+
+
+def _open_faces(pm: "PartMesh | None") -> str:
+    """Which faces (index in the part's face order) have open or non-manifold edges
+    in the tessellation ``pm``, and how many such edges."""
+    if pm is None:
+        return "no triangles"
+    f = pm.mesh.faces.astype(np.int64)
+    a, b = f.reshape(-1), f[:, [1, 2, 0]].reshape(-1)
+    key = np.minimum(a, b) * (int(f.max()) + 1) + np.maximum(a, b)
+    uniq, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
+    bad = cnt[inv] != 2
+    faces = np.unique(pm.face_of_tri[np.repeat(np.arange(len(f)), 3)[bad]])
+    shown = ", ".join(map(str, faces[:12].tolist())) + (" ..." if len(faces) > 12 else "")
+    return f"{int((cnt != 2).sum())} open or non-manifold edges on faces {shown} (texcad faces PART.step numbers them)"
 
 
 def _weld(fms: list, weld: float) -> PartMesh:

@@ -9,10 +9,14 @@ library, not here.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import pkgutil
+import re
+import signal
 import sys
-from typing import Callable, Sequence
+import threading
+from typing import Callable, Iterator, Sequence
 
 from ..errors import TexcadError
 
@@ -20,7 +24,7 @@ __all__ = ["main", "entry", "build_parser", "commands"]
 
 #: Commands listed first by ``texcad --help``; every other public module of this
 #: package is a command too and follows in alphabetical order.
-FIRST = ("demo", "make", "texture", "synth", "check", "render", "textures", "scan")
+FIRST = ("demo", "make", "texture", "faces", "synth", "check", "render", "textures", "scan")
 
 
 def commands() -> list[str]:
@@ -42,19 +46,72 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+class Terminated(BaseException):
+    """SIGTERM or SIGHUP arrived: unwinds like KeyboardInterrupt, so that every
+    temporary output is removed on the way out (:func:`texcad.util.atomic_path`)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated(signum)
+
+
+@contextlib.contextmanager
+def _signals_unwind() -> Iterator[None]:
+    """SIGTERM and SIGHUP raise :class:`Terminated` while the command runs (main
+    thread only; the previous handlers are put back)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = {}
+    for name in ("SIGTERM", "SIGHUP"):  # SIGHUP does not exist on Windows
+        sig = getattr(signal, name, None)
+        if sig is not None:
+            old[sig] = signal.signal(sig, _terminate)
+    try:
+        yield
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+
+
+#: A list of numbers that starts with a minus (``-1,2,-0.5``): a value, not an option.
+_NEGATIVE_LIST = re.compile(r"-[0-9.][0-9.eE+-]*(,[-+]?[0-9.][0-9.eE+-]*)+")
+
+
+def _join_negative_values(argv: Sequence[str]) -> list[str]:
+    """``--view -1,2,-0.5`` as ``--view=-1,2,-0.5`` (argparse takes a value that
+    starts with ``-`` for an option)."""
+    out: list[str] = []
+    for a in argv:  # per argument
+        if out and _NEGATIVE_LIST.fullmatch(a) and out[-1].startswith("--") and "=" not in out[-1]:
+            out[-1] = f"{out[-1]}={a}"
+        else:
+            out.append(a)
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI; returns the exit status."""
+    """Run the CLI; returns the exit status (2: a texcad error, printed on one line;
+    130: interrupted; 128 + the signal for SIGTERM and SIGHUP)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_join_negative_values(sys.argv[1:] if argv is None else list(argv)))
     func: Callable[[argparse.Namespace], int] = args.func
     try:
-        return func(args)
+        with _signals_unwind():
+            return func(args)
     except TexcadError as exc:
         print(f"texcad: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("texcad: interrupted", file=sys.stderr)
         return 130
+    except Terminated as exc:
+        print(f"texcad: terminated by signal {exc.signum}; no output was left half-written", file=sys.stderr)
+        return 128 + exc.signum
 
 
 def entry() -> None:

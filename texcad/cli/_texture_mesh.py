@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import time
 import warnings
 
@@ -11,6 +12,17 @@ from ..options import DEFAULTS
 from ._args import positive_float
 
 MESH_SUFFIXES = (".stl", ".3mf", ".obj")
+
+
+def _size(text: str) -> tuple[float, float]:
+    """``W,D`` in mm: two positive numbers."""
+    try:
+        w, d = (float(c) for c in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected W,D in mm such as 20,20, got {text!r}") from None
+    if not (w > 0 and d > 0) or not all(map(math.isfinite, (w, d))):
+        raise argparse.ArgumentTypeError(f"expected two positive sizes in mm, got {text!r}")
+    return w, d
 
 
 def add_mesh_arguments(t: argparse.ArgumentParser) -> None:
@@ -25,6 +37,10 @@ def add_mesh_arguments(t: argparse.ArgumentParser) -> None:
     g.add_argument("--border", type=float, default=DEFAULTS.border, help="fade width at the region's border, mm (default 2)")
     g.add_argument("--blend", type=float, default=DEFAULTS.blend, help="triplanar / cubic blend width, degrees (default 20)")
     g.add_argument("--scale", type=positive_float, default=DEFAULTS.scale, help="texture scale factor (default 1)")
+    g.add_argument("--size", type=_size, default=None, metavar="W,D",
+                   help="an image --texture: the size of one tile of the image, mm (e.g. 20,20)")
+    g.add_argument("--union", action="store_true", default=DEFAULTS.union,
+                   help="unite overlapping or touching bodies first (manifold3d) instead of refusing the part")
 
 
 def run_mesh(args: argparse.Namespace) -> int:
@@ -34,6 +50,14 @@ def run_mesh(args: argparse.Namespace) -> int:
     from ..errors import TexcadWarning
     from ..util import StageReporter
 
+    from ..errors import ParameterError
+    from ._outputs import check_outputs, write_outputs
+
+    for flag, given in (("--face", args.face), ("--gradient", args.gradient)):  # CAD options: refused, not ignored
+        if given:
+            raise ParameterError(f"{flag} applies to STEP parts, not to the mesh {args.part!r}; "
+                                 "pick a mesh's surface with --region (e.g. --region normal:+z:30 or box:x0,y0,z0,x1,y1,z1)")
+    check_outputs(args.out, (".stl", ".3mf", ".png"))
     t0 = time.perf_counter()
     regions = args.region or ["not-bottom"]
     layers = []
@@ -48,11 +72,13 @@ def run_mesh(args: argparse.Namespace) -> int:
             args.part, layers, height=args.height, pitch=args.pitch, projection=args.projection, mode=args.mode,
             border=args.border, blend=args.blend, scale=args.scale, build_dir=args.build_dir,
             critical_angle=args.critical_angle, tolerance=args.tolerance, progress=None if args.quiet else StageReporter(),
+            union=args.union or None, size=args.size,
         )
-    for out in args.out:
-        tx.export(out, separate_texture=args.separate_texture)
+    write_outputs(tx, args.out, separate_texture=args.separate_texture)
     m = tx.mesh
     print(f"mesh         {args.part}: {tx.info['input_triangles']} triangles in, {tx.info['bodies']} bodies")
+    if tx.info.get("repaired"):
+        print(f"repaired     {tx.info['repaired']}")
     print(f"triangles    {m.num_triangles}, watertight {m.is_watertight}")
     print(f"max error    {tx.max_error:.4f} mm at the pitch grid's points (tolerance {args.tolerance:g} mm; 0: the pitch grid)")
     print(f"volume       {m.volume:.1f} mm3")

@@ -6,7 +6,10 @@ face index, ``TYPE`` (the largest face of that kind: ``cylinder``, ``cone``,
 ``sphere``, ``torus``, ``bspline``, ``revolution``, ``extrusion``...), ``TYPE:i``
 (the i-th face of that kind in the part's order), ``TYPE:all``, or
 ``normal:x,y,z`` (every face whose normal at its centre is within 10 degrees of
-that direction).
+that direction); ``solid:K/SELECTOR`` restricts any of these to solid K of an
+assembly. In an assembly the solid that owns the faces is textured and the other
+solids are written beside it as they were (``texcad faces PART.step`` lists faces
+and solids).
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from pathlib import Path
 
 from ..options import DEFAULTS
 from ._args import add_orientation, add_tolerance, limits_line, positive_float
+from ._outputs import check_outputs, write_outputs
 from ._texture_mesh import MESH_SUFFIXES, add_mesh_arguments, run_mesh
 
 #: ``--face`` words: the planar face whose outward normal points that way (largest
@@ -97,9 +101,39 @@ def _gradient(text: str) -> tuple:
     return g[:3], g[3:]
 
 
+def _assembly_faces(part, selectors: list) -> tuple:
+    """``(part to texture, faces, owner, others)``: the faces the ``--face``
+    selectors name (``solid:K/SELECTOR`` on solid K alone); in an assembly the part
+    to texture is the solid ``owner`` that holds them, ``others`` the other solids."""
+    from build123d import Compound
+
+    from ..brep.assembly import solid_selector, split_assembly
+    from ..errors import ParameterError
+
+    solids = part.solids()
+    faces = []
+    for which in selectors:  # per --face: on the whole part, or on solid K (solid:K/top)
+        k, sel = solid_selector(which)
+        if k is not None and k >= len(solids):
+            raise ParameterError(f"--face {which}: the part has {len(solids)} solid(s), 0..{len(solids) - 1}")
+        scope = part if k is None else solids[k]
+        faces += [f for f in pick_faces(scope, sel) if not any(f.is_same(g) for g in faces)]
+    if len(solids) < 2:
+        return part, faces, None, []
+    owner, target, others = split_assembly(part, faces)  # the solid that owns the faces is textured, the others kept
+    return Compound([target]), faces, owner, others
+
+
 def run(args: argparse.Namespace) -> int:
     if Path(args.part).suffix.lower() in MESH_SUFFIXES:  # STL / 3MF / OBJ: _texture_mesh.py, no CAD library
         return run_mesh(args)
+    from ..errors import ParameterError
+
+    for flag, given in (("--region", args.region), ("--union", args.union), ("--size", args.size)):  # mesh options: refused
+        if given:
+            raise ParameterError(f"{flag} applies to mesh parts (.stl, .3mf, .obj), not to the STEP part {args.part!r}; "
+                                 "pick its faces with --face (list them with: texcad faces PART.step)")
+    check_outputs(args.out, (".stl", ".3mf", ".step", ".stp", ".png"))
     from build123d import Compound
 
     from .. import texture
@@ -109,9 +143,8 @@ def run(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     part = Compound(read_step(args.part))
-    faces = []
-    for which in args.face or ["top"]:  # per --face
-        faces += [f for f in pick_faces(part, which) if not any(f.is_same(g) for g in faces)]
+    solids = part.solids()
+    part, faces, owner, others = _assembly_faces(part, args.face or ["top"])
     face = faces[0] if len(faces) == 1 else faces
     with warnings.catch_warnings():
         if args.quiet:
@@ -131,9 +164,15 @@ def run(args: argparse.Namespace) -> int:
             gradient=args.gradient,
             progress=None if args.quiet else StageReporter(),
         )
-    for out in args.out:
-        tx.export(out, separate_texture=args.separate_texture)
+    result = tx
+    if others:
+        from ._assembly import AssemblyResult
+
+        result = AssemblyResult(tx, owner, others)
+    write_outputs(result, args.out, separate_texture=args.separate_texture)
     m = tx.mesh
+    if owner is not None:
+        print(f"solid        {owner} of {len(solids)} textured; the other {len(others)} kept as they were (separate bodies)")
     print(f"faces        {', '.join(args.face or ['top'])}: {len(faces)} face(s) ({tx.info['face']}, grid {tx.info['grid'][0]} x {tx.info['grid'][1]})")
     for k, patch in enumerate(tx.info.get("faces") or []):  # per patch of smoothly joined faces
         dx, dy = patch["distortion"]["x"], patch["distortion"]["y"]

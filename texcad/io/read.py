@@ -21,7 +21,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, TexcadError
 from ..util import threads
 from ..solid import Mesh
 
@@ -53,7 +53,15 @@ def _weld(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return verts, inv.reshape(-1, 3)
 
 
+def _line_of(text: "str | bytes", pos: int) -> int:
+    """1-based line number of character ``pos`` of ``text``."""
+    return text.count("\n" if isinstance(text, str) else b"\n", 0, pos) + 1
+
+
 def _read_stl(path: Path) -> Mesh:
+    """A binary or ASCII STL, strictly: a binary file's size must match its triangle
+    count, every number must be finite, an ASCII file must hold whole facets of
+    three ``vertex X Y Z`` lines of numbers (InputError naming the line otherwise)."""
     data = path.read_bytes()
     if len(data) >= 84:
         n = int(np.frombuffer(data, dtype="<u4", count=1, offset=80)[0])
@@ -62,15 +70,56 @@ def _read_stl(path: Path) -> Mesh:
                 data, dtype=np.dtype([("n", "<f4", (3,)), ("v", "<f4", (3, 3)), ("a", "<u2")]), count=n, offset=84
             )
             tri = rec["v"]
+            bad = np.flatnonzero(~np.isfinite(tri).all(axis=(1, 2)))
+            if len(bad):
+                raise InputError(f"{str(path)!r}: triangle {int(bad[0])} (of {n}) has a coordinate that is not a finite "
+                                 f"number ({len(bad)} such triangles); the file is damaged, export it again")
             verts, faces = _weld(tri)
             return Mesh(verts, faces)
-    text = data.decode("ascii", errors="replace")
-    if not text.lstrip().lower().startswith("solid"):
-        raise InputError(f"{str(path)!r} is neither a binary nor an ASCII STL; export it again")
-    nums = re.findall(r"vertex\s+([-+0-9.eE]+)\s+([-+0-9.eE]+)\s+([-+0-9.eE]+)", text)
-    if not nums or len(nums) % 3:
-        raise InputError(f"{str(path)!r}: ASCII STL without complete triangles")
-    tri = np.array(nums, dtype=np.float64).astype(np.float32).reshape(-1, 3, 3)
+    head = data[:1024].lstrip().lower()
+    if not head.startswith(b"solid") or b"\x00" in data[:4096]:
+        if len(data) >= 84:
+            raise InputError(f"{str(path)!r}: a binary STL of {n} triangles has {84 + 50 * n} bytes, this file {len(data)}: "
+                             "it is truncated or damaged; export it again")
+        raise InputError(f"{str(path)!r} is neither a binary nor an ASCII STL (only {len(data)} bytes); export it again")
+    return _read_ascii_stl(path, data.decode("ascii", errors="replace"))
+
+
+_VERTEX = re.compile(r"\bvertex\b([^\n]*)", re.IGNORECASE)
+
+
+def _read_ascii_stl(path: Path, text: str) -> Mesh:
+    """An ASCII STL's ``vertex`` lines as a Mesh (see :func:`_read_stl`)."""
+    rows = _VERTEX.findall(text)
+    facets = len(re.findall(r"\bfacet\b", text, re.IGNORECASE))
+    where = lambda k: _line_of(text, [m.start() for m in _VERTEX.finditer(text)][k])  # noqa: E731 (error path only)
+    parts = [r.split() for r in rows]
+    if not rows:
+        raise InputError(f"{str(path)!r}: an ASCII STL without a single 'vertex' line; export it again")
+    bad = next((k for k, p in enumerate(parts) if len(p) != 3), None)
+    if bad is not None:
+        raise InputError(f"{str(path)!r}, line {where(bad)}: a vertex needs three numbers, got {rows[bad].strip()[:60]!r}; "
+                         "the file is damaged, export it again")
+    try:
+        vals = np.array(parts, dtype=np.float64)
+    except ValueError:
+        bad = next(k for k, p in enumerate(parts) if not all(map(_is_number, p)))
+        raise InputError(f"{str(path)!r}, line {where(bad)}: {rows[bad].strip()[:60]!r} is not three numbers; "
+                         "the file is damaged, export it again") from None
+    fin = np.isfinite(vals).all(axis=1)
+    if not fin.all():
+        bad = int(np.flatnonzero(~fin)[0])
+        raise InputError(f"{str(path)!r}, line {where(bad)}: vertex {rows[bad].strip()[:60]!r} is not finite; "
+                         "the file is damaged, export it again")
+    if len(rows) % 3 or (facets and len(rows) != 3 * facets):  # one 'facet normal' per three vertices
+        raise InputError(f"{str(path)!r}: an ASCII STL of {len(rows)} vertex lines and {facets} facets: not three "
+                         "vertices per facet, the file is truncated or damaged; export it again")
+    if not re.search(r"\bendsolid\b[^\n]*\s*$", text[-4096:], re.IGNORECASE):
+        raise InputError(f"{str(path)!r}: an ASCII STL that does not end with 'endsolid' (line {_line_of(text, len(text))} "
+                         "is its last): the file is truncated; export it again")
+    if np.abs(vals).max() > 3e38:
+        raise InputError(f"{str(path)!r}: a coordinate beyond float32 ({np.abs(vals).max():g}); export it again")
+    tri = vals.astype(np.float32).reshape(-1, 3, 3)
     verts, faces = _weld(tri)
     return Mesh(verts, faces)
 
@@ -567,6 +616,11 @@ def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
     if src is not None:
         known = _stream_meshes(src)
         xml = src.finish(path)
+    end = bytes(xml[max(0, len(xml) - 4096):]).rstrip()
+    if not end.endswith(b"</model>"):
+        raise InputError(f"{str(path)!r}: its 3D model ({target}) ends before </model>: the XML is cut short; export it again")
+    if xml.find(b"<model") < 0:
+        raise InputError(f"{str(path)!r}: its 3D model ({target}) holds no <model> element; export it again")
     scale = _unit_scale(xml, path)
     objects: dict[str, dict[str, Any]] = {}
     for h0, h1, b0, b1 in _spans(xml, b"object", known=known):  # per object
@@ -622,7 +676,13 @@ def _mesh_arrays(xml: bytes, span: tuple[int, int], oid: str, known: dict) -> tu
     v = _column(xml, vs[2:] if vs else (0, 0), b"vertex", _XYZ, np.float64, known)
     t = _column(xml, ts[2:] if ts else (0, 0), b"triangle", _V123, np.int64, known)
     if len(t) and (t.min() < 0 or t.max() >= len(v)):
-        raise InputError(f"3MF object {oid}: a triangle refers to a missing vertex")
+        k = int(np.flatnonzero((t < 0).any(axis=1) | (t >= len(v)).any(axis=1))[0])
+        raise InputError(f"3MF object {oid}: triangle {k} refers to vertex {t[k].tolist()} but the object has "
+                         f"{len(v)} vertices (0..{len(v) - 1}); the file is damaged, export it again")
+    bad = np.flatnonzero(~np.isfinite(v).all(axis=1))
+    if len(bad):
+        raise InputError(f"3MF object {oid}: vertex {int(bad[0])} is {v[bad[0]].tolist()}, not finite numbers "
+                         f"({len(bad)} such vertices); the file is damaged, export it again")
     return v, t
 
 
@@ -667,27 +727,80 @@ def read_part(path: str | os.PathLike) -> list[tuple[str, Mesh]]:
     if suffix == ".stl":
         return [(p.stem, _read_stl(p))]
     if suffix == ".3mf":
-        return _read_3mf(p)
+        try:
+            return _read_3mf(p)
+        except TexcadError:
+            raise
+        except (zipfile.BadZipFile, zlib.error, EOFError, OSError, RuntimeError, NotImplementedError, ValueError, IndexError) as exc:
+            raise InputError(f"{str(p)!r}: the 3MF package is damaged ({type(exc).__name__}: {exc}); export it again") from None
     raise InputError(f"cannot check {str(p)!r}: texcad reads .stl and .3mf parts")
+
+
+def _obj_error(path: Path, lines: list[str], k: int, what: str) -> InputError:
+    return InputError(f"{str(path)!r}, line {k + 1}: {what} ({lines[k].strip()[:60]!r}); the file is damaged, export it again")
+
+
+def _read_obj(path: Path) -> Mesh:
+    """A Wavefront OBJ's ``v`` and ``f`` lines (every group and object merged;
+    polygons fanned into triangles; ``v/vt/vn`` and negative, relative indices
+    taken), in the file's units taken as mm. Strict: a malformed or non-finite
+    number or an index that names no vertex is an InputError naming the line."""
+    text = path.read_bytes().decode("utf-8", errors="replace")
+    lines = text.replace("\\\n", " ").splitlines()
+    head = [ln[:2] for ln in lines]  # one pass per line in C: the record kinds
+    vk = [k for k, h in enumerate(head) if h == "v " or h == "v\t"]
+    fk = [k for k, h in enumerate(head) if h == "f " or h == "f\t"]
+    if not vk or not fk:
+        raise InputError(f"{str(path)!r}: an OBJ needs 'v' and 'f' lines, it has {len(vk)} and {len(fk)}; export it again")
+    vparts = [lines[k].split()[1:] for k in vk]
+    bad = next((i for i, p in enumerate(vparts) if len(p) not in (3, 4, 6, 7)), None)
+    if bad is not None:
+        raise _obj_error(path, lines, vk[bad], "a vertex needs three numbers")
+    try:
+        v = np.array([p[:3] for p in vparts], dtype=np.float64)
+    except ValueError:
+        bad = next(i for i, p in enumerate(vparts) if not all(map(_is_number, p[:3])))
+        raise _obj_error(path, lines, vk[bad], "not three numbers") from None
+    fin = np.isfinite(v).all(axis=1)
+    if not fin.all():
+        raise _obj_error(path, lines, vk[int(np.flatnonzero(~fin)[0])], "a coordinate that is not a finite number")
+    fparts = [lines[k].split()[1:] for k in fk]
+    size = np.array([len(p) for p in fparts], dtype=np.int64)
+    if (size < 3).any():
+        raise _obj_error(path, lines, fk[int(np.flatnonzero(size < 3)[0])], "a face needs at least three vertices")
+    tokens = [t.split("/", 1)[0] for p in fparts for t in p]
+    try:
+        idx = np.array(tokens, dtype=np.int64)
+    except ValueError:
+        at = np.repeat(np.arange(len(fk)), size)[next(i for i, t in enumerate(tokens) if not t.lstrip("-+").isdigit())]
+        raise _obj_error(path, lines, fk[int(at)], "a vertex index that is not a whole number") from None
+    before = np.searchsorted(np.asarray(vk), np.asarray(fk))  # vertices defined above each face line
+    idx = np.where(idx < 0, idx + np.repeat(before, size), idx - 1)  # 0-based, relative indices resolved
+    wrong = (idx < 0) | (idx >= len(v)) | (np.asarray(tokens) == "0")
+    if wrong.any():
+        at = int(np.repeat(np.arange(len(fk)), size)[int(np.flatnonzero(wrong)[0])])
+        raise _obj_error(path, lines, fk[at], f"a vertex index outside 1..{len(v)}")
+    start = np.cumsum(size) - size  # fans: (first, k, k + 1) for k in 1 .. n - 2
+    ntri = size - 2
+    owner = np.repeat(np.arange(len(fk)), ntri)
+    k = np.arange(int(ntri.sum())) - np.repeat(np.cumsum(ntri) - ntri, ntri) + 1
+    first = start[owner]
+    faces = np.stack([idx[first], idx[first + k], idx[first + k + 1]], axis=1)
+    return Mesh(v.astype(np.float32), faces.astype(np.uint32))
 
 
 def read_mesh(path: str | os.PathLike) -> Mesh:
     """Read an STL, 3MF or OBJ file as one :class:`Mesh` in mm (every object of a 3MF
-    merged; OBJ through trimesh, in the file's own units taken as mm).
+    merged; OBJ: every group merged, in the file's own units taken as mm).
 
     Raises:
         InputError: missing, empty or unreadable file, or unknown suffix.
     """
     p = Path(path)
     if p.suffix.lower() == ".obj":
-        import trimesh
-
         if not p.is_file():
             raise InputError(f"part {str(p)!r} does not exist; check the path")
-        tm = trimesh.load(p, force="mesh", process=True)
-        if len(tm.faces) == 0:
-            raise InputError(f"{str(p)!r} holds no triangles")
-        return Mesh(np.asarray(tm.vertices, np.float32), np.asarray(tm.faces, np.uint32))
+        return _read_obj(p)
     meshes = [m for _, m in read_part(p)]
     if not meshes or sum(m.num_triangles for m in meshes) == 0:
         raise InputError(f"{str(p)!r} holds no triangles")

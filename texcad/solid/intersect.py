@@ -8,8 +8,9 @@ garbage. The test, all in numpy:
    twice the median triangle size) that its axis-aligned box overlaps and that it may
    meet (a ball test against its plane and its edges' side planes, so a long diagonal
    sliver does not fill its whole box); triangles that share a cell and whose boxes
-   overlap are candidate pairs, each pair counted once (in the cell of the lowest
-   corner of the two boxes' overlap);
+   overlap are candidate pairs, each pair counted once (duplicates from the several
+   cells two triangles share dropped; issue 27: keeping a pair only in the cell of
+   its boxes' lowest common corner lost the pairs the ball test left out there);
 2. pairs that share a vertex are left out (neighbours touch by construction);
 3. *narrow phase*: two triangles cross when an edge of one passes through the inside
    of the other (Moller-Trumbore, all pairs and their six edges at once); touching
@@ -86,15 +87,15 @@ def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, cell: float, budget: int, t
     cnt = end - pos - 1
     a = np.repeat(pos, cnt)
     b = a + 1 + np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    ta, tb, kk = owner[a], owner[b], key[a]
+    ta, tb = owner[a], owner[b]
     for lk, hk in zip(lo.T, hi.T):  # per axis: the boxes overlap along it
         lk, hk = np.ascontiguousarray(lk), np.ascontiguousarray(hk)
         ok = (lk[ta] <= hk[tb]) & (lk[tb] <= hk[ta])
-        ta, tb, kk = ta[ok], tb[ok], kk[ok]
-    # each pair once: in the cell of the lowest corner of the two boxes' overlap
-    r = [np.floor((np.maximum(lk[ta], lk[tb]) - lk.min()) / cell).astype(np.int64) for lk in map(np.ascontiguousarray, lo.T)]
-    first = (r[0] + dim[0] * (r[1] + dim[1] * r[2])) == kk
-    return np.stack([np.minimum(ta, tb)[first], np.maximum(ta, tb)[first]], 1)
+        ta, tb = ta[ok], tb[ok]
+    # each pair once, whichever cells it shares: a pair may be dropped from the cell of
+    # its boxes' lowest common corner by the ball test and kept only in others
+    pair = np.unique(np.minimum(ta, tb) * len(lo) + np.maximum(ta, tb))
+    return np.stack([pair // len(lo), pair % len(lo)], 1)
 
 
 def _edges_cross(p: np.ndarray, q: np.ndarray) -> np.ndarray:

@@ -61,6 +61,11 @@ def read_gray(path: str | os.PathLike, *, alpha: str = "black") -> np.ndarray:
             im.load()
             arr = _to_unit_gray(im)
             opacity = _opacity(im) if alpha != "ignore" else None
+    except Image.DecompressionBombError as exc:  # Pillow's guard against huge images: no traceback
+        raise InputError(
+            f"image {str(p)!r} is too large to read safely ({exc}); scale it down to at most "
+            f"{Image.MAX_IMAGE_PIXELS or 0:.0f} pixels (one tile of the texture needs no more) and try again"
+        ) from None
     except UnidentifiedImageError:
         raise InputError(
             f"{str(p)!r} is not an image format texcad can read; "

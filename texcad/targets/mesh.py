@@ -672,7 +672,7 @@ class MeshAdapter(Adapter):
     kind = "mesh"
     label = "a mesh"
     result_kind = "mesh"
-    options = frozenset(MESH_OPTIONS) - {"progress"}
+    options = frozenset(MESH_OPTIONS + ("union",)) - {"progress"}
 
     def accepts(self, target: Any, where: Any, options: Options) -> bool:
         return is_mesh_target(target)
@@ -684,6 +684,8 @@ class MeshAdapter(Adapter):
         layers = tuple(replace(layer, region=r) for layer, r in zip(layers, regions))
         options.report(0.0, "reading the mesh")
         v, f, bodies, info = load_closed(target, crossing=False)
+        if bodies > 1 or options.union:  # overlapping or touching bodies: refused, or united on request
+            v, f, bodies = _separate_bodies(v, f, bodies, info, _name(target), options.union)
         if painted is not None or isinstance(where, dict):  # zones: their 3MF parts named by region and texture
             info["zones"] = [_zone_name(r, t) for r, t, _ in raw]
         if painted is not None:
@@ -771,6 +773,41 @@ def _displace(layers, v, f, info, dirs, crit, tolerance, progress):
                 no_brep="a mesh has no B-rep: it is textured as a mesh", region_faces=[int(m.sum()) for m in masks])
     region = np.any(masks, axis=0)
     return MeshRelief(v, f, normals, d2, b, tuple(parts), region), d, limit, max_error
+
+
+def _separate_bodies(v: np.ndarray, f: np.ndarray, bodies: int, info: dict, name: str, union: bool):
+    """``(v, f, bodies)`` whose bodies neither overlap nor touch
+    (:func:`texcad.solid.overlap.overlapping_bodies`): as they are, or united with
+    manifold3d when ``union`` (``info["repaired"]`` says what was done).
+
+    Raises:
+        InputError: bodies overlap or touch and ``union`` is False.
+    """
+    from ..solid.overlap import describe_overlaps, overlapping_bodies, split_bodies, union_bodies
+
+    split = split_bodies(v, f)
+    found = overlapping_bodies(v, f, split=split)
+    if not found and union:  # nothing to unite: a crossing inside one body is beyond a union
+        cross = self_intersections(v, f)
+        if len(cross):
+            at = v[f[cross[0]]].reshape(-1, 3).mean(axis=0)
+            raise InputError(
+                f"{name} crosses itself inside one body ({len(cross)} pairs of triangles, one near ({at[0]:.2f}, "
+                f"{at[1]:.2f}, {at[2]:.2f}) mm): union=True unites separate bodies but cannot undo a fold within one; "
+                "repair the mesh in a mesh tool (e.g. a 'make solid' or remesh repair) and export it again"
+            )
+    if not found:
+        return v, f, bodies
+    if not union:
+        raise InputError(
+            f"{name} intersects itself: its bodies overlap or touch ({describe_overlaps(found, split)}), so it encloses no "
+            "well-defined solid. Unite them first: texture(..., union=True) or texcad texture --union (manifold3d), "
+            "or separate or unite them in the CAD program and export again"
+        )
+    uv, uf, note = union_bodies(v, f, split=split)
+    v, f, bodies = repair_closed(uv, uf, name=name)
+    info.update(bodies=bodies, repaired=note, repaired_triangles=int(len(f)))
+    return v, f, bodies
 
 
 def _difference(a: Mesh, b: Mesh) -> Mesh:

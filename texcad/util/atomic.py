@@ -24,7 +24,10 @@ def atomic_path(path: str | os.PathLike) -> Iterator[str]:
     folder = target.parent if str(target.parent) else Path(".")
     if not folder.is_dir():
         raise InputError(f"output folder {str(folder)!r} does not exist; create it first")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=folder)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=folder)
+    except OSError as exc:  # a read-only or full folder: one line, not a traceback
+        raise InputError(f"cannot write {str(target)!r} in folder {str(folder)!r} ({exc.strerror}); choose another output folder") from None
     os.close(fd)
     try:
         yield tmp

@@ -1,0 +1,257 @@
+"""Do the bodies of a closed mesh overlap or touch? (:func:`overlapping_bodies`), and
+their union (:func:`union_bodies`), with manifold3d.
+
+A downloaded STL often holds several closed shells. Some are separate bodies, some are
+the walls of cavities, and some overlap or touch: two boxes pushed into each other, a
+body stacked on another on one footprint, a cavity that reaches the outer wall. Such a
+mesh encloses no well-defined solid; displacing it gives an inside-out shell. Crossing
+surfaces (:func:`texcad.solid.self_intersections`) miss crossings that fall on triangle
+edges and coplanar overlaps, so the test here compares volumes, which sees them all:
+
+1. *shells*: the faces connected through shared edges, each with its signed volume
+   ``sum det(a, b, c) / 6`` mm3 (the mesh is wound as :func:`texcad.solid.repair_closed`
+   leaves it: outward, cavity walls inward);
+2. *bodies*: each outward shell is a body; an inward shell (a cavity's wall) belongs to
+   the smallest body whose box holds it and which holds all of it
+   (``vol(P + C) = vol(P)``) without touching it (``P - C`` keeps two shells);
+   an inward shell that no body holds is a body of its own (an overlap, read inside
+   out);
+3. *pairs*: bodies whose boxes meet (broad phase, vectorized) are united with
+   manifold3d; they overlap when ``vol(A) + vol(B) - vol(A + B)`` exceeds a relative
+   1e-6 of the smaller, and touch when their gap (``Manifold.min_gap``) is below
+   1e-6 of the part's size.
+
+Volumes in mm3, lengths in mm.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .mesh import edge_slot_pairs
+
+__all__ = ["Overlap", "BodySplit", "split_bodies", "overlapping_bodies", "union_bodies", "describe_overlaps"]
+
+#: Relative volume tolerance of the overlap test (of the smaller body's volume).
+REL_VOLUME = 1e-6
+#: Relative gap (of the part's largest extent) below which two bodies touch.
+REL_GAP = 1e-6
+
+
+@dataclass(frozen=True)
+class Overlap:
+    """Two bodies that overlap or touch.
+
+    Attributes:
+        a, b: body numbers (0-based, in the order of their first face), ``a < b``.
+        volume: the volume they share, mm3 (0 when they only touch).
+        kind: ``"overlap"`` (they share volume), ``"touch"`` (they meet along a face,
+            an edge or a point) or ``"cavity"`` (``b`` is a cavity wall that touches
+            or leaves body ``a``).
+    """
+
+    a: int
+    b: int
+    volume: float
+    kind: str
+
+
+@dataclass(frozen=True)
+class BodySplit:
+    """The bodies of a closed mesh (module docstring, steps 1-2).
+
+    Attributes:
+        shell: ``(M,)`` int64 shell of each face.
+        body: ``(S,)`` int64 body of each shell.
+        signed: ``(S,)`` float64 signed volume of each shell, mm3.
+        volumes: ``(B,)`` float64 volume of each body (its cavities taken out), mm3.
+        solids: the bodies as manifold3d Manifolds (outward, cavities inward).
+        cavity_faults: ``(body, shell)`` pairs: an inward shell inside ``body`` that
+            touches its wall.
+    """
+
+    shell: np.ndarray
+    body: np.ndarray
+    signed: np.ndarray
+    volumes: np.ndarray
+    solids: tuple
+    cavity_faults: tuple
+
+
+def _shell_labels(faces: np.ndarray) -> np.ndarray:
+    """``(M,)`` shell of each face: faces joined through shared edges (a closed,
+    edge-manifold mesh), numbered in the order of their first face."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    m = len(faces)
+    slot = edge_slot_pairs(faces)
+    if slot is None:  # not edge-manifold: join through shared vertices instead
+        f = faces.astype(np.int64)
+        rows, cols = np.r_[f[:, 0], f[:, 1]], np.r_[f[:, 1], f[:, 2]]
+        n = int(f.max()) + 1
+        _, lab = connected_components(coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n)), directed=False)
+        lab = lab[f[:, 0]]
+    else:
+        tri = slot // 3
+        _, lab = connected_components(coo_matrix((np.ones(len(tri)), (tri[:, 0], tri[:, 1])), shape=(m, m)), directed=False)
+    first = np.full(int(lab.max()) + 1, m, dtype=np.int64)
+    np.minimum.at(first, lab, np.arange(m))
+    rank = np.empty(len(first), dtype=np.int64)
+    rank[np.argsort(first)] = np.arange(len(first))
+    return rank[lab]
+
+
+def _manifold(v: np.ndarray, f: np.ndarray):
+    """A manifold3d Manifold of the faces ``f`` ``(K, 3)`` of ``v`` (their own vertices)."""
+    import manifold3d as m3d
+
+    used, local = np.unique(f, return_inverse=True)
+    mesh = m3d.Mesh(vert_properties=np.ascontiguousarray(v[used], dtype=np.float32),
+                    tri_verts=np.ascontiguousarray(local.reshape(-1, 3), dtype=np.uint32))
+    return m3d.Manifold(mesh)
+
+
+def split_bodies(vertices: np.ndarray, faces: np.ndarray) -> BodySplit:
+    """The bodies of a closed, consistently wound mesh (module docstring, steps 1-2).
+
+    Args:
+        vertices: ``(N, 3)`` mm. faces: ``(M, 3)`` vertex indices, wound outward
+            (cavity walls inward), as :func:`texcad.solid.repair_closed` leaves them.
+    """
+    import manifold3d as m3d
+
+    v, f = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
+    shell = _shell_labels(f)
+    ns = int(shell.max()) + 1
+    p = v[f]
+    det = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2]))
+    signed = np.bincount(shell, weights=det, minlength=ns) / 6.0
+    lo = np.full((ns, 3), np.inf)
+    hi = np.full((ns, 3), -np.inf)
+    np.minimum.at(lo, shell, p.min(axis=1))
+    np.maximum.at(hi, shell, p.max(axis=1))
+    order = np.argsort(shell, kind="stable")
+    cut = np.searchsorted(shell[order], np.arange(ns + 1))
+    faces_of = [f[order[cut[s] : cut[s + 1]]] for s in range(ns)]
+    # every shell as an outward solid of its own
+    own = [_manifold(v, fs if signed[s] >= 0 else fs[:, ::-1]) for s, fs in enumerate(faces_of)]
+    body = np.full(ns, -1, dtype=np.int64)
+    outer = np.flatnonzero(signed >= 0)
+    body[outer] = np.arange(len(outer))
+    members: list[list[int]] = [[int(s)] for s in outer]
+    faults = []
+    for c in np.flatnonzero(signed < 0):  # per cavity wall: the smallest body that holds it
+        vc = -signed[c]
+        cands = outer[np.all((lo[outer] <= lo[c]) & (hi[outer] >= hi[c]), axis=1)]
+        for s in cands[np.argsort(signed[cands])]:
+            if signed[s] + vc - (own[s] + own[c]).volume() >= vc * (1 - REL_VOLUME):  # all of it inside
+                body[c] = body[s]
+                members[body[s]].append(int(c))
+                if len((own[s] - own[c]).decompose()) < 2:  # it reaches the wall
+                    faults.append((int(body[s]), int(c)))
+                break
+        else:  # held by no body: an inside-out body of its own
+            body[c] = len(members)
+            members.append([int(c)])
+    solids, volumes = [], []
+    for ms in members:  # per body: its shell with its cavities (as wound) or the lone inward shell outward
+        if len(ms) == 1:
+            solids.append(own[ms[0]])
+        elif any(b == body[ms[0]] for b, _ in faults):  # a cavity open to the wall: the solid is the difference
+            solids.append(m3d.Manifold.batch_boolean([own[s] for s in ms], m3d.OpType.Subtract))
+        else:
+            solids.append(_manifold(v, np.concatenate([faces_of[s] for s in ms])))
+            if solids[-1].status() != m3d.Error.NoError:
+                solids[-1] = m3d.Manifold.batch_boolean([own[ms[0]]] + [own[s] for s in ms[1:]], m3d.OpType.Subtract)
+        volumes.append(solids[-1].volume())
+    return BodySplit(shell, body, signed, np.array(volumes, dtype=np.float64), tuple(solids), tuple(faults))
+
+
+def _box_pairs(lo: np.ndarray, hi: np.ndarray, gap: float) -> np.ndarray:
+    """``(P, 2)`` pairs ``i < j`` of boxes ``lo``/``hi`` ``(B, 3)`` that meet (within
+    ``gap`` mm): the broad phase."""
+    order = np.argsort(lo[:, 0], kind="stable")  # sweep along x: each box against those starting before it ends
+    lo, hi = lo[order], hi[order]
+    end = np.searchsorted(lo[:, 0], hi[:, 0] + gap, side="right")
+    cnt = np.maximum(end - np.arange(len(lo)) - 1, 0)
+    i = np.repeat(np.arange(len(lo)), cnt)
+    j = i + 1 + np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    ok = np.all((lo[i] <= hi[j] + gap) & (lo[j] <= hi[i] + gap), axis=1)
+    a, b = order[i[ok]], order[j[ok]]
+    return np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
+
+
+def overlapping_bodies(vertices: np.ndarray, faces: np.ndarray, *, split: BodySplit | None = None) -> list[Overlap]:
+    """Bodies of a closed mesh that overlap or touch (module docstring).
+
+    Args:
+        vertices: ``(N, 3)`` mm. faces: ``(M, 3)``, wound as
+            :func:`texcad.solid.repair_closed` leaves them.
+        split: the mesh's :func:`split_bodies`, if already made.
+
+    Returns:
+        The overlapping or touching pairs, by body (empty: the bodies are apart).
+    """
+    v = np.asarray(vertices, np.float64)
+    split = split or split_bodies(v, faces)
+    out = [Overlap(b, len(split.volumes) + s, 0.0, "cavity") for b, s in split.cavity_faults]
+    nb = len(split.solids)
+    if nb < 2:
+        return out
+    boxes = np.array([s.bounding_box() for s in split.solids], dtype=np.float64)
+    extent = float(np.ptp(v, axis=0).max()) if len(v) else 1.0
+    gap = REL_GAP * extent
+    for a, b in _box_pairs(boxes[:, :3], boxes[:, 3:], gap):  # per pair whose boxes meet
+        sa, sb = split.solids[a], split.solids[b]
+        shared = split.volumes[a] + split.volumes[b] - (sa + sb).volume()
+        if shared > REL_VOLUME * min(split.volumes[a], split.volumes[b]):
+            out.append(Overlap(int(a), int(b), float(shared), "overlap"))
+        elif sa.min_gap(sb, 2 * gap) <= gap:
+            out.append(Overlap(int(a), int(b), 0.0, "touch"))
+    return out
+
+
+def describe_overlaps(found: list[Overlap], split: BodySplit) -> str:
+    """One sentence naming the first pairs (body numbers 1-based, volumes mm3)."""
+    def name(k: int) -> str:
+        if k >= len(split.volumes):
+            return f"a cavity wall ({-split.signed[k - len(split.volumes)]:.1f} mm3)"
+        return f"body {k + 1} ({split.volumes[k]:.1f} mm3)"
+
+    parts = []
+    for o in found[:3]:
+        if o.kind == "overlap":
+            parts.append(f"{name(o.a)} and {name(o.b)} overlap by {o.volume:.1f} mm3")
+        elif o.kind == "touch":
+            parts.append(f"{name(o.a)} and {name(o.b)} touch")
+        else:
+            parts.append(f"{name(o.b)} in {name(o.a)} touches its wall")
+    more = f" (and {len(found) - 3} more pairs)" if len(found) > 3 else ""
+    return "; ".join(parts) + more
+
+
+def union_bodies(vertices: np.ndarray, faces: np.ndarray, *, split: BodySplit | None = None) -> tuple[np.ndarray, np.ndarray, str]:
+    """The union of a mesh's bodies (manifold3d ``batch_boolean``): one closed,
+    non-overlapping mesh. Crossings inside one shell are not undone (a boolean
+    takes each operand as a valid solid).
+
+    Returns:
+        ``(vertices (N, 3) float64 mm, faces (M, 3) int64, note)``: the note says
+        what was united (bodies before and after, volume shared, mm3).
+    """
+    import manifold3d as m3d
+
+    v = np.asarray(vertices, np.float64)
+    split = split or split_bodies(v, faces)
+    u = m3d.Manifold.batch_boolean(list(split.solids), m3d.OpType.Add) if len(split.solids) > 1 else split.solids[0]
+    out = u.to_mesh()
+    uv = np.asarray(out.vert_properties, dtype=np.float64)[:, :3]
+    uf = np.asarray(out.tri_verts, dtype=np.int64)
+    shared = float(split.volumes.sum() - u.volume())
+    after = len(u.decompose())
+    note = (f"united {len(split.solids)} bodies into {after} ({shared:.1f} mm3 shared; "
+            f"volume {u.volume():.1f} mm3)")
+    return uv, uf, note
