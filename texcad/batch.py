@@ -181,6 +181,21 @@ def load_jobs(path: "str | os.PathLike") -> list[dict]:
 # -- validation ---------------------------------------------------------------------------------
 
 
+def _check_texture(label: str, key: str, tex: str) -> str:
+    """``tex`` if it names a built-in (with parameters it accepts: one tile sampled
+    coarsely) or an existing image file."""
+    if tex.startswith("builtin:"):
+        from .sources import builtin
+
+        try:
+            builtin(tex, pitch=0.5)
+        except ParameterError as exc:
+            raise ParameterError(f"{label}: {key}: {exc}") from None
+    elif not Path(tex).is_file():
+        raise InputError(f"{label}: {key}: texture {tex!r} does not exist; use builtin:NAME or an image file")
+    return tex
+
+
 def _one_job(k: int, job: Any) -> Job:
     if isinstance(job, Job):
         job = {"name": job.name, "part": job.part, "where": list(job.where), "texture": job.texture,
@@ -205,9 +220,13 @@ def _one_job(k: int, job: Any) -> Job:
     if not all(isinstance(w, (str, int)) for w in where):
         raise ParameterError(f"{label}: where {job.get('where')!r}: give face selectors or regions as text")
     where = tuple(str(w) for w in where)
-    tex = str(job.get("texture") or "builtin:stones")
-    if not tex.startswith("builtin:") and not Path(tex).is_file():
-        raise InputError(f"{label}: texture {tex!r} does not exist; use builtin:NAME or an image file")
+    tex = _check_texture(label, "texture", str(job.get("texture") or "builtin:stones"))
+    if mesh:
+        for w in where:  # REGION@TEXTURE@MODE layers name their own textures
+            region, _, rest = w.partition("@")
+            t, _, _ = rest.rpartition("@") if rest.count("@") else (rest, "", "")
+            if t:
+                _check_texture(label, f"where {w!r}", t)
     options = dict(job.get("options") or {})
     if not isinstance(job.get("options") or {}, Mapping):
         raise ParameterError(f"{label}: options must be a mapping of texcad.texture's options, got {job['options']!r}")
