@@ -120,3 +120,14 @@ def test_memory_bound_on_a_plate_that_does_not_fit_untiled(tmp_path):
     assert int(px) == 1200 * 1200 and int(tiles) > 1 and under == "True"
     size = (tmp_path / "big.stl").stat().st_size
     assert size == 84 + 50 * int(tris)
+
+
+def test_tiles_on_a_dask_cluster_give_the_same_bytes(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    here = textured_plate_tiled(SIZE, THICK, "builtin:stones", PITCH, height=HEIGHT, out=tmp_path / "here.3mf", tile=10)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=50) as cluster, distributed.Client(cluster, set_as_default=False) as client:
+        there = textured_plate_tiled(SIZE, THICK, "builtin:stones", PITCH, height=HEIGHT, out=tmp_path / "there.3mf",
+                                     tile=10, client=client)
+    assert there.tiles == here.tiles > 4 and there.volume == here.volume
+    assert (tmp_path / "here.3mf").read_bytes() == (tmp_path / "there.3mf").read_bytes()

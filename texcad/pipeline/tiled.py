@@ -79,7 +79,7 @@ class _BuiltinSource:
     height, found in a first pass), so each block holds the same float32 heights as
     the untiled heightmap."""
 
-    def __init__(self, spec: str, size: Sequence[float], pitch: float, height: float, block: int) -> None:
+    def __init__(self, spec: str, size: Sequence[float], pitch: float, height: float, block: int, pool: Any = None) -> None:
         from ..sources.textures import BUILTINS, parse_texture_spec
 
         key, params = parse_texture_spec(spec)
@@ -95,12 +95,12 @@ class _BuiltinSource:
         self.pitch = (px, py)
         self.shape = (max(2, int(np.floor(d / py + 1e-6))), max(2, int(np.floor(w / px + 1e-6))))
         self.height = float(height)
-        lo, hi = np.inf, -np.inf
-        for r0 in range(0, self.shape[0], block):  # first pass: the grid's range, per block of rows
-            for c0 in range(0, self.shape[1], block):
-                u = self._unit(slice(r0, min(r0 + block, self.shape[0])), slice(c0, min(c0 + block, self.shape[1])))
-                lo, hi = min(lo, float(u.min())), max(hi, float(u.max()))
-        self.lo, self.hi = lo, hi
+        self.lo, self.hi = 0.0, 1.0
+        blocks = [(slice(r0, min(r0 + block, self.shape[0])), slice(c0, min(c0 + block, self.shape[1])))
+                  for r0 in range(0, self.shape[0], block) for c0 in range(0, self.shape[1], block)]
+        # first pass: the grid's range, per block (min and max are exact over any split)
+        ranges = pool(_unit_range, [(self, b) for b in blocks]) if pool is not None else [_unit_range(self, b) for b in blocks]
+        self.lo, self.hi = min(r[0] for r in ranges), max(r[1] for r in ranges)
 
     def _unit(self, rows: slice, cols: slice) -> np.ndarray:
         x = (np.arange(cols.start, cols.stop) + 0.5) * self.pitch[0]
@@ -112,6 +112,17 @@ class _BuiltinSource:
         u = self._unit(rows, cols)
         u = (u - self.lo) / (self.hi - self.lo) if self.hi > self.lo else np.zeros_like(u)
         return (u * self.height).astype(np.float32)
+
+
+def _unit_range(source: "_BuiltinSource", block: tuple) -> tuple[float, float]:
+    u = source._unit(*block)
+    return float(u.min()), float(u.max())
+
+
+def _tile_vertices(source: Any, grid: Any, t: Any) -> np.ndarray:
+    """One tile's ``(r c, 3)`` float32 vertices (in a Dask worker or here)."""
+    rows, cols, _, _ = grid.texture_block(t)
+    return grid.vertices(t, source.heights(rows, cols))
 
 
 class _HeightmapSource:
@@ -155,6 +166,7 @@ def textured_plate_tiled(
     tolerance: float = 0.0,
     build_dir: Any = None,
     progress: Progress = None,
+    client: Any = None,
 ) -> TiledPlate:
     """Texture the top of a ``size[0] x size[1] x thickness`` mm plate, tile by tile,
     straight into ``out`` (.stl or .3mf), in memory bounded by ``max_memory``.
@@ -176,6 +188,10 @@ def textured_plate_tiled(
         tolerance: 0 only (one vertex per pixel centre); the lean mesh is not tiled yet.
         build_dir: None only; the overhang limiter is not tiled yet.
         progress: ``progress(fraction, message)``: tiles done / total.
+        client: a ``dask.distributed.Client`` or a scheduler address: the tiles are
+            sampled and meshed on its workers (a few in flight per worker, so memory
+            here stays bounded) and written here in order: the same bytes as without.
+            ``max_memory`` then bounds each worker's tile as well as this process.
 
     Returns:
         :class:`TiledPlate` (counts, volume, time, peak memory).
@@ -185,9 +201,7 @@ def textured_plate_tiled(
             or build_dir.
         ResourceError: ``max_memory`` leaves no room for a tile.
     """
-    from ..io.stream import open_stream
     from ..options import memory_bytes
-    from ..solid.tiles import Numbering, PlateGrid, block_volume, walls
 
     t0 = time.perf_counter()
     w, d = (float(s) for s in size)
@@ -203,6 +217,26 @@ def textured_plate_tiled(
     if Path(out).suffix.lower() not in (".stl", ".3mf"):
         raise ParameterError(f"out {os.fspath(out)!r}: the tiled plate streams .stl or .3mf")
     bound = None if max_memory is None else memory_bytes(max_memory)
+    own = isinstance(client, str)
+    if own:
+        from ..batch import connect
+
+        client = connect(client)
+    try:
+        return _tiled(w, d, float(thickness), texture, pitch, float(height), Path(out), tile, bound, progress, client, t0)
+    finally:
+        if own:
+            client.close()
+
+
+def _tiled(w, d, thickness, texture, pitch, height, out, tile, bound, progress, client, t0) -> TiledPlate:
+    from ..io.stream import open_stream
+    from ..solid.tiles import Numbering, PlateGrid, block_volume, walls
+
+    pool = None
+    if client is not None:
+        def pool(fn, args):  # noqa: E306 - map on the cluster, results in order
+            return client.gather(client.map(fn, *zip(*args), pure=False))
     if isinstance(texture, Heightmap) or not os.fspath(texture).startswith("builtin:"):
         from ..sources import load_texture
 
@@ -221,27 +255,49 @@ def textured_plate_tiled(
             nx = ny = 2
         side = int(tile) if tile else tile_for_memory(bound, (ny + 2, nx + 2))
         report(progress, 0.0, "finding the texture's range")
-        source = _BuiltinSource(os.fspath(texture), (w, d), pitch, height, block=max(side - 1, 1))
+        source = _BuiltinSource(os.fspath(texture), (w, d), pitch, height, block=max(side - 1, 1), pool=pool)
     grid = PlateGrid((w, d), source.shape, source.pitch, side)
     numbering = Numbering(grid)
     volume = 0.0
     total = grid.count
     with open_stream(out) as stream:
-        for k, t in enumerate(grid.tiles()):  # per tile
-            rows, cols, _, _ = grid.texture_block(t)
-            v = grid.vertices(t, source.heights(rows, cols))
+        for k, (t, v) in enumerate(_tile_vertex_blocks(grid, source, client)):  # per tile, in order
             f = grid.faces(t)
             stream.add(v, f, numbering.ids(t).ravel())
             volume += block_volume(v, f)
             del v, f
             report(progress, (k + 1) / (total + 1), f"tile {k + 1}/{total}")
-        v, f, ids = walls(grid, numbering, float(thickness))
+        v, f, ids = walls(grid, numbering, thickness)
         stream.add(v, f, ids)
         volume += block_volume(v, f)
     report(progress, 1.0, f"wrote {stream.triangles} triangles")
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     return TiledPlate(
-        path=Path(out), size=(w, d), thickness=float(thickness), grid=tuple(source.shape), pitch=tuple(source.pitch),
+        path=Path(out), size=(w, d), thickness=thickness, grid=tuple(source.shape), pitch=tuple(source.pitch),
         tile=side, tiles=total, triangles=stream.triangles, vertices=numbering.next + 4, volume=volume,
         seconds=time.perf_counter() - t0, peak_rss=int(peak),
     )
+
+
+def _tile_vertex_blocks(grid: Any, source: Any, client: Any):
+    """``(tile, vertices)`` in :meth:`PlateGrid.tiles` order: made here, or on the
+    cluster's workers with at most two tiles per worker in flight."""
+    if client is None:
+        for t in grid.tiles():  # per tile
+            yield t, _tile_vertices(source, grid, t)
+        return
+    from collections import deque
+
+    ahead = 2 * max(1, len(client.scheduler_info().get("workers", {})))
+    [src] = client.scatter([source], broadcast=True)
+    pending: deque = deque()
+    for t in grid.tiles():  # per tile: keep `ahead` in flight, hand them over in order
+        pending.append((t, client.submit(_tile_vertices, src, grid, t, pure=False, retries=1)))
+        if len(pending) >= ahead:
+            t0, fut = pending.popleft()
+            yield t0, fut.result()
+            fut.release()
+    while pending:
+        t0, fut = pending.popleft()
+        yield t0, fut.result()
+        fut.release()
