@@ -117,3 +117,25 @@ def test_cli_batch_refuses_and_reports(parts, tmp_path, capsys):
     assert main(["batch", str(tmp_path / "bad.toml"), "--workers", "1"]) == 2
     assert "job 0: unknown key(s) foo" in capsys.readouterr().err
     assert main(["batch", str(tmp_path / "bad.toml"), "--scheduler", "tcp://127.0.0.1:9", "--workers", "2"]) == 2
+
+
+def _dying(job):
+    """Runs a job, but a job named "die" kills its worker process."""
+    import os
+
+    if job.name == "die":
+        os._exit(3)
+    return run_job(job)
+
+
+def test_dead_worker_retried_once_then_reported(parts, tmp_path):
+    import cloudpickle
+
+    cloudpickle.register_pickle_by_value(__import__(__name__))  # the workers need not import this test module
+    jobs = [
+        {"name": "die", "part": str(parts / "box.stl"), "outputs": [str(tmp_path / "die.stl")]},
+        {"name": "mesh", "part": str(parts / "box.stl"), "options": {"pitch": 1.5, "height": 0.5}, "outputs": [str(tmp_path / "mesh.stl")]},
+    ]
+    results = batch(jobs, workers=2, runner=_dying)
+    assert [r.status for r in results] == ["failed", "ok"]
+    assert "died twice" in results[0].error and (tmp_path / "mesh.stl").exists() and not (tmp_path / "die.stl").exists()

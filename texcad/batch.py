@@ -18,7 +18,8 @@ one worker through the public API (:func:`texcad.texture`, :meth:`texcad.Texture
 so its bytes do not depend on the number of workers or where it ran; outputs are
 written atomically (a temporary file in the target folder, renamed when complete). A
 job that fails is reported with its error and does not stop the others; a job whose
-worker dies is run once more (Dask ``retries=1``) and then reported.
+worker dies is run once more and then reported (the local cluster's scheduler allows
+one failure per task; an existing cluster keeps its own ``allowed-failures``).
 
 Dask is an optional extra: ``pip install texcad[dask]``.
 """
@@ -369,7 +370,8 @@ def local_cluster(workers: Optional[int] = None):
     threads = max(1, (os.cpu_count() or 1) // n)
     import dask
 
-    with dask.config.set({"distributed.worker.daemon": False, "logging.distributed": "error"}):
+    # a task whose worker dies is run once more, then reported (KilledWorker)
+    with dask.config.set({"distributed.scheduler.allowed-failures": 1, "logging.distributed": "error"}):
         cluster = distributed.LocalCluster(
             n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
             env={"TEXCAD_THREADS": str(threads)}, silence_logs=50,
@@ -384,6 +386,7 @@ def batch(
     workers: Optional[int] = None,
     progress: Optional[Callable[[float, str], None]] = None,
     timeout: float = CONNECT_TIMEOUT,
+    runner: Callable[[Job], JobResult] = None,
 ) -> list[JobResult]:
     """Run texturing jobs on a Dask cluster; the results in the jobs' order.
 
@@ -396,6 +399,8 @@ def batch(
         workers: local cluster size (default: the cores). Not with ``client``.
         progress: ``progress(fraction, message)`` after each job: jobs done / total.
         timeout: seconds to wait for a scheduler at an address.
+        runner: what runs one job in a worker (default :func:`run_job`; a wrapper
+            for tests or logging).
 
     Returns:
         One :class:`JobResult` per job (``status``, ``outputs``, ``error``, ``seconds``).
@@ -421,7 +426,7 @@ def batch(
     try:
         futures = {}
         for k, job in enumerate(checked):  # per job; pure=False: a job writes files, run it each time
-            futures[client.submit(run_job, job, retries=1, pure=False, key=f"texcad-job-{k}-{os.getpid()}-{time.time_ns()}")] = k
+            futures[client.submit(runner or run_job, job, retries=1, pure=False, key=f"texcad-job-{k}-{os.getpid()}-{time.time_ns()}")] = k
         results: list = [None] * len(checked)
         done = 0
         for fut in distributed.as_completed(list(futures), loop=client.loop):  # per finished job
