@@ -6,6 +6,7 @@ still ran), 2 when the job file is refused (nothing ran)."""
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 
@@ -20,17 +21,18 @@ def _workers(text: str) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..batch import batch, load_jobs, validate
+    from .. import batch as api  # the root's texcad.batch: the function once exported there, else its module
     from ..errors import ParameterError
     from ..util import StageReporter
 
     if args.workers is not None and args.scheduler:
         raise ParameterError("give --workers (a local cluster) or --scheduler (an existing one), not both")
-    jobs = validate(load_jobs(args.jobs))  # refused before the cluster starts
     t0 = time.perf_counter()
-    where = args.scheduler or f"a local cluster of {args.workers or __import__('os').cpu_count()} worker(s)"
-    print(f"jobs         {len(jobs)} from {args.jobs}, on {where}")
-    results = batch(jobs, args.scheduler, workers=args.workers, progress=None if args.quiet else StageReporter())
+    where = args.scheduler or f"a local cluster of {args.workers or os.cpu_count()} worker(s)"
+    print(f"jobs         {args.jobs}, on {where}")
+    run_batch = getattr(api, "batch", api)
+    # the jobs are read and checked before the cluster starts: a refused file runs nothing
+    results = run_batch(args.jobs, args.scheduler, workers=args.workers, progress=None if args.quiet else StageReporter())
     for r in results:  # per job
         if r.ok:
             print(f"ok           {r.name}: {r.triangles} triangles, {r.seconds:.1f} s -> {', '.join(r.outputs)}")

@@ -135,12 +135,33 @@ class _HeightmapSource:
         return np.asarray(self.hm.heights[rows, cols], dtype=np.float32)
 
 
+def _rss() -> int:
+    """Bytes this process holds now (resident set; 0 where /proc is missing)."""
+    try:
+        with open("/proc/self/statm", encoding="ascii") as fh:
+            return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
+def _connect(address: str, timeout: float = 5.0):
+    """A Dask client of the scheduler at ``address``, or ResourceError in ``timeout`` s."""
+    try:
+        import distributed
+    except ImportError:
+        raise ParameterError("client= needs Dask: pip install 'texcad[dask]'") from None
+    try:
+        return distributed.Client(address, timeout=f"{timeout}s", set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise ResourceError(f"cannot reach the Dask scheduler at {address!r} within {timeout:g} s ({type(exc).__name__}); "
+                            "check the address, or leave out client= to make the tiles here") from None
+
+
 def tile_for_memory(max_memory: Optional[int], nodes: tuple) -> int:
     """Nodes per tile side that keep a tile within ``max_memory`` bytes (what the
     process holds now counted; None: half of :func:`texcad.util.available_memory`),
     at most the grid's own size, at least 64."""
     from ..util import available_memory
-    from ..util.resources import _rss
 
     have = available_memory() // 2 if max_memory is None else int(max_memory) - _rss()
     budget = have - OVERHEAD
@@ -219,9 +240,7 @@ def textured_plate_tiled(
     bound = None if max_memory is None else memory_bytes(max_memory)
     own = isinstance(client, str)
     if own:
-        from ..batch import connect
-
-        client = connect(client)
+        client = _connect(client)
     try:
         return _tiled(w, d, float(thickness), texture, pitch, float(height), Path(out), tile, bound, progress, client, t0)
     finally:
