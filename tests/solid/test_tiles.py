@@ -58,3 +58,11 @@ def test_flat_plate_volume_and_refusals():
         PlateGrid((3.0, 6.0), (4, 6), (1.0, 1.0), 3)
     with pytest.raises(Exception, match="at least 2 nodes"):
         PlateGrid((10.0, 6.0), (4, 6), (1.0, 1.0), 1)
+
+
+def test_top_volume_is_block_volume_of_the_tile_faces(rng):
+    grid = PlateGrid((9.0, 7.0), (5, 6), (1.25, 1.1), 4)
+    for t in grid.tiles():
+        rows, cols, _, _ = grid.texture_block(t)
+        v = grid.vertices(t, rng.random((rows.stop - rows.start, cols.stop - cols.start)).astype(np.float32))
+        assert np.isclose(grid.top_volume(t, v), block_volume(v, grid.faces(t)), rtol=1e-12, atol=1e-12)

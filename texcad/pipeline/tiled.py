@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import os
 import resource
+import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -79,7 +80,8 @@ class _BuiltinSource:
     height, found in a first pass), so each block holds the same float32 heights as
     the untiled heightmap."""
 
-    def __init__(self, spec: str, size: Sequence[float], pitch: float, height: float, block: int, pool: Any = None) -> None:
+    def __init__(self, spec: str, size: Sequence[float], pitch: float, height: float, block: int, pool: Any = None,
+                 cache: "Path | None" = None) -> None:
         from ..sources.textures import BUILTINS, parse_texture_spec
 
         key, params = parse_texture_spec(spec)
@@ -96,11 +98,33 @@ class _BuiltinSource:
         self.shape = (max(2, int(np.floor(d / py + 1e-6))), max(2, int(np.floor(w / px + 1e-6))))
         self.height = float(height)
         self.lo, self.hi = 0.0, 1.0
+        self._cache = None
         blocks = [(slice(r0, min(r0 + block, self.shape[0])), slice(c0, min(c0 + block, self.shape[1])))
                   for r0 in range(0, self.shape[0], block) for c0 in range(0, self.shape[1], block)]
         # first pass: the grid's range, per block (min and max are exact over any split)
-        ranges = pool(_unit_range, [(self, b) for b in blocks]) if pool is not None else [_unit_range(self, b) for b in blocks]
+        if pool is not None:
+            ranges = pool(_unit_range, [(self, b) for b in blocks])
+        else:  # here: the unit heights kept on disk (8 bytes a pixel) for the second pass, not sampled twice
+            if cache is not None:
+                with open(cache, "r+b") as fh:
+                    fh.truncate(8 * self.shape[0] * self.shape[1])
+            ranges = []
+            for b in blocks:  # per block
+                u = self._unit(*b)
+                if cache is not None:
+                    rows = self._rows(cache, b[0], "r+")
+                    rows[:, b[1]] = u
+                    rows.flush()
+                    del rows
+                ranges.append((float(u.min()), float(u.max())))
+            self._cache = cache
         self.lo, self.hi = min(r[0] for r in ranges), max(r[1] for r in ranges)
+
+    def _rows(self, path: Path, rows: slice, mode: str) -> np.ndarray:
+        """Rows ``rows`` of the unit heights on disk, mapped (only those rows: the
+        address space goes with a tile too)."""
+        c = self.shape[1]
+        return np.memmap(path, dtype=np.float64, mode=mode, offset=8 * c * rows.start, shape=(rows.stop - rows.start, c))
 
     def _unit(self, rows: slice, cols: slice) -> np.ndarray:
         x = (np.arange(cols.start, cols.stop) + 0.5) * self.pitch[0]
@@ -109,7 +133,12 @@ class _BuiltinSource:
         return np.broadcast_to(u, (len(y), len(x))).astype(np.float64)
 
     def heights(self, rows: slice, cols: slice) -> np.ndarray:
-        u = self._unit(rows, cols)
+        if self._cache is not None:
+            m = self._rows(self._cache, rows, "r")
+            u = np.array(m[:, cols])
+            del m
+        else:
+            u = self._unit(rows, cols)
         u = (u - self.lo) / (self.hi - self.lo) if self.hi > self.lo else np.zeros_like(u)
         return (u * self.height).astype(np.float32)
 
@@ -249,9 +278,7 @@ def textured_plate_tiled(
 
 
 def _tiled(w, d, thickness, texture, pitch, height, out, tile, bound, progress, client, t0) -> TiledPlate:
-    from ..io.stream import open_stream
-    from ..solid.tiles import Numbering, PlateGrid, block_volume, walls
-
+    """The texture's source and the tile size, then :func:`_write`."""
     pool = None
     if client is not None:
         def pool(fn, args):  # noqa: E306 - map on the cluster, results in order
@@ -274,8 +301,29 @@ def _tiled(w, d, thickness, texture, pitch, height, out, tile, bound, progress, 
             nx = ny = 2
         side = int(tile) if tile else tile_for_memory(bound, (ny + 2, nx + 2))
         report(progress, 0.0, "finding the texture's range")
-        source = _BuiltinSource(os.fspath(texture), (w, d), pitch, height, block=max(side - 1, 1), pool=pool)
-    grid = PlateGrid((w, d), source.shape, source.pitch, side)
+        cache = None if pool is not None else tempfile.NamedTemporaryFile(prefix=f".{out.name}.", suffix=".heights", dir=out.parent)
+        try:
+            source = _BuiltinSource(os.fspath(texture), (w, d), pitch, height, block=max(side - 1, 1), pool=pool,
+                                    cache=None if cache is None else Path(cache.name))
+            return _write(_grid_of(source, w, d, side), source, out, thickness, progress, client, t0, side)
+        finally:
+            if cache is not None:
+                cache.close()
+    return _write(_grid_of(source, w, d, side), source, out, thickness, progress, client, t0, side)
+
+
+def _grid_of(source: Any, w: float, d: float, side: int):
+    """The plate's node grid for ``source``'s pixels."""
+    from ..solid.tiles import PlateGrid
+
+    return PlateGrid((w, d), source.shape, source.pitch, side)
+
+
+def _write(grid: Any, source: Any, out: Path, thickness: float, progress: Progress, client: Any, t0: float, side: int) -> TiledPlate:
+    """Mesh and stream every tile, then the walls: the :class:`TiledPlate`."""
+    from ..io.stream import open_stream
+    from ..solid.tiles import Numbering, block_volume, walls
+
     numbering = Numbering(grid)
     volume = 0.0
     total = grid.count
@@ -283,7 +331,7 @@ def _tiled(w, d, thickness, texture, pitch, height, out, tile, bound, progress, 
         for k, (t, v) in enumerate(_tile_vertex_blocks(grid, source, client)):  # per tile, in order
             f = grid.faces(t)
             stream.add(v, f, numbering.ids(t).ravel())
-            volume += block_volume(v, f)
+            volume += grid.top_volume(t, v)
             del v, f
             report(progress, (k + 1) / (total + 1), f"tile {k + 1}/{total}")
         v, f, ids = walls(grid, numbering, thickness)
@@ -292,7 +340,7 @@ def _tiled(w, d, thickness, texture, pitch, height, out, tile, bound, progress, 
     report(progress, 1.0, f"wrote {stream.triangles} triangles")
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     return TiledPlate(
-        path=Path(out), size=(w, d), thickness=thickness, grid=tuple(source.shape), pitch=tuple(source.pitch),
+        path=Path(out), size=tuple(grid.size), thickness=thickness, grid=tuple(source.shape), pitch=tuple(source.pitch),
         tile=side, tiles=total, triangles=stream.triangles, vertices=numbering.next + 4, volume=volume,
         seconds=time.perf_counter() - t0, peak_rss=int(peak),
     )
