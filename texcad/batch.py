@@ -197,6 +197,25 @@ def _check_texture(label: str, key: str, tex: str) -> str:
     return tex
 
 
+def _check_selector(label: str, which: str) -> None:
+    """A ``--face`` selector's form: a direction word, a face index, ``normal:x,y,z``
+    or a face type (``TYPE``, ``TYPE:i``, ``TYPE:all``)."""
+    from .cli.texture import DIRECTIONS
+
+    head, _, tail = which.partition(":")
+    if which.isdigit() or which in DIRECTIONS or head == "normal":
+        return
+    from build123d import GeomType
+
+    kinds = {"extrusion", "bspline", "b-spline", "bezier"} | {g.name.lower() for g in GeomType}
+    if head in kinds and (not tail or tail == "all" or tail.isdigit()):
+        return
+    raise ParameterError(
+        f"{label}: where {which!r}: use one of {', '.join(DIRECTIONS)}, a face type (cylinder, cone, bspline...), "
+        "TYPE:i, TYPE:all, normal:x,y,z or a face index"
+    )
+
+
 def _one_job(k: int, job: Any) -> Job:
     if isinstance(job, Job):
         job = {"name": job.name, "part": job.part, "where": list(job.where), "texture": job.texture,
@@ -228,9 +247,12 @@ def _one_job(k: int, job: Any) -> Job:
             t, _, _ = rest.rpartition("@") if rest.count("@") else (rest, "", "")
             if t:
                 _check_texture(label, f"where {w!r}", t)
-    options = dict(job.get("options") or {})
+    if not mesh:
+        for w in where:  # the selector's form (whether the part has such a face is known when it is read)
+            _check_selector(label, w)
     if not isinstance(job.get("options") or {}, Mapping):
         raise ParameterError(f"{label}: options must be a mapping of texcad.texture's options, got {job['options']!r}")
+    options = dict(job.get("options") or {})
     if "progress" in options:
         raise ParameterError(f"{label}: option 'progress' cannot be sent to a worker; batch() reports progress")
     from .options import Options, option_names
