@@ -31,6 +31,7 @@ from .io import export, load_mesh
 from .render import show
 from .report import check
 from .pipeline import Textured, texture
+from .batch import batch
 
 __version__ = "0.3.0"
 
@@ -46,6 +47,7 @@ __all__ = [
     "synthesize",
     "orientation",
     "check",
+    "batch",
     "export",
     "load_mesh",
     "show",

@@ -1,0 +1,153 @@
+"""Scale: peak memory and time of the tiled plate against its pixels, and batch
+throughput against local Dask workers; writes ``docs/benchmarks/scale.md``.
+
+Plate: a square plate of ``builtin:stones`` at 0.1 mm per pixel (1 M px: 100 x 100
+mm; 9 M px: 300 x 300 mm; 36 M px: 600 x 600 mm; 100 M px: 1 x 1 m), made by
+:func:`texcad.pipeline.tiled.textured_plate_tiled` straight to STL, each size in a
+fresh process (so its peak resident memory is its own), with ``--max-memory``; and,
+for comparison up to ``--untiled-max-mpx``, the untiled
+:func:`texcad.pipeline.textured_plate` (one vertex per pixel, ``tolerance=0``, the
+same mesh) with its STL export.
+
+Batch: ``--parts`` small STEP boxes (20 x 16 x 5 mm, top face, stones at 0.5 mm) as
+one :func:`texcad.batch` per worker count (a fresh local cluster each; the cluster's
+start is counted). Efficiency = t(1 worker) / (workers x t(workers)).
+
+    python benchmarks/bench_scale.py [--max-mpx 100] [--workers 1 2 4] [--parts 8] [--out docs/benchmarks/scale.md]
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+PIXELS = (1, 9, 36, 100)  # M px
+PITCH = 0.1
+
+_CHILD = r"""
+import json, resource, sys, time
+from pathlib import Path
+mpx, pitch, out, mode, max_memory = float(sys.argv[1]), float(sys.argv[2]), sys.argv[3], sys.argv[4], sys.argv[5]
+side = round((mpx * 1e6) ** 0.5) * pitch
+t0 = time.perf_counter()
+if mode == "tiled":
+    from texcad.pipeline.tiled import textured_plate_tiled
+    r = textured_plate_tiled((side, side), 5.0, "builtin:stones", pitch, height=1.0, out=out, max_memory=max_memory)
+    tris, tiles = r.triangles, r.tiles
+else:
+    from texcad.pipeline import textured_plate
+    r = textured_plate("builtin:stones", size=(side, side), thickness=5.0, height=1.0, pitch=pitch, tolerance=0)
+    r.export(out)
+    tris, tiles = r.mesh.num_triangles, 1
+sec = time.perf_counter() - t0
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+print(json.dumps({"side": side, "seconds": sec, "peak": peak, "triangles": tris, "tiles": tiles, "bytes": Path(out).stat().st_size}))
+"""
+
+
+def plate_row(mpx: float, mode: str, max_memory: str) -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        out = str(Path(tmp) / "plate.stl")
+        p = subprocess.run([sys.executable, "-c", _CHILD, str(mpx), str(PITCH), out, mode, max_memory],
+                           capture_output=True, text=True)
+        if p.returncode:
+            return {"mpx": mpx, "mode": mode, "error": (p.stderr.strip().splitlines() or ["?"])[-1][:120]}
+        return {"mpx": mpx, "mode": mode, **json.loads(p.stdout.strip().splitlines()[-1])}
+
+
+def batch_rows(workers: list[int], parts: int) -> list[dict]:
+    from build123d import Box, export_step
+
+    from texcad.batch import batch
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        step = Path(tmp) / "box.step"
+        export_step(Box(20, 16, 5), str(step))
+        for n in workers:  # per cluster size
+            jobs = [{"name": f"part {k}", "part": str(step), "where": "top", "texture": f"builtin:stones:seed={k + 1}",
+                     "options": {"pitch": 0.5, "height": 0.6}, "outputs": [str(Path(tmp) / f"w{n}-{k}.stl")]}
+                    for k in range(parts)]
+            t0 = time.perf_counter()
+            res = batch(jobs, workers=n)
+            sec = time.perf_counter() - t0
+            rows.append({"workers": n, "seconds": sec, "ok": sum(r.ok for r in res), "jobs": parts,
+                         "job_seconds": sum(r.seconds for r in res)})
+    t1 = rows[0]["seconds"] if rows and rows[0]["workers"] == 1 else None
+    for r in rows:
+        r["efficiency"] = t1 / (r["workers"] * r["seconds"]) if t1 else None
+    return rows
+
+
+def table(plates: list[dict], batches: list[dict], command: str) -> str:
+    uname = platform.uname()
+    cpu = ""
+    try:
+        cpu = next(l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo") if l.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
+    load = os.getloadavg()[0]
+    lines = [
+        "# Scale: large plates and batches",
+        "",
+        f"- machine: {uname.system} {uname.machine}, {os.cpu_count()} cores ({cpu}), {mem:.0f} GiB; load average {load:.1f} at the end (shared machine)",
+        f"- date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC",
+        f"- command: `{command}`",
+        "",
+        "## Plate of stones at 0.1 mm: time and peak memory against pixels",
+        "",
+        "| pixels | plate mm | how | tiles | triangles | seconds | peak memory | STL |",
+        "|---:|---:|---|---:|---:|---:|---:|---:|",
+    ]
+    for p in plates:
+        if "error" in p:
+            lines.append(f"| {p['mpx']:g} M | | {p['mode']} | | | | | refused: {p['error']} |")
+            continue
+        lines.append(
+            f"| {p['mpx']:g} M | {p['side']:g} | {p['mode']} | {p['tiles']} | {p['triangles']:,} | {p['seconds']:.1f} | "
+            f"{p['peak'] / 2**30:.2f} GiB | {p['bytes'] / 2**20:.0f} MiB |"
+        )
+    lines += ["", "## Batch throughput against local Dask workers", "",
+              "| workers | jobs ok | seconds (cluster start included) | jobs per minute | efficiency |", "|---:|---:|---:|---:|---:|"]
+    for b in batches:
+        eff = "" if b["efficiency"] is None else f"{b['efficiency']:.2f}"
+        lines.append(f"| {b['workers']} | {b['ok']}/{b['jobs']} | {b['seconds']:.1f} | {60 * b['jobs'] / b['seconds']:.1f} | {eff} |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--max-mpx", type=float, default=100, help="largest plate, M px (1, 9, 36, 100)")
+    ap.add_argument("--untiled-max-mpx", type=float, default=1, help="largest untiled plate for comparison, M px")
+    ap.add_argument("--max-memory", default="4GB", help="the tiled plate's bound")
+    ap.add_argument("--workers", type=int, nargs="+", default=[1, 2, 4])
+    ap.add_argument("--parts", type=int, default=8)
+    ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent.parent / "docs" / "benchmarks" / "scale.md")
+    args = ap.parse_args()
+    command = "python benchmarks/bench_scale.py " + " ".join(sys.argv[1:])
+    plates = []
+    for mpx in (m for m in PIXELS if m <= args.max_mpx):  # per size
+        for mode in ("tiled", "untiled") if mpx <= args.untiled_max_mpx else ("tiled",):
+            row = plate_row(mpx, mode, args.max_memory)
+            print(row, flush=True)
+            plates.append(row)
+    batches = batch_rows(sorted(set(args.workers)), args.parts) if args.workers else []
+    for b in batches:
+        print(b, flush=True)
+    text = table(plates, batches, command)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,133 @@
+"""The tiled plate: the untiled plate's texture triangles one for one, watertight
+(manifold3d), the volume within the documented rim difference, no duplicate vertex,
+the same file for any tile size; and a plate that does not fit untiled is made under
+an address-space limit."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+import texcad
+from texcad.io.export import _STL_DTYPE
+from texcad.pipeline import textured_plate
+from texcad.pipeline.tiled import textured_plate_tiled
+
+SIZE, THICK, PITCH, HEIGHT = (30.0, 22.0), 4.0, 0.5, 1.2
+
+
+def _triangles(path) -> np.ndarray:
+    rec = np.fromfile(path, dtype=_STL_DTYPE, offset=84)
+    return rec["v"]  # (n, 3, 3) float32
+
+
+def _key(tri: np.ndarray) -> np.ndarray:
+    """Triangles as sortable rows, each rotated to start at its smallest corner."""
+    rows = tri.reshape(len(tri), 3, 3)
+    k = np.argmin(rows[:, :, 0] * 1e6 + rows[:, :, 1] * 1e3 + rows[:, :, 2], axis=1)
+    idx = (k[:, None] + np.arange(3)[None, :]) % 3
+    rot = np.take_along_axis(rows, idx[:, :, None], axis=1).reshape(len(rows), 9)
+    return rot[np.lexsort(rot.T[::-1])]
+
+
+@pytest.fixture(scope="module")
+def untiled():
+    return textured_plate("builtin:stones", size=SIZE, thickness=THICK, height=HEIGHT, pitch=PITCH, tolerance=0)
+
+
+@pytest.mark.parametrize("tile", [9, 17, 64])
+def test_tiled_equals_untiled_where_both_fit(tmp_path, untiled, tile):
+    import manifold3d
+
+    r = textured_plate_tiled(SIZE, THICK, "builtin:stones", PITCH, height=HEIGHT, out=tmp_path / "t.stl", tile=tile)
+    hm = untiled.heightmap
+    assert r.grid == hm.shape and np.allclose(r.pitch, hm.pitch)
+    tri = _triangles(tmp_path / "t.stl")
+    assert len(tri) == r.triangles and not list(tmp_path.glob(".*"))  # the heights' cache is gone
+    # the texture: every triangle between pixel centres is the untiled slab's, bit for bit
+    w, d = SIZE
+    inner = np.all((tri[:, :, 0] > 0) & (tri[:, :, 0] < w) & (tri[:, :, 1] > 0) & (tri[:, :, 1] < d), axis=1)
+    slab = untiled.texture_mesh
+    mine, theirs = _key(tri[inner]), _key(slab.vertices[slab.faces[slab.groups["texture"]]])
+    assert mine.shape == theirs.shape and np.array_equal(mine, theirs)
+    # closed and manifold: merge the STL's corners, manifold3d accepts it
+    verts, inv = np.unique(tri.reshape(-1, 3), axis=0, return_inverse=True)
+    faces = inv.reshape(-1, 3).astype(np.uint32)
+    man = manifold3d.Manifold(manifold3d.Mesh(vert_properties=verts.astype(np.float32), tri_verts=faces))
+    assert man.status() == manifold3d.Error.NoError and man.genus() == 0
+    assert len(verts) == r.vertices  # no vertex made twice at a seam
+    assert np.isclose(man.volume(), r.volume, rtol=1e-6)
+    # the volume: the untiled one plus the rim wedge (documented bound)
+    margin = max(w - hm.size[0], d - hm.size[1]) / 2 + max(hm.pitch) / 2
+    bound = 2 * (w + d) * margin * HEIGHT / 2
+    assert 0 <= r.volume - untiled.mesh.volume <= bound, (r.volume, untiled.mesh.volume, bound)
+    # the seams: the same triangles for any tiling (in another order)
+    r2 = textured_plate_tiled(SIZE, THICK, "builtin:stones", PITCH, height=HEIGHT, out=tmp_path / "u.stl", tile=tile + 5)
+    assert (r2.tiles != r.tiles or r.tiles == 1) and np.array_equal(_key(_triangles(tmp_path / "u.stl")), _key(tri))
+
+
+def test_3mf_vertices_once_and_heightmap_source(tmp_path, untiled):
+    r = textured_plate_tiled(SIZE, THICK, untiled.heightmap, out=tmp_path / "t.3mf", tile=12)
+    m = texcad.io.read_mesh(tmp_path / "t.3mf")
+    assert m.is_watertight and len(m.vertices) == r.vertices == len(np.unique(m.vertices, axis=0))
+    assert np.isclose(m.volume, r.volume, rtol=1e-5)
+    s = textured_plate_tiled(SIZE, THICK, "builtin:stones", PITCH, height=HEIGHT, out=tmp_path / "t.stl", tile=12)
+    assert np.isclose(s.volume, r.volume, rtol=1e-9)
+
+
+def test_refusals(tmp_path):
+    with pytest.raises(texcad.ParameterError, match="tolerance must be 0"):
+        textured_plate_tiled(SIZE, THICK, "builtin:stones", out=tmp_path / "a.stl", tolerance=0.02)
+    with pytest.raises(texcad.ParameterError, match="streams .stl or .3mf"):
+        textured_plate_tiled(SIZE, THICK, "builtin:stones", out=tmp_path / "a.step")
+    with pytest.raises(texcad.ParameterError, match="unknown built-in texture"):
+        textured_plate_tiled(SIZE, THICK, "builtin:nope", out=tmp_path / "a.stl")
+    with pytest.raises(texcad.ResourceError, match="max_memory leaves"):
+        textured_plate_tiled(SIZE, THICK, "builtin:stones", out=tmp_path / "a.stl", max_memory="10MB")
+    assert not list(tmp_path.iterdir())
+
+
+def test_memory_bound_on_a_plate_that_does_not_fit_untiled(tmp_path):
+    """Under an address-space limit of the process (RLIMIT_AS), the untiled plate is
+    refused and the tiled one is written, its peak memory under the limit."""
+    script = textwrap.dedent(f"""
+        import resource, sys
+        import texcad
+        from texcad.pipeline import textured_plate
+        from texcad.pipeline.tiled import textured_plate_tiled
+        def vm():
+            return int(open("/proc/self/status").read().split("VmSize:")[1].split()[0]) * 1024
+        limit = vm() + (600 << 20)
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+        try:
+            textured_plate("builtin:stones", size=(150, 150), thickness=4, pitch=0.125, tolerance=0)
+            print("untiled fitted")
+        except (texcad.ResourceError, MemoryError) as exc:
+            print("untiled refused", type(exc).__name__)
+        r = textured_plate_tiled((150, 150), 4, "builtin:stones", 0.125, out={str(tmp_path / "big.stl")!r}, max_memory=limit)
+        peak = int(open("/proc/self/status").read().split("VmPeak:")[1].split()[0]) * 1024
+        print("tiled", r.grid[0] * r.grid[1], r.tiles, r.triangles, peak <= limit, r.peak_rss)
+    """)
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    lines = out.stdout.split("\n")
+    assert lines[0].startswith("untiled refused"), out.stdout
+    px, tiles, tris, under, rss = lines[1].split()[1:]
+    assert int(px) == 1200 * 1200 and int(tiles) > 1 and under == "True"
+    size = (tmp_path / "big.stl").stat().st_size
+    assert size == 84 + 50 * int(tris)
+
+
+def test_tiles_on_a_dask_cluster_give_the_same_bytes(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    here = textured_plate_tiled(SIZE, THICK, "builtin:stones", PITCH, height=HEIGHT, out=tmp_path / "here.3mf", tile=10)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=50) as cluster, distributed.Client(cluster, set_as_default=False) as client:
+        there = textured_plate_tiled(SIZE, THICK, "builtin:stones", PITCH, height=HEIGHT, out=tmp_path / "there.3mf",
+                                     tile=10, client=client)
+    assert there.tiles == here.tiles > 4 and there.volume == here.volume
+    assert (tmp_path / "here.3mf").read_bytes() == (tmp_path / "there.3mf").read_bytes()

@@ -1,0 +1,370 @@
+"""A large textured plate in bounded memory: :func:`textured_plate_tiled`.
+
+The plate of :func:`texcad.pipeline.textured_plate` (texture centred on the top face
+at z = 0, one vertex per pixel centre), made tile by tile: each tile's texture is
+sampled, meshed (:mod:`texcad.solid.tiles`: exact shared seams, no duplicate
+vertex) and streamed to the output (:mod:`texcad.io.stream`), then dropped. Peak
+memory goes with one tile, whatever the plate's size; the tile is chosen from
+``max_memory``.
+
+Where both fit, the tiled plate's texture triangles are the untiled slab's, one for
+one (same float32 vertices, same diagonals: tested). It differs in one documented
+place, the plate's rim: the untiled slab ends in a vertical wall at the outer pixel
+centres, fused onto the flat plate; the tiled top slopes from the outer pixel
+centres down to the plate's edge (half a pixel plus the margin the texture leaves),
+so the volumes differ by at most ``perimeter x (margin + px / 2) x height / 2``.
+
+Not yet tiled: the overhang limiter (``build_dir``) and the lean mesh
+(``tolerance`` > 0; the tiled plate keeps every pixel centre) -- both are refused.
+"""
+
+from __future__ import annotations
+
+import os
+import resource
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Optional, Sequence
+
+import numpy as np
+
+from ..errors import ParameterError, ResourceError
+from ..sources import Heightmap
+from ..util import Progress, report
+
+__all__ = ["textured_plate_tiled", "TiledPlate", "tile_for_memory", "BYTES_PER_TILE_NODE"]
+
+#: Peak bytes per node of one tile: the texture function's temporaries (float64),
+#: the float32 vertices, int64 faces and ids, STL records or 3MF text (measured on
+#: stones, the heaviest built-in, with room to spare).
+BYTES_PER_TILE_NODE = 600.0
+#: Bytes the process needs besides the tile (numpy, texcad, the writer's buffers).
+OVERHEAD = 64 << 20
+
+
+@dataclass(frozen=True)
+class TiledPlate:
+    """What :func:`textured_plate_tiled` wrote.
+
+    Attributes:
+        path: the output file.
+        size: ``(w, d)`` mm; thickness: mm.
+        grid: ``(R, C)`` texture pixels; pitch: ``(px, py)`` mm.
+        tile: nodes per tile side; tiles: how many.
+        triangles, vertices: of the closed mesh (vertices counted once).
+        volume: enclosed volume, mm^3 (float64, summed tile by tile).
+        seconds: wall time.
+        peak_rss: the process's peak resident memory when it finished, bytes.
+    """
+
+    path: Path
+    size: tuple
+    thickness: float
+    grid: tuple
+    pitch: tuple
+    tile: int
+    tiles: int
+    triangles: int
+    vertices: int
+    volume: float
+    seconds: float
+    peak_rss: int
+
+
+class _BuiltinSource:
+    """A built-in texture sampled block by block: the pixels
+    :func:`texcad.sources.builtin` samples for the plate (same pitch adjustment,
+    same count, same normalisation by the whole grid's lowest and highest unit
+    height, found in a first pass), so each block holds the same float32 heights as
+    the untiled heightmap."""
+
+    def __init__(self, spec: str, size: Sequence[float], pitch: float, height: float, block: int, pool: Any = None,
+                 cache: "Path | None" = None) -> None:
+        from ..sources.textures import BUILTINS, parse_texture_spec
+
+        key, params = parse_texture_spec(spec)
+        if key not in BUILTINS:
+            from ..sources import builtin
+
+            builtin(spec)  # raises the usual ParameterError naming the built-ins
+        scale = float(params.pop("scale", 1.0))
+        tile, self.func = BUILTINS[key].configure(scale=scale, **params)
+        px = tile[0] / max(1, round(tile[0] / pitch))
+        py = tile[1] / max(1, round(tile[1] / pitch))
+        w, d = (float(s) for s in size)
+        self.pitch = (px, py)
+        self.shape = (max(2, int(np.floor(d / py + 1e-6))), max(2, int(np.floor(w / px + 1e-6))))
+        self.height = float(height)
+        self.lo, self.hi = 0.0, 1.0
+        self._cache = None
+        blocks = [(slice(r0, min(r0 + block, self.shape[0])), slice(c0, min(c0 + block, self.shape[1])))
+                  for r0 in range(0, self.shape[0], block) for c0 in range(0, self.shape[1], block)]
+        # first pass: the grid's range, per block (min and max are exact over any split)
+        if pool is not None:
+            ranges = pool(_unit_range, [(self, b) for b in blocks])
+        else:  # here: the unit heights kept on disk (8 bytes a pixel) for the second pass, not sampled twice
+            if cache is not None:
+                with open(cache, "r+b") as fh:
+                    fh.truncate(8 * self.shape[0] * self.shape[1])
+            ranges = []
+            for b in blocks:  # per block
+                u = self._unit(*b)
+                if cache is not None:
+                    rows = self._rows(cache, b[0], "r+")
+                    rows[:, b[1]] = u
+                    rows.flush()
+                    del rows
+                ranges.append((float(u.min()), float(u.max())))
+            self._cache = cache
+        self.lo, self.hi = min(r[0] for r in ranges), max(r[1] for r in ranges)
+
+    def _rows(self, path: Path, rows: slice, mode: str) -> np.ndarray:
+        """Rows ``rows`` of the unit heights on disk, mapped (only those rows: the
+        address space goes with a tile too)."""
+        c = self.shape[1]
+        return np.memmap(path, dtype=np.float64, mode=mode, offset=8 * c * rows.start, shape=(rows.stop - rows.start, c))
+
+    def _unit(self, rows: slice, cols: slice) -> np.ndarray:
+        x = (np.arange(cols.start, cols.stop) + 0.5) * self.pitch[0]
+        y = (np.arange(rows.start, rows.stop) + 0.5) * self.pitch[1]
+        u = self.func(x[None, :], y[:, None])
+        return np.broadcast_to(u, (len(y), len(x))).astype(np.float64)
+
+    def heights(self, rows: slice, cols: slice) -> np.ndarray:
+        if self._cache is not None:
+            m = self._rows(self._cache, rows, "r")
+            u = np.array(m[:, cols])
+            del m
+        else:
+            u = self._unit(rows, cols)
+        u = (u - self.lo) / (self.hi - self.lo) if self.hi > self.lo else np.zeros_like(u)
+        return (u * self.height).astype(np.float32)
+
+
+def _unit_range(source: "_BuiltinSource", block: tuple) -> tuple[float, float]:
+    u = source._unit(*block)
+    return float(u.min()), float(u.max())
+
+
+def _tile_vertices(source: Any, grid: Any, t: Any) -> np.ndarray:
+    """One tile's ``(r c, 3)`` float32 vertices (in a Dask worker or here)."""
+    rows, cols, _, _ = grid.texture_block(t)
+    return grid.vertices(t, source.heights(rows, cols))
+
+
+class _HeightmapSource:
+    """A heightmap (or an image, loaded whole) read block by block."""
+
+    def __init__(self, hm: Heightmap) -> None:
+        self.hm, self.shape, self.pitch = hm, hm.shape, tuple(float(p) for p in hm.pitch)
+
+    def heights(self, rows: slice, cols: slice) -> np.ndarray:
+        return np.asarray(self.hm.heights[rows, cols], dtype=np.float32)
+
+
+def _rss() -> int:
+    """Bytes this process holds now (resident set; 0 where /proc is missing)."""
+    try:
+        with open("/proc/self/statm", encoding="ascii") as fh:
+            return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
+def _connect(address: str, timeout: float = 5.0):
+    """A Dask client of the scheduler at ``address``, or ResourceError in ``timeout`` s."""
+    try:
+        import distributed
+    except ImportError:
+        raise ParameterError("client= needs Dask: pip install 'texcad[dask]'") from None
+    try:
+        return distributed.Client(address, timeout=f"{timeout}s", set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise ResourceError(f"cannot reach the Dask scheduler at {address!r} within {timeout:g} s ({type(exc).__name__}); "
+                            "check the address, or leave out client= to make the tiles here") from None
+
+
+def tile_for_memory(max_memory: Optional[int], nodes: tuple) -> int:
+    """Nodes per tile side that keep a tile within ``max_memory`` bytes (what the
+    process holds now counted; None: half of :func:`texcad.util.available_memory`),
+    at most the grid's own size, at least 64."""
+    from ..util import available_memory
+
+    have = available_memory() // 2 if max_memory is None else int(max_memory) - _rss()
+    budget = have - OVERHEAD
+    if budget < 64 * 64 * BYTES_PER_TILE_NODE:
+        raise ResourceError(
+            f"max_memory leaves {max(budget, 0) / 2**20:.0f} MiB for a tile after the {_rss() / 2**20:.0f} MiB "
+            f"this process holds; allow at least {(_rss() + OVERHEAD + 64 * 64 * BYTES_PER_TILE_NODE) / 2**20:.0f} MiB"
+        )
+    side = int((budget / BYTES_PER_TILE_NODE) ** 0.5)
+    return max(64, min(side, 4096, max(nodes)))
+
+
+def textured_plate_tiled(
+    size: Sequence[float],
+    thickness: float,
+    texture: "str | os.PathLike | Heightmap",
+    pitch: float = 0.125,
+    *,
+    height: Optional[float] = None,
+    out: "str | os.PathLike",
+    tile: Optional[int] = None,
+    max_memory: Any = None,
+    tolerance: float = 0.0,
+    build_dir: Any = None,
+    progress: Progress = None,
+    client: Any = None,
+) -> TiledPlate:
+    """Texture the top of a ``size[0] x size[1] x thickness`` mm plate, tile by tile,
+    straight into ``out`` (.stl or .3mf), in memory bounded by ``max_memory``.
+
+    Args:
+        size: ``(w, d)`` plate size in mm (x, y); the top face at z = 0, the corner at
+            the origin, as :func:`texcad.pipeline.plate_base`.
+        thickness: plate thickness, mm.
+        texture: ``"builtin:NAME[:k=v]"`` (sampled tile by tile), an image path or a
+            :class:`~texcad.Heightmap` (held whole: its own pixels, centred).
+        pitch: mm per pixel for built-ins (adjusted to whole pixels per period, as
+            :func:`texcad.builtin`) and images.
+        height: largest texture height, mm (default 1; a Heightmap keeps its own
+            heights unless given).
+        out: ``.stl`` (binary) or ``.3mf`` output; written atomically.
+        tile: nodes per tile side (default: from ``max_memory``).
+        max_memory: bound on the process's memory, bytes or text (``"4GB"``); default
+            half of what the machine has available.
+        tolerance: 0 only (one vertex per pixel centre); the lean mesh is not tiled yet.
+        build_dir: None only; the overhang limiter is not tiled yet.
+        progress: ``progress(fraction, message)``: tiles done / total.
+        client: a ``dask.distributed.Client`` or a scheduler address: the tiles are
+            sampled and meshed on its workers (a few in flight per worker, so memory
+            here stays bounded) and written here in order: the same bytes as without.
+            ``max_memory`` then bounds each worker's tile as well as this process.
+
+    Returns:
+        :class:`TiledPlate` (counts, volume, time, peak memory).
+
+    Raises:
+        ParameterError: bad size, thickness, height, output format, tolerance > 0
+            or build_dir.
+        ResourceError: ``max_memory`` leaves no room for a tile.
+    """
+    from ..options import memory_bytes
+
+    t0 = time.perf_counter()
+    w, d = (float(s) for s in size)
+    if height is None:
+        height = float(texture.max_height) if isinstance(texture, Heightmap) else 1.0
+    for label, v in (("plate width", w), ("plate depth", d), ("thickness", thickness), ("height", height), ("pitch", pitch)):
+        if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
+            raise ParameterError(f"{label} must be a positive number of mm, got {v!r}")
+    if tolerance:
+        raise ParameterError("the tiled plate keeps every pixel centre: tolerance must be 0 (the lean mesh is not tiled yet)")
+    if build_dir is not None:
+        raise ParameterError("the overhang limiter is not tiled yet: use texcad.texture for build_dir, or leave it out")
+    if Path(out).suffix.lower() not in (".stl", ".3mf"):
+        raise ParameterError(f"out {os.fspath(out)!r}: the tiled plate streams .stl or .3mf")
+    bound = None if max_memory is None else memory_bytes(max_memory)
+    own = isinstance(client, str)
+    if own:
+        client = _connect(client)
+    try:
+        return _tiled(w, d, float(thickness), texture, pitch, float(height), Path(out), tile, bound, progress, client, t0)
+    finally:
+        if own:
+            client.close()
+
+
+def _tiled(w, d, thickness, texture, pitch, height, out, tile, bound, progress, client, t0) -> TiledPlate:
+    """The texture's source and the tile size, then :func:`_write`."""
+    pool = None
+    if client is not None:
+        def pool(fn, args):  # noqa: E306 - map on the cluster, results in order
+            return client.gather(client.map(fn, *zip(*args), pure=False))
+    if isinstance(texture, Heightmap) or not os.fspath(texture).startswith("builtin:"):
+        from ..sources import load_texture
+
+        source: Any = _HeightmapSource(load_texture(texture, size=(w, d), pitch=pitch, height=height))
+        nodes = (source.shape[0] + 2, source.shape[1] + 2)
+        side = int(tile) if tile else tile_for_memory(bound, nodes)
+    else:
+        from ..sources.textures import BUILTINS, parse_texture_spec
+
+        key, params = parse_texture_spec(os.fspath(texture))
+        if key in BUILTINS:  # the grid's size first, for the tile; then the source samples per tile
+            tl = BUILTINS[key].configure(scale=float(params.pop("scale", 1.0)), **params)[0]
+            nx = max(2, int(np.floor(w / (tl[0] / max(1, round(tl[0] / pitch))) + 1e-6)))
+            ny = max(2, int(np.floor(d / (tl[1] / max(1, round(tl[1] / pitch))) + 1e-6)))
+        else:
+            nx = ny = 2
+        side = int(tile) if tile else tile_for_memory(bound, (ny + 2, nx + 2))
+        report(progress, 0.0, "finding the texture's range")
+        cache = None if pool is not None else tempfile.NamedTemporaryFile(prefix=f".{out.name}.", suffix=".heights", dir=out.parent)
+        try:
+            source = _BuiltinSource(os.fspath(texture), (w, d), pitch, height, block=max(side - 1, 1), pool=pool,
+                                    cache=None if cache is None else Path(cache.name))
+            return _write(_grid_of(source, w, d, side), source, out, thickness, progress, client, t0, side)
+        finally:
+            if cache is not None:
+                cache.close()
+    return _write(_grid_of(source, w, d, side), source, out, thickness, progress, client, t0, side)
+
+
+def _grid_of(source: Any, w: float, d: float, side: int):
+    """The plate's node grid for ``source``'s pixels."""
+    from ..solid.tiles import PlateGrid
+
+    return PlateGrid((w, d), source.shape, source.pitch, side)
+
+
+def _write(grid: Any, source: Any, out: Path, thickness: float, progress: Progress, client: Any, t0: float, side: int) -> TiledPlate:
+    """Mesh and stream every tile, then the walls: the :class:`TiledPlate`."""
+    from ..io.stream import open_stream
+    from ..solid.tiles import Numbering, block_volume, walls
+
+    numbering = Numbering(grid)
+    volume = 0.0
+    total = grid.count
+    with open_stream(out) as stream:
+        for k, (t, v) in enumerate(_tile_vertex_blocks(grid, source, client)):  # per tile, in order
+            f = grid.faces(t)
+            stream.add(v, f, numbering.ids(t).ravel())
+            volume += grid.top_volume(t, v)
+            del v, f
+            report(progress, (k + 1) / (total + 1), f"tile {k + 1}/{total}")
+        v, f, ids = walls(grid, numbering, thickness)
+        stream.add(v, f, ids)
+        volume += block_volume(v, f)
+    report(progress, 1.0, f"wrote {stream.triangles} triangles")
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    return TiledPlate(
+        path=Path(out), size=tuple(grid.size), thickness=thickness, grid=tuple(source.shape), pitch=tuple(source.pitch),
+        tile=side, tiles=total, triangles=stream.triangles, vertices=numbering.next + 4, volume=volume,
+        seconds=time.perf_counter() - t0, peak_rss=int(peak),
+    )
+
+
+def _tile_vertex_blocks(grid: Any, source: Any, client: Any):
+    """``(tile, vertices)`` in :meth:`PlateGrid.tiles` order: made here, or on the
+    cluster's workers with at most two tiles per worker in flight."""
+    if client is None:
+        for t in grid.tiles():  # per tile
+            yield t, _tile_vertices(source, grid, t)
+        return
+    from collections import deque
+
+    ahead = 2 * max(1, len(client.scheduler_info().get("workers", {})))
+    [src] = client.scatter([source], broadcast=True)
+    pending: deque = deque()
+    for t in grid.tiles():  # per tile: keep `ahead` in flight, hand them over in order
+        pending.append((t, client.submit(_tile_vertices, src, grid, t, pure=False, retries=1)))
+        if len(pending) >= ahead:
+            t0, fut = pending.popleft()
+            yield t0, fut.result()
+            fut.release()
+    while pending:
+        t0, fut = pending.popleft()
+        yield t0, fut.result()
+        fut.release()
