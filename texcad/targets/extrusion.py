@@ -273,6 +273,10 @@ def _grids(mapped: Any, profile: Profile, limited: bool) -> tuple[np.ndarray, np
 
 
 class ExtrusionAdapter(Adapter):
+    """One face of a CAD part that is a full strip of an extrusion. The gate runs
+    checks 1-3; the texture's integral (check 4) is not stated yet (``Relief.volume``
+    None) and check 5 is left out (:func:`texcad.targets.surface.without_reach`)."""
+
     kind = "extrusion"
     label = "an extruded face"
     options = frozenset({"height", "pitch", "mapping", "depth", "periodic_x", "transition", "build_dir", "critical_angle",

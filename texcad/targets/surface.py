@@ -247,6 +247,11 @@ def _build_dir(options: Options) -> Any:
 
 
 class SurfaceAdapter(Adapter):
+    """A :class:`~texcad.mapping.Surface` or :class:`~texcad.mapping.Profile` (with
+    ``length`` mm), textured whole. The gate runs checks 1-3 (closed, oriented, one
+    body per base body); the texture's integral (check 4) is not stated yet
+    (``Relief.volume`` None) and check 5 is left out (:func:`without_reach`)."""
+
     kind = "surface"
     label = "a Surface"
     result_kind = "surface"
@@ -266,6 +271,7 @@ class SurfaceAdapter(Adapter):
         surf = as_surface(target, options.length, options.base, options.thickness)
         depth = options.depth if "depth" in options.given else (min(0.5, surf.thickness / 2) if surf.thickness else 0.5)
         wall = float(surf.thickness) if surf.thickness else float("inf")
+        options.report(0.02, "meshing the base body")
         base = surf.base if isinstance(surf.base, Mesh) else shape_to_mesh(surf.base)
         selected = _selected(surf, options.pitch)
         return Placement("surface", base, shell_report(base).bodies, selected, data=SurfacePlace(surf, float(depth), wall))
@@ -323,7 +329,6 @@ class SurfaceAdapter(Adapter):
 
         b: ModeBodies = relief.data.bodies
         mapped = relief.mapped
-        options.report(0.4, "meshing the base body")
         options.report(0.5, f"fusing {b.triangles} texture triangles onto the base (manifold3d)")
         fused, man = join_bodies(placement.base, b.slab, b.cutter)
         options.report(0.9, "fused")
