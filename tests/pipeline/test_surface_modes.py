@@ -87,7 +87,7 @@ def test_engraved_knurl_keeps_the_diameter_and_centred_straddles_it():
 
 def test_gradient_fades_the_engraving_along_its_axis():
     surf = texcad.Surface.cylinder(10, 24)
-    res = _make(surf, "engraved", mapping="angle", gradient=(0, 0, 0, 0, 24, 0))
+    res = _make(surf, "engraved", mapping="angle", gradient=((0, 0, 0), (0, 24, 0)))
     _solid_ok(res)
     v = res.mesh.vertices.astype(np.float64)
     r = np.hypot(v[:, 0], v[:, 2])
@@ -183,7 +183,7 @@ def test_raised_gradient_keeps_its_outline_on_the_surface():
     texture's first row stands on the surface (not dipped under it as a centred slab's
     outline is)."""
     surf = texcad.Surface.cylinder(10, 24)
-    res = _make(surf, "raised", mapping="angle", texture="builtin:diamond_knurl", gradient=(0, 0, 0, 0, 24, 0))
+    res = _make(surf, "raised", mapping="angle", texture="builtin:diamond_knurl", gradient=((0, 0, 0), (0, 24, 0)))
     _solid_ok(res)
     first = res.mapped.top[0].astype(np.float64)  # the grid's first row, as mapped
     top = res.texture_mesh.vertices.astype(np.float64)

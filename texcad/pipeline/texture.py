@@ -7,7 +7,7 @@ The target says which pipeline runs:
   (:func:`texcad.pipeline.cad.texture_faces`);
 * a :class:`texcad.Surface` or :class:`texcad.Profile` (a 2.5D surface, paper section
   2.2): the whole surface, ``where`` is None
-  (:func:`texcad.pipeline.surface.textured_surface`);
+  (:class:`texcad.targets.surface.SurfaceAdapter`);
 * a mesh (a path ending in .stl / .3mf / .obj, a :class:`texcad.Mesh`, a
   ``trimesh.Trimesh``): ``where`` is a region such as ``"normal:+x:70"`` or a list of
   layers (:func:`texcad.targets.mesh.MeshAdapter`).
@@ -22,7 +22,6 @@ import os
 from typing import Any
 
 from ..errors import ParameterError
-from ..mapping import Profile, Surface
 from ..options import Options
 from ..sources import DEFAULT_TEXTURE, Heightmap
 from .result import Textured
@@ -32,14 +31,6 @@ __all__ = ["texture"]
 def _legacy(target: Any, where: Any, texture: Any, o: Options) -> Textured:
     """Targets whose adapters are not written yet: their handlers, with the options
     validated once (one set of defaults)."""
-    if isinstance(target, (Surface, Profile)):
-        if where is not None:
-            raise ParameterError("a Surface is textured whole: pass where=None")
-        from .surface import textured_surface
-
-        o.refuse(set(SURFACE_OPTIONS), "a Surface")
-        names = [n for n in SURFACE_OPTIONS if n in o.given or n in ("height", "pitch", "mapping", "tolerance", "mode", "critical_angle")]
-        return textured_surface(target, texture, **o.as_kwargs(names))
     if where is None:
         raise ParameterError(
             "say which face to texture: texcad.texture(part, part.faces().sort_by(Axis.Z)[-1], texture) "
@@ -54,7 +45,6 @@ def _legacy(target: Any, where: Any, texture: Any, o: Options) -> Textured:
 #: Options of the targets that still run their own handler (mm and degrees).
 COMMON = ("height", "pitch", "mapping", "depth", "periodic_x", "transition", "build_dir", "critical_angle", "progress")
 FACE_OPTIONS = COMMON + ("edge_angle", "rotation", "offset", "brep", "tolerance", "mode", "gradient")
-SURFACE_OPTIONS = COMMON + ("length", "base", "thickness", "tolerance", "mode", "gradient")
 
 
 def texture(

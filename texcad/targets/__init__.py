@@ -8,10 +8,12 @@ closer look) textures it.
 """
 
 from .base import Adapter, Decline
+from .extrusion import ExtrusionAdapter
 from .mesh import MeshAdapter
 from .plane import PlaneAdapter
+from .surface import SurfaceAdapter
 
 #: The adapters, in the order the driver asks them.
-ADAPTERS: list = [MeshAdapter(), PlaneAdapter()]
+ADAPTERS: list = [MeshAdapter(), PlaneAdapter(), ExtrusionAdapter(), SurfaceAdapter()]
 
-__all__ = ["ADAPTERS", "Adapter", "Decline", "MeshAdapter", "PlaneAdapter"]
+__all__ = ["ADAPTERS", "Adapter", "Decline", "ExtrusionAdapter", "MeshAdapter", "PlaneAdapter", "SurfaceAdapter"]

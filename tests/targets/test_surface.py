@@ -1,0 +1,127 @@
+"""The 2.5D surface adapter (texcad.targets.surface): a texcad.Surface or Profile runs
+the one driver's stages (through texcad.texture and through the public
+textured_surface), in every mode, and passes the gate; options that do not apply are
+refused; a broken mesh is stopped by the gate; CAD operations raise a TexcadError."""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pytest
+
+import texcad
+from texcad.errors import GeometryError, ParameterError, TexcadError
+from texcad.solid import Mesh, edge_report
+from texcad.solid.weld import join_bodies, welded
+from texcad.targets import SurfaceAdapter
+from texcad.targets.surface import gradient_gain
+
+PITCH, HEIGHT = 0.5, 0.6
+
+
+@pytest.fixture(scope="module")
+def surface():
+    return texcad.Surface.cylinder(6.0, 8.0)
+
+
+def _texture(target, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return texcad.texture(target, None, "builtin:stones", pitch=PITCH, height=HEIGHT, **kw)
+
+
+def _spy(monkeypatch) -> list:
+    calls = []
+    for name in ("place", "relief", "fuse"):
+        real = getattr(SurfaceAdapter, name)
+        monkeypatch.setattr(SurfaceAdapter, name, lambda self, *a, _r=real, _n=name: calls.append(_n) or _r(self, *a))
+    return calls
+
+
+@pytest.mark.parametrize("mode", ["raised", "engraved", "centred"])
+def test_the_driver_runs_the_surface_adapters_stages(surface, mode, monkeypatch):
+    calls = _spy(monkeypatch)
+    res = _texture(surface, mode=mode)
+    assert calls == ["place", "relief", "fuse"]
+    assert isinstance(res.stages.adapter, SurfaceAdapter) and res.kind == "surface" and res.info["mode"] == mode
+    assert res.gate.shells.bodies == 1 and edge_report(res.mesh.faces)["watertight"]
+    base = float(res.base_mesh.volume)
+    if mode == "raised":
+        assert res.volume > base
+    elif mode == "engraved":
+        assert res.volume < base
+    tm = res.texture_mesh
+    assert edge_report(tm.faces)["watertight"] and tm.volume > 0
+
+
+def test_textured_surface_runs_the_driver_with_its_own_defaults(monkeypatch):
+    calls = _spy(monkeypatch)
+    prof = texcad.Profile.sine(2.0, 10.0, 20.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = texcad.pipeline.textured_surface(prof, "builtin:pins", length=6.0, pitch=0.5, height=0.5)
+    assert calls == ["place", "relief", "fuse"]
+    assert res.stages.options.mapping.value == "distance" and res.info["mapping"] == "distance"
+    assert res.gate.shells.bodies == 1
+
+
+def test_a_gradient_fades_the_texture(surface):
+    full = _texture(surface)
+    faded = _texture(surface, gradient=((0, 0, 0), (0, 8, 0)))
+    base = float(full.base_mesh.volume)
+    assert 0 < faded.volume - base < full.volume - base
+
+
+def test_gradient_gain_is_linear_and_clipped():
+    g = gradient_gain(np.array([[0, -1, 0], [0, 0, 0], [0, 2, 0], [0, 4, 0], [0, 9, 0]], float), ((0, 0, 0), (0, 4, 0)))
+    assert np.allclose(g, [1, 1, 0.5, 0, 0])
+
+
+def test_options_that_do_not_apply_are_refused(surface):
+    with pytest.raises(ParameterError, match="edge_angle"):
+        _texture(surface, edge_angle=30.0)
+    with pytest.raises(ParameterError, match="where=None"):
+        texcad.texture(surface, "normal:+z", "builtin:stones", pitch=PITCH)
+
+
+def test_the_gate_stops_an_inside_out_mesh(surface, monkeypatch):
+    real = SurfaceAdapter.fuse
+
+    def inside_out(self, placement, relief, options):
+        f = real(self, placement, relief, options)
+        return dataclasses.replace(f, mesh=Mesh(f.mesh.vertices, f.mesh.faces[:, ::-1].copy()))
+
+    monkeypatch.setattr(SurfaceAdapter, "fuse", inside_out)
+    with pytest.raises(GeometryError, match="gate"):
+        _texture(surface)
+
+
+def test_join_bodies_refuses_a_texture_that_splits_the_base():
+    import manifold3d as m3d
+
+    def mesh(man):
+        m = man.to_mesh()
+        return Mesh(np.array(m.vert_properties[:, :3], np.float32), np.array(m.tri_verts, np.uint32))
+
+    base = mesh(m3d.Manifold.cube((10.0, 10.0, 2.0)))
+    cutter = mesh(m3d.Manifold.cube((2.0, 20.0, 4.0)).translate((4.0, -5.0, -1.0)))  # cuts the plate in two
+    with pytest.raises(GeometryError, match="2 bodies"):
+        join_bodies(base, None, cutter)
+    fused, man = join_bodies(base, mesh(m3d.Manifold.cube((2.0, 2.0, 1.0)).translate((4.0, 4.0, 1.5))), None)
+    assert edge_report(fused.faces)["watertight"] and abs(fused.volume - 202.0) < 1e-3  # 2 x 2 x 0.5 mm above the plate
+    assert welded(man) is not None
+
+
+def test_cad_operations_raise_a_texcad_error(surface):
+    from build123d import Cylinder
+
+    res = _texture(surface)
+    with pytest.raises(TexcadError):
+        res.shape
+    try:
+        cut = res - Cylinder(2, 30)
+    except TexcadError:
+        return
+    assert cut.volume < res.volume

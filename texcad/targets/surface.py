@@ -1,0 +1,357 @@
+"""Adapter: a 2.5D surface (a :class:`texcad.Surface`, or a :class:`texcad.Profile`
+extruded by ``length`` mm; paper, section 2.2), textured whole (``where=None``).
+
+**Place.** The surface in its own frame (profile in the XZ plane, extrusion along +y
+from 0 to ``length`` mm), its base body meshed, the slab's reach into the base
+``depth`` (default ``min(0.5, thickness / 2)`` mm) and the wall under the surface.
+
+**Relief.** The texture fitted to the developed surface
+(:func:`texcad.mapping.fit_texture`), lowered for ``build_dir``
+(:func:`texcad.printability.limit_on_profile`), mapped (:func:`texcad.mapping.map_texture`,
+algorithm 1 ``distance`` or 2 ``angle``), then the bodies of the mode
+(:mod:`texcad.mapping.modes`: with the share ``c`` of the height ``H`` that goes under
+the surface, a point at height ``h`` moves by ``t = g (h - c H)`` along its offset,
+``g`` the gradient's gain): a slab to add (raised, centred) and a cutter to subtract
+(engraved, centred), each lean within ``tolerance`` mm (:func:`lean_mapped_slab`).
+
+**Fuse.** ``(base - cutter) + slab`` with manifold3d, welded
+(:func:`texcad.solid.weld.join_bodies`). There is no B-rep.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..contracts import Fused, Placement, Relief, Stages
+from ..errors import GeometryError, ParameterError
+from ..mapping import Profile, Surface
+from ..options import Options
+from ..report.gate import shell_report
+from ..solid import Mesh, from_manifold, to_manifold
+from .base import Adapter
+
+__all__ = ["SurfaceAdapter", "lean_mapped_slab", "gradient_gain", "mode_bodies", "ModeBodies", "Lean"]
+
+
+@dataclass(frozen=True)
+class Lean:
+    """How a mapped slab is meshed: ``closed`` profile, ``tolerance`` mm (0: the full
+    grid), ``build_dir`` ``(3,)`` or ``(K, 3)`` in the grid's frame or None, and the
+    ``critical_angle`` in degrees."""
+
+    closed: bool
+    tolerance: float
+    build_dir: Any = None
+    critical_angle: float = 45.0
+
+    def kwargs(self) -> dict:
+        return {"closed": self.closed, "tolerance": self.tolerance, "build_dir": self.build_dir,
+                "critical_angle": self.critical_angle}
+
+
+def lean_mapped_slab(top, bottom, profile, s, *, closed: bool, tolerance: float, build_dir=None, critical_angle: float = 45.0):
+    """The slab of a mapped grid (``top`` ``(R, C, 3)`` mm, ``bottom`` ``(2, C, 3)`` or
+    ``(R, C, 3)`` mm, columns at arc lengths ``s`` ``(C,)`` mm on ``profile``): lean
+    within ``tolerance`` mm (:func:`texcad.mapping.lean_slab_mesh`), or the full
+    grid for tolerance 0 and, with ``build_dir`` (``(3,)`` or ``(K, 3)``, the grid's
+    frame), made in tiles of which those whose lean facets would overhang (at the
+    critical angle + 1 degree, the slicer's rule; more than the grid's where the
+    surface itself faces down) are redone tighter or as the grid. Returns
+    ``(slab, max_error mm)``."""
+    from ..mapping import lean_slab_mesh, slab_mesh
+
+    if tolerance <= 0:
+        return slab_mesh(top, bottom, closed=closed), 0.0
+    if build_dir is None:
+        return lean_slab_mesh(top, bottom, profile, s, closed=closed, tolerance=tolerance)
+    from ..printability import build_directions, overhang_area
+
+    dirs = build_directions(build_dir)
+    limit = min(float(critical_angle) + 1.0, 89.9)  # the slicer's rule: its threshold + 1 degree
+
+    def facets_ok(v: np.ndarray, f: np.ndarray) -> float:  # overhanging area, mm2
+        m = Mesh(np.asarray(v, np.float32), f.astype(np.uint32))
+        return max(overhang_area(m, d, limit, plate_tolerance=-1.0) for d in dirs)
+
+    return lean_slab_mesh(top, bottom, profile, s, closed=closed, tolerance=tolerance, facets_ok=facets_ok)
+
+
+def gradient_gain(points: np.ndarray, gradient: Any) -> np.ndarray:
+    """The gradient's gain ``g = clip(1 - t, 0, 1)`` at ``points`` ``(N, 3)`` mm, with
+    ``t = (p - a) . (b - a) / |b - a|^2`` the position along the line from the start
+    ``a`` (full depth) to the end ``b`` (none); ``gradient`` is ``(a, b)`` in mm."""
+    g = np.asarray(gradient, dtype=np.float64).reshape(-1)
+    if g.shape != (6,) or not np.all(np.isfinite(g)) or np.allclose(g[:3], g[3:]):
+        raise ParameterError(f"gradient is (start, end): two different points (x, y, z) in mm, got {gradient!r}")
+    a = g[3:] - g[:3]
+    return np.clip(1.0 - (points - g[:3]) @ a / (a @ a), 0.0, 1.0)
+
+
+def inverted(inner: np.ndarray, outer: np.ndarray, profile: Profile, s: np.ndarray, lean: Lean) -> tuple[Mesh, Mesh, float]:
+    """The closed body between a textured sheet ``inner`` ``(R, C, 3)`` mm and the
+    sheet ``outer`` ``(2, C, 3)`` outside it (a cutter): :func:`lean_mapped_slab` with
+    the sheets swapped, its two sheets turned (they face the wrong way for a body
+    whose textured side is its bottom; the end walls are oriented by their geometry).
+    Returns ``(cutter, as made (its "texture" faces facing out of the part), max_error mm)``."""
+    from ..solid import edge_report
+
+    made, err = lean_mapped_slab(inner, outer, profile, s, **lean.kwargs())
+    faces = made.faces.copy()
+    sheets = np.concatenate([made.groups["texture"], made.groups["bottom"]])
+    faces[sheets] = faces[sheets, ::-1]
+    cutter = Mesh(made.vertices, faces, made.groups)
+    if not edge_report(faces)["watertight"] or cutter.volume <= 0:
+        raise GeometryError("the texture's cutter is not a closed solid (its textured side crosses the surface); "
+                            "use a smaller height")
+    return cutter, made, err
+
+
+@dataclass(frozen=True)
+class ModeBodies:
+    """The bodies that put a texture on a mapped surface (:mod:`texcad.mapping.modes`),
+    in the surface's frame, mm.
+
+    Attributes:
+        slab: the body to add (raised, centred), or None.
+        cutter: the body to subtract (engraved, centred), or None.
+        shown: the body whose ``"texture"`` faces are the part's textured surface, outward.
+        error: the largest distance of the lean sheets from their grids, mm.
+        low: ``(inner (R, C, 3), outer (2, C, 3))``: the envelope's cutter sheets (the
+            texture alone is what of the part lies above it), or None.
+    """
+
+    slab: "Mesh | None"
+    cutter: "Mesh | None"
+    shown: Mesh
+    error: float
+    low: "tuple | None" = None
+
+    @property
+    def triangles(self) -> int:
+        return sum(b.num_triangles for b in (self.slab, self.cutter) if b is not None)
+
+
+def _warn_limited(limited: int, total: int) -> None:
+    import warnings
+
+    from ..errors import TexcadWarning
+
+    warnings.warn(f"the texture was cut less deep at {limited} of {total} grid points, where the base is not thick "
+                  "enough under the surface for it; use a smaller height or a thicker base", TexcadWarning, stacklevel=5)
+
+
+def mode_bodies(profile: Profile, mapped: Any, share: float, full: float, gain: "np.ndarray | None", lean: Lean,
+                wall: float) -> ModeBodies:
+    """The :class:`ModeBodies` of a raised mapping ``mapped`` for the mode's share ``c``
+    (``share``: 0 raised, 1/2 centred, 1 engraved) of the full height ``full`` mm,
+    the gain ``(R, C)`` (or None) and the base's ``wall`` mm under the surface."""
+    from ..mapping import CUT_FLOOR, mode_sheets
+
+    s = mapped.s
+    if share == 0 and gain is None:
+        slab, err = lean_mapped_slab(mapped.top, mapped.bottom, profile, s, **lean.kwargs())
+        return ModeBodies(slab, None, slab, err)
+    # Two lean sheets each within tolerance of their grids: 2 tolerance apart, they cannot cross.
+    sheets = mode_sheets(profile, mapped, share=share, height=full, gain=gain, overlap=CUT_FLOOR + 2.0 * lean.tolerance,
+                         thickness=wall)
+    if sheets["limited"]:
+        _warn_limited(sheets["limited"], mapped.top.shape[0] * mapped.top.shape[1])
+    slab = cutter = low = None
+    err = 0.0
+    if share < 1:  # raised with a gradient: the surface itself; centred: its outline under the cut
+        slab, err = lean_mapped_slab(sheets["slab"] if share > 0 else sheets["surface"], mapped.bottom, profile, s, **lean.kwargs())
+    if share > 0:
+        cutter, made, cut_err = inverted(sheets["cut"], sheets["outer"], profile, s, lean)
+        low = (sheets["low"], sheets["outer"])
+        err = max(err, cut_err)
+    return ModeBodies(slab, cutter, made if share == 1 else slab, err, low)
+
+
+@dataclass(frozen=True)
+class SurfacePlace:
+    """A 2.5D surface placed: the :class:`~texcad.mapping.Surface` (its base given or
+    replaced), the slab's reach ``depth`` into the base (mm) and the base's ``wall``
+    under the surface (mm; inf when not known)."""
+
+    surface: Surface
+    depth: float
+    wall: float
+
+
+@dataclass(frozen=True)
+class SurfaceRelief:
+    """The relief of a surface: its :class:`ModeBodies`, how they were meshed, and
+    the columns' arc lengths ``s`` (C,) mm on the profile."""
+
+    bodies: ModeBodies
+    lean: Lean
+    s: np.ndarray
+
+
+@dataclass(frozen=True)
+class SurfaceFused:
+    """The fused manifold3d ``Manifold`` (before welding): the texture alone of a
+    cut texture is measured against it."""
+
+    manifold: Any
+
+
+def as_surface(target: Any, length: "float | None", base: Any, thickness: "float | None") -> Surface:
+    """``target`` as a :class:`~texcad.mapping.Surface`: a Surface (its ``base`` and
+    ``thickness`` replaced when given), or a profile (Profile, build123d curve or
+    sketch) extruded by ``length`` mm."""
+    if isinstance(target, Surface):
+        if base is None:
+            return target
+        return Surface(target.profile, target.length, base, thickness if thickness is not None else target.thickness,
+                       target.params)
+    if length is None:
+        raise ParameterError("give the extrusion length in mm (length=...) when texturing a profile")
+    return Surface.from_profile(target, length, base=base, thickness=thickness)
+
+
+def _selected(surf: Surface, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """The surface as triangles about ``spacing`` mm wide and long (the gate's reach
+    check samples them): the profile sampled every ``spacing`` mm, at rows ``y`` from
+    0 to ``length`` mm: ``(vertices (R C, 3), faces (2 (R - 1)(C - 1), 3))``."""
+    from ..solid import grid_faces
+
+    _, p = surf.profile.sample(spacing)
+    if surf.profile.closed:
+        p = np.concatenate([p, p[:1]])
+    ys = np.linspace(0.0, float(surf.length), max(2, int(np.ceil(surf.length / spacing)) + 1))
+    v = np.stack([np.broadcast_to(p[None, :, 0], (len(ys), len(p))), np.broadcast_to(ys[:, None], (len(ys), len(p))),
+                  np.broadcast_to(p[None, :, 1], (len(ys), len(p)))], axis=-1).reshape(-1, 3)
+    return v, np.asarray(grid_faces(len(ys), len(p)), dtype=np.int64)
+
+
+def without_reach(ex: Any) -> Any:
+    """``ex`` (:class:`texcad.report.gate.Expectation`) without check 5 (reach): the
+    gate samples the selected surface and the base by splitting triangles in four
+    until every edge is short, and the needle triangles along an extrusion (a profile's
+    base: 8 mm x 5 um; a 60 mm cylinder's side) make 10^7 - 10^8 points of them (out of
+    memory, or minutes). Checks 1-3 (and 4 where given) stay."""
+    import dataclasses
+
+    return dataclasses.replace(ex, selected=None)
+
+
+def _build_dir(options: Options) -> Any:
+    """``build_dir`` as the stage functions take it: ``(3,)`` for one direction,
+    ``(K, 3)`` for several (unit vectors), or None."""
+    d = options.directions
+    return None if d is None else (d[0] if len(d) == 1 else d)
+
+
+class SurfaceAdapter(Adapter):
+    """A :class:`~texcad.mapping.Surface` or :class:`~texcad.mapping.Profile` (with
+    ``length`` mm), textured whole. The gate runs checks 1-3 (closed, oriented, one
+    body per base body); the texture's integral (check 4) is not stated yet
+    (``Relief.volume`` None) and check 5 is left out (:func:`without_reach`)."""
+
+    kind = "surface"
+    label = "a Surface"
+    result_kind = "surface"
+    options = frozenset({"height", "pitch", "mapping", "depth", "periodic_x", "transition", "build_dir", "critical_angle",
+                         "length", "base", "thickness", "tolerance", "mode", "gradient"})
+
+    def accepts(self, target: Any, where: Any, options: Options) -> bool:
+        return isinstance(target, (Surface, Profile))
+
+    # -- place --------------------------------------------------------------------------
+    def place(self, target: Any, where: Any, texture: Any, options: Options) -> Placement:
+        from ..brep import shape_to_mesh
+
+        if where is not None:
+            raise ParameterError("a Surface is textured whole: pass where=None")
+        options.report(0.0, "building the surface")
+        surf = as_surface(target, options.length, options.base, options.thickness)
+        depth = options.depth if "depth" in options.given else (min(0.5, surf.thickness / 2) if surf.thickness else 0.5)
+        wall = float(surf.thickness) if surf.thickness else float("inf")
+        options.report(0.02, "meshing the base body")
+        base = surf.base if isinstance(surf.base, Mesh) else shape_to_mesh(surf.base)
+        selected = _selected(surf, options.pitch)
+        return Placement("surface", base, shell_report(base).bodies, selected, data=SurfacePlace(surf, float(depth), wall))
+
+    # -- relief -------------------------------------------------------------------------
+    def _fitted(self, surf: Surface, texture: Any, options: Options):
+        """The texture fitted to the developed surface: ``(Heightmap, periodic)``."""
+        from ..mapping import fit_texture
+        from ..util import fitting_pitch, require_memory, texture_bytes
+
+        options.report(0.05, "loading texture")
+        hm, periodic = fit_texture(surf.profile, texture, length=surf.length, pitch=options.pitch, height=options.height,
+                                   periodic_x=options.periodic_x)
+        need = texture_bytes(hm.shape[0] * hm.shape[1], 0.0)
+        fix = f"use pitch >= {fitting_pitch(min(hm.pitch), need):.3g} mm"
+        require_memory(need, f"a {hm.shape[0]} x {hm.shape[1]} px texture on the surface", fix)
+        return hm, periodic
+
+    def relief(self, placement: Placement, texture: Any, options: Options) -> Relief:
+        from ..mapping import CUT_FLOOR, map_texture
+        from ..util import subrange
+
+        sp: SurfacePlace = placement.data
+        surf, share, mapping, bd = sp.surface, options.mode.share, options.mapping.value, _build_dir(options)
+        hm, periodic = self._fitted(surf, texture, options)
+        full = float(hm.heights.max())  # the envelope H of engraved and centred textures, mm
+        overhang = None
+        if bd is not None:
+            from ..printability import limit_on_profile
+
+            options.report(0.08, f"limiting overhangs to {options.critical_angle:g} deg")
+            hm, overhang = limit_on_profile(surf.profile, hm, bd, options.critical_angle, mapping=mapping, periodic=periodic)
+        extra = share * full + 0.1 + 2.0 * options.tolerance if share else 0.0  # a centred slab's bottom lies under the cut
+        mapped = map_texture(surf.profile, hm, mapping=mapping, length=surf.length, depth=sp.depth + extra, periodic_x=periodic,
+                             transition=options.transition, progress=subrange(options.progress, 0.1, 0.3))
+        options.report(0.3, f"closing the {mapped.top.shape[0]} x {mapped.top.shape[1]} texture slab")
+        lean = Lean(mapped.closed, options.tolerance, bd, options.critical_angle)
+        gain = None if options.gradient is None else gradient_gain(
+            mapped.top.reshape(-1, 3).astype(np.float64), options.gradient).reshape(mapped.top.shape[:2])
+        bodies = mode_bodies(surf.profile, mapped, share, full, gain, lean, sp.wall)
+        if overhang is not None:
+            from ..printability import measured
+
+            overhang = measured(overhang, bodies.shown, bd, options.critical_angle)
+        return Relief(heightmap=mapped.heightmap, limits=overhang, volume=None, volume_slack=0.0,
+                      reach=full + CUT_FLOOR + 2.0 * options.tolerance + 0.1, max_error=bodies.error,
+                      height_limits=tuple(mapped.limits), mapped=mapped, data=SurfaceRelief(bodies, lean, mapped.s))
+
+    def expectation(self, placement: Placement, relief: Relief, fused: Fused) -> Any:
+        return without_reach(super().expectation(placement, relief, fused))
+
+    # -- fuse ---------------------------------------------------------------------------
+    def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
+        from ..solid.weld import join_bodies
+
+        b: ModeBodies = relief.data.bodies
+        mapped = relief.mapped
+        options.report(0.5, f"fusing {b.triangles} texture triangles onto the base (manifold3d)")
+        fused, man = join_bodies(placement.base, b.slab, b.cutter)
+        options.report(0.9, "fused")
+        info = {"face": "surface", "mapping": options.mapping.value, "grid": tuple(mapped.top.shape[:2]),
+                "closed": mapped.closed, "tolerance": options.tolerance, "mode": options.mode.value,
+                "no_brep": "a 2.5D surface is textured as a mesh"}
+        return Fused(fused, placement.base, info, SurfaceFused(man))
+
+    # -- on demand ----------------------------------------------------------------------
+    def texture_mesh(self, stages: Stages) -> Mesh:
+        """The slab (raised), or what of the part lies above the envelope's cutter
+        (engraved, centred: ``fused - (base - low)``), mm."""
+        import dataclasses
+
+        r: SurfaceRelief = stages.relief.data
+        b = r.bodies
+        if b.cutter is None:
+            return b.slab
+        inner, outer = b.low
+        exact = dataclasses.replace(r.lean, tolerance=0.0, build_dir=None)
+        low = inverted(inner, outer, stages.placement.data.surface.profile, r.s, exact)[0]
+        base = to_manifold(stages.placement.base)
+        return from_manifold(stages.fused.data.manifold - (base - to_manifold(low)))
+
+    def brep(self, stages: Stages, fine: Any = None) -> Any:
+        raise GeometryError("this surface result has no B-rep (a 2.5D surface is textured as a mesh); write STL or 3MF instead")
