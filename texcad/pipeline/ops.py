@@ -256,7 +256,8 @@ def _derived(part: Any, *, mesh, texture_mesh, base_mesh, shape, info, hist) -> 
     from ..report.gate import GateReport, gate_shells
 
     mesh = mesh() if callable(mesh) else mesh
-    info = dict(info, gate=GateReport(gate_shells(mesh, what=f"result of {(info.get('operations') or ['a CAD operation'])[-1]}")).to_dict())
+    # the same dict: the B-rep's check writes its volume into it on first use
+    info["gate"] = GateReport(gate_shells(mesh, what=f"result of {(info.get('operations') or ['a CAD operation'])[-1]}")).to_dict()
     return type(part).derived(part, mesh=mesh, texture_mesh=texture_mesh, base_mesh=base_mesh, shape=shape, info=info,
                             history=hist)
 
