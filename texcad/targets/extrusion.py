@@ -39,7 +39,7 @@ from ..options import Mode, Options
 from ..solid import Mesh
 from .base import Adapter, Decline
 from .cad import body_count, cad_part, face_list, is_cad_target, selected_surface, tessellation
-from .surface import lean_mapped_slab, without_reach
+from .surface import lean_mapped_slab
 
 __all__ = ["ExtrusionAdapter", "LIFT", "lift", "extrusion_frame"]
 
@@ -274,8 +274,8 @@ def _grids(mapped: Any, profile: Profile, limited: bool) -> tuple[np.ndarray, np
 
 class ExtrusionAdapter(Adapter):
     """One face of a CAD part that is a full strip of an extrusion. The gate runs
-    checks 1-3; the texture's integral (check 4) is not stated yet (``Relief.volume``
-    None) and check 5 is left out (:func:`texcad.targets.surface.without_reach`)."""
+    checks 1-3 and 5 (reach); the texture's integral (check 4) is not stated yet
+    (``Relief.volume`` None)."""
 
     kind = "extrusion"
     label = "an extruded face"
@@ -365,9 +365,6 @@ class ExtrusionAdapter(Adapter):
                                bool(mapped.closed), slab)
         return Relief(heightmap=mapped.heightmap, limits=limits, volume=None, volume_slack=0.0,
                       reach=reach + options.tolerance + 1e-3, max_error=max_error, mapped=mapped, data=data)
-
-    def expectation(self, placement: Placement, relief: Relief, fused: Fused) -> Any:
-        return without_reach(super().expectation(placement, relief, fused))
 
     # -- fuse ---------------------------------------------------------------------------
     def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:

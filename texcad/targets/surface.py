@@ -29,7 +29,6 @@ from ..contracts import Fused, Placement, Relief, Stages
 from ..errors import GeometryError, ParameterError
 from ..mapping import Profile, Surface
 from ..options import Options
-from ..report.gate import shell_report
 from ..solid import Mesh, from_manifold, to_manifold
 from .base import Adapter
 
@@ -228,17 +227,6 @@ def _selected(surf: Surface, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     return v, np.asarray(grid_faces(len(ys), len(p)), dtype=np.int64)
 
 
-def without_reach(ex: Any) -> Any:
-    """``ex`` (:class:`texcad.report.gate.Expectation`) without check 5 (reach): the
-    gate samples the selected surface and the base by splitting triangles in four
-    until every edge is short, and the needle triangles along an extrusion (a profile's
-    base: 8 mm x 5 um; a 60 mm cylinder's side) make 10^7 - 10^8 points of them (out of
-    memory, or minutes). Checks 1-3 (and 4 where given) stay."""
-    import dataclasses
-
-    return dataclasses.replace(ex, selected=None)
-
-
 def _build_dir(options: Options) -> Any:
     """``build_dir`` as the stage functions take it: ``(3,)`` for one direction,
     ``(K, 3)`` for several (unit vectors), or None."""
@@ -246,11 +234,31 @@ def _build_dir(options: Options) -> Any:
     return None if d is None else (d[0] if len(d) == 1 else d)
 
 
+def united_bodies(base: Mesh) -> int:
+    """How many bodies the base makes when bodies that overlap or touch count as one
+    (:func:`texcad.solid.overlap.overlapping_bodies`; groups by union-find): the base
+    of a profile with pieces facing each other is one body per piece, the pieces touch,
+    and the texture joins them into one."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from ..solid.overlap import overlapping_bodies, split_bodies
+
+    v, f = np.asarray(base.vertices, np.float64), np.asarray(base.faces, np.int64)
+    split = split_bodies(v, f)
+    n = len(split.volumes)
+    pairs = np.array([(o.a, o.b) for o in overlapping_bodies(v, f, split=split)], np.int64).reshape(-1, 2)
+    if n < 2 or not len(pairs):
+        return n
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    return int(connected_components(graph, directed=False)[0])
+
+
 class SurfaceAdapter(Adapter):
     """A :class:`~texcad.mapping.Surface` or :class:`~texcad.mapping.Profile` (with
     ``length`` mm), textured whole. The gate runs checks 1-3 (closed, oriented, one
-    body per base body); the texture's integral (check 4) is not stated yet
-    (``Relief.volume`` None) and check 5 is left out (:func:`without_reach`)."""
+    body per base body) and 5 (reach, raised reliefs); the texture's integral (check 4)
+    is not stated yet (``Relief.volume`` None)."""
 
     kind = "surface"
     label = "a Surface"
@@ -274,7 +282,7 @@ class SurfaceAdapter(Adapter):
         options.report(0.02, "meshing the base body")
         base = surf.base if isinstance(surf.base, Mesh) else shape_to_mesh(surf.base)
         selected = _selected(surf, options.pitch)
-        return Placement("surface", base, shell_report(base).bodies, selected, data=SurfacePlace(surf, float(depth), wall))
+        return Placement("surface", base, united_bodies(base), selected, data=SurfacePlace(surf, float(depth), wall))
 
     # -- relief -------------------------------------------------------------------------
     def _fitted(self, surf: Surface, texture: Any, options: Options):
@@ -321,7 +329,14 @@ class SurfaceAdapter(Adapter):
                       height_limits=tuple(mapped.limits), mapped=mapped, data=SurfaceRelief(bodies, lean, mapped.s))
 
     def expectation(self, placement: Placement, relief: Relief, fused: Fused) -> Any:
-        return without_reach(super().expectation(placement, relief, fused))
+        """Checks 1-3 and, for a raised relief, 5 (reach). An engraving body (engraved,
+        centred) reaches past the surface's edges at the ends of the profile so that
+        the cut is clean; the points it leaves there lie farther from the surface than
+        the depth, so check 5 is left out for it."""
+        import dataclasses
+
+        ex = super().expectation(placement, relief, fused)
+        return ex if relief.data.bodies.cutter is None else dataclasses.replace(ex, selected=None)
 
     # -- fuse ---------------------------------------------------------------------------
     def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
