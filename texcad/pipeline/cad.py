@@ -675,79 +675,15 @@ def _chain_base(part: Any):
 
 
 def _texture_general(part, topo, prev, faces, texture, *, progress, **opts):
-    """Any face kind, several faces, chaining: :mod:`texcad.pipeline.faces`."""
-    from .faces import texture_any_faces
-    from .result import Textured
+    """Any face kind, several faces, chaining: the any-faces adapter
+    (:class:`texcad.targets.FacesAdapter`) through the one driver."""
+    from ..options import Options
+    from ..targets.faces import taking_every_face
+    from .driver import run
 
-    done = []
-    st = prev.stages if prev is not None else None
-    while st is not None:  # the faces textured by the chain so far
-        done += list(st.placement.face_ids)
-        st = st.placement.previous
-    res = texture_any_faces(topo, faces, texture, base_mesh=prev.mesh if prev is not None else None, progress=progress, **opts)
-    again = sorted(set(done) & set(res["face_indices"]))
-    if again:
-        raise ParameterError(f"face(s) {again} are textured already; texture each face once (all faces in one call)")
-    kinds = sorted({k for i in res["info"] for k in i["kinds"]})
-    info = {
-        "face": "faces" if len(res["info"]) > 1 else res["info"][0]["kinds"][0],
-        "faces": res["info"],
-        "grid": res["info"][0]["grid"],
-        "brep": prev is None,
-        "no_brep": (
-            f"{', '.join(kinds)} face(s) textured by the general method (a texture grid on the face's "
-            "parameterization, fused as a mesh) have no B-rep; write the mesh: export('part.stl') or export('part.3mf')"
-        ),
-        "distortion": None if res["distortion"] is None else res["distortion"].to_dict(),
-        "chained": prev is not None,
-        # the lean mesh may enclose up to its error times the textured area more or less than the grid's B-rep
-        "volume_slack": res["max_error"] * res["textured_area"],
-    }
-    if opts.get("build_dir") is not None:
-        info["build_dir"] = np.asarray(opts["build_dir"]).tolist()
-        info["critical_angle"] = float(opts["critical_angle"])
-    limits = _general_limits(res, opts) if opts.get("build_dir") is not None else None
-    shape = None
-    if prev is None:  # the B-rep on first use: each face textured on its own (u, v) (texcad.brep.uv_textured_solid)
-        def make(fine=None):  # fine: (x0, x1, y0, y1) mm in a lone planar face's frame (CAD operations)
-            return _brep_faces.general_brep(topo, res, info["no_brep"], opts["rotation"], fine=fine)
-
-        shape = make
-        lone = res["reliefs"][0] if len(res["reliefs"]) == 1 else None
-        if lone is not None and lone["face"] is not None and lone["tables"] is None:  # one planar face
-            p0, ex, ey, _ = plane_frame(lone["face"], opts["rotation"])
-            info["fine_frame"] = (p0.tolist(), ex.tolist(), ey.tolist(), float(opts["pitch"]))
-
-    from ..targets.legacy import legacy_stages
-
-    stages = legacy_stages(
-        mesh=res["mesh"], texture_mesh=res["texture_mesh"], base_mesh=res["base_mesh"], shape=shape,
-        heightmap=res["heightmap"], limits=limits, distortion=res["distortion"], info=info, kind="faces", result_kind="face",
-        max_error=res["max_error"],  # 3-D, lean mesh vs the texture grid (0: the grid itself)
-        topo=topo, face_ids=tuple(res["face_indices"]), bodies=len(solids_of(topo)),
-        previous=prev.stages if prev is not None else None,
-    )
-    report(progress, 1.0, "textured")
-    return Textured(stages)
-
-
-def _general_limits(res: dict, opts: dict):
-    """One :class:`texcad.printability.LimitReport` over the patches."""
-    from ..printability import LimitReport
-
-    li = [i["overhang_limit"] for i in res["info"] if "overhang_limit" in i]
-    return LimitReport(
-        removed_volume_mm3=float(sum(x["removed_volume_mm3"] for x in li)),
-        max_removed_mm=float(max((x["max_removed_mm"] for x in li), default=0.0)),
-        touched_fraction=float(max((x["touched_fraction"] for x in li), default=0.0)),
-        ramped_borders=(),
-        critical_angle_deg=float(opts["critical_angle"]),
-        margin_deg=1.0,
-        directions=np.asarray(opts["build_dir"]),
-        remaining_overhang_mm2=float(sum(x["remaining_overhang_mm2"] for x in li)),
-        surface_overhang=any(x["surface_overhang"] for x in li),
-        iterations=int(max((x["rounds"] for x in li), default=1)),
-    )
+    o = Options.make(**{k: v for k, v in opts.items() if v is not None}, progress=progress)
+    with taking_every_face():
+        return run(part, faces, texture, o)
 
 
 def checked_brep(make_shape: Callable[[], Any], topo, mesh: Mesh, info: dict | None = None, progress: Progress = None):
@@ -811,7 +747,7 @@ def texture_faces(
     from OCP.BRepAdaptor import BRepAdaptor_Surface
     from OCP.GeomAbs import GeomAbs_Cylinder, GeomAbs_Plane, GeomAbs_SurfaceOfExtrusion
 
-    from .faces import face_list
+    from ..targets.cad import face_list
 
     _check_options(mapping, height, pitch, depth, edge_angle, offset)
     tolerance = check_tolerance(tolerance)

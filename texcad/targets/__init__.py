@@ -8,10 +8,12 @@ closer look) textures it.
 """
 
 from .base import Adapter, Decline
+from .faces import FacesAdapter
 from .mesh import MeshAdapter
 from .plane import PlaneAdapter
 
-#: The adapters, in the order the driver asks them.
-ADAPTERS: list = [MeshAdapter(), PlaneAdapter()]
+#: The adapters, in the order the driver asks them (the any-faces adapter last: it
+#: takes every CAD target with faces).
+ADAPTERS: list = [MeshAdapter(), PlaneAdapter(), FacesAdapter()]
 
-__all__ = ["ADAPTERS", "Adapter", "Decline", "MeshAdapter", "PlaneAdapter"]
+__all__ = ["ADAPTERS", "Adapter", "Decline", "FacesAdapter", "MeshAdapter", "PlaneAdapter"]
