@@ -31,6 +31,7 @@ from .io import export, load_mesh
 from .render import show
 from .report import check
 from .pipeline import Textured, texture
+from .targets.plate import Plate
 
 __version__ = "0.3.0"
 
@@ -40,6 +41,7 @@ __all__ = [
     "Heightmap",
     "Surface",
     "Profile",
+    "Plate",
     "Mesh",
     "builtin",
     "load_texture",

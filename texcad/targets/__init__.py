@@ -11,9 +11,10 @@ from .base import Adapter, Decline
 from .faces import FacesAdapter
 from .mesh import MeshAdapter
 from .plane import PlaneAdapter
+from .plate import Plate, PlateAdapter
 
 #: The adapters, in the order the driver asks them (the any-faces adapter last: it
 #: takes every CAD target with faces).
-ADAPTERS: list = [MeshAdapter(), PlaneAdapter(), FacesAdapter()]
+ADAPTERS: list = [MeshAdapter(), PlaneAdapter(), PlateAdapter(), FacesAdapter()]
 
-__all__ = ["ADAPTERS", "Adapter", "Decline", "FacesAdapter", "MeshAdapter", "PlaneAdapter"]
+__all__ = ["ADAPTERS", "Adapter", "Decline", "FacesAdapter", "MeshAdapter", "PlaneAdapter", "Plate", "PlateAdapter"]
