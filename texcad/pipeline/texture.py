@@ -10,7 +10,9 @@ The target says which pipeline runs:
   (:func:`texcad.pipeline.surface.textured_surface`);
 * a mesh (a path ending in .stl / .3mf / .obj, a :class:`texcad.Mesh`, a
   ``trimesh.Trimesh``): ``where`` is a region such as ``"normal:+x:70"`` or a list of
-  layers (:func:`texcad.targets.mesh.MeshAdapter`).
+  layers (:func:`texcad.targets.mesh.MeshAdapter`);
+* a :class:`texcad.Plate`: its top face, ``where`` is None
+  (:class:`texcad.targets.plate.PlateAdapter`).
 
 Every target gives a :class:`texcad.Textured`.
 """
@@ -74,10 +76,11 @@ def texture(
         target: what to texture: a build123d ``Part``/``Solid``/``Compound`` or
             ``BuildPart``, a CadQuery ``Workplane`` or ``Shape``, an OCP
             ``TopoDS_Shape`` holding solids, an earlier result (chaining); a 2.5D
-            :class:`~texcad.Surface` / :class:`~texcad.Profile`; or a mesh (a path
+            :class:`~texcad.Surface` / :class:`~texcad.Profile`; a
+            :class:`~texcad.Plate`; or a mesh (a path
             ending in .stl / .3mf / .obj, a :class:`texcad.Mesh`, a ``trimesh.Trimesh``).
         where: CAD parts: the face(s), chosen with selectors, e.g.
-            ``part.faces().sort_by(Axis.Z)[-1]`` or ``wp.faces(">Z")``; surfaces: None;
+            ``part.faces().sort_by(Axis.Z)[-1]`` or ``wp.faces(">Z")``; surfaces, plates: None;
             meshes: a region such as ``"normal:+x:70"`` (default: every face but the
             bed face) or a list of layers ``(region, texture, {options})``.
         texture: ``"builtin:NAME[:key=value,...]"``, an image path (white = ``height``
