@@ -42,29 +42,32 @@ def run(pitch: float, out: Path, scale: float, tolerance: float) -> dict:
     from build123d import Axis, GeomType
 
     from texcad.io import write_stl
-    from texcad.pipeline import faces as F
+    from texcad.brep import part_tessellation
+    from texcad.options import Options
     from texcad.solid import to_manifold
-    from texcad.brep import to_topods
+    from texcad.targets import faces as A
+    from texcad.targets import patches as F
 
     part = knob(scale)
     cone = part.faces().filter_by(GeomType.CONE).sort_by(Axis.Z)[0]
-    topo = to_topods(part)
-    opts = dict(height=0.6, pitch=pitch, depth=0.5, edge_angle=45.0, rotation=0.0, build_dir=None, critical_angle=45.0, tolerance=tolerance)
+    topo = part.wrapped
+    opts = A.patch_options(Options.make(height=0.6, pitch=pitch, depth=0.5, edge_angle=45.0, rotation=0.0, critical_angle=45.0,
+                                        tolerance=tolerance))
     tex = "builtin:diamond_knurl:period=2"
     t, c = {}, {}
     t0, c0 = time.perf_counter(), time.process_time()
-    pm = F.part_tessellation(topo)
-    idx = F._face_indices(pm, topo, [cone])
+    pm = part_tessellation(topo)
+    idx = [next(k for k, fm in enumerate(pm.faces) if fm is not None and fm.face.IsSame(cone.wrapped))]
     t["tessellate"], c["tessellate"] = time.perf_counter() - t0, time.process_time() - c0
     t0, c0 = time.perf_counter(), time.process_time()
-    hm, periodic = F._texture_tile(tex, pitch, 0.6)
-    F._param(pm, idx, hm.size, 0.0)
+    hm, periodic = F.texture_tile(tex, pitch, 0.6)
+    F.patch_param(pm, idx, hm.size, 0.0)
     t["parameterize"], c["parameterize"] = time.perf_counter() - t0, time.process_time() - c0
     t0, c0 = time.perf_counter(), time.process_time()
-    relief = F._patch_relief(pm, idx, tex, opts)  # (parameterizes again: subtracted below)
+    relief = F.patch_relief(pm, idx, tex, opts)  # (parameterizes again: subtracted below)
     t["map"], c["map"] = time.perf_counter() - t0, time.process_time() - c0 - c["parameterize"]
     t0, c0 = time.perf_counter(), time.process_time()
-    man = F._apply(to_manifold(pm.mesh), [relief])
+    man = A.union_patches(to_manifold(pm.mesh), [relief])
     mesh = F.welded(man)
     assert mesh is not None and len(man.decompose()) == 1
     t["fuse"], c["fuse"] = time.perf_counter() - t0, time.process_time() - c0
@@ -74,9 +77,9 @@ def run(pitch: float, out: Path, scale: float, tolerance: float) -> dict:
     t["total"], c["total"] = sum(t.values()), sum(c.values())
     t["cpu"] = c
     t["triangles"] = mesh.num_triangles
-    t["slab_triangles"] = relief["slab"].num_triangles
-    t["distortion"] = str(relief["distortion"])
-    t["max_error"] = relief["max_error"]
+    t["slab_triangles"] = relief.bodies.slab.num_triangles
+    t["distortion"] = str(relief.distortion)
+    t["max_error"] = relief.max_error
     return t
 
 

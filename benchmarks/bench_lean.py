@@ -141,7 +141,7 @@ def stages(args) -> None:
     import pydelatin
     from build123d import Axis
 
-    import texcad.pipeline.cad as cad
+    import texcad.targets.plane as cad  # the planar-face adapter: where the slab is made and fused
     import texcad.solid.lean as lean
     from texcad import texture
     from texcad.errors import GeometryError

@@ -6,7 +6,7 @@ Writes lever_ball.stl, .3mf, .png and .json (distortion figures) into $TEXCAD_OU
 
 On a sphere the circumference of a ring shrinks to 0 at the pole: the texture keeps
 whole tiles per ring at the mean radius, and where its local scale falls below
-texcad.pipeline.faces.FADE_FULL it fades smoothly to 0 (a TexcadWarning says how much)
+texcad.targets.patches.FADE_FULL it fades smoothly to 0 (a TexcadWarning says how much)
 instead of pinching into spikes. Printed standing on its foot (build_dir +z): the
 overhang limiter lowers the dimples' flanks that would face down too steeply.
 """

@@ -32,6 +32,7 @@ from .render import show
 from .report import check
 from .pipeline import Textured, texture
 from .batch import batch
+from .targets.plate import Plate
 
 __version__ = "0.3.0"
 
@@ -41,6 +42,7 @@ __all__ = [
     "Heightmap",
     "Surface",
     "Profile",
+    "Plate",
     "Mesh",
     "builtin",
     "load_texture",

@@ -13,7 +13,7 @@ from scipy.spatial import cKDTree
 
 import texcad
 from texcad.errors import GeometryError, ParameterError, TexcadError, TexcadWarning
-from texcad.pipeline.faces import part_tessellation
+from texcad.brep import part_tessellation
 from texcad.printability import face_areas, overhang_mask, unit_normals
 from texcad.brep import to_topods
 

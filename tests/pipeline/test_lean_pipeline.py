@@ -76,7 +76,7 @@ def test_lean_extruded_face_keeps_its_brep_and_ops():
 def _union_instead(monkeypatch):
     """Make the planar-face and plate paths use manifold3d's union (the stitch refused)."""
     import texcad.targets.plane as cad
-    import texcad.pipeline.plate as plate
+    import texcad.targets.plate as plate
     from texcad.errors import GeometryError
 
     def refuse(*a, **k):

@@ -47,7 +47,7 @@ from .uvfaces import (
 )
 from .tessellation import FaceMesh, PartMesh, TESSELLATION, part_tessellation, shape_to_mesh
 from .frames import plane_frame
-from .targets import extrusion_brep, general_brep
+from .targets import extrusion_brep
 
 __all__ = [
     'uv_textured_solid',
@@ -93,5 +93,4 @@ __all__ = [
     'shape_to_mesh',
     'plane_frame',
     'extrusion_brep',
-    'general_brep',
 ]

@@ -207,7 +207,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--texture", default="builtin:stones", help="builtin:NAME[:k=v] or an image (default builtin:stones)")
     t.add_argument("--height", type=positive_float, default=DEFAULTS.height, help=f"texture height in mm (default {DEFAULTS.height:g})")
     t.add_argument("--pitch", type=positive_float, default=DEFAULTS.pitch, help=f"mm per pixel; on meshes the longest edge (default {DEFAULTS.pitch:g})")
-    t.add_argument("--mapping", choices=("angle", "distance"), default="angle", help="curved faces: algorithm 2 (angle) or 1 (distance)")
+    t.add_argument("--mapping", choices=("angle", "distance"), default=None, help="extruded faces: algorithm 2 (angle, the default) or 1 (distance)")
     t.add_argument("--rotation", type=float, default=0.0, help="planar faces: turn the texture, degrees")
     t.add_argument("--mode", choices=("raised", "engraved", "centred"), default="raised",
                    help="raised (outward), engraved (cut in: the part's envelope is kept) or centred (default raised)")

@@ -3,17 +3,6 @@
 """
 
 
-from .cad import (
-    texture_faces,
-    LIFT,
-)
-from .faces import (
-    texture_any_faces,
-    face_list,
-    FADE_FULL,
-    FADE_ZERO,
-    FLOOR_CURVED,
-)
 from .ops import (
     cad_op,
     fillet,
@@ -41,13 +30,6 @@ from .texture import (
 )
 
 __all__ = [
-    'texture_faces',
-    'LIFT',
-    'texture_any_faces',
-    'face_list',
-    'FADE_FULL',
-    'FADE_ZERO',
-    'FLOOR_CURVED',
     'cad_op',
     'fillet',
     'mirror',

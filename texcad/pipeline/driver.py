@@ -28,7 +28,14 @@ from .result import Textured
 __all__ = ["run"]
 
 
-def _refused(target: Any) -> ParameterError:
+def _refused(target: Any, where: Any) -> ParameterError:
+    from ..targets.cad import is_cad_target
+
+    if where is None and is_cad_target(target):
+        return ParameterError(
+            "say which face to texture: texcad.texture(part, part.faces().sort_by(Axis.Z)[-1], texture) "
+            "(build123d) or texcad.texture(wp, wp.faces('>Z'), texture) (CadQuery)"
+        )
     return ParameterError(
         f"cannot texture a {type(target).__name__}: pass a build123d / CadQuery part with its face(s), a "
         "texcad.Surface or Profile, a texcad.Plate, or a mesh (a .stl / .3mf / .obj path, a texcad Mesh, a trimesh)"
@@ -61,4 +68,6 @@ def run(target: Any, where: Any, texture: Any, options: Options) -> Textured:
             report = gate(fused.mesh, adapter.expectation(placement, relief, fused))
             options.report(1.0, "textured")
             return Textured(Stages(adapter, options, placement, relief, fused, report))
-    raise declined if declined is not None else _refused(target)
+    if declined is not None:  # every adapter that took the target declined it on a closer look
+        raise ParameterError(f"cannot texture this target: {declined}") from declined
+    raise _refused(target, where)

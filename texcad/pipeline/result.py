@@ -277,7 +277,7 @@ class Textured:
     # -- CAD work on the result ----------------------------------------------------------
     def __sub__(self, tool: Any) -> "Textured":
         """``textured - tool``: cut a build123d / CadQuery shape (a hole, a slot) out of
-        the textured part; see :func:`texcad.pipeline.cad_op`."""
+        the textured part; see :func:`texcad.pipeline.ops.cad_op`."""
         from .ops import cad_op
 
         return cad_op(self, tool, "cut")

@@ -3,14 +3,16 @@
 The target says which pipeline runs:
 
 * a build123d / CadQuery part (or an OCP shape holding solids): ``where`` picks the
-  face(s), chosen with the CAD library's selectors
-  (:func:`texcad.pipeline.cad.texture_faces`);
+  face(s), chosen with the CAD library's selectors (:class:`texcad.targets.PlaneAdapter`,
+  :class:`~texcad.targets.ExtrusionAdapter`, :class:`~texcad.targets.FacesAdapter`);
 * a :class:`texcad.Surface` or :class:`texcad.Profile` (a 2.5D surface, paper section
   2.2): the whole surface, ``where`` is None
   (:class:`texcad.targets.surface.SurfaceAdapter`);
 * a mesh (a path ending in .stl / .3mf / .obj, a :class:`texcad.Mesh`, a
   ``trimesh.Trimesh``): ``where`` is a region such as ``"normal:+x:70"`` or a list of
-  layers (:func:`texcad.targets.mesh.MeshAdapter`).
+  layers (:func:`texcad.targets.mesh.MeshAdapter`);
+* a :class:`texcad.Plate`: its top face, ``where`` is None
+  (:class:`texcad.targets.plate.PlateAdapter`).
 
 Every target gives a :class:`texcad.Textured`.
 """
@@ -27,24 +29,6 @@ from ..sources import DEFAULT_TEXTURE, Heightmap
 from .result import Textured
 
 __all__ = ["texture"]
-
-def _legacy(target: Any, where: Any, texture: Any, o: Options) -> Textured:
-    """Targets whose adapters are not written yet: their handlers, with the options
-    validated once (one set of defaults)."""
-    if where is None:
-        raise ParameterError(
-            "say which face to texture: texcad.texture(part, part.faces().sort_by(Axis.Z)[-1], texture) "
-            "(build123d) or texcad.texture(wp, wp.faces('>Z'), texture) (CadQuery)"
-        )
-    from .cad import texture_faces
-
-    o.refuse(set(FACE_OPTIONS), "a CAD part")
-    return texture_faces(target, where, texture, **o.as_kwargs([n for n in FACE_OPTIONS if n != "progress"]), progress=o.progress)
-
-
-#: Options of the targets that still run their own handler (mm and degrees).
-COMMON = ("height", "pitch", "mapping", "depth", "periodic_x", "transition", "build_dir", "critical_angle", "progress")
-FACE_OPTIONS = COMMON + ("edge_angle", "rotation", "offset", "brep", "tolerance", "mode", "gradient")
 
 
 def texture(
@@ -64,10 +48,11 @@ def texture(
         target: what to texture: a build123d ``Part``/``Solid``/``Compound`` or
             ``BuildPart``, a CadQuery ``Workplane`` or ``Shape``, an OCP
             ``TopoDS_Shape`` holding solids, an earlier result (chaining); a 2.5D
-            :class:`~texcad.Surface` / :class:`~texcad.Profile`; or a mesh (a path
+            :class:`~texcad.Surface` / :class:`~texcad.Profile`; a
+            :class:`~texcad.Plate`; or a mesh (a path
             ending in .stl / .3mf / .obj, a :class:`texcad.Mesh`, a ``trimesh.Trimesh``).
         where: CAD parts: the face(s), chosen with selectors, e.g.
-            ``part.faces().sort_by(Axis.Z)[-1]`` or ``wp.faces(">Z")``; surfaces: None;
+            ``part.faces().sort_by(Axis.Z)[-1]`` or ``wp.faces(">Z")``; surfaces, plates: None;
             meshes: a region such as ``"normal:+x:70"`` (default: every face but the
             bed face) or a list of layers ``(region, texture, {options})``.
         texture: ``"builtin:NAME[:key=value,...]"``, an image path (white = ``height``
@@ -102,14 +87,6 @@ def texture(
         texture = os.fspath(texture)
     elif "height" not in o.given and texture.max_height > 0:  # a Heightmap keeps its own heights unless told
         o = dataclasses.replace(o, height=float(texture.max_height))
-    from ..targets import ADAPTERS
+    from .driver import run
 
-    if any(a.accepts(target, where, o) for a in ADAPTERS):
-        from ..targets import Decline
-        from .driver import run
-
-        try:
-            return run(target, where, texture, o)
-        except Decline:
-            pass
-    return _legacy(target, where, texture, o)
+    return run(target, where, texture, o)

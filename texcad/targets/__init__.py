@@ -9,11 +9,15 @@ closer look) textures it.
 
 from .base import Adapter, Decline
 from .extrusion import ExtrusionAdapter
+from .faces import FacesAdapter
 from .mesh import MeshAdapter
 from .plane import PlaneAdapter
+from .plate import Plate, PlateAdapter
 from .surface import SurfaceAdapter
 
-#: The adapters, in the order the driver asks them.
-ADAPTERS: list = [MeshAdapter(), PlaneAdapter(), ExtrusionAdapter(), SurfaceAdapter()]
+#: The adapters, in the order the driver asks them (the any-faces adapter last: it
+#: takes every CAD target with faces).
+ADAPTERS: list = [MeshAdapter(), PlaneAdapter(), ExtrusionAdapter(), SurfaceAdapter(), PlateAdapter(), FacesAdapter()]
 
-__all__ = ["ADAPTERS", "Adapter", "Decline", "ExtrusionAdapter", "MeshAdapter", "PlaneAdapter", "SurfaceAdapter"]
+__all__ = ["ADAPTERS", "Adapter", "Decline", "ExtrusionAdapter", "FacesAdapter", "MeshAdapter", "PlaneAdapter", "Plate",
+           "PlateAdapter", "SurfaceAdapter"]

@@ -1,0 +1,402 @@
+"""Adapter: any faces of a CAD part, several at once, smooth bands across edges,
+chaining onto an earlier result (``texcad.texture(part, faces, texture)``).
+
+Every face kind OCCT has (plane, cylinder, cone, sphere, torus, surfaces of revolution
+and extrusion, B-spline, Bezier, offset, fillets and blends, trimmed faces with holes)
+goes the same way (the numerics of one patch: :mod:`texcad.targets.patches`):
+
+**Place.** The part is tessellated once by OCCT (0.01 mm chord error); the selected
+faces' triangles, with each face's own ``(u, v)`` at every vertex, are the surface the
+texture is laid on, and the whole tessellation (welded, checked watertight, healed if
+needed) is the base mesh (chained: the earlier result's mesh). Faces that meet across
+a sharp edge are textured apart (the M-I ramp brings the relief to 0 at that edge);
+faces that meet smoothly (tangent edges) form one *patch* and are flattened together,
+so the texture runs on across the edge.
+
+**Relief.** Per patch: texture coordinates in mm (a plane's own frame; one curved
+face's ``(u, v)`` by arc length, whole tiles around a closed face, the texture
+stretched by ``r / R_ref`` there and reported as :class:`texcad.mapping.Distortion`;
+a closed band by the cross-section's arc length; LSCM otherwise), the texture grid,
+the fade at poles and needles (``[FADE_FULL, 1/FADE_FULL]``, a TexcadWarning), the
+M-I ramp, the curvature limits ``0.9 / kappa``, the overhang limiter on the grid
+(``build_dir``, ``critical_angle``) and the slab / cutters, lean within ``tolerance``.
+
+**Fuse.** All slabs and cutters in one manifold3d union, ``(base - cutters) +
+slabs``; one body per solid checked; the result welded within
+:data:`~texcad.solid.weld.WELD` mm (a union that pinches along an edge is
+redone with the relief nudged by 2 um).
+
+**B-rep.** A patch parameterized on its own ``(u, v)`` (one curved face) becomes a
+degree-1 B-spline on that parameter space in place of the face
+(:func:`texcad.brep.uv_textured_solid`); a planar face is tiled in its frame
+(:func:`texcad.brep.uvfaces.holed_plane_solid`); faces flattened together (bands,
+LSCM) and chained results have none: GeometryError says so and names STL / 3MF.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from ..contracts import Fused, Placement, Relief, Stages
+from ..errors import GeometryError, ParameterError, TexcadWarning
+from ..options import Options
+from ..report.gate import Expectation
+from ..solid import Mesh, from_manifold, to_manifold
+from .base import Adapter
+from .cad import body_count, cad_part, face_list, is_cad_target, selected_surface, tessellation
+from ..solid.weld import welded
+from .patches import FADE_FULL, PatchOptions, PatchRelief, patch_relief, smooth_patches
+
+__all__ = ["FacesAdapter", "FacesPlacement", "FacesRelief", "FacesFused", "patch_options", "union_patches"]
+
+@dataclass(frozen=True)
+class FacesPlacement:
+    """The selected faces placed (``Placement.data``).
+
+    Attributes:
+        mesh: the part's tessellation (:class:`texcad.brep.PartMesh`: per-face meshes
+            with their ``(u, v)``, the welded whole, the face of every triangle), mm.
+        patches: the selected faces grouped into patches joined by smooth edges
+            (face indices in the part's explorer order).
+    """
+
+    mesh: Any
+    patches: tuple
+
+
+@dataclass(frozen=True)
+class FacesRelief:
+    """The reliefs of the patches (``Relief.data``).
+
+    Attributes:
+        patches: one :class:`~texcad.targets.patches.PatchRelief` per patch textured
+            (patches with no texture left are skipped with a warning).
+        options: what the patches were made with (:class:`~texcad.targets.patches.PatchOptions`).
+        texture: the texture as given (a ``"builtin:..."`` / image path, or a Heightmap),
+            for a union that has to be redone nudged.
+    """
+
+    patches: tuple
+    options: PatchOptions
+    texture: Any
+
+
+@dataclass(frozen=True)
+class FacesFused:
+    """The union (``Fused.data``).
+
+    Attributes:
+        patches: the patch reliefs in the fused mesh (those of :class:`FacesRelief`,
+            or their nudged remakes when the first union pinched).
+        union: the manifold3d union ``(base - cutters) + slabs`` (``manifold3d.Manifold``).
+        base: the base as a ``manifold3d.Manifold``.
+    """
+
+    patches: tuple
+    union: Any
+    base: Any
+
+
+def patch_options(options: Options) -> PatchOptions:
+    """The patch stages' options from the validated :class:`~texcad.options.Options`."""
+    dirs = None
+    if options.build_dir is not None:
+        from ..printability import build_directions
+
+        dirs = build_directions(options.directions)
+    return PatchOptions(
+        height=options.height, pitch=options.pitch, depth=options.depth, edge_angle=float(options.edge_angle),
+        rotation=float(options.rotation), build_dir=dirs, critical_angle=options.critical_angle,
+        tolerance=options.tolerance, mode=options.mode.value, share=options.mode.share, gradient=options.gradient,
+    )
+
+
+class FacesAdapter(Adapter):
+    """Any faces of a CAD part (the last adapter: it takes every CAD target with faces)."""
+
+    kind = "faces"
+    label = "faces of a CAD part"
+    options = frozenset({"height", "pitch", "depth", "edge_angle", "rotation", "build_dir", "critical_angle", "tolerance",
+                         "mode", "gradient", "brep"})
+
+    def accepts(self, target: Any, where: Any, options: Options) -> bool:
+        return where is not None and is_cad_target(target)
+
+    # -- place --------------------------------------------------------------------------
+    def place(self, target: Any, where: Any, texture: Any, options: Options) -> Placement:
+        options.report(0.02, "tessellating the part (OCCT)")
+        cp = cad_part(target, where)
+        pm = tessellation(cp.topo)
+        for i in cp.face_ids:  # per selected face
+            if pm.faces[i] is None:
+                raise ParameterError(
+                    "a face is not a face of this part (or has no area); select it from the part itself, "
+                    "e.g. part.faces().filter_by(GeomType.CONE) (build123d) or wp.faces('%CONE') (CadQuery)"
+                )
+        base = pm.mesh if cp.previous is None else cp.previous.fused.mesh
+        data = FacesPlacement(pm, tuple(tuple(p) for p in smooth_patches(pm, list(cp.face_ids))))
+        return Placement("faces", base, body_count(cp.topo), selected_surface(pm, cp.face_ids), cp.topo, cp.face_ids,
+                         cp.previous, data)
+
+    # -- relief -------------------------------------------------------------------------
+    def relief(self, placement: Placement, texture: Any, options: Options) -> Relief:
+        from ..mapping import Distortion
+
+        fp: FacesPlacement = placement.data
+        pm, patches = fp.mesh, fp.patches
+        opts = patch_options(options)
+        reliefs = []
+        for k, patch in enumerate(patches):  # per patch of smoothly joined faces
+            options.report(0.05 + 0.6 * k / len(patches), f"texturing face(s) {list(patch)} ({', '.join(pm.faces[i].kind for i in patch)})")
+            try:
+                reliefs.append(patch_relief(pm, list(patch), texture, opts))
+            except GeometryError as e:
+                if len(patches) == 1:
+                    raise
+                warnings.warn(f"face(s) {list(patch)} left untextured: {e}", TexcadWarning, stacklevel=3)
+        if not reliefs:
+            raise GeometryError("no texture is left on any selected face: they are too small or narrow at this pitch")
+        _warn(reliefs)
+        reach = max(float(np.abs(r.h_top).max()) for r in reliefs) + 0.05
+        return Relief(
+            heightmap=reliefs[0].heightmap if len(reliefs) == 1 else None,
+            limits=_limits(reliefs, options, opts) if opts.build_dir is not None else None,
+            volume=0.0, volume_slack=0.0, reach=reach,
+            distortion=Distortion.combined([r.distortion for r in reliefs]),
+            data=FacesRelief(tuple(reliefs), opts, texture),
+        )
+
+    # -- fuse ---------------------------------------------------------------------------
+    def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
+        fp: FacesPlacement = placement.data
+        fr: FacesRelief = relief.data
+        reliefs, opts = list(fr.patches), fr.options
+        n_tri = sum(b.num_triangles for r in reliefs for b in (r.bodies.slab, r.bodies.cutter) if b is not None)
+        options.report(0.7, f"fusing {n_tri} texture triangles onto the part (manifold3d)")
+        base_man = to_manifold(placement.base)
+        want = len(base_man.decompose())
+        for attempt in range(3):  # a union whose output pinches (two sheets along an edge) is redone, nudged
+            fused_man = union_patches(base_man, reliefs)
+            got = len(fused_man.decompose())
+            if got != want:
+                raise GeometryError(
+                    f"the textured part has {got} bodies, the part {want}: a relief came off the face; "
+                    "use a smaller height or depth, or report this"
+                )
+            fused = welded(fused_man)
+            if fused is not None:
+                break
+            if attempt == 2:
+                raise GeometryError("the textured mesh touches itself along an edge (welded by position it is not a manifold); "
+                                    "try another pitch or height")
+            options.report(0.75, "the union pinched along an edge: redoing it with the relief nudged by 2 um")
+            opts = replace(opts, jitter=0.002 * (attempt + 1))
+            reliefs = [patch_relief(fp.mesh, list(r.faces), fr.texture, opts) for r in reliefs]
+        info = _info(placement, reliefs, options)
+        return Fused(fused, placement.base, info, FacesFused(tuple(reliefs), fused_man, base_man))
+
+    # -- the gate's expectation ---------------------------------------------------------
+    def expectation(self, placement: Placement, relief: Relief, fused: Fused) -> Expectation:
+        """Body count, and the reach from the selected faces (the texture's largest
+        offset plus the cutters' clearance); no volume check yet (the curved slabs'
+        integral is not computed). The reach check is left out where the gate's
+        sampling of the base would explode (long thin triangles, see
+        :func:`_affordable_reach`)."""
+        sel = placement.selected
+        selected = sel if _affordable_reach(placement.base, sel, relief.reach) else None
+        return Expectation(bodies=placement.bodies, base=placement.base, selected=selected, height=relief.reach)
+
+    # -- on demand ----------------------------------------------------------------------
+    def texture_mesh(self, stages: Stages) -> Mesh:
+        """The union minus the base with every texture at its lowest (engraved and
+        centred: the low cutters subtracted), mm."""
+        import manifold3d as m3d
+
+        f: FacesFused = stages.fused.data
+        lows = [to_manifold(r.bodies.low_cutter) for r in f.patches if r.bodies.low_cutter is not None]
+        lowest = m3d.Manifold.batch_boolean([f.base] + lows, m3d.OpType.Subtract) if lows else f.base
+        return from_manifold(f.union - lowest)
+
+    def max_error(self, stages: Stages) -> float:
+        """The lean relief's largest measured error against the texture grid, mm (0: the grid)."""
+        return max(r.max_error for r in stages.fused.data.patches)
+
+    def brep(self, stages: Stages, fine: Any = None) -> Any:
+        """Each patch on its own ``(u, v)`` (:func:`texcad.brep.uv_textured_solid`) or
+        a planar face in tiles; ``fine``: rectangles ``(x0, x1, y0, y1)`` mm in a lone
+        planar face's frame (CAD operations)."""
+        no_brep = stages.fused.info["no_brep"]
+        if not stages.options.brep:
+            raise GeometryError("textured with brep=False; texture it again with brep=True for STEP")
+        if stages.placement.previous is not None:
+            raise GeometryError(f"this face result has no B-rep ({no_brep}); write STL or 3MF instead")
+        return _brep(stages.placement.topo, stages.fused.data.patches, no_brep, float(stages.options.rotation), fine)
+
+    def fine_frame(self, stages: Stages) -> Any:
+        """A lone planar face: its frame and pitch ``(origin, xdir, ydir, pitch)`` mm."""
+        ff = stages.fused.info.get("fine_frame")
+        if ff is None:
+            return None
+        o, ex, ey, pitch = ff
+        return (np.asarray(o), np.asarray(ex), np.asarray(ey), float(pitch))
+
+
+#: Most sample triangles the gate's reach check may make of the base (a stopgap: the
+#: gate splits every triangle in four until its longest edge is short, so a long thin
+#: triangle of a tessellated cylinder becomes 4^8 triangles; a sphere on a 40 mm
+#: shaft asked for 16 M triangles, 1.1 GB, per level).
+REACH_SAMPLES_MAX = 4_000_000
+
+
+def _affordable_reach(base: Mesh, selected: tuple, height: float) -> bool:
+    """Whether the gate's reach check (:mod:`texcad.report.gate`, check 5) samples the
+    selected surface and ``base`` with at most :data:`REACH_SAMPLES_MAX` triangles
+    together: its spacing is ``max(height / 4, 0.05)`` mm, widened so a surface's
+    area needs at most 2 M points, and each triangle is split ``ceil(log2(longest
+    edge / spacing))`` times."""
+    spacing = max(0.25 * height, 0.05)
+    count = 0.0
+    for v, f in ((selected[0], selected[1]), (base.vertices, base.faces)):  # the selected faces, then the base
+        tri = np.asarray(v, np.float64)[np.asarray(f, np.int64)]
+        area = 0.5 * float(np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum())
+        spacing = max(spacing, float(np.sqrt(4.0 * area / 2_000_000)))
+        longest = np.max([np.linalg.norm(tri[:, i] - tri[:, (i + 1) % 3], axis=1) for i in range(3)], axis=0)
+        count += float(np.sum(4.0 ** np.ceil(np.log2(np.maximum(longest / spacing, 1.0)))))
+    return count <= REACH_SAMPLES_MAX
+
+
+def _warn(reliefs: list) -> None:
+    faded = [r for r in reliefs if r.distortion.faded_fraction > 0]
+    if faded:
+        warnings.warn(
+            f"the texture fades out on {100 * max(r.distortion.faded_fraction for r in faded):.1f} % of face(s) "
+            f"{[r.info['faces'] for r in faded]}: the texture scale there leaves [{FADE_FULL}, {1 / FADE_FULL:.2f}] "
+            "(a pole, a needle-thin region)",
+            TexcadWarning,
+            stacklevel=4,
+        )
+    if any(r.limited for r in reliefs):
+        warnings.warn("the texture height was limited to 0.9 / curvature on concave parts of the face(s)", TexcadWarning, stacklevel=4)
+
+
+def union_patches(base_man, reliefs: list):
+    """``(base - cutters) + slabs`` (manifold3d); checked."""
+    import manifold3d as m3d
+
+    cutters = [to_manifold(r.bodies.cutter) for r in reliefs if r.bodies.cutter is not None]
+    slabs = [to_manifold(r.bodies.slab) for r in reliefs if r.bodies.slab is not None]
+    man = m3d.Manifold.batch_boolean([base_man] + cutters, m3d.OpType.Subtract) if cutters else base_man
+    if slabs:
+        man = m3d.Manifold.batch_boolean([man] + slabs, m3d.OpType.Add)
+    if man.status() != m3d.Error.NoError or man.is_empty():
+        raise GeometryError(f"the union of texture and part failed (manifold3d: {man.status().name})")
+    return man
+
+
+def _limits(reliefs: list, options: Options, opts: PatchOptions):
+    """One :class:`texcad.printability.LimitReport` over the patches."""
+    from ..printability import LimitReport
+
+    li = [r.limit for r in reliefs if r.limit is not None]
+    return LimitReport(
+        removed_volume_mm3=float(sum(x["removed_volume_mm3"] for x in li)),
+        max_removed_mm=float(max((x["max_removed_mm"] for x in li), default=0.0)),
+        touched_fraction=float(max((x["touched_fraction"] for x in li), default=0.0)),
+        ramped_borders=(),
+        critical_angle_deg=float(options.critical_angle),
+        margin_deg=1.0,
+        directions=np.asarray(opts.build_dir),
+        remaining_overhang_mm2=float(sum(x["remaining_overhang_mm2"] for x in li)),
+        surface_overhang=any(x["surface_overhang"] for x in li),
+        iterations=int(max((x["rounds"] for x in li), default=1)),
+    )
+
+
+def _info(placement: Placement, reliefs: list, options: Options) -> dict:
+    """What was done, plain values (``Textured.info``)."""
+    from ..mapping import Distortion
+
+    infos = [r.info for r in reliefs]
+    kinds = sorted({k for i in infos for k in i["kinds"]})
+    dist = Distortion.combined([r.distortion for r in reliefs])
+    max_error = max(r.max_error for r in reliefs)
+    area = float(sum(r.cells.sum() * np.prod(r.heightmap.pitch) for r in reliefs))
+    chained = placement.previous is not None
+    info = {
+        "face": "faces" if len(infos) > 1 else infos[0]["kinds"][0],
+        "faces": infos,
+        "grid": infos[0]["grid"],
+        "brep": not chained,
+        "no_brep": (
+            f"{', '.join(kinds)} face(s) textured by the general method (a texture grid on the face's "
+            "parameterization, fused as a mesh) have no B-rep; write the mesh: export('part.stl') or export('part.3mf')"
+        ),
+        "distortion": None if dist is None else dist.to_dict(),
+        "chained": chained,
+        # the lean mesh may enclose up to its error times the textured area more or less than the grid's B-rep
+        "volume_slack": max_error * area,
+    }
+    if options.build_dir is not None:
+        info["build_dir"] = np.asarray(patch_options(options).build_dir).tolist()
+        info["critical_angle"] = float(options.critical_angle)
+    lone = reliefs[0] if len(reliefs) == 1 else None
+    if not chained and lone is not None and lone.face is not None and lone.tables is None:  # one planar face
+        from ..brep import plane_frame
+
+        p0, ex, ey, _ = plane_frame(lone.face, float(options.rotation))
+        info["fine_frame"] = (p0.tolist(), ex.tolist(), ey.tolist(), float(options.pitch))
+    return info
+
+
+def _brep(topo: Any, patches: tuple, no_brep: str, rotation: float, fine: Any = None) -> Any:
+    """The textured B-rep of the patches on the part ``topo`` (mm; ``rotation``: the
+    texture's turn on planar faces, degrees). Curved faces:
+    :func:`texcad.brep.uv_textured_solid`; planar faces: tiles in the face's frame.
+
+    Raises:
+        GeometryError: a patch has no B-rep this way (``no_brep`` says what to write instead).
+    """
+    from ..brep import uv_textured_solid
+
+    items, planes = [], []
+    for r in patches:  # one per patch
+        if r.face is None:
+            raise GeometryError(f"{no_brep} (faces {r.info['faces']} were flattened together)")
+        if r.tables is None:  # a plane: its grid lies in the face's frame
+            planes.append(r)
+            continue
+        ut, vt, closed = r.tables
+        g = r.grid
+        items.append({"face": r.face, "points": g.points, "normals": g.normals, "heights": r.h_top, "signed": r.signed,
+                      "valid": g.valid, "xs": g.xs, "ys": g.ys, "u_table": ut, "v_table": vt, "closed_u": bool(closed)})
+    try:
+        shape = uv_textured_solid(topo, items) if items else topo
+        for r in planes:  # one per planar face
+            shape = _plane_brep(shape, r, rotation, fine)
+        return shape
+    except GeometryError as e:
+        raise GeometryError(f"{no_brep}: {e}") from None
+
+
+def _plane_brep(shape: Any, r: PatchRelief, rotation: float, fine: Any = None) -> Any:
+    """``shape`` with the planar face of the patch ``r`` in tiles; heights 0 outside
+    the kept cells and near the outline (the mesh's floor there is not carried over)."""
+    from ..brep import plane_frame
+    from ..brep.uvfaces import holed_plane_solid
+
+    p0, ex, _, n = plane_frame(r.face, rotation)
+    g, cells = r.grid, r.cells
+    kept = np.zeros(g.valid.shape, bool)
+    for a, b in ((slice(None, -1), slice(None, -1)), (slice(None, -1), slice(1, None)), (slice(1, None), slice(None, -1)),
+                 (slice(1, None), slice(1, None))):  # the 4 corners of each kept cell
+        kept[a, b] |= cells
+    h = np.where(kept & g.valid, r.h_top, 0.0)
+    out = holed_plane_solid(shape, r.face, h, np.asarray(g.xs, np.float64), np.asarray(g.ys, np.float64),
+                            origin=p0, xdir=ex, normal=n, flatten_outline=True, fine=fine)  # fmt: skip
+    if out is None:
+        raise GeometryError("the planar face's texture grid reaches its outline; texture it in raised mode for a B-rep")
+    return out

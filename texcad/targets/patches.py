@@ -1,0 +1,809 @@
+"""The numerics of the any-faces adapter (:mod:`texcad.targets.faces`), one *patch* at
+a time: a patch is a set of selected faces joined by smooth (tangent) edges.
+
+    PartMesh, face ids --smooth_patches--> patches
+    patch --patch_param--> PatchParam (texture coordinates, mm)
+          --patch_grid--> PatchGrid (texture grid on the surface, heights, M-I ramp, fade)
+          --patch_surface--> PatchSurface (signed offset of the textured side, mm)
+          --limit_patch--> PatchSurface, overhang report   (with build_dir)
+          --patch_bodies--> PatchBodies (slab to add, cutters to subtract)
+    = patch_relief --> PatchRelief
+
+Every stage takes and returns frozen dataclasses (arrays float64 mm unless said
+otherwise; grids ``(R, C)`` with the row index along texture y and the column index
+along texture x). The method (module docstring of :mod:`texcad.targets.faces`):
+
+* **Parameterization in mm.** A planar face: its own frame (exact). One curved face:
+  its ``(u, v)`` corrected by its metric, ``x = X(v)``, ``y = Y(u)`` with ``X``, ``Y``
+  mean arc lengths (:func:`texcad.mapping.separable_coordinates`); on a closed face a
+  whole number of tiles fits around. Several faces: a closed band around an axis by
+  the cross-section's arc length (:func:`texcad.mapping.band_coordinates`), any other
+  patch by a least-squares conformal flattening (:func:`texcad.mapping.lscm_coordinates`).
+* **Grid and envelope.** The texture grid at the texture's pitch
+  (:func:`texcad.mapping.lay_grid`); heights fade (``smoothstep``) where the local
+  scale leaves ``[FADE_FULL, 1/FADE_FULL]``; the M-I ramp
+  ``h <= tan(edge_angle) * max(0, d - 3.75 diag)`` at the patch outline (paper,
+  section 2.1.3); ``h <= 0.9 / kappa`` on concave sides, depth ``<= 0.9 / kappa`` on
+  convex ones.
+* **Limiter.** Heights lowered until no displaced facet overhangs where the face
+  does not (vectorized over the grid, iterated).
+* **Bodies.** A closed slab (raised, centred) and cutters (engraved, centred), their
+  textured side lean within ``tolerance`` (:func:`texcad.solid.lean_grid`).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, replace
+from typing import Any, Optional
+
+import numpy as np
+
+from ..brep import TESSELLATION, FaceMesh, PartMesh, as_array
+from ..errors import GeometryError
+from ..solid import Mesh, edge_report
+from ..sources import Heightmap
+from ..util import smoothstep
+from .mesh import _gradient
+
+__all__ = [
+    "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED", "SMOOTH_ANGLE", "PatchOptions", "PatchParam", "PatchGrid",
+    "PatchSurface", "PatchBodies", "PatchRelief", "smooth_patches", "patch_param", "patch_grid", "patch_surface",
+    "limit_patch", "patch_bodies", "patch_relief",
+]
+
+#: Local texture scale (either direction, or its inverse) down to which the full height is kept.
+FADE_FULL = 0.55
+#: ... and at which the height has faded to 0 (smoothstep between).
+FADE_ZERO = 0.3
+#: mm: the relief stays at least this far above a face inside its ramp (no tangential contact).
+FLOOR_CURVED = 0.01
+#: Tangent edges: faces whose normals differ by less than this across their common
+#: edge (degrees) are one patch.
+SMOOTH_ANGLE = 12.0
+#: mm: how far outside the face an engraving's cutter starts (beyond the tessellation's chord error).
+CUT_ABOVE = 0.05
+#: mm: the lean mesh keeps the face itself (chord error) within this, so the relief
+#: never dips under the part's own tessellation where it lies flat on the face.
+BASE_TOLERANCE = 0.005
+#: Largest share of the grid's triangles a lean relief may keep (else the grid is used):
+#: above it the union gains little over the cost of the triangulation.
+LEAN_FRACTION = 0.8
+#: mm: the slab's bottom (inside the part, never seen) is triangulated within this
+#: (by the refinement's own estimate; it lies ``depth`` mm inside the part).
+BOTTOM_TOLERANCE = 0.05
+
+
+# ------------------------------------------------------------------------------------------
+# The contracts between the patch stages
+# ------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PatchOptions:
+    """What a patch is made with (from :class:`texcad.options.Options`, validated).
+
+    Attributes:
+        height: largest texture height, mm.
+        pitch: texture pixel, mm.
+        depth: how far the slab reaches into the body, mm.
+        edge_angle: the M-I ramp's angle at the outline, degrees.
+        rotation: the texture's turn on planar faces, degrees.
+        build_dir: ``(K, 3)`` float64 unit build directions, or None (no limiter).
+        critical_angle: steepest printable overhang, degrees.
+        tolerance: the lean relief's largest error, mm (0: the grid itself).
+        mode: ``"raised"``, ``"engraved"`` or ``"centred"``.
+        share: the share ``c`` of the height that goes into the part (0, 1, 1/2).
+        gradient: two points (mm) of a height gradient, or None.
+        jitter: mm: a nudge after a union that pinched (0 the first time).
+    """
+
+    height: float
+    pitch: float
+    depth: float
+    edge_angle: float
+    rotation: float
+    build_dir: Optional[np.ndarray]
+    critical_angle: float
+    tolerance: float
+    mode: str
+    share: float
+    gradient: Any = None
+    jitter: float = 0.0
+
+
+@dataclass(frozen=True)
+class PatchParam:
+    """A parameterized patch.
+
+    Attributes:
+        V: ``(N, 3)`` float64 vertices, mm.
+        F: ``(M, 3)`` int triangles.
+        XY: ``(N, 2)`` float64 texture coordinates, mm.
+        period_y: the period around (mm) of a closed patch, or None.
+        method: how the coordinates were made (for people).
+        tables: one curved face: ``(u table, v table, closed around u)`` (arc-length
+            tables of :func:`texcad.mapping.metric_tables`); None otherwise.
+    """
+
+    V: np.ndarray
+    F: np.ndarray
+    XY: np.ndarray
+    period_y: Optional[float]
+    method: str
+    tables: Optional[tuple] = None
+
+
+@dataclass(frozen=True)
+class PatchGrid:
+    """The texture grid laid on a patch and the envelope its heights may use
+    (``(R, C)`` arrays over the grid points).
+
+    Attributes:
+        par: the patch's parameterization.
+        grid: the :class:`texcad.mapping.FaceGrid` (points, normals, valid, wrap_y).
+        H: texture heights, mm.
+        px, py: grid pitch in texture x and y, mm; diag: the cell diagonal, mm.
+        d: distance to the nearest point off the patch, texture mm.
+        fade: the height factor where the texture scale leaves ``[FADE_FULL, 1/FADE_FULL]``.
+        ramp: the M-I ramp's bound on the height, mm.
+        concave, convex: the largest concave / convex normal curvature, 1/mm.
+        d_keep, d_floor: mm: points nearer the outline than ``d_keep`` are not
+            textured; the ramp starts at ``d_floor``.
+        keep: bool, the point carries relief.
+        gain: the depth gradient's factor (1 without a gradient).
+        cells: bool ``(R-1, C-1)`` (``(R, C-1)`` around a seam): cells meshed.
+    """
+
+    par: PatchParam
+    grid: Any
+    H: np.ndarray
+    px: float
+    py: float
+    diag: float
+    d: np.ndarray
+    fade: np.ndarray
+    ramp: np.ndarray
+    concave: np.ndarray
+    convex: np.ndarray
+    d_keep: float
+    d_floor: float
+    keep: np.ndarray
+    gain: np.ndarray
+    cells: np.ndarray
+
+
+@dataclass(frozen=True)
+class PatchSurface:
+    """The textured side as a signed offset of the face (``(R, C)`` arrays, mm along
+    the normal; see :func:`patch_surface`).
+
+    Attributes:
+        surface: the offset ``s``.
+        floor: the lowest offset the limiter may bring ``s`` to.
+        c: the mode's share into the part (0 raised, 1 engraved, 1/2 centred).
+        depth: the slab's depth under the face (capped by curvature).
+        limited: bool, where the curvature limit lowered the height.
+        floor_c: the floor above (raised) or below (engraved) the face, mm.
+        sink: how far the outline band dips into the body, mm.
+        band: bool, the outline band (nearer than ``d_floor``).
+        env: engraved / centred: the envelope (the texture's top), else None.
+    """
+
+    surface: np.ndarray
+    floor: np.ndarray
+    c: float
+    depth: Any
+    limited: np.ndarray
+    floor_c: float
+    sink: Any
+    band: np.ndarray
+    env: Optional[np.ndarray] = None
+
+
+@dataclass(frozen=True)
+class PatchBodies:
+    """The closed meshes that put a patch's texture on the part (mm): ``slab`` to add
+    (raised, centred), ``cutter`` to subtract (engraved, centred), ``low_cutter``
+    (the texture at its lowest: the base the texture mesh is measured against);
+    ``error``: the lean side's measured largest error, mm; ``top_triangles``: the
+    textured side's triangle count."""
+
+    slab: Optional[Mesh]
+    cutter: Optional[Mesh]
+    low_cutter: Optional[Mesh]
+    error: float
+    top_triangles: int
+
+
+@dataclass(frozen=True)
+class PatchRelief:
+    """One patch textured (what the adapter's fuse, texture mesh and B-rep read).
+
+    Attributes:
+        faces: the patch's face indices (explorer order of the part).
+        bodies: its :class:`PatchBodies`.
+        info: what was done, plain values (parameterization, grid, distortion ...).
+        distortion: the measured :class:`texcad.mapping.Distortion`.
+        heightmap: the texture as applied on the grid (mm, >= 0).
+        grid: the :class:`texcad.mapping.FaceGrid`.
+        limited: the curvature limit lowered the height somewhere.
+        h_top: ``(R, C)`` the textured side's signed offset, mm.
+        signed: engraved or centred (``h_top`` may be negative).
+        cells: bool, the grid's meshed cells.
+        tables: one curved face: its arc-length tables (B-rep), else None.
+        face: the OCP face of a one-face patch, else None.
+        limit: the overhang limiter's report (dict of figures) or None.
+    """
+
+    faces: tuple
+    bodies: PatchBodies
+    info: dict
+    distortion: Any
+    heightmap: Heightmap
+    grid: Any
+    limited: bool
+    h_top: np.ndarray
+    signed: bool
+    cells: np.ndarray
+    tables: Optional[tuple]
+    face: Any
+    limit: Optional[dict] = None
+
+    @property
+    def max_error(self) -> float:
+        """The lean side's measured largest error, mm (0: the grid itself)."""
+        return self.bodies.error
+
+
+# ------------------------------------------------------------------------------------------
+# Patches and their parameterization
+# ------------------------------------------------------------------------------------------
+def smooth_patches(pm: PartMesh, idx: list) -> list:
+    """Group the selected faces ``idx`` into patches joined by smooth (tangent)
+    edges (normals within :data:`SMOOTH_ANGLE` degrees across the edge)."""
+    sel = set(idx)
+    m = pm.mesh
+    v = m.vertices.astype(np.float64)
+    f = m.faces.astype(np.int64)
+    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    fn /= np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-18)
+    ed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    tri = np.tile(np.arange(len(f)), 3)
+    key = np.minimum(ed[:, 0], ed[:, 1]) * len(v) + np.maximum(ed[:, 0], ed[:, 1])
+    order = np.argsort(key, kind="stable")
+    ks, ts = key[order], tri[order]
+    same = ks[1:] == ks[:-1]
+    t1, t2 = ts[:-1][same], ts[1:][same]
+    f1, f2 = pm.face_of_tri[t1], pm.face_of_tri[t2]
+    cross = (f1 != f2) & np.isin(f1, idx) & np.isin(f2, idx)
+    smooth = (fn[t1] * fn[t2]).sum(axis=1) > np.cos(np.radians(SMOOTH_ANGLE))
+    parent = {i: i for i in sel}
+
+    def root(i):
+        while parent[i] != i:
+            i = parent[i]
+        return i
+
+    for a, b in set(zip(f1[cross & smooth].tolist(), f2[cross & smooth].tolist())):  # per pair of faces
+        parent[root(a)] = root(b)
+    groups: dict = {}
+    for i in idx:
+        groups.setdefault(root(i), []).append(i)
+    return list(groups.values())
+
+
+def _plane_xy(fm: FaceMesh, rotation: float) -> np.ndarray:
+    from ..brep import plane_frame
+
+    p0, ex, ey, n = plane_frame(fm.face, rotation)
+    q = fm.points - p0
+    return np.stack([q @ ex, q @ ey], axis=1)
+
+
+def _surface_tables(fm: FaceMesh, n: int = 48):
+    """Metric tables of one face (:func:`texcad.mapping.metric_tables`) from an
+    ``n x n`` OCCT sampling of its surface over the face's uv bounds."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+
+    from ..mapping import metric_tables
+
+    ad = BRepAdaptor_Surface(fm.face)
+    u0, u1 = float(fm.uv[:, 0].min()), float(fm.uv[:, 0].max())
+    v0, v1 = float(fm.uv[:, 1].min()), float(fm.uv[:, 1].max())
+    us, vs = np.linspace(u0, u1, n), np.linspace(v0, v1, n)
+    pts = np.array([[as_array(ad.Value(float(u), float(v))) for v in vs] for u in us])  # n^2 evaluations
+    span = ad.LastUParameter() - ad.FirstUParameter()
+    closed_u = bool((ad.IsUPeriodic() or ad.IsUClosed()) and (u1 - u0) > span * (1 - 1e-6))
+    if ad.IsUPeriodic():
+        closed_u = closed_u or (u1 - u0) > ad.UPeriod() * (1 - 1e-6)
+    (ut, Y), (vt, X) = metric_tables(pts, us, vs)
+    return (ut, Y), (vt, X), closed_u
+
+
+def patch_param(pm: PartMesh, patch: list, tile: "tuple | None", rotation: float) -> PatchParam:
+    """Texture coordinates (mm) of the patch (module docstring): a plane's frame, one
+    curved face's ``(u, v)`` by arc length, a band, or LSCM. ``tile``: the texture
+    tile ``(w, h)`` mm of a periodic texture (a whole number fits around)."""
+    from ..mapping import band_coordinates, lscm_coordinates, separable_coordinates
+
+    if len(patch) == 1:
+        fm = pm.faces[patch[0]]
+        if fm.kind == "plane":
+            return PatchParam(fm.points, fm.tris, _plane_xy(fm, rotation), None, "plane frame (exact)")
+        ut, vt, closed = _surface_tables(fm)
+        if float(ut[1][-1]) < 1e-6 or float(vt[1][-1]) < 1e-6:
+            raise GeometryError(f"the {fm.kind} face is degenerate (no extent along u or v)")
+        period = None
+        if closed:
+            around = float(ut[1][-1])
+            period = around if tile is None else max(1, round(around / tile[1])) * tile[1]
+            ut = (ut[0], ut[1] * (period / around))
+        XY = separable_coordinates(fm.uv, ut, vt)
+        return PatchParam(fm.points, fm.tris, XY, period, "face (u, v) by arc length" + (", whole tiles around" if closed else ""),
+                          (ut, vt, closed))  # fmt: skip
+    # Several faces: the welded mesh of the patch.
+    m = pm.mesh
+    tmask = np.isin(pm.face_of_tri, patch)
+    F0 = m.faces[tmask].astype(np.int64)
+    used, F = np.unique(F0, return_inverse=True)
+    F = F.reshape(-1, 3)
+    V = m.vertices[used].astype(np.float64)
+    ne = len(np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0))
+    euler = len(V) - ne + len(F)
+    if euler == 0:  # a band (annulus): around an axis
+        fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+        w, vec = np.linalg.eigh(fn.T @ fn)
+        axis = vec[:, 0]
+        if w[0] > 0.05 * w[2]:
+            raise GeometryError(
+                "the faces form a closed band that does not run around one axis; texture them in two calls "
+                "or as two selections that each form an open strip"
+            )
+        XY, perim = band_coordinates(V, F, axis, V.mean(axis=0))
+        period = perim if tile is None else max(1, round(perim / tile[1])) * tile[1]
+        XY = np.stack([XY[:, 1], XY[:, 0] * (period / perim)], axis=1)
+        return PatchParam(V, F, XY, period, "band: cross-section arc length around, height along the axis")
+    return PatchParam(V, F, lscm_coordinates(V, F), None, "conformal flattening (LSCM)")
+
+
+# ------------------------------------------------------------------------------------------
+# Texture on the grid
+# ------------------------------------------------------------------------------------------
+def texture_tile(tex: Any, pitch: float, height: float):
+    """``(hm, periodic)``: built-ins as one seamless tile (sampled periodically), images
+    and Heightmaps as they are (placed once, centred); ``(None, False)`` for an image
+    (loaded per patch, stretched over it)."""
+    from ..sources import PREFIX, load_texture
+
+    if isinstance(tex, Heightmap):
+        return load_texture(tex, height=height), False
+    s = os.fspath(tex)
+    if s.startswith(PREFIX):
+        return load_texture(s, pitch=pitch, height=height), True
+    return None, False
+
+
+def _heights(hm: "Heightmap | None", tex: Any, periodic: bool, grid, pitch: float, height: float) -> np.ndarray:
+    """Texture heights (mm) at the grid points: periodic tiles by index modulo the
+    tile, images stretched over the grid's extent, Heightmaps centred at their pitch."""
+    from ..sources import load_texture
+
+    R, C = grid.valid.shape
+    if hm is None:  # an image: stretched over the patch
+        px, py = grid.xs[1] - grid.xs[0], grid.ys[1] - grid.ys[0]
+        hm = load_texture(tex, size=(C * px, R * py), pitch=float(min(px, py)), height=height)
+        rows, cols = hm.shape
+        ri = np.clip((np.arange(R) * rows) // R, 0, rows - 1)
+        ci = np.clip((np.arange(C) * cols) // C, 0, cols - 1)
+        return hm.heights[np.ix_(ri, ci)].astype(np.float64)
+    rows, cols = hm.shape
+    if periodic:
+        return hm.heights[np.ix_(np.arange(R) % rows, np.arange(C) % cols)].astype(np.float64)
+    ri = np.arange(R) - (R - rows) // 2
+    ci = np.arange(C) - (C - cols) // 2
+    out = np.zeros((R, C))
+    rm, cm = (ri >= 0) & (ri < rows), (ci >= 0) & (ci < cols)
+    out[np.ix_(rm, cm)] = hm.heights[np.ix_(ri[rm], ci[cm])]
+    return out
+
+
+def _border_distance(valid: np.ndarray, px: float, py: float, wrap_y: bool) -> np.ndarray:
+    """Distance (texture mm) from each grid point to the nearest point off the face."""
+    from scipy.ndimage import distance_transform_edt
+
+    R, C = valid.shape
+    pad = np.zeros((R + 2, C + 2), bool)
+    pad[1:-1, 1:-1] = valid
+    if wrap_y:  # rows close around: three copies, keep the middle one
+        pad = np.zeros((3 * R, C + 2), bool)
+        pad[:, 1:-1] = np.concatenate([valid] * 3)
+        d = distance_transform_edt(pad, sampling=(py, px))
+        return d[R : 2 * R, 1:-1]
+    return distance_transform_edt(pad, sampling=(py, px))[1:-1, 1:-1]
+
+
+def patch_grid(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> PatchGrid:
+    """Parameterize the patch, lay the texture grid, sample the texture, and the
+    envelope the heights may use: the M-I ramp and the fade (module docstring)."""
+    from ..mapping import cell_mask, concave_convex, lay_grid, point_scales
+
+    hm, periodic = texture_tile(tex, opts.pitch, opts.height)
+    tile = hm.size if (hm is not None and periodic) else None
+    par = patch_param(pm, patch, tile, opts.rotation)
+    pitch = hm.pitch if hm is not None else (opts.pitch, opts.pitch)
+    px, py = float(pitch[0]), float(pitch[1])
+    lo = par.XY.min(axis=0)
+    shift = 0.37 * float(opts.jitter) / 0.002  # retries also move the grid by a fraction of a pixel
+    origin = (float(lo[0]) - shift * px, float(lo[1]) - (0.0 if par.period_y is not None else shift * py))
+    grid = lay_grid(par.V, par.F, par.XY, (px, py), period_y=par.period_y, origin=origin)
+    H = _heights(hm, tex, periodic, grid, opts.pitch, opts.height)
+    diag = float(np.hypot(px, py))
+    d = _border_distance(grid.valid, px, py, grid.wrap_y)
+    # Fade where the texture scale leaves [FADE_FULL, 1 / FADE_FULL] (poles, needles).
+    sx, sy = point_scales(grid)
+    q = np.minimum(np.minimum(sx, sy), 1.0 / np.maximum(np.maximum(sx, sy), 1e-9))
+    fade = smoothstep(FADE_ZERO, FADE_FULL, q)
+    d_keep, d_floor = 0.75 * diag, 3.75 * diag
+    if opts.edge_angle < 90:
+        ramp = np.tan(np.radians(opts.edge_angle)) * np.maximum(d - d_floor, 0.0)
+    else:
+        ramp = np.where(d > d_floor, np.inf, 0.0)
+    concave, convex = concave_convex(grid)
+    keep = grid.valid & (d >= d_keep)
+    gain = _gradient(grid.points.reshape(-1, 3), opts.gradient).reshape(d.shape)
+    return PatchGrid(par, grid, H, px, py, diag, d, fade, ramp, concave, convex, d_keep, d_floor, keep, gain,
+                     cell_mask(keep, grid.wrap_y))
+
+
+# ------------------------------------------------------------------------------------------
+# The textured surface and its limits
+# ------------------------------------------------------------------------------------------
+def patch_surface(g: PatchGrid, opts: PatchOptions) -> PatchSurface:
+    """The textured surface as a signed offset ``s`` (mm along the normal) of the face.
+
+    Raised (``c = 0``): ``s = max(h, FLOOR_CURVED)`` inside, dipping ``sink`` mm into
+    the body along the outline band. With the envelope ``E = min(H_max fade, ramp)``
+    and ``h = min(H fade, ramp)``, engraved (``c = 1``) and centred (``c = 1/2``) give
+    ``s = g (h - c E)`` (``g`` the depth gradient), cut ``FLOOR_CURVED`` below the
+    face where it would be at or above it (engraved) and ``2 FLOOR_CURVED`` along the
+    outline band. Heights above the face are capped at ``0.9 / kappa`` on concave
+    sides, depths below it at ``0.9 / kappa`` on convex ones (self-intersection)."""
+    c = opts.share
+    jit = float(opts.jitter)  # mm: a retry after a union that pinched (see welded)
+    floor_c = FLOOR_CURVED + jit
+    hcap = 0.9 / np.maximum(g.concave, 1e-9)
+    dcap = 0.9 / np.maximum(g.convex, 1e-9)
+    depth = np.minimum(opts.depth, dcap)
+    band = g.d < g.d_floor
+    h = np.minimum(g.H * g.fade, g.ramp) * g.gain
+    env = None
+    if c == 0:
+        limited = (h > hcap) & g.grid.valid
+        h = np.minimum(h, hcap)
+        sink = np.minimum(0.05 + 2 * jit, 0.5 * depth)
+        blend = np.interp(g.d, [g.d_keep, g.d_floor], [0.0, 1.0])
+        s = np.where(band, -sink + blend * (sink + floor_c), np.maximum(h, floor_c))
+        floor = np.minimum(s, floor_c)
+    else:
+        env = np.minimum(opts.height * g.fade, g.ramp) * g.gain
+        t = h - c * env
+        limited = ((t > hcap) | (t < -dcap)) & g.grid.valid
+        t = np.clip(t, -dcap, hcap)
+        s = np.where(band, -2 * floor_c, np.minimum(t, -floor_c) if c == 1 else t)
+        floor = np.where(band, s, -floor_c if c == 1 else 0.0)
+        sink = 0.05 + 2 * jit
+    return PatchSurface(s, floor, c, depth, limited, floor_c, sink, band, env)
+
+
+def textured_points(surf: PatchSurface, keep: np.ndarray) -> np.ndarray:
+    """Grid points where a texture is left (after the limiter): above the floor
+    (raised) or off the face by more than it (engraved, centred)."""
+    s, fc = surf.surface, surf.floor_c
+    return keep & ((s > fc + 1e-6) if surf.c == 0 else (np.abs(s) > fc + 1e-6))
+
+
+def _cell_tris(cells: np.ndarray, R: int, C: int, wrap_y: bool) -> np.ndarray:
+    """Both triangulations of every cell (four triangles): the union may flip a cell's
+    diagonal, so the limiter makes either one safe."""
+    rr, cc = np.nonzero(cells)
+    rn = (rr + 1) % R
+    a, b = rr * C + cc, rr * C + cc + 1
+    d, c = rn * C + cc, rn * C + cc + 1
+    return np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1), np.stack([a, b, d], 1), np.stack([b, c, d], 1)])
+
+
+def _unit_normals(q: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    e = np.cross(q[tri[:, 1]] - q[tri[:, 0]], q[tri[:, 2]] - q[tri[:, 0]])
+    return e / np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-18)
+
+
+def _overhangs(n: np.ndarray, dirs: np.ndarray, cos_c: float) -> np.ndarray:
+    over = np.zeros(len(n), bool)
+    for d in dirs:  # per build direction
+        over |= -(n @ d) > cos_c
+    return over
+
+
+def limit_overhangs_grid(P, N, h, cells, wrap_y, dirs, critical_angle, floor):
+    """Lower heights until no displaced facet overhangs where the face under it does not.
+
+    A facet overhangs along build direction d when ``-n . d > cos(critical_angle +
+    1 deg)`` (:func:`texcad.printability.overhang_mask` with a 1 degree margin), for
+    both triangulations of every grid cell. Each round (vectorized over the grid)
+    moves the heights of every overhanging facet's corners 40 % of the way down to
+    ``floor``; 80 rounds bring any height to within 1e-17 of it. Where the face
+    itself overhangs, the texture goes down to the floor.
+
+    Args:
+        P, N: ``(R, C, 3)`` grid points and unit normals, mm; h: ``(R, C)`` offsets, mm.
+        cells: bool cells; wrap_y: rows close around; dirs: ``(K, 3)`` unit vectors.
+        critical_angle: degrees; floor: ``(R, C)`` lowest offsets, mm.
+
+    Returns:
+        ``(h, rounds, base_over, remaining_overhang_mm2)``.
+    """
+    R, C = h.shape
+    floor = np.asarray(floor, np.float64).reshape(-1)
+    tri = _cell_tris(cells, R, C, wrap_y)
+    Pf, Nf = P.reshape(-1, 3), N.reshape(-1, 3)
+    cos_c = np.cos(np.radians(critical_angle + 1.0))  # 1 degree stricter than overhang_mask
+    hf = h.reshape(-1).copy()
+    base_n = _unit_normals(Pf, tri)
+    if (base_n * Nf[tri].mean(axis=1)).sum() < 0:  # the grid's cells run clockwise seen from outside
+        tri = tri[:, ::-1]
+        base_n = -base_n
+    base_over = _overhangs(base_n, dirs, cos_c)
+    rounds = 0
+    active = np.arange(len(tri))  # facets to look at: all, then those next to lowered vertices
+    for rounds in range(1, 81):  # per limiting round
+        t = tri[active]
+        q = Pf + hf[:, None] * Nf
+        over = _overhangs(_unit_normals(q, t), dirs, cos_c)
+        # A facet that overhangs and still stands above the floor somewhere is lowered
+        # (on a face that overhangs by itself the texture goes down to the floor).
+        over &= (np.abs(hf[t] - floor[t]) > 1e-9).any(axis=1)
+        if not over.any():
+            break
+        changed = np.zeros(len(hf), bool)
+        changed[t[over].ravel()] = True
+        idx = np.flatnonzero(changed)
+        hf[idx] = floor[idx] + 0.6 * (hf[idx] - floor[idx])
+        active = np.flatnonzero(changed[tri].any(axis=1))
+    q = Pf + hf[:, None] * Nf
+    e = np.cross(q[tri[:, 1]] - q[tri[:, 0]], q[tri[:, 2]] - q[tri[:, 0]])
+    area = 0.5 * np.linalg.norm(e, axis=1)
+    n = e / np.maximum(2 * area[:, None], 1e-18)
+    over = _overhangs(n, dirs, cos_c)
+    remaining = float(area[over & ~base_over].sum())
+    return hf.reshape(R, C), rounds, base_over, remaining
+
+
+def limit_patch(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> "tuple[PatchSurface, dict]":
+    """The overhang limiter on the textured surface: the lowered surface and the
+    limiter's figures (removed volume mm^3, largest removal mm, rounds, share of
+    points touched, whether the face overhangs, remaining overhang mm^2)."""
+    before = surf.surface.copy()
+    s, rounds, base_over, remaining = limit_overhangs_grid(
+        g.grid.points, g.grid.normals, surf.surface, g.cells, g.grid.wrap_y, opts.build_dir, opts.critical_angle, surf.floor
+    )
+    removed = np.abs(before - s)
+    report = {"removed_volume_mm3": float(removed.sum() * g.px * g.py), "max_removed_mm": float(removed.max()),
+              "rounds": rounds, "touched_fraction": float((removed > 1e-6).mean()), "surface_overhang": bool(base_over.any()),
+              "remaining_overhang_mm2": remaining}
+    return replace(surf, surface=s), report
+
+
+# ------------------------------------------------------------------------------------------
+# The bodies: slab and cutters, lean where that saves triangles
+# ------------------------------------------------------------------------------------------
+def patch_bodies(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> PatchBodies:
+    """The bodies that put the texture on: a slab to add (raised, centred) and a
+    cutter to subtract (engraved, centred). Their textured side is lean
+    (:func:`texcad.solid.lean_grid`) within ``tolerance`` mm of the grid where that
+    saves triangles; their other side, inside the part or outside it, is always lean
+    (within :data:`BOTTOM_TOLERANCE`), with the same outline."""
+    grid, cells = g.grid, g.cells
+    P, N = grid.points, grid.normals
+    s, c, fc = surf.surface, surf.c, surf.floor_c
+    tex_tri, err = _lean_relief(g, surf, float(opts.tolerance), opts)
+    if tex_tri is None:
+        tex_tri = _cell_triangles(cells, grid.wrap_y)
+    ring = _outline_ring(cells, grid.wrap_y)
+
+    def body(textured, plain, textured_on_top: bool, plain_tol: float):
+        plain_tri = _relief_triangles(g, [plain], plain_tol, [1.0], lean=True, measure=False, fine=ring)[0]
+        plain_tri = _cell_triangles(cells, grid.wrap_y) if plain_tri is None else plain_tri
+        tt, bt, to, bo = (tex_tri, plain_tri, textured, plain) if textured_on_top else (plain_tri, tex_tri, plain, textured)
+        return _slab(P + to[..., None] * N, P + bo[..., None] * N, tt, bt)
+
+    inside = min(BOTTOM_TOLERANCE, 0.2 * float(np.min(surf.depth)))  # a slab's bottom, depth mm in the part
+    outside = 0.25 * (CUT_ABOVE - TESSELLATION)  # a cutter's top, CUT_ABOVE mm out: clear of the part's facets
+    slab = cutter = low = None
+    if c == 0:
+        slab = body(s, -surf.depth, True, inside)
+    else:
+        cut_bottom = np.minimum(s, -fc) - (fc if c < 1 else 0.0)
+        above = np.full(s.shape, CUT_ABOVE)
+        cutter = body(cut_bottom, above, False, outside)
+        low = body(np.minimum(-c * surf.env, -fc) - 2 * fc, above, False, outside)
+        if c < 1:
+            slab = body(np.where(surf.band, -surf.sink, s), np.minimum(-surf.depth, cut_bottom - 0.05), True, inside)
+    return PatchBodies(slab, cutter, low, err, len(tex_tri))
+
+
+def _lean_relief(g: PatchGrid, surf: PatchSurface, tol: float, opts: PatchOptions):
+    """The textured side's lean triangles (or ``(None, 0.0)``: the grid). With
+    ``build_dir``, a lean triangle that overhangs where the face under it does not
+    (the limiter made the grid safe, not every plane through its points) has the
+    cells under it kept at grid resolution, and the triangulation is made again."""
+    heights, weights = [surf.surface, np.zeros_like(surf.surface)], [1.0, tol / BASE_TOLERANCE]
+    tri, err = _relief_triangles(g, heights, tol, weights, lean=True)
+    if opts.build_dir is None or tri is None:
+        return tri, err
+    more = np.zeros_like(g.cells)
+    for _ in range(4):  # per round of refinement where a lean facet overhangs
+        bad = _overhanging_cells(g, surf.surface, tri, opts.build_dir, opts.critical_angle)
+        if bad is None:
+            return tri, err
+        more |= bad
+        tri, err = _relief_triangles(g, heights, tol, weights, lean=True, more_fine=more)
+        if tri is None:
+            return None, 0.0
+    return None, 0.0
+
+
+def _overhanging_cells(g: PatchGrid, s: np.ndarray, tri: np.ndarray, dirs: np.ndarray, critical_angle: float):
+    """Cells ``(R-1, C-1)`` (or ``(R, C-1)`` around a seam) under the lean triangles
+    that overhang (``-n . d > cos(critical + 1 deg)``) where the face does not; None
+    if there are none."""
+    grid = g.grid
+    P, N = grid.points.reshape(-1, 3), grid.normals.reshape(-1, 3)
+    V = P + s.reshape(-1)[:, None] * N
+    n = np.cross(V[tri[:, 1]] - V[tri[:, 0]], V[tri[:, 2]] - V[tri[:, 0]])
+    base = N[tri].mean(axis=1)
+    n *= np.sign((n * base).sum(axis=1, keepdims=True))  # outward, along the face's normal
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-18)
+    base /= np.maximum(np.linalg.norm(base, axis=1, keepdims=True), 1e-18)
+    cos_c = np.cos(np.radians(critical_angle + 1.0))
+    bad = np.any(-(n @ dirs.T) > cos_c, axis=1) & ~np.any(-(base @ dirs.T) > cos_c, axis=1)
+    if not bad.any():
+        return None
+    R, C = grid.valid.shape
+    rows, cols = tri[bad] // C, tri[bad] % C
+    if grid.wrap_y:  # a triangle across the seam has rows 0 and R-1: its cells are the last row
+        rows = np.where((rows.max(axis=1, keepdims=True) - rows.min(axis=1, keepdims=True)) > R // 2, np.where(rows == 0, R, rows), rows)
+    r0, c0 = rows.min(1), cols.min(1)
+    r1, c1 = np.maximum(rows.max(1), r0 + 1), np.maximum(cols.max(1), c0 + 1)
+    shape = g.cells.shape
+    diff = np.zeros((shape[0] + 1, shape[1] + 1), np.int64)  # the triangles' cell boxes, summed
+    for rr, cc, sign in ((r0, c0, 1), (r0, c1, -1), (r1, c0, -1), (r1, c1, 1)):
+        np.add.at(diff, (rr, cc), sign)
+    return diff.cumsum(axis=0).cumsum(axis=1)[: shape[0], : shape[1]] > 0
+
+
+def _cell_triangles(cells: np.ndarray, wrap_y: bool) -> np.ndarray:
+    """The grid's own triangles over ``cells`` ``(M, 3)``, as flat grid indices."""
+    R, C = cells.shape[0] + (0 if wrap_y else 1), cells.shape[1] + 1
+    rr, cc = np.nonzero(cells)
+    rn = (rr + 1) % R
+    a, b, d, c = rr * C + cc, rr * C + cc + 1, rn * C + cc, rn * C + cc + 1
+    return np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+
+
+def _outline_ring(cells: np.ndarray, wrap_y: bool) -> np.ndarray:
+    """Cells next to a cell outside ``cells`` (8-neighbourhood): kept at the grid's
+    resolution on both sides of a slab so that their outlines match."""
+    from scipy.ndimage import binary_erosion
+
+    if wrap_y:
+        inner = binary_erosion(np.concatenate([cells[-1:], cells, cells[:1]]), np.ones((3, 3), bool), border_value=0)[1:-1]
+    else:
+        inner = binary_erosion(cells, np.ones((3, 3), bool), border_value=0)
+    return cells & ~inner
+
+
+def _relief_triangles(g: PatchGrid, heights: list, tolerance: float, weights: list, lean: bool, measure: bool = True,
+                      fine: "np.ndarray | None" = None, more_fine: "np.ndarray | None" = None):
+    """``(faces, error_mm)``: a lean triangulation of the grid's cells following the
+    surfaces ``P + h N`` for ``h`` in ``heights`` (flat grid indices, ``(M, 3)``), or
+    ``(None, 0.0)`` for the grid itself (tolerance 0, the overhang limiter on, or no
+    saving). Cells marked ``fine`` (default: within two pixel diagonals of the
+    outline band, where the union's intersection with the part runs, and
+    ``more_fine``) stay at the grid's resolution, and so do the rows along a closed
+    face's seam."""
+    from ..solid import lean_grid
+
+    if tolerance <= 0 or not lean:
+        return None, 0.0
+    grid, cells = g.grid, g.cells
+    P, N = grid.points, grid.normals
+    R, C = P.shape[:2]
+    if fine is None:
+        near = g.d < g.d_floor + 2 * g.diag
+        near = np.concatenate([near, near[:1]]) if grid.wrap_y else near
+        fine = near[:-1, :-1] | near[1:, :-1] | near[:-1, 1:] | near[1:, 1:]
+        fine = fine | more_fine if more_fine is not None else fine
+    if grid.wrap_y:  # unroll the seam: row R is row 0 again
+        P, N = np.concatenate([P, P[:1]]), np.concatenate([N, N[:1]])
+        heights = [np.concatenate([h, h[:1]]) for h in heights]
+        fine = fine.copy()
+        fine[0] = fine[-1] = True
+    out = lean_grid(P, N, heights, cells, tolerance, weights=weights, fine=fine, max_fraction=LEAN_FRACTION, measure=measure)
+    if out is None:
+        return None, 0.0
+    flat = (out["rc"][:, 0] % R) * C + out["rc"][:, 1]
+    tri = flat[out["faces"]]
+    # Row-major by the first corner (then the rest): manifold3d builds a mesh whose
+    # triangles are spatially coherent several times faster.
+    return tri[np.lexsort((tri[:, 2], tri[:, 1], tri[:, 0]))], float(out["error"])
+
+
+def _slab(top: np.ndarray, bottom: np.ndarray, top_tri: np.ndarray, bottom_tri: np.ndarray) -> Mesh:
+    """The closed slab between ``top`` and ``bottom`` ``(R, C, 3)`` (mm), each side
+    triangulated on its own (flat grid indices), sharing their outline."""
+    from ..solid import surface_slab
+
+    ut, ti = np.unique(top_tri, return_inverse=True)
+    ub, bi = np.unique(bottom_tri, return_inverse=True)
+    pos = np.minimum(np.searchsorted(ub, ut), len(ub) - 1)
+    under = np.where(ub[pos] == ut, pos, -1)
+    return surface_slab(top.reshape(-1, 3)[ut], bottom.reshape(-1, 3)[ub], ti.reshape(-1, 3),
+                        bottom_tri=bi.reshape(-1, 3), bottom_of=under)
+
+
+# ------------------------------------------------------------------------------------------
+# One patch, all stages
+# ------------------------------------------------------------------------------------------
+def patch_relief(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> PatchRelief:
+    """One patch: the texture grid on it, its heights and limits and the bodies that
+    put it on the part (module docstring).
+
+    Raises:
+        GeometryError: no texture is left on the patch (too small or narrow at this
+            pitch, or faded / limited away), or a degenerate face.
+    """
+    from ..mapping import measure_distortion
+
+    g = patch_grid(pm, patch, tex, opts)
+    surf = patch_surface(g, opts)
+    lim = None
+    if opts.build_dir is not None:
+        surf, lim = limit_patch(g, surf, opts)
+    if not textured_points(surf, g.keep).any():
+        raise GeometryError(
+            f"no texture is left on the face(s) {patch}: too small or narrow for the {g.d_floor:.2f} mm border band at "
+            f"{g.px:.3g} mm pitch (or faded / limited away); use a smaller pitch or a larger face"
+        )
+    grid, keep = g.grid, g.keep
+    faded = (g.fade < 1.0) & (g.H > 1e-6) & keep & (g.d > g.d_floor)
+    dist = measure_distortion(grid, keep & (g.fade > 0))
+    dist = type(dist)(dist.x, dist.y, float(faded.sum() / max(keep.sum(), 1)))
+    bodies = patch_bodies(g, surf, opts)
+    s_top = surf.surface
+    info = {
+        "faces": [int(i) for i in patch],
+        "kinds": [pm.faces[i].kind for i in patch],
+        "parameterization": g.par.method,
+        "grid": tuple(grid.valid.shape),
+        "period_y": g.par.period_y,
+        "distortion": dist.to_dict(),
+        "faded_fraction": dist.faded_fraction,
+        "curvature_limited_points": int(surf.limited.sum()),
+        "max_height": float(np.where(keep, s_top, 0).max()),
+        "mode": opts.mode,
+        "triangles": {"grid": 2 * int(g.cells.sum()), "mesh": bodies.top_triangles},
+        "max_error_mm": bodies.error,
+    }
+    if surf.c > 0:
+        info["max_depth"] = float(-np.where(keep, s_top, 0).min())
+    if lim is not None:
+        info["overhang_limit"] = lim
+    shown = np.where(keep, s_top, 0.0)
+    shown = np.maximum(shown, 0.0) if surf.c == 0 else np.where(keep, shown - shown[keep].min(), 0.0)
+    hmap = Heightmap(shown.astype(np.float32), (g.px, g.py))
+    return PatchRelief(tuple(int(i) for i in patch), bodies, info, dist, hmap, grid, bool(surf.limited.any()), s_top,
+                       surf.c > 0, g.cells, g.par.tables, pm.faces[patch[0]].face if len(patch) == 1 else None, lim)
+
+
+# ------------------------------------------------------------------------------------------
+# Welding the union's mesh
+# ------------------------------------------------------------------------------------------
