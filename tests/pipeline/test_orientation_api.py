@@ -163,7 +163,7 @@ def test_texture_planar_knurl_valleys_stay_manifold(tmp_path, monkeypatch):
     # A knurl's valleys reach 0 mm inside the face: without the 1 um floor the relief
     # touches the face along lines, and the STL (welded by position) is not watertight.
     import texcad
-    from texcad.pipeline import cad
+    from texcad.targets import plane as cad
 
     box = Box(20, 20, 4, align=(Align.MIN, Align.MIN, Align.MAX))
     top = box.faces().sort_by(SortBy.AREA)[-1]

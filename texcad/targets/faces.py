@@ -203,12 +203,8 @@ class FacesAdapter(Adapter):
     def expectation(self, placement: Placement, relief: Relief, fused: Fused) -> Expectation:
         """Body count, and the reach from the selected faces (the texture's largest
         offset plus the cutters' clearance); no volume check yet (the curved slabs'
-        integral is not computed). The reach check is left out where the gate's
-        sampling of the base would explode (long thin triangles, see
-        :func:`_affordable_reach`)."""
-        sel = placement.selected
-        selected = sel if _affordable_reach(placement.base, sel, relief.reach) else None
-        return Expectation(bodies=placement.bodies, base=placement.base, selected=selected, height=relief.reach)
+        integral is not computed)."""
+        return Expectation(bodies=placement.bodies, base=placement.base, selected=placement.selected, height=relief.reach)
 
     # -- on demand ----------------------------------------------------------------------
     def texture_mesh(self, stages: Stages) -> Mesh:
@@ -248,25 +244,6 @@ class FacesAdapter(Adapter):
 #: Most sample triangles the gate's reach check may make of the base (a stopgap: the
 #: gate splits every triangle in four until its longest edge is short, so a long thin
 #: triangle of a tessellated cylinder becomes 4^8 triangles; a sphere on a 40 mm
-#: shaft asked for 16 M triangles, 1.1 GB, per level).
-REACH_SAMPLES_MAX = 4_000_000
-
-
-def _affordable_reach(base: Mesh, selected: tuple, height: float) -> bool:
-    """Whether the gate's reach check (:mod:`texcad.report.gate`, check 5) samples the
-    selected surface and ``base`` with at most :data:`REACH_SAMPLES_MAX` triangles
-    together: its spacing is ``max(height / 4, 0.05)`` mm, widened so a surface's
-    area needs at most 2 M points, and each triangle is split ``ceil(log2(longest
-    edge / spacing))`` times."""
-    spacing = max(0.25 * height, 0.05)
-    count = 0.0
-    for v, f in ((selected[0], selected[1]), (base.vertices, base.faces)):  # the selected faces, then the base
-        tri = np.asarray(v, np.float64)[np.asarray(f, np.int64)]
-        area = 0.5 * float(np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum())
-        spacing = max(spacing, float(np.sqrt(4.0 * area / 2_000_000)))
-        longest = np.max([np.linalg.norm(tri[:, i] - tri[:, (i + 1) % 3], axis=1) for i in range(3)], axis=0)
-        count += float(np.sum(4.0 ** np.ceil(np.log2(np.maximum(longest / spacing, 1.0)))))
-    return count <= REACH_SAMPLES_MAX
 
 
 def _warn(reliefs: list) -> None:

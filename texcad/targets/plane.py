@@ -310,6 +310,8 @@ class PlaneAdapter(Adapter):
             # the lean surface may enclose up to tolerance x area more or less than the B-rep
             "volume_slack": r.tolerance * px * float(r.ys[1] - r.ys[0]) * r.h_mesh.size,
         }
+        if options.directions is not None:
+            info["build_dir"], info["critical_angle"] = options.directions.tolist(), float(options.critical_angle)
         return Fused(self._world(fused_local, fr), placement.base, info, PlaneFused(fused_local, stitched))
 
     @staticmethod
