@@ -237,3 +237,26 @@ def test_a_knurled_mesh_limited_at_its_ridges_needs_almost_no_support():
     assert a.returncode == 0 and b.returncode == 0
     assert b.support_mm > 2000.0  # the check can fail: facet limits alone leave support
     assert a.support_mm < 0.1 * b.support_mm, (a.support_mm, b.support_mm)
+
+
+@prusa
+def test_3mf_puts_the_part_on_the_bed_as_it_prints(tmp_path):
+    """A plate textured for printing upright on its y = 0 border: its 3MF's build item
+    turns it so (texcad.printability.print_rotation), resting on the bed; PrusaSlicer
+    loads it 20 mm tall. Without a build direction the item has no transform."""
+    import subprocess
+    import zipfile
+
+    from build123d import Align, Axis, Box
+
+    box = Box(30, 20, 4, align=(Align.MIN, Align.MIN, Align.MIN))
+    hm = texcad.builtin("stones", size=(30, 20), pitch=0.5, height=1.0)
+    up = texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], hm, build_dir=texcad.orientation(90, "+y"), brep=False)
+    flat = texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], hm, brep=False)
+    for tx, name, size_z in ((up, "up.3mf", 20.0), (flat, "flat.3mf", 5.0)):
+        tx.export(tmp_path / name)
+        model = zipfile.ZipFile(tmp_path / name).read("3D/3dmodel.model").decode()
+        assert ("transform=" in model) is (tx is up)
+        info = subprocess.run([slicer.find_slicer(), "--info", str(tmp_path / name)], capture_output=True, text=True, timeout=120).stdout
+        got = {k.strip(): float(v) for k, v in (ln.split("=") for ln in info.splitlines() if ln.startswith(("size_z", "min_z")))}
+        assert got["size_z"] == pytest.approx(size_z, abs=0.01) and got["min_z"] == pytest.approx(0.0, abs=1e-6), got

@@ -82,6 +82,7 @@ __all__ = [
     "unit_normals",
     "face_areas",
     "build_directions",
+    "print_rotation",
     "LimitReport",
     "edge_ramp",
     "limit_overhangs",
@@ -154,6 +155,21 @@ def orientation(tilt: float, toward: "str | float" = "+y") -> np.ndarray:
     d = np.array([np.sin(ar) * np.cos(pr), np.sin(ar) * np.sin(pr), np.cos(ar)])
     d[np.abs(d) < 1e-15] = 0.0
     return d
+
+
+def print_rotation(build_dir) -> np.ndarray:
+    """``(3, 3)`` float64 rotation that turns a part from its own frame into the
+    printer's, taking the build direction ``build_dir`` (the first, for a set) to +z:
+    the smallest rotation doing so (about ``d x z``; a half turn about x for ``-z``).
+    The slicer check and the 3MF writer place parts with it."""
+    d = build_directions(build_dir)[0]
+    z = np.array([0.0, 0.0, 1.0])
+    v = np.cross(d, z)
+    c = float(d @ z)
+    if np.linalg.norm(v) < 1e-12:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    return np.eye(3) + vx + vx @ vx / (1 + c)
 
 
 def build_directions(build_dir) -> np.ndarray:

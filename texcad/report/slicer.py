@@ -165,16 +165,9 @@ def read_gcode(path: str | os.PathLike) -> tuple[dict, np.ndarray, int]:
 
 def _oriented(mesh, build_dir) -> tuple[np.ndarray, np.ndarray]:
     """Rotation ``R`` (3x3) taking ``build_dir`` to +z, and the vertices turned by it."""
-    d = np.asarray(build_dir, dtype=np.float64)
-    d = d / np.linalg.norm(d)
-    z = np.array([0.0, 0.0, 1.0])
-    v = np.cross(d, z)
-    c = float(d @ z)
-    if np.linalg.norm(v) < 1e-12:
-        R = np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
-    else:
-        vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-        R = np.eye(3) + vx + vx @ vx / (1 + c)
+    from ..printability import print_rotation
+
+    R = print_rotation(build_dir)
     return R, mesh.vertices.astype(np.float64) @ R.T
 
 
