@@ -5,6 +5,9 @@ It writes flat_plate.stl, flat_plate.3mf, flat_plate.png (the heightmap) and
 flat_plate_part.png (the part) into $TEXCAD_OUT (default ./out). $TEXCAD_PITCH sets
 the pixel pitch in mm (default 0.125: 800 x 800 px, one mesh vertex per pixel, as in
 the paper); the tests run it coarser.
+
+Printed lying flat, texture up (BUILD_DIR +z, the paper's orientation 0): nothing can
+overhang, so the limiter changes nothing; the 3MF is placed that way on the bed.
 """
 
 import os
@@ -17,6 +20,7 @@ import texcad
 PITCH = float(os.environ.get("TEXCAD_PITCH", "0.125"))  # mm per pixel
 OUT = Path(os.environ.get("TEXCAD_OUT", "out"))
 OUT.mkdir(parents=True, exist_ok=True)
+BUILD_DIR = (0, 0, 1)  # print orientation: lying flat, texture up
 
 # The base body: a 100 x 100 x 5 mm plate whose top face lies at z = 0.
 plate = Box(100, 100, 5, align=(Align.MIN, Align.MIN, Align.MAX))
@@ -25,7 +29,7 @@ plate = Box(100, 100, 5, align=(Align.MIN, Align.MIN, Align.MAX))
 texture = texcad.builtin("stones", size=(100, 100), pitch=PITCH, height=2.0)
 
 # Texture the top face: clipped to the outline with 45-degree M-I ramps at its borders.
-part = texcad.texture(plate, plate.faces().sort_by(Axis.Z)[-1], texture)
+part = texcad.texture(plate, plate.faces().sort_by(Axis.Z)[-1], texture, build_dir=BUILD_DIR)
 
 part.export(OUT / "flat_plate.stl")
 part.export(OUT / "flat_plate.3mf")

@@ -14,8 +14,10 @@ import trimesh
 
 from texcad.printability import limit_relief, relief
 
+from texcad.printability import slicer_margin
+
 CRIT = 45.0  # degrees
-MARGIN = 1.0  # degrees, limit_relief's default
+MARGIN = slicer_margin(CRIT)  # degrees, limit_relief's default (the slicers' margin, 2.5)
 
 
 def sphere(seed: int, subdivisions: int = 4, radius: float = 10.0):

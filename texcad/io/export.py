@@ -210,6 +210,7 @@ def write_3mf(
     path: str | os.PathLike,
     *,
     name: str = "texcad part",
+    build_dir=None,
 ) -> None:
     """Write a 3MF package (3MF core spec, ``unit="millimeter"``), zip-deflated.
 
@@ -227,6 +228,12 @@ def write_3mf(
             separate objects, which it arranges apart.)
         path: output ``.3mf`` file.
         name: object name shown by slicers.
+        build_dir: the part's print orientation, ``(3,)`` in its own frame (for a
+            set of directions the first): the build item gets a ``transform`` that
+            turns it so ``build_dir`` points up (+z,
+            :func:`texcad.printability.print_rotation`) and rests on the bed (lowest
+            point at z = 0), so a slicer loads it as it is meant to print. The
+            vertices themselves stay in the part's frame. None: no transform.
     """
     items = [(name, mesh)] if isinstance(mesh, Mesh) else list(mesh)
     if not items:
@@ -244,7 +251,8 @@ def write_3mf(
         b'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02">\n'
         b'<metadata name="Application">texcad</metadata>\n<resources>\n'
     )
-    tail = b"</resources>\n" b'<build><item objectid="1"/></build>\n' b"</model>\n"
+    item = b'<item objectid="1"/>' if build_dir is None else f'<item objectid="1" transform="{_print_transform(part, build_dir)}"/>'.encode()
+    tail = b"</resources>\n<build>" + item + b"</build>\n</model>\n"
     model = itertools.chain([head], _object_parts(1, label, part), [tail])
     bound = len(head) + len(tail) + len(label.encode()) + 128 + _size_bound(part)
     with atomic_path(path) as tmp:
@@ -254,6 +262,18 @@ def write_3mf(
             _write_streamed(z, _zip_info("3D/3dmodel.model"), model, bound)
             if config is not None:
                 z.writestr(_zip_info(SLIC3R_CONFIG), config, compresslevel=1)
+
+
+def _print_transform(mesh: Mesh, build_dir) -> str:
+    """3MF item transform (``m00 .. m32``, row vectors: ``p' = p M``) that turns
+    ``build_dir`` to +z and puts the lowest point on z = 0."""
+    from ..printability import print_rotation
+
+    R = print_rotation(build_dir)
+    z0 = float((mesh.vertices.astype(np.float64) @ R[2]).min()) if len(mesh.vertices) else 0.0
+    M = np.vstack([R.T, [0.0, 0.0, -z0]])
+    M[np.abs(M) < 1e-15] = 0.0
+    return " ".join(f"{x:.9g}" for x in M.ravel())
 
 
 def _merged(items: list[tuple[str, Mesh]], name: str) -> tuple[str, Mesh, bytes]:
@@ -365,5 +385,17 @@ def export(obj: Any, path: str | os.PathLike, *, separate_texture: bool = False,
             raise ParameterError("an STL holds one mesh; write several objects as .3mf")
         write_stl(meshes, p)
     else:
-        write_3mf(meshes, p, name=label)
+        write_3mf(meshes, p, name=label, build_dir=_build_dir_of(obj) if textured else None)
     return p
+
+
+def _build_dir_of(obj: Any):
+    """The build direction a textured result was made for (``info["build_dir"]`` or
+    its limiter's report's ``directions``; the first of a set), or None."""
+    d = (getattr(obj, "info", None) or {}).get("build_dir")
+    if d is None:
+        d = getattr(getattr(obj, "limits", None), "directions", None)
+    if d is None or np.size(d) < 3:
+        return None
+    d = np.asarray(d, dtype=np.float64)
+    return d if d.ndim == 1 else d[0]

@@ -1,5 +1,6 @@
 """Stage 3, AM constraints: build direction, overhang measurement, the M-I edge
-modification and the overhang limiter (paper section 2.1.3), thin features.
+modification and the overhang limiter (paper section 2.1.3), thin features, and the
+slicers' overhang rule they share (:mod:`texcad.printability.rule`).
 """
 
 
@@ -9,6 +10,7 @@ from .overhang import (
     unit_normals,
     face_areas,
     build_directions,
+    print_rotation,
     LimitReport,
     edge_ramp,
     limit_overhangs,
@@ -22,6 +24,14 @@ from .overhang import (
     ANGLE_TOLERANCE,
     SLICER_MARGIN,
     printable_lean_slab,
+)
+from .rule import (
+    DEFAULT_LAYER_HEIGHT,
+    SLICE_DEVIATION,
+    allowance,
+    overhang_angle,
+    support_free_angle,
+    slicer_margin,
 )
 from .profile import (
     limit_on_profile,
@@ -38,6 +48,7 @@ __all__ = [
     'unit_normals',
     'face_areas',
     'build_directions',
+    'print_rotation',
     'LimitReport',
     'edge_ramp',
     'limit_overhangs',
@@ -51,6 +62,12 @@ __all__ = [
     'ANGLE_TOLERANCE',
     'SLICER_MARGIN',
     'printable_lean_slab',
+    'DEFAULT_LAYER_HEIGHT',
+    'SLICE_DEVIATION',
+    'allowance',
+    'overhang_angle',
+    'support_free_angle',
+    'slicer_margin',
     'limit_on_profile',
     'measured',
     'ReliefLimit',

@@ -8,12 +8,16 @@ given in the frame of the texture or part. The *build plate* is the plane normal
 
 *Critical overhang angle* ``alpha_crit`` (paper, section 2.1.3, figure 4): the smallest
 angle between a downward-facing face and the build plate that prints without
-support; 45 degrees by default (FDM and LPBF, paper ref. [31]). A face with unit
-outward normal ``n`` makes the angle ``theta = arccos(-n . d)`` with the build plate
-when it faces down (``n . d < 0``), and it **overhangs** when
-``theta < alpha_crit``, i.e. when ``-n . d > cos(alpha_crit)``. Vertical walls
-(``theta = 90``) and upward faces never overhang. Faces lying on the build plate are
-supported by it and are not counted.
+support; 45 degrees by default (FDM and LPBF, paper ref. [31]); the number given to
+a slicer as its support threshold. A face with unit outward normal ``n`` makes the
+angle ``theta = arccos(-n . d)`` with the build plate when it faces down (``n . d <
+0``), and it **overhangs** when the slicers support it at that threshold
+(:mod:`texcad.printability.rule`): when ``theta < overhang_angle(alpha_crit)``
+(46 degrees at 45: PrusaSlicer makes its threshold inclusive by one degree), i.e.
+``-n . d > cos(overhang_angle)``. Vertical walls (``theta = 90``) and upward faces
+never overhang. Faces lying on the build plate are supported by it and are not
+counted. The limiters keep texture facets ``slicer_margin`` degrees above
+``alpha_crit`` (:func:`texcad.printability.rule.support_free_angle`).
 
 *Tilt*: a flat textured plate lying on the build plate has ``d = +z`` (tilt 0, the
 paper's "orientation to build plate", Table 2). Tilting it by ``a`` degrees so that
@@ -70,6 +74,7 @@ import numpy as np
 from ..errors import ParameterError, TexcadWarning
 from ..sources import Heightmap
 from ..solid import Mesh, grid_faces
+from .rule import DEFAULT_LAYER_HEIGHT, check_critical_angle, overhang_angle, slicer_margin
 
 __all__ = [
     "orientation",
@@ -77,6 +82,7 @@ __all__ = [
     "unit_normals",
     "face_areas",
     "build_directions",
+    "print_rotation",
     "LimitReport",
     "edge_ramp",
     "limit_overhangs",
@@ -90,22 +96,20 @@ __all__ = [
     "ANGLE_TOLERANCE",
     "SLICER_MARGIN",
     "printable_lean_slab",
+    "DEFAULT_LAYER_HEIGHT",
 ]
 
 #: Default critical overhang angle in degrees (paper, section 2.1.3).
 DEFAULT_CRITICAL_ANGLE = 45.0
-#: Faces within this many degrees of the critical angle count as printable, so that
-#: a face at exactly ``alpha_crit`` (e.g. a wall of a plate tilted by 45 degrees) is
-#: not flagged by floating-point noise.
+#: Faces within this many degrees of a limit angle given with ``rule="angle"`` count
+#: as printable, so that a face at exactly the limit is not flagged by floating-point
+#: noise.
 ANGLE_TOLERANCE = 1e-3
-#: Degrees the limiter adds to the critical angle for the facets by default. Slicers
-#: flag a face as overhanging *below* their threshold plus about one degree
-#: (PrusaSlicer 2.5, measured with texcad's slicer check, benchmarks/bench_slicer.py:
-#: a 45-degree face gets support at threshold 45, not at 44), so facets limited to
-#: exactly the critical angle still got support under the texture. With 1.5 degrees
-#: (1 for the slicer, 0.5 for float32 rounding and the union's slivers) the slicer's
-#: threshold set to the critical angle gives no support under the texture.
-SLICER_MARGIN = 1.5
+#: Degrees the limiters add to the default critical angle (45) for 0.2 mm layers:
+#: :func:`texcad.printability.rule.slicer_margin` (eq. 4 there), which derives it
+#: from PrusaSlicer's and CuraEngine's layer-wise overhang test. Functions that take
+#: ``critical_angle`` compute it for that angle (``margin=None``).
+SLICER_MARGIN = slicer_margin(DEFAULT_CRITICAL_ANGLE, DEFAULT_LAYER_HEIGHT)
 
 _TOWARD = {"+x": 0.0, "x": 0.0, "+y": 90.0, "y": 90.0, "-x": 180.0, "-y": 270.0}
 
@@ -153,6 +157,21 @@ def orientation(tilt: float, toward: "str | float" = "+y") -> np.ndarray:
     return d
 
 
+def print_rotation(build_dir) -> np.ndarray:
+    """``(3, 3)`` float64 rotation that turns a part from its own frame into the
+    printer's, taking the build direction ``build_dir`` (the first, for a set) to +z:
+    the smallest rotation doing so (about ``d x z``; a half turn about x for ``-z``).
+    The slicer check and the 3MF writer place parts with it."""
+    d = build_directions(build_dir)[0]
+    z = np.array([0.0, 0.0, 1.0])
+    v = np.cross(d, z)
+    c = float(d @ z)
+    if np.linalg.norm(v) < 1e-12:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    return np.eye(3) + vx + vx @ vx / (1 + c)
+
+
 def build_directions(build_dir) -> np.ndarray:
     """Normalise one build direction ``(3,)`` or a set ``(K, 3)`` to ``(K, 3)`` unit
     float64 vectors (any length > 0; e.g. ``(0, -1, 1)``)."""
@@ -165,19 +184,6 @@ def build_directions(build_dir) -> np.ndarray:
     if not (np.isfinite(d).all() and (n > 0).all()):
         raise ParameterError(f"build directions must be finite, non-zero vectors, got {build_dir!r}")
     return d / n[:, None]
-
-
-def check_critical_angle(angle: float) -> float:
-    """``angle`` as a float in (0, 90) degrees, else a ParameterError saying so."""
-    try:
-        a = float(angle)
-    except (TypeError, ValueError):
-        raise ParameterError(f"critical_angle must be a number of degrees, got {angle!r}") from None
-    if not (np.isfinite(a) and 0.0 < a < 90.0):
-        raise ParameterError(
-            f"critical_angle must be between 0 and 90 degrees (typical: 45 for FDM/LPBF), got {angle!r}"
-        )
-    return a
 
 
 # ---------------------------------------------------------------------------------
@@ -223,13 +229,18 @@ def overhang_mask(
     critical_angle: float = DEFAULT_CRITICAL_ANGLE,
     *,
     plate_tolerance: float = 0.01,
+    rule: str = "slicers",
 ) -> np.ndarray:
     """Faces that overhang when ``mesh`` is printed along ``build_dir``.
 
-    A face overhangs when it faces down at less than ``critical_angle`` degrees to
-    the build plate: ``-n . d > cos(critical_angle - ANGLE_TOLERANCE)`` (module
-    docstring). Faces whose three vertices all lie within ``plate_tolerance`` mm of
-    the lowest point along ``d`` rest on the build plate and do not count.
+    ``rule="slicers"`` (``texcad check``): a face overhangs when PrusaSlicer or
+    CuraEngine would support it with their threshold at ``critical_angle``, i.e.
+    when it faces down at less than :func:`~texcad.printability.rule.overhang_angle`
+    degrees to the build plate (46 at 45; module docstring). ``rule="angle"``: at
+    less than ``critical_angle`` itself, minus ``ANGLE_TOLERANCE`` (for checking a
+    limit angle, e.g. the limiter's). Faces whose three vertices all lie within
+    ``plate_tolerance`` mm of the lowest point along ``d`` rest on the build plate
+    and do not count.
 
     Args:
         mesh: any triangle mesh (mm).
@@ -237,6 +248,7 @@ def overhang_mask(
         critical_angle: degrees between face and build plate, 0 < angle < 90.
         plate_tolerance: mm; how close to the lowest point a face must be to count
             as lying on the build plate.
+        rule: ``"slicers"`` or ``"angle"``.
 
     Returns:
         ``(M,)`` bool.
@@ -244,13 +256,22 @@ def overhang_mask(
     d = build_directions(build_dir)[0]
     crit = check_critical_angle(critical_angle)
     n = unit_normals(mesh)
-    over = -(n @ d) > np.cos(np.radians(crit - ANGLE_TOLERANCE))
+    over = -(n @ d) > np.cos(np.radians(_boundary(crit, rule)))
     if len(mesh.vertices):
         level = mesh.vertices.astype(np.float64) @ d
         low = level <= level.min() + float(plate_tolerance)
         on_plate = low[mesh.faces].all(axis=1)
         over &= ~on_plate
     return over
+
+
+def _boundary(crit: float, rule: str) -> float:
+    """Degrees from the build plate below which a face overhangs, by ``rule``."""
+    if rule == "slicers":
+        return overhang_angle(crit)
+    if rule == "angle":
+        return crit - ANGLE_TOLERANCE
+    raise ParameterError(f"rule must be 'slicers' (what PrusaSlicer and CuraEngine support) or 'angle', got {rule!r}")
 
 
 def overhang_area(
@@ -260,10 +281,12 @@ def overhang_area(
     *,
     faces: np.ndarray | None = None,
     plate_tolerance: float = 0.01,
+    rule: str = "slicers",
 ) -> float:
-    """Area in mm^2 of the overhanging faces (:func:`overhang_mask`), optionally only
-    among ``faces`` (indices or a bool mask, e.g. ``mesh.groups["texture"]``)."""
-    over = overhang_mask(mesh, build_dir, critical_angle, plate_tolerance=plate_tolerance)
+    """Area in mm^2 of the overhanging faces (:func:`overhang_mask`, same ``rule``),
+    optionally only among ``faces`` (indices or a bool mask, e.g.
+    ``mesh.groups["texture"]``)."""
+    over = overhang_mask(mesh, build_dir, critical_angle, plate_tolerance=plate_tolerance, rule=rule)
     if faces is not None:
         sel = np.zeros(len(over), dtype=bool)
         sel[np.asarray(faces)] = True
@@ -353,7 +376,7 @@ def edge_ramp(
     Returns:
         ``(heightmap', report)``.
     """
-    return _limit(heightmap, build_dir, critical_angle, tilt=tilt, offset=offset, edges=True, facets=False, margin=SLICER_MARGIN)
+    return _limit(heightmap, build_dir, critical_angle, tilt=tilt, offset=offset, edges=True, facets=False, margin=None)
 
 
 def limit_overhangs(
@@ -362,7 +385,8 @@ def limit_overhangs(
     critical_angle: float = DEFAULT_CRITICAL_ANGLE,
     *,
     edges: bool = True,
-    margin: float = SLICER_MARGIN,
+    margin: float | None = None,
+    layer_height: float = DEFAULT_LAYER_HEIGHT,
 ) -> tuple[Heightmap, LimitReport]:
     """Lower a flat texture as little as possible so that no facet overhangs.
 
@@ -382,11 +406,14 @@ def limit_overhangs(
             print in (e.g. ``[orientation(a) for a in (0, 15, 30, 45, 60)]``).
         critical_angle: critical overhang angle in degrees (0..90, default 45).
         edges: also apply M-I at the borders.
-        margin: degrees added to ``critical_angle`` for the facets (default
-            :data:`SLICER_MARGIN`, 1.5), so that a slicer whose overhang threshold
-            is set to ``critical_angle`` puts no support under the texture and float32
-            rounding in the exported mesh cannot bring a facet below it. The result
-            is verified to keep ``critical_angle + max(margin / 2, margin - 0.25)``.
+        margin: degrees added to ``critical_angle`` for the facets; None (the
+            default): :func:`texcad.printability.rule.slicer_margin` for
+            ``critical_angle`` and ``layer_height`` (2.7 at 45 and 0.2 mm), so that
+            PrusaSlicer and CuraEngine with their overhang threshold set to
+            ``critical_angle`` put no support under the texture. The result is
+            verified to keep ``critical_angle + max(margin / 2, margin - 0.25)``.
+        layer_height: the layer height in mm the part will be sliced with (the
+            margin grows for thinner layers).
 
     Returns:
         ``(heightmap', report)``; ``report.removed_volume_mm3``,
@@ -395,7 +422,8 @@ def limit_overhangs(
     Raises:
         ParameterError: bad direction or angle.
     """
-    return _limit(heightmap, build_dir, critical_angle, tilt=None, offset="normal", edges=edges, facets=True, margin=margin)
+    return _limit(heightmap, build_dir, critical_angle, tilt=None, offset="normal", edges=edges, facets=True, margin=margin,
+                  layer_height=layer_height)
 
 
 def limit_overhangs_mapped(
@@ -406,7 +434,8 @@ def limit_overhangs_mapped(
     *,
     offset: str = "normal",
     edges: bool = True,
-    margin: float = SLICER_MARGIN,
+    margin: float | None = None,
+    layer_height: float = DEFAULT_LAYER_HEIGHT,
 ) -> tuple[Heightmap, LimitReport]:
     """The slope limiter for a texture mapped on a 2.5D surface (paper, section 3.1).
 
@@ -444,14 +473,16 @@ def limit_overhangs_mapped(
             along ``nu`` at the profile's ends for ``"normal"``, vertical for
             ``"vertical"``).
         margin: degrees added to the critical angle for the facets (default
-            :data:`SLICER_MARGIN`; see :func:`limit_overhangs`).
+            None: the slicers' margin; see :func:`limit_overhangs`).
+        layer_height: mm (see :func:`limit_overhangs`).
 
     Returns:
         ``(heightmap', report)``.
     """
     if tilt is None:
         raise ParameterError("tilt is required: one surface angle in degrees per texture column")
-    return _limit(heightmap, build_dir, critical_angle, tilt=tilt, offset=offset, edges=edges, facets=True, margin=margin)
+    return _limit(heightmap, build_dir, critical_angle, tilt=tilt, offset=offset, edges=edges, facets=True, margin=margin,
+                  layer_height=layer_height)
 
 
 # -- internals -------------------------------------------------------------------
@@ -622,12 +653,12 @@ def _facet_violations(P: np.ndarray, dirs: np.ndarray, cos_limit: float):
     return bad, 0.5 * ln
 
 
-def _limit(hm, build_dir, critical_angle, *, tilt, offset, edges, facets, margin):
+def _limit(hm, build_dir, critical_angle, *, tilt, offset, edges, facets, margin, layer_height=DEFAULT_LAYER_HEIGHT):
     if not isinstance(hm, Heightmap):
         raise ParameterError(f"expected a texcad Heightmap, got {type(hm).__name__}")
     dirs = build_directions(build_dir)
     crit = check_critical_angle(critical_angle)
-    margin = float(margin)
+    margin = slicer_margin(crit, layer_height) if margin is None else float(margin)
     if not (np.isfinite(margin) and 0.0 <= margin < 90.0 - crit):
         raise ParameterError(f"margin must be between 0 and {90 - crit:g} degrees, got {margin!r}")
     if offset not in ("normal", "vertical"):
@@ -650,7 +681,7 @@ def _limit(hm, build_dir, critical_angle, *, tilt, offset, edges, facets, margin
     h0 = hm.heights.astype(np.float64)
     psi_m = 0.5 * (psi[:-1] + psi[1:])
     cos_facet = np.cos(np.radians(crit + margin))
-    cos_wall = np.cos(np.radians(crit - ANGLE_TOLERANCE))
+    cos_wall = np.cos(np.radians(overhang_angle(crit)))  # walls the slicers would support
     h_range = float(h0.max() - min(0.0, float(h0.min())))
 
     # Borders whose walls overhang (M-I).
@@ -838,7 +869,8 @@ def printable_lean_slab(
     tolerance: float,
     depth: float,
     origin: Sequence[float],
-    margin: float = SLICER_MARGIN,
+    margin: float | None = None,
+    layer_height: float = DEFAULT_LAYER_HEIGHT,
 ) -> tuple[Mesh, float]:
     """A :func:`texcad.solid.heightfield_slab` with a lean top (``tolerance`` mm) whose
     texture facets above the base (any vertex above ``origin_z``) keep
@@ -861,7 +893,9 @@ def printable_lean_slab(
     from ..solid import BORDER_GRID, heightfield_slab, tiled_triangulation
 
     dirs = build_directions(build_dir)
-    limit = min(check_critical_angle(critical_angle) + float(margin) - 0.5, 89.9)
+    crit = check_critical_angle(critical_angle)
+    margin = slicer_margin(crit, layer_height) if margin is None else float(margin)
+    limit = min(crit + margin - 0.5, 89.9)
     tol = float(tolerance)
     if tol <= 0:
         return heightfield_slab(heightmap, depth=depth, origin=origin), 0.0
@@ -873,7 +907,7 @@ def printable_lean_slab(
         f = faces[v[faces, 2].max(axis=1) > 1e-6]  # facets above the base
         top = Mesh(v.astype(np.float32), f.astype(np.uint32))
         # plate_tolerance < 0: no texture facet rests on the build plate.
-        return not any(overhang_mask(top, d, limit, plate_tolerance=-1.0).any() for d in dirs)
+        return not any(overhang_mask(top, d, limit, plate_tolerance=-1.0, rule="angle").any() for d in dirs)
 
     lean = tiled_triangulation(h, tol, accept=accept, border_grid=BORDER_GRID)
     if lean is None:

@@ -23,8 +23,9 @@ for ``"distance"``, algorithm 1).
 
 Borders whose walls would overhang are ramped (M-I) down to ``SINK`` mm *below* the
 surface (the limiter runs on ``h + SINK``), so no sliver of their wall is left above
-the tessellated base; facets keep ``MARGIN`` degrees from the critical angle, because
-the union with the base cuts them into slivers whose float32 normals scatter.
+the tessellated base; facets keep the slicers' margin plus ``SLIVER_MARGIN`` degrees from the critical
+angle, because the union with the base cuts them into slivers whose float32 normals
+scatter.
 
 The heights ``map_texture`` applies are ``w(s) h`` (``w`` = fade and intersection
 factor, 1 on smooth upward profiles such as the paper's arc and sine); where ``w < 1``
@@ -44,6 +45,7 @@ from ..sources import Heightmap
 from ..mapping import column_positions
 from ..solid import Mesh
 from .overhang import LimitReport, build_directions, limit_overhangs_mapped, overhang_area
+from .rule import slicer_margin
 from ..mapping import Profile
 
 __all__ = ["limit_on_profile", "measured"]
@@ -53,10 +55,10 @@ __all__ = ["limit_on_profile", "measured"]
 SINK = 0.02
 #: Passes over the three copies of a closed texture before giving up (each pass only lowers).
 _MAX_PASSES = 12
-#: Degrees added to the critical angle for the facets: mapped meshes are cut by the
-#: base surface into slivers whose float32 normals scatter by a few tenths of a degree
-#: (0.5), on top of the slicer's own degree (texcad.printability.SLICER_MARGIN).
-MARGIN = 2.0
+#: Degrees added to the slicers' margin (:func:`texcad.printability.rule.slicer_margin`)
+#: for the facets: mapped meshes are cut by the base surface into slivers whose
+#: float32 normals scatter by a few tenths of a degree.
+SLIVER_MARGIN = 0.5
 
 
 def limit_on_profile(
@@ -101,13 +103,14 @@ def limit_on_profile(
                 "the distance-preserving mapping adds heights along +z on upward and along -z on downward-looking "
                 "parts of this profile; the overhang limiter needs one of the two: use mapping='angle' with build_dir"
             )
+    margin = slicer_margin(critical_angle) + SLIVER_MARGIN
     h0 = fitted.heights.astype(np.float32)
     # Run on h + SINK and subtract it again: the borders M-I ramps end SINK mm below
     # the surface, inside the base, so no sliver of their wall stands above it.
     lifted = h0 + np.float32(SINK)
     if not profile.closed:
         out, rep = limit_overhangs_mapped(
-            Heightmap(lifted, fitted.pitch), tilt, dirs, critical_angle, offset=offset, margin=MARGIN
+            Heightmap(lifted, fitted.pitch), tilt, dirs, critical_angle, offset=offset, margin=margin
         )
         res = out.heights
     else:
@@ -119,7 +122,7 @@ def limit_on_profile(
         res = lifted
         for _ in range(_MAX_PASSES):  # per pass over the three copies; each only lowers
             out, rep = limit_overhangs_mapped(
-                Heightmap(np.tile(res, (1, 3)), fitted.pitch), tilt3, dirs, critical_angle, offset=offset, margin=MARGIN
+                Heightmap(np.tile(res, (1, 3)), fitted.pitch), tilt3, dirs, critical_angle, offset=offset, margin=margin
             )
             mid = np.minimum(res, out.heights[:, C : 2 * C])
             if np.array_equal(mid, res):

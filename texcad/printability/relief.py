@@ -63,6 +63,7 @@ from ..solid import edge_slot_pairs
 from ..solid.subdivide import cross, rows
 from ..util import beside, threads
 from .overhang import build_directions, check_critical_angle
+from .rule import slicer_margin
 
 __all__ = ["ReliefLimit", "limit_relief"]
 
@@ -496,7 +497,7 @@ def limit_relief(
     *,
     build_dir=None,
     critical_angle: float = 45.0,
-    margin: float = 1.0,
+    margin: float | None = None,
     shrink: float = 0.7,
     rounds: int = 60,
     ridges: bool = True,
@@ -511,8 +512,10 @@ def limit_relief(
         build_dir: ``(3,)`` or ``(K, 3)`` build direction(s), or None (fold check
             only).
         critical_angle: degrees between face and build plate, 0..90.
-        margin: degrees added to ``critical_angle`` for the limit, so that the
-            result passes :func:`texcad.check` after rounding to float32.
+        margin: degrees added to ``critical_angle`` for the limit; None: the
+            slicers' margin (:func:`texcad.printability.rule.slicer_margin`), so
+            that PrusaSlicer and CuraEngine at threshold ``critical_angle`` put no
+            support under the relief and it passes :func:`texcad.check`.
         shrink: extra factor per five rounds on the offending faces' displacements.
         rounds: rounds of shrinking before what still offends is set to 0.
         ridges: also lower the relief where a convex edge rises less steeply than
@@ -531,7 +534,9 @@ def limit_relief(
     dirs = None if build_dir is None else build_directions(build_dir)
     cos_limit = 0.0
     if dirs is not None:
-        cos_limit = float(np.cos(np.radians(min(89.9, check_critical_angle(critical_angle) + margin))))
+        crit = check_critical_angle(critical_angle)
+        margin = slicer_margin(crit) if margin is None else float(margin)
+        cos_limit = float(np.cos(np.radians(min(89.9, crit + margin))))
     want = ridges and dirs is not None
     with ThreadPoolExecutor(2) if _THREADS and threads() > 1 else nullcontext() as pool, \
             beside(_edge_table, np.ascontiguousarray(faces.T)) if want else nullcontext() as table:

@@ -1,12 +1,17 @@
-"""Slicer check: slice a part with PrusaSlicer's command line and read the G-code.
+"""Slicer check: slice a part with PrusaSlicer's or CuraEngine's command line and
+read the G-code.
 
 :func:`slice_mesh` writes a mesh as it would be printed (build direction turned to
 +z, resting on the bed, centred on a 200 x 200 mm bed), runs ``prusa-slicer
---export-gcode`` under ``/usr/bin/time -v`` (wall time and peak memory), and reads
-the G-code back: the length of every extrusion path by its ``;TYPE:`` section, and
-where the support material went (its extrusion points, mapped back to the part's
-own coordinates). PrusaSlicer is an external program (Debian: ``apt-get install
-prusa-slicer``); :func:`find_slicer` says whether it is installed.
+--export-gcode`` or ``CuraEngine slice`` under ``/usr/bin/time -v`` (wall time,
+CPU time and peak memory), and reads the G-code back: the length of every extrusion
+path by its ``;TYPE:`` section, and where the support material went (its extrusion
+points, mapped back to the part's own coordinates). Both are external programs
+(Debian: ``apt-get install prusa-slicer cura-engine``); :func:`find_slicer` says
+whether one is installed. CuraEngine reads its machine from
+``cura_fdm.def.json`` beside this module (a minimal FDM printer: 0.4 mm nozzle,
+0.2 mm layers, support on at 45 degrees); :func:`support_config` gives either
+slicer's settings for "support on, threshold = critical angle".
 
 Every length here is in mm, every time in seconds, memory in MB (10^6 bytes).
 """
@@ -25,16 +30,52 @@ import numpy as np
 
 from ..errors import InputError, ResourceError
 
-__all__ = ["find_slicer", "SliceReport", "slice_mesh", "read_gcode", "support_near", "SUPPORT_TYPES"]
+__all__ = [
+    "find_slicer",
+    "support_config",
+    "SliceReport",
+    "slice_mesh",
+    "read_gcode",
+    "support_near",
+    "SLICERS",
+    "SUPPORT_TYPES",
+    "CURA_DEFINITION",
+]
 
-#: The ``;TYPE:`` sections PrusaSlicer writes for support material.
-SUPPORT_TYPES = ("Support material", "Support material interface")
-BED_CENTRE = (100.0, 100.0)  # PrusaSlicer's default bed: 0..200 mm in x and y
+#: The slicers :func:`slice_mesh` drives, by the names it takes.
+SLICERS = ("prusaslicer", "curaengine")
+#: The ``;TYPE:`` sections PrusaSlicer and CuraEngine write for support material.
+SUPPORT_TYPES = ("Support material", "Support material interface", "SUPPORT", "SUPPORT-INTERFACE")
+BED_CENTRE = (100.0, 100.0)  # the default bed of both: 0..200 mm in x and y
+#: CuraEngine's machine definition (all the settings it reads, flattened).
+CURA_DEFINITION = Path(__file__).with_name("cura_fdm.def.json")
+_EXE = {"prusaslicer": ("prusa-slicer", "PrusaSlicer"), "curaengine": ("CuraEngine",)}
 
 
-def find_slicer() -> str | None:
-    """Path of ``prusa-slicer`` (or ``PrusaSlicer``) on PATH, or None."""
-    return shutil.which("prusa-slicer") or shutil.which("PrusaSlicer")
+def _which(slicer: str) -> str:
+    if slicer not in _EXE:
+        raise InputError(f"slicer must be one of {', '.join(SLICERS)}, got {slicer!r}")
+    return slicer
+
+
+def find_slicer(slicer: str = "prusaslicer") -> str | None:
+    """Path of ``prusa-slicer`` (``"prusaslicer"``) or ``CuraEngine``
+    (``"curaengine"``) on PATH, or None."""
+    for name in _EXE[_which(slicer)]:
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+def support_config(slicer: str = "prusaslicer", threshold: float = 45.0) -> dict:
+    """Settings for support on everywhere with the overhang threshold at ``threshold``
+    degrees from the build plate (texcad's critical angle): PrusaSlicer's
+    ``support_material_threshold`` is that angle, CuraEngine's ``support_angle`` is
+    measured from the vertical, ``90 - threshold``."""
+    if _which(slicer) == "prusaslicer":
+        return {"support-material": True, "support-material-threshold": threshold}
+    return {"support_enable": True, "support_type": "everywhere", "support_angle": 90.0 - float(threshold)}
 
 
 @dataclass
@@ -51,6 +92,7 @@ class SliceReport:
         support_points: ``(K, 3)`` float64 end points of the support extrusions in
             the part's own frame (mm), for mapping support back to the part.
         layers: number of layer changes.
+        slicer: ``"prusaslicer"`` or ``"curaengine"``.
         gcode_mb: size of the G-code, MB.
         returncode: the slicer's exit status.
         log: the tail of its stderr (for errors).
@@ -66,9 +108,11 @@ class SliceReport:
     gcode_mb: float = 0.0
     returncode: int = 0
     log: str = field(default="", repr=False)
+    slicer: str = "prusaslicer"
 
 
-_MOVE = re.compile(rb"^G1 (?:X(-?[\d.]+) ?)?(?:Y(-?[\d.]+) ?)?(?:Z(-?[\d.]+) ?)?(?:E(-?[\d.]+) ?)?", re.M)
+# G0/G1 with the axes in the order both slicers write them; CuraEngine puts F first.
+_MOVE = re.compile(rb"^G[01] (?:F[\d.]+ ?)?(?:X(-?[\d.]+) ?)?(?:Y(-?[\d.]+) ?)?(?:Z(-?[\d.]+) ?)?(?:E(-?[\d.]+) ?)?", re.M)
 _TYPE = re.compile(rb"^;TYPE:([^\r\n]*)", re.M)
 
 
@@ -115,78 +159,85 @@ def read_gcode(path: str | os.PathLike) -> tuple[dict, np.ndarray, int]:
             lengths[names[i]] = lengths.get(names[i], 0.0) + float(s)
     is_support = np.isin(np.array(names, dtype=object), SUPPORT_TYPES)
     sup = extruding & is_support[kind]
-    layers = data.count(b";LAYER_CHANGE")
+    layers = data.count(b";LAYER_CHANGE") or data.count(b";LAYER:")
     return lengths, xyz[sup], layers
 
 
 def _oriented(mesh, build_dir) -> tuple[np.ndarray, np.ndarray]:
     """Rotation ``R`` (3x3) taking ``build_dir`` to +z, and the vertices turned by it."""
-    d = np.asarray(build_dir, dtype=np.float64)
-    d = d / np.linalg.norm(d)
-    z = np.array([0.0, 0.0, 1.0])
-    v = np.cross(d, z)
-    c = float(d @ z)
-    if np.linalg.norm(v) < 1e-12:
-        R = np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
-    else:
-        vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-        R = np.eye(3) + vx + vx @ vx / (1 + c)
+    from ..printability import print_rotation
+
+    R = print_rotation(build_dir)
     return R, mesh.vertices.astype(np.float64) @ R.T
 
 
 def slice_mesh(
     mesh,
     *,
+    slicer: str = "prusaslicer",
     build_dir=(0.0, 0.0, 1.0),
     config: dict | None = None,
     timeout: float = 1800.0,
     keep: str | os.PathLike | None = None,
 ) -> SliceReport:
-    """Slice ``mesh`` (a :class:`texcad.solid.Mesh`, mm) with PrusaSlicer's CLI.
+    """Slice ``mesh`` (a :class:`texcad.solid.Mesh`, mm) with PrusaSlicer's or
+    CuraEngine's CLI.
 
     The mesh is turned so that ``build_dir`` points up (+z), put on the bed (lowest
     point at z = 0) with its bounding box centred on the default bed, written as a
-    binary STL and sliced with ``--dont-arrange`` and relative E (which only
-    changes how E is written, not what is sliced). ``config`` adds options, e.g.
-    ``{"support-material": True, "support-material-threshold": 45}`` or
-    ``{"overhangs": False}`` (PrusaSlicer's "detect bridging perimeters"); True /
-    False become ``--key`` / ``--no-key``. Everything else is PrusaSlicer's default.
+    binary STL and sliced with relative E (which only changes how E is written, not
+    what is sliced).
+
+    * ``slicer="prusaslicer"``: ``prusa-slicer --export-gcode --dont-arrange``;
+      ``config`` adds options, e.g. :func:`support_config` or ``{"overhangs":
+      False}`` (PrusaSlicer's "detect bridging perimeters"); True / False become
+      ``--key`` / ``--no-key``. Everything else is PrusaSlicer's default.
+    * ``slicer="curaengine"``: ``CuraEngine slice -j cura_fdm.def.json``
+      (:data:`CURA_DEFINITION`); ``config`` adds ``-s key=value`` settings
+      (True / False become ``true`` / ``false``).
 
     Returns:
         :class:`SliceReport` (support points mapped back to the mesh's own frame).
 
     Raises:
-        ResourceError: prusa-slicer is not installed, or it ran past ``timeout`` s.
+        ResourceError: the slicer is not installed, or it ran past ``timeout`` s.
     """
     from ..io import write_stl
     from ..solid import Mesh
 
-    exe = find_slicer()
+    exe = find_slicer(slicer)
     if exe is None:
-        raise ResourceError("prusa-slicer is not installed; install it (Debian: apt-get install prusa-slicer)")
+        pkg = {"prusaslicer": "prusa-slicer", "curaengine": "cura-engine"}[slicer]
+        raise ResourceError(f"{_EXE[slicer][0]} is not installed; install it (Debian: apt-get install {pkg})")
     R, v = _oriented(mesh, build_dir)
     lo, hi = v.min(axis=0), v.max(axis=0)
     shift = np.array([BED_CENTRE[0] - (lo[0] + hi[0]) / 2, BED_CENTRE[1] - (lo[1] + hi[1]) / 2, -lo[2]])
     placed = Mesh((v + shift).astype(np.float32), mesh.faces)
     placed.__dict__["is_watertight"] = mesh.is_watertight
-    args = ["--use-relative-e-distances"]
-    for k, val in (config or {}).items():
-        if val is True:
-            args.append(f"--{k}")
-        elif val is False:
-            args.append(f"--no-{k}")
-        else:
-            args += [f"--{k}", str(val)]
     with tempfile.TemporaryDirectory() as tmp:
         stl = Path(tmp) / "part.stl"
         gcode = Path(tmp) / "part.gcode"
         write_stl(placed, stl)
-        cmd = [exe, "--export-gcode", "--dont-arrange", *args, "--output", str(gcode), str(stl)]
+        if slicer == "prusaslicer":
+            args = ["--use-relative-e-distances"]
+            for k, val in (config or {}).items():
+                if val is True:
+                    args.append(f"--{k}")
+                elif val is False:
+                    args.append(f"--no-{k}")
+                else:
+                    args += [f"--{k}", str(val)]
+            cmd = [exe, "--export-gcode", "--dont-arrange", *args, "--output", str(gcode), str(stl)]
+        else:
+            args = []
+            for k, val in (config or {}).items():
+                args += ["-s", f"{k}={str(val).lower() if isinstance(val, bool) else val}"]
+            cmd = [exe, "slice", "-j", str(CURA_DEFINITION), *args, "-l", str(stl), "-o", str(gcode)]
         full = (["/usr/bin/time", "-v"] if os.path.exists("/usr/bin/time") else []) + cmd
         try:
             proc = subprocess.run(full, capture_output=True, timeout=timeout, env={**os.environ, "LC_ALL": "C"})
         except subprocess.TimeoutExpired:
-            raise ResourceError(f"prusa-slicer ran past {timeout:g} s; slice a leaner mesh (larger tolerance)") from None
+            raise ResourceError(f"{slicer} ran past {timeout:g} s; slice a leaner mesh (larger tolerance)") from None
         err = proc.stderr.decode("utf-8", "replace")
         wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (?:(\d+):)?(\d+):([\d.]+)", err)
         secs = (int(wall.group(1) or 0) * 3600 + int(wall.group(2)) * 60 + float(wall.group(3))) if wall else float("nan")
@@ -194,8 +245,8 @@ def slice_mesh(
         peak = int(rss.group(1)) * 1024 / 1e6 if rss else float("nan")
         cpu = [re.search(rf"{k} time \(seconds\): ([\d.]+)", err) for k in ("User", "System")]
         cpu_s = sum(float(c.group(1)) for c in cpu) if all(cpu) else float("nan")
-        rep = SliceReport(seconds=secs, peak_mb=peak, cpu_seconds=cpu_s, returncode=proc.returncode, log=err[-2000:])
-        if proc.returncode == 0 and gcode.exists():
+        rep = SliceReport(seconds=secs, peak_mb=peak, cpu_seconds=cpu_s, returncode=proc.returncode, log=err[-2000:], slicer=slicer)
+        if proc.returncode == 0 and gcode.exists() and gcode.stat().st_size:
             rep.lengths, pts, rep.layers = read_gcode(gcode)
             rep.gcode_mb = gcode.stat().st_size / 1e6
             rep.support_mm = float(sum(rep.lengths.get(t, 0.0) for t in SUPPORT_TYPES))
