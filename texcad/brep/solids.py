@@ -79,6 +79,7 @@ __all__ = [
     "FINE",
     "occt_volume",
     "OCCT_EPS",
+    "flat_solids",
     "occt_boolean",
     "fuse_solids",
     "check_shape",
@@ -1691,3 +1692,28 @@ def occt_volume(shape: Any, eps: float = OCCT_EPS) -> float:
     props = GProp_GProps()
     BRepGProp.VolumeProperties_s(to_topods(shape), props, float(eps), True)
     return float(props.Mass())
+
+
+def flat_solids(shape: Any):
+    """``shape``'s solids as one flat ``TopoDS_Compound`` (each solid a direct child,
+    with its location), free shells (not in a solid) made solids.
+
+    What a textured B-rep is handed out as: build123d's ``Part(shape).volume`` sums
+    only the solids and shells that are direct children of a compound, so a bare
+    ``TopoDS_Solid`` gives 0 and nested compounds hide theirs (issue 28: a textured
+    knob top's ``Textured.part.volume`` was 0).
+    """
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeSolid
+    from OCP.TopAbs import TopAbs_SHELL, TopAbs_SOLID
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    from .occt import compound, solids_of
+
+    topo = to_topods(shape)
+    out = solids_of(topo)
+    exp = TopExp_Explorer(topo, TopAbs_SHELL, TopAbs_SOLID)
+    while exp.More():  # one per free shell
+        out.append(BRepBuilderAPI_MakeSolid(TopoDS.Shell_s(exp.Current())).Solid())
+        exp.Next()
+    return compound(out)
