@@ -13,6 +13,14 @@ again.
     python benchmarks/bench_step.py [--pixels 800] [--plain] [--occt-volume] [--paper] [--sledgehammer]
     python benchmarks/bench_step.py --open 0.125
     python benchmarks/bench_step.py --holes [--pixels 800] [--occt-volume]
+    python benchmarks/bench_step.py --sizes [--size 100] [--table docs/benchmarks/step.md]
+
+``--sizes`` (issue 28): the demo plate (``--size`` mm, stones 2 mm at 0.125 mm, the
+demo's default tolerance) and a knurled cylinder: STEP size against the binary STL's
+at the same tolerance, seconds to write the STEP, to read it back (OCCT's
+``STEPControl_Reader``, as FreeCAD) and to mesh it at 0.1 mm, validity and OCCT's
+volume against the mesh; written as a markdown table (machine, date, command) to
+``--table``.
 
 ``--open PITCH``: instead of the plate, the paper's sine and curved samples (open
 profiles, tiles sewn in place) with the diamond knurl at PITCH mm: B-rep, OCCT's own
@@ -50,6 +58,7 @@ def _clock(label: str, fn, times: dict):
     t0, c0 = time.perf_counter(), time.process_time()
     out = fn()
     times[label] = time.perf_counter() - t0
+    times[label + " CPU"] = time.process_time() - c0
     print(f"  {label:48s} {times[label]:8.2f} s wall {time.process_time() - c0:8.2f} s CPU", flush=True)
     return out
 
@@ -183,6 +192,75 @@ def run_holes(out: Path, pixels: int, occt: bool) -> None:
         print(f"    valid {c['valid']}, {c['solids']} solid, B-rep {cut.info['brep_volume']:.1f} mm3 vs mesh {cut.volume:.1f} mm3")
 
 
+def _sizes_row(name: str, tx, out: Path) -> dict:
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+
+    t: dict = {}
+    print(name)
+    tx.export(out / f"{name}.stl")
+    _clock("write STEP", lambda: tx.export(out / f"{name}.step"), t)
+    back = _clock("read STEP back (OCCT STEPControl_Reader)", lambda: texcad.io.read_step(out / f"{name}.step"), t)
+    _clock("mesh it at 0.1 mm (BRepMesh_IncrementalMesh)", lambda: BRepMesh_IncrementalMesh(back, 0.1, False, 0.5, True), t)
+    chk = check_shape(back)
+    vo = occt_volume(back)
+    row = {
+        "part": name,
+        "STL MB": (out / f"{name}.stl").stat().st_size / 1e6,
+        "STEP MB": (out / f"{name}.step").stat().st_size / 1e6,
+        "write s": (t["write STEP"], t["write STEP CPU"]),
+        "read s": (t["read STEP back (OCCT STEPControl_Reader)"], t["read STEP back (OCCT STEPControl_Reader) CPU"]),
+        "mesh s": (t["mesh it at 0.1 mm (BRepMesh_IncrementalMesh)"], t["mesh it at 0.1 mm (BRepMesh_IncrementalMesh) CPU"]),
+        "valid": chk["valid"] and chk["solids"] == 1,
+        "volume": (vo - tx.volume) / tx.volume,
+    }
+    row["ratio"] = row["STEP MB"] / row["STL MB"]
+    print(f"    STEP {row['STEP MB']:.2f} MB, binary STL {row['STL MB']:.2f} MB: {row['ratio']:.2f}x; valid {row['valid']}; "
+          f"OCCT volume {row['volume']:+.1e} from the mesh")  # fmt: skip
+    return row
+
+
+def run_sizes(out: Path, size: float, table: str | None) -> None:
+    """STEP size against binary STL, re-read and mesh seconds (issue 28)."""
+    import platform
+    from datetime import datetime, timezone
+
+    from build123d import Axis, Cylinder, GeomType
+
+    plate = texcad.pipeline.plate_base((size, size), 5)
+    rows = []
+    tx = texcad.texture(plate, plate.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=2.0, pitch=0.125)
+    rows.append(_sizes_row(f"plate{size:g}", tx, out))
+    cyl = Cylinder(10, 30)
+    side = cyl.faces().filter_by(GeomType.CYLINDER)[0]
+    tx = texcad.texture(cyl, side, "builtin:diamond_knurl", height=0.6, pitch=0.25)
+    rows.append(_sizes_row("cylinder", tx, out))
+    if table:
+        parts = {f"plate{size:g}": f"demo plate {size:g} x {size:g} mm, stones 2 mm at 0.125 mm",
+                 "cylinder": "cylinder r 10 x 30 mm, diamond knurl 0.6 mm at 0.25 mm"}  # fmt: skip
+        lines = [
+            "# STEP size and re-read time",
+            "",
+            "Written by `benchmarks/bench_step.py --sizes`; do not edit by hand.",
+            "",
+            f"- command: `python benchmarks/bench_step.py --sizes --size {size:g} --table {table}`",
+            f"- machine: {platform.machine()}, {os.cpu_count()} cores, {platform.python_version()}, "
+            f"load {os.getloadavg()[0]:.1f} (1 min; the machine was shared)",
+            f"- date: {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC",
+            "",
+            "Seconds are wall (CPU): on a shared machine the CPU seconds are what one free core takes.",
+            "",
+            "| part | binary STL MB | STEP MB | STEP / STL | write s | OCCT read s | OCCT mesh 0.1 mm s | valid solid | OCCT volume vs mesh |",
+            "|---|---:|---:|---:|---:|---:|---:|---|---:|",
+        ]
+        for r in rows:  # one per part
+            w, rd, m = (f"{r[k][0]:.1f} ({r[k][1]:.1f})" for k in ("write s", "read s", "mesh s"))
+            lines.append(f"| {parts[r['part']]} | {r['STL MB']:.2f} | {r['STEP MB']:.2f} | {r['ratio']:.2f} | {w} | {rd} | {m} | "
+                         f"{'yes' if r['valid'] else 'NO'} | {100 * r['volume']:+.3f} % |")  # fmt: skip
+        Path(table).parent.mkdir(parents=True, exist_ok=True)
+        Path(table).write_text("\n".join(lines) + "\n")
+        print(f"wrote {table}")
+
+
 def run_paper(out: Path) -> None:
     env = dict(os.environ, TEXCAD_PITCH="0.125", TEXCAD_OUT=str(out / "paper"), PYTHONPATH=str(ROOT))
     code = (
@@ -230,6 +308,9 @@ def main() -> None:
     ap.add_argument("--sledgehammer", action="store_true", help="the sledgehammer's B-rep")
     ap.add_argument("--open", type=float, default=None, metavar="PITCH", help="only the sine and curved samples at PITCH mm")
     ap.add_argument("--holes", action="store_true", help="only the plate with holes (raised and engraved)")
+    ap.add_argument("--sizes", action="store_true", help="only STEP size vs binary STL and re-read seconds (issue 28)")
+    ap.add_argument("--size", type=float, default=100.0, help="--sizes: the plate's side, mm")
+    ap.add_argument("--table", default=None, help="--sizes: write the markdown table here")
     args = ap.parse_args()
     import build123d  # noqa: F401  (import cost is not part of the job)
 
@@ -240,6 +321,8 @@ def main() -> None:
             run_open(Path(d), args.open)
         elif args.holes:
             run_holes(Path(d), args.pixels, args.occt_volume)
+        elif args.sizes:
+            run_sizes(Path(d), args.size, args.table)
         else:
             run_plate(args.pixels, Path(d), args.plain, args.occt_volume)
         if args.paper:

@@ -79,6 +79,7 @@ __all__ = [
     "FINE",
     "occt_volume",
     "OCCT_EPS",
+    "flat_solids",
     "occt_boolean",
     "fuse_solids",
     "check_shape",
@@ -1527,7 +1528,27 @@ def _replace_faces(shape, swaps: list):
     return result
 
 
-def textured_band_solid(shape: Any, face: Any, top: np.ndarray, *, tile: int = TILE):
+def _band_fine(grid: np.ndarray, boxes) -> list | None:
+    """Index rectangles ``(r0, r1, c0, c1[, cells])`` of a closed band's grid (``(R,
+    C + 1, 3)`` mm, the last column the first) around its poles inside each box
+    ``(lo (3,), hi (3,)[, cells])`` mm, one cell wider: one rectangle per run of
+    neighbouring columns (a tool through the band meets it twice)."""
+    if not boxes:
+        return None
+    out, last = [], grid.shape[1] - 1
+    for box in boxes:  # one per CAD operation's tool
+        hit = ((grid >= np.asarray(box[0])) & (grid <= np.asarray(box[1]))).all(axis=-1)
+        rows, cols = np.nonzero(hit.any(axis=1))[0], np.nonzero(hit.any(axis=0))[0]
+        if not len(rows):
+            continue
+        r0, r1 = max(int(rows.min()) - 1, 0), min(int(rows.max()) + 1, grid.shape[0] - 1)
+        runs = np.split(cols, np.nonzero(np.diff(cols) > 1)[0] + 1)
+        for run in runs:  # one per run of columns
+            out.append((r0, r1, max(int(run[0]) - 1, 0), min(int(run[-1]) + 1, last), *box[2:]))
+    return out
+
+
+def textured_band_solid(shape: Any, face: Any, top: np.ndarray, *, tile: int = TILE, fine=None):
     """``shape`` with a closed band face (a cylinder's side, any closed extruded
     profile) textured by the grid ``top`` in tiles, **without a boolean**.
 
@@ -1538,7 +1559,9 @@ def textured_band_solid(shape: Any, face: Any, top: np.ndarray, *, tile: int = T
     (``BRepAlgoAPI_Splitter``: a plane across a cylinder or an extrusion, exact); its
     middle part is replaced by :func:`tiled_grid_faces` (``wrap_x``) and two planar
     rings between the split's section edges and the end rows' edges: the slab walls
-    of texcad's mesh. Every edge is shared: closed by construction.
+    of texcad's mesh. Every edge is shared: closed by construction. ``fine``: boxes
+    ``(lo (3,), hi (3,)[, cells])`` mm where the tiles are small (a CAD operation's
+    tool, as :func:`texcad.brep.open_extrusion_solid`).
 
     Returns:
         The new shape, or None where this does not apply (then use :func:`grid_brep`
@@ -1603,7 +1626,7 @@ def textured_band_solid(shape: Any, face: Any, top: np.ndarray, *, tile: int = T
         return None
     grid = np.concatenate([g, g[:, :1]], axis=1)
     u, v = np.arange(grid.shape[1], dtype=np.float64), np.arange(grid.shape[0], dtype=np.float64)
-    tiles, rows = tiled_grid_faces(grid, u, v, tile=tile, wrap_x=True)
+    tiles, rows = tiled_grid_faces(grid, u, v, tile=tile, wrap_x=True, fine=_band_fine(grid, fine))
     new_faces = strips + list(tiles)
     for (centre, nrm), p, key in zip(planes, pl, ("v0", "v1")):  # the two rings
         sec = [e for e in sections if abs(float((edge_points(e, 0.1 * extent)[0] - centre) @ nrm)) < 1e-6 * extent]
@@ -1652,21 +1675,22 @@ def _ring_face(pln, section, row: list, first: bool):
     return ring
 
 
-def textured_extrusion_solid(shape: Any, face: Any, top: np.ndarray, bottom: np.ndarray, *, closed: bool):
+def textured_extrusion_solid(shape: Any, face: Any, top: np.ndarray, bottom: np.ndarray, *, closed: bool, fine=None):
     """``shape`` with a face of an extruded profile textured: the texture grid ``top``
     (``(R, C, 3)`` mm, outward ``d/dc x d/dr``) and the slab's ``bottom`` inside the
     body (as :func:`grid_brep`).
 
     A closed band whose ends are planar faces (a cylinder, a boss on a plate, any
     closed extruded profile between planes) gets :func:`textured_band_solid`: the
-    face is replaced, no boolean. Other faces get the slab of :func:`grid_brep` fused
+    face is replaced, no boolean (``fine``: boxes where its tiles are small, see
+    there). Other faces get the slab of :func:`grid_brep` fused
     onto the body by OCCT's boolean (:func:`fuse_solids`; slow on fine grids).
 
     Raises:
         GeometryError: the boolean failed or changed the number of solids.
     """
     if closed:
-        out = textured_band_solid(shape, face, top)
+        out = textured_band_solid(shape, face, top, fine=fine)
         if out is not None:
             return out
     topo = to_topods(shape)
@@ -1691,3 +1715,28 @@ def occt_volume(shape: Any, eps: float = OCCT_EPS) -> float:
     props = GProp_GProps()
     BRepGProp.VolumeProperties_s(to_topods(shape), props, float(eps), True)
     return float(props.Mass())
+
+
+def flat_solids(shape: Any):
+    """``shape``'s solids as one flat ``TopoDS_Compound`` (each solid a direct child,
+    with its location), free shells (not in a solid) made solids.
+
+    What a textured B-rep is handed out as: build123d's ``Part(shape).volume`` sums
+    only the solids and shells that are direct children of a compound, so a bare
+    ``TopoDS_Solid`` gives 0 and nested compounds hide theirs (issue 28: a textured
+    knob top's ``Textured.part.volume`` was 0).
+    """
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeSolid
+    from OCP.TopAbs import TopAbs_SHELL, TopAbs_SOLID
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    from .occt import compound, solids_of
+
+    topo = to_topods(shape)
+    out = solids_of(topo)
+    exp = TopExp_Explorer(topo, TopAbs_SHELL, TopAbs_SOLID)
+    while exp.More():  # one per free shell
+        out.append(BRepBuilderAPI_MakeSolid(TopoDS.Shell_s(exp.Current())).Solid())
+        exp.Next()
+    return compound(out)

@@ -23,4 +23,4 @@ def extrusion_brep(topo: Any, face: Any, top, bottom, *, closed: bool, base=None
         out = open_extrusion_solid(topo, face, top, base, fine=fine)
         if out is not None:
             return out
-    return textured_extrusion_solid(topo, face, top, bottom, closed=closed)
+    return textured_extrusion_solid(topo, face, top, bottom, closed=closed, fine=fine)

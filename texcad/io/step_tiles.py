@@ -8,12 +8,15 @@ shape, for a 2 x 2-pole stand-in with the same parameter range (its edges get th
 same pcurves on it), and the STEP text is then completed with numpy:
 
 * the stand-in's ``B_SPLINE_SURFACE_WITH_KNOTS`` is rewritten with the tile's poles
-  (``CARTESIAN_POINT`` entities, 8 decimals: 5e-9 mm, inside the 1e-7 mm tolerance;
-  the stand-in's four corner points are the tile's corner poles) and knots;
+  (``CARTESIAN_POINT`` entities: 8 decimals on the tile's border, 5e-9 mm, inside the
+  edges' 1e-7 mm; 4 decimals inside, 5e-5 mm, far below any mesh tolerance; trailing
+  zeros dropped; the stand-in's four corner points are the tile's corner poles) and
+  knots;
 * each tile that carries its triangulation (texcad's mesh: two triangles per grid
-  cell) gets a ``TRIANGULATED_FACE`` linked to its ``ADVANCED_FACE`` (AP242), with
-  its nodes (``COORDINATES_LIST``, the same numbers as the poles, formatted once)
-  and no normals (optional in AP242; OCCT's viewers compute them);
+  cell) gets a ``COMPLEX_TRIANGULATED_FACE`` linked to its ``ADVANCED_FACE`` (AP242),
+  with its nodes (``COORDINATES_LIST``, the same numbers as the poles, formatted
+  once), no normals (optional in AP242; OCCT's viewers compute them) and its
+  triangles as one strip per column of cells (two numbers per node instead of six);
 * a ``TESSELLATED_SOLID`` per solid lists them, as OCCT's own writer does.
 
 The stand-ins are matched to the STEP entities through the shells' face order and
@@ -28,7 +31,6 @@ from typing import Any
 
 import numpy as np
 
-from ..solid import grid_faces
 from ..brep import surface_grid, tile_grid
 
 __all__ = ["tiled_step_text"]
@@ -157,9 +159,38 @@ def _grid_ids_template(cols: int, rows: int) -> str:
     return "(" + "),(".join([",".join(["#%d"] * rows)] * cols) + ")"
 
 
-def _triangles_text(rows: int, cols: int) -> str:
-    tri = grid_faces(rows, cols).astype(np.int64) + 1
-    return (("(%d,%d,%d)," * len(tri)) % tuple(tri.ravel().tolist()))[:-1]
+def _strips_text(rows: int, cols: int) -> str:
+    """The triangles of :func:`texcad.solid.grid_faces` (``rows x cols`` nodes,
+    row-major, 1-based: the same cells, diagonals and orientation) as one triangle
+    strip per column of cells, two numbers per node instead of six.
+
+    The order is the one OCCT's STEP reader turns into counter-clockwise triangles
+    (``StepToTopoDS_TranslateFace``: ``(s1, s3, s2), (s2, s3, s4), ...``): the strip of
+    cell column c runs up the rows as ``(r, c + 1), (r, c)``."""
+    a = np.arange(rows)[None, :] * cols + np.arange(cols - 1)[:, None] + 1  # (c, r) -> node (r, c)
+    strips = np.stack([a + 1, a], axis=-1).reshape(cols - 1, 2 * rows)
+    one = "(" + ",".join(["%d"] * (2 * rows)) + ")"
+    return ",".join([one] * (cols - 1)) % tuple(strips.ravel().tolist())
+
+
+def _border(rows: int, cols: int) -> np.ndarray:
+    """True for the nodes of a ``rows x cols`` tile grid on its border, u-major
+    (index ``c * rows + r``)."""
+    on = np.zeros((cols, rows), bool)
+    on[[0, -1], :], on[:, [0, -1]] = True, True
+    return on.ravel()
+
+
+_TRAILING = re.compile(r"(\.\d*?)0+(?=[,\n])")
+
+
+def _tokens(p: np.ndarray, decimals: int) -> np.ndarray:
+    """``"x,y,z"`` per point with ``decimals`` decimals, trailing zeros dropped."""
+    if not len(p):
+        return np.empty(0, dtype=object)
+    fmt = f"%.{decimals}f,%.{decimals}f,%.{decimals}f\n"
+    text = _TRAILING.sub(r"\1", (fmt * len(p)) % tuple(p.ravel().tolist()))
+    return np.array(text.split("\n")[:-1], dtype=object)
 
 
 def tiled_step_text(topo: Any, occt_write) -> bytes | None:
@@ -248,8 +279,12 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list)
     if len(face_ids) != n_faces:
         return None
     pts = np.concatenate([g.transpose(1, 0, 2).reshape(-1, 3) for g, _, _ in grids])
-    # Each pole formatted once (8 decimals: 5e-9 mm), for its point and its mesh node.
-    tok = np.array(("%.8f,%.8f,%.8f\n" * len(pts) % tuple(pts.ravel().tolist())).split("\n")[:-1], dtype=object)
+    # Each pole formatted once, for its point and its mesh node: on the tile's border
+    # (on its edges' curves) 8 decimals (5e-9 mm, inside the edges' 1e-7 mm), inside
+    # 4 decimals (5e-5 mm, far below any mesh tolerance).
+    border = np.concatenate([_border(g.shape[0], g.shape[1]) for g, _, _ in grids])
+    tok = np.empty(len(pts), dtype=object)
+    tok[border], tok[~border] = _tokens(pts[border], 8), _tokens(pts[~border], 4)
     ids, emit = np.zeros(len(pts), np.int64), np.ones(len(pts), bool)
     swaps, tess = {}, []
     off = 0
@@ -271,7 +306,7 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list)
     ids[emit] = next_id + np.arange(n_emit)
     inter = [None] * (2 * n_emit)
     inter[0::2], inter[1::2] = ids[emit].tolist(), tok[emit].tolist()
-    new = [("#%d = CARTESIAN_POINT('',(%s));\n" * n_emit) % tuple(inter)]
+    new = [("#%d=CARTESIAN_POINT('',(%s));\n" * n_emit) % tuple(inter)]
     repl = _surfaces_text(swaps, ids)
     new_ids, items = _tessellation_text(tess, tok, next_id + n_emit, shell_of, msb, new)
     for rep in sorted({absr_of[solid] for solid, _ in items}):  # one per shape representation
@@ -313,12 +348,14 @@ def _tessellation_text(tess: list, tok: np.ndarray, next_id: int, shell_of: dict
     tri_text, by_solid = {}, {}
     for face, o, rows, cols in tess:  # one per triangulated tile
         if (rows, cols) not in tri_text:
-            tri_text[rows, cols] = _triangles_text(rows, cols)
+            tri_text[rows, cols] = _strips_text(rows, cols)
         node = o + (np.arange(cols)[None, :] * rows + np.arange(rows)[:, None]).ravel()  # row-major nodes
         cid, tid = next_id, next_id + 1
         next_id += 2
-        new.append(f"#{cid} = COORDINATES_LIST('',{rows * cols},(({'),('.join(tok[node].tolist())})));\n")
-        new.append(f"#{tid} = TRIANGULATED_FACE('',#{cid},{rows * cols},(),#{face},(),({tri_text[rows, cols]}));\n")
+        new.append(f"#{cid}=COORDINATES_LIST('',{rows * cols},(({'),('.join(tok[node].tolist())})));\n")
+        new.append(
+            f"#{tid}=COMPLEX_TRIANGULATED_FACE('',#{cid},{rows * cols},(),#{face},(),({tri_text[rows, cols]}),());\n"
+        )
         by_solid.setdefault(msb[shell_of[face]], []).append(tid)
     items = []
     for solid, tfs in by_solid.items():  # one per solid
