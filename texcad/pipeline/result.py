@@ -240,7 +240,9 @@ class Textured:
         """The B-rep as a build123d ``Part``."""
         from build123d import Part
 
-        return Part(self.shape)
+        from ..brep import flat_solids
+
+        return Part(flat_solids(self.shape))  # solids directly in one compound (build123d's volume counts only those)
 
     @property
     def workplane(self):
@@ -336,7 +338,9 @@ class Textured:
             names = ["texture"] if len(layers) == 1 and self.kind != "mesh" else [f"texture {k + 1}" for k in range(len(layers))]
             zones = self.info.get("zones") or []
             names = [zones[k] if k < len(zones) else n for k, n in enumerate(names)]
-            write_3mf([("base", self.base_mesh)] + list(zip(names, layers)), p, name=name or p.stem)
+            d = self.stages.options.directions
+            write_3mf([("base", self.base_mesh)] + list(zip(names, layers)), p, name=name or p.stem,
+                      build_dir=None if d is None else d[0])  # placed on the bed as printed
             return p
         return export(self, p, separate_texture=separate_texture, name=name)
 

@@ -41,6 +41,7 @@ import numpy as np
 
 from ..brep import TESSELLATION, FaceMesh, PartMesh, as_array
 from ..errors import GeometryError
+from ..printability.rule import support_free_angle
 from ..solid import Mesh, edge_report
 from ..sources import Heightmap
 from ..util import smoothstep
@@ -545,7 +546,7 @@ def limit_overhangs_grid(P, N, h, cells, wrap_y, dirs, critical_angle, floor):
     floor = np.asarray(floor, np.float64).reshape(-1)
     tri = _cell_tris(cells, R, C, wrap_y)
     Pf, Nf = P.reshape(-1, 3), N.reshape(-1, 3)
-    cos_c = np.cos(np.radians(critical_angle + 1.0))  # 1 degree stricter than overhang_mask
+    cos_c = np.cos(np.radians(support_free_angle(critical_angle)))  # the slicers' rule (texcad.printability.rule)
     hf = h.reshape(-1).copy()
     base_n = _unit_normals(Pf, tri)
     if (base_n * Nf[tri].mean(axis=1)).sum() < 0:  # the grid's cells run clockwise seen from outside
@@ -663,7 +664,7 @@ def _overhanging_cells(g: PatchGrid, s: np.ndarray, tri: np.ndarray, dirs: np.nd
     n *= np.sign((n * base).sum(axis=1, keepdims=True))  # outward, along the face's normal
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-18)
     base /= np.maximum(np.linalg.norm(base, axis=1, keepdims=True), 1e-18)
-    cos_c = np.cos(np.radians(critical_angle + 1.0))
+    cos_c = np.cos(np.radians(support_free_angle(critical_angle)))
     bad = np.any(-(n @ dirs.T) > cos_c, axis=1) & ~np.any(-(base @ dirs.T) > cos_c, axis=1)
     if not bad.any():
         return None

@@ -69,7 +69,9 @@ def lean_mapped_slab(top, bottom, profile, s, *, closed: bool, tolerance: float,
     from ..printability import build_directions, overhang_area
 
     dirs = build_directions(build_dir)
-    limit = min(float(critical_angle) + 1.0, 89.9)  # the slicer's rule: its threshold + 1 degree
+    from ..printability.rule import overhang_angle
+
+    limit = min(overhang_angle(critical_angle), 89.9)  # what the slicers support (texcad.printability.rule)
 
     def facets_ok(v: np.ndarray, f: np.ndarray) -> float:  # overhanging area, mm2
         m = Mesh(np.asarray(v, np.float32), f.astype(np.uint32))
