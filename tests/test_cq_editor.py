@@ -93,7 +93,8 @@ def xvfb(size: tuple[int, int] = (1280, 1024)):
         _stop(proc)
 
 
-def run_cq_editor(recipe: Path, out_dir: Path, display: str, timeout: float = 90.0) -> dict:
+def run_cq_editor(recipe: Path, out_dir: Path, display: str, timeout: float = 90.0,
+                  window: tuple[int, int] = WINDOW) -> dict:
     """Run the launcher (this file) on ``recipe`` in CQ-editor on ``display``; returns
     its result.json (paths of the screenshots, the objects shown, a traceback if any)."""
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -105,7 +106,7 @@ def run_cq_editor(recipe: Path, out_dir: Path, display: str, timeout: float = 90
                LIBGL_ALWAYS_SOFTWARE="1")
     log = out_dir / "cq_editor.log"
     with open(log, "wb") as f:
-        proc = subprocess.Popen([sys.executable, str(HERE), str(recipe), str(out_dir)], env=env, cwd=str(out_dir),
+        proc = subprocess.Popen([sys.executable, str(HERE), str(recipe), str(out_dir), f"{window[0]}x{window[1]}"], env=env, cwd=str(out_dir),
                                 stdout=f, stderr=subprocess.STDOUT, start_new_session=True)
         try:
             proc.wait(timeout=timeout)
@@ -121,13 +122,13 @@ def run_cq_editor(recipe: Path, out_dir: Path, display: str, timeout: float = 90
 
 
 @contextlib.contextmanager
-def cq_editor_session(work: Path, recipe_text: str = RECIPE):
+def cq_editor_session(work: Path, recipe_text: str = RECIPE, window: tuple[int, int] = WINDOW):
     """Xvfb, the recipe written to ``work/recipe.py`` and CQ-editor run on it; yields
     the launcher's result (see :func:`run_cq_editor`)."""
     recipe = work / "recipe.py"
     recipe.write_text(recipe_text)
     with xvfb() as display:
-        yield run_cq_editor(recipe, work / "out", display)
+        yield run_cq_editor(recipe, work / "out", display, window=window)
 
 
 # ------------------------------------------------------------------------------------------
@@ -192,10 +193,11 @@ def test_cq_editor_runs_a_recipe_and_draws_the_textured_part(tmp_path):
 # ------------------------------------------------------------------------------------------
 # The launcher: run as a script inside the X session
 # ------------------------------------------------------------------------------------------
-def _launch(recipe: str, out_dir: str, settle_ms: int = 1500, render_timeout_s: float = 60.0) -> None:
+def _launch(recipe: str, out_dir: str, window: tuple[int, int] = WINDOW, settle_ms: int = 1500,
+            render_timeout_s: float = 60.0) -> None:
     """CQ-editor's MainWindow on ``recipe`` (as ``cq-editor RECIPE`` opens it), a
     screenshot, Render (F5), another screenshot; writes ``out_dir/result.json``."""
-    from PyQt5.QtCore import QTimer
+    from PyQt5.QtCore import Qt, QTimer
     from PyQt5.QtWidgets import QApplication
 
     # the QApplication before cq_editor's modules, as cq_editor.__main__ does (svg icons)
@@ -216,9 +218,12 @@ def _launch(recipe: str, out_dir: str, settle_ms: int = 1500, render_timeout_s: 
 
     debugger.sigTraceback.connect(on_traceback)
     debugger.sigRendered.connect(lambda objs: result.__setitem__("objects", list(objs)))
-    win.resize(*WINDOW)
+    win.resize(*window)
     win.move(0, 0)
     win.show()
+    # the editor wide enough for the recipe's lines, the bottom panes low: a larger 3D view
+    win.resizeDocks([win.docks["editor"]], [int(window[0] * 0.36)], Qt.Horizontal)
+    win.resizeDocks([win.docks["console"]], [int(window[1] * 0.22)], Qt.Vertical)
 
     def pump(ms: int) -> None:
         end = time.monotonic() + ms / 1000
@@ -264,4 +269,4 @@ def _launch(recipe: str, out_dir: str, settle_ms: int = 1500, render_timeout_s: 
 
 
 if __name__ == "__main__":
-    _launch(sys.argv[1], sys.argv[2])
+    _launch(sys.argv[1], sys.argv[2], tuple(int(v) for v in sys.argv[3].split("x")) if len(sys.argv) > 3 else WINDOW)
