@@ -1,0 +1,44 @@
+"""Make docs/cq_editor.png: a texcad recipe opened in CQ-editor and rendered (F5).
+
+Runs the session of tests/test_cq_editor.py (same launcher, Xvfb and recipe: a 20 x 20 x
+5 mm box, its top face diamond-knurled at 0.5 mm pitch, ``show_object(part.workplane)``)
+in a larger window and keeps the screenshot taken after Render. Needs Xvfb
+(``apt-get install xvfb``), Qt's xcb libraries and ``pip install -e ".[preview]"``.
+
+    python docs/make_cq_editor_screenshot.py [OUT.png]
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+
+def _session_helpers():
+    """tests/test_cq_editor.py as a module (it is not in a package)."""
+    spec = importlib.util.spec_from_file_location("texcad_test_cq_editor", HERE.parent / "tests" / "test_cq_editor.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def main(out: Path = HERE / "cq_editor.png") -> Path:
+    from PIL import Image
+
+    tc = _session_helpers()
+    if tc.XVFB is None:
+        raise SystemExit("Xvfb is not installed: apt-get install xvfb")
+    with tempfile.TemporaryDirectory() as tmp, tc.cq_editor_session(Path(tmp), window=(1280, 860)) as result:
+        if result["traceback"]:
+            raise SystemExit(result["traceback"])
+        Image.open(result["after"]).convert("RGB").save(out, optimize=True)
+    print(f"{out} (render {result['render_s']} s)")
+    return out
+
+
+if __name__ == "__main__":
+    main(*(Path(a) for a in sys.argv[1:2]))
