@@ -294,8 +294,7 @@ def table(args) -> None:
         f"Support on everywhere, threshold 45 degrees (the critical angle), 0.2 mm layers, 0.4 mm nozzle; texture pitch "
         f"{args.pitch:g} mm, limited for the build direction with the slicers' margin: facets at least "
         f"{support_free_angle(45):.2f} degrees from the build plate; texcad check counts faces under {overhang_angle(45):.1f} "
-        "degrees. The lever ball and the grip are textured by texcad/pipeline/faces.py, which still limits to the critical "
-        "angle + 1 degree, not the slicers' margin. Bare = the same part untextured, in the same orientation. "
+        "degrees. Bare = the same part untextured, in the same orientation. "
         "CPU s = user + system time of the slicer process."
     )
     try:
