@@ -17,7 +17,7 @@ from texcad.errors import ParameterError
 from texcad.targets.mesh import load_closed
 from texcad.solid.adaptive import build, coarse_mesh, edge_counts, measure, pitch_samples
 from texcad.solid.subdivide import coarsen
-from test_mesh_target import _box, _cylinder  # the same parts (tests/pipeline is on the path)
+from pipeline.test_mesh_target import _box, _cylinder  # the same parts (tests/ is on the path)
 
 
 def _top(tx, z0):

@@ -231,7 +231,7 @@ def write_3mf(
         build_dir: the part's print orientation, ``(3,)`` in its own frame (for a
             set of directions the first): the build item gets a ``transform`` that
             turns it so ``build_dir`` points up (+z,
-            :func:`texcad.printability.print_rotation`) and rests on the bed (lowest
+            :func:`texcad.util.rotation_to_z`) and rests on the bed (lowest
             point at z = 0), so a slicer loads it as it is meant to print. The
             vertices themselves stay in the part's frame. None: no transform.
     """
@@ -267,9 +267,9 @@ def write_3mf(
 def _print_transform(mesh: Mesh, build_dir) -> str:
     """3MF item transform (``m00 .. m32``, row vectors: ``p' = p M``) that turns
     ``build_dir`` to +z and puts the lowest point on z = 0."""
-    from ..printability import print_rotation
+    from ..util import rotation_to_z  # as texcad.printability.print_rotation
 
-    R = print_rotation(build_dir)
+    R = rotation_to_z(np.asarray(build_dir, dtype=np.float64).reshape(-1, 3)[0])
     z0 = float((mesh.vertices.astype(np.float64) @ R[2]).min()) if len(mesh.vertices) else 0.0
     M = np.vstack([R.T, [0.0, 0.0, -z0]])
     M[np.abs(M) < 1e-15] = 0.0

@@ -162,14 +162,9 @@ def print_rotation(build_dir) -> np.ndarray:
     printer's, taking the build direction ``build_dir`` (the first, for a set) to +z:
     the smallest rotation doing so (about ``d x z``; a half turn about x for ``-z``).
     The slicer check and the 3MF writer place parts with it."""
-    d = build_directions(build_dir)[0]
-    z = np.array([0.0, 0.0, 1.0])
-    v = np.cross(d, z)
-    c = float(d @ z)
-    if np.linalg.norm(v) < 1e-12:
-        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
-    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    return np.eye(3) + vx + vx @ vx / (1 + c)
+    from ..util import rotation_to_z
+
+    return rotation_to_z(build_directions(build_dir)[0])
 
 
 def build_directions(build_dir) -> np.ndarray:

@@ -41,6 +41,7 @@ from .resources import (
 )
 from .vectors import (
     parse_vector,
+    rotation_to_z,
     smoothstep,
 )
 
@@ -71,4 +72,5 @@ __all__ = [
     'memory_limit',
     'parse_vector',
     'smoothstep',
+    'rotation_to_z',
 ]

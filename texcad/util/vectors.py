@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["parse_vector", "smoothstep"]
+__all__ = ["parse_vector", "smoothstep", "rotation_to_z"]
 
 
 def parse_vector(text: str) -> np.ndarray:
@@ -32,3 +32,25 @@ def smoothstep(e0: float, e1: float, t: np.ndarray) -> np.ndarray:
     ``s = (t - e0) / (e1 - e0)``: the fade of the M-I ramps and the textures' edges."""
     s = np.clip((np.asarray(t) - e0) / (e1 - e0), 0.0, 1.0)
     return s * s * (3.0 - 2.0 * s)
+
+
+def rotation_to_z(direction) -> np.ndarray:
+    """``(3, 3)`` float64 rotation taking the direction ``(3,)`` (any length > 0) to
+    +z: the smallest one (Rodrigues, about ``d x z``: ``I + [v]x + [v]x^2 / (1 + c)``
+    with ``v = d x z``, ``c = d . z``; a half turn about x for ``-z``).
+
+    Raises:
+        ParameterError: not a finite, non-zero 3-vector.
+    """
+    d = np.asarray(direction, dtype=np.float64).reshape(-1)
+    n = float(np.linalg.norm(d)) if d.shape == (3,) else 0.0
+    if not (np.isfinite(n) and n > 0):
+        raise ParameterError(f"a direction is a finite, non-zero 3-vector (x, y, z), got {direction!r}")
+    d = d / n
+    z = np.array([0.0, 0.0, 1.0])
+    v = np.cross(d, z)
+    c = float(d @ z)
+    if np.linalg.norm(v) < 1e-12:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    return np.eye(3) + vx + vx @ vx / (1 + c)
