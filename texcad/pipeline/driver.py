@@ -56,12 +56,12 @@ def run(target: Any, where: Any, texture: Any, options: Options) -> Textured:
         for adapter in ADAPTERS:  # asked in order (lazily: a mesh never loads OCCT); the first that does not decline
             if not adapter.accepts(target, where, options):
                 continue
-            options.refuse(adapter.options, adapter.label)
             try:
                 placement = adapter.place(target, where, texture, options)
             except Decline as exc:
                 declined = exc
                 continue
+            options.refuse(adapter.options, adapter.label)  # by the adapter that keeps the target
             relief = adapter.relief(placement, texture, options)
             fused = adapter.fuse(placement, relief, options)
             options.report(0.92, "checking the result (texcad's gate)")

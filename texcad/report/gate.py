@@ -151,7 +151,8 @@ class GateReport:
 # Checks 1-3: topology and shells
 # ------------------------------------------------------------------------------------------
 def _edge_counts(faces: np.ndarray, nv: int) -> tuple[int, int, int]:
-    """``(open, nonmanifold, misoriented)`` edge counts: each directed edge must
+    """``(open, nonmanifold, misoriented)`` edge counts of ``faces`` (vertices welded
+    by position, :func:`_by_position`): each directed edge must
     appear once and its reverse once. One sort of the keys ``2 (lo nv + hi) + [a > b]``:
     closed and oriented exactly when they come in pairs ``(2u, 2u + 1)``."""
     f = faces.astype(np.int64)
@@ -165,6 +166,18 @@ def _edge_counts(faces: np.ndarray, nv: int) -> tuple[int, int, int]:
     und, count = np.unique(key >> 1, return_counts=True)
     _, dcount = np.unique(key, return_counts=True)
     return int(np.count_nonzero(count == 1)), int(np.count_nonzero(count > 2)), int(np.count_nonzero(dcount > 1))
+
+
+def _by_position(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """The faces with vertices at one float32 position made one (what an STL or 3MF
+    reader and a slicer see: two vertices a union left apart at one point pinch the
+    surface there; a needle, a face with two corners at one point, is then an open
+    edge, as a file reader counts it)."""
+    key = np.ascontiguousarray(np.asarray(v, dtype=np.float32)).view(np.dtype((np.void, 12))).reshape(-1)
+    _, first, inv = np.unique(key, return_index=True, return_inverse=True)
+    if len(first) == len(key):
+        return f
+    return first[inv.reshape(-1)][f]  # a face with two corners at one point: an open edge
 
 
 def _shell_labels(faces: np.ndarray, nv: int) -> tuple[np.ndarray, int]:
@@ -253,7 +266,7 @@ def shell_report(mesh: Mesh) -> ShellReport:
     f = np.asarray(mesh.faces, dtype=np.int64)
     if len(f) == 0:
         return ShellReport(False, 0, 0, 0, (), (), 0, 0, 0)
-    opened, nonman, misor = _edge_counts(f, len(v))
+    opened, nonman, misor = _edge_counts(_by_position(v, f), len(v))
     closed = not (opened or nonman or misor) and bool(np.isfinite(v).all())
     if closed and len(f) <= MANIFOLD3D_MAX:
         import manifold3d as m3d

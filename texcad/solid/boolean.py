@@ -19,7 +19,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from ..errors import GeometryError, ParameterError
-from .mesh import Mesh, _edge_keys, closed_and_oriented
+from .mesh import Mesh, _edge_keys, closed_and_oriented, edge_report
 
 __all__ = [
     "to_manifold",
@@ -71,6 +71,51 @@ def from_manifold(man) -> Mesh:
     return mesh
 
 
+#: mm: vertices closer than this are one vertex (what a slicer reading the STL does).
+WELD = 1e-5
+
+
+def drop_pillows(f: np.ndarray) -> np.ndarray:
+    """``f`` ``(M, 3)`` without the pairs of triangles on the same three vertices
+    (zero volume: two booleans can leave such flat pillows)."""
+    key = np.sort(f, axis=1)
+    _, inv, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    return f[count[inv.ravel()] == 1]
+
+
+def welded(man: Any) -> "Mesh | None":
+    """A manifold3d ``Manifold``'s mesh with vertices within :data:`WELD` mm merged
+    (positions quantized to ``round(v / WELD)``), the zero-area needles along a cut
+    edge (two corners at one position) and the flat pillows dropped; None unless
+    every edge then lies on exactly two triangles, opposite ways. When no two
+    vertices are that close, the mesh is manifold3d's own, taken as it is."""
+    out = man.to_mesh()
+    v = np.asarray(out.vert_properties)[:, :3].astype(np.float32)
+    f = np.asarray(out.tri_verts).astype(np.int64)
+    q = np.round(v.astype(np.float64) / WELD).astype(np.int64)
+    order = np.lexsort((q[:, 2], q[:, 1], q[:, 0]))
+    sq = q[order]
+    new = np.ones(len(v), bool)
+    new[1:] = np.any(sq[1:] != sq[:-1], axis=1)
+    if new.all():
+        mesh = Mesh(np.ascontiguousarray(v), f.astype(np.uint32))
+        mesh.__dict__["is_watertight"] = True
+        return mesh
+    inv = np.empty(len(v), np.int64)
+    inv[order] = np.cumsum(new) - 1
+    uniq = v[order][new]
+    f = inv[f]
+    f = drop_pillows(f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])])
+    if not len(f) or not edge_report(f)["watertight"]:  # every edge on two triangles, opposite ways
+        return None
+    used = np.unique(f)
+    remap = np.full(len(uniq), -1, np.int64)
+    remap[used] = np.arange(len(used))
+    mesh = Mesh(np.ascontiguousarray(uniq[used]), remap[f].astype(np.uint32))
+    mesh.__dict__["is_watertight"] = True
+    return mesh
+
+
 def fuse(base: Any, *textures: Any) -> Mesh:
     """Union textured slabs onto a base body with manifold3d.
 
@@ -97,7 +142,8 @@ def fuse(base: Any, *textures: Any) -> Mesh:
     result = m3d.Manifold.batch_boolean(parts, m3d.OpType.Add) if len(parts) > 1 else parts[0]
     if result.status() != m3d.Error.NoError or result.is_empty():
         raise GeometryError(f"the union of texture and base failed (manifold3d: {result.status().name})")
-    return from_manifold(result)
+    # vertices a cut left at one point merged, the needles there dropped (what a file reader sees)
+    return welded(result) or from_manifold(result)
 
 
 def retain_freed_memory() -> bool:
