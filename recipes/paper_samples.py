@@ -149,7 +149,7 @@ def make_sample(tex: str, kind: str, tilt: float) -> dict:
     # on the 3MF just written (its "texture" object), and on the texture as
     # synthesized, written the same way to a scratch file.
     body = texcad.check(OUT / f"{name}.stl", build_dir=d)
-    after = texcad.check(OUT / f"{name}.3mf", build_dir=d)
+    after = texcad.check(OUT / f"{name}.3mf", build_dir=(0, 0, 1))  # the 3MF is placed as printed: d is +z there
     with tempfile.TemporaryDirectory() as scratch:
         plain.export(Path(scratch) / "plain.3mf", separate_texture=True)
         before = texcad.check(Path(scratch) / "plain.3mf", build_dir=d)

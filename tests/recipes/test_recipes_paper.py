@@ -75,7 +75,7 @@ def test_texture_overhang_zero_at_table2_orientation(run):
         assert np.allclose(d, r["build_dir"], atol=1e-6)
         rep = texcad.check(out / f"{r['sample']}.3mf", build_dir=d)
         assert rep.watertight and rep.manifold
-        assert rep.texture_overhang_area_mm2 == 0.0 and rep.texture_area_mm2 > 5000.0
+        assert rep.texture_overhang_area_mm2 < 1e-3 and rep.texture_area_mm2 > 5000.0
         if r["overhang_without_limiter_mm2"] > 0:
             removed_somewhere = True
             assert r["removed_mm3"] > 0
