@@ -39,7 +39,7 @@ import numpy as np
 
 from ..errors import GeometryError, ParameterError
 from ..solid import Mesh, from_manifold, to_manifold
-from ..solid.boolean import welded
+from ..solid.boolean import welded_mesh
 from ..brep.occt import matrix_of
 from ..brep import FINE, occt_boolean, check_shape, shape_to_mesh, to_topods, transformed_shape, volume
 
@@ -70,7 +70,7 @@ def _tool_mesh(tool: Any) -> Mesh:
 def _mesh_op(a: Mesh, b: Mesh, op: str) -> Mesh:
     ma, mb = to_manifold(a), to_manifold(b)
     out = {"cut": lambda: ma - mb, "fuse": lambda: ma + mb, "common": lambda: ma ^ mb}[op]()
-    return welded(out) or from_manifold(out)  # points a cut left apart at one position merged (texcad.solid.boolean.welded)
+    return welded_mesh(out)  # points a cut left apart at one position merged (texcad.solid.boolean.welded)
 
 
 # -- placements -----------------------------------------------------------------------------

@@ -260,13 +260,16 @@ def _overlap(v: np.ndarray, f: np.ndarray, label: np.ndarray, outer: np.ndarray,
     return float(diff) if diff > 1e-6 * max(total, 1.0) + 1e-6 else 0.0
 
 
-def shell_report(mesh: Mesh) -> ShellReport:
-    """Checks 1-3 on ``mesh`` (any number of bodies, cavities allowed)."""
+def shell_report(mesh: Mesh, *, by_position: bool = True) -> ShellReport:
+    """Checks 1-3 on ``mesh`` (any number of bodies, cavities allowed).
+    ``by_position``: vertices at one float32 position count as one, as an STL
+    reader sees them (the gate, before anything is written); False for a mesh read
+    from a file, whose reader has settled that already (a 3MF keeps its indices)."""
     v = np.asarray(mesh.vertices)
     f = np.asarray(mesh.faces, dtype=np.int64)
     if len(f) == 0:
         return ShellReport(False, 0, 0, 0, (), (), 0, 0, 0)
-    opened, nonman, misor = _edge_counts(_by_position(v, f), len(v))
+    opened, nonman, misor = _edge_counts(_by_position(v, f) if by_position else f, len(v))
     closed = not (opened or nonman or misor) and bool(np.isfinite(v).all())
     if closed and len(f) <= MANIFOLD3D_MAX:
         import manifold3d as m3d

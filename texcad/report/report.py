@@ -501,7 +501,7 @@ def _gate_shells(items: list, manif: list, notes: list[str]) -> list[bool]:
     no inside-out shell, no body in or across another; a note names each problem."""
     out = []
     for (name, m), ok in zip(items, manif):  # per object
-        problem = shell_report(m).problem() if ok else ""
+        problem = shell_report(m, by_position=False).problem() if ok else ""  # as the file's reader read it
         if problem:
             notes.append(f"{name}: {problem}")
         out.append(ok and not problem)

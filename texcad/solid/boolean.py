@@ -116,6 +116,12 @@ def welded(man: Any) -> "Mesh | None":
     return mesh
 
 
+def welded_mesh(man: Any) -> Mesh:
+    """The :class:`Mesh` of a boolean's result as a file reader sees it: :func:`welded`
+    where that closes it, else manifold3d's own (:func:`from_manifold`)."""
+    return welded(man) or from_manifold(man)
+
+
 def fuse(base: Any, *textures: Any) -> Mesh:
     """Union textured slabs onto a base body with manifold3d.
 
@@ -143,7 +149,7 @@ def fuse(base: Any, *textures: Any) -> Mesh:
     if result.status() != m3d.Error.NoError or result.is_empty():
         raise GeometryError(f"the union of texture and base failed (manifold3d: {result.status().name})")
     # vertices a cut left at one point merged, the needles there dropped (what a file reader sees)
-    return welded(result) or from_manifold(result)
+    return welded_mesh(result)
 
 
 def retain_freed_memory() -> bool:

@@ -19,7 +19,8 @@ from ..contracts import Fused, Placement, Relief, Stages
 from ..errors import GeometryError
 from ..options import Options
 from ..report.gate import Expectation
-from ..solid import Mesh, from_manifold, to_manifold
+from ..solid import Mesh, to_manifold
+from ..solid.boolean import welded_mesh
 
 __all__ = ["Adapter", "Decline"]
 
@@ -73,7 +74,7 @@ class Adapter:
     # -- on demand ----------------------------------------------------------------------
     def texture_mesh(self, stages: Stages) -> Mesh:
         """The texture alone: ``fused - base`` (manifold3d), mm."""
-        return from_manifold(to_manifold(stages.fused.mesh) - to_manifold(stages.fused.base_mesh))
+        return welded_mesh(to_manifold(stages.fused.mesh) - to_manifold(stages.fused.base_mesh))
 
     def max_error(self, stages: Stages) -> "float | None":
         """The measured largest distance (mm) between the relief mesh and the texture."""

@@ -46,6 +46,7 @@ from ..errors import GeometryError, ParameterError, TexcadWarning
 from ..options import Options
 from ..report.gate import Expectation
 from ..solid import Mesh, from_manifold, to_manifold
+from ..solid.boolean import welded_mesh
 from .base import Adapter
 from .cad import body_count, cad_part, face_list, is_cad_target, selected_surface, tessellation
 from ..solid.weld import welded
@@ -215,7 +216,7 @@ class FacesAdapter(Adapter):
         f: FacesFused = stages.fused.data
         lows = [to_manifold(r.bodies.low_cutter) for r in f.patches if r.bodies.low_cutter is not None]
         lowest = m3d.Manifold.batch_boolean([f.base] + lows, m3d.OpType.Subtract) if lows else f.base
-        return from_manifold(f.union - lowest)
+        return welded_mesh(f.union - lowest)
 
     def max_error(self, stages: Stages) -> float:
         """The lean relief's largest measured error against the texture grid, mm (0: the grid)."""

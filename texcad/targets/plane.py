@@ -35,7 +35,7 @@ from ..errors import GeometryError, ParameterError
 from ..options import Mode, Options
 from ..sources import Heightmap
 from ..solid import Mesh, from_manifold, fuse, heightfield_slab, mesh_error, to_manifold
-from ..solid.boolean import fuse_on_plane
+from ..solid.boolean import welded_mesh, fuse_on_plane
 from ..solid.mesh import heightfield_volume
 from ..util import fitting_pitch, require_memory, texture_bytes
 from .base import Adapter, Decline
@@ -327,7 +327,7 @@ class PlaneAdapter(Adapter):
         plane consistently this way round); a stitched relief is that already."""
         fr: PlaneFrame = stages.placement.data
         f: PlaneFused = stages.fused.data
-        return self._world(f.stitched or from_manifold(to_manifold(f.local) - to_manifold(fr.base_local)), fr)
+        return self._world(f.stitched or welded_mesh(to_manifold(f.local) - to_manifold(fr.base_local)), fr)
 
     def max_error(self, stages: Stages) -> float:
         r: PlaneRelief = stages.relief.data

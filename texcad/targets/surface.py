@@ -30,6 +30,7 @@ from ..errors import GeometryError, ParameterError
 from ..mapping import Profile, Surface
 from ..options import Options
 from ..solid import Mesh, from_manifold, to_manifold
+from ..solid.boolean import welded_mesh
 from .base import Adapter
 
 __all__ = ["SurfaceAdapter", "lean_mapped_slab", "gradient_gain", "mode_bodies", "ModeBodies", "Lean"]
@@ -368,7 +369,7 @@ class SurfaceAdapter(Adapter):
         exact = dataclasses.replace(r.lean, tolerance=0.0, build_dir=None)
         low = inverted(inner, outer, stages.placement.data.surface.profile, r.s, exact)[0]
         base = to_manifold(stages.placement.base)
-        return from_manifold(stages.fused.data.manifold - (base - to_manifold(low)))
+        return welded_mesh(stages.fused.data.manifold - (base - to_manifold(low)))
 
     def brep(self, stages: Stages, fine: Any = None) -> Any:
         raise GeometryError("this surface result has no B-rep (a 2.5D surface is textured as a mesh); write STL or 3MF instead")
