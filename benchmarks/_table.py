@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 from typing import Any, Sequence
 
-__all__ = ["write_table", "machine", "command", "markdown_table", "TABLE_DIR"]
+__all__ = ["write_table", "write_output", "machine", "command", "markdown_table", "TABLE_DIR"]
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Where the tables go (one file per benchmark table).
@@ -121,3 +121,29 @@ def write_table(name: str, headers: Sequence[str], rows: Sequence[Sequence[Any]]
     tmp.write_text("\n".join(text))
     os.replace(tmp, path)
     return path
+
+
+def write_output(script: str, args: Sequence[str] = ()) -> Path:
+    """Run ``benchmarks/<script>`` with ``args`` and write what it printed (its own
+    figures, as it prints them) to ``docs/benchmarks/<stem>.md``, with the command, the
+    date and the machine: for the scripts that print their figures but build no table
+    of their own. Written to a temporary file and renamed; a script that fails writes
+    nothing (its exit status is raised)."""
+    cmd = [sys.executable, str(ROOT / "benchmarks" / script), *args]
+    shown = " ".join(["python", f"benchmarks/{script}", *args])
+    out = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, check=True).stdout
+    when = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    name = Path(script).stem.removeprefix("bench_")
+    text = [f"<!-- written by python benchmarks/_table.py {' '.join([script, *args])}; do not edit, run the command again -->", "",
+            "```text", out.rstrip(), "```", "",
+            f"*Command:* `{shown}`  ", f"*Date:* {when}, {_texcad_version()}  ", f"*Machine:* {machine()}", ""]
+    TABLE_DIR.mkdir(parents=True, exist_ok=True)
+    path = TABLE_DIR / f"{name}.md"
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text("\n".join(text))
+    os.replace(tmp, path)
+    return path
+
+
+if __name__ == "__main__":  # python benchmarks/_table.py SCRIPT [ARGS...]
+    print(write_output(sys.argv[1], sys.argv[2:]))

@@ -46,6 +46,7 @@ def run(pitch: float, out: Path, scale: float, tolerance: float) -> dict:
     from texcad.options import Options
     from texcad.solid import to_manifold
     from texcad.targets import faces as A
+    from texcad.solid.weld import welded
     from texcad.targets import patches as F
 
     part = knob(scale)
@@ -68,7 +69,7 @@ def run(pitch: float, out: Path, scale: float, tolerance: float) -> dict:
     t["map"], c["map"] = time.perf_counter() - t0, time.process_time() - c0 - c["parameterize"]
     t0, c0 = time.perf_counter(), time.process_time()
     man = A.union_patches(to_manifold(pm.mesh), [relief])
-    mesh = F.welded(man)
+    mesh = welded(man)
     assert mesh is not None and len(man.decompose()) == 1
     t["fuse"], c["fuse"] = time.perf_counter() - t0, time.process_time() - c0
     t0, c0 = time.perf_counter(), time.process_time()
