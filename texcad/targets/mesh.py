@@ -128,20 +128,28 @@ def _name(target: Any) -> str:
     return repr(os.fspath(target)) if isinstance(target, (str, os.PathLike)) else "the mesh"
 
 
-def assert_uncrossed(vertices: np.ndarray, faces: np.ndarray, name: str = "the mesh") -> None:
+def assert_uncrossed(vertices: np.ndarray, faces: np.ndarray, name: str = "the mesh", united: bool = False) -> None:
     """InputError if the surface ``(N, 3)`` mm / ``(M, 3)`` crosses itself
     (:func:`texcad.solid.self_intersections`: two overlapping bodies in one mesh, a
-    fold), naming where."""
+    fold), naming where; ``united``: its bodies were united already (``union=True``),
+    so what is left is a fold inside one body, beyond a union."""
     v, f = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
     cross = self_intersections(v, f)
-    if len(cross):
-        at = v[f[cross[0]]].reshape(-1, 3).mean(axis=0)
+    if not len(cross):
+        return
+    at = v[f[cross[0]]].reshape(-1, 3).mean(axis=0)
+    where = f"({len(cross)} pairs of triangles, one near ({at[0]:.2f}, {at[1]:.2f}, {at[2]:.2f}) mm)"
+    if united:
         raise InputError(
-            f"{name} intersects itself: {len(cross)} pairs of its triangles cross (one near "
-            f"({at[0]:.2f}, {at[1]:.2f}, {at[2]:.2f}) mm), so it encloses no well-defined solid; "
-            "unite the overlapping bodies or undo the fold in the CAD program, or with manifold3d "
-            "(Manifold.batch_boolean of the separate bodies) or trimesh.boolean.union, and export it again"
+            f"{name} crosses itself inside one body {where}: union=True unites separate bodies but cannot undo a "
+            "fold within one; repair the mesh in a mesh tool (e.g. a 'make solid' or remesh repair) and export it again"
         )
+    raise InputError(
+        f"{name} intersects itself: {len(cross)} pairs of its triangles cross (one near "
+        f"({at[0]:.2f}, {at[1]:.2f}, {at[2]:.2f}) mm), so it encloses no well-defined solid; "
+        "unite the overlapping bodies or undo the fold in the CAD program, or with manifold3d "
+        "(Manifold.batch_boolean of the separate bodies) or trimesh.boolean.union, and export it again"
+    )
 
 
 @dataclass
@@ -725,7 +733,7 @@ class MeshAdapter(Adapter):
     def relief(self, placement: Placement, texture: Any, options: Options) -> Relief:
         mp: MeshPlace = placement.data
         progress = options.report
-        with beside(assert_uncrossed, mp.vertices, mp.faces, mp.name) as crossed:  # the self-intersection test
+        with beside(assert_uncrossed, mp.vertices, mp.faces, mp.name, options.union) as crossed:  # the self-intersection test
             try:
                 r, d, limit, max_error = _displace(list(mp.layers), mp.vertices, mp.faces, mp.info, options.directions,
                                                    options.critical_angle, options.tolerance, progress)
@@ -814,16 +822,7 @@ def _separate_bodies(v: np.ndarray, f: np.ndarray, bodies: int, info: dict, name
 
     split = split_bodies(v, f)
     found = overlapping_bodies(v, f, split=split)
-    if not found and union:  # nothing to unite: a crossing inside one body is beyond a union
-        cross = self_intersections(v, f)
-        if len(cross):
-            at = v[f[cross[0]]].reshape(-1, 3).mean(axis=0)
-            raise InputError(
-                f"{name} crosses itself inside one body ({len(cross)} pairs of triangles, one near ({at[0]:.2f}, "
-                f"{at[1]:.2f}, {at[2]:.2f}) mm): union=True unites separate bodies but cannot undo a fold within one; "
-                "repair the mesh in a mesh tool (e.g. a 'make solid' or remesh repair) and export it again"
-            )
-    if not found:
+    if not found:  # a crossing inside one body is left to the relief stage's test (assert_uncrossed)
         return v, f, bodies
     if not union:
         raise InputError(
