@@ -58,6 +58,7 @@ from ..mapping.projection import PROJECTIONS, Projection, TileSampler, parse_axi
 from ..mapping.region import Region, resolve_paint, zone_layers
 from ..printability import build_directions, check_critical_angle
 from ..printability.relief import limit_relief
+from ..sources.mask import mask_sampler
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, closed_and_oriented, edge_report, repair_closed, self_intersections, shells
 from ..solid.adaptive import build, carried, coarse_mesh, edge_counts, measure, pitch_samples
 from ..solid.subdivide import coarsen, face_normals, offset_directions, refine, vertex_normals
@@ -235,7 +236,7 @@ class Layer:
         info["projection"] = proj.kind
         if self.mask is not None:
             if "_mask" not in self.__dict__:
-                self.__dict__["_mask"] = _mask_sampler(self.mask, self.mask_size)
+                self.__dict__["_mask"] = mask_sampler(self.mask, self.mask_size)
             info["mask"] = sample_heights(samples, self.__dict__["_mask"])
         return np.clip(sample_heights(samples, sampler), 0.0, H), info
 
@@ -267,37 +268,6 @@ class Layer:
             sampler = TileSampler(hm, (self.scale, self.scale))
         self.__dict__["_tile"] = sampler
         return sampler
-
-
-def _mask_sampler(mask: Any, size: Any) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
-    """Bilinear, non-periodic sampling of a mask in [0, 1] over ``size`` mm, centred."""
-    from ..sources import Heightmap
-
-    if size is None or np.size(size) != 2 or not all(np.isfinite(size)) or min(size) <= 0:
-        raise ParameterError(f"mask_size must be (w, d) in mm (the texture coordinates the mask covers), got {size!r}")
-    w, d = (float(t) for t in size)
-    if isinstance(mask, Heightmap):
-        a = np.asarray(mask.heights, np.float64)
-        a = a / a.max() if a.max() > 0 else a
-    elif isinstance(mask, (str, os.PathLike)):
-        a = np.asarray(Heightmap.from_image(os.fspath(mask), size=(w, d), height=1.0).heights, np.float64)
-    else:
-        a = np.asarray(mask, dtype=np.float64)
-    if a.ndim != 2 or min(a.shape) < 2 or not np.all(np.isfinite(a)) or a.min() < 0 or a.max() > 1:
-        raise ParameterError(f"a mask is a 2-D array (at least 2 x 2) of values in [0, 1] (y up), got shape {a.shape}")
-    rows, cols = a.shape
-
-    def f(u, v):
-        fu = (np.asarray(u) / w + 0.5) * cols - 0.5
-        fv = (np.asarray(v) / d + 0.5) * rows - 0.5
-        inside = (fu >= -0.5) & (fu <= cols - 0.5) & (fv >= -0.5) & (fv <= rows - 0.5)
-        fu, fv = np.clip(fu, 0, cols - 1), np.clip(fv, 0, rows - 1)
-        c0, r0 = np.minimum(fu.astype(np.int64), cols - 2), np.minimum(fv.astype(np.int64), rows - 2)
-        tu, tv = fu - c0, fv - r0
-        val = (a[r0, c0] * (1 - tu) + a[r0, c0 + 1] * tu) * (1 - tv) + (a[r0 + 1, c0] * (1 - tu) + a[r0 + 1, c0 + 1] * tu) * tv
-        return np.where(inside, val, 0.0)
-
-    return f
 
 
 def _border_distance(v: np.ndarray, f: np.ndarray, sel: np.ndarray, upto: float = np.inf) -> np.ndarray:
