@@ -6,6 +6,7 @@ base, the selected faces' triangles as the selected surface). Lengths in mm.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from typing import Any
 
@@ -15,7 +16,12 @@ from ..brep import PartMesh, explore, part_tessellation, solids_of, to_topods
 from ..contracts import Stages
 from ..errors import GeometryError, ParameterError
 
-__all__ = ["CadPart", "cad_part", "face_list", "is_cad_target"]
+__all__ = ["CadPart", "CadZone", "ZONE_OPTIONS", "cad_part", "cad_zones", "face_list", "is_cad_target", "is_zones",
+           "zone_options"]
+
+#: The options a zone of a CAD part may set for itself (the rest are the call's: one
+#: build direction, one B-rep for the whole part).
+ZONE_OPTIONS = ("height", "pitch", "mode", "depth", "edge_angle", "rotation", "tolerance", "gradient")
 
 
 @dataclass(frozen=True)
@@ -36,6 +42,103 @@ class CadPart:
     face_ids: tuple
     previous: Any = None
     done: tuple = ()
+
+
+@dataclass(frozen=True)
+class CadZone:
+    """One zone of a CAD call: faces with their own texture and options.
+
+    Attributes:
+        part: the zone's faces resolved on the part (:class:`CadPart`).
+        texture: the zone's texture as given (``"builtin:..."``, an image path or a
+            Heightmap).
+        options: the zone's own options as given (names of :data:`ZONE_OPTIONS`;
+            validated by :func:`zone_options`).
+        name: how outputs name the zone (a 3MF part): ``"zone K TEXTURE"``.
+    """
+
+    part: CadPart
+    texture: Any
+    options: dict
+    name: str
+
+
+def _texture_like(x: Any) -> bool:
+    from ..sources import Heightmap
+
+    return x is None or isinstance(x, (str, os.PathLike, Heightmap))
+
+
+def is_zones(where: Any) -> bool:
+    """Whether ``where`` gives zones: a list of ``(faces, texture[, {options}])`` or a
+    mapping ``{face: texture}`` (not a plain face selection)."""
+    if isinstance(where, dict):
+        return True
+    if type(where) not in (list, tuple):  # a build123d ShapeList is a selection of faces
+        return False
+    return any(isinstance(z, tuple) and len(z) >= 2 and _texture_like(z[1]) for z in where)
+
+
+def cad_zones(target: Any, where: Any, texture: Any) -> tuple:
+    """The zones of a CAD call (:class:`CadZone`), each resolved on the part.
+
+    ``where`` is a list of ``(faces, texture)`` or ``(faces, texture, {options})``
+    (``texture`` None: the call's ``texture``), or a mapping ``{faces: texture or
+    (texture, {options})}`` (None leaves the faces alone, as on meshes).
+
+    Raises:
+        ParameterError: a zone that is not such a tuple, an empty zone, a face not of
+            the part, or a face in two zones (the message names the zone and face).
+    """
+    from ..mapping.region import zone_layers
+
+    raw = zone_layers(where, texture) if isinstance(where, dict) else list(where)
+    if not raw:
+        raise ParameterError("no zone given; pass [(faces, texture, {options}), ...]")
+    zones, owner = [], {}
+    for k, z in enumerate(raw):  # per zone
+        if not (isinstance(z, tuple) and len(z) in (2, 3) and _texture_like(z[1]) and (len(z) == 2 or isinstance(z[2], dict))):
+            raise ParameterError(f"zone {k + 1} is {z!r}; give each zone as (faces, texture) or (faces, texture, {{options}})")
+        faces, tex = z[0], texture if z[1] is None else z[1]
+        opts = dict(z[2]) if len(z) == 3 else {}
+        try:
+            cp = cad_part(target, faces)
+        except ParameterError as e:
+            raise ParameterError(f"zone {k + 1}: {e}") from None
+        for i in cp.face_ids:  # per face of the zone
+            if i in owner:
+                raise ParameterError(f"face {i} is in zone {owner[i] + 1} and in zone {k + 1}; give each face to one zone")
+            owner[i] = k
+        label = os.fspath(tex) if isinstance(tex, (str, os.PathLike)) else type(tex).__name__
+        zones.append(CadZone(cp, tex, opts, f"zone {k + 1} {label}"))
+    return tuple(zones)
+
+
+def zone_options(options: Any, zone: CadZone, k: int) -> Any:
+    """The zone's :class:`texcad.options.Options`: the call's with the zone's own
+    options over them, validated by the same rules (a Heightmap texture keeps its own
+    heights unless ``height`` is given, as in :func:`texcad.texture`).
+
+    Raises:
+        ParameterError: an unknown option, one a zone cannot set, or a bad value,
+            naming the zone.
+    """
+    import dataclasses
+
+    from ..sources import Heightmap
+
+    bad = sorted(set(zone.options) - set(ZONE_OPTIONS))
+    try:
+        out = options.replace(**zone.options)
+    except ParameterError as e:
+        raise ParameterError(f"zone {k + 1}: {e}") from None
+    if bad:
+        raise ParameterError(f"zone {k + 1}: {', '.join(bad)} is not an option a zone sets for itself; a zone sets "
+                             f"{', '.join(ZONE_OPTIONS)} (give the others to the call)")
+    if isinstance(zone.texture, Heightmap) and "height" not in zone.options and "height" not in options.given \
+            and zone.texture.max_height > 0:
+        out = dataclasses.replace(out, height=float(zone.texture.max_height))
+    return out
 
 
 def is_cad_target(target: Any) -> bool:
@@ -84,10 +187,16 @@ def cad_part(target: Any, where: Any) -> CadPart:
     Raises:
         ParameterError: no solid, no face, a face not of this part, a face textured
             already in the chain.
+        Decline: ``where`` gives zones (:func:`is_zones`): the any-faces adapter
+            takes them (:func:`cad_zones`).
     """
     from OCP.TopAbs import TopAbs_FACE
     from OCP.TopoDS import TopoDS
 
+    from .base import Decline
+
+    if is_zones(where):  # zones: the any-faces adapter's (texcad.targets.faces)
+        raise Decline("several zones are textured by the any-faces adapter")
     if where is None:
         raise ParameterError(
             "say which face to texture: texcad.texture(part, part.faces().sort_by(Axis.Z)[-1], texture) "

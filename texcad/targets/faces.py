@@ -48,11 +48,31 @@ from ..report.gate import Expectation
 from ..solid import Mesh, from_manifold, to_manifold
 from ..solid.boolean import welded_mesh
 from .base import Adapter
-from .cad import body_count, cad_part, face_list, is_cad_target, selected_surface, tessellation
+from .cad import CadPart, body_count, cad_part, cad_zones, face_list, is_cad_target, is_zones, selected_surface, tessellation, zone_options
 from ..solid.weld import welded
 from .patches import FADE_FULL, PatchOptions, PatchRelief, patch_relief, smooth_patches
 
-__all__ = ["FacesAdapter", "FacesPlacement", "FacesRelief", "FacesFused", "patch_options", "union_patches"]
+__all__ = ["FacesAdapter", "FacesPlacement", "FacesRelief", "FacesFused", "FacesZone", "patch_options", "union_patches"]
+
+
+@dataclass(frozen=True)
+class FacesZone:
+    """One zone: faces textured with their own texture and options
+    (``FacesPlacement.zones``; a call without zones has one).
+
+    Attributes:
+        name: how outputs name it (a 3MF part): ``"zone K TEXTURE"``, or ``"texture"``.
+        faces: its face indices (explorer order of the part).
+        texture: its texture as given (``"builtin:..."``, an image path or a Heightmap).
+        options: what its patches are made with (:class:`~texcad.targets.patches.PatchOptions`;
+            ``height`` mm, ``mode``, ...).
+    """
+
+    name: str
+    faces: tuple
+    texture: Any
+    options: PatchOptions
+
 
 @dataclass(frozen=True)
 class FacesPlacement:
@@ -62,11 +82,17 @@ class FacesPlacement:
         mesh: the part's tessellation (:class:`texcad.brep.PartMesh`: per-face meshes
             with their ``(u, v)``, the welded whole, the face of every triangle), mm.
         patches: the selected faces grouped into patches joined by smooth edges
-            (face indices in the part's explorer order).
+            (face indices in the part's explorer order); never across two zones.
+        zones: the :class:`FacesZone` of the call (one without zones).
+        zone_of: the zone (index into ``zones``) of every patch.
+        zoned: the call gave zones (``where`` a list of ``(faces, texture, {options})``).
     """
 
     mesh: Any
     patches: tuple
+    zones: tuple = ()
+    zone_of: tuple = ()
+    zoned: bool = False
 
 
 @dataclass(frozen=True)
@@ -79,11 +105,13 @@ class FacesRelief:
         options: what the patches were made with (:class:`~texcad.targets.patches.PatchOptions`).
         texture: the texture as given (a ``"builtin:..."`` / image path, or a Heightmap),
             for a union that has to be redone nudged.
+        zone_of: the zone of every patch relief (index into ``FacesPlacement.zones``).
     """
 
     patches: tuple
     options: PatchOptions
     texture: Any
+    zone_of: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -130,7 +158,9 @@ class FacesAdapter(Adapter):
     # -- place --------------------------------------------------------------------------
     def place(self, target: Any, where: Any, texture: Any, options: Options) -> Placement:
         options.report(0.02, "tessellating the part (OCCT)")
-        cp = cad_part(target, where)
+        zoned = is_zones(where)
+        czs = cad_zones(target, where, texture) if zoned else ()
+        cp = _all_zones(czs) if zoned else cad_part(target, where)
         pm = tessellation(cp.topo)
         for i in cp.face_ids:  # per selected face
             if pm.faces[i] is None:
@@ -139,7 +169,17 @@ class FacesAdapter(Adapter):
                     "e.g. part.faces().filter_by(GeomType.CONE) (build123d) or wp.faces('%CONE') (CadQuery)"
                 )
         base = pm.mesh if cp.previous is None else cp.previous.fused.mesh
-        data = FacesPlacement(pm, tuple(tuple(p) for p in smooth_patches(pm, list(cp.face_ids))))
+        if zoned:  # each zone its own texture and options; patches never join two zones
+            zones = tuple(FacesZone(z.name, z.part.face_ids, z.texture, patch_options(zone_options(options, z, k)))
+                          for k, z in enumerate(czs))
+        else:
+            zones = (FacesZone("texture", cp.face_ids, texture, patch_options(options)),)
+        patches, zone_of = [], []
+        for k, z in enumerate(zones):  # per zone
+            for p in smooth_patches(pm, list(z.faces)):  # per patch of the zone
+                patches.append(tuple(p))
+                zone_of.append(k)
+        data = FacesPlacement(pm, tuple(patches), zones, tuple(zone_of), zoned)
         return Placement("faces", base, body_count(cp.topo), selected_surface(pm, cp.face_ids), cp.topo, cp.face_ids,
                          cp.previous, data)
 
@@ -150,17 +190,23 @@ class FacesAdapter(Adapter):
         fp: FacesPlacement = placement.data
         pm, patches = fp.mesh, fp.patches
         opts = patch_options(options)
-        reliefs = []
+        reliefs, zone_of = [], []
         for k, patch in enumerate(patches):  # per patch of smoothly joined faces
+            zone = fp.zones[fp.zone_of[k]] if fp.zones else FacesZone("texture", patch, texture, opts)
             options.report(0.05 + 0.6 * k / len(patches), f"texturing face(s) {list(patch)} ({', '.join(pm.faces[i].kind for i in patch)})")
             try:
-                reliefs.append(patch_relief(pm, list(patch), texture, opts))
+                reliefs.append(patch_relief(pm, list(patch), zone.texture, zone.options))
+                zone_of.append(fp.zone_of[k] if fp.zones else 0)
             except GeometryError as e:
                 if len(patches) == 1:
                     raise
                 warnings.warn(f"face(s) {list(patch)} left untextured: {e}", TexcadWarning, stacklevel=3)
         if not reliefs:
             raise GeometryError("no texture is left on any selected face: they are too small or narrow at this pitch")
+        bare = sorted(set(range(len(fp.zones))) - set(zone_of)) if fp.zoned else []
+        if bare:
+            raise GeometryError(f"no texture is left on {fp.zones[bare[0]].name} (faces {list(fp.zones[bare[0]].faces)}): "
+                                "its faces are too small or narrow at its pitch; use a smaller pitch or leave the zone out")
         _warn(reliefs)
         reach = max(float(np.abs(r.h_top).max()) for r in reliefs) + 0.05
         return Relief(
@@ -168,7 +214,7 @@ class FacesAdapter(Adapter):
             limits=_limits(reliefs, options, opts) if opts.build_dir is not None else None,
             volume=0.0, volume_slack=0.0, reach=reach,
             distortion=Distortion.combined([r.distortion for r in reliefs]),
-            data=FacesRelief(tuple(reliefs), opts, texture),
+            data=FacesRelief(tuple(reliefs), opts, texture, tuple(zone_of)),
         )
 
     # -- fuse ---------------------------------------------------------------------------
@@ -196,9 +242,19 @@ class FacesAdapter(Adapter):
                                     "try another pitch or height")
             options.report(0.75, "the union pinched along an edge: redoing it with the relief nudged by 2 um")
             opts = replace(opts, jitter=0.002 * (attempt + 1))
-            reliefs = [patch_relief(fp.mesh, list(r.faces), fr.texture, opts) for r in reliefs]
+            zs = [fp.zones[k] if fp.zones else FacesZone("texture", (), fr.texture, fr.options) for k in _zone_of(fr, reliefs)]
+            reliefs = [patch_relief(fp.mesh, list(r.faces), z.texture, replace(z.options, jitter=opts.jitter))
+                       for r, z in zip(reliefs, zs)]  # fmt: skip
         info = _info(placement, reliefs, options)
-        return Fused(fused, placement.base, info, FacesFused(tuple(reliefs), fused_man, base_man))
+        base_mesh = placement.base
+        if fp.zoned:  # zones: each zone's relief in info, the base at every texture's lowest (the 3MF's base part)
+            info.update(_zone_info(fp, fr, reliefs))
+            lows = [to_manifold(r.bodies.low_cutter) for r in reliefs if r.bodies.low_cutter is not None]
+            if lows:
+                import manifold3d as m3d
+
+                base_mesh = welded_mesh(m3d.Manifold.batch_boolean([base_man] + lows, m3d.OpType.Subtract))
+        return Fused(fused, base_mesh, info, FacesFused(tuple(reliefs), fused_man, base_man))
 
     # -- the gate's expectation ---------------------------------------------------------
     def expectation(self, placement: Placement, relief: Relief, fused: Fused) -> Expectation:
@@ -221,6 +277,25 @@ class FacesAdapter(Adapter):
     def max_error(self, stages: Stages) -> float:
         """The lean relief's largest measured error against the texture grid, mm (0: the grid)."""
         return max(r.max_error for r in stages.fused.data.patches)
+
+    def layer_meshes(self, stages: Stages) -> list:
+        """One texture body per zone (mm): the zone's slabs and cutters on the part,
+        minus the part with the zone's texture at its lowest (as :meth:`texture_mesh`);
+        one body without zones."""
+        import manifold3d as m3d
+
+        fp: FacesPlacement = stages.placement.data
+        if not fp.zoned:
+            return [self.texture_mesh(stages)]
+        f: FacesFused = stages.fused.data
+        zone_of = _zone_of(stages.relief.data, f.patches)
+        out = []
+        for k in range(len(fp.zones)):  # per zone
+            rs = [r for r, z in zip(f.patches, zone_of) if z == k]
+            lows = [to_manifold(r.bodies.low_cutter) for r in rs if r.bodies.low_cutter is not None]
+            lowest = m3d.Manifold.batch_boolean([f.base] + lows, m3d.OpType.Subtract) if lows else f.base
+            out.append(welded_mesh(union_patches(f.base, rs) - lowest))
+        return out
 
     def brep(self, stages: Stages, fine: Any = None) -> Any:
         """Each patch on its own ``(u, v)`` (:func:`texcad.brep.uv_textured_solid`) or
@@ -245,6 +320,34 @@ class FacesAdapter(Adapter):
 #: Most sample triangles the gate's reach check may make of the base (a stopgap: the
 #: gate splits every triangle in four until its longest edge is short, so a long thin
 #: triangle of a tessellated cylinder becomes 4^8 triangles; a sphere on a 40 mm
+
+
+def _all_zones(zones: tuple) -> CadPart:
+    """One :class:`~texcad.targets.cad.CadPart` holding every zone's faces."""
+    first = zones[0].part
+    return CadPart(first.topo, tuple(f for z in zones for f in z.part.faces), tuple(i for z in zones for i in z.part.face_ids),
+                   first.previous, first.done)
+
+
+def _zone_of(fr: FacesRelief, reliefs) -> tuple:
+    """The zone of every patch relief (0 for all without zones)."""
+    return fr.zone_of if len(fr.zone_of) == len(reliefs) else (0,) * len(reliefs)
+
+
+def _zone_info(fp: FacesPlacement, fr: FacesRelief, reliefs: list) -> dict:
+    """Per zone, plain values (``Textured.info``): ``zones`` the names (3MF parts),
+    ``zone_reliefs`` the faces, texture, mode, height (mm) asked and reached."""
+    zone_of = _zone_of(fr, reliefs)
+    out = []
+    for k, z in enumerate(fp.zones):  # per zone
+        infos = [r.info for r, j in zip(reliefs, zone_of) if j == k]
+        item = {"name": z.name, "faces": [int(i) for i in z.faces], "texture": z.name.split(" ", 2)[-1], "mode": z.options.mode,
+                "height": float(z.options.height), "pitch": float(z.options.pitch),
+                "max_height": float(max(i["max_height"] for i in infos))}
+        if z.options.share > 0:
+            item["max_depth"] = float(max(i.get("max_depth", 0.0) for i in infos))
+        out.append(item)
+    return {"zones": [z.name for z in fp.zones], "zone_reliefs": out}
 
 
 def _warn(reliefs: list) -> None:
@@ -354,7 +457,7 @@ def _brep(topo: Any, patches: tuple, no_brep: str, rotation: float, fine: Any = 
     try:
         shape = uv_textured_solid(topo, items) if items else topo
         for r in planes:  # one per planar face
-            shape = _plane_brep(shape, r, rotation, fine)
+            shape = _plane_brep(shape, r, r.info.get("rotation", rotation), fine)
         return shape
     except GeometryError as e:
         raise GeometryError(f"{no_brep}: {e}") from None

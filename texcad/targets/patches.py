@@ -791,6 +791,7 @@ def patch_relief(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> Pat
         "curvature_limited_points": int(surf.limited.sum()),
         "max_height": float(np.where(keep, s_top, 0).max()),
         "mode": opts.mode,
+        "rotation": float(opts.rotation),
         "triangles": {"grid": 2 * int(g.cells.sum()), "mesh": bodies.top_triangles},
         "max_error_mm": bodies.error,
     }
