@@ -6,7 +6,8 @@ from ..options import DEFAULTS
 
 import argparse
 
-__all__ = ["positive_float", "shape", "vector", "add_orientation", "limits_line", "nonnegative_float", "add_tolerance"]
+__all__ = ["positive_float", "shape", "vector", "add_orientation", "limits_line", "nonnegative_float", "add_tolerance",
+           "zone_spec"]
 
 
 def positive_float(text: str) -> float:
@@ -95,3 +96,30 @@ def limits_line(limits) -> str | None:
         f"overhangs    limited to {limits.critical_angle_deg:g} deg for {len(limits.directions)} direction(s): "
         f"{limits.removed_volume_mm3:.1f} mm3 removed, {limits.remaining_overhang_mm2:.2f} mm2 still overhanging"
     )
+
+
+def zone_spec(text: str) -> tuple:
+    """``SEL[+SEL...]@TEXTURE[@OPTIONS]``: one zone of a CAD part, ``(selectors,
+    texture or None, {options})``. ``OPTIONS`` is a mode word (``engraved``) or
+    ``key=value`` pairs split by commas (``height=0.8,mode=engraved``; lengths in mm,
+    angles in degrees); an empty TEXTURE is the command's ``--texture``. The option
+    names are checked by :func:`texcad.texture` (ParameterError naming the zone)."""
+    import re
+
+    parts = text.split("@")
+    if len(parts) not in (2, 3) or not parts[0].strip():
+        raise argparse.ArgumentTypeError(
+            f"expected FACES@TEXTURE[@OPTIONS] such as top+right@builtin:stones@height=0.8,mode=engraved, got {text!r}"
+        )
+    sels = [p for p in re.split(r"(?<![:,])\+", parts[0].strip()) if p]  # top+right; normal:+x keeps its sign
+    opts: dict = {}
+    for item in (parts[2].split(",") if len(parts) == 3 and parts[2].strip() else []):  # per key=value
+        key, eq, value = item.partition("=")
+        key, value = key.strip(), value.strip()
+        if not eq:
+            key, value = "mode", key  # a mode word alone
+        try:
+            opts[key] = float(value)
+        except ValueError:
+            opts[key] = value
+    return sels, (parts[1].strip() or None), opts

@@ -10,6 +10,12 @@ that direction); ``solid:K/SELECTOR`` restricts any of these to solid K of an
 assembly. In an assembly the solid that owns the faces is textured and the other
 solids are written beside it as they were (``texcad faces PART.step`` lists faces
 and solids).
+
+``--zone FACES@TEXTURE[@OPTIONS]`` (repeatable, in place of ``--face``) gives each
+group of faces its own texture and options in one call (``top@builtin:diamond_knurl@height=0.8``,
+``right+left@builtin:stones@engraved``; ``FACES`` joins selectors with ``+``), as
+``texcad.texture(part, [(faces, texture, {options}), ...])`` does; ``--separate-texture``
+writes each zone as its own part of the 3MF.
 """
 
 from __future__ import annotations
@@ -20,7 +26,7 @@ import warnings
 from pathlib import Path
 
 from ..options import DEFAULTS
-from ._args import add_orientation, add_tolerance, limits_line, positive_float
+from ._args import add_orientation, add_tolerance, limits_line, positive_float, zone_spec
 from ._outputs import check_outputs, write_outputs
 from ._texture_mesh import MESH_SUFFIXES, add_mesh_arguments, run_mesh
 
@@ -125,9 +131,13 @@ def _assembly_faces(part, selectors: list) -> tuple:
 
 
 def run(args: argparse.Namespace) -> int:
-    if Path(args.part).suffix.lower() in MESH_SUFFIXES:  # STL / 3MF / OBJ: _texture_mesh.py, no CAD library
-        return run_mesh(args)
     from ..errors import ParameterError
+
+    if Path(args.part).suffix.lower() in MESH_SUFFIXES:  # STL / 3MF / OBJ: _texture_mesh.py, no CAD library
+        if getattr(args, "zone", None):
+            raise ParameterError(f"--zone names faces of a STEP part; give the mesh {args.part!r} its zones with "
+                                 "--region REGION@TEXTURE[@MODE] (repeatable)")
+        return run_mesh(args)
 
     for flag, given in (("--region", args.region), ("--union", args.union), ("--size", args.size)):  # mesh options: refused
         if given:
@@ -144,8 +154,15 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     part = Compound(read_step(args.part))
     solids = part.solids()
-    part, faces, owner, others = _assembly_faces(part, args.face or ["top"])
+    zones = getattr(args, "zone", None)
+    if zones and args.face:
+        raise ParameterError("give faces with --face or with --zone, not both (each --zone names its own faces)")
+    selectors = [s for sels, _, _ in zones for s in sels] if zones else (args.face or ["top"])
+    whole = part
+    part, faces, owner, others = _assembly_faces(part, selectors)
     face = faces[0] if len(faces) == 1 else faces
+    if zones:  # one (faces, texture, {options}) per --zone, on the solid that owns them
+        face = [(_assembly_faces(whole, sels)[1], tex, opts) for sels, tex, opts in zones]
     with warnings.catch_warnings():
         if args.quiet:
             warnings.simplefilter("ignore", TexcadWarning)
@@ -173,7 +190,11 @@ def run(args: argparse.Namespace) -> int:
     m = tx.mesh
     if owner is not None:
         print(f"solid        {owner} of {len(solids)} textured; the other {len(others)} kept as they were (separate bodies)")
-    print(f"faces        {', '.join(args.face or ['top'])}: {len(faces)} face(s) ({tx.info['face']}, grid {tx.info['grid'][0]} x {tx.info['grid'][1]})")
+    print(f"faces        {', '.join(selectors)}: {len(faces)} face(s) ({tx.info['face']}, grid {tx.info['grid'][0]} x {tx.info['grid'][1]})")
+    for z in tx.info.get("zone_reliefs") or []:  # per zone
+        depth = f", depth {z['max_depth']:.2f} mm" if "max_depth" in z else ""
+        print(f"{' '.join(z['name'].split(' ')[:2]):<12} faces {z['faces']}: {z['texture']} {z['mode']}, "
+              f"height {z['height']:g} mm, reached {z['max_height']:.2f} mm{depth}")
     for k, patch in enumerate(tx.info.get("faces") or []):  # per patch of smoothly joined faces
         dx, dy = patch["distortion"]["x"], patch["distortion"]["y"]
         print(
@@ -203,6 +224,16 @@ def add(sub: argparse._SubParsersAction) -> None:
         action="append",
         help="repeatable: top, bottom, front, back, left, right; a face type (cylinder, cone, sphere, torus, bspline, "
         "revolution, extrusion: the largest), TYPE:i, TYPE:all, normal:x,y,z, or a face index (default top)",
+    )
+    t.add_argument(
+        "--zone",
+        action="append",
+        type=zone_spec,
+        default=None,
+        metavar="FACES@TEXTURE[@OPTIONS]",
+        help="repeatable, in place of --face: these faces (selectors joined by +) get their own texture and options "
+        "(a mode word or key=value,... of height, pitch, mode, depth, edge_angle, rotation, tolerance), e.g. "
+        "top@builtin:diamond_knurl@height=0.8 --zone right@builtin:stones@engraved",
     )
     t.add_argument("--texture", default="builtin:stones", help="builtin:NAME[:k=v] or an image (default builtin:stones)")
     t.add_argument("--height", type=positive_float, default=DEFAULTS.height, help=f"texture height in mm (default {DEFAULTS.height:g})")

@@ -127,14 +127,17 @@ def zone_options(options: Any, zone: CadZone, k: int) -> Any:
 
     from ..sources import Heightmap
 
+    from ..options import option_names
+
     bad = sorted(set(zone.options) - set(ZONE_OPTIONS))
+    if bad:
+        what = "not an option of texcad.texture" if set(bad) - set(option_names()) else "an option of the whole call"
+        raise ParameterError(f"zone {k + 1} ({zone.name.split(' ', 2)[-1]}): {', '.join(map(str, bad))}: {what}; a zone sets "
+                             f"{', '.join(ZONE_OPTIONS)} for itself (give the others to the call)")
     try:
         out = options.replace(**zone.options)
     except ParameterError as e:
-        raise ParameterError(f"zone {k + 1}: {e}") from None
-    if bad:
-        raise ParameterError(f"zone {k + 1}: {', '.join(bad)} is not an option a zone sets for itself; a zone sets "
-                             f"{', '.join(ZONE_OPTIONS)} (give the others to the call)")
+        raise ParameterError(f"zone {k + 1} ({zone.name.split(' ', 2)[-1]}): {e}") from None
     if isinstance(zone.texture, Heightmap) and "height" not in zone.options and "height" not in options.given \
             and zone.texture.max_height > 0:
         out = dataclasses.replace(out, height=float(zone.texture.max_height))
