@@ -117,7 +117,8 @@ def cad_zones(target: Any, where: Any, texture: Any) -> tuple:
 def zone_options(options: Any, zone: CadZone, k: int) -> Any:
     """The zone's :class:`texcad.options.Options`: the call's with the zone's own
     options over them, validated by the same rules (a Heightmap texture keeps its own
-    heights unless ``height`` is given, as in :func:`texcad.texture`).
+    heights unless the zone gives ``height``; the call's ``height`` is for the
+    other zones).
 
     Raises:
         ParameterError: an unknown option, one a zone cannot set, or a bad value,
@@ -138,8 +139,7 @@ def zone_options(options: Any, zone: CadZone, k: int) -> Any:
         out = options.replace(**zone.options)
     except ParameterError as e:
         raise ParameterError(f"zone {k + 1} ({zone.name.split(' ', 2)[-1]}): {e}") from None
-    if isinstance(zone.texture, Heightmap) and "height" not in zone.options and "height" not in options.given \
-            and zone.texture.max_height > 0:
+    if isinstance(zone.texture, Heightmap) and "height" not in zone.options and zone.texture.max_height > 0:
         out = dataclasses.replace(out, height=float(zone.texture.max_height))
     return out
 
