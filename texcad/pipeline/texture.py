@@ -4,7 +4,8 @@ The target says which pipeline runs:
 
 * a build123d / CadQuery part (or an OCP shape holding solids): ``where`` picks the
   face(s), chosen with the CAD library's selectors (:class:`texcad.targets.PlaneAdapter`,
-  :class:`~texcad.targets.ExtrusionAdapter`, :class:`~texcad.targets.FacesAdapter`);
+  :class:`~texcad.targets.ExtrusionAdapter`, :class:`~texcad.targets.FacesAdapter`), or
+  gives zones ``[(faces, texture, {options}), ...]`` (the any-faces adapter);
 * a :class:`texcad.Surface` or :class:`texcad.Profile` (a 2.5D surface, paper section
   2.2): the whole surface, ``where`` is None
   (:class:`texcad.targets.surface.SurfaceAdapter`);
@@ -52,12 +53,17 @@ def texture(
             :class:`~texcad.Plate`; or a mesh (a path
             ending in .stl / .3mf / .obj, a :class:`texcad.Mesh`, a ``trimesh.Trimesh``).
         where: CAD parts: the face(s), chosen with selectors, e.g.
-            ``part.faces().sort_by(Axis.Z)[-1]`` or ``wp.faces(">Z")``; surfaces, plates: None;
+            ``part.faces().sort_by(Axis.Z)[-1]`` or ``wp.faces(">Z")``, or zones: a
+            list of ``(faces, texture, {options})`` (or a mapping ``{face: texture}``),
+            each zone its own texture and its own ``height``, ``pitch``, ``mode``,
+            ``depth``, ``edge_angle``, ``rotation``, ``tolerance``, ``gradient`` over
+            the call's (:data:`texcad.targets.cad.ZONE_OPTIONS`); surfaces, plates: None;
             meshes: a region such as ``"normal:+x:70"`` (default: every face but the
             bed face) or a list of layers ``(region, texture, {options})``.
         texture: ``"builtin:NAME[:key=value,...]"``, an image path (white = ``height``
             mm, black = on the surface), or a :class:`~texcad.Heightmap` (used at its
-            own pitch and heights unless ``height`` is given).
+            own pitch and heights unless ``height`` is given). With zones, only the
+            zones whose texture is None use it.
         **options: the fields of :class:`texcad.options.Options`, with the defaults
             the ``texcad`` command uses too: ``height`` (1 mm), ``pitch`` (0.25 mm),
             ``mode`` (raised / engraved / centred), ``tolerance`` (0.02 mm),
@@ -77,7 +83,9 @@ def texture(
         B-rep; ``-``, ``+``, ``&``, ``fillet``, ``mirrored``, ``patterned``.
 
     Raises:
-        ParameterError: the face is not on the part, an unknown option, a bad value.
+        ParameterError: the face is not on the part, an unknown option, a bad value;
+            with zones, a face in two zones, an empty zone, an option a zone cannot
+            set (the message names the zone).
         InputError: an unreadable or broken input file.
         GeometryError: the texture cannot be made, or the result failed the gate.
         ResourceError: more memory than the machine (or ``max_memory``) allows.
