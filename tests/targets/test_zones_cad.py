@@ -81,6 +81,27 @@ def test_box_zones_each_reach_their_own_height_on_their_own_face(box_zones):
     assert abs(float(hz[0].max()) - 0.8) < TOL and abs(float(hz[1].max()) - 0.4) < TOL
 
 
+def test_each_zone_is_checked_against_its_own_height(box_zones):
+    """The adapter's per-zone check measures each zone's farthest vertex from its own
+    faces, and refuses a relief that landed on another zone's faces (here: the zones'
+    faces swapped after the fact, so the 0.8 mm knurl stands on the 0.4 mm zone)."""
+    import dataclasses
+
+    from texcad.errors import GeometryError
+    from texcad.targets.faces import _zone_reach
+
+    _, tx = box_zones
+    zr = tx.info["zone_reliefs"]
+    assert abs(zr[0]["farthest_mm"] - 0.8) < TOL and abs(zr[1]["farthest_mm"] - 0.4) < TOL
+    assert zr[1]["reach_mm"] < 0.8 < zr[0]["reach_mm"]
+    st = tx.stages
+    fp = st.placement.data
+    a, b = fp.zones
+    swapped = dataclasses.replace(fp, zones=(dataclasses.replace(a, faces=b.faces), dataclasses.replace(b, faces=a.faces)))
+    with pytest.raises(GeometryError, match=r"zone 2 builtin:stones: \d+ vertices lie up to 0.8\d* mm from its faces"):
+        _zone_reach(st.fused.mesh, st.placement.base, swapped, st.relief.data, list(st.fused.data.patches), [{}, {}])
+
+
 def test_box_zones_meet_cleanly_at_the_shared_edge(box_zones):
     """Within 1 mm of the edge both reliefs have ramped down (no step, no overhang at the edge)."""
     _, tx = box_zones

@@ -247,8 +247,10 @@ class FacesAdapter(Adapter):
                        for r, z in zip(reliefs, zs)]  # fmt: skip
         info = _info(placement, reliefs, options)
         base_mesh = placement.base
-        if fp.zoned:  # zones: each zone's relief in info, the base at every texture's lowest (the 3MF's base part)
+        if fp.zoned:  # zones: each zone's relief in info, checked on its own; the base at every texture's lowest (3MF)
             info.update(_zone_info(fp, fr, reliefs))
+            options.report(0.8, "checking each zone's reach from its own faces")
+            _zone_reach(fused, placement.base, fp, fr, reliefs, info["zone_reliefs"])
             lows = [to_manifold(r.bodies.low_cutter) for r in reliefs if r.bodies.low_cutter is not None]
             if lows:
                 import manifold3d as m3d
@@ -348,6 +350,54 @@ def _zone_info(fp: FacesPlacement, fr: FacesRelief, reliefs: list) -> dict:
             item["max_depth"] = float(max(i.get("max_depth", 0.0) for i in infos))
         out.append(item)
     return {"zones": [z.name for z in fp.zones], "zone_reliefs": out}
+
+
+def _zone_reach(mesh: Mesh, base: Mesh, fp: FacesPlacement, fr: FacesRelief, reliefs: list, out: list) -> None:
+    """Every zone's relief stays within its own reach of its own faces: each vertex of
+    the fused ``mesh`` off the ``base`` surface belongs to the zone whose faces are
+    nearest, and lies no farther from them than that zone's largest offset plus the
+    cutters' clearance (0.05 mm) and the gate's margin (a quarter of the height, at
+    least 0.05 mm). Adds ``reach_mm`` and ``farthest_mm`` (measured) to each zone's
+    entry of ``out``. Exact point-triangle distances (libigl's AABB tree).
+
+    Raises:
+        GeometryError: a zone's relief reaches farther (another zone's texture on its
+            faces, or a relief off its faces).
+    """
+    import igl
+
+    pm = fp.mesh
+    zone_of = _zone_of(fr, reliefs)
+    pts = np.ascontiguousarray(mesh.vertices, dtype=np.float64)
+    sv = np.ascontiguousarray(pm.mesh.vertices, dtype=np.float64)
+    dist = np.empty((len(fp.zones), len(pts)))
+    allowed = np.empty(len(fp.zones))
+    for k, z in enumerate(fp.zones):  # per zone: the exact distance of every vertex to its faces
+        sf = np.ascontiguousarray(pm.mesh.faces[np.isin(pm.face_of_tri, np.asarray(z.faces))], dtype=np.int64)
+        dist[k] = np.sqrt(igl.point_mesh_squared_distance(pts, sv, sf)[0])
+        top = max(float(np.abs(r.h_top).max()) for r, j in zip(reliefs, zone_of) if j == k) + CUT_CLEARANCE
+        allowed[k] = top + max(0.25 * top, 0.05)
+        out[k]["reach_mm"] = float(allowed[k])
+    near = np.argmin(dist, axis=0)
+    d = dist[near, np.arange(len(pts))]
+    far = np.flatnonzero(d > allowed[near])
+    if len(far):  # a vertex on the part's own surface (an untextured face) is not relief
+        bf = np.ascontiguousarray(base.faces, dtype=np.int64)
+        on = np.sqrt(igl.point_mesh_squared_distance(pts[far], np.ascontiguousarray(base.vertices, np.float64), bf)[0])
+        far = far[on > 0.05]
+    for k in range(len(fp.zones)):  # per zone: the farthest of its relief vertices
+        mine = (near == k) & (d <= allowed[k])
+        out[k]["farthest_mm"] = float(d[mine].max(initial=0.0))
+    if len(far):
+        k = int(near[far[np.argmax(d[far])]])
+        raise GeometryError(
+            f"{fp.zones[k].name}: {int((near[far] == k).sum())} vertices lie up to {float(d[far].max()):.3f} mm from its "
+            f"faces, where its texture reaches {allowed[k]:.3f} mm; a relief landed off its zone: please report this"
+        )
+
+
+#: mm: how far the engraved cutters start outside the face (the relief's reach over its largest offset).
+CUT_CLEARANCE = 0.05
 
 
 def _warn(reliefs: list) -> None:
