@@ -177,6 +177,37 @@ def test_cylinder_zones_3mf_each_zone_a_part(cylinder_zones, tmp_path):
     assert _names_3mf(tmp_path / "cyl.3mf") == ["base", "zone 1 builtin:diamond_knurl", "zone 2 builtin:stones"]
 
 
+def test_zones_touching_along_a_smooth_edge_stay_apart():
+    """A top face and the fillet tangent to it: one patch when textured together, but
+    in two zones each keeps its own texture and ramps at the tangent edge."""
+    from build123d import Axis, Box, GeomType, fillet
+
+    b = fillet(Box(30, 30, 20).edges().group_by(Axis.Z)[-1].group_by(Axis.X)[-1], radius=6)
+    top, side = b.faces().sort_by(Axis.Z)[-1], b.faces().sort_by(Axis.X)[-1]
+    (fil,) = b.faces().filter_by(GeomType.CYLINDER)
+    one = _quiet(b, [top, fil], "builtin:stones", pitch=PITCH, height=0.3)
+    assert len(one.stages.fused.data.patches) == 1  # tangent: flattened together
+    tx = _quiet(b, [(top, "builtin:diamond_knurl", {"height": 0.6}), ([fil, side], "builtin:stones", {"height": 0.3})],
+                pitch=PITCH)
+    patches = [set(p.faces) for p in tx.stages.fused.data.patches]
+    assert len(patches) == 2 and not (patches[0] & patches[1])
+    assert tx.mesh.is_watertight and tx.gate.shells.bodies == 1
+    v = tx.mesh.vertices.astype(np.float64)
+    assert abs(v[:, 2].max() - 10 - 0.6) < TOL and abs(v[:, 0].max() - 15 - 0.3) < TOL
+    zr = tx.info["zone_reliefs"]
+    assert abs(zr[0]["farthest_mm"] - 0.6) < TOL and abs(zr[1]["farthest_mm"] - 0.3) < TOL
+
+
+def test_cadquery_selections_as_zones():
+    cq = pytest.importorskip("cadquery")
+    wp = cq.Workplane().box(30, 30, 20)
+    tx = _quiet(wp, [(wp.faces(">Z"), "builtin:diamond_knurl", {"height": 0.8}), (wp.faces(">X"), "builtin:stones", {"height": 0.4})],
+                pitch=PITCH)
+    assert [round(z["farthest_mm"], 2) for z in tx.info["zone_reliefs"]] == [0.8, 0.4] and tx.mesh.is_watertight
+    one = _quiet(wp, [(wp.faces(">Z").val(), "builtin:stones")], pitch=PITCH)  # one zone, one planar face
+    assert isinstance(one.stages.adapter, FacesAdapter) and one.info["zones"] == ["zone 1 builtin:stones"]
+
+
 def test_zone_forms_mapping_default_texture_and_heightmap():
     """A mapping {face: texture} (None leaves a face alone), a zone texture None (the
     call's texture), and a Heightmap zone keeping its own heights."""
