@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import texcad
-from texcad.errors import ParameterError
+from texcad.errors import GeometryError, ParameterError
 from texcad.targets import FacesAdapter
 
 PITCH = 0.5
@@ -87,7 +87,6 @@ def test_each_zone_is_checked_against_its_own_height(box_zones):
     faces swapped after the fact, so the 0.8 mm knurl stands on the 0.4 mm zone)."""
     import dataclasses
 
-    from texcad.errors import GeometryError
     from texcad.targets.faces import _zone_reach
 
     _, tx = box_zones
@@ -177,7 +176,7 @@ def test_cylinder_zones_3mf_each_zone_a_part(cylinder_zones, tmp_path):
     assert _names_3mf(tmp_path / "cyl.3mf") == ["base", "zone 1 builtin:diamond_knurl", "zone 2 builtin:stones"]
 
 
-def test_zones_touching_along_a_smooth_edge_stay_apart():
+def test_zones_touching_along_a_smooth_edge_stay_apart(tmp_path):
     """A top face and the fillet tangent to it: one patch when textured together, but
     in two zones each keeps its own texture and ramps at the tangent edge."""
     from build123d import Axis, Box, GeomType, fillet
@@ -196,6 +195,10 @@ def test_zones_touching_along_a_smooth_edge_stay_apart():
     assert abs(v[:, 2].max() - 10 - 0.6) < TOL and abs(v[:, 0].max() - 15 - 0.3) < TOL
     zr = tx.info["zone_reliefs"]
     assert abs(zr[0]["farthest_mm"] - 0.6) < TOL and abs(zr[1]["farthest_mm"] - 0.3) < TOL
+    # faces flattened together (the fillet and the side, LSCM) have no B-rep: STEP says so and names STL / 3MF
+    with pytest.raises(GeometryError, match=r"flattened together.*|write the mesh"):
+        tx.export(tmp_path / "x.step")
+    assert not (tmp_path / "x.step").exists()
 
 
 def test_cadquery_selections_as_zones():
