@@ -125,6 +125,17 @@ def test_box_zones_layers_and_3mf_parts(box_zones, tmp_path):
     assert back.is_watertight and abs(back.volume - tx.mesh.volume) < 1e-3 * tx.mesh.volume
 
 
+def test_box_zones_same_bytes_twice(box_zones, tmp_path):
+    from build123d import Axis
+
+    box, tx = box_zones
+    top, side = box.faces().sort_by(Axis.Z)[-1], box.faces().sort_by(Axis.X)[-1]
+    again = _quiet(box, [(top, "builtin:diamond_knurl", {"height": 0.8}), (side, "builtin:stones", {"height": 0.4})], pitch=PITCH)
+    tx.export(tmp_path / "a.stl")
+    again.export(tmp_path / "b.stl")
+    assert (tmp_path / "a.stl").read_bytes() == (tmp_path / "b.stl").read_bytes()
+
+
 def test_box_zones_step_has_both_zones(box_zones, tmp_path):
     """Planar zones have a B-rep: the STEP's volume is the mesh's."""
     box, tx = box_zones

@@ -276,10 +276,6 @@ class FacesAdapter(Adapter):
         lowest = m3d.Manifold.batch_boolean([f.base] + lows, m3d.OpType.Subtract) if lows else f.base
         return welded_mesh(f.union - lowest)
 
-    def max_error(self, stages: Stages) -> float:
-        """The lean relief's largest measured error against the texture grid, mm (0: the grid)."""
-        return max(r.max_error for r in stages.fused.data.patches)
-
     def layer_meshes(self, stages: Stages) -> list:
         """One texture body per zone (mm): the zone's slabs and cutters on the part,
         minus the part with the zone's texture at its lowest (as :meth:`texture_mesh`);
@@ -298,6 +294,10 @@ class FacesAdapter(Adapter):
             lowest = m3d.Manifold.batch_boolean([f.base] + lows, m3d.OpType.Subtract) if lows else f.base
             out.append(welded_mesh(union_patches(f.base, rs) - lowest))
         return out
+
+    def max_error(self, stages: Stages) -> float:
+        """The lean relief's largest measured error against the texture grid, mm (0: the grid)."""
+        return max(r.max_error for r in stages.fused.data.patches)
 
     def brep(self, stages: Stages, fine: Any = None) -> Any:
         """Each patch on its own ``(u, v)`` (:func:`texcad.brep.uv_textured_solid`) or
@@ -322,82 +322,6 @@ class FacesAdapter(Adapter):
 #: Most sample triangles the gate's reach check may make of the base (a stopgap: the
 #: gate splits every triangle in four until its longest edge is short, so a long thin
 #: triangle of a tessellated cylinder becomes 4^8 triangles; a sphere on a 40 mm
-
-
-def _all_zones(zones: tuple) -> CadPart:
-    """One :class:`~texcad.targets.cad.CadPart` holding every zone's faces."""
-    first = zones[0].part
-    return CadPart(first.topo, tuple(f for z in zones for f in z.part.faces), tuple(i for z in zones for i in z.part.face_ids),
-                   first.previous, first.done)
-
-
-def _zone_of(fr: FacesRelief, reliefs) -> tuple:
-    """The zone of every patch relief (0 for all without zones)."""
-    return fr.zone_of if len(fr.zone_of) == len(reliefs) else (0,) * len(reliefs)
-
-
-def _zone_info(fp: FacesPlacement, fr: FacesRelief, reliefs: list) -> dict:
-    """Per zone, plain values (``Textured.info``): ``zones`` the names (3MF parts),
-    ``zone_reliefs`` the faces, texture, mode, height (mm) asked and reached."""
-    zone_of = _zone_of(fr, reliefs)
-    out = []
-    for k, z in enumerate(fp.zones):  # per zone
-        infos = [r.info for r, j in zip(reliefs, zone_of) if j == k]
-        item = {"name": z.name, "faces": [int(i) for i in z.faces], "texture": z.name.split(" ", 2)[-1], "mode": z.options.mode,
-                "height": float(z.options.height), "pitch": float(z.options.pitch),
-                "max_height": float(max(i["max_height"] for i in infos))}
-        if z.options.share > 0:
-            item["max_depth"] = float(max(i.get("max_depth", 0.0) for i in infos))
-        out.append(item)
-    return {"zones": [z.name for z in fp.zones], "zone_reliefs": out}
-
-
-def _zone_reach(mesh: Mesh, base: Mesh, fp: FacesPlacement, fr: FacesRelief, reliefs: list, out: list) -> None:
-    """Every zone's relief stays within its own reach of its own faces: each vertex of
-    the fused ``mesh`` off the ``base`` surface belongs to the zone whose faces are
-    nearest, and lies no farther from them than that zone's largest offset plus the
-    cutters' clearance (0.05 mm) and the gate's margin (a quarter of the height, at
-    least 0.05 mm). Adds ``reach_mm`` and ``farthest_mm`` (measured) to each zone's
-    entry of ``out``. Exact point-triangle distances (libigl's AABB tree).
-
-    Raises:
-        GeometryError: a zone's relief reaches farther (another zone's texture on its
-            faces, or a relief off its faces).
-    """
-    import igl
-
-    pm = fp.mesh
-    zone_of = _zone_of(fr, reliefs)
-    pts = np.ascontiguousarray(mesh.vertices, dtype=np.float64)
-    sv = np.ascontiguousarray(pm.mesh.vertices, dtype=np.float64)
-    dist = np.empty((len(fp.zones), len(pts)))
-    allowed = np.empty(len(fp.zones))
-    for k, z in enumerate(fp.zones):  # per zone: the exact distance of every vertex to its faces
-        sf = np.ascontiguousarray(pm.mesh.faces[np.isin(pm.face_of_tri, np.asarray(z.faces))], dtype=np.int64)
-        dist[k] = np.sqrt(igl.point_mesh_squared_distance(pts, sv, sf)[0])
-        top = max(float(np.abs(r.h_top).max()) for r, j in zip(reliefs, zone_of) if j == k) + CUT_CLEARANCE
-        allowed[k] = top + max(0.25 * top, 0.05)
-        out[k]["reach_mm"] = float(allowed[k])
-    near = np.argmin(dist, axis=0)
-    d = dist[near, np.arange(len(pts))]
-    far = np.flatnonzero(d > allowed[near])
-    if len(far):  # a vertex on the part's own surface (an untextured face) is not relief
-        bf = np.ascontiguousarray(base.faces, dtype=np.int64)
-        on = np.sqrt(igl.point_mesh_squared_distance(pts[far], np.ascontiguousarray(base.vertices, np.float64), bf)[0])
-        far = far[on > 0.05]
-    for k in range(len(fp.zones)):  # per zone: the farthest of its relief vertices
-        mine = (near == k) & (d <= allowed[k])
-        out[k]["farthest_mm"] = float(d[mine].max(initial=0.0))
-    if len(far):
-        k = int(near[far[np.argmax(d[far])]])
-        raise GeometryError(
-            f"{fp.zones[k].name}: {int((near[far] == k).sum())} vertices lie up to {float(d[far].max()):.3f} mm from its "
-            f"faces, where its texture reaches {allowed[k]:.3f} mm; a relief landed off its zone: please report this"
-        )
-
-
-#: mm: how far the engraved cutters start outside the face (the relief's reach over its largest offset).
-CUT_CLEARANCE = 0.05
 
 
 def _warn(reliefs: list) -> None:
@@ -531,3 +455,82 @@ def _plane_brep(shape: Any, r: PatchRelief, rotation: float, fine: Any = None) -
     if out is None:
         raise GeometryError("the planar face's texture grid reaches its outline; texture it in raised mode for a B-rep")
     return out
+
+
+# ------------------------------------------------------------------------------------------
+# Zones
+# ------------------------------------------------------------------------------------------
+def _all_zones(zones: tuple) -> CadPart:
+    """One :class:`~texcad.targets.cad.CadPart` holding every zone's faces."""
+    first = zones[0].part
+    return CadPart(first.topo, tuple(f for z in zones for f in z.part.faces), tuple(i for z in zones for i in z.part.face_ids),
+                   first.previous, first.done)
+
+
+def _zone_of(fr: FacesRelief, reliefs) -> tuple:
+    """The zone of every patch relief (0 for all without zones)."""
+    return fr.zone_of if len(fr.zone_of) == len(reliefs) else (0,) * len(reliefs)
+
+
+def _zone_info(fp: FacesPlacement, fr: FacesRelief, reliefs: list) -> dict:
+    """Per zone, plain values (``Textured.info``): ``zones`` the names (3MF parts),
+    ``zone_reliefs`` the faces, texture, mode, height (mm) asked and reached."""
+    zone_of = _zone_of(fr, reliefs)
+    out = []
+    for k, z in enumerate(fp.zones):  # per zone
+        infos = [r.info for r, j in zip(reliefs, zone_of) if j == k]
+        item = {"name": z.name, "faces": [int(i) for i in z.faces], "texture": z.name.split(" ", 2)[-1], "mode": z.options.mode,
+                "height": float(z.options.height), "pitch": float(z.options.pitch),
+                "max_height": float(max(i["max_height"] for i in infos))}
+        if z.options.share > 0:
+            item["max_depth"] = float(max(i.get("max_depth", 0.0) for i in infos))
+        out.append(item)
+    return {"zones": [z.name for z in fp.zones], "zone_reliefs": out}
+
+
+#: mm: how far the engraved cutters start outside the face (the relief's reach over its largest offset).
+CUT_CLEARANCE = 0.05
+
+
+def _zone_reach(mesh: Mesh, base: Mesh, fp: FacesPlacement, fr: FacesRelief, reliefs: list, out: list) -> None:
+    """Every zone's relief stays within its own reach of its own faces: each vertex of
+    the fused ``mesh`` off the ``base`` surface belongs to the zone whose faces are
+    nearest, and lies no farther from them than that zone's largest offset plus the
+    cutters' clearance (0.05 mm) and the gate's margin (a quarter of the height, at
+    least 0.05 mm). Adds ``reach_mm`` and ``farthest_mm`` (measured) to each zone's
+    entry of ``out``. Exact point-triangle distances (libigl's AABB tree).
+
+    Raises:
+        GeometryError: a zone's relief reaches farther (another zone's texture on its
+            faces, or a relief off its faces).
+    """
+    import igl
+
+    pm = fp.mesh
+    zone_of = _zone_of(fr, reliefs)
+    pts = np.ascontiguousarray(mesh.vertices, dtype=np.float64)
+    sv = np.ascontiguousarray(pm.mesh.vertices, dtype=np.float64)
+    dist = np.empty((len(fp.zones), len(pts)))
+    allowed = np.empty(len(fp.zones))
+    for k, z in enumerate(fp.zones):  # per zone: the exact distance of every vertex to its faces
+        sf = np.ascontiguousarray(pm.mesh.faces[np.isin(pm.face_of_tri, np.asarray(z.faces))], dtype=np.int64)
+        dist[k] = np.sqrt(igl.point_mesh_squared_distance(pts, sv, sf)[0])
+        top = max(float(np.abs(r.h_top).max()) for r, j in zip(reliefs, zone_of) if j == k) + CUT_CLEARANCE
+        allowed[k] = top + max(0.25 * top, 0.05)
+        out[k]["reach_mm"] = float(allowed[k])
+    near = np.argmin(dist, axis=0)
+    d = dist[near, np.arange(len(pts))]
+    far = np.flatnonzero(d > allowed[near])
+    if len(far):  # a vertex on the part's own surface (an untextured face) is not relief
+        bf = np.ascontiguousarray(base.faces, dtype=np.int64)
+        on = np.sqrt(igl.point_mesh_squared_distance(pts[far], np.ascontiguousarray(base.vertices, np.float64), bf)[0])
+        far = far[on > 0.05]
+    for k in range(len(fp.zones)):  # per zone: the farthest of its relief vertices
+        mine = (near == k) & (d <= allowed[k])
+        out[k]["farthest_mm"] = float(d[mine].max(initial=0.0))
+    if len(far):
+        k = int(near[far[np.argmax(d[far])]])
+        raise GeometryError(
+            f"{fp.zones[k].name}: {int((near[far] == k).sum())} vertices lie up to {float(d[far].max()):.3f} mm from its "
+            f"faces, where its texture reaches {allowed[k]:.3f} mm; a relief landed off its zone: please report this"
+        )
