@@ -126,9 +126,8 @@ def zone_options(options: Any, zone: CadZone, k: int) -> Any:
     """
     import dataclasses
 
-    from ..sources import Heightmap
-
     from ..options import option_names
+    from ..sources import Heightmap
 
     bad = sorted(set(zone.options) - set(ZONE_OPTIONS))
     if bad:
