@@ -118,6 +118,7 @@ def test_box_zones_layers_and_3mf_parts(box_zones, tmp_path):
     va, vb = a.vertices.astype(np.float64), b.vertices.astype(np.float64)
     assert va[:, 2].min() >= 10 - OFF and va[:, 2].max() <= 10.8 + TOL  # the top zone's body lies on the top face
     assert vb[:, 0].min() >= 15 - OFF and vb[:, 0].max() <= 15.4 + TOL  # the side zone's on the side
+    assert abs(tx.base_mesh.volume + a.volume + b.volume - tx.mesh.volume) < 1e-4 * tx.mesh.volume  # they split the part
     tx.export(tmp_path / "zones.3mf", separate_texture=True)
     assert _names_3mf(tmp_path / "zones.3mf") == ["base", "zone 1 builtin:diamond_knurl", "zone 2 builtin:stones"]
     tx.export(tmp_path / "zones.stl")
@@ -181,8 +182,10 @@ def test_cylinder_zones_3mf_each_zone_a_part(cylinder_zones, tmp_path):
     side, top = (m.vertices.astype(np.float64) for m in layers)
     assert np.hypot(side[:, 0], side[:, 1]).min() >= 12 - 0.02
     assert top[:, 2].min() >= 10 - 0.4 - TOL and top[:, 2].max() <= 10 + OFF
-    # the base part is the part with the engraving at its deepest: the parts do not overlap
+    # the base part is the part with the engraving at its deepest: base and zones split the
+    # textured part's volume, with no overlap and nothing left out
     assert tx.base_mesh.volume < cyl.volume - 0.9 * layers[1].volume
+    assert abs(tx.base_mesh.volume + sum(m.volume for m in layers) - tx.mesh.volume) < 1e-4 * tx.mesh.volume
     tx.export(tmp_path / "cyl.3mf", separate_texture=True)
     assert _names_3mf(tmp_path / "cyl.3mf") == ["base", "zone 1 builtin:diamond_knurl", "zone 2 builtin:stones"]
 
