@@ -13,6 +13,15 @@ a sharp edge are textured apart (the M-I ramp brings the relief to 0 at that edg
 faces that meet smoothly (tangent edges) form one *patch* and are flattened together,
 so the texture runs on across the edge.
 
+**Zones.** ``where`` may give zones, ``[(faces, texture, {options}), ...]``
+(:func:`texcad.targets.cad.cad_zones`): each zone's faces form patches of their own
+(never joined to another zone's, even across a tangent edge), made with the zone's
+texture and options (:data:`texcad.targets.cad.ZONE_OPTIONS` over the call's), so
+touching zones each ramp to 0 at the shared edge. All patches are fused in one
+union; each zone's relief is then checked against its own height from its own faces
+(:func:`_zone_reach`), ``layer_meshes`` gives one body per zone and the base is the
+part with every texture at its lowest (3MF parts that split the volume).
+
 **Relief.** Per patch: texture coordinates in mm (a plane's own frame; one curved
 face's ``(u, v)`` by arc length, whole tiles around a closed face, the texture
 stretched by ``r / R_ref`` there and reported as :class:`texcad.mapping.Distortion`;
