@@ -34,3 +34,12 @@ def test_zones_knob(tmp_path):
     assert re.findall(r'key="name" value="([^"]*)"', cfg)[1:] == ["base", "zone 1 builtin:diamond_knurl:period=2",
                                                                  "zone 2 builtin:stones"]
     assert_picture(tmp_path / "zones_knob.png")
+    # the STEP re-imports as one valid solid enclosing the mesh's volume (0.1 %, plus the
+    # lean mesh's 0.02 mm tolerance over the textured area, about 2000 mm2)
+    import texcad
+    from texcad import brep
+
+    shape = texcad.io.read_step(tmp_path / "zones_knob.step")
+    chk = brep.check_shape(shape)
+    assert chk["valid"] and chk["solids"] == 1
+    assert abs(brep.volume(shape) - stl.volume) <= 1e-3 * stl.volume + 0.02 * 2000
