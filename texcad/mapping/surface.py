@@ -52,7 +52,8 @@ import numpy as np
 from ..util import positive
 from ..errors import GeometryError, InputError, ParameterError
 
-__all__ = ["Profile", "ProfileSample", "FunctionPiece", "Corner", "Surface", "SURFACE_KINDS"]
+__all__ = ["Profile", "ProfileSample", "FunctionPiece", "Corner", "Surface", "SURFACE_KINDS", "swept_volume",
+           "grid_triangles", "chord_excess", "relief_integral"]
 
 # 8-point Gauss-Legendre nodes and weights on [0, 1].
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
@@ -1051,3 +1052,92 @@ class Surface:
         if kind == "sine":
             return cls.sine(amplitude, period, width, length, thickness)
         raise ParameterError(f"unknown surface {kind!r}; choose one of {', '.join(SURFACE_KINDS)}")
+
+
+# -- the texture's own integral (the gate's check 4) ----------------------------------
+def _tet(p: np.ndarray, q: np.ndarray, r: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Signed volumes of the tetrahedra ``(p, q, r, t)`` (rows), mm^3."""
+    return np.einsum("ij,ij->i", np.cross(q - p, r - p), t - p) / 6.0
+
+
+def swept_volume(base: np.ndarray, moved: np.ndarray, tri: np.ndarray, normals: np.ndarray) -> float:
+    """The signed volume (mm^3) swept when the sheet ``(base, tri)`` moves to ``moved``:
+    + where it moves along ``normals`` (the outward side: material added), - where
+    it moves against them (material removed).
+
+    Per triangle ``(a, b, c)`` the prism between it and its moved copy
+    ``(a', b', c')`` is cut into the three tetrahedra ``(a b c a')``, ``(b c a' b')``,
+    ``(c a' b' c')`` with the corners taken in the order of their vertex numbers,
+    so that two triangles split the quadrilateral over their common side the same
+    way and the sum is exactly the volume between the two triangulated sheets and
+    the ruled walls over the sheet's outline. For a relief of height ``h`` along the
+    normal of a surface with principal curvatures ``k1``, ``k2`` (mean ``H``,
+    Gaussian ``K``, positive where the outward side is convex) this is the
+    discretization of ``int (h + H h^2 + K h^3 / 3) dA`` (an extruded profile of
+    curvature ``k``: ``int (h + k h^2 / 2) ds dy``), which ``sum h dA`` misses: a
+    raised relief on a convex face adds more than ``h A``, an engraved one removes
+    less. (Same construction as :func:`texcad.targets.mesh.offset_volume`.)
+
+    Args:
+        base, moved: ``(N, 3)`` points, mm (float64 is used).
+        tri: ``(M, 3)`` int triangles of the sheet (either orientation).
+        normals: ``(N, 3)`` the outward side at each point (any length); each
+            triangle is oriented to agree with the mean of its corners' normals.
+
+    Returns:
+        The volume, mm^3 (float64).
+    """
+    tri = np.asarray(tri, dtype=np.int64).reshape(-1, 3)
+    if not len(tri):
+        return 0.0
+    p = np.asarray(base, dtype=np.float64).reshape(-1, 3)
+    q = np.asarray(moved, dtype=np.float64).reshape(-1, 3)
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    fs = np.sort(tri, axis=1)
+    a, b, c = (p[fs[:, i]] for i in range(3))
+    a2, b2, c2 = (q[fs[:, i]] for i in range(3))
+    up = np.einsum("ij,ij->i", np.cross(b - a, c - a), n[fs].sum(axis=1))
+    vol = _tet(a, b, c, a2) + _tet(b, c, a2, b2) + _tet(c, a2, b2, c2)
+    return float((np.sign(up) * vol).sum())
+
+
+def grid_triangles(rows: int, cols: int, *, closed: bool = False, cells: "np.ndarray | None" = None) -> np.ndarray:
+    """Two triangles per cell of a ``(rows, cols)`` grid of points (row-major flat
+    indices), ``(M, 3)`` int64; ``closed``: the last column joins the first (a closed
+    profile); ``cells``: bool ``(rows - 1, cols - 1)`` (``cols`` when closed), the
+    cells to keep (None: all)."""
+    nc = cols if closed else cols - 1
+    keep = np.ones((rows - 1, nc), bool) if cells is None else np.asarray(cells, bool)
+    rr, cc = np.nonzero(keep)
+    cn = (cc + 1) % cols
+    a, b, d, e = rr * cols + cc, rr * cols + cn, (rr + 1) * cols + cc, (rr + 1) * cols + cn
+    return np.concatenate([np.stack([a, b, e], 1), np.stack([a, e, d], 1)]).astype(np.int64)
+
+
+def chord_excess(profile: "Profile", s: np.ndarray, *, closed: bool) -> float:
+    """The area (mm^2) between the profile and the polygon through its points at the
+    arc lengths ``s`` (C,) mm: ``sum kappa ds^3 / 12`` over the gaps (a circular
+    segment of chord ``ds`` and curvature ``kappa``, to third order), positive where
+    the profile is convex (it lies outside the polygon). Times the extrusion length
+    it is the volume by which a relief measured from the polygon's sheet overstates
+    what it adds outside the exact surface."""
+    s = np.asarray(s, dtype=np.float64)
+    ds = np.diff(s)
+    mid = s[:-1] + 0.5 * ds
+    if closed:
+        gap = profile.length - (s[-1] - s[0])
+        ds = np.append(ds, gap)
+        mid = np.append(mid, (s[-1] + 0.5 * gap) % profile.length)
+    if not len(ds):
+        return 0.0
+    return float((profile.curvature(mid) * ds ** 3).sum() / 12.0)
+
+
+def relief_integral(heights: np.ndarray, pitch: Sequence[float], kappa: "np.ndarray | float" = 0.0) -> float:
+    """``int int (h + kappa h^2 / 2) ds dy`` (mm^3): the volume of a relief of height
+    ``h`` along the normal of a profile of curvature ``kappa`` (1/mm per column,
+    positive convex) extruded along y, on the grid ``heights`` ``(R, C)`` mm at
+    ``pitch`` ``(ds, dy)`` mm (midpoint rule: every point weighs one pixel)."""
+    h = np.asarray(heights, dtype=np.float64)
+    k = np.broadcast_to(np.asarray(kappa, dtype=np.float64), h.shape[-1:])
+    return float((h + 0.5 * k[None, :] * h * h).sum() * float(pitch[0]) * float(pitch[1]))
