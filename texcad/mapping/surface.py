@@ -53,7 +53,7 @@ from ..util import positive
 from ..errors import GeometryError, InputError, ParameterError
 
 __all__ = ["Profile", "ProfileSample", "FunctionPiece", "Corner", "Surface", "SURFACE_KINDS", "swept_volume",
-           "grid_triangles", "chord_excess", "relief_integral"]
+           "grid_triangles", "chord_excess", "mean_curvature", "relief_integral"]
 
 # 8-point Gauss-Legendre nodes and weights on [0, 1].
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
@@ -1133,11 +1133,31 @@ def chord_excess(profile: "Profile", s: np.ndarray, *, closed: bool) -> float:
     return float((profile.curvature(mid) * ds ** 3).sum() / 12.0)
 
 
-def relief_integral(heights: np.ndarray, pitch: Sequence[float], kappa: "np.ndarray | float" = 0.0) -> float:
-    """``int int (h + kappa h^2 / 2) ds dy`` (mm^3): the volume of a relief of height
-    ``h`` along the normal of a profile of curvature ``kappa`` (1/mm per column,
-    positive convex) extruded along y, on the grid ``heights`` ``(R, C)`` mm at
-    ``pitch`` ``(ds, dy)`` mm (midpoint rule: every point weighs one pixel)."""
-    h = np.asarray(heights, dtype=np.float64)
-    k = np.broadcast_to(np.asarray(kappa, dtype=np.float64), h.shape[-1:])
-    return float((h + 0.5 * k[None, :] * h * h).sum() * float(pitch[0]) * float(pitch[1]))
+def mean_curvature(profile: "Profile", s: np.ndarray, *, closed: bool) -> float:
+    """The profile's mean curvature (1/mm, positive convex) over the columns' span
+    ``s`` (C,) mm: the turn of its normal over that span divided by its length
+    (``2 pi / L`` around a closed convex profile), from the curvature at the gaps'
+    middles weighted by the gaps."""
+    s = np.asarray(s, dtype=np.float64)
+    ds = np.diff(s)
+    mid = s[:-1] + 0.5 * ds
+    if closed:
+        gap = profile.length - (s[-1] - s[0])
+        ds, mid = np.append(ds, gap), np.append(mid, (s[-1] + 0.5 * gap) % profile.length)
+    total = float(ds.sum())
+    return float((profile.curvature(mid) * ds).sum() / total) if total > 0 else 0.0
+
+
+def relief_integral(heights: np.ndarray, area: float, kappa: float = 0.0) -> float:
+    """``int (t + kappa t^2 / 2) dA`` (mm^3): the volume of a relief of signed height
+    ``t`` (mm, + outward) along the normal of a profile of curvature ``kappa``
+    (1/mm, positive convex) extruded along y, over ``area`` mm^2, for heights
+    ``heights`` (any shape, mm) sampled uniformly over it (their mean is used).
+    Where the relief runs towards the centre of curvature (``kappa t < 0``) it is
+    capped at ``1 / |kappa|``: there the relief has filled (or emptied) everything
+    up to the axis, and the formula's maximum is reached."""
+    t = np.asarray(heights, dtype=np.float64).ravel()
+    k = float(kappa)
+    if k != 0.0:
+        t = np.where(k * t < 0, np.clip(t, -1.0 / abs(k), 1.0 / abs(k)), t)
+    return float(np.mean(t + 0.5 * k * t * t)) * float(area) if t.size else 0.0

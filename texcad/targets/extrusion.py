@@ -299,13 +299,15 @@ def extrusion_volume(profile: Profile, mapped: Any, top: np.ndarray, nominal: An
     vertices (``1e-3 |volume|``). With the default 0.02 mm that is 0.03 mm times
     the area: a texture that vanished, or one turned inwards, is far outside it.
 
-    **Nominal.** ``int (h + kappa h^2 / 2) ds dy`` of the fitted texture before the
-    overhang limiter (:func:`texcad.mapping.surface.relief_integral`, ``kappa`` at
-    the columns' arc lengths), so that the gate warns when the limits removed most
-    of it.
+    **Nominal.** ``int (h + kappa h^2 / 2) ds dy`` over the face's area ``A`` for the
+    fitted texture ``nominal`` before the overhang limiter and the mapping's
+    curvature limits (:func:`texcad.mapping.surface.relief_integral`: its mean
+    height terms times ``A``, ``kappa`` the profile's mean curvature over the
+    columns, :func:`texcad.mapping.surface.mean_curvature`), so that the gate warns
+    when the limits removed most of it.
     """
     from ..brep import TESSELLATION
-    from ..mapping.surface import chord_excess, grid_triangles, relief_integral, swept_volume
+    from ..mapping.surface import chord_excess, grid_triangles, mean_curvature, relief_integral, swept_volume
 
     tess = TESSELLATION if tessellation is None else float(tessellation)
     s = np.asarray(mapped.s, np.float64)
@@ -323,9 +325,7 @@ def extrusion_volume(profile: Profile, mapped: Any, top: np.ndarray, nominal: An
     vol = swept_volume(base.reshape(-1, 3), moved.reshape(-1, 3), tri, nrm.reshape(-1, 3)) - excess
     area = (profile.length if mapped.closed else float(s[-1] - s[0])) * length
     slack = (float(tolerance) + tess) * area + abs(excess) + 1e-3 * abs(vol) + 1e-3
-    h = np.asarray(nominal.heights, np.float64)
-    kappa = profile.curvature(np.minimum(np.arange(h.shape[1]) * float(nominal.pitch[0]), profile.length))
-    return vol, slack, relief_integral(h, nominal.pitch, kappa)
+    return vol, slack, relief_integral(nominal.heights, area, mean_curvature(profile, s, closed=bool(mapped.closed)))
 
 
 class ExtrusionAdapter(Adapter):

@@ -206,12 +206,13 @@ def surface_volume(profile: Profile, mapped: Any, bodies: ModeBodies, nominal: A
     ``1e-3 |volume|`` (float32 vertices).
 
     **Nominal** (raised and engraved; None for centred, whose net volume is about 0
-    by design). ``int (t + kappa t^2 / 2) ds dy`` with ``t = h - c H`` of the
-    fitted texture ``nominal`` before the overhang limiter
-    (:func:`texcad.mapping.surface.relief_integral`); a gradient's gain is applied
-    as its mean over the grid.
+    by design). ``int (t + kappa t^2 / 2) ds dy`` over the surface's area with
+    ``t = h - c H`` of the fitted texture ``nominal`` before the overhang limiter
+    and the mapping's curvature limits (:func:`texcad.mapping.surface.relief_integral`,
+    ``kappa`` the profile's mean curvature over the columns); a gradient's gain is
+    applied (by the caller) as its mean over the grid.
     """
-    from ..mapping.surface import chord_excess, grid_triangles, relief_integral, swept_volume
+    from ..mapping.surface import chord_excess, grid_triangles, mean_curvature, relief_integral, swept_volume
 
     s = np.asarray(mapped.s, np.float64)
     y = np.asarray(mapped.y, np.float64)
@@ -237,9 +238,10 @@ def surface_volume(profile: Profile, mapped: Any, bodies: ModeBodies, nominal: A
     area = (profile.length if closed else float(s[-1] - s[0])) * length
     sides = sum(b is not None for b in bodies.sheets)
     slack = (sides * float(tolerance) + float(tessellation)) * area + abs(excess) + 1e-3 * abs(vol) + 1e-3
-    h = np.asarray(nominal.heights, np.float64)
-    kappa = profile.curvature(np.minimum(np.arange(h.shape[1]) * float(nominal.pitch[0]), profile.length))
-    return vol, slack, (relief_integral(h - share * full, nominal.pitch, kappa) if share in (0, 1) else None)
+    if share not in (0, 1):
+        return vol, slack, None
+    kappa = mean_curvature(profile, s, closed=closed)
+    return vol, slack, relief_integral(np.asarray(nominal.heights, np.float64) - share * full, area, kappa)
 
 
 @dataclass(frozen=True)
