@@ -1151,13 +1151,22 @@ def mean_curvature(profile: "Profile", s: np.ndarray, *, closed: bool) -> float:
 def relief_integral(heights: np.ndarray, area: float, kappa: float = 0.0) -> float:
     """``int (t + kappa t^2 / 2) dA`` (mm^3): the volume of a relief of signed height
     ``t`` (mm, + outward) along the normal of a profile of curvature ``kappa``
-    (1/mm, positive convex) extruded along y, over ``area`` mm^2, for heights
-    ``heights`` (any shape, mm) sampled uniformly over it (their mean is used).
-    Where the relief runs towards the centre of curvature (``kappa t < 0``) it is
-    capped at ``1 / |kappa|``: there the relief has filled (or emptied) everything
-    up to the axis, and the formula's maximum is reached."""
-    t = np.asarray(heights, dtype=np.float64).ravel()
+    (1/mm, positive convex) extruded along y, over ``area`` mm^2, for a grid of
+    heights ``heights`` ``(R, C)`` mm spread evenly over it. The relief between the
+    grid points is linear on two triangles per cell (as it is meshed), so the mean
+    of ``t`` and of ``t^2`` are those of that interpolant: over a triangle with
+    corner heights ``a, b, c``, ``(a + b + c) / 3`` and ``(a^2 + b^2 + c^2 + ab +
+    bc + ca) / 6``. Where the relief runs towards the centre of curvature
+    (``kappa t < 0``) it is capped at ``1 / |kappa|`` (the formula's maximum: the
+    relief has reached the axis)."""
+    t = np.asarray(heights, dtype=np.float64)
+    t = t.reshape(1, -1) if t.ndim == 1 else t
     k = float(kappa)
     if k != 0.0:
         t = np.where(k * t < 0, np.clip(t, -1.0 / abs(k), 1.0 / abs(k)), t)
-    return float(np.mean(t + 0.5 * k * t * t)) * float(area) if t.size else 0.0
+    if t.shape[0] < 2 or t.shape[1] < 2:
+        return float(np.mean(t + 0.5 * k * t * t)) * float(area) if t.size else 0.0
+    a, b, d, e = t[:-1, :-1], t[:-1, 1:], t[1:, :-1], t[1:, 1:]
+    mean = sum(float(np.mean(x + y + z)) / 3.0 for x, y, z in ((a, b, e), (a, e, d))) / 2.0
+    square = sum(float(np.mean(x * x + y * y + z * z + x * y + y * z + z * x)) / 6.0 for x, y, z in ((a, b, e), (a, e, d))) / 2.0
+    return (mean + 0.5 * k * square) * float(area)
