@@ -162,7 +162,7 @@ def test_raised_on_a_convex_profile_adds_more_than_h_times_area():
             from build123d import Cylinder, GeomType
 
             part = Cylinder(r, length)
-            res = texcad.texture(part, part.faces().filter_by(GeomType.CYLINDER)[0], flat, pitch=0.25)
+            res = texcad.texture(part, part.faces().filter_by(GeomType.CYLINDER)[0], flat, pitch=0.25, periodic_x=True)
         else:
             res = texcad.texture(target, None, flat, pitch=0.25, periodic_x=True)
         exact = np.pi * ((r + h) ** 2 - r ** 2) * length
