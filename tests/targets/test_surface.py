@@ -125,3 +125,57 @@ def test_cad_operations_raise_a_texcad_error(surface):
     except TexcadError:
         return
     assert cut.volume < res.volume
+
+
+# ------------------------------------------------------------------------------------------
+# The texture's own integral (the gate's check 4) and its helpers
+# ------------------------------------------------------------------------------------------
+def test_swept_volume_is_exact_between_two_polygonal_sheets():
+    """A cylinder's polygon moved out (in) by h along its normals: the annulus
+    between the two polygons exactly, + out, - in."""
+    from texcad.mapping.surface import grid_triangles, swept_volume
+
+    r, length, C = 6.0, 2.0, 96
+    th = np.linspace(0, 2 * np.pi, C, endpoint=False)
+    y = np.array([0.0, length])
+    P = np.stack([np.broadcast_to(r * np.cos(th), (2, C)), np.broadcast_to(y[:, None], (2, C)),
+                  np.broadcast_to(r * np.sin(th), (2, C))], -1).reshape(-1, 3)
+    N = P.copy()
+    N[:, 1] = 0
+    N /= r
+    tri = grid_triangles(2, C, closed=True)
+    polygon = lambda rad: 0.5 * C * np.sin(2 * np.pi / C) * rad**2  # noqa: E731
+    for h in (0.5, -0.5):
+        exact = (polygon(r + h) - polygon(r)) * length
+        assert swept_volume(P, P + h * N, tri, N) == pytest.approx(exact, rel=1e-9)
+        assert swept_volume(P, P + h * N, tri[:, ::-1], N) == pytest.approx(exact, rel=1e-9)  # either orientation
+
+
+def test_chord_excess_and_relief_integral_on_a_circle():
+    from texcad.mapping.surface import chord_excess, mean_curvature, relief_integral
+
+    r = 5.0
+    prof = texcad.Profile.circle(r)
+    s = np.linspace(0, prof.length, 48, endpoint=False)
+    polygon = 0.5 * 48 * np.sin(2 * np.pi / 48) * r**2
+    assert chord_excess(prof, s, closed=True) == pytest.approx(np.pi * r**2 - polygon, rel=2e-3)
+    assert mean_curvature(prof, s, closed=True) == pytest.approx(1 / r, rel=1e-4)
+    area = 2 * np.pi * r * 3.0
+    h = np.full((4, 6), 0.4)
+    assert relief_integral(h, area, 1 / r) == pytest.approx(np.pi * ((r + 0.4) ** 2 - r**2) * 3.0)
+    assert relief_integral(-h, area, 1 / r) == pytest.approx(-np.pi * (r**2 - (r - 0.4) ** 2) * 3.0)
+    assert relief_integral(np.full((4, 6), 9.0), area, -1 / r) == pytest.approx(np.pi * r**2 * 3.0)  # capped: the hole filled
+
+
+@pytest.mark.parametrize("mode", ["raised", "engraved", "centred"])
+def test_every_mode_states_its_integral(surface, mode):
+    """:func:`texcad.targets.surface.surface_volume`: raised +, engraved -, centred
+    about 0 (no nominal share); the gate's change agrees within the slack."""
+    res = _texture(surface, mode=mode)
+    relief, g = res.stages.relief, res.gate
+    assert g.expected_volume == relief.volume and abs(g.volume_change - relief.volume) <= relief.volume_slack
+    if mode == "centred":
+        assert relief.nominal_volume is None and abs(relief.volume) < relief.volume_slack
+    else:
+        sign = 1 if mode == "raised" else -1
+        assert sign * relief.volume > 2 * relief.volume_slack and sign * relief.nominal_volume > 0
