@@ -179,3 +179,25 @@ def test_every_mode_states_its_integral(surface, mode):
     else:
         sign = 1 if mode == "raised" else -1
         assert sign * relief.volume > 2 * relief.volume_slack and sign * relief.nominal_volume > 0
+
+
+def test_sheet_excess_is_the_volume_between_a_sphere_and_its_triangles():
+    """The 2D chord excess: an octahedron refined on a sphere r 5 mm; the volume
+    between the sphere and the triangles matches ``4/3 pi r^3 - V(polyhedron)``."""
+    from texcad.mapping.surface import sheet_excess
+
+    r = 5.0
+    v = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], np.float64)
+    f = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]])
+    for _ in range(4):  # per refinement: split every triangle in four, project on the sphere
+        e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+        uniq, inv = np.unique(e, axis=0, return_inverse=True)
+        mid = v[uniq].mean(axis=1)
+        m = len(v) + inv.reshape(3, -1).T
+        v = np.concatenate([v, mid / np.linalg.norm(mid, axis=1, keepdims=True)])
+        a, b, c = f.T
+        f = np.concatenate([np.stack([a, m[:, 0], m[:, 2]], 1), np.stack([m[:, 0], b, m[:, 1]], 1),
+                            np.stack([m[:, 2], m[:, 1], c], 1), np.stack(m.T, 1)])
+    p = r * v
+    poly = float(np.einsum("ij,ij->i", p[f[:, 0]], np.cross(p[f[:, 1]], p[f[:, 2]])).sum() / 6.0)
+    assert sheet_excess(p, v, f) == pytest.approx(4 / 3 * np.pi * r**3 - poly, rel=0.03)

@@ -53,7 +53,7 @@ from ..util import positive
 from ..errors import GeometryError, InputError, ParameterError
 
 __all__ = ["Profile", "ProfileSample", "FunctionPiece", "Corner", "Surface", "SURFACE_KINDS", "swept_volume",
-           "grid_triangles", "chord_excess", "mean_curvature", "relief_integral"]
+           "grid_triangles", "chord_excess", "sheet_excess", "mean_curvature", "relief_integral"]
 
 # 8-point Gauss-Legendre nodes and weights on [0, 1].
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
@@ -1131,6 +1131,29 @@ def chord_excess(profile: "Profile", s: np.ndarray, *, closed: bool) -> float:
     if not len(ds):
         return 0.0
     return float((profile.curvature(mid) * ds ** 3).sum() / 12.0)
+
+
+def sheet_excess(points: np.ndarray, normals: np.ndarray, tri: np.ndarray) -> float:
+    """The volume (mm^3) between a curved surface and the triangles ``tri`` through
+    its points ``points`` ``(N, 3)`` mm with unit normals ``normals`` ``(N, 3)``:
+    positive where the surface is convex (it lies outside the triangles).
+
+    Along an edge ``e = b - a`` the surface's normal curvature is
+    ``(n_b - n_a) . e / |e|^2``, so the surface stands ``(n_b - n_a) . e / 8`` off
+    the edge's midpoint; the gap over a triangle is a quadratic that vanishes at its
+    corners, whose mean is the mean of its values at the three edge midpoints (the
+    midpoint rule is exact for quadratics). Summed as ``area x mean gap`` per
+    triangle: the 2D form of :func:`chord_excess`."""
+    tri = np.asarray(tri, dtype=np.int64).reshape(-1, 3)
+    if not len(tri):
+        return 0.0
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    gap = np.zeros(len(tri))
+    for i, j in ((0, 1), (1, 2), (2, 0)):  # the three edges
+        gap += np.einsum("ij,ij->i", n[tri[:, j]] - n[tri[:, i]], p[tri[:, j]] - p[tri[:, i]]) / 8.0
+    area = 0.5 * np.linalg.norm(np.cross(p[tri[:, 1]] - p[tri[:, 0]], p[tri[:, 2]] - p[tri[:, 0]]), axis=1)
+    return float((area * gap / 3.0).sum())
 
 
 def mean_curvature(profile: "Profile", s: np.ndarray, *, closed: bool) -> float:

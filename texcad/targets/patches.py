@@ -774,20 +774,23 @@ def patch_volume(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> tuple:
     swept prisms (:func:`texcad.mapping.surface.swept_volume`): for principal
     curvatures ``k1``, ``k2`` (mean ``H``, Gaussian ``K``, positive convex) it is
     ``int (t + H t^2 + K t^3 / 3) dA``, which a raised relief on a convex face
-    exceeds ``t A`` by and an engraved one falls short of.
+    exceeds ``t A`` by and an engraved one falls short of. The grid's flat cells lie
+    inside a convex face (outside a concave one) by their sag, ``e . (n_b - n_a) / 8``
+    at an edge ``e``'s midpoint (:func:`texcad.mapping.surface.sheet_excess`): what
+    lies between them and the face is the part's already, so
+    ``volume = swept - excess`` (raised: added less; engraved: removed more).
 
-    **Slack.** The textured side is lean within ``tolerance`` mm of the grid, the
-    part's tessellation within :data:`texcad.brep.TESSELLATION` mm of the face, and
-    the grid's own cells lie ``kappa diag^2 / 8`` inside a face of curvature
-    ``kappa`` (``diag`` the cell's diagonal): ``(tolerance + TESSELLATION + kappa_max
-    diag^2 / 8) A`` over the cells' area ``A``, plus ``1e-3 |volume|``.
+    **Slack.** The textured side is lean within ``tolerance`` mm of the grid and the
+    part's tessellation within :data:`texcad.brep.TESSELLATION` mm of the face:
+    ``(tolerance + TESSELLATION) A`` over the cells' area ``A``, plus the excess
+    itself (its estimate is second order) and ``1e-3 |volume|``.
 
     **Nominal.** The same sum for the texture as sampled, ``t = g (H - c H_max)``
     (``g`` the gradient), before the M-I ramp, the fade, the curvature and the
     overhang limits: a texture that the limits removed for the most part (a face
     too narrow for the ramps, too curved, too steep) makes the gate warn.
     """
-    from ..mapping.surface import swept_volume
+    from ..mapping.surface import sheet_excess, swept_volume
 
     P, N = g.grid.points.reshape(-1, 3), g.grid.normals.reshape(-1, 3)
     s, c, fc = surf.surface, surf.c, surf.floor_c
@@ -798,14 +801,14 @@ def patch_volume(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> tuple:
     else:
         t = np.maximum(np.where(surf.band, -surf.sink, s), np.minimum(s, -fc) - fc)
     tri = _cell_triangles(g.cells, g.grid.wrap_y)
-    vol = swept_volume(P, P + t.reshape(-1, 1) * N, tri, N)
+    excess = sheet_excess(P, N, tri)
+    vol = swept_volume(P, P + t.reshape(-1, 1) * N, tri, N) - excess
     area = 0.5 * float(np.linalg.norm(np.cross(P[tri[:, 1]] - P[tri[:, 0]], P[tri[:, 2]] - P[tri[:, 0]]), axis=1).sum())
-    kappa = float(np.max(np.maximum(g.concave, g.convex)[g.grid.valid], initial=0.0))
-    slack = (float(opts.tolerance) + TESSELLATION + kappa * g.diag ** 2 / 8.0) * area + 1e-3 * abs(vol) + 1e-3
+    slack = (float(opts.tolerance) + TESSELLATION) * area + abs(excess) + 1e-3 * abs(vol) + 1e-3
     nominal = None
     if c in (0, 1):
         nom = (g.H - c * float(opts.height)) * g.gain
-        nominal = swept_volume(P, P + np.where(g.grid.valid, nom, 0.0).reshape(-1, 1) * N, tri, N)
+        nominal = swept_volume(P, P + np.where(g.grid.valid, nom, 0.0).reshape(-1, 1) * N, tri, N) - excess
     return vol, slack, nominal
 
 
