@@ -706,10 +706,35 @@ class Profile:
             if _polygon_area(ring) < 0:
                 ring = ring[::-1]
             cs = m3d.CrossSection([ring], m3d.FillRule.NonZero)
+            if len(cs.decompose()) > 1:  # the smoothed offset crossed itself (pieces facing each other)
+                cs = _band(pts, smp.normal, t)
         if cs.is_empty():
             raise GeometryError(f"the base body under the {self.name} is empty; check thickness ({thickness!r} mm)")
         man = cs.extrude(ln).rotate((90.0, 0.0, 0.0)).translate((0.0, ln, 0.0))
         return from_manifold(man)
+
+
+def _band(pts: np.ndarray, normals: np.ndarray, t: float):
+    """The band ``t`` mm thick on the inner side of an open polyline ``pts`` (n, 2)
+    with unit normals ``normals`` (n, 2) (the outward side): the union (non-zero fill)
+    of one quadrilateral per segment, swept ``t`` mm against the segment's own
+    normal, and a wedge at every vertex between its two segments' offsets (where the
+    inner side is convex the quadrilaterals part). One region where the smoothed
+    offset of :meth:`Profile.base_body` crosses itself (a slot textured inside: a
+    downward-looking piece above an upward-looking one): the pieces' bases join
+    along areas, not along edges only."""
+    import manifold3d as m3d
+
+    d = np.diff(pts, axis=0)
+    keep = np.hypot(d[:, 0], d[:, 1]) > 1e-9
+    a, b, d = pts[:-1][keep], pts[1:][keep], d[keep]
+    n = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.hypot(d[:, 0], d[:, 1])[:, None]
+    n *= np.sign(np.einsum("ij,ij->i", n, 0.5 * (normals[:-1][keep] + normals[1:][keep])))[:, None]  # outward
+    quads = np.stack([a, b, b - t * n, a - t * n], axis=1)
+    wedges = np.stack([b[:-1], b[:-1] - t * n[:-1], b[:-1] - t * n[1:]], axis=1)  # at the inner vertices
+    polys = [q if _polygon_area(q) > 0 else q[::-1] for q in quads]
+    polys += [w if _polygon_area(w) > 0 else w[::-1] for w in wedges if abs(_polygon_area(w)) > 1e-12]
+    return m3d.CrossSection(polys, m3d.FillRule.NonZero)
 
 
 def _polygon_area(pts: np.ndarray) -> float:
