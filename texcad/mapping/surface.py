@@ -53,7 +53,8 @@ from ..util import positive
 from ..errors import GeometryError, InputError, ParameterError
 
 __all__ = ["Profile", "ProfileSample", "FunctionPiece", "Corner", "Surface", "SURFACE_KINDS", "swept_volume",
-           "grid_triangles", "chord_excess", "sheet_excess", "mean_curvature", "relief_integral"]
+           "grid_triangles", "grid_swept", "GridSweep", "chord_excess", "sheet_excess", "mean_curvature",
+           "relief_integral"]
 
 # 8-point Gauss-Legendre nodes and weights on [0, 1].
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
@@ -1124,6 +1125,81 @@ def swept_volume(base: np.ndarray, moved: np.ndarray, tri: np.ndarray, normals: 
     up = np.einsum("ij,ij->i", np.cross(b - a, c - a), n[fs].sum(axis=1))
     vol = _tet(a, b, c, a2) + _tet(b, c, a2, b2) + _tet(c, a2, b2, c2)
     return float((np.sign(up) * vol).sum())
+
+
+class GridSweep(NamedTuple):
+    """What :func:`grid_swept` measures on a grid: ``volume`` swept (mm^3, + along
+    the normals), the cells' ``area`` (mm^2) and the ``excess`` (mm^3) between the
+    curved surface and the cells' flat triangles (:func:`sheet_excess`)."""
+
+    volume: float
+    area: float
+    excess: float
+
+
+def grid_swept(base: np.ndarray, moved: np.ndarray, normals: np.ndarray, *, cells: "np.ndarray | None" = None,
+               wrap_cols: bool = False, wrap_rows: bool = False, measure: bool = True) -> GridSweep:
+    """:func:`swept_volume` and :func:`sheet_excess` of a grid sheet, by slicing
+    (no gathers: a grid of 10^5 points takes milliseconds).
+
+    Every cell ``a = (r, c)``, ``b = (r, c + 1)``, ``d = (r + 1, c)``,
+    ``e = (r + 1, c + 1)`` is cut into the triangles ``(a, b, e)`` and ``(a, d, e)``,
+    corners in row-major order (a wrapped column or row counts after the last), so
+    the prisms over two cells split their common side the same way and the sum is
+    exactly the volume between the two sheets and the ruled walls over the outline
+    (:func:`swept_volume`'s three tetrahedra per prism).
+
+    Args:
+        base, moved: ``(R, C, 3)`` points, mm.
+        normals: ``(R, C, 3)`` unit normals of the surface at ``base`` (the outward side).
+        cells: bool ``(R', C')`` cells to count (None: all); ``R' = R`` with
+            ``wrap_rows`` else ``R - 1``, likewise ``C'``.
+        wrap_cols: the last column joins the first (a closed profile).
+        wrap_rows: the last row joins the first (a face closed around).
+        measure: also the area and the excess (else 0: half the work).
+    """
+    # Products in float32 about the grid's centre (1e-5 mm at 100 mm: far below any
+    # slack), sums in float64: a third of the memory traffic of float64 throughout.
+    centre = np.asarray(base, dtype=np.float64).reshape(-1, 3).mean(axis=0)
+    p = (np.asarray(base, dtype=np.float64) - centre).astype(np.float32)
+    q = (np.asarray(moved, dtype=np.float64) - centre).astype(np.float32)
+    n = np.asarray(normals, dtype=np.float32)
+    if wrap_cols:
+        p, q, n = (np.concatenate([g, g[:, :1]], axis=1) for g in (p, q, n))
+    if wrap_rows:
+        p, q, n = (np.concatenate([g, g[:1]], axis=0) for g in (p, q, n))
+    keep = np.ones((p.shape[0] - 1, p.shape[1] - 1), np.float32) if cells is None else np.asarray(cells, np.float32)
+    if not keep.size:
+        return GridSweep(0.0, 0.0, 0.0)
+    P = (p[:-1, :-1], p[:-1, 1:], p[1:, :-1], p[1:, 1:])  # a, b, d, e
+    Q = (q[:-1, :-1], q[:-1, 1:], q[1:, :-1], q[1:, 1:])
+    N = (n[:-1, :-1], n[:-1, 1:], n[1:, :-1], n[1:, 1:])
+
+    def dot(u, v):
+        return u[..., 0] * v[..., 0] + u[..., 1] * v[..., 1] + u[..., 2] * v[..., 2]
+
+    def triple(u, v, w):  # (u x v) . w, componentwise (np.cross copies its inputs)
+        return ((u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1]) * w[..., 0]
+                + (u[..., 2] * v[..., 0] - u[..., 0] * v[..., 2]) * w[..., 1]
+                + (u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]) * w[..., 2])
+
+    def edge(i, j):  # the surface's sag over an edge's midpoint, mm
+        return dot(N[j] - N[i], P[j] - P[i]) / 8.0
+
+    vol = area = excess = 0.0
+    e_ae = edge(0, 3) if measure else None
+    for i, j, k in ((0, 1, 3), (0, 2, 3)):  # the two triangles, corners in row-major order
+        x, y, z = P[i], P[j], P[k]
+        x2, y2, z2 = Q[i], Q[j], Q[k]
+        cr = np.cross(y - x, z - x)
+        sign = np.sign(dot(cr, N[i] + N[j] + N[k]))
+        prism = (dot(cr, x2 - x) + triple(z - y, x2 - y, y2 - y) + triple(x2 - z, y2 - z, z2 - z)) / 6.0
+        vol += float((keep * sign * prism).sum(dtype=np.float64))
+        if measure:
+            a2 = 0.5 * np.sqrt(dot(cr, cr))
+            area += float((keep * a2).sum(dtype=np.float64))
+            excess += float((keep * a2 * (edge(i, j) + edge(j, k) + e_ae) / 3.0).sum(dtype=np.float64))
+    return GridSweep(vol, area, excess)
 
 
 def grid_triangles(rows: int, cols: int, *, closed: bool = False, cells: "np.ndarray | None" = None) -> np.ndarray:

@@ -281,7 +281,7 @@ def extrusion_volume(profile: Profile, mapped: Any, top: np.ndarray, nominal: An
     mapped grid, lifted, rows at ``mapped.y``) over the profile's points ``P`` at the
     columns' arc lengths ``mapped.s`` extruded to the same rows. The volume between
     the two sheets is summed exactly by swept prisms
-    (:func:`texcad.mapping.surface.swept_volume`): for a relief ``h`` along the
+    (:func:`texcad.mapping.surface.grid_swept`): for a relief ``h`` along the
     normal of a profile of curvature ``kappa`` it is ``int (h + kappa h^2 / 2) ds dy``
     (a raised relief on a convex profile adds more than ``h A``), and it takes in
     the :data:`LIFT` and the chord sag the lift adds. Points the limiter sank into the
@@ -307,7 +307,7 @@ def extrusion_volume(profile: Profile, mapped: Any, top: np.ndarray, nominal: An
     when the limits removed most of it.
     """
     from ..brep import TESSELLATION
-    from ..mapping.surface import chord_excess, grid_triangles, mean_curvature, relief_integral, swept_volume
+    from ..mapping.surface import chord_excess, grid_swept, mean_curvature, relief_integral
 
     tess = TESSELLATION if tessellation is None else float(tessellation)
     s = np.asarray(mapped.s, np.float64)
@@ -319,10 +319,9 @@ def extrusion_volume(profile: Profile, mapped: Any, top: np.ndarray, nominal: An
     nrm = np.zeros((R, C, 3))
     nrm[..., 0], nrm[..., 2] = fc.normal[None, :, 0], fc.normal[None, :, 1]
     moved = np.where((normal_offset(top, profile, s) < 0)[..., None], base, np.asarray(top, np.float64))
-    tri = grid_triangles(R, C, closed=bool(mapped.closed))
     length = float(y[-1] - y[0])
     excess = chord_excess(profile, s, closed=bool(mapped.closed)) * length
-    vol = swept_volume(base.reshape(-1, 3), moved.reshape(-1, 3), tri, nrm.reshape(-1, 3)) - excess
+    vol = grid_swept(base, moved, nrm, wrap_cols=bool(mapped.closed), measure=False).volume - excess
     area = (profile.length if mapped.closed else float(s[-1] - s[0])) * length
     slack = (float(tolerance) + tess) * area + abs(excess) + 1e-3 * abs(vol) + 1e-3
     return vol, slack, relief_integral(nominal.heights, area, mean_curvature(profile, s, closed=bool(mapped.closed)))

@@ -771,7 +771,7 @@ def patch_volume(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> tuple:
     side, ``f`` = ``floor_c`` mm under the face at least); centred the higher of the
     slab's top (``s``; ``-sink`` along the band) and the cut ``min(s, -f) - f``. The
     volume between the grid's cells at ``P`` and at ``P + t N`` is summed exactly by
-    swept prisms (:func:`texcad.mapping.surface.swept_volume`): for principal
+    swept prisms (:func:`texcad.mapping.surface.grid_swept`): for principal
     curvatures ``k1``, ``k2`` (mean ``H``, Gaussian ``K``, positive convex) it is
     ``int (t + H t^2 + K t^3 / 3) dA``, which a raised relief on a convex face
     exceeds ``t A`` by and an engraved one falls short of. The grid's flat cells lie
@@ -790,9 +790,9 @@ def patch_volume(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> tuple:
     overhang limits: a texture that the limits removed for the most part (a face
     too narrow for the ramps, too curved, too steep) makes the gate warn.
     """
-    from ..mapping.surface import sheet_excess, swept_volume
+    from ..mapping.surface import grid_swept
 
-    P, N = g.grid.points.reshape(-1, 3), g.grid.normals.reshape(-1, 3)
+    P, N = g.grid.points, g.grid.normals
     s, c, fc = surf.surface, surf.c, surf.floor_c
     if c == 0:
         t = np.maximum(s, 0.0)
@@ -800,15 +800,14 @@ def patch_volume(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> tuple:
         t = np.minimum(s, -fc)
     else:
         t = np.maximum(np.where(surf.band, -surf.sink, s), np.minimum(s, -fc) - fc)
-    tri = _cell_triangles(g.cells, g.grid.wrap_y)
-    excess = sheet_excess(P, N, tri)
-    vol = swept_volume(P, P + t.reshape(-1, 1) * N, tri, N) - excess
-    area = 0.5 * float(np.linalg.norm(np.cross(P[tri[:, 1]] - P[tri[:, 0]], P[tri[:, 2]] - P[tri[:, 0]]), axis=1).sum())
+    wrap = bool(g.grid.wrap_y)
+    swept, area, excess = grid_swept(P, P + t[..., None] * N, N, cells=g.cells, wrap_rows=wrap)
+    vol = swept - excess
     slack = (float(opts.tolerance) + TESSELLATION) * area + abs(excess) + 1e-3 * abs(vol) + 1e-3
     nominal = None
     if c in (0, 1):
-        nom = (g.H - c * float(opts.height)) * g.gain
-        nominal = swept_volume(P, P + np.where(g.grid.valid, nom, 0.0).reshape(-1, 1) * N, tri, N) - excess
+        nom = np.where(g.grid.valid, (g.H - c * float(opts.height)) * g.gain, 0.0)
+        nominal = grid_swept(P, P + nom[..., None] * N, N, cells=g.cells, wrap_rows=wrap, measure=False).volume - excess
     return vol, slack, nominal
 
 

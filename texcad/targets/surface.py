@@ -190,7 +190,7 @@ def surface_volume(profile: Profile, mapped: Any, bodies: ModeBodies, nominal: A
     the surface included), else the surface itself; and over that the slab's top
     where there is a slab. That sheet against the profile's points ``P`` at the
     columns (extruded to the rows) is summed exactly by swept prisms
-    (:func:`texcad.mapping.surface.swept_volume`): ``int (t + kappa t^2 / 2) ds dy``
+    (:func:`texcad.mapping.surface.grid_swept`): ``int (t + kappa t^2 / 2) ds dy``
     for an offset ``t`` along the normal of a profile of curvature ``kappa`` (a
     raised texture on a convex profile adds more than ``t A``, an engraved one
     removes less than ``|t| A``), less the circular segments ``kappa ds^3 / 12``
@@ -212,7 +212,7 @@ def surface_volume(profile: Profile, mapped: Any, bodies: ModeBodies, nominal: A
     ``kappa`` the profile's mean curvature over the columns); a gradient's gain is
     applied (by the caller) as its mean over the grid.
     """
-    from ..mapping.surface import chord_excess, grid_triangles, mean_curvature, relief_integral, swept_volume
+    from ..mapping.surface import chord_excess, grid_swept, mean_curvature, relief_integral
 
     s = np.asarray(mapped.s, np.float64)
     y = np.asarray(mapped.y, np.float64)
@@ -233,8 +233,7 @@ def surface_volume(profile: Profile, mapped: Any, bodies: ModeBodies, nominal: A
     closed = bool(mapped.closed)
     length = float(y[-1] - y[0])
     excess = chord_excess(profile, s, closed=closed) * length
-    vol = swept_volume(base.reshape(-1, 3), new.reshape(-1, 3), grid_triangles(R, C, closed=closed),
-                       nrm.reshape(-1, 3)) - excess
+    vol = grid_swept(base, new, nrm, wrap_cols=closed, measure=False).volume - excess
     area = (profile.length if closed else float(s[-1] - s[0])) * length
     sides = sum(b is not None for b in bodies.sheets)
     slack = (sides * float(tolerance) + float(tessellation)) * area + abs(excess) + 1e-3 * abs(vol) + 1e-3
