@@ -249,3 +249,23 @@ def test_a_limiter_that_removes_most_of_the_texture_warns(name, monkeypatch):
     assert res.stages.adapter.kind == ("extrusion" if name == "cylinder" else "surface")
     assert abs(relief.volume) < VANISHED * relief.nominal_volume
     assert abs(res.gate.volume_change - relief.volume) <= relief.volume_slack
+
+
+@pytest.mark.parametrize("mode", ["raised", "engraved"])
+def test_a_chained_texture_is_measured_against_the_earlier_result(mode):
+    """Chained onto a result (its top already textured), the cylinder's side goes the
+    faces path; its integral is measured against the earlier result's mesh."""
+    from build123d import Axis, Cylinder, GeomType
+
+    part = Cylinder(6, 10)
+    top, side = part.faces().sort_by(Axis.Z)[-1], part.faces().filter_by(GeomType.CYLINDER)[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        first = texcad.texture(part, top, "builtin:stones", pitch=PITCH, height=0.5)
+        res = texcad.texture(first, side, TEX, pitch=PITCH, height=HEIGHT, mode=mode)
+    g = res.gate
+    assert res.stages.adapter.kind == "faces" and res.stages.placement.base is first.mesh
+    assert g.volume_change == pytest.approx(res.mesh.volume - first.mesh.volume, abs=0.05)
+    assert abs(g.volume_change - g.expected_volume) <= g.volume_slack < 0.5 * abs(g.expected_volume)
+    with pytest.raises(GeometryError, match="volume changed"):
+        gate(first.mesh, _expectation(res))  # the side's texture lost
