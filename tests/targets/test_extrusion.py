@@ -121,3 +121,49 @@ def test_brep_false_and_cad_operations(cylinder):
     except TexcadError:
         return
     assert cut.volume < res.volume
+
+
+# ------------------------------------------------------------------------------------------
+# The texture's own integral (the gate's check 4)
+# ------------------------------------------------------------------------------------------
+def test_the_relief_states_its_integral_and_the_gate_checks_it(cylinder):
+    """``Relief.volume`` (swept prisms between the profile and the lifted grid,
+    :func:`texcad.targets.extrusion.extrusion_volume`) is what the union adds, within
+    the slack ``(tolerance + tessellation) A``; the nominal integral (before the
+    limits) is about the same when nothing limits the texture."""
+    part, face = cylinder
+    res = _texture(part, face)
+    relief, g = res.stages.relief, res.gate
+    area = 2 * np.pi * 6 * 10
+    assert relief.volume_slack == pytest.approx((0.02 + 0.01) * area + 1e-3 * relief.volume + 1e-3, rel=0.05)
+    assert g.expected_volume == relief.volume and abs(g.volume_change - relief.volume) <= relief.volume_slack
+    assert abs(g.volume_change - relief.volume) < 0.02 * relief.volume  # in practice well inside the slack
+    assert relief.nominal_volume == pytest.approx(relief.volume, rel=0.05)
+
+
+def test_the_limiters_share_is_read_from_the_nominal_integral(cylinder):
+    """With ``build_dir`` the applied integral is below the nominal one by what the
+    overhang limiter took; the gate's change still matches the applied one."""
+    part, face = cylinder
+    free = _texture(part, face).stages.relief
+    res = _texture(part, face, build_dir=(1, 0, 0))
+    relief = res.stages.relief
+    assert relief.nominal_volume == pytest.approx(free.nominal_volume)
+    assert relief.volume < 0.99 * relief.nominal_volume
+    assert abs(res.gate.volume_change - relief.volume) <= relief.volume_slack
+
+
+def test_a_concave_face_adds_less_than_h_times_area():
+    """Inside a tube (r 2 mm) the relief runs towards the axis: ``int (h - h^2 / (2 r))``,
+    less than ``h A``; the gate measures it."""
+    from build123d import Cylinder, GeomType
+
+    tube = Cylinder(6, 8) - Cylinder(2, 8)
+    face = [f for f in tube.faces() if f.geom_type == GeomType.CYLINDER and f.radius < 3][0]
+    res = _texture(tube, face)
+    relief, mapped = res.stages.relief, res.stages.relief.mapped
+    area = 2 * np.pi * 2 * float(mapped.y[-1] - mapped.y[0])
+    h = mapped.heightmap.heights.astype(np.float64)
+    assert res.stages.adapter.kind == "extrusion"
+    assert relief.volume < float(h.mean()) * area
+    assert abs(res.gate.volume_change - relief.volume) <= relief.volume_slack

@@ -61,7 +61,8 @@ from .cad import CadPart, body_count, cad_part, cad_zones, face_list, is_cad_tar
 from ..solid.weld import welded
 from .patches import FADE_FULL, PatchOptions, PatchRelief, patch_relief, smooth_patches
 
-__all__ = ["FacesAdapter", "FacesPlacement", "FacesRelief", "FacesFused", "FacesZone", "patch_options", "union_patches"]
+__all__ = ["FacesAdapter", "FacesPlacement", "FacesRelief", "FacesFused", "FacesZone", "patch_options", "union_patches",
+           "patches_integral"]
 
 
 @dataclass(frozen=True)
@@ -217,11 +218,12 @@ class FacesAdapter(Adapter):
             raise GeometryError(f"no texture is left on {fp.zones[bare[0]].name} (faces {list(fp.zones[bare[0]].faces)}): "
                                 "its faces are too small or narrow at its pitch; use a smaller pitch or leave the zone out")
         _warn(reliefs)
+        volume, slack, nominal = patches_integral(reliefs)
         reach = max(float(np.abs(r.h_top).max()) for r in reliefs) + 0.05
         return Relief(
             heightmap=reliefs[0].heightmap if len(reliefs) == 1 else None,
             limits=_limits(reliefs, options, opts) if opts.build_dir is not None else None,
-            volume=0.0, volume_slack=0.0, reach=reach,
+            volume=volume, volume_slack=slack, nominal_volume=nominal, reach=reach,
             distortion=Distortion.combined([r.distortion for r in reliefs]),
             data=FacesRelief(tuple(reliefs), opts, texture, tuple(zone_of)),
         )
@@ -269,10 +271,13 @@ class FacesAdapter(Adapter):
 
     # -- the gate's expectation ---------------------------------------------------------
     def expectation(self, placement: Placement, relief: Relief, fused: Fused) -> Expectation:
-        """Body count, and the reach from the selected faces (the texture's largest
-        offset plus the cutters' clearance); no volume check yet (the curved slabs'
-        integral is not computed)."""
-        return Expectation(bodies=placement.bodies, base=placement.base, selected=placement.selected, height=relief.reach)
+        """Body count, the reach from the selected faces (the texture's largest
+        offset plus the cutters' clearance) and the texture's integral summed over
+        the patches as fused (:func:`patches_integral`: a union redone nudged has
+        remade them)."""
+        volume, slack, nominal = patches_integral(fused.data.patches)
+        return Expectation(bodies=placement.bodies, base=placement.base, selected=placement.selected, height=relief.reach,
+                           volume=volume, volume_slack=slack, nominal_volume=nominal)
 
     # -- on demand ----------------------------------------------------------------------
     def texture_mesh(self, stages: Stages) -> Mesh:
@@ -345,6 +350,15 @@ def _warn(reliefs: list) -> None:
         )
     if any(r.limited for r in reliefs):
         warnings.warn("the texture height was limited to 0.9 / curvature on concave parts of the face(s)", TexcadWarning, stacklevel=4)
+
+
+def patches_integral(reliefs) -> tuple:
+    """``(volume, slack, nominal)`` mm^3 over the patches: the sums of their
+    :func:`~texcad.targets.patches.patch_volume` (nominal None if any patch is
+    centred)."""
+    parts = [r.integral for r in reliefs]
+    nominal = None if any(p[2] is None for p in parts) else float(sum(p[2] for p in parts))
+    return float(sum(p[0] for p in parts)), float(sum(p[1] for p in parts)), nominal
 
 
 def union_patches(base_man, reliefs: list):

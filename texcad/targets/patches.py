@@ -50,7 +50,7 @@ from .mesh import _gradient
 __all__ = [
     "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED", "SMOOTH_ANGLE", "PatchOptions", "PatchParam", "PatchGrid",
     "PatchSurface", "PatchBodies", "PatchRelief", "smooth_patches", "patch_param", "patch_grid", "patch_surface",
-    "limit_patch", "patch_bodies", "patch_relief",
+    "limit_patch", "patch_bodies", "patch_relief", "patch_volume",
 ]
 
 #: Local texture scale (either direction, or its inverse) down to which the full height is kept.
@@ -233,6 +233,8 @@ class PatchRelief:
         tables: one curved face: its arc-length tables (B-rep), else None.
         face: the OCP face of a one-face patch, else None.
         limit: the overhang limiter's report (dict of figures) or None.
+        integral: ``(volume, slack, nominal)`` mm^3, the texture's own integral
+            (:func:`patch_volume`; nominal None for a centred texture).
     """
 
     faces: tuple
@@ -248,6 +250,7 @@ class PatchRelief:
     tables: Optional[tuple]
     face: Any
     limit: Optional[dict] = None
+    integral: tuple = (0.0, 0.0, None)
 
     @property
     def max_error(self) -> float:
@@ -312,10 +315,11 @@ def _surface_tables(fm: FaceMesh, n: int = 48):
     v0, v1 = float(fm.uv[:, 1].min()), float(fm.uv[:, 1].max())
     us, vs = np.linspace(u0, u1, n), np.linspace(v0, v1, n)
     pts = np.array([[as_array(ad.Value(float(u), float(v))) for v in vs] for u in us])  # n^2 evaluations
-    span = ad.LastUParameter() - ad.FirstUParameter()
-    closed_u = bool((ad.IsUPeriodic() or ad.IsUClosed()) and (u1 - u0) > span * (1 - 1e-6))
-    if ad.IsUPeriodic():
-        closed_u = closed_u or (u1 - u0) > ad.UPeriod() * (1 - 1e-6)
+    # Closed around u where the face's first and last u lines coincide (a full
+    # cylinder, a closed B-spline): a periodic surface's face that spans less than
+    # its period (a fillet, a quarter cylinder) is open, and its rows must not wrap.
+    scale = max(1.0, float(np.ptp(pts.reshape(-1, 3), axis=0).max()))
+    closed_u = bool(np.abs(pts[0] - pts[-1]).max() < 1e-6 * scale)
     (ut, Y), (vt, X) = metric_tables(pts, us, vs)
     return (ut, Y), (vt, X), closed_u
 
@@ -752,6 +756,62 @@ def _slab(top: np.ndarray, bottom: np.ndarray, top_tri: np.ndarray, bottom_tri: 
 
 
 # ------------------------------------------------------------------------------------------
+# The texture's own integral (the gate's check 4)
+# ------------------------------------------------------------------------------------------
+def patch_volume(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> tuple:
+    """``(volume, slack, nominal)`` mm^3: what the patch's bodies add to the part
+    (raised +, engraved -), the difference the gate accepts, and the texture's
+    integral before the limits (None for a centred texture, whose net volume is
+    about 0 by design, so that no share of it can be read as kept).
+
+    **Volume.** Over the meshed cells, the part's new surface is the offset ``t``
+    (mm) along the face's normal ``N`` of every grid point ``P``: raised
+    ``t = max(s, 0)`` (the slab adds what stands above the face; its outline band
+    under the face adds nothing); engraved ``t = min(s, -f)`` (the cutter's textured
+    side, ``f`` = ``floor_c`` mm under the face at least); centred the higher of the
+    slab's top (``s``; ``-sink`` along the band) and the cut ``min(s, -f) - f``. The
+    volume between the grid's cells at ``P`` and at ``P + t N`` is summed exactly by
+    swept prisms (:func:`texcad.mapping.surface.grid_swept`): for principal
+    curvatures ``k1``, ``k2`` (mean ``H``, Gaussian ``K``, positive convex) it is
+    ``int (t + H t^2 + K t^3 / 3) dA``, which a raised relief on a convex face
+    exceeds ``t A`` by and an engraved one falls short of. The grid's flat cells lie
+    inside a convex face (outside a concave one) by their sag, ``e . (n_b - n_a) / 8``
+    at an edge ``e``'s midpoint (:func:`texcad.mapping.surface.sheet_excess`): what
+    lies between them and the face is the part's already, so
+    ``volume = swept - excess`` (raised: added less; engraved: removed more).
+
+    **Slack.** The textured side is lean within ``tolerance`` mm of the grid and the
+    part's tessellation within :data:`texcad.brep.TESSELLATION` mm of the face:
+    ``(tolerance + TESSELLATION) A`` over the cells' area ``A``, plus the excess
+    itself (its estimate is second order) and ``1e-3 |volume|``.
+
+    **Nominal.** The same sum for the texture as sampled, ``t = g (H - c H_max)``
+    (``g`` the gradient), before the M-I ramp, the fade, the curvature and the
+    overhang limits: a texture that the limits removed for the most part (a face
+    too narrow for the ramps, too curved, too steep) makes the gate warn.
+    """
+    from ..mapping.surface import grid_swept
+
+    P, N = g.grid.points, g.grid.normals
+    s, c, fc = surf.surface, surf.c, surf.floor_c
+    if c == 0:
+        t = np.maximum(s, 0.0)
+    elif c == 1:
+        t = np.minimum(s, -fc)
+    else:
+        t = np.maximum(np.where(surf.band, -surf.sink, s), np.minimum(s, -fc) - fc)
+    wrap = bool(g.grid.wrap_y)
+    swept, area, excess = grid_swept(P, P + t[..., None] * N, N, cells=g.cells, wrap_rows=wrap)
+    vol = swept - excess
+    slack = (float(opts.tolerance) + TESSELLATION) * area + abs(excess) + 1e-3 * abs(vol) + 1e-3
+    nominal = None
+    if c in (0, 1):
+        nom = np.where(g.grid.valid, (g.H - c * float(opts.height)) * g.gain, 0.0)
+        nominal = grid_swept(P, P + nom[..., None] * N, N, cells=g.cells, wrap_rows=wrap, measure=False).volume - excess
+    return vol, slack, nominal
+
+
+# ------------------------------------------------------------------------------------------
 # One patch, all stages
 # ------------------------------------------------------------------------------------------
 def patch_relief(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> PatchRelief:
@@ -803,7 +863,8 @@ def patch_relief(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> Pat
     shown = np.maximum(shown, 0.0) if surf.c == 0 else np.where(keep, shown - shown[keep].min(), 0.0)
     hmap = Heightmap(shown.astype(np.float32), (g.px, g.py))
     return PatchRelief(tuple(int(i) for i in patch), bodies, info, dist, hmap, grid, bool(surf.limited.any()), s_top,
-                       surf.c > 0, g.cells, g.par.tables, pm.faces[patch[0]].face if len(patch) == 1 else None, lim)
+                       surf.c > 0, g.cells, g.par.tables, pm.faces[patch[0]].face if len(patch) == 1 else None, lim,
+                       patch_volume(g, surf, opts))
 
 
 # ------------------------------------------------------------------------------------------

@@ -33,7 +33,7 @@ from ..solid import Mesh, from_manifold, to_manifold
 from ..solid.boolean import welded_mesh
 from .base import Adapter
 
-__all__ = ["SurfaceAdapter", "lean_mapped_slab", "gradient_gain", "mode_bodies", "ModeBodies", "Lean"]
+__all__ = ["SurfaceAdapter", "lean_mapped_slab", "gradient_gain", "mode_bodies", "ModeBodies", "Lean", "surface_volume"]
 
 
 @dataclass(frozen=True)
@@ -123,6 +123,10 @@ class ModeBodies:
         error: the largest distance of the lean sheets from their grids, mm.
         low: ``(inner (R, C, 3), outer (2, C, 3))``: the envelope's cutter sheets (the
             texture alone is what of the part lies above it), or None.
+        sheets: ``(slab top, cut)``: the ``(R, C, 3)`` grids (mm) of the slab's top
+            and of the cutter's textured side (None where there is no such body):
+            the part's new surface, from which :func:`surface_volume` sums the
+            texture's integral.
     """
 
     slab: "Mesh | None"
@@ -130,6 +134,7 @@ class ModeBodies:
     shown: Mesh
     error: float
     low: "tuple | None" = None
+    sheets: tuple = (None, None)
 
     @property
     def triangles(self) -> int:
@@ -155,7 +160,7 @@ def mode_bodies(profile: Profile, mapped: Any, share: float, full: float, gain: 
     s = mapped.s
     if share == 0 and gain is None:
         slab, err = lean_mapped_slab(mapped.top, mapped.bottom, profile, s, **lean.kwargs())
-        return ModeBodies(slab, None, slab, err)
+        return ModeBodies(slab, None, slab, err, None, (mapped.top, None))
     # Two lean sheets each within tolerance of their grids: 2 tolerance apart, they cannot cross.
     sheets = mode_sheets(profile, mapped, share=share, height=full, gain=gain, overlap=CUT_FLOOR + 2.0 * lean.tolerance,
                          thickness=wall)
@@ -163,13 +168,79 @@ def mode_bodies(profile: Profile, mapped: Any, share: float, full: float, gain: 
         _warn_limited(sheets["limited"], mapped.top.shape[0] * mapped.top.shape[1])
     slab = cutter = low = None
     err = 0.0
+    top = sheets["slab"] if share > 0 else sheets["surface"]
     if share < 1:  # raised with a gradient: the surface itself; centred: its outline under the cut
-        slab, err = lean_mapped_slab(sheets["slab"] if share > 0 else sheets["surface"], mapped.bottom, profile, s, **lean.kwargs())
+        slab, err = lean_mapped_slab(top, mapped.bottom, profile, s, **lean.kwargs())
     if share > 0:
         cutter, made, cut_err = inverted(sheets["cut"], sheets["outer"], profile, s, lean)
         low = (sheets["low"], sheets["outer"])
         err = max(err, cut_err)
-    return ModeBodies(slab, cutter, made if share == 1 else slab, err, low)
+    return ModeBodies(slab, cutter, made if share == 1 else slab, err, low,
+                      (top if share < 1 else None, sheets["cut"] if share > 0 else None))
+
+
+def surface_volume(profile: Profile, mapped: Any, bodies: ModeBodies, nominal: Any, share: float, full: float,
+                   tolerance: float, tessellation: float = 0.01) -> tuple[float, float, float]:
+    """The texture's own integral on a mapped 2.5D surface, for the gate's check 4:
+    ``(volume, slack, nominal)`` mm^3 (raised +, engraved -).
+
+    **Volume.** The part's new surface over every grid point is the highest of what
+    the bodies leave there, compared along the profile's outward normal ``n``: the
+    cutter's textured side where there is a cutter (it removes everything above it,
+    the surface included), else the surface itself; and over that the slab's top
+    where there is a slab. That sheet against the profile's points ``P`` at the
+    columns (extruded to the rows) is summed exactly by swept prisms
+    (:func:`texcad.mapping.surface.grid_swept`): ``int (t + kappa t^2 / 2) ds dy``
+    for an offset ``t`` along the normal of a profile of curvature ``kappa`` (a
+    raised texture on a convex profile adds more than ``t A``, an engraved one
+    removes less than ``|t| A``), less the circular segments ``kappa ds^3 / 12``
+    between the profile and the polygon through ``P``, times the length
+    (:func:`texcad.mapping.surface.chord_excess`). The cutters' floor
+    (:data:`texcad.mapping.CUT_FLOOR`) and the cuts the base's wall thickness made
+    shallower are in it (they are in the sheets).
+
+    **Slack.** Each lean side lies within ``tolerance`` mm of its grid (twice with a
+    slab and a cutter), the base's mesh within ``tessellation`` mm of the profile
+    (:func:`texcad.brep.shape_to_mesh`'s 0.01 mm deflection for a CAD base; a given
+    mesh counts as within it): ``(k tolerance + tessellation) A``, plus the segment term and
+    ``1e-3 |volume|`` (float32 vertices).
+
+    **Nominal** (raised and engraved; None for centred, whose net volume is about 0
+    by design). ``int (t + kappa t^2 / 2) ds dy`` over the surface's area with
+    ``t = h - c H`` of the fitted texture ``nominal`` before the overhang limiter
+    and the mapping's curvature limits (:func:`texcad.mapping.surface.relief_integral`,
+    ``kappa`` the profile's mean curvature over the columns); a gradient's gain is
+    applied (by the caller) as its mean over the grid.
+    """
+    from ..mapping.surface import chord_excess, grid_swept, mean_curvature, relief_integral
+
+    s = np.asarray(mapped.s, np.float64)
+    y = np.asarray(mapped.y, np.float64)
+    R, C = mapped.top.shape[:2]
+    fc = profile.at(s)
+    base = np.empty((R, C, 3))
+    base[..., 0], base[..., 1], base[..., 2] = fc.point[None, :, 0], y[:, None], fc.point[None, :, 1]
+    nrm = np.zeros((R, C, 3))
+    nrm[..., 0], nrm[..., 2] = fc.normal[None, :, 0], fc.normal[None, :, 1]
+
+    def up(g: np.ndarray) -> np.ndarray:  # the normal offset of a sheet, (R, C) mm
+        return np.einsum("rck,rck->rc", np.asarray(g, np.float64) - base, nrm)
+
+    slab_top, cut = bodies.sheets
+    new = base if cut is None else np.where((up(cut) < 0)[..., None], np.asarray(cut, np.float64), base)
+    if slab_top is not None:
+        new = np.where((up(slab_top) > up(new))[..., None], np.asarray(slab_top, np.float64), new)
+    closed = bool(mapped.closed)
+    length = float(y[-1] - y[0])
+    excess = chord_excess(profile, s, closed=closed) * length
+    vol = grid_swept(base, new, nrm, wrap_cols=closed, measure=False).volume - excess
+    area = (profile.length if closed else float(s[-1] - s[0])) * length
+    sides = sum(b is not None for b in bodies.sheets)
+    slack = (sides * float(tolerance) + float(tessellation)) * area + abs(excess) + 1e-3 * abs(vol) + 1e-3
+    if share not in (0, 1):
+        return vol, slack, None
+    kappa = mean_curvature(profile, s, closed=closed)
+    return vol, slack, relief_integral(np.asarray(nominal.heights, np.float64) - share * full, area, kappa)
 
 
 @dataclass(frozen=True)
@@ -260,8 +331,8 @@ def united_bodies(base: Mesh) -> int:
 class SurfaceAdapter(Adapter):
     """A :class:`~texcad.mapping.Surface` or :class:`~texcad.mapping.Profile` (with
     ``length`` mm), textured whole. The gate runs checks 1-3 (closed, oriented, one
-    body per base body) and 5 (reach, raised reliefs); the texture's integral (check 4)
-    is not stated yet (``Relief.volume`` None)."""
+    body per base body), 4 (the texture's integral, :func:`surface_volume`) and 5
+    (reach, raised reliefs)."""
 
     kind = "surface"
     label = "a Surface"
@@ -309,7 +380,7 @@ class SurfaceAdapter(Adapter):
         surf, share, mapping, bd = sp.surface, options.mode.share, options.mapping.value, _build_dir(options)
         hm, periodic = self._fitted(surf, texture, options)
         full = float(hm.heights.max())  # the envelope H of engraved and centred textures, mm
-        overhang = None
+        hm_nominal, overhang = hm, None
         if bd is not None:
             from ..printability import limit_on_profile
 
@@ -327,7 +398,10 @@ class SurfaceAdapter(Adapter):
             from ..printability import measured
 
             overhang = measured(overhang, bodies.shown, bd, options.critical_angle)
-        return Relief(heightmap=mapped.heightmap, limits=overhang, volume=None, volume_slack=0.0,
+        vol, slack, nominal = surface_volume(surf.profile, mapped, bodies, hm_nominal, share, full, options.tolerance)
+        if gain is not None and nominal is not None:
+            nominal *= float(gain.mean())
+        return Relief(heightmap=mapped.heightmap, limits=overhang, volume=vol, volume_slack=slack, nominal_volume=nominal,
                       reach=full + CUT_FLOOR + 2.0 * options.tolerance + 0.1, max_error=bodies.error,
                       height_limits=tuple(mapped.limits), mapped=mapped, data=SurfaceRelief(bodies, lean, mapped.s))
 
