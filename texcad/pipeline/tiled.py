@@ -34,7 +34,7 @@ from ..errors import ParameterError, ResourceError
 from ..sources import Heightmap
 from ..util import Progress, report
 
-__all__ = ["textured_plate_tiled", "TiledPlate", "tile_for_memory", "BYTES_PER_TILE_NODE"]
+__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "gate_tiled", "tile_for_memory", "BYTES_PER_TILE_NODE"]
 
 #: Peak bytes per node of one tile: the texture function's temporaries (float64),
 #: the float32 vertices, int64 faces and ids, STL records or 3MF text (measured on
@@ -101,7 +101,8 @@ class _BuiltinSource:
         self._cache = None
         blocks = [(slice(r0, min(r0 + block, self.shape[0])), slice(c0, min(c0 + block, self.shape[1])))
                   for r0 in range(0, self.shape[0], block) for c0 in range(0, self.shape[1], block)]
-        # first pass: the grid's range, per block (min and max are exact over any split)
+        # first pass: the grid's range, per block (min and max are exact over any split), and the
+        # trapezoid-weighted sum of the unit heights (the texture's integral, heightfield_volume's weights)
         if pool is not None:
             ranges = pool(_unit_range, [(self, b) for b in blocks])
         else:  # here: the unit heights kept on disk (8 bytes a pixel) for the second pass, not sampled twice
@@ -116,9 +117,27 @@ class _BuiltinSource:
                     rows[:, b[1]] = u
                     rows.flush()
                     del rows
-                ranges.append((float(u.min()), float(u.max())))
+                ranges.append((float(u.min()), float(u.max()), self._weighted(u, *b)))
             self._cache = cache
         self.lo, self.hi = min(r[0] for r in ranges), max(r[1] for r in ranges)
+        self._usum = float(np.sum([r[2] for r in ranges]))  # in block order: the same float for any pool
+
+    def _weighted(self, u: np.ndarray, rows: slice, cols: slice) -> float:
+        """``sum w u`` over a block, ``w`` the trapezoid weights of the whole grid
+        (1/2 on its first and last row and column: :func:`texcad.solid.mesh.heightfield_volume`)."""
+        wr = np.where((np.arange(rows.start, rows.stop) == 0) | (np.arange(rows.start, rows.stop) == self.shape[0] - 1), 0.5, 1.0)
+        wc = np.where((np.arange(cols.start, cols.stop) == 0) | (np.arange(cols.start, cols.stop) == self.shape[1] - 1), 0.5, 1.0)
+        return float(wr @ u @ wc)
+
+    def integral(self) -> tuple[float, float]:
+        """``(volume, slack)`` mm^3: :func:`texcad.solid.mesh.heightfield_volume` of the
+        whole grid's heights (``h = height (u - lo) / (hi - lo)`` is linear in ``u``, so
+        the weighted sum of the first pass gives it without a second)."""
+        (r, c), (px, py) = self.shape, self.pitch
+        if self.hi <= self.lo:
+            return 0.0, 0.0
+        total = (self._usum - self.lo * (r - 1) * (c - 1)) / (self.hi - self.lo) * self.height
+        return total * px * py, px * py * self.height
 
     def _rows(self, path: Path, rows: slice, mode: str) -> np.ndarray:
         """Rows ``rows`` of the unit heights on disk, mapped (only those rows: the
@@ -143,9 +162,9 @@ class _BuiltinSource:
         return (u * self.height).astype(np.float32)
 
 
-def _unit_range(source: "_BuiltinSource", block: tuple) -> tuple[float, float]:
+def _unit_range(source: "_BuiltinSource", block: tuple) -> tuple[float, float, float]:
     u = source._unit(*block)
-    return float(u.min()), float(u.max())
+    return float(u.min()), float(u.max()), source._weighted(u, *block)
 
 
 def _tile_vertices(source: Any, grid: Any, t: Any) -> np.ndarray:
@@ -162,6 +181,12 @@ class _HeightmapSource:
 
     def heights(self, rows: slice, cols: slice) -> np.ndarray:
         return np.asarray(self.hm.heights[rows, cols], dtype=np.float32)
+
+    def integral(self) -> tuple[float, float]:
+        """``(volume, slack)`` mm^3 (:func:`texcad.solid.mesh.heightfield_volume`)."""
+        from ..solid.mesh import heightfield_volume
+
+        return heightfield_volume(self.hm.heights, self.hm.pitch)
 
 
 def _rss() -> int:
@@ -321,29 +346,228 @@ def _grid_of(source: Any, w: float, d: float, side: int):
 
 def _write(grid: Any, source: Any, out: Path, thickness: float, progress: Progress, client: Any, t0: float, side: int) -> TiledPlate:
     """Mesh and stream every tile, then the walls: the :class:`TiledPlate`."""
-    from ..io.stream import open_stream
-    from ..solid.tiles import Numbering, block_volume, walls
-
-    numbering = Numbering(grid)
-    volume = 0.0
-    total = grid.count
-    with open_stream(out) as stream:
-        for k, (t, v) in enumerate(_tile_vertex_blocks(grid, source, client)):  # per tile, in order
-            f = grid.faces(t)
-            stream.add(v, f, numbering.ids(t).ravel())
-            volume += grid.top_volume(t, v)
-            del v, f
-            report(progress, (k + 1) / (total + 1), f"tile {k + 1}/{total}")
-        v, f, ids = walls(grid, numbering, thickness)
-        stream.add(v, f, ids)
-        volume += block_volume(v, f)
-    report(progress, 1.0, f"wrote {stream.triangles} triangles")
+    mesh = TiledMesh(grid, source, thickness, client)
+    triangles, volume = mesh.write(out, progress)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     return TiledPlate(
         path=Path(out), size=tuple(grid.size), thickness=thickness, grid=tuple(source.shape), pitch=tuple(source.pitch),
-        tile=side, tiles=total, triangles=stream.triangles, vertices=numbering.next + 4, volume=volume,
+        tile=side, tiles=grid.count, triangles=triangles, vertices=mesh.num_vertices, volume=volume,
         seconds=time.perf_counter() - t0, peak_rss=int(peak),
     )
+
+
+class TiledMesh:
+    """A textured plate's closed mesh kept as the recipe of its tiles (mm): the node
+    grid (:class:`texcad.solid.tiles.PlateGrid`), the texture's source (sampled or
+    read a tile at a time) and the plate's thickness. Its blocks are made on demand,
+    one tile at a time (:meth:`blocks`), for the gate (:func:`gate_tiled`) and the
+    streaming writers (:meth:`write`); the whole mesh is made only when asked for
+    (:meth:`to_mesh`, :attr:`vertices`, :attr:`faces`: refused where it does not fit).
+
+    Attributes:
+        grid: the plate's node grid and tile size.
+        source: the texture's heights, block by block (``heights(rows, cols)`` mm).
+        thickness: mm; the plate spans z from ``-thickness`` to 0 under the texture.
+        client: a ``dask.distributed.Client`` making the tiles' vertices, or None.
+    """
+
+    def __init__(self, grid: Any, source: Any, thickness: float, client: Any = None) -> None:
+        self.grid, self.source, self.thickness, self.client = grid, source, float(thickness), client
+
+    @property
+    def num_vertices(self) -> int:
+        """Vertices counted once: every node and the four bottom corners."""
+        nr, nc = self.grid.nodes
+        return nr * nc + 4
+
+    @property
+    def num_triangles(self) -> int:
+        """Triangles: two per cell of the node grid, one per ring node on the walls, two on the bottom."""
+        nr, nc = self.grid.nodes
+        return 2 * (nr - 1) * (nc - 1) + 2 * nr + 2 * nc + 2
+
+    def blocks(self, progress: Progress = None) -> "Any":
+        """``(tile, vertices, faces, ids)`` per tile in :meth:`PlateGrid.tiles` order,
+        then ``(None, ...)`` for the walls and bottom (:func:`texcad.solid.tiles.walls`):
+        float32 mm vertices, int64 local faces, int64 global vertex numbers."""
+        from ..solid.tiles import Numbering, walls
+
+        grid = self.grid
+        numbering = Numbering(grid)
+        total = grid.count
+        for k, (t, v) in enumerate(_tile_vertex_blocks(grid, self.source, self.client)):  # per tile, in order
+            yield t, v, grid.faces(t), numbering.ids(t).ravel()
+            report(progress, (k + 1) / (total + 1), f"tile {k + 1}/{total}")
+        yield (None, *walls(grid, numbering, self.thickness))
+
+    def write(self, out: "str | os.PathLike", progress: Progress = None, **kwargs: Any) -> tuple[int, float]:
+        """Stream the mesh into ``out`` (.stl / .3mf, atomically): ``(triangles, volume mm^3)``."""
+        from ..io.stream import open_stream
+        from ..solid.tiles import block_volume
+
+        volume = 0.0
+        with open_stream(out, **kwargs) as stream:
+            for t, v, f, ids in self.blocks(progress):  # per tile
+                stream.add(v, f, ids)
+                volume += block_volume(v, f) if t is None else self.grid.top_volume(t, v)
+                del v, f
+        report(progress, 1.0, f"wrote {stream.triangles} triangles")
+        self.__dict__["volume"] = volume
+        return stream.triangles, volume
+
+    @property
+    def volume(self) -> float:
+        """Enclosed volume, mm^3 (float64, summed tile by tile; one pass over the tiles
+        the first time)."""
+        if "volume" not in self.__dict__:
+            from ..solid.tiles import block_volume
+
+            self.__dict__["volume"] = sum(block_volume(v, f) if t is None else self.grid.top_volume(t, v)
+                                          for t, v, f, _ in self.blocks())
+        return self.__dict__["volume"]
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """``(2, 3)`` float64 min and max corner, mm (the texture's highest point from
+        the gate, else one pass over the tiles)."""
+        if "top" not in self.__dict__:
+            self.__dict__["top"] = max(float(v[:, 2].max()) for t, v, _, _ in self.blocks() if t is not None)
+        w, d = self.grid.size
+        return np.array([[0.0, 0.0, -self.thickness], [w, d, self.__dict__["top"]]])
+
+    def to_mesh(self) -> Any:
+        """The whole mesh as one :class:`texcad.Mesh` (vertices once, by their global
+        numbers), mm.
+
+        Raises:
+            ResourceError: it does not fit in the memory available (or ``max_memory``).
+        """
+        from ..solid import Mesh
+        from ..util import require_memory
+
+        n, m = self.num_vertices, self.num_triangles
+        require_memory(3 * (12 * n + 12 * m), f"the whole tiled mesh ({m:,} triangles)",
+                       "write it with .export('part.stl') or '.3mf', which streams it tile by tile")
+        verts = np.empty((n, 3), np.float32)
+        faces = []
+        for _, v, f, ids in self.blocks():  # per tile
+            verts[ids] = v
+            faces.append(ids[f].astype(np.uint32))
+        return Mesh(verts, np.concatenate(faces))
+
+    @property
+    def vertices(self) -> np.ndarray:
+        """``(N, 3)`` float32 mm, the whole mesh made (:meth:`to_mesh`)."""
+        return self._whole().vertices
+
+    @property
+    def faces(self) -> np.ndarray:
+        """``(M, 3)`` uint32, the whole mesh made (:meth:`to_mesh`)."""
+        return self._whole().faces
+
+    def _whole(self) -> Any:
+        if "whole" not in self.__dict__:
+            self.__dict__["whole"] = self.to_mesh()
+        return self.__dict__["whole"]
+
+    def __repr__(self) -> str:
+        nr, nc = self.grid.nodes
+        return f"TiledMesh({nr} x {nc} nodes in {self.grid.count} tiles, {self.num_triangles:,} triangles)"
+
+
+def _tile_loop(ids: np.ndarray) -> np.ndarray:
+    """The open directed edges ``(k, 2)`` of one tile's triangles (:func:`texcad.solid.grid_faces`
+    on its ``(r, c)`` global numbers ``ids``): its border, counter-clockwise seen from +z."""
+    bottom = np.stack([ids[0, :-1], ids[0, 1:]], 1)
+    right = np.stack([ids[:-1, -1], ids[1:, -1]], 1)
+    top = np.stack([ids[-1, 1:], ids[-1, :-1]], 1)
+    left = np.stack([ids[1:, 0], ids[:-1, 0]], 1)
+    return np.concatenate([bottom, right, top, left])
+
+
+def _open_edges(faces: np.ndarray) -> tuple[np.ndarray, int]:
+    """``(open, bad)``: the directed edges of ``faces`` whose reverse is not among them
+    (each once), and how many edges come more than once or twice the same way
+    (non-manifold or misoriented). One sort of the undirected keys."""
+    f = np.asarray(faces, dtype=np.int64)
+    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]) if f.shape[1] == 3 else f
+    lo, hi = np.minimum(e[:, 0], e[:, 1]), np.maximum(e[:, 0], e[:, 1])
+    order = np.lexsort((e[:, 0] > e[:, 1], hi, lo))
+    lo, hi, fwd = lo[order], hi[order], (e[:, 0] <= e[:, 1])[order]
+    start = np.r_[True, (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])]
+    gid = np.cumsum(start) - 1
+    count = np.bincount(gid)
+    nfwd = np.bincount(gid, weights=fwd)
+    single = count[gid] == 1
+    bad = int(np.sum((count > 2) | ((count == 2) & (nfwd != 1))))
+    return e[order][single], bad
+
+
+def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any:
+    """texcad's gate (:func:`texcad.report.gate.gate`, checks 1-5) on a tiled mesh,
+    one tile at a time, in memory that goes with one tile plus the tiles' borders:
+
+    1. closed and oriented: each tile's triangles follow the grid rule of
+       :func:`texcad.solid.grid_faces` (its open edges checked here to be exactly the
+       tile's border loop, on a small grid), so inside a tile every edge is paired;
+       the tiles' border loops (by global vertex number) and the walls' edges must
+       then pair up, each directed edge once and its reverse once; every vertex finite;
+    2-3. one body, facing out: the node grid is connected and the volume positive;
+    4. the volume change against the base is the texture's integral ``ex.volume``
+       within ``ex.volume_slack``;
+    5. every texture vertex lies within ``ex.height`` mm of the top face (z = 0, inside
+       the plate's rectangle).
+
+    Returns:
+        :class:`texcad.report.gate.GateReport`; sets the mesh's volume and top.
+
+    Raises:
+        GeometryError: a check failed (the message names it and the figures).
+    """
+    from ..errors import GeometryError
+    from ..report.gate import GateReport, ShellReport
+    from ..solid.grid import grid_faces
+    from ..solid.tiles import block_volume
+
+    rule, bad = _open_edges(grid_faces(4, 5))
+    loop = _tile_loop(np.arange(20).reshape(4, 5))
+    if bad or sorted(map(tuple, rule)) != sorted(map(tuple, loop)):
+        raise GeometryError(f"the {what} failed texcad's gate: the tile triangles' open edges are not their border; please report this")
+    w, d = mesh.grid.size
+    borders, volume, top, low, finite, inside = [], 0.0, -np.inf, np.inf, True, True
+    for t, v, f, ids in mesh.blocks():  # per tile
+        finite &= bool(np.isfinite(v).all())
+        if t is None:
+            volume += block_volume(v, f)
+            borders.append(ids[f])
+            continue
+        volume += mesh.grid.top_volume(t, v)
+        top, low = max(top, float(v[:, 2].max())), min(low, float(v[:, 2].min()))
+        inside &= bool((v[:, 0].min() >= 0) & (v[:, 0].max() <= w) & (v[:, 1].min() >= 0) & (v[:, 1].max() <= d))
+        borders.append(_tile_loop(ids.reshape(t.shape)))
+    edges = np.concatenate([np.concatenate([b[:, [0, 1]], b[:, [1, 2]], b[:, [2, 0]]]) if b.shape[1] == 3 else b
+                            for b in borders])
+    open_, bad = _open_edges(edges)
+    closed = finite and not len(open_) and not bad
+    shells = ShellReport(closed=closed, open_edges=len(open_), nonmanifold_edges=bad, misoriented_edges=0,
+                         volumes=(volume,), nesting=(0,), inside_out=int(volume <= 0), nested_bodies=0, bodies=1)
+    if not shells.manifold:
+        raise GeometryError(f"the {what} failed texcad's gate: {shells.problem() or 'its vertices are not finite'}; please report this")
+    mesh.__dict__["volume"], mesh.__dict__["top"] = volume, top
+    change = expected = slack = None
+    if ex.base is not None and ex.volume is not None:
+        change = volume - float(ex.base.volume)
+        expected, slack = float(ex.volume), float(ex.volume_slack)
+        if abs(change - expected) > slack:
+            raise GeometryError(
+                f"the {what} failed texcad's gate: its volume changed by {change:+.2f} mm3 where the texture's integral "
+                f"is {expected:+.2f} mm3 (accepted difference {slack:.2f} mm3); please report this"
+            )
+    farthest = max(top, -low)
+    if not inside or farthest > ex.height:
+        raise GeometryError(f"the {what} failed texcad's gate: texture vertices lie up to {farthest:.3f} mm from the "
+                            f"top face (or off it), where the texture reaches {ex.height:.3f} mm; please report this")
+    return GateReport(shells, change, expected, slack, farthest, float(ex.height))
 
 
 def _tile_vertex_blocks(grid: Any, source: Any, client: Any):
