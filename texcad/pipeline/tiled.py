@@ -34,7 +34,7 @@ from ..errors import ParameterError, ResourceError
 from ..sources import Heightmap
 from ..util import Progress, report
 
-__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "gate_tiled", "tile_for_memory", "BYTES_PER_TILE_NODE"]
+__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "gate_tiled", "plate_source", "builtin_grid", "tile_for_memory", "BYTES_PER_TILE_NODE"]
 
 #: Peak bytes per node of one tile: the texture function's temporaries (float64),
 #: the float32 vertices, int64 faces and ids, STL records or 3MF text (measured on
@@ -151,6 +151,18 @@ class _BuiltinSource:
         u = self.func(x[None, :], y[:, None])
         return np.broadcast_to(u, (len(y), len(x))).astype(np.float64)
 
+    def close(self) -> None:
+        """Remove the unit heights' file (if any); the source cannot be read after."""
+        f, self._file = getattr(self, "_file", None), None
+        if f is not None:
+            f.close()
+        self._cache = None
+
+    def __getstate__(self) -> dict:  # to a Dask worker: no open file
+        state = dict(self.__dict__)
+        state["_file"] = None
+        return state
+
     def heights(self, rows: slice, cols: slice) -> np.ndarray:
         if self._cache is not None:
             m = self._rows(self._cache, rows, "r")
@@ -181,6 +193,9 @@ class _HeightmapSource:
 
     def heights(self, rows: slice, cols: slice) -> np.ndarray:
         return np.asarray(self.hm.heights[rows, cols], dtype=np.float32)
+
+    def close(self) -> None:
+        pass
 
     def integral(self) -> tuple[float, float]:
         """``(volume, slack)`` mm^3 (:func:`texcad.solid.mesh.heightfield_volume`)."""
@@ -308,33 +323,65 @@ def _tiled(w, d, thickness, texture, pitch, height, out, tile, bound, progress, 
     if client is not None:
         def pool(fn, args):  # noqa: E306 - map on the cluster, results in order
             return client.gather(client.map(fn, *zip(*args), pure=False))
+    source, side = plate_source(texture, (w, d), pitch, height, tile=tile, bound=bound, pool=pool,
+                                cache_dir=None if pool is not None else out.parent, progress=progress)
+    try:
+        return _write(_grid_of(source, w, d, side), source, out, thickness, progress, client, t0, side)
+    finally:
+        source.close()
+
+
+def builtin_grid(texture: Any, size: Sequence[float], pitch: float) -> "tuple[int, int] | None":
+    """``(R, C)`` pixels of a built-in texture (``"builtin:NAME[:k=v]"``) on a plate of
+    ``size`` mm at ``pitch`` mm (adjusted to whole pixels per period, as
+    :func:`texcad.builtin`), without sampling it; None for other textures."""
     if isinstance(texture, Heightmap) or not os.fspath(texture).startswith("builtin:"):
+        return None
+    from ..sources.textures import BUILTINS, parse_texture_spec
+
+    key, params = parse_texture_spec(os.fspath(texture))
+    if key not in BUILTINS:
+        return 2, 2
+    tl = BUILTINS[key].configure(scale=float(params.pop("scale", 1.0)), **params)[0]
+    nx = max(2, int(np.floor(float(size[0]) / (tl[0] / max(1, round(tl[0] / pitch))) + 1e-6)))
+    ny = max(2, int(np.floor(float(size[1]) / (tl[1] / max(1, round(tl[1] / pitch))) + 1e-6)))
+    return ny, nx
+
+
+def plate_source(texture: Any, size: Sequence[float], pitch: float, height: float, *, tile: Optional[int] = None,
+                 bound: Optional[int] = None, pool: Any = None, cache_dir: "Path | None" = None,
+                 progress: Progress = None) -> tuple[Any, int]:
+    """``(source, side)``: the texture's heights (mm; ``height`` the largest, None: a
+    Heightmap's own) on a plate of ``size`` mm, read a
+    block at a time, and the nodes per tile side (``tile``, or from ``bound`` bytes:
+    :func:`tile_for_memory`). A built-in is sampled in a first pass (its range and
+    integral) whose unit heights wait in a temporary file in ``cache_dir`` (default:
+    the system's temporary folder; 8 bytes a pixel) until ``source.close()`` or the
+    source is dropped; with ``pool`` (a map on a cluster) it is sampled again per tile
+    instead. An image or :class:`~texcad.Heightmap` is held whole (as the untiled plate)."""
+    w, d = (float(s) for s in size)
+    shape = builtin_grid(texture, (w, d), pitch)
+    if shape is None:
         from ..sources import load_texture
 
-        source: Any = _HeightmapSource(load_texture(texture, size=(w, d), pitch=pitch, height=height))
-        nodes = (source.shape[0] + 2, source.shape[1] + 2)
-        side = int(tile) if tile else tile_for_memory(bound, nodes)
-    else:
-        from ..sources.textures import BUILTINS, parse_texture_spec
-
-        key, params = parse_texture_spec(os.fspath(texture))
-        if key in BUILTINS:  # the grid's size first, for the tile; then the source samples per tile
-            tl = BUILTINS[key].configure(scale=float(params.pop("scale", 1.0)), **params)[0]
-            nx = max(2, int(np.floor(w / (tl[0] / max(1, round(tl[0] / pitch))) + 1e-6)))
-            ny = max(2, int(np.floor(d / (tl[1] / max(1, round(tl[1] / pitch))) + 1e-6)))
-        else:
-            nx = ny = 2
-        side = int(tile) if tile else tile_for_memory(bound, (ny + 2, nx + 2))
-        report(progress, 0.0, "finding the texture's range")
-        cache = None if pool is not None else tempfile.NamedTemporaryFile(prefix=f".{out.name}.", suffix=".heights", dir=out.parent)
-        try:
-            source = _BuiltinSource(os.fspath(texture), (w, d), pitch, height, block=max(side - 1, 1), pool=pool,
-                                    cache=None if cache is None else Path(cache.name))
-            return _write(_grid_of(source, w, d, side), source, out, thickness, progress, client, t0, side)
-        finally:
-            if cache is not None:
-                cache.close()
-    return _write(_grid_of(source, w, d, side), source, out, thickness, progress, client, t0, side)
+        hm = texture if isinstance(texture, Heightmap) and height is None else load_texture(texture, size=(w, d), pitch=pitch, height=height)
+        source: Any = _HeightmapSource(hm)
+        side = int(tile) if tile else tile_for_memory(bound, (source.shape[0] + 2, source.shape[1] + 2))
+        return source, side
+    side = int(tile) if tile else tile_for_memory(bound, (shape[0] + 2, shape[1] + 2))
+    report(progress, 0.0, "finding the texture's range")
+    cache = None
+    if pool is None:
+        cache = tempfile.NamedTemporaryFile(prefix=".texcad-", suffix=".heights", dir=cache_dir)
+    try:
+        source = _BuiltinSource(os.fspath(texture), (w, d), pitch, height, block=max(side - 1, 1), pool=pool,
+                                cache=None if cache is None else Path(cache.name))
+    except BaseException:
+        if cache is not None:
+            cache.close()
+        raise
+    source._file = cache  # removed with the source
+    return source, side
 
 
 def _grid_of(source: Any, w: float, d: float, side: int):
@@ -470,6 +517,10 @@ class TiledMesh:
             self.__dict__["whole"] = self.to_mesh()
         return self.__dict__["whole"]
 
+    def gate(self, ex: Any) -> Any:
+        """texcad's gate on this mesh, tile by tile (:func:`gate_tiled`)."""
+        return gate_tiled(self, ex)
+
     def __repr__(self) -> str:
         nr, nc = self.grid.nodes
         return f"TiledMesh({nr} x {nc} nodes in {self.grid.count} tiles, {self.num_triangles:,} triangles)"
@@ -483,6 +534,12 @@ def _tile_loop(ids: np.ndarray) -> np.ndarray:
     top = np.stack([ids[-1, 1:], ids[-1, :-1]], 1)
     left = np.stack([ids[1:, 0], ids[:-1, 0]], 1)
     return np.concatenate([bottom, right, top, left])
+
+
+def _at(ids: np.ndarray, v: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+    """Rows of ``v`` whose ``ids`` are ``wanted`` (every one present)."""
+    order = np.argsort(ids, kind="stable")
+    return v[order[np.searchsorted(ids, wanted, sorter=order)]]
 
 
 def _open_edges(faces: np.ndarray) -> tuple[np.ndarray, int]:
@@ -511,7 +568,9 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
        :func:`texcad.solid.grid_faces` (its open edges checked here to be exactly the
        tile's border loop, on a small grid), so inside a tile every edge is paired;
        the tiles' border loops (by global vertex number) and the walls' edges must
-       then pair up, each directed edge once and its reverse once; every vertex finite;
+       then pair up, each directed edge once and its reverse once; a node shared by
+       two tiles is the same float32 point in both (no gap when a reader welds by
+       position); every vertex finite;
     2-3. one body, facing out: the node grid is connected and the volume positive;
     4. the volume change against the base is the texture's integral ``ex.volume``
        within ``ex.volume_slack``;
@@ -534,17 +593,32 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
     if bad or sorted(map(tuple, rule)) != sorted(map(tuple, loop)):
         raise GeometryError(f"the {what} failed texcad's gate: the tile triangles' open edges are not their border; please report this")
     w, d = mesh.grid.size
-    borders, volume, top, low, finite, inside = [], 0.0, -np.inf, np.inf, True, True
+    borders, seam_ids, seam_xyz = [], [], []
+    volume, top, low, finite, inside = 0.0, -np.inf, np.inf, True, True
     for t, v, f, ids in mesh.blocks():  # per tile
         finite &= bool(np.isfinite(v).all())
         if t is None:
             volume += block_volume(v, f)
             borders.append(ids[f])
+            seam_ids.append(ids)
+            seam_xyz.append(v)
             continue
         volume += mesh.grid.top_volume(t, v)
         top, low = max(top, float(v[:, 2].max())), min(low, float(v[:, 2].min()))
         inside &= bool((v[:, 0].min() >= 0) & (v[:, 0].max() <= w) & (v[:, 1].min() >= 0) & (v[:, 1].max() <= d))
         borders.append(_tile_loop(ids.reshape(t.shape)))
+        ring = np.unique(borders[-1])  # the tile's border nodes: where it meets its neighbours
+        seam_ids.append(ring)
+        seam_xyz.append(_at(ids, v, ring))
+    # a node on two tiles' borders is one point: the same float32 numbers from both
+    sid, sxyz = np.concatenate(seam_ids), np.concatenate(seam_xyz)
+    order = np.argsort(sid, kind="stable")
+    sid, sxyz = sid[order], sxyz[order]
+    same = sid[1:] == sid[:-1]
+    apart = int(np.sum(np.any(sxyz[1:][same] != sxyz[:-1][same], axis=1)))
+    if apart:
+        raise GeometryError(f"the {what} failed texcad's gate: {apart} seam vertices differ between neighbouring tiles "
+                            "(a gap at the seam); please report this")
     edges = np.concatenate([np.concatenate([b[:, [0, 1]], b[:, [1, 2]], b[:, [2, 0]]]) if b.shape[1] == 3 else b
                             for b in borders])
     open_, bad = _open_edges(edges)
