@@ -250,3 +250,59 @@ def test_texture_under_an_address_space_limit_is_made_in_tiles(tmp_path):
     assert how == "tiled" and int(tiles) > 1 and int(px) == 1200 * 1200
     assert closed == volume_ok == under == "True"
     assert out.stat().st_size == 84 + 50 * int(tris)
+
+
+def test_a_full_cylinder_in_tiles_has_the_untiled_texture_vertices(tmp_path):
+    """A tiled curved face: Surface.cylinder textured in tiles along its unwrapped grid
+    (the seam column shared), every texture vertex the untiled slab's top grid vertex
+    bit for bit, closed (the gate tile by tile, trimesh on the 3MF), the volume the
+    untiled one's within the documented end difference, the same for any tile size."""
+    import warnings
+
+    from texcad.pipeline.tiled import tiled_surface
+
+    surf = texcad.Surface.cylinder(8.0, 12.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the texture scaled to whole repeats round the cylinder (both paths)
+        untiled = texcad.texture(surf, None, "builtin:stones", pitch=0.5, height=0.6, tolerance=0)
+        mesh, ex = tiled_surface(surf, "builtin:stones", pitch=0.5, height=0.6, tile=9)
+    top = untiled.stages.relief.mapped.top
+    r, c = mesh.grid.texture_shape
+    assert top.shape == (r, c, 3) and mesh.grid.count > 4
+    seen = np.zeros((r, c), bool)
+    for t, v, f, ids in mesh.blocks():  # every tile's texture vertices against the untiled grid
+        if t is None:
+            continue
+        rows, cols, nrs = mesh.grid.texture_block(t)
+        mine = v.reshape(*t.shape, 3)[nrs]
+        assert np.array_equal(mine, top[rows][:, cols % c])
+        seen[rows, cols % c] = True
+    assert seen.all()
+    g = mesh.gate(ex)
+    assert g.shells.closed and g.shells.bodies == 1 and g.farthest_mm <= 0.6 + 1e-5
+    mesh.write(tmp_path / "cyl.3mf")
+    back = texcad.io.read_mesh(tmp_path / "cyl.3mf")
+    assert back.is_watertight and len(back.vertices) == mesh.num_vertices == len(np.unique(back.vertices, axis=0))
+    assert len(back.faces) == mesh.num_triangles and np.isclose(back.volume, mesh.volume, rtol=1e-6)
+    # the ends: the untiled slab ends in walls at the first and last row; the tiled surface slopes from there to
+    # the profile at y = 0 and length: at most 2 x perimeter x (margin + py / 2) x height / 2
+    py = float(untiled.stages.relief.mapped.heightmap.pitch[1])
+    margin = (12.0 - r * py) / 2 + py / 2
+    bound = 2 * surf.profile.length * margin * 0.6 / 2
+    assert 0 <= mesh.volume - untiled.mesh.volume <= bound, (mesh.volume, untiled.mesh.volume, bound)
+    whole = mesh.to_mesh()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        other, _ = tiled_surface(surf, "builtin:stones", pitch=0.5, height=0.6, tile=31)
+    assert other.grid.count < mesh.grid.count
+    o = other.to_mesh()
+    assert np.array_equal(_key(o.vertices[o.faces]), _key(whole.vertices[whole.faces]))
+
+
+def test_tiled_surface_refusals():
+    from texcad.pipeline.tiled import tiled_surface
+
+    with pytest.raises(texcad.ParameterError, match="closed profile"):
+        tiled_surface(texcad.Surface.arc(20.0, 90.0, 10.0, 2.0), "builtin:stones", pitch=0.5)
+    with pytest.raises(texcad.ParameterError, match="a tube"), pytest.warns(texcad.TexcadWarning):
+        tiled_surface(texcad.Surface.cylinder(8.0, 10.0, thickness=2.0), "builtin:stones", pitch=0.5)

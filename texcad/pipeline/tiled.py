@@ -34,7 +34,7 @@ from ..errors import ParameterError, ResourceError
 from ..sources import Heightmap
 from ..util import Progress, report
 
-__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "gate_tiled", "plate_source", "builtin_grid", "tile_for_memory", "BYTES_PER_TILE_NODE"]
+__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "TiledSurfaceMesh", "tiled_surface", "gate_tiled", "plate_source", "builtin_grid", "tile_for_memory", "BYTES_PER_TILE_NODE"]
 
 #: Peak bytes per node of one tile: the texture function's temporaries (float64),
 #: the float32 vertices, int64 faces and ids, STL records or 3MF text (measured on
@@ -456,7 +456,7 @@ class TiledMesh:
         with open_stream(out, **kwargs) as stream:
             for t, v, f, ids in self.blocks(progress):  # per tile
                 stream.add(v, f, ids)
-                volume += block_volume(v, f) if t is None else self.grid.top_volume(t, v)
+                volume += block_volume(v, f) if t is None else self.share(t, v, f)
                 del v, f
         report(progress, 1.0, f"wrote {stream.triangles} triangles")
         self.__dict__["volume"] = volume
@@ -469,7 +469,7 @@ class TiledMesh:
         if "volume" not in self.__dict__:
             from ..solid.tiles import block_volume
 
-            self.__dict__["volume"] = sum(block_volume(v, f) if t is None else self.grid.top_volume(t, v)
+            self.__dict__["volume"] = sum(block_volume(v, f) if t is None else self.share(t, v, f)
                                           for t, v, f, _ in self.blocks())
         return self.__dict__["volume"]
 
@@ -520,6 +520,18 @@ class TiledMesh:
     def gate(self, ex: Any) -> Any:
         """texcad's gate on this mesh, tile by tile (:func:`gate_tiled`)."""
         return gate_tiled(self, ex)
+
+    def share(self, t: Any, v: np.ndarray, f: np.ndarray) -> float:
+        """Tile ``t``'s share of the volume, mm^3."""
+        return self.grid.top_volume(t, v)
+
+    def reach(self, t: Any, v: np.ndarray) -> tuple[float, float]:
+        """``(farthest, highest)``: tile ``t``'s largest distance from the top face (inf
+        off its rectangle) and its highest z, mm."""
+        w, d = self.grid.size
+        inside = (v[:, 0].min() >= 0) & (v[:, 0].max() <= w) & (v[:, 1].min() >= 0) & (v[:, 1].max() <= d)
+        high = float(v[:, 2].max())
+        return (max(high, -float(v[:, 2].min())) if inside else float("inf")), high
 
     def __repr__(self) -> str:
         nr, nc = self.grid.nodes
@@ -574,8 +586,12 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
     2-3. one body, facing out: the node grid is connected and the volume positive;
     4. the volume change against the base is the texture's integral ``ex.volume``
        within ``ex.volume_slack``;
-    5. every texture vertex lies within ``ex.height`` mm of the top face (z = 0, inside
-       the plate's rectangle).
+    5. every texture vertex lies within ``ex.height`` mm of the surface it was put on
+       (the mesh's ``reach``: the plate's top face, z = 0 inside its rectangle; a
+       surface's profile point of its column).
+
+    ``mesh`` is a :class:`TiledMesh` or :class:`TiledSurfaceMesh` (anything with
+    ``blocks()``, ``share(tile, v, f)`` and ``reach(tile, v)``).
 
     Returns:
         :class:`texcad.report.gate.GateReport`; sets the mesh's volume and top.
@@ -592,9 +608,8 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
     loop = _tile_loop(np.arange(20).reshape(4, 5))
     if bad or sorted(map(tuple, rule)) != sorted(map(tuple, loop)):
         raise GeometryError(f"the {what} failed texcad's gate: the tile triangles' open edges are not their border; please report this")
-    w, d = mesh.grid.size
     borders, seam_ids, seam_xyz = [], [], []
-    volume, top, low, finite, inside = 0.0, -np.inf, np.inf, True, True
+    volume, top, farthest, finite = 0.0, -np.inf, 0.0, True
     for t, v, f, ids in mesh.blocks():  # per tile
         finite &= bool(np.isfinite(v).all())
         if t is None:
@@ -603,9 +618,9 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
             seam_ids.append(ids)
             seam_xyz.append(v)
             continue
-        volume += mesh.grid.top_volume(t, v)
-        top, low = max(top, float(v[:, 2].max())), min(low, float(v[:, 2].min()))
-        inside &= bool((v[:, 0].min() >= 0) & (v[:, 0].max() <= w) & (v[:, 1].min() >= 0) & (v[:, 1].max() <= d))
+        volume += mesh.share(t, v, f)
+        far, high = mesh.reach(t, v)
+        farthest, top = max(farthest, far), max(top, high)
         borders.append(_tile_loop(ids.reshape(t.shape)))
         ring = np.unique(borders[-1])  # the tile's border nodes: where it meets its neighbours
         seam_ids.append(ring)
@@ -637,10 +652,9 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
                 f"the {what} failed texcad's gate: its volume changed by {change:+.2f} mm3 where the texture's integral "
                 f"is {expected:+.2f} mm3 (accepted difference {slack:.2f} mm3); please report this"
             )
-    farthest = max(top, -low)
-    if not inside or farthest > ex.height:
+    if farthest > ex.height:
         raise GeometryError(f"the {what} failed texcad's gate: texture vertices lie up to {farthest:.3f} mm from the "
-                            f"top face (or off it), where the texture reaches {ex.height:.3f} mm; please report this")
+                            f"surface (or off it), where the texture reaches {ex.height:.3f} mm; please report this")
     return GateReport(shells, change, expected, slack, farthest, float(ex.height))
 
 
@@ -666,3 +680,135 @@ def _tile_vertex_blocks(grid: Any, source: Any, client: Any):
         t0, fut = pending.popleft()
         yield t0, fut.result()
         fut.release()
+
+
+class TiledSurfaceMesh(TiledMesh):
+    """A closed 2.5D surface's textured solid kept as the recipe of its tiles (mm):
+    the surface's node grid (:class:`texcad.solid.tiles.SurfaceGrid`: the texture's
+    rows between the two ends, its columns all the way round), the texture's heights
+    (``heights[rows, cols]`` mm, held whole: 4 bytes a pixel) and the two end caps.
+    As :class:`TiledMesh`: blocks on demand, gated and written tile by tile.
+
+    Attributes:
+        grid: the node grid and tile size.
+        heights: ``(R, C0)`` float32 mm; node column ``j`` reads texture column
+            ``j mod C0`` (a texture repeated round the profile).
+        flip: the grid's triangles reversed (so that they face away from the profile).
+    """
+
+    def __init__(self, grid: Any, heights: np.ndarray, flip: bool = False) -> None:
+        self.grid, self.heights, self.flip, self.client = grid, heights, bool(flip), None
+        self.thickness = 0.0
+
+    @property
+    def num_vertices(self) -> int:
+        nr, nc = self.grid.nodes
+        return nr * (nc - 1)
+
+    @property
+    def num_triangles(self) -> int:
+        nr, nc = self.grid.nodes
+        return 2 * (nr - 1) * (nc - 1) + 2 * (nc - 3)
+
+    def blocks(self, progress: Progress = None) -> "Any":
+        """``(tile, vertices, faces, ids)`` per tile, then ``(None, ...)`` for the caps."""
+        from ..solid.tiles import WrapNumbering, caps
+
+        grid, c0 = self.grid, self.heights.shape[1]
+        numbering = WrapNumbering(grid)
+        total = grid.count
+        for k, t in enumerate(grid.tiles()):  # per tile, in order
+            rows, cols, _ = grid.texture_block(t)
+            v = grid.vertices(t, self.heights[rows][:, cols % c0])
+            f = grid.faces(t)
+            yield t, v, (f[:, [0, 2, 1]] if self.flip else f), numbering.ids(t).ravel()
+            report(progress, (k + 1) / (total + 1), f"tile {k + 1}/{total}")
+        yield (None, *caps(grid, numbering))
+
+    def share(self, t: Any, v: np.ndarray, f: np.ndarray) -> float:
+        from ..solid.tiles import block_volume
+
+        return block_volume(v, f)
+
+    def reach(self, t: Any, v: np.ndarray) -> tuple[float, float]:
+        """``(farthest, farthest)``: the largest distance of tile ``t``'s vertices from
+        their column's profile point, in the (x, z) plane, mm."""
+        _, cols, _ = self.grid.texture_block(t)
+        p = self.grid.point[cols].astype(np.float64)
+        q = v.reshape(*t.shape, 3).astype(np.float64)
+        far = float(np.hypot(q[..., 0] - p[None, :, 0], q[..., 2] - p[None, :, 1]).max())
+        return far, far
+
+    @property
+    def bounds(self) -> np.ndarray:
+        lo = np.full(3, np.inf)
+        hi = -lo
+        for _, v, _, _ in self.blocks():  # per tile
+            lo, hi = np.minimum(lo, v.min(axis=0)), np.maximum(hi, v.max(axis=0))
+        return np.array([lo, hi], dtype=np.float64)
+
+    def __repr__(self) -> str:
+        nr, nc = self.grid.nodes
+        return f"TiledSurfaceMesh({nr} x {nc - 1} nodes in {self.grid.count} tiles, {self.num_triangles:,} triangles)"
+
+
+def tiled_surface(surface: Any, texture: Any, *, pitch: float = 0.125, height: float = 1.0, mapping: str = "angle",
+                  tile: Optional[int] = None, max_memory: Any = None) -> tuple[TiledSurfaceMesh, Any]:
+    """A closed 2.5D surface (a :class:`texcad.Surface` whose profile is closed and has
+    no corners, its base the profile's solid: e.g. ``Surface.cylinder(r, length)``)
+    textured whole, as tiles: ``(mesh, expectation)``; ``mesh.gate(expectation)``
+    checks it and ``mesh.write("part.stl")`` streams it, tile by tile.
+
+    The texture is fitted and mapped as :func:`texcad.texture` does on that surface
+    (:func:`texcad.mapping.fit_texture`, :func:`texcad.mapping.map_texture` with
+    ``mapping``: its columns' profile points and offsets, taken from a two-row strip
+    holding the texture's highest row), so every texture vertex is the untiled
+    slab's top grid vertex, the same float32 numbers (tested). What differs: the ends.
+    The untiled slab ends in walls at the first and last texture row and is united
+    with the base; the tiled surface runs from those rows down to the profile at y = 0
+    and ``length`` (as the tiled plate's rim), closed by flat caps. Lengths in mm.
+
+    Raises:
+        ParameterError: an open profile, a profile with corners, a base that is not
+            the profile's solid, or a bad texture or parameter.
+        ResourceError: ``max_memory`` leaves no room for a tile.
+    """
+    from ..mapping import fit_texture, map_texture
+    from ..options import memory_bytes
+    from ..report.gate import Expectation
+    from ..solid.tiles import SurfaceGrid
+
+    prof, length = surface.profile, float(surface.length)
+    if not prof.closed:
+        raise ParameterError("tiled_surface takes a closed profile (a full cylinder, a closed spline); "
+                             "texture open surfaces with texcad.texture")
+    hm, periodic = fit_texture(prof, texture, length=length, pitch=pitch, height=height)
+    h = np.asarray(hm.heights, dtype=np.float32)
+    top_row = int(np.unravel_index(int(np.argmax(h)), h.shape)[0])
+    strip = Heightmap(np.ascontiguousarray(h[[0, top_row]]), hm.pitch)  # the columns depend on the highest point only
+    m = map_texture(prof, strip, mapping=mapping, length=length, periodic_x=periodic)
+    if len(m.s) != m.heightmap.shape[1]:
+        raise ParameterError("the profile has corners (extra columns there): tiled_surface takes smooth closed profiles")
+    r, py = h.shape[0], float(hm.pitch[1])
+    y = (length - r * py) / 2 + (np.arange(r) + 0.5) * py  # as map_texture's rows
+    point = np.asarray(prof.at(m.s).point, dtype=np.float32)
+    offset = np.asarray(m.offset, dtype=np.float32)
+    area = 0.5 * float(np.sum(point[:, 0].astype(np.float64) * np.roll(point[:, 1], -1) - np.roll(point[:, 0], -1) * point[:, 1]))
+    base = surface.base if hasattr(surface.base, "faces") and hasattr(surface.base, "vertices") else None
+    if base is None:
+        from ..brep import shape_to_mesh
+
+        base = shape_to_mesh(surface.base)
+    if abs(float(base.volume) - abs(area) * length) > 0.01 * abs(area) * length:
+        raise ParameterError(f"tiled_surface takes a surface whose base is its profile's solid ({abs(area) * length:.0f} mm3); "
+                             f"this base is {float(base.volume):.0f} mm3 (a tube?)")
+    c = len(m.s)
+    nodes = (r + 2, c + 1)
+    side = int(tile) if tile else tile_for_memory(None if max_memory is None else memory_bytes(max_memory), nodes)
+    grid = SurfaceGrid((r, c), y, length, point, offset, side)
+    t = point[1].astype(np.float64) - point[0]
+    normal = np.array([-t[1], t[0]])  # the grid triangles' normal, (x, z)
+    flip = float(normal @ m.offset[0]) < 0
+    reach = float(h.max()) * float(np.hypot(offset[:, 0], offset[:, 1]).max()) + 1e-3
+    ex = Expectation(bodies=1, base=base, height=reach)
+    return TiledSurfaceMesh(grid, h, flip), ex
