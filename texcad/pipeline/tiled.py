@@ -40,6 +40,9 @@ __all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "TiledSurfaceMesh"
 #: the float32 vertices, int64 faces and ids, STL records or 3MF text (measured on
 #: stones, the heaviest built-in, with room to spare).
 BYTES_PER_TILE_NODE = 600.0
+#: Largest block of pixels a built-in texture is sampled in (a side, px): sampling
+#: temporaries stay small, whatever the tile.
+SAMPLE_BLOCK = 1024
 #: Bytes the process needs besides the tile (numpy, texcad, the writer's buffers).
 OVERHEAD = 64 << 20
 
@@ -99,6 +102,7 @@ class _BuiltinSource:
         self.height = float(height)
         self.lo, self.hi = 0.0, 1.0
         self._cache = None
+        block = min(block, SAMPLE_BLOCK)  # the samples do not depend on the blocks (pixel by pixel)
         blocks = [(slice(r0, min(r0 + block, self.shape[0])), slice(c0, min(c0 + block, self.shape[1])))
                   for r0 in range(0, self.shape[0], block) for c0 in range(0, self.shape[1], block)]
         # first pass: the grid's range, per block (min and max are exact over any split), and the
@@ -110,8 +114,7 @@ class _BuiltinSource:
                 with open(cache, "r+b") as fh:
                     fh.truncate(8 * self.shape[0] * self.shape[1])
             ranges = []
-            for b in blocks:  # per block
-                u = self._unit(*b)
+            for b, u in _sampled(self, blocks):  # per block, in order (sampled a block per thread ahead)
                 if cache is not None:
                     rows = self._rows(cache, b[0], "r+")
                     rows[:, b[1]] = u
@@ -172,6 +175,23 @@ class _BuiltinSource:
             u = self._unit(rows, cols)
         u = (u - self.lo) / (self.hi - self.lo) if self.hi > self.lo else np.zeros_like(u)
         return (u * self.height).astype(np.float32)
+
+
+def _sampled(source: "_BuiltinSource", blocks: list) -> Any:
+    """``(block, unit heights)`` in order, sampled on :func:`texcad.util.threads`
+    threads, at most one block per thread ahead of the one handed over."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from ..util import threads
+
+    n = threads()
+    if n < 2 or len(blocks) < 2:
+        for b in blocks:  # per block
+            yield b, source._unit(*b)
+        return
+    with ThreadPoolExecutor(n) as pool:
+        for g in range(0, len(blocks), n):  # per group of blocks, one per thread
+            yield from zip(blocks[g : g + n], pool.map(lambda b: source._unit(*b), blocks[g : g + n]))
 
 
 def _unit_range(source: "_BuiltinSource", block: tuple) -> tuple[float, float, float]:
