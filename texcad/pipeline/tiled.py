@@ -463,24 +463,40 @@ class TiledMesh:
         numbering = Numbering(grid)
         total = grid.count
         for k, (t, v) in enumerate(_tile_vertex_blocks(grid, self.source, self.client)):  # per tile, in order
-            yield t, v, grid.faces(t), numbering.ids(t).ravel()
+            yield t, v, self._faces(t), numbering.ids(t).ravel()
             report(progress, (k + 1) / (total + 1), f"tile {k + 1}/{total}")
+        self.__dict__.pop("_faces_by_shape", None)  # not kept between passes
         yield (None, *walls(grid, numbering, self.thickness))
 
+    def _faces(self, t: Any) -> np.ndarray:
+        """Tile ``t``'s local triangles (:meth:`PlateGrid.faces`), kept for the last two
+        tile shapes (most tiles have one shape: the grid rule is made once for them)."""
+        cache = self.__dict__.setdefault("_faces_by_shape", {})
+        f = cache.get(t.shape)
+        if f is None:
+            if len(cache) >= 2:
+                cache.pop(next(iter(cache)))
+            f = cache[t.shape] = self.grid.faces(t)
+        return f
+
     def write(self, out: "str | os.PathLike", progress: Progress = None, **kwargs: Any) -> tuple[int, float]:
-        """Stream the mesh into ``out`` (.stl / .3mf, atomically): ``(triangles, volume mm^3)``."""
+        """Stream the mesh into ``out`` (.stl / .3mf, atomically): ``(triangles, volume mm^3)``
+        (the volume summed on the way unless the gate has it already)."""
         from ..io.stream import open_stream
         from ..solid.tiles import block_volume
 
+        known = "volume" in self.__dict__
         volume = 0.0
         with open_stream(out, **kwargs) as stream:
             for t, v, f, ids in self.blocks(progress):  # per tile
                 stream.add(v, f, ids)
-                volume += block_volume(v, f) if t is None else self.share(t, v, f)
+                if not known:
+                    volume += block_volume(v, f) if t is None else self.share(t, v, f)
                 del v, f
         report(progress, 1.0, f"wrote {stream.triangles} triangles")
-        self.__dict__["volume"] = volume
-        return stream.triangles, volume
+        if not known:
+            self.__dict__["volume"] = volume
+        return stream.triangles, self.__dict__["volume"]
 
     @property
     def volume(self) -> float:
@@ -740,9 +756,10 @@ class TiledSurfaceMesh(TiledMesh):
         for k, t in enumerate(grid.tiles()):  # per tile, in order
             rows, cols, _ = grid.texture_block(t)
             v = grid.vertices(t, self.heights[rows][:, cols % c0])
-            f = grid.faces(t)
+            f = self._faces(t)
             yield t, v, (f[:, [0, 2, 1]] if self.flip else f), numbering.ids(t).ravel()
             report(progress, (k + 1) / (total + 1), f"tile {k + 1}/{total}")
+        self.__dict__.pop("_faces_by_shape", None)
         yield (None, *caps(grid, numbering))
 
     def share(self, t: Any, v: np.ndarray, f: np.ndarray) -> float:
