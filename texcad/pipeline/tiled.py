@@ -118,7 +118,6 @@ class _BuiltinSource:
                 if cache is not None:
                     rows = self._rows(cache, b[0], "r+")
                     rows[:, b[1]] = u
-                    rows.flush()
                     del rows
                 ranges.append((float(u.min()), float(u.max()), self._weighted(u, *b)))
             self._cache = cache
