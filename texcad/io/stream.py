@@ -1,6 +1,6 @@
 """Streaming writers: binary STL and 3MF written block by block (mm).
 
-A large result (a tiled plate, :mod:`texcad.pipeline.tiled`) is made tile by tile;
+A large result (a tiled plate, :mod:`texcad.targets.tiled`) is made tile by tile;
 these writers take each tile's triangles as it comes, so the whole mesh never sits in
 memory, let alone twice. Both write to a temporary file in the target folder and
 rename it when closed without error (:func:`texcad.util.atomic_path`).

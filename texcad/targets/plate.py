@@ -17,9 +17,9 @@ mesh without a boolean (:func:`texcad.solid.boolean.fuse_on_plane`, checked;
 
 **Tiles.** Where the untiled relief would not fit in the memory available (the
 machine's, or ``max_memory``), a plain plate is made in tiles instead
-(:mod:`texcad.pipeline.tiled`): the relief is the texture's source, read a tile at a
-time, the fused mesh a :class:`~texcad.pipeline.tiled.TiledMesh` that the gate checks
-(:func:`~texcad.pipeline.tiled.gate_tiled`) and the export streams, tile by tile. It
+(:mod:`texcad.targets.tiled`): the relief is the texture's source, read a tile at a
+time, the fused mesh a :class:`~texcad.targets.tiled.TiledMesh` that the gate checks
+(:func:`~texcad.targets.tiled.gate_tiled`) and the export streams, tile by tile. It
 keeps every pixel centre (its error is 0, within any ``tolerance``; ``depth`` is not
 used: the texture is the plate's top) and its rim slopes from the outer pixel centres
 to the plate's edge (``info["fuse"] == "tiled"``). A given ``base`` and ``build_dir``
@@ -195,7 +195,7 @@ class PlateAdapter(Adapter):
     def _tiled(self, placement: Placement, texture: Any, options: Options) -> "Relief | None":
         """The relief in tiles where the untiled one would not fit in the memory
         available, else None (see the module's docstring)."""
-        from ..pipeline.tiled import builtin_grid, plate_source
+        from .tiled import builtin_grid, plate_source
         from ..util import available_memory
 
         pl: PlatePlacement = placement.data
@@ -236,7 +236,7 @@ class PlateAdapter(Adapter):
     def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
         pl: PlatePlacement = placement.data
         if isinstance(relief.data, PlateTiles):
-            from ..pipeline.tiled import TiledMesh
+            from .tiled import TiledMesh
 
             g = relief.data.grid
             options.report(0.45, f"{g.count} tiles of {g.tile} x {g.tile} nodes")
