@@ -306,3 +306,18 @@ def test_tiled_surface_refusals():
         tiled_surface(texcad.Surface.arc(20.0, 90.0, 10.0, 2.0), "builtin:stones", pitch=0.5)
     with pytest.raises(texcad.ParameterError, match="a tube"), pytest.warns(texcad.TexcadWarning):
         tiled_surface(texcad.Surface.cylinder(8.0, 10.0, thickness=2.0), "builtin:stones", pitch=0.5)
+
+
+def test_texture_switches_to_tiles_with_a_heightmap(tmp_path, untiled, monkeypatch):
+    """A Heightmap texture (held whole, its own pitch and heights) takes the tiled path
+    too, with the untiled plate's texture triangles and integral."""
+    _small_budget(monkeypatch)
+    tx = texcad.texture(texcad.Plate(SIZE, THICK), None, untiled.heightmap, max_memory="2GB")
+    assert tx.info["fuse"] == "tiled" and tx.info["grid"] == untiled.heightmap.shape
+    assert np.isclose(tx.gate.expected_volume, untiled.gate.expected_volume, rtol=1e-9)
+    tx.export(tmp_path / "h.stl")
+    tri = _triangles(tmp_path / "h.stl")
+    w, d = SIZE
+    inner = np.all((tri[:, :, 0] > 0) & (tri[:, :, 0] < w) & (tri[:, :, 1] > 0) & (tri[:, :, 1] < d), axis=1)
+    slab = untiled.texture_mesh
+    assert np.array_equal(_key(tri[inner]), _key(slab.vertices[slab.faces[slab.groups["texture"]]]))

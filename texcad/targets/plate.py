@@ -239,10 +239,11 @@ class PlateAdapter(Adapter):
             from .tiled import TiledMesh
 
             g = relief.data.grid
-            options.report(0.45, f"{g.count} tiles of {g.tile} x {g.tile} nodes")
+            options.report(0.45, f"{g.count} tile(s) of up to {g.tile} x {g.tile} nodes")
             info = {"face": "plate", "grid": tuple(relief.data.source.shape), "size": pl.size, "thickness": pl.thickness,
                     "fuse": "tiled", "tiles": g.count, "tile": int(g.tile)}
-            return Fused(TiledMesh(g, relief.data.source, pl.thickness), placement.base, info)
+            told = lambda f, m: options.report(0.92 + 0.07 * f, f"checking the result (texcad's gate): {m}")  # noqa: E731
+            return Fused(TiledMesh(g, relief.data.source, pl.thickness, progress=told), placement.base, info)
         r: PlateRelief = relief.data
         options.report(0.45, f"fusing {r.slab.num_triangles} texture triangles onto the base")
         fused, how = fuse_plate(placement.base, r.slab, relief.heightmap, r.tolerance)

@@ -440,10 +440,12 @@ class TiledMesh:
         source: the texture's heights, block by block (``heights(rows, cols)`` mm).
         thickness: mm; the plate spans z from ``-thickness`` to 0 under the texture.
         client: a ``dask.distributed.Client`` making the tiles' vertices, or None.
+        progress: ``progress(fraction, message)`` told of the gate's tiles, or None.
     """
 
-    def __init__(self, grid: Any, source: Any, thickness: float, client: Any = None) -> None:
+    def __init__(self, grid: Any, source: Any, thickness: float, client: Any = None, progress: Progress = None) -> None:
         self.grid, self.source, self.thickness, self.client = grid, source, float(thickness), client
+        self.progress = progress  # told of the gate's tiles
 
     @property
     def num_vertices(self) -> int:
@@ -650,7 +652,7 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
         raise GeometryError(f"the {what} failed texcad's gate: the tile triangles' open edges are not their border; please report this")
     borders, seam_ids, seam_xyz = [], [], []
     volume, top, farthest, finite = 0.0, -np.inf, 0.0, True
-    for t, v, f, ids in mesh.blocks():  # per tile
+    for t, v, f, ids in mesh.blocks(getattr(mesh, "progress", None)):  # per tile
         finite &= bool(np.isfinite(v).all())
         if t is None:
             volume += block_volume(v, f)
@@ -738,7 +740,7 @@ class TiledSurfaceMesh(TiledMesh):
 
     def __init__(self, grid: Any, heights: np.ndarray, flip: bool = False) -> None:
         self.grid, self.heights, self.flip, self.client = grid, heights, bool(flip), None
-        self.thickness = 0.0
+        self.thickness, self.progress = 0.0, None
 
     @property
     def num_vertices(self) -> int:
