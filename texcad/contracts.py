@@ -89,7 +89,9 @@ class Fused:
     """The textured part's mesh (made by the adapter's ``fuse``).
 
     Attributes:
-        mesh: the fused, closed mesh, mm.
+        mesh: the fused, closed mesh, mm (a :class:`~texcad.solid.Mesh`; a plate too
+            large for memory keeps it as its tiles' recipe,
+            :class:`texcad.pipeline.tiled.TiledMesh`, gated and written tile by tile).
         base_mesh: the base as the texture meshes are measured against (the part's
             mesh, or for meshes the part with every texture at its lowest).
         info: what was done, for people (face kind, grid size, fuse path ...):

@@ -71,3 +71,22 @@ def test_failure_leaves_no_file(tmp_path, part):
     with pytest.raises(texcad.ParameterError, match="faces index vertices"):
         with StlStream(tmp_path / "w.stl") as s:
             s.add(part.vertices[:3], np.array([[0, 1, 3]]))
+
+
+def test_stl_records_made_on_threads_give_the_same_bytes(tmp_path, monkeypatch):
+    """A block of several record chunks is made a chunk per thread and written in
+    order: the bytes do not depend on TEXCAD_THREADS."""
+    from texcad.solid import grid_faces
+
+    n = 300
+    yy, xx = np.mgrid[0:n, 0:n].astype(np.float32)
+    v = np.stack([xx.ravel(), yy.ravel(), np.sin(xx.ravel() * 0.3) * np.cos(yy.ravel() * 0.2)], 1).astype(np.float32)
+    f = grid_faces(n, n).astype(np.int64)  # 178,802 triangles: three chunks
+    out = {}
+    for k in ("1", "2", "3"):
+        monkeypatch.setenv("TEXCAD_THREADS", k)
+        with StlStream(tmp_path / f"t{k}.stl") as s:
+            s.add(v, f)
+            s.add(v, f[:10])
+        out[k] = (tmp_path / f"t{k}.stl").read_bytes()
+    assert out["1"] == out["2"] == out["3"] and len(out["1"]) == 84 + 50 * (len(f) + 10)

@@ -1,7 +1,8 @@
 """The tiled plate: the untiled plate's texture triangles one for one, watertight
 (manifold3d), the volume within the documented rim difference, no duplicate vertex,
-the same file for any tile size; and a plate that does not fit untiled is made under
-an address-space limit."""
+the same file for any tile size; texcad.texture switches to it when the untiled plate
+does not fit, through the driver and the gate (checked tile by tile: a broken seam is
+caught); and a plate that does not fit untiled is made under an address-space limit."""
 
 from __future__ import annotations
 
@@ -92,8 +93,9 @@ def test_refusals(tmp_path):
 
 
 def test_memory_bound_on_a_plate_that_does_not_fit_untiled(tmp_path):
-    """Under an address-space limit of the process (RLIMIT_AS), the untiled plate is
-    refused and the tiled one is written, its peak memory under the limit."""
+    """Under an address-space limit of the process (RLIMIT_AS), the plate through
+    texcad.texture is made in tiles (its untiled relief would not fit) and the tiled
+    one is written, its peak memory under the limit."""
     script = textwrap.dedent(f"""
         import resource, sys
         import build123d, scipy.optimize, scipy.spatial  # libraries loaded first: the limit is for the job's arrays
@@ -104,11 +106,8 @@ def test_memory_bound_on_a_plate_that_does_not_fit_untiled(tmp_path):
             return int(open("/proc/self/status").read().split("VmSize:")[1].split()[0]) * 1024
         limit = vm() + (600 << 20)
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
-        try:
-            textured_plate("builtin:stones", size=(150, 150), thickness=4, pitch=0.125, tolerance=0)
-            print("untiled fitted")
-        except (texcad.ResourceError, MemoryError) as exc:
-            print("untiled refused", type(exc).__name__)
+        print("through texcad.texture:", textured_plate("builtin:stones", size=(150, 150), thickness=4, pitch=0.125,
+                                                        tolerance=0).info["fuse"])
         r = textured_plate_tiled((150, 150), 4, "builtin:stones", 0.125, out={str(tmp_path / "big.stl")!r}, max_memory=600 << 20)
         peak = int(open("/proc/self/status").read().split("VmPeak:")[1].split()[0]) * 1024
         print("tiled", r.grid[0] * r.grid[1], r.tiles, r.triangles, peak <= limit, r.peak_rss)
@@ -116,7 +115,7 @@ def test_memory_bound_on_a_plate_that_does_not_fit_untiled(tmp_path):
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stderr[-2000:]
     lines = out.stdout.split("\n")
-    assert lines[0].startswith("untiled refused"), out.stdout
+    assert lines[0] == "through texcad.texture: tiled", out.stdout
     px, tiles, tris, under, rss = lines[1].split()[1:]
     assert int(px) == 1200 * 1200 and int(tiles) > 1 and under == "True"
     size = (tmp_path / "big.stl").stat().st_size
@@ -132,3 +131,193 @@ def test_tiles_on_a_dask_cluster_give_the_same_bytes(tmp_path):
                                      tile=10, client=client)
     assert there.tiles == here.tiles > 4 and there.volume == here.volume
     assert (tmp_path / "here.3mf").read_bytes() == (tmp_path / "there.3mf").read_bytes()
+
+
+def _small_budget(monkeypatch):
+    """Make the plate adapter's untiled estimate larger than any machine, so that a
+    small plate takes the tiled path (the switch itself is what is tested)."""
+    import texcad.targets.plate as plate
+
+    monkeypatch.setattr(plate, "texture_bytes", lambda pixels, tolerance: 1e18)
+
+
+def test_texture_switches_to_tiles_and_equals_the_untiled_plate(tmp_path, untiled, monkeypatch):
+    _small_budget(monkeypatch)
+    tx = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, max_memory="2GB")
+    assert isinstance(tx, texcad.Textured) and tx.info["fuse"] == "tiled" and tx.heightmap is None and tx.max_error == 0.0
+    g = tx.gate
+    assert g.shells.manifold and g.shells.bodies == 1 and abs(g.volume_change - g.expected_volume) <= g.volume_slack
+    # the texture's integral is the untiled plate's (computed from the first pass, not from a whole heightmap)
+    assert np.isclose(g.expected_volume, untiled.gate.expected_volume, rtol=1e-6)
+    tx.export(tmp_path / "t.stl")
+    tri = _triangles(tmp_path / "t.stl")
+    assert len(tri) == tx.mesh.num_triangles and not list(tmp_path.glob(".*"))
+    w, d = SIZE
+    inner = np.all((tri[:, :, 0] > 0) & (tri[:, :, 0] < w) & (tri[:, :, 1] > 0) & (tri[:, :, 1] < d), axis=1)
+    slab = untiled.texture_mesh
+    assert np.array_equal(_key(tri[inner]), _key(slab.vertices[slab.faces[slab.groups["texture"]]]))
+    # the same triangles as textured_plate_tiled, and a 3MF with each vertex once, closed, of the gate's volume
+    ref = textured_plate_tiled(SIZE, THICK, "builtin:stones", PITCH, height=HEIGHT, out=tmp_path / "r.stl", tile=13)
+    assert np.array_equal(_key(_triangles(tmp_path / "r.stl")), _key(tri)) and np.isclose(ref.volume, tx.volume, rtol=1e-9)
+    tx.export(tmp_path / "t.3mf")
+    m = texcad.io.read_mesh(tmp_path / "t.3mf")
+    assert m.is_watertight and len(m.vertices) == len(np.unique(m.vertices, axis=0)) == tx.mesh.num_vertices
+    assert np.isclose(m.volume, g.shells.volumes[0], rtol=1e-5)
+    whole = tx.mesh.to_mesh()
+    assert whole.is_watertight and np.isclose(whole.volume, tx.volume, rtol=1e-6)
+    with pytest.raises(texcad.GeometryError, match="keeps no separate texture body"):
+        tx.texture_mesh
+
+
+def test_tiles_refused_where_they_are_not_made(monkeypatch):
+    _small_budget(monkeypatch)
+    with pytest.raises(texcad.ResourceError, match=r"build_dir \(the overhang limiter\) is not made in tiles"):
+        texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, build_dir=(0, 0, 1))
+
+
+def test_the_tiled_gate_catches_a_broken_seam(tmp_path, monkeypatch):
+    from texcad.pipeline.tiled import TiledMesh
+
+    _small_budget(monkeypatch)
+    tx = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, max_memory="2GB")
+    good: TiledMesh = tx.stages.fused.mesh
+    ex = tx.stages.adapter.expectation(tx.stages.placement, tx.stages.relief, tx.stages.fused)
+    assert good.gate(ex).shells.closed
+
+    class Shifted(TiledMesh):  # the second tile numbers its first column one node off: a seam that does not meet
+        def blocks(self, progress=None):
+            for k, (t, v, f, ids) in enumerate(super().blocks(progress)):
+                if k == 1:
+                    ids = ids.reshape(t.shape).copy()
+                    ids[1:, 0] = ids[:-1, 0]
+                    ids = ids.ravel()
+                yield t, v, f, ids
+
+    from texcad.solid.tiles import PlateGrid
+
+    grid = PlateGrid(good.grid.size, good.grid.texture_shape, good.grid.pitch, 20)
+    assert TiledMesh(grid, good.source, THICK).gate(ex).shells.closed
+    with pytest.raises(texcad.GeometryError, match="seam vertices differ|not a closed oriented solid"):
+        Shifted(grid, good.source, THICK).gate(ex)
+
+    class Gap(TiledMesh):  # the second tile's first column a micrometre higher: the same numbers, not the same points
+        def blocks(self, progress=None):
+            for k, (t, v, f, ids) in enumerate(super().blocks(progress)):
+                if k == 1:
+                    v = v.reshape(*t.shape, 3).copy()
+                    v[1:-1, 0, 2] += 1e-3
+                    v = v.reshape(-1, 3)
+                yield t, v, f, ids
+
+    with pytest.raises(texcad.GeometryError, match="seam vertices differ"):
+        Gap(grid, good.source, THICK).gate(ex)
+
+    class Lower(TiledMesh):  # a tile lowered by 0.5 mm: the volume no longer matches the texture's integral
+        def blocks(self, progress=None):
+            for k, (t, v, f, ids) in enumerate(super().blocks(progress)):
+                if k == 0:  # inside its border
+                    v = v.reshape(*t.shape, 3).copy()
+                    v[1:-1, 1:-1, 2] -= 0.5
+                    v = v.reshape(-1, 3)
+                yield t, v, f, ids
+
+    with pytest.raises(texcad.GeometryError, match="volume changed by"):
+        Lower(grid, good.source, THICK).gate(ex)
+
+
+def test_texture_under_an_address_space_limit_is_made_in_tiles(tmp_path):
+    """texcad.texture on a plate whose untiled relief needs more than max_memory (and
+    than the process may map: RLIMIT_AS) completes in tiles, gated, its STL streamed."""
+    out = tmp_path / "big.stl"
+    script = textwrap.dedent(f"""
+        import resource
+        import build123d, scipy.optimize, scipy.spatial  # libraries loaded first: the limit is for the job's arrays
+        import texcad
+        texcad.Plate((10, 10), 4)
+        def vm():
+            return int(open("/proc/self/status").read().split("VmSize:")[1].split()[0]) * 1024
+        limit = vm() + (600 << 20)
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+        tx = texcad.texture(texcad.Plate((150, 150), 4), None, "builtin:stones", pitch=0.125, max_memory=600 << 20)
+        tx.export({str(out)!r})
+        peak = int(open("/proc/self/status").read().split("VmPeak:")[1].split()[0]) * 1024
+        print(tx.info["fuse"], tx.info["tiles"], tx.info["grid"][0] * tx.info["grid"][1], tx.mesh.num_triangles,
+              tx.gate.shells.closed, abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack, peak <= limit)
+    """)
+    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr[-2000:]
+    how, tiles, px, tris, closed, volume_ok, under = res.stdout.split()
+    assert how == "tiled" and int(tiles) > 1 and int(px) == 1200 * 1200
+    assert closed == volume_ok == under == "True"
+    assert out.stat().st_size == 84 + 50 * int(tris)
+
+
+def test_a_full_cylinder_in_tiles_has_the_untiled_texture_vertices(tmp_path):
+    """A tiled curved face: Surface.cylinder textured in tiles along its unwrapped grid
+    (the seam column shared), every texture vertex the untiled slab's top grid vertex
+    bit for bit, closed (the gate tile by tile, trimesh on the 3MF), the volume the
+    untiled one's within the documented end difference, the same for any tile size."""
+    import warnings
+
+    from texcad.pipeline.tiled import tiled_surface
+
+    surf = texcad.Surface.cylinder(8.0, 12.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the texture scaled to whole repeats round the cylinder (both paths)
+        untiled = texcad.texture(surf, None, "builtin:stones", pitch=0.5, height=0.6, tolerance=0)
+        mesh, ex = tiled_surface(surf, "builtin:stones", pitch=0.5, height=0.6, tile=9)
+    top = untiled.stages.relief.mapped.top
+    r, c = mesh.grid.texture_shape
+    assert top.shape == (r, c, 3) and mesh.grid.count > 4
+    seen = np.zeros((r, c), bool)
+    for t, v, f, ids in mesh.blocks():  # every tile's texture vertices against the untiled grid
+        if t is None:
+            continue
+        rows, cols, nrs = mesh.grid.texture_block(t)
+        mine = v.reshape(*t.shape, 3)[nrs]
+        assert np.array_equal(mine, top[rows][:, cols % c])
+        seen[rows, cols % c] = True
+    assert seen.all()
+    g = mesh.gate(ex)
+    assert g.shells.closed and g.shells.bodies == 1 and g.farthest_mm <= 0.6 + 1e-5
+    mesh.write(tmp_path / "cyl.3mf")
+    back = texcad.io.read_mesh(tmp_path / "cyl.3mf")
+    assert back.is_watertight and len(back.vertices) == mesh.num_vertices == len(np.unique(back.vertices, axis=0))
+    assert len(back.faces) == mesh.num_triangles and np.isclose(back.volume, mesh.volume, rtol=1e-6)
+    # the ends: the untiled slab ends in walls at the first and last row; the tiled surface slopes from there to
+    # the profile at y = 0 and length: at most 2 x perimeter x (margin + py / 2) x height / 2
+    py = float(untiled.stages.relief.mapped.heightmap.pitch[1])
+    margin = (12.0 - r * py) / 2 + py / 2
+    bound = 2 * surf.profile.length * margin * 0.6 / 2
+    assert 0 <= mesh.volume - untiled.mesh.volume <= bound, (mesh.volume, untiled.mesh.volume, bound)
+    whole = mesh.to_mesh()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        other, _ = tiled_surface(surf, "builtin:stones", pitch=0.5, height=0.6, tile=31)
+    assert other.grid.count < mesh.grid.count
+    o = other.to_mesh()
+    assert np.array_equal(_key(o.vertices[o.faces]), _key(whole.vertices[whole.faces]))
+
+
+def test_tiled_surface_refusals():
+    from texcad.pipeline.tiled import tiled_surface
+
+    with pytest.raises(texcad.ParameterError, match="closed profile"):
+        tiled_surface(texcad.Surface.arc(20.0, 90.0, 10.0, 2.0), "builtin:stones", pitch=0.5)
+    with pytest.raises(texcad.ParameterError, match="a tube"), pytest.warns(texcad.TexcadWarning):
+        tiled_surface(texcad.Surface.cylinder(8.0, 10.0, thickness=2.0), "builtin:stones", pitch=0.5)
+
+
+def test_texture_switches_to_tiles_with_a_heightmap(tmp_path, untiled, monkeypatch):
+    """A Heightmap texture (held whole, its own pitch and heights) takes the tiled path
+    too, with the untiled plate's texture triangles and integral."""
+    _small_budget(monkeypatch)
+    tx = texcad.texture(texcad.Plate(SIZE, THICK), None, untiled.heightmap, max_memory="2GB")
+    assert tx.info["fuse"] == "tiled" and tx.info["grid"] == untiled.heightmap.shape
+    assert np.isclose(tx.gate.expected_volume, untiled.gate.expected_volume, rtol=1e-9)
+    tx.export(tmp_path / "h.stl")
+    tri = _triangles(tmp_path / "h.stl")
+    w, d = SIZE
+    inner = np.all((tri[:, :, 0] > 0) & (tri[:, :, 0] < w) & (tri[:, :, 1] > 0) & (tri[:, :, 1] < d), axis=1)
+    slab = untiled.texture_mesh
+    assert np.array_equal(_key(tri[inner]), _key(slab.vertices[slab.faces[slab.groups["texture"]]]))

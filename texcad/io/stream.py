@@ -1,6 +1,6 @@
 """Streaming writers: binary STL and 3MF written block by block (mm).
 
-A large result (a tiled plate, :mod:`texcad.pipeline.tiled`) is made tile by tile;
+A large result (a tiled plate, :mod:`texcad.targets.tiled`) is made tile by tile;
 these writers take each tile's triangles as it comes, so the whole mesh never sits in
 memory, let alone twice. Both write to a temporary file in the target folder and
 rename it when closed without error (:func:`texcad.util.atomic_path`).
@@ -26,13 +26,14 @@ import os
 import shutil
 import tempfile
 import zipfile
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Iterable, Optional
 
 import numpy as np
 
 from ..errors import GeometryError, ParameterError
-from ..util import atomic_path
+from ..util import atomic_path, threads
 from .export import _CT, _RELS, _STL_CHUNK, _STL_DTYPE, _stl_records, _triangle_rows, _vertex_rows, _xml_escape, _zip_info
 
 __all__ = ["StlStream", "ThreeMFStream", "open_stream"]
@@ -110,16 +111,30 @@ class StlStream(_Stream):
         if head.lower().startswith(b"solid"):
             raise ParameterError("an STL header must not start with 'solid'")
         super().__init__(path)
+        self._pool: "ThreadPoolExecutor | None" = None
         self._fh = open(self._tmp, "wb")
         self._fh.write(head)
         self._fh.write(b"\0\0\0\0")
 
     def add(self, vertices: np.ndarray, faces: np.ndarray, ids: Optional[np.ndarray] = None) -> None:
         v, f = self._check(vertices, faces)
-        for a in range(0, len(f), _STL_CHUNK):  # per chunk of records
+        n = threads()
+
+        def records(a: int) -> np.ndarray:
             rec = np.empty(min(_STL_CHUNK, len(f) - a), dtype=_STL_DTYPE)
             _stl_records(v, f[a : a + _STL_CHUNK], rec)
-            rec.tofile(self._fh)
+            return rec
+
+        starts = list(range(0, len(f), _STL_CHUNK))
+        if n > 1 and len(starts) > 1:  # a chunk per thread at a time, written in order: the same bytes
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(n)
+            for g in range(0, len(starts), n):  # per group of chunks
+                for rec in self._pool.map(records, starts[g : g + n]):
+                    rec.tofile(self._fh)
+        else:
+            for a in starts:  # per chunk of records
+                records(a).tofile(self._fh)
         self.triangles += len(f)
         if self.triangles >= 1 << 32:
             raise ParameterError("an STL holds at most 2^32 - 1 triangles; write .3mf")
@@ -127,9 +142,12 @@ class StlStream(_Stream):
     def _finish(self) -> None:
         self._fh.seek(80)
         self._fh.write(np.uint32(self.triangles).tobytes())
-        self._fh.close()
+        self._release()
 
     def _release(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
         self._fh.close()
 
 

@@ -21,6 +21,7 @@ from ..contracts import Stages
 from ..errors import ParameterError
 from ..options import Options
 from ..report.gate import gate
+from ..solid import Mesh
 from ..targets import ADAPTERS, Decline
 from ..util import memory_limit
 from .result import Textured
@@ -65,7 +66,9 @@ def run(target: Any, where: Any, texture: Any, options: Options) -> Textured:
             relief = adapter.relief(placement, texture, options)
             fused = adapter.fuse(placement, relief, options)
             options.report(0.92, "checking the result (texcad's gate)")
-            report = gate(fused.mesh, adapter.expectation(placement, relief, fused))
+            ex = adapter.expectation(placement, relief, fused)
+            # a mesh kept in tiles (a plate too large for memory, texcad.pipeline.tiled) is gated tile by tile
+            report = gate(fused.mesh, ex) if isinstance(fused.mesh, Mesh) else fused.mesh.gate(ex)
             options.report(1.0, "textured")
             return Textured(Stages(adapter, options, placement, relief, fused, report))
     if declined is not None:  # every adapter that took the target declined it on a closer look

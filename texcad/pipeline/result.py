@@ -342,6 +342,10 @@ class Textured:
             write_3mf([("base", self.base_mesh)] + list(zip(names, layers)), p, name=name or p.stem,
                       build_dir=None if d is None else d[0])  # placed on the bed as printed
             return p
+        write = getattr(self._mesh, "write", None) if self._derived is None and self.is_unmoved else None
+        if write is not None and not separate_texture and p.suffix.lower() in (".stl", ".3mf"):
+            write(p, **({} if p.suffix.lower() == ".stl" else {"name": name or p.stem}))  # kept in tiles: streamed
+            return p
         return export(self, p, separate_texture=separate_texture, name=name)
 
     def render(self, path: "str | os.PathLike", **kwargs: Any) -> Path:

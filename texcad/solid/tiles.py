@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import ParameterError
 from .grid import grid_faces
 
-__all__ = ["PlateGrid", "Tile", "Numbering", "walls", "block_volume"]
+__all__ = ["PlateGrid", "Tile", "Numbering", "walls", "block_volume", "SurfaceGrid", "WrapNumbering", "caps"]
 
 
 @dataclass(frozen=True)
@@ -251,3 +251,112 @@ def block_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
     a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
     area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
     return float(np.dot(area2, a[:, 2] + b[:, 2] + c[:, 2]) / 6.0)
+
+
+@dataclass(frozen=True)
+class SurfaceGrid:
+    """The node grid of a closed 2.5D surface (a closed profile in the XZ plane
+    extruded along +y from 0 to ``length`` mm, :class:`texcad.Surface`), cut into
+    tiles as :class:`PlateGrid`: node rows are the ends (y = 0 and ``length``, on the
+    profile itself) around the texture's ``R`` rows; node columns are the texture's
+    ``C`` columns and, last, column 0 again (the seam: the same vertices, numbered
+    once by :class:`WrapNumbering`).
+
+    Attributes:
+        texture_shape: ``(R, C)`` texture pixels (C: around the whole profile).
+        y: ``(R,)`` float64 y of the texture rows, mm.
+        length: the extrusion's length, mm.
+        point: ``(C, 2)`` float32 (x, z) of each column on the profile, mm.
+        offset: ``(C, 2)`` float32 (x, z) offset per mm of height of each column.
+        tile: nodes per tile side.
+    """
+
+    texture_shape: tuple
+    y: np.ndarray
+    length: float
+    point: np.ndarray
+    offset: np.ndarray
+    tile: int
+
+    @property
+    def nodes(self) -> tuple[int, int]:
+        """``(R + 2, C + 1)``."""
+        return self.texture_shape[0] + 2, self.texture_shape[1] + 1
+
+    tiles = PlateGrid.tiles
+    count = PlateGrid.count
+    faces = PlateGrid.faces
+
+    def ys(self, i0: int, i1: int) -> np.ndarray:
+        """y (mm, float32) of node rows ``i0..i1``: 0, the texture rows, ``length``."""
+        r = self.texture_shape[0]
+        i = np.arange(i0, i1 + 1)
+        y = np.where(i == 0, 0.0, np.where(i == r + 1, float(self.length), self.y[np.clip(i - 1, 0, r - 1)]))
+        return y.astype(np.float32)
+
+    def texture_block(self, t: Tile) -> tuple[slice, np.ndarray, slice]:
+        """``(rows, cols, node_rows)``: the texture rows inside tile ``t``, the texture
+        column of each of its node columns (column ``C`` is column 0) and where the
+        rows go in the tile's node array."""
+        r, c = self.texture_shape
+        a, b = max(t.i0, 1), min(t.i1, r)
+        return slice(a - 1, b), np.arange(t.j0, t.j1 + 1) % c, slice(a - t.i0, b - t.i0 + 1)
+
+    def vertices(self, t: Tile, heights: np.ndarray) -> np.ndarray:
+        """``(r c, 3)`` float32 vertices of tile ``t`` from its texture rows'
+        ``heights`` (mm, ``(rows, r_cols)`` for :meth:`texture_block`'s columns):
+        ``P + h offset`` as :func:`texcad.mapping.map_texture` computes its top grid
+        (float32, the same operations), ``P`` on the end rows."""
+        rows, cols, nrs = self.texture_block(t)
+        h = np.zeros((t.shape[0], len(cols)), dtype=np.float32)
+        h[nrs] = heights
+        v = np.empty(t.shape + (3,), dtype=np.float32)
+        off, pt = self.offset[cols], self.point[cols]
+        v[..., 0] = h * off[:, 0]
+        v[..., 0] += pt[:, 0]
+        v[..., 1] = self.ys(t.i0, t.i1)[:, None]
+        v[..., 2] = h * off[:, 1]
+        v[..., 2] += pt[:, 1]
+        return v.reshape(-1, 3)
+
+
+class WrapNumbering(Numbering):
+    """:class:`Numbering` for a :class:`SurfaceGrid`: the last node column is column
+    0 again, so it takes the numbers column 0 got (in the first tile of the same row
+    of tiles) and no new ones."""
+
+    def ids(self, t: Tile) -> np.ndarray:
+        nr, nc = self.grid.nodes
+        if t.j1 != nc - 1:
+            return super().ids(t)
+        inner = Tile(t.i0, t.i1, t.j0, t.j1 - 1)
+        ids = np.empty(t.shape, dtype=np.int64)
+        ids[:, :-1] = super().ids(inner)
+        ids[:, -1] = self.ring["left"][t.i0 : t.i1 + 1]
+        self._below[t.j1] = ids[-1, -1]
+        if t.i0 == 0:
+            self.ring["bottom"][t.j1] = ids[0, -1]
+        if t.i1 == nr - 1:
+            self.ring["top"][t.j1] = ids[-1, -1]
+        self.ring["right"][t.i0 : t.i1 + 1] = ids[:, -1]
+        return ids
+
+
+def caps(grid: SurfaceGrid, numbering: WrapNumbering) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The two end caps closing a :class:`SurfaceGrid`'s surface into a solid (the
+    profile's interior at y = 0 and y = ``length``, facing -y and +y):
+    ``(vertices, faces, ids)`` as the streaming writers take them, on the end rows'
+    nodes (already numbered), the profile polygon triangulated by manifold3d."""
+    import manifold3d
+
+    r, c = grid.texture_shape
+    p = grid.point.astype(np.float64)
+    area = 0.5 * float(np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]))
+    order = np.arange(c) if area > 0 else np.arange(c)[::-1]  # counter-clockwise in (x, z)
+    tri = order[np.asarray(manifold3d.triangulate([p[order]]), dtype=np.int64).reshape(-1, 3)]
+    lo = tri  # counter-clockwise in (x, z): the normal x cross z = -y
+    v = np.concatenate([np.column_stack([grid.point[:, 0], np.zeros(c, np.float32), grid.point[:, 1]]),
+                        np.column_stack([grid.point[:, 0], np.full(c, np.float32(grid.length)), grid.point[:, 1]])])
+    ids = np.concatenate([numbering.ring["bottom"][:c], numbering.ring["top"][:c]])
+    faces = np.concatenate([lo, lo[:, [0, 2, 1]] + c])
+    return v.astype(np.float32), faces, ids

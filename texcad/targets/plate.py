@@ -14,6 +14,16 @@ centres (lean within ``tolerance``; all of them with ``tolerance=0``), reaching
 **Fuse.** A lean slab on a base with nothing above z = 0 is stitched into the plate's
 mesh without a boolean (:func:`texcad.solid.boolean.fuse_on_plane`, checked;
 ``info["fuse"]`` says how); otherwise manifold3d's union. No B-rep (write STL / 3MF).
+
+**Tiles.** Where the untiled relief would not fit in the memory available (the
+machine's, or ``max_memory``), a plain plate is made in tiles instead
+(:mod:`texcad.targets.tiled`): the relief is the texture's source, read a tile at a
+time, the fused mesh a :class:`~texcad.targets.tiled.TiledMesh` that the gate checks
+(:func:`~texcad.targets.tiled.gate_tiled`) and the export streams, tile by tile. It
+keeps every pixel centre (its error is 0, within any ``tolerance``; ``depth`` is not
+used: the texture is the plate's top) and its rim slopes from the outer pixel centres
+to the plate's edge (``info["fuse"] == "tiled"``). A given ``base`` and ``build_dir``
+are not tiled: those are refused as before.
 """
 
 from __future__ import annotations
@@ -88,6 +98,16 @@ class PlatePlacement:
 
 
 @dataclass(frozen=True)
+class PlateTiles:
+    """The relief of a plate made in tiles (``Relief.data``): the node ``grid``
+    (:class:`texcad.solid.tiles.PlateGrid`) and the texture's ``source`` (its
+    ``heights(rows, cols)`` in mm, a block at a time)."""
+
+    grid: Any
+    source: Any
+
+
+@dataclass(frozen=True)
 class PlateRelief:
     """The slab on the plate (``Relief.data``): the closed slab mesh (mm, its top at
     the texture's pixel centres, group ``"texture"``), its ``origin`` (the corner of
@@ -133,6 +153,9 @@ class PlateAdapter(Adapter):
         pl: PlatePlacement = placement.data
         w, d = pl.size
         options.report(0.05, "loading texture")
+        tiled = self._tiled(placement, texture, options)
+        if tiled is not None:
+            return tiled
         if isinstance(texture, Heightmap):  # its own pitch, and its own heights unless told
             hm = texture if "height" not in options.given else load_texture(texture, height=options.height)
         else:
@@ -169,8 +192,58 @@ class PlateAdapter(Adapter):
             nominal_volume=nominal, reach=float(hm.heights.max()) + 1e-3, data=PlateRelief(slab, origin, float(tolerance)),
         )
 
+    def _tiled(self, placement: Placement, texture: Any, options: Options) -> "Relief | None":
+        """The relief in tiles where the untiled one would not fit in the memory
+        available, else None (see the module's docstring)."""
+        from .tiled import builtin_grid, plate_source
+        from ..util import available_memory
+
+        pl: PlatePlacement = placement.data
+        w, d = pl.size
+        if isinstance(texture, Heightmap):
+            shape = texture.shape
+        else:
+            shape = builtin_grid(texture, (w, d), options.pitch)
+            if shape is None:  # an image: its pixels at this pitch (loaded once more by the source)
+                shape = (int(d / options.pitch), int(w / options.pitch))
+        need = texture_bytes(shape[0] * shape[1], options.tolerance)
+        if need <= available_memory():
+            return None
+        what = f"a {shape[0]} x {shape[1]} px texture on the plate"
+        if options.directions is not None or not _is_box(placement.base, w, d, pl.thickness):
+            why = "build_dir (the overhang limiter)" if options.directions is not None else "a plate with its own base"
+            require_memory(need, what, f"{why} is not made in tiles; use pitch >= "
+                                       f"{fitting_pitch(options.pitch, need):.3g} mm")
+        options.report(0.1, f"{what}: made in tiles")
+        height: Any = options.height
+        if isinstance(texture, Heightmap):  # as the untiled plate: its own pixels, and its own heights unless told
+            from ..sources import load_texture
+
+            texture = texture if "height" not in options.given else load_texture(texture, height=options.height)
+            height = None
+        source, side = plate_source(texture, (w, d), options.pitch, height, bound=options.max_memory,
+                                    progress=lambda f, m: options.report(0.1 + 0.3 * f, m))
+        from ..solid.tiles import PlateGrid
+
+        grid = PlateGrid((w, d), source.shape, source.pitch, side)
+        vol, slack = source.integral()
+        (r, c), (px, py) = source.shape, source.pitch
+        top = float(source.hm.heights.max()) if height is None else float(height)
+        rim = 2 * (w + d) * (max(w - c * px, d - r * py) / 2 + max(px, py) / 2) * top / 2  # the sloped rim (tiled.py)
+        return Relief(heightmap=None, limits=None, volume=vol, volume_slack=slack + rim + 1e-3 * abs(vol), nominal_volume=vol,
+                      reach=top + 1e-3, max_error=0.0, data=PlateTiles(grid, source))
+
     def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
         pl: PlatePlacement = placement.data
+        if isinstance(relief.data, PlateTiles):
+            from .tiled import TiledMesh
+
+            g = relief.data.grid
+            options.report(0.45, f"{g.count} tile(s) of up to {g.tile} x {g.tile} nodes")
+            info = {"face": "plate", "grid": tuple(relief.data.source.shape), "size": pl.size, "thickness": pl.thickness,
+                    "fuse": "tiled", "tiles": g.count, "tile": int(g.tile)}
+            told = lambda f, m: options.report(0.92 + 0.07 * f, f"checking the result (texcad's gate): {m}")  # noqa: E731
+            return Fused(TiledMesh(g, relief.data.source, pl.thickness, progress=told), placement.base, info)
         r: PlateRelief = relief.data
         options.report(0.45, f"fusing {r.slab.num_triangles} texture triangles onto the base")
         fused, how = fuse_plate(placement.base, r.slab, relief.heightmap, r.tolerance)
@@ -179,6 +252,9 @@ class PlateAdapter(Adapter):
 
     def texture_mesh(self, stages: Stages) -> Mesh:
         """The slab itself (it reaches ``depth`` mm into the plate), mm."""
+        if isinstance(stages.relief.data, PlateTiles):
+            raise GeometryError("a plate made in tiles keeps no separate texture body (it does not fit in memory); "
+                                "write the part's STL or 3MF, or use a coarser pitch")
         return stages.relief.data.slab
 
     def max_error(self, stages: Stages) -> float:
@@ -189,6 +265,12 @@ class PlateAdapter(Adapter):
 
     def brep(self, stages: Stages, fine: Any = None) -> Any:
         raise GeometryError("a textured plate has no B-rep (its texture is a mesh); write STL or 3MF instead")
+
+
+def _is_box(mesh: Mesh, w: float, d: float, t: float) -> bool:
+    """Whether ``mesh`` is the plain plate ``[0, w] x [0, d] x [-t, 0]`` mm."""
+    b = np.asarray(mesh.bounds, dtype=np.float64)
+    return bool(np.allclose(b, [[0, 0, -t], [w, d, 0]], atol=1e-6) and abs(float(mesh.volume) - w * d * t) <= 1e-6 * w * d * t)
 
 
 def fuse_plate(base_mesh: Mesh, slab: Mesh, hm: Heightmap, tolerance: float) -> "tuple[Mesh, str]":
