@@ -88,7 +88,9 @@ def texture(
             set (the message names the zone).
         InputError: an unreadable or broken input file.
         GeometryError: the texture cannot be made, or the result failed the gate.
-        ResourceError: more memory than the machine (or ``max_memory``) allows.
+        ResourceError: more memory than the machine (or ``max_memory``) allows; the
+            message names the finest pitch that fits. A :class:`~texcad.Plate` too
+            large for memory is textured in tiles instead (:mod:`texcad.targets.tiled`).
     """
     o = Options.make(**options)
     if not isinstance(texture, Heightmap):
