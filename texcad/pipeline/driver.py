@@ -22,6 +22,7 @@ from ..errors import ParameterError
 from ..options import Options
 from ..report.gate import gate
 from ..targets import ADAPTERS, Decline
+from ..brep.budget import require_faces_memory
 from ..util import memory_limit
 from .result import Textured
 
@@ -52,6 +53,7 @@ def run(target: Any, where: Any, texture: Any, options: Options) -> Textured:
             memory than allowed (ResourceError).
     """
     with memory_limit(options.max_memory):
+        require_faces_memory(target, where, texture, options)  # CAD faces: memory estimated before any allocation
         declined = None
         for adapter in ADAPTERS:  # asked in order (lazily: a mesh never loads OCCT); the first that does not decline
             if not adapter.accepts(target, where, options):
