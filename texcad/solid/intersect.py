@@ -22,6 +22,8 @@ bodies that overlap in volume always also cross somewhere.
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 
 from ..util import argsort_ints, colmax, colmin, rowdot, rowmax, rownorm
@@ -137,6 +139,24 @@ def self_intersections(vertices: np.ndarray, faces: np.ndarray, *, budget: int =
     f = np.asarray(faces, dtype=np.int64)
     if len(f) < 2:
         return np.zeros((0, 2), dtype=np.int64)
+    global _LAST
+    digest = hashlib.blake2b(np.ascontiguousarray(v).tobytes() + np.ascontiguousarray(f).tobytes(), digest_size=16).digest()
+    key = (digest, v.shape, f.shape, budget)
+    last = _LAST
+    if last is not None and last[0] == key:
+        return last[1].copy()
+    out = _self_intersections(v, f, budget)
+    _LAST = (key, out)
+    return out.copy()
+
+
+#: The last mesh tested and its answer: the mesh adapter tests a mesh when it reads it
+#: (to repair small crossings) and again beside the displacement; the second is free.
+_LAST: "tuple | None" = None
+
+
+def _self_intersections(v: np.ndarray, f: np.ndarray, budget: int) -> np.ndarray:
+    """:func:`self_intersections` without its memory of the last mesh."""
     tri = np.take(v, f, axis=0)
     lo = np.minimum(np.minimum(tri[:, 0], tri[:, 1]), tri[:, 2])
     hi = np.maximum(np.maximum(tri[:, 0], tri[:, 1]), tri[:, 2])
