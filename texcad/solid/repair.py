@@ -200,8 +200,13 @@ MAX_VOLUME_CHANGE = 0.01
 #: ...and the crossing triangles hold at most this share of the surface area; beyond, the
 #: mesh is refused (a fold, overlapping bodies: what the user must decide).
 MAX_CROSSING_AREA = 0.5
-#: Vertex merge distances (mm) tried, in order, on the union's vertices rounded to float32.
-MERGE = (1e-8, 1e-5)
+#: Vertex merge distances (mm) tried, in order, on the union's vertices rounded to float32: the
+#: coarsest first, which also closes the union's edges of a few nm (new vertices beside old
+#: ones) that the displacement cannot keep apart in float32.
+MERGE = (1e-4, 1e-5, 1e-8)
+#: A repaired mesh with an edge shorter than this (mm) is not used: displaced and written
+#: in float32 its ends can meet (the test meshes: 9e-5 mm textures, 2e-6 mm tears).
+MIN_EDGE = 2e-5
 
 
 def _shell_count(f: np.ndarray) -> int:
@@ -325,7 +330,7 @@ def resolve_crossings(vertices: np.ndarray, faces: np.ndarray, *, name: str = "t
     uv, uf, _ = cgal.mesh_boolean(v, f, np.zeros((0, 3)), np.zeros((0, 3), np.int64), "union")
     uv = uv.astype(np.float32).astype(np.float64)  # vertices as the output will hold them: ones that meet merge now
     before, shells = _volume(v, f), int(_shell_count(f))
-    for merge in MERGE:  # the union's new vertices may lie closer than float32 tells apart: merged at the finest that works
+    for merge in MERGE:  # the union's new vertices may lie closer than float32 tells apart: merged at the coarsest that works
         try:
             rv, rf, bodies = repair_closed(uv, uf, merge=merge, name=name)
             if bodies > 1:  # the union may leave slivers of no volume where surfaces met: dropped
@@ -339,8 +344,10 @@ def resolve_crossings(vertices: np.ndarray, faces: np.ndarray, *, name: str = "t
     after = _volume(rv, rf)
     if abs(after - before) > MAX_VOLUME_CHANGE * abs(before) or bodies > shells:  # a large change, or bodies split off
         return v, f, None
-    if split_pinches(rv, rf)[2]:  # the outer surface touches itself at a vertex: displacing it would tear it
+    e = rf[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    if np.linalg.norm(rv[e[:, 0]] - rv[e[:, 1]], axis=1).min() < MIN_EDGE:  # edges the displacement cannot keep apart
         return v, f, None
+    rv, rf, _ = split_pinches(rv, rf)  # the outer surface touches itself at a vertex: one vertex per fan
     return rv, rf, CrossingRepair(int(len(cross)), (int(len(f)), int(len(rf))), (before, after), int(bodies))
 
 
