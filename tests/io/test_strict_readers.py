@@ -131,3 +131,32 @@ def test_huge_image_is_an_input_error(tmp_path, monkeypatch):
     monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", 1000)  # 10000 px is then a "decompression bomb"
     with pytest.raises(InputError, match="too large.*scale it down"):
         read_gray(p)
+
+
+# --- images: a multi-page TIFF, NaN pixels (issue 27) -----------------------------------
+
+def test_a_multi_page_tiff_is_refused_naming_its_pages(tmp_path):
+    from PIL import Image
+
+    from texcad.sources.image import read_gray
+
+    pages = [Image.fromarray((np.arange(64).reshape(8, 8) * k).astype(np.uint8)) for k in (1, 2, 3)]
+    p = tmp_path / "stack.tif"
+    pages[0].save(p, save_all=True, append_images=pages[1:])
+    with pytest.raises(InputError, match=r"stack\.tif' holds 3 pages .*save the page you want"):
+        read_gray(p)
+    pages[1].save(tmp_path / "one.tif")  # one page: read as it is
+    assert read_gray(tmp_path / "one.tif")[-1, 1] == pytest.approx(2 / 255)
+
+
+def test_nan_pixels_of_a_float_tiff_are_refused_with_their_place(tmp_path):
+    from PIL import Image
+
+    from texcad.sources.image import read_gray
+
+    a = np.full((4, 4), 0.5, np.float32)
+    a[1, 2] = np.nan
+    p = tmp_path / "nan.tif"
+    Image.fromarray(a, mode="F").save(p)
+    with pytest.raises(InputError, match=r"nan\.tif'.*1 NaN or infinite pixels \(the first at row 1, column 2"):
+        read_gray(p)
