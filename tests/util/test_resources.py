@@ -147,3 +147,24 @@ def test_a_huge_picture_is_refused_naming_a_width_that_fits(tmp_path):
         assert 100 < w < 200000
         render_part(mesh, tmp_path / "x.png", width=w)
     assert (tmp_path / "x.png").stat().st_size > 0
+
+
+def test_a_large_image_is_refused_before_decoding_naming_a_size_that_fits(tmp_path):
+    import numpy as np
+    from PIL import Image
+
+    from texcad.sources.image import read_gray
+    from texcad.util import memory_limit
+    from texcad.util.resources import _rss
+
+    p = tmp_path / "big.png"
+    Image.fromarray(np.zeros((3000, 4000), np.uint8)).save(p)  # 12 Mpx: 480 MB to read
+    with memory_limit(_rss() + 100 * 2**20):
+        exc = _refused_quickly(lambda: read_gray(p))
+        import re
+
+        w, h = map(int, re.search(r"at most (\d+) x (\d+) px", str(exc)).groups())
+        assert w < 4000 and h < 3000 and abs(w / h - 4 / 3) < 0.01
+        small = tmp_path / "small.png"
+        Image.fromarray(np.zeros((h, w), np.uint8)).save(small)
+        assert read_gray(small).shape == (h, w)  # the size named fits

@@ -65,6 +65,7 @@ def read_gray(path: str | os.PathLike, *, alpha: str = "black") -> np.ndarray:
                     f"image {str(p)!r} holds {pages} pages (frames); texcad reads one: save the page you want as an "
                     "image of its own (e.g. PIL: Image.open(path).seek(k); .save('page.png')) and pass that"
                 )
+            _require_image_memory(p, im.size, len(im.getbands()))
             im.load()
             arr = _to_unit_gray(im)
             opacity = _opacity(im) if alpha != "ignore" else None
@@ -88,6 +89,28 @@ def read_gray(path: str | os.PathLike, *, alpha: str = "black") -> np.ndarray:
     if opacity is not None:
         arr = arr * opacity if alpha == "black" else arr * opacity + (1.0 - opacity)
     return np.ascontiguousarray(arr[::-1])
+
+
+#: Peak bytes per pixel and band of :func:`read_gray`: Pillow's decoded image, its float64
+#: copy, the luminance, the opacity and the flipped result.
+IMAGE_BYTES = 40
+
+
+def _require_image_memory(p: Path, size: tuple, bands: int) -> None:
+    """ResourceError naming the largest image that fits, before a ``size`` (w, h) px
+    image of ``bands`` channels is decoded."""
+    from ..errors import ResourceError
+    from ..util import available_memory
+
+    w, h = size
+    need, have = float(IMAGE_BYTES) * max(bands, 1) * w * h, available_memory()
+    if need > have:
+        k = (have / (1.2 * need)) ** 0.5
+        raise ResourceError(
+            f"reading image {str(p)!r} ({w} x {h} px, {bands} channel(s)) needs about {need / 2**30:.1f} GiB of memory but "
+            f"this machine has {have / 2**30:.1f} GiB available; scale it down to at most {max(int(w * k), 1)} x "
+            f"{max(int(h * k), 1)} px (one tile of the texture needs no more)"
+        )
 
 
 def _opacity(im) -> np.ndarray | None:
