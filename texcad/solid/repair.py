@@ -200,9 +200,9 @@ MAX_VOLUME_CHANGE = 0.01
 #: ...and the crossing triangles hold at most this share of the surface area; beyond, the
 #: mesh is refused (a fold, overlapping bodies: what the user must decide).
 MAX_CROSSING_AREA = 0.5
-#: Vertex merge distances (mm) tried, in order, on the union's vertices rounded to float32: the
-#: coarsest first, which also closes the union's edges of a few nm (new vertices beside old
-#: ones) that the displacement cannot keep apart in float32.
+#: Distances (mm) within which the union's vertices (rounded to float32) are snapped together
+#: (:func:`_snap`), tried in order: the coarsest first, which also closes the union's edges
+#: of a few nm (new vertices beside old ones) that the displacement cannot keep apart.
 MERGE = (1e-4, 1e-5, 1e-8)
 #: A repaired mesh with an edge shorter than this (mm) is not used: displaced and written
 #: in float32 its ends can meet (the test meshes: 9e-5 mm textures, 2e-6 mm tears).
@@ -291,6 +291,33 @@ def _without_slivers(v: np.ndarray, f: np.ndarray, least: float, name: str):
     return repair_closed(v, f[keep[label]], name=name)
 
 
+def _snap(v: np.ndarray, f: np.ndarray, d: float) -> np.ndarray:
+    """``f`` with every vertex within ``d`` mm of another (transitively) replaced by the
+    first of its cluster (scipy's k-d tree: pairs across grid lines too)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(v).query_pairs(d, output_type="ndarray")
+    if not len(pairs):
+        return f
+    n = len(v)
+    _, lab = connected_components(coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)), directed=False)
+    first = np.full(int(lab.max()) + 1, n, dtype=np.int64)
+    np.minimum.at(first, lab, np.arange(n))
+    return first[lab][f]
+
+
+def _unrepaired(v: np.ndarray, f: np.ndarray, cross: np.ndarray, name: str, why: str):
+    """InputError: the crossings were small but the self-union gave no clean solid."""
+    at = v[f[cross[0]]].reshape(-1, 3).mean(axis=0)
+    raise InputError(
+        f"{name} intersects itself: {len(cross)} pairs of its triangles cross (one near ({at[0]:.2f}, {at[1]:.2f}, "
+        f"{at[2]:.2f}) mm), and texcad's repair, a self-union of the mesh, gives no clean solid ({why}); repair it in a "
+        "mesh tool (a 'make solid' or remesh repair, or manifold3d / trimesh.boolean.union of its parts) and export it again"
+    )
+
+
 def resolve_crossings(vertices: np.ndarray, faces: np.ndarray, *, name: str = "the mesh"):
     """A closed, oriented mesh whose triangles cross a little (a fillet poking through
     a wall, two features stitched into one shell) made into one that does not: the
@@ -303,6 +330,11 @@ def resolve_crossings(vertices: np.ndarray, faces: np.ndarray, *, name: str = "t
     :data:`MAX_CROSSING_AREA` of the area; a mesh that does not cross is returned as
     it is. Anything else (a fold, bodies pushed into each other) is returned as it is
     too, for the self-intersection test to refuse with its reasons.
+
+    Raises:
+        InputError: the crossings are small but their self-union is no clean solid
+            (its surface touches itself along edges, or leaves edges too short to
+            texture): the message says so and where the mesh crosses.
 
     Args:
         vertices: ``(N, 3)`` float64 mm. faces: ``(M, 3)`` int64, closed and oriented
@@ -332,7 +364,7 @@ def resolve_crossings(vertices: np.ndarray, faces: np.ndarray, *, name: str = "t
     before, shells = _volume(v, f), int(_shell_count(f))
     for merge in MERGE:  # the union's new vertices may lie closer than float32 tells apart: merged at the coarsest that works
         try:
-            rv, rf, bodies = repair_closed(uv, uf, merge=merge, name=name)
+            rv, rf, bodies = repair_closed(uv, _snap(uv, uf, merge), merge=1e-8, name=name)
             if bodies > 1:  # the union may leave slivers of no volume where surfaces met: dropped
                 rv, rf, bodies = _without_slivers(rv, rf, 1e-9 * abs(before) + 1e-9, name)
         except TexcadError:  # the union touches itself along an edge (non-manifold) at this merge distance
@@ -340,13 +372,14 @@ def resolve_crossings(vertices: np.ndarray, faces: np.ndarray, *, name: str = "t
         if not len(self_intersections(rv, rf)):
             break
     else:
-        return v, f, None
+        _unrepaired(v, f, cross, name, "its outer surface touches itself along edges or still crosses")
     after = _volume(rv, rf)
     if abs(after - before) > MAX_VOLUME_CHANGE * abs(before) or bodies > shells:  # a large change, or bodies split off
         return v, f, None
     e = rf[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    if np.linalg.norm(rv[e[:, 0]] - rv[e[:, 1]], axis=1).min() < MIN_EDGE:  # edges the displacement cannot keep apart
-        return v, f, None
+    short = float(np.linalg.norm(rv[e[:, 0]] - rv[e[:, 1]], axis=1).min())
+    if short < MIN_EDGE:  # edges the displacement cannot keep apart
+        _unrepaired(v, f, cross, name, f"it leaves edges of {short:.2g} mm, too short to texture")
     rv, rf, _ = split_pinches(rv, rf)  # the outer surface touches itself at a vertex: one vertex per fan
     return rv, rf, CrossingRepair(int(len(cross)), (int(len(f)), int(len(rf))), (before, after), int(bodies))
 
