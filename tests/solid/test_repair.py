@@ -197,3 +197,15 @@ def test_self_intersections_remembers_the_last_mesh_without_sharing_its_answer()
     v2 = v.copy()
     v2[0, 0] += 1e-3  # another mesh: tested afresh
     assert len(self_intersections(v2, f)) == len(self_intersections(v, f))
+
+
+def test_a_small_crossing_whose_union_is_no_clean_solid_is_refused_saying_so(monkeypatch):
+    """Where the self-union leaves edges too short to texture (here: any edge, by a
+    bound raised for the test), the refusal says a repair was tried, and where."""
+    from texcad.solid import repair
+
+    monkeypatch.setattr(repair, "MIN_EDGE", 1e3)
+    v, f = _spiked_box()
+    with pytest.raises(InputError, match=r"8 pairs of its triangles cross \(one near .*texcad's repair, a self-union.*"
+                                         r"too short to texture.*export it again"):
+        repair.resolve_crossings(v, f)
