@@ -117,3 +117,54 @@ def test_an_open_tessellation_is_healed_by_sewing():
     for fm in pm.faces:  # the sewn faces' triangles stand for the part's own faces
         assert any(fm.face.IsSame(f) for f in own)
     assert len(pm.faces) == len(own)
+
+
+# --- the API: texcad.texture(assembly, face of solid k) (brep/assembly.py, driver hook) ----
+
+@pytest.fixture(scope="module")
+def overlapping():
+    from build123d import Box, Compound, Pos
+
+    case = Box(30, 20, 10) - Pos(0, 0, 3) * Box(26, 16, 6)  # 3920 mm3
+    phone = Pos(0, 0, 2) * Box(25, 15, 4)  # 1500 mm3, overlaps the tray's floor
+    button = Pos(15.5, 0, 2) * Box(2, 4, 2)  # 16 mm3, overlaps the tray's wall
+    return Compound([case, phone, button])
+
+
+def test_api_textures_the_solid_that_owns_the_face_and_keeps_the_others(overlapping, tmp_path):
+    import numpy as np
+    from build123d import Axis, import_step
+
+    import texcad
+
+    phone_top = overlapping.solids()[1].faces().sort_by(Axis.Z)[-1]
+    tx = texcad.texture(overlapping, phone_top, "builtin:ridges", pitch=1.0, height=0.5)
+    assert tx.info["solid"] == 1 and tx.info["solids"] == 3 and "solid 1 of 3" in repr(tx)
+    assert tx.gate.shells.bodies == 1 and tx.mesh.is_watertight  # the gate saw the textured solid alone
+    assert tx.mesh.volume > 1500.0 + 1.0  # the phone with its texture
+    stl, m3f, step = tmp_path / "a.stl", tmp_path / "a.3mf", tmp_path / "a.step"
+    for p in (stl, m3f, step):
+        tx.export(p)
+    parts = texcad.io.read_part(m3f)  # one named part per solid
+    assert [n for n, _ in parts] == ["solid 1 (textured)", "solid 0", "solid 2"]
+    assert all(m.is_watertight for _, m in parts)
+    assert parts[1][1].volume == pytest.approx(3920.0, rel=1e-6) and parts[2][1].volume == pytest.approx(16.0, rel=1e-6)
+    one = texcad.io.read_mesh(stl)  # one STL of three closed bodies, the others unchanged
+    assert one.is_watertight and one.volume == pytest.approx(sum(m.volume for _, m in parts), rel=1e-5)
+    kept = np.concatenate([tx.other_meshes[0].vertices, tx.other_meshes[1].vertices])
+    assert np.isin(kept.view([("", kept.dtype)] * 3), one.vertices.astype(kept.dtype).view([("", kept.dtype)] * 3)).all()
+    assert [round(s.volume) for s in import_step(str(step)).solids()][1:] == [3920, 16]
+    # the same through OCP's compound, and a face of the case (solid 0, which the others overlap)
+    tx0 = texcad.texture(overlapping.wrapped, overlapping.solids()[0].faces().sort_by(Axis.Z)[0], "builtin:ridges",
+                         pitch=1.0, height=0.5)
+    assert tx0.info["solid"] == 0 and tx0.mesh.volume > 3920.0 + 1.0 and len(tx0.bodies) == 3
+
+
+def test_api_faces_of_two_solids_are_refused(overlapping):
+    from build123d import Axis
+
+    import texcad
+
+    faces = [overlapping.solids()[0].faces().sort_by(Axis.Z)[0], overlapping.solids()[1].faces().sort_by(Axis.Z)[-1]]
+    with pytest.raises(ParameterError, match="solids 0, 1 of the assembly; texture one solid at a time"):
+        texcad.texture(overlapping, faces, "builtin:ridges", pitch=1.0, height=0.5)

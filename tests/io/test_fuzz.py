@@ -31,6 +31,13 @@ def _valid() -> dict[str, bytes]:
 
     Image.fromarray((np.arange(64 * 64) % 251).astype(np.uint8).reshape(64, 64)).save(buf, format="PNG")
     out["tex.png"] = buf.getvalue()
+    pages = [Image.fromarray((np.arange(32 * 32) * k % 251).astype(np.uint8).reshape(32, 32)) for k in (1, 3)]
+    buf = io.BytesIO()
+    pages[0].save(buf, format="TIFF", save_all=True, append_images=pages[1:])  # multi-page: refused whole
+    out["pages.tif"] = buf.getvalue()
+    buf = io.BytesIO()
+    Image.fromarray(np.linspace(0, 1, 32 * 32, dtype=np.float32).reshape(32, 32), mode="F").save(buf, format="TIFF")
+    out["float.tif"] = buf.getvalue()
     return out
 
 
@@ -54,10 +61,12 @@ def _mutate(data: bytes, how: str, at: float, value: int, length: int) -> bytes:
 
 
 def _read(path):
-    if path.suffix == ".png":
+    if path.suffix in (".png", ".tif"):
         from texcad.sources.image import read_gray
 
-        return read_gray(path)
+        a = read_gray(path)
+        assert np.isfinite(a).all() and a.min() >= 0 and a.max() <= 1  # luminance, never a NaN let through
+        return a
     return read_mesh(path)
 
 

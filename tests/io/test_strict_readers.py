@@ -131,3 +131,60 @@ def test_huge_image_is_an_input_error(tmp_path, monkeypatch):
     monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", 1000)  # 10000 px is then a "decompression bomb"
     with pytest.raises(InputError, match="too large.*scale it down"):
         read_gray(p)
+
+
+# --- images: a multi-page TIFF, NaN pixels (issue 27) -----------------------------------
+
+def test_a_multi_page_tiff_is_refused_naming_its_pages(tmp_path):
+    from PIL import Image
+
+    from texcad.sources.image import read_gray
+
+    pages = [Image.fromarray((np.arange(64).reshape(8, 8) * k).astype(np.uint8)) for k in (1, 2, 3)]
+    p = tmp_path / "stack.tif"
+    pages[0].save(p, save_all=True, append_images=pages[1:])
+    with pytest.raises(InputError, match=r"stack\.tif' holds 3 pages .*save the page you want"):
+        read_gray(p)
+    pages[1].save(tmp_path / "one.tif")  # one page: read as it is
+    assert read_gray(tmp_path / "one.tif")[-1, 1] == pytest.approx(2 / 255)
+
+
+def test_nan_pixels_of_a_float_tiff_are_refused_with_their_place(tmp_path):
+    from PIL import Image
+
+    from texcad.sources.image import read_gray
+
+    a = np.full((4, 4), 0.5, np.float32)
+    a[1, 2] = np.nan
+    p = tmp_path / "nan.tif"
+    Image.fromarray(a, mode="F").save(p)
+    with pytest.raises(InputError, match=r"nan\.tif'.*1 NaN or infinite pixels \(the first at row 1, column 2"):
+        read_gray(p)
+
+
+# --- PLY scans: what trimesh lets through (issue 27) --------------------------------------
+
+@pytest.mark.parametrize("how, message", [
+    ("nan", r"1 vertices that are not finite numbers .*vertex 0"),
+    ("index", r"face 11 \(from 0\) indexes vertex \[0, 1, 99\] but the file has 8 vertices"),
+    ("cut", r"truncated: its header declares 12 face elements but the file holds 9"),
+])
+def test_a_bad_ply_scan_is_refused_with_its_place(tmp_path, box, how, message):
+    from texcad.sources.scan import read_scan
+
+    small = trimesh.creation.box((10.0, 10.0, 2.0))
+    text = small.export(file_type="ply", encoding="ascii")
+    lines = (text.decode() if isinstance(text, bytes) else text).splitlines()
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("end_header")) + 1
+    if how == "nan":
+        lines[k] = "nan 0 0"
+    elif how == "index":
+        lines[-1] = "3 0 1 99"
+    else:
+        lines = lines[:-3]
+    p = tmp_path / "scan.ply"
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError, match=r"scan\.ply'.*" + message + ".*export it again"):
+        read_scan(p)
+    small.export(tmp_path / "ok.ply")
+    assert read_scan(tmp_path / "ok.ply").faces.shape == (12, 3)

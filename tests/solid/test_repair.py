@@ -119,3 +119,93 @@ def test_non_finite_vertices_and_bad_indices_are_refused():
         repair_closed(v2, f)
     with pytest.raises(InputError, match="index missing vertices"):
         repair_closed(v, np.concatenate([f, [[0, 1, len(v)]]]))
+
+
+# --- small self-intersections repaired (issue 27: 3DBenchy's 23 crossing pairs) ----------
+
+def _spiked_box(depth: float = 0.3):
+    """A 10 mm box (subdivided) with one vertex of its top pulled down through its bottom
+    by ``depth`` mm: a thin inward spike whose tip crosses the bottom face, the kind of
+    small crossing an exported mesh has where a feature pokes through a wall."""
+    b = trimesh.creation.box((10.0, 10.0, 10.0))
+    for _ in range(3):
+        b = b.subdivide()
+    v, f = np.array(b.vertices), np.array(b.faces, dtype=np.int64)
+    top = np.flatnonzero(np.isclose(v[:, 2], 5.0))
+    k = top[np.argmin(np.linalg.norm(v[top, :2] - (1.25, 1.25), axis=1))]
+    v[k, 2] = -5.0 - depth
+    return v, f
+
+
+def test_a_small_crossing_is_resolved_by_a_self_union():
+    from texcad.solid import self_intersections
+    from texcad.solid.repair import resolve_crossings
+
+    v, f = _spiked_box()
+    assert len(self_intersections(v, f)) > 0
+    rv, rf, rep = resolve_crossings(v, f)
+    assert rep is not None and rep.pairs == len(self_intersections(v, f)) and rep.bodies == 1
+    assert len(self_intersections(rv, rf)) == 0
+    m = m3d.Manifold(m3d.Mesh(vert_properties=rv.astype(np.float32), tri_verts=rf.astype(np.uint32)))
+    assert m.status() == m3d.Error.NoError
+    assert m.volume() == pytest.approx(rep.volume[1], rel=1e-6)
+    assert abs(rep.volume[1] - rep.volume[0]) < 0.01  # only the spike's tip beyond the bottom is outside
+    assert "pairs of crossing triangles resolved by a self-union" in rep.note
+    # a mesh that does not cross comes back as it is; a fold through the whole part is left to be refused
+    bv, bf = np.array(trimesh.creation.box((10.0, 10.0, 10.0)).vertices), np.array(trimesh.creation.box().faces)
+    assert resolve_crossings(bv, bf)[2] is None
+    fold = bv.copy()
+    fold[int(np.argmax(fold.sum(1)))] = (-2.0, -1.5, -12.0)
+    assert resolve_crossings(fold, bf)[2] is None
+
+
+def test_a_mesh_with_a_small_crossing_is_textured_with_a_note():
+    import texcad
+    from texcad.errors import TexcadWarning
+    from texcad.solid import self_intersections
+
+    v, f = _spiked_box()
+    with pytest.warns(TexcadWarning, match="pairs of crossing triangles resolved"):
+        tx = texcad.texture(trimesh.Trimesh(v, f, process=False), "normal:+x:10", "builtin:ridges", pitch=1.0, height=0.5)
+    assert tx.info["crossings_repaired"] > 0 and "self-union" in tx.info["repaired"]
+    assert tx.mesh.is_watertight and tx.gate.shells.bodies == 1
+    assert len(self_intersections(tx.mesh.vertices, tx.mesh.faces)) == 0
+
+
+def test_pinched_vertices_are_counted_and_split():
+    from texcad.solid.repair import split_pinches
+
+    t = trimesh.creation.box((1.0, 1.0, 1.0))
+    v, f = np.array(t.vertices), np.array(t.faces, dtype=np.int64)
+    assert split_pinches(v, f)[2] == 0
+    corner = int(np.argmax(v.sum(1)))  # a second box touching the first at that corner only
+    v2 = np.vstack([v, v - v[int(np.argmin(v.sum(1)))] + v[corner]])
+    f2 = np.vstack([f, f + len(v)])
+    v2, f2, bodies = repair_closed(v2, f2)
+    assert bodies == 2
+    sv, sf, n = split_pinches(v2, f2)
+    assert n == 1 and len(sv) == len(v2) + 1 and edge_report(sf)["boundary"] == 0
+
+
+def test_self_intersections_remembers_the_last_mesh_without_sharing_its_answer():
+    from texcad.solid import self_intersections
+
+    v, f = _spiked_box()
+    a = self_intersections(v, f)
+    a[:] = -1
+    assert (self_intersections(v, f) >= 0).all()
+    v2 = v.copy()
+    v2[0, 0] += 1e-3  # another mesh: tested afresh
+    assert len(self_intersections(v2, f)) == len(self_intersections(v, f))
+
+
+def test_a_small_crossing_whose_union_is_no_clean_solid_is_refused_saying_so(monkeypatch):
+    """Where the self-union leaves edges too short to texture (here: any edge, by a
+    bound raised for the test), the refusal says a repair was tried, and where."""
+    from texcad.solid import repair
+
+    monkeypatch.setattr(repair, "MIN_EDGE", 1e3)
+    v, f = _spiked_box()
+    with pytest.raises(InputError, match=r"8 pairs of its triangles cross \(one near .*texcad's repair, a self-union.*"
+                                         r"too short to texture.*export it again"):
+        repair.resolve_crossings(v, f)

@@ -491,11 +491,25 @@ def face_segments(face, spacing: float, *, oriented: bool = False) -> np.ndarray
     ``oriented``: each segment runs the way its edge runs in the face's wire (the
     face's orientation composed in), so that the region lies to the left with
     respect to the surface normal of a forward face."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.GCPnts import GCPnts_AbscissaPoint
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_REVERSED
     from OCP.TopoDS import TopoDS
 
+    from ..util import available_memory
+    from ..errors import ResourceError
+
+    edges = explore(face, TopAbs_EDGE)
+    length = sum(GCPnts_AbscissaPoint.Length_s(BRepAdaptor_Curve(TopoDS.Edge_s(e))) for e in edges)  # per edge
+    need, have = 200.0 * (length / spacing + 3 * len(edges)), available_memory()  # points, segments, temporaries
+    if need > have:  # memory goes with 1 / spacing here
+        fit = spacing * 1.2 * need / max(have, 1.0)
+        raise ResourceError(
+            f"sampling a face outline of {length:.4g} mm every {spacing:.3g} mm needs about {need / 2**30:.1f} GiB of memory "
+            f"but this machine has {have / 2**30:.1f} GiB available; sample it every {fit:.3g} mm or more (a larger pitch)"
+        )
     segs = []
-    for e in explore(face, TopAbs_EDGE):  # one per boundary edge
+    for e in edges:  # one per boundary edge
         p = edge_points(TopoDS.Edge_s(e), spacing)
         if oriented and e.Orientation() == TopAbs_REVERSED:
             p = p[::-1]

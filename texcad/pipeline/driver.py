@@ -23,6 +23,8 @@ from ..options import Options
 from ..report.gate import gate
 from ..solid import Mesh
 from ..targets import ADAPTERS, Decline
+from ..brep.assembly import assembly_result, assembly_split
+from ..brep.budget import require_faces_memory
 from ..util import memory_limit
 from .result import Textured
 
@@ -52,7 +54,11 @@ def run(target: Any, where: Any, texture: Any, options: Options) -> Textured:
             geometry that cannot be made or fails the gate (GeometryError), or more
             memory than allowed (ResourceError).
     """
+    split = assembly_split(target, where)  # several solids: the one that owns the faces alone, the others kept
+    if split is not None:
+        return assembly_result(run(split.solid, where, texture, options), split)
     with memory_limit(options.max_memory):
+        require_faces_memory(target, where, texture, options)  # CAD faces: memory estimated before any allocation
         declined = None
         for adapter in ADAPTERS:  # asked in order (lazily: a mesh never loads OCCT); the first that does not decline
             if not adapter.accepts(target, where, options):

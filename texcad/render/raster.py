@@ -218,6 +218,26 @@ def _fit(points2: np.ndarray, width: int, height: int | None, margin: float):
     return s, off, int(width), int(height)
 
 
+#: Bytes per supersampled pixel of :func:`render_mesh` (float64 RGB image, depth and
+#: face buffers, their temporaries): an upper estimate.
+PIXEL_BYTES = 96
+
+
+def _require_picture_memory(W: int, H: int, ss: int, width: int) -> None:
+    """ResourceError naming the widest picture that fits, before a ``W x H`` px
+    picture supersampled ``ss`` times is allocated."""
+    from ..errors import ResourceError
+    from ..util import available_memory
+
+    need, have = PIXEL_BYTES * float(W * ss) * float(H * ss), available_memory()
+    if need > have:
+        fit = max(1, int(width * (have / (1.2 * need)) ** 0.5))
+        raise ResourceError(
+            f"a {W} x {H} px picture (supersample {ss}) needs about {need / 2**30:.1f} GiB of memory but this machine "
+            f"has {have / 2**30:.1f} GiB available; use a width of at most {fit} px (or a smaller supersample)"
+        )
+
+
 def render_mesh(
     mesh: Mesh,
     *,
@@ -270,6 +290,7 @@ def render_mesh(
     scr = v @ basis.T  # (N, 3): right, up, back
     s, off, W, H = _fit(scr[:, :2], int(width), height, margin)
     Ws, Hs = W * ss, H * ss
+    _require_picture_memory(W, H, ss, int(width))
     xy = scr[:, :2] * (s * ss) + off * ss
     _, fidx = rasterize(xy, scr[:, 2], mesh.faces, Ws, Hs, cull=cull)
     M = mesh.num_triangles

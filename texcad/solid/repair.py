@@ -19,16 +19,22 @@ What a downloaded STL/3MF/OBJ needs before it can be displaced, in order:
    crosses such a shell an odd number of times): that is a cavity's wall, which faces
    into the cavity (negative volume). ``trimesh.repair.fix_normals(multibody=True)``
    turns every shell outward, filling cavities.
+
+And, for a closed mesh whose triangles cross a little (:func:`resolve_crossings`):
+
+6. the self-union (libigl's exact boolean): the outer surface of what it encloses.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import InputError
 from .mesh import edge_report, edge_slot_pairs
 
-__all__ = ["repair_closed"]
+__all__ = ["repair_closed", "CrossingRepair", "resolve_crossings", "repair_crossings", "split_pinches"]
 
 
 def _merge(v: np.ndarray, f: np.ndarray, merge: float) -> tuple[np.ndarray, np.ndarray]:
@@ -185,3 +191,213 @@ def _depths(p: np.ndarray, body: np.ndarray) -> np.ndarray:
         if len(inside):
             depth[inside] += _crossings(probe[inside], p[order[cut[j] : cut[j + 1]]]) % 2
     return depth
+
+
+# -- small self-intersections (issue 27: 3DBenchy's 23 crossing pairs) ------------------------
+
+#: A crossing is repaired when the self-union changes the volume by at most this share...
+MAX_VOLUME_CHANGE = 0.01
+#: ...and the crossing triangles hold at most this share of the surface area; beyond, the
+#: mesh is refused (a fold, overlapping bodies: what the user must decide).
+MAX_CROSSING_AREA = 0.5
+#: Distances (mm) within which the union's vertices (rounded to float32) are snapped together
+#: (:func:`_snap`), tried in order: the coarsest first, which also closes the union's edges
+#: of a few nm (new vertices beside old ones) that the displacement cannot keep apart.
+MERGE = (1e-4, 1e-5, 1e-8)
+#: A repaired mesh with an edge shorter than this (mm) is not used: displaced and written
+#: in float32 its ends can meet (the test meshes: 9e-5 mm textures, 2e-6 mm tears).
+MIN_EDGE = 2e-5
+
+
+def _shell_count(f: np.ndarray) -> int:
+    from .overlap import _shell_labels
+
+    return int(_shell_labels(f).max()) + 1
+
+
+@dataclass(frozen=True)
+class CrossingRepair:
+    """What :func:`resolve_crossings` did to a mesh whose triangles crossed a little.
+
+    Attributes:
+        pairs: pairs of triangles that crossed.
+        triangles: ``(before, after)`` triangle counts.
+        volume: ``(before, after)`` enclosed volume, mm^3.
+        bodies: closed bodies after the repair.
+    """
+
+    pairs: int
+    triangles: tuple
+    volume: tuple
+    bodies: int
+
+    @property
+    def note(self) -> str:
+        """One line for the result's info and the warning."""
+        return (f"{self.pairs} pairs of crossing triangles resolved by a self-union (outer surface kept): volume "
+                f"{self.volume[0]:.4g} -> {self.volume[1]:.4g} mm3, {self.triangles[0]} -> {self.triangles[1]} triangles")
+
+
+def _volume(v: np.ndarray, f: np.ndarray) -> float:
+    p = v[f]
+    return float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6.0)
+
+
+def _areas(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    p = v[f]
+    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+
+
+def split_pinches(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """A closed, edge-manifold mesh whose surface touches itself at single vertices
+    (two fans of triangles around one vertex that share no edge there) with each such
+    vertex made one vertex per fan, at the same place. Returns ``(vertices, faces,
+    vertices split)``. The corners of one vertex are joined through the edges at that
+    vertex (connected components of corners)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    m = len(f)
+    nxt, prv = f[:, [1, 2, 0]], f[:, [2, 0, 1]]
+    # corner (t, k) at vertex f[t, k] touches edges (f[t,k], nxt) and (prv, f[t,k]); the same
+    # undirected edge in a neighbour joins the corners at each of its ends
+    corner = np.arange(3 * m).reshape(m, 3)
+    a = np.concatenate([np.stack([f.ravel(), nxt.ravel()], 1), np.stack([prv.ravel(), f.ravel()], 1)])
+    c = np.concatenate([corner.ravel(), corner.ravel()])
+    key = np.sort(a, axis=1)
+    own = (np.concatenate([f.ravel(), f.ravel()]) == key[:, 1]).astype(np.int64)  # which end of the edge the corner is at
+    order = np.lexsort((own, key[:, 1], key[:, 0]))
+    k, o, cc = key[order], own[order], c[order]
+    same = np.all(k[1:] == k[:-1], axis=1) & (o[1:] == o[:-1])  # the same edge, at the same end
+    _, lab = connected_components(coo_matrix((np.ones(int(same.sum())), (cc[:-1][same], cc[1:][same])), shape=(3 * m, 3 * m)),
+                                  directed=False)
+    pair = np.stack([f.ravel(), lab])  # (vertex, fan) of each corner
+    uniq, inv = np.unique(pair, axis=1, return_inverse=True)
+    if uniq.shape[1] == len(np.unique(f)):
+        return v, f, 0
+    return v[uniq[0]], inv.reshape(m, 3).astype(np.int64), int(uniq.shape[1] - len(np.unique(f)))
+
+
+def _without_slivers(v: np.ndarray, f: np.ndarray, least: float, name: str):
+    """``(v, f, bodies)`` without the shells that enclose less than ``least`` mm^3."""
+    from .overlap import _shell_labels
+
+    label = _shell_labels(f)
+    p = v[f]
+    vol = np.bincount(label, weights=np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])) / 6.0)
+    keep = np.abs(vol) >= least
+    if keep.all():
+        return v, f, int(len(vol))
+    return repair_closed(v, f[keep[label]], name=name)
+
+
+def _snap(v: np.ndarray, f: np.ndarray, d: float) -> np.ndarray:
+    """``f`` with every vertex within ``d`` mm of another (transitively) replaced by the
+    first of its cluster (scipy's k-d tree: pairs across grid lines too)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(v).query_pairs(d, output_type="ndarray")
+    if not len(pairs):
+        return f
+    n = len(v)
+    _, lab = connected_components(coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)), directed=False)
+    first = np.full(int(lab.max()) + 1, n, dtype=np.int64)
+    np.minimum.at(first, lab, np.arange(n))
+    return first[lab][f]
+
+
+def _unrepaired(v: np.ndarray, f: np.ndarray, cross: np.ndarray, name: str, why: str):
+    """InputError: the crossings were small but the self-union gave no clean solid."""
+    at = v[f[cross[0]]].reshape(-1, 3).mean(axis=0)
+    raise InputError(
+        f"{name} intersects itself: {len(cross)} pairs of its triangles cross (one near ({at[0]:.2f}, {at[1]:.2f}, "
+        f"{at[2]:.2f}) mm), and texcad's repair, a self-union of the mesh, gives no clean solid ({why}); repair it in a "
+        "mesh tool (a 'make solid' or remesh repair, or manifold3d / trimesh.boolean.union of its parts) and export it again"
+    )
+
+
+def resolve_crossings(vertices: np.ndarray, faces: np.ndarray, *, name: str = "the mesh"):
+    """A closed, oriented mesh whose triangles cross a little (a fillet poking through
+    a wall, two features stitched into one shell) made into one that does not: the
+    self-union, the region of positive winding number, whose surface is the outer
+    surface of what the mesh encloses (libigl's exact mesh boolean, CGAL kernels,
+    union with nothing), then :func:`repair_closed`.
+
+    Only small crossings are repaired: the union changes the volume by at most
+    :data:`MAX_VOLUME_CHANGE` and the crossing triangles hold at most
+    :data:`MAX_CROSSING_AREA` of the area; a mesh that does not cross is returned as
+    it is. Anything else (a fold, bodies pushed into each other) is returned as it is
+    too, for the self-intersection test to refuse with its reasons.
+
+    Raises:
+        InputError: the crossings are small but their self-union is no clean solid
+            (its surface touches itself along edges, or leaves edges too short to
+            texture): the message says so and where the mesh crosses.
+
+    Args:
+        vertices: ``(N, 3)`` float64 mm. faces: ``(M, 3)`` int64, closed and oriented
+            (:func:`repair_closed`).
+        name: how messages call the mesh.
+
+    Returns:
+        ``(vertices, faces, repair)``: float64 ``(N', 3)`` mm, int64 ``(M', 3)`` and a
+        :class:`CrossingRepair`, or the input and None.
+    """
+    from ..errors import TexcadError
+    from .intersect import self_intersections
+
+    v, f = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
+    cross = self_intersections(v, f)
+    if not len(cross):
+        return v, f, None
+    area = _areas(v, f)
+    if area[np.unique(cross)].sum() > MAX_CROSSING_AREA * area.sum():
+        return v, f, None
+    try:
+        import igl.copyleft.cgal as cgal
+    except ImportError:  # pragma: no cover - libigl is a dependency; a build without CGAL
+        return v, f, None
+    uv, uf, _ = cgal.mesh_boolean(v, f, np.zeros((0, 3)), np.zeros((0, 3), np.int64), "union")
+    uv = uv.astype(np.float32).astype(np.float64)  # vertices as the output will hold them: ones that meet merge now
+    before, shells = _volume(v, f), int(_shell_count(f))
+    for merge in MERGE:  # the union's new vertices may lie closer than float32 tells apart: merged at the coarsest that works
+        try:
+            rv, rf, bodies = repair_closed(uv, _snap(uv, uf, merge), merge=1e-8, name=name)
+            if bodies > 1:  # the union may leave slivers of no volume where surfaces met: dropped
+                rv, rf, bodies = _without_slivers(rv, rf, 1e-9 * abs(before) + 1e-9, name)
+        except TexcadError:  # the union touches itself along an edge (non-manifold) at this merge distance
+            continue
+        if not len(self_intersections(rv, rf)):
+            break
+    else:
+        _unrepaired(v, f, cross, name, "its outer surface touches itself along edges or still crosses")
+    after = _volume(rv, rf)
+    if abs(after - before) > MAX_VOLUME_CHANGE * abs(before) or bodies > shells:  # a large change, or bodies split off
+        return v, f, None
+    e = rf[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    short = float(np.linalg.norm(rv[e[:, 0]] - rv[e[:, 1]], axis=1).min())
+    if short < MIN_EDGE:  # edges the displacement cannot keep apart
+        _unrepaired(v, f, cross, name, f"it leaves edges of {short:.2g} mm, too short to texture")
+    rv, rf, _ = split_pinches(rv, rf)  # the outer surface touches itself at a vertex: one vertex per fan
+    return rv, rf, CrossingRepair(int(len(cross)), (int(len(f)), int(len(rf))), (before, after), int(bodies))
+
+
+def repair_crossings(vertices: np.ndarray, faces: np.ndarray, bodies: int, info: dict, name: str = "the mesh"):
+    """:func:`resolve_crossings` for the mesh adapter: ``(vertices, faces, bodies)``
+    repaired or as they were; a repair is noted in ``info["repaired"]`` (with
+    ``info["crossings_repaired"]``, the pairs) and told in a
+    :class:`~texcad.errors.TexcadWarning`."""
+    import warnings
+
+    from ..errors import TexcadWarning
+
+    v, f, rep = resolve_crossings(vertices, faces, name=name)
+    if rep is None:
+        return v, f, bodies
+    note = rep.note
+    info.update(repaired="; ".join(filter(None, [info.get("repaired"), note])), crossings_repaired=rep.pairs,
+                repaired_triangles=int(len(f)), bodies=rep.bodies)
+    warnings.warn(TexcadWarning(f"{name}: {note}"), stacklevel=2)
+    return v, f, rep.bodies

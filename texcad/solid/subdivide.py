@@ -24,8 +24,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ParameterError
-from ..util import argsort_ints, require_memory, rowany, rowdot, rowmax, rownorm
+from ..errors import ParameterError, ResourceError
+from ..util import argsort_ints, require_pitch, rowany, rowdot, rowmax, rownorm
+from ..util.resources import _round_up
+
+#: Peak bytes of the whole mesh job per triangle of the refined region, measured on an
+#: icosphere of radius 10 mm at pitch 0.1 and 0.05 mm (about 165 B): the memory estimate.
+TRIANGLE_BYTES = 200.0
 
 __all__ = ["refine", "coarsen", "ladder", "tessellate", "rows", "cross", "flip_edges", "vertex_normals", "offset_directions", "face_normals", "edge_lengths"]
 
@@ -357,9 +362,11 @@ def coarsen(
         return v, f, act, parent
     lens = edge_lengths(v, f[act])
     est = int(len(f) + 2.5 * (lens.max(axis=1) * lens.min(axis=1)).sum() / max_edge**2)
-    require_memory(est * 120, f"about {est} triangles", "use a larger pitch or a smaller region")
-    if est > max_faces:
-        require_memory(10**15, f"about {est} triangles", "use a larger pitch or a smaller region")
+    require_pitch(f"refining to about {est} triangles", max_edge, (est - len(f)) * TRIANGLE_BYTES, len(f) * TRIANGLE_BYTES)
+    if est > max_faces:  # beyond the triangle cap: the pitch at which the count is at the cap
+        fit = max_edge * ((est - len(f)) / max(max_faces - len(f), 1)) ** 0.5
+        raise ResourceError(f"refining to about {est} triangles at a pitch of {max_edge:.3g} mm exceeds the cap of "
+                            f"{max_faces} triangles; use a pitch of at least {_round_up(fit):.3g} mm or a smaller region")
     if ladders:
         v, f, act, parent = ladder(v, f, act, 0.5 * coarse * max_edge)
     return _bisect(v, f, act, parent, coarse * max_edge)

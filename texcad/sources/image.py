@@ -8,6 +8,7 @@ its image. Everything else in texcad works in the y-up convention.
 from __future__ import annotations
 
 import os
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -58,9 +59,19 @@ def read_gray(path: str | os.PathLike, *, alpha: str = "black") -> np.ndarray:
         raise InputError(f"image {str(p)!r} is empty (0 bytes); export it again")
     try:
         with Image.open(p) as im:
+            pages = int(getattr(im, "n_frames", 1))
+            if pages > 1:  # a multi-page TIFF, an animated GIF / PNG: which page is the texture is the user's choice
+                raise InputError(
+                    f"image {str(p)!r} holds {pages} pages (frames); texcad reads one: save the page you want as an "
+                    "image of its own (e.g. PIL: Image.open(path).seek(k); .save('page.png')) and pass that"
+                )
+            _require_image_memory(p, im.size, len(im.getbands()))
             im.load()
             arr = _to_unit_gray(im)
             opacity = _opacity(im) if alpha != "ignore" else None
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if str(p) in msg else f"image {str(p)!r}: {msg}") from None
     except Image.DecompressionBombError as exc:  # Pillow's guard against huge images: no traceback
         raise InputError(
             f"image {str(p)!r} is too large to read safely ({exc}); scale it down to at most "
@@ -71,13 +82,35 @@ def read_gray(path: str | os.PathLike, *, alpha: str = "black") -> np.ndarray:
             f"{str(p)!r} is not an image format texcad can read; "
             "save it as PNG, JPEG or TIFF"
         ) from None
-    except (OSError, SyntaxError, ValueError) as exc:  # truncated or corrupt data
+    except (OSError, SyntaxError, ValueError, TypeError, KeyError, IndexError, EOFError, struct.error) as exc:  # truncated or corrupt data (what Pillow's readers raise)
         raise InputError(f"cannot read image {str(p)!r}: {exc}; export it again") from None
     if arr.size == 0:
         raise InputError(f"image {str(p)!r} has no pixels")
     if opacity is not None:
         arr = arr * opacity if alpha == "black" else arr * opacity + (1.0 - opacity)
     return np.ascontiguousarray(arr[::-1])
+
+
+#: Peak bytes per pixel and band of :func:`read_gray`: Pillow's decoded image, its float64
+#: copy, the luminance, the opacity and the flipped result.
+IMAGE_BYTES = 40
+
+
+def _require_image_memory(p: Path, size: tuple, bands: int) -> None:
+    """ResourceError naming the largest image that fits, before a ``size`` (w, h) px
+    image of ``bands`` channels is decoded."""
+    from ..errors import ResourceError
+    from ..util import available_memory
+
+    w, h = size
+    need, have = float(IMAGE_BYTES) * max(bands, 1) * w * h, available_memory()
+    if need > have:
+        k = (have / (1.2 * need)) ** 0.5
+        raise ResourceError(
+            f"reading image {str(p)!r} ({w} x {h} px, {bands} channel(s)) needs about {need / 2**30:.1f} GiB of memory but "
+            f"this machine has {have / 2**30:.1f} GiB available; scale it down to at most {max(int(w * k), 1)} x "
+            f"{max(int(h * k), 1)} px (one tile of the texture needs no more)"
+        )
 
 
 def _opacity(im) -> np.ndarray | None:
@@ -115,8 +148,10 @@ def _to_unit_gray(im) -> np.ndarray:
     if mode == "F":
         a = np.asarray(im, dtype=np.float64)
         lo, hi = float(np.nanmin(a)), float(np.nanmax(a))
-        if not np.isfinite(lo) or not np.isfinite(hi):
-            raise InputError("floating-point image holds NaN or infinite pixels")
+        if not np.isfinite(a).all():
+            bad = np.argwhere(~np.isfinite(a))[0]
+            raise InputError(f"floating-point image holds {int((~np.isfinite(a)).sum())} NaN or infinite pixels (the first at "
+                             f"row {int(bad[0])}, column {int(bad[1])} from the top left); fill them and save it again")
         return np.clip(a, 0.0, 1.0) if (lo >= 0 and hi <= 1) else (a - lo) / max(hi - lo, 1e-300)
     if mode in ("RGB", "RGBA", "RGBa", "RGBX", "CMYK", "YCbCr", "LAB", "HSV"):
         if mode not in ("RGB", "RGBA"):

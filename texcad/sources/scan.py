@@ -206,9 +206,43 @@ def _read_trimesh(p: Path) -> tuple[np.ndarray, np.ndarray | None]:
             obj = trimesh.PointCloud(np.concatenate([np.asarray(g.vertices) for g in geoms]))
     verts = np.asarray(getattr(obj, "vertices", np.zeros((0, 3))), dtype=np.float64).reshape(-1, 3)
     faces = getattr(obj, "faces", None)
-    if faces is None or len(faces) == 0:
-        return verts, None
-    return verts, np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    faces = None if faces is None or len(faces) == 0 else np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    _check_read(p, verts, faces)
+    return verts, faces
+
+
+def _ply_counts(p: Path) -> dict:
+    """``{element: count}`` declared by a PLY file's header ({} for other files)."""
+    if p.suffix.lower() != ".ply":
+        return {}
+    with open(p, "rb") as fh:
+        head = fh.read(65536)
+    end = head.find(b"end_header")
+    counts = {}
+    for line in head[: max(end, 0)].decode("latin-1").splitlines():  # per header line
+        tok = line.split()
+        if len(tok) == 3 and tok[0] == "element" and tok[2].isdigit():
+            counts[tok[1]] = int(tok[2])
+    return counts
+
+
+def _check_read(p: Path, verts: np.ndarray, faces: "np.ndarray | None") -> None:
+    """InputError naming the file, the place and the fix for what trimesh lets through:
+    non-finite coordinates, faces that index missing vertices, fewer vertices or faces
+    than a PLY header declares (a truncated file)."""
+    bad = ~np.isfinite(verts).all(axis=1)
+    if bad.any():
+        raise InputError(f"scan {str(p)!r} has {int(bad.sum())} vertices that are not finite numbers (NaN or inf; the "
+                         f"first is vertex {int(np.argmax(bad))}, from 0); export it again")
+    if faces is not None and (faces.min() < 0 or faces.max() >= len(verts)):
+        k = int(np.argmax((faces < 0).any(axis=1) | (faces >= len(verts)).any(axis=1)))
+        raise InputError(f"scan {str(p)!r}: face {k} (from 0) indexes vertex {faces[k].tolist()} but the file has "
+                         f"{len(verts)} vertices (0 .. {len(verts) - 1}); export it again")
+    counts = _ply_counts(p)
+    for element, got in (("vertex", len(verts)), ("face", 0 if faces is None else len(faces))):  # per declared element
+        if element in counts and got < counts[element]:
+            raise InputError(f"scan {str(p)!r} is truncated: its header declares {counts[element]} {element} elements but "
+                             f"the file holds {got}; export it again")
 
 
 def _numeric_start(lines: list[str]) -> int:

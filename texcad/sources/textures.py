@@ -29,7 +29,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..util import require_memory
+from ..util import require_pitch
 from ..util import positive, smoothstep
 from ..errors import ParameterError
 from .heightmap import Heightmap
@@ -629,7 +629,7 @@ def builtin(
     # The largest whole number of pixels that fits in the size (never more: a texture
     # must not overhang the face it is asked to cover).
     cols, rows = max(2, int(np.floor(w / px + 1e-6))), max(2, int(np.floor(d / py + 1e-6)))
-    require_memory(rows * cols * 8 * 12, f"a {rows} x {cols} px texture", "use a larger pitch or a smaller size")
+    require_pitch(f"a {rows} x {cols} px texture", min(px, py), rows * cols * 8.0 * 12)
     x = (np.arange(cols) + 0.5) * px
     y = (np.arange(rows) + 0.5) * py
     unit = func(x[None, :], y[:, None])

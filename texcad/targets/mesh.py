@@ -61,6 +61,7 @@ from ..printability.relief import limit_relief
 from ..sources.mask import mask_sampler
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, closed_and_oriented, edge_report, repair_closed, self_intersections, shells
 from ..solid.adaptive import build, carried, coarse_mesh, edge_counts, measure, pitch_samples
+from ..solid.repair import repair_crossings
 from ..solid.subdivide import coarsen, face_normals, offset_directions, refine, vertex_normals
 from ..util import beside, colmax, colmin, rowany, split_rows, threads
 from ..contracts import Fused, Placement, Relief, Stages
@@ -691,6 +692,8 @@ class MeshAdapter(Adapter):
         v, f, bodies, info = load_closed(target, crossing=False)
         if bodies > 1 or options.union:  # overlapping or touching bodies: refused, or united on request
             v, f, bodies = _separate_bodies(v, f, bodies, info, _name(target), options.union)
+        if painted is None:  # small self-intersections resolved (issue 27); paint follows face numbers: not re-meshed
+            v, f, bodies = repair_crossings(v, f, bodies, info, _name(target))
         if painted is not None or isinstance(where, dict):  # zones: their 3MF parts named by region and texture
             info["zones"] = [_zone_name(r, t) for r, t, _ in raw]
         if painted is not None:

@@ -37,6 +37,8 @@ from .resources import (
     require_memory,
     texture_bytes,
     fitting_pitch,
+    finest_pitch,
+    require_pitch,
     memory_limit,
 )
 from .vectors import (
@@ -69,6 +71,8 @@ __all__ = [
     'require_memory',
     'texture_bytes',
     'fitting_pitch',
+    'finest_pitch',
+    'require_pitch',
     'memory_limit',
     'parse_vector',
     'smoothstep',

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import math
 
 import os
 
 from ..errors import ResourceError
 
-__all__ = ["available_memory", "require_memory", "texture_bytes", "fitting_pitch"]
+__all__ = ["available_memory", "require_memory", "texture_bytes", "fitting_pitch", "finest_pitch", "require_pitch"]
 
 #: Peak bytes per texture pixel of the whole texturing job (slab, manifold3d union,
 #: fused mesh, writers), measured on a 100 x 100 mm stones plate at 0.125 mm: 1.10 KB
@@ -108,6 +109,53 @@ def fitting_pitch(pitch: float, need: float, have: float | None = None) -> float
     goes with the pixel count, ``1 / pitch^2``."""
     have = available_memory() if have is None else have
     return float(pitch) * (1.2 * need / max(have, 1.0)) ** 0.5
+
+
+def _round_up(x: float, digits: int = 3) -> float:
+    """``x`` rounded up to ``digits`` significant figures (a named pitch must not be finer
+    than the one computed)."""
+    if not (math.isfinite(x) and x > 0):
+        return x
+    e = math.floor(math.log10(x)) - digits + 1
+    return math.ceil(x / 10.0**e - 1e-9) * 10.0**e
+
+
+def finest_pitch(pitch: float, scaled: float, fixed: float = 0.0, have: float | None = None) -> float:
+    """The finest pitch in mm at which a job fits in ``have`` bytes (default:
+    :func:`available_memory`) with 20 % to spare, when at ``pitch`` mm it needs
+    ``fixed`` bytes whatever the pitch plus ``scaled`` bytes that go with the pixel
+    count, ``1 / pitch^2``; rounded up to 3 significant figures; inf when the fixed
+    part alone does not fit."""
+    have = available_memory() if have is None else have
+    budget = have / 1.2 - fixed
+    if budget <= 0:
+        return math.inf
+    return _round_up(float(pitch) * math.sqrt(max(scaled, 0.0) / budget))
+
+
+def require_pitch(what: str, pitch: float, scaled: float, fixed: float = 0.0, *, unit: str = "pitch") -> None:
+    """Raise :class:`ResourceError` naming the finest ``pitch`` (mm) that fits when a
+    job of ``fixed + scaled`` bytes at ``pitch`` mm (``scaled`` going with
+    ``1 / pitch^2``, see :func:`finest_pitch`) exceeds the available memory.
+
+    Args:
+        what: what the job is, e.g. ``"a 90000 x 90000 px texture on the face"``.
+        pitch: the pitch asked for, mm.
+        scaled: bytes at ``pitch`` that go with the pixel count.
+        fixed: bytes whatever the pitch (the part's own mesh...).
+        unit: the name of the option to change (``"pitch"``, ``"--pitch"``).
+    """
+    have = available_memory()
+    need = fixed + scaled
+    if need <= have:
+        return
+    p = finest_pitch(pitch, scaled, fixed, have)
+    fix = (f"use a {unit} of at least {p:.3g} mm" if math.isfinite(p) else
+           f"the part alone needs about {fixed / 2**30:.1f} GiB: free memory or allow more (max_memory)")
+    raise ResourceError(
+        f"{what} at a {unit} of {pitch:.3g} mm needs about {need / 2**30:.1f} GiB of memory but this machine has "
+        f"{have / 2**30:.1f} GiB available; {fix}"
+    )
 
 
 def require_memory(nbytes: float, what: str, fix: str) -> None:
