@@ -106,6 +106,21 @@ def test_a_tiny_pitch_on_a_step_face_is_refused_before_allocating(kind):
     assert tx.mesh.is_watertight
 
 
+def test_a_zone_with_a_tiny_pitch_is_refused_before_allocating():
+    """Zones on a CAD part: each zone's faces at its own pitch are estimated before
+    any adapter allocates."""
+    build123d = pytest.importorskip("build123d")
+    import texcad
+    from texcad.util.resources import _rss
+
+    part = build123d.Box(20, 20, 20)
+    faces = part.faces().sort_by(build123d.Axis.Z)
+    bound = int(_rss() + 150 * 2**20)
+    zones = [(faces[-1], "builtin:stones", {"pitch": 1e-6}), (faces[0], "builtin:diamond_knurl")]
+    exc = _refused_quickly(lambda: texcad.texture(part, zones, height=0.5, pitch=0.5, max_memory=bound))
+    assert "GiB of memory" in str(exc) and 0.01 < _named(exc) < 1.0
+
+
 def test_face_segments_estimates_its_outline_first():
     build123d = pytest.importorskip("build123d")
     from texcad.brep import face_segments

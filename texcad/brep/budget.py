@@ -1,6 +1,7 @@
 """Memory estimated for a CAD job before its first large allocation: the selected
 faces' area and outline at the pitch asked for, against the memory available, with a
-refusal that names the finest pitch that fits. Lengths in mm, areas in mm^2.
+refusal that names the finest pitch that fits (the check itself:
+:func:`texcad.targets.budget.require_faces_memory`). Lengths in mm, areas in mm^2.
 
 Every CAD adapter then allocates its pixel grid (``area / pitch^2`` pixels), its
 outline samples (``length / pitch``) and the texture; this check runs once, ahead of
@@ -10,10 +11,9 @@ instead of after gigabytes (issue 27).
 
 from __future__ import annotations
 
-import sys
 from typing import Any
 
-__all__ = ["face_extent", "require_faces_memory", "OUTLINE_BYTES"]
+__all__ = ["face_extent", "OUTLINE_BYTES", "CURVED_GRID"]
 
 #: Peak bytes per outline sample of :func:`texcad.brep.face_segments` (points,
 #: segments, their concatenation and the float64 temporaries).
@@ -51,36 +51,3 @@ def face_extent(face: Any) -> tuple[float, float, float, bool]:
     else:
         grid = CURVED_GRID * area
     return area, grid, float(outline), planar
-
-
-def require_faces_memory(target: Any, where: Any, texture: Any, options: Any) -> None:
-    """Refuse (ResourceError naming the finest pitch that fits) a CAD job whose
-    selected faces, at the pitch asked for, need more memory than is available
-    (:func:`texcad.util.available_memory`, bounded by ``max_memory``). A target
-    that is not a CAD part, or faces that cannot be resolved, pass: the adapters
-    report those."""
-    if "OCP" not in sys.modules or where is None:  # no OCCT loaded: not a CAD part (a mesh never loads it)
-        return
-    from ..errors import TexcadError
-    from ..sources import Heightmap
-    from ..targets.cad import face_list
-    from ..util import require_pitch
-    from ..util.resources import BYTES_PER_PIXEL
-    from .occt import to_topods
-
-    try:
-        faces = [to_topods(f) for f in face_list(where)]
-    except (TexcadError, TypeError, AttributeError):
-        return
-    from OCP.TopAbs import TopAbs_FACE
-
-    if any(f.ShapeType() != TopAbs_FACE for f in faces):
-        return
-    pitch = float(min(texture.pitch)) if isinstance(texture, Heightmap) else float(options.pitch)
-    ext = [face_extent(f) for f in faces]  # per selected face
-    one_plane = len(ext) == 1 and ext[0][3]
-    per_px = BYTES_PER_PIXEL["grid" if (options.tolerance <= 0 or not one_plane) else "lean"]
-    pixels = sum(e[1] for e in ext) / pitch**2
-    outline = sum(e[2] for e in ext) / (0.5 * pitch) * OUTLINE_BYTES
-    what = f"texturing {len(ext)} face(s) of {sum(e[0] for e in ext):.4g} mm2 ({pixels:.3g} px)"
-    require_pitch(what, pitch, pixels * per_px + outline)

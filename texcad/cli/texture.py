@@ -107,13 +107,11 @@ def _gradient(text: str) -> tuple:
     return g[:3], g[3:]
 
 
-def _assembly_faces(part, selectors: list) -> tuple:
-    """``(part to texture, faces, owner, others)``: the faces the ``--face``
-    selectors name (``solid:K/SELECTOR`` on solid K alone); in an assembly the part
-    to texture is the solid ``owner`` that holds them, ``others`` the other solids."""
-    from build123d import Compound
-
-    from ..brep.assembly import solid_selector, split_assembly
+def _faces(part, selectors: list) -> list:
+    """The faces the ``--face`` selectors name, each once (``solid:K/SELECTOR``: on
+    solid K alone). In an assembly the solid that owns them is textured and the
+    others are kept (texcad's driver: :mod:`texcad.targets.assembly`)."""
+    from ..brep.assembly import solid_selector
     from ..errors import ParameterError
 
     solids = part.solids()
@@ -124,10 +122,7 @@ def _assembly_faces(part, selectors: list) -> tuple:
             raise ParameterError(f"--face {which}: the part has {len(solids)} solid(s), 0..{len(solids) - 1}")
         scope = part if k is None else solids[k]
         faces += [f for f in pick_faces(scope, sel) if not any(f.is_same(g) for g in faces)]
-    if len(solids) < 2:
-        return part, faces, None, []
-    owner, target, others = split_assembly(part, faces)  # the solid that owns the faces is textured, the others kept
-    return Compound([target]), faces, owner, others
+    return faces
 
 
 def run(args: argparse.Namespace) -> int:
@@ -153,43 +148,30 @@ def run(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     part = Compound(read_step(args.part))
-    solids = part.solids()
     zones = getattr(args, "zone", None)
     if zones and args.face:
         raise ParameterError("give faces with --face or with --zone, not both (each --zone names its own faces)")
     selectors = [s for sels, _, _ in zones for s in sels] if zones else (args.face or ["top"])
-    whole = part
-    part, faces, owner, others = _assembly_faces(part, selectors)
-    face = faces[0] if len(faces) == 1 else faces
-    if zones:  # one (faces, texture, {options}) per --zone, on the solid that owns them
-        face = [(_assembly_faces(whole, sels)[1], tex, opts) for sels, tex, opts in zones]
+    faces = _faces(part, selectors)
+    where = [(_faces(part, sels), tex, opts) for sels, tex, opts in zones] if zones else (faces[0] if len(faces) == 1 else faces)
     with warnings.catch_warnings():
         if args.quiet:
             warnings.simplefilter("ignore", TexcadWarning)
-        tx = texture(
-            part,
-            face,
-            args.texture,
-            height=args.height,
-            pitch=args.pitch,
-            mapping=args.mapping,
-            rotation=args.rotation,
-            build_dir=args.build_dir,
-            critical_angle=args.critical_angle,
-            tolerance=args.tolerance,
-            mode=args.mode,
-            gradient=args.gradient,
-            progress=None if args.quiet else StageReporter(),
-        )
-    result = tx
-    if others:
-        from ._assembly import AssemblyResult
+        tx = texture(part, where, args.texture, height=args.height, pitch=args.pitch, mapping=args.mapping,
+                     rotation=args.rotation, build_dir=args.build_dir, critical_angle=args.critical_angle,
+                     tolerance=args.tolerance, mode=args.mode, gradient=args.gradient,
+                     progress=None if args.quiet else StageReporter())
+    write_outputs(tx, args.out, separate_texture=args.separate_texture)
+    _summary(args, tx, selectors, faces, t0)
+    return 0
 
-        result = AssemblyResult(tx, owner, others)
-    write_outputs(result, args.out, separate_texture=args.separate_texture)
+
+def _summary(args: argparse.Namespace, tx, selectors: list, faces: list, t0: float) -> None:
+    """What was done, one line each (solid, faces, zones, distortion, mesh, volume, limits)."""
     m = tx.mesh
-    if owner is not None:
-        print(f"solid        {owner} of {len(solids)} textured; the other {len(others)} kept as they were (separate bodies)")
+    if "solid" in tx.info:
+        print(f"solid        {tx.info['solid']} of {tx.info['solids']} textured; the other {tx.info['solids'] - 1} kept as "
+              "they were (separate bodies)")
     print(f"faces        {', '.join(selectors)}: {len(faces)} face(s) ({tx.info['face']}, grid {tx.info['grid'][0]} x {tx.info['grid'][1]})")
     for z in tx.info.get("zone_reliefs") or []:  # per zone
         depth = f", depth {z['max_depth']:.2f} mm" if "max_depth" in z else ""
@@ -213,7 +195,6 @@ def run(args: argparse.Namespace) -> int:
         print(line)
     print(f"seconds      {time.perf_counter() - t0:.2f}")
     print(f"wrote        {', '.join(args.out)}")
-    return 0
 
 
 def add(sub: argparse._SubParsersAction) -> None:

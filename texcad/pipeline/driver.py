@@ -23,9 +23,10 @@ from ..options import Options
 from ..report.gate import gate
 from ..solid import Mesh
 from ..targets import ADAPTERS, Decline
-from ..brep.assembly import assembly_result, assembly_split
-from ..brep.budget import require_faces_memory
+from ..targets.assembly import assembly_split
+from ..targets.budget import require_faces_memory
 from ..util import memory_limit
+from .assembly import assembly_result
 from .result import Textured
 
 __all__ = ["run"]

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..errors import ParameterError, ResourceError
 from ..util import argsort_ints, require_pitch, rowany, rowdot, rowmax, rownorm
-from ..util.resources import _round_up
+from ..util.resources import round_up
 
 #: Peak bytes of the whole mesh job per triangle of the refined region, measured on an
 #: icosphere of radius 10 mm at pitch 0.1 and 0.05 mm (about 165 B): the memory estimate.
@@ -366,7 +366,7 @@ def coarsen(
     if est > max_faces:  # beyond the triangle cap: the pitch at which the count is at the cap
         fit = max_edge * ((est - len(f)) / max(max_faces - len(f), 1)) ** 0.5
         raise ResourceError(f"refining to about {est} triangles at a pitch of {max_edge:.3g} mm exceeds the cap of "
-                            f"{max_faces} triangles; use a pitch of at least {_round_up(fit):.3g} mm or a smaller region")
+                            f"{max_faces} triangles; use a pitch of at least {round_up(fit):.3g} mm or a smaller region")
     if ladders:
         v, f, act, parent = ladder(v, f, act, 0.5 * coarse * max_edge)
     return _bisect(v, f, act, parent, coarse * max_edge)

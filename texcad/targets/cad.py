@@ -16,7 +16,7 @@ from ..brep import PartMesh, explore, part_tessellation, solids_of, to_topods
 from ..contracts import Stages
 from ..errors import GeometryError, ParameterError
 
-__all__ = ["CadPart", "CadZone", "ZONE_OPTIONS", "cad_part", "cad_zones", "face_list", "is_cad_target", "is_zones",
+__all__ = ["selected_faces", "CadPart", "CadZone", "ZONE_OPTIONS", "cad_part", "cad_zones", "face_list", "is_cad_target", "is_zones",
            "zone_options"]
 
 #: The options a zone of a CAD part may set for itself (the rest are the call's: one
@@ -152,6 +152,15 @@ def is_cad_target(target: Any) -> bool:
     except (ParameterError, TypeError, AttributeError):
         return False
     return True
+
+
+def selected_faces(where: Any) -> list:
+    """Every face ``where`` selects: a face selection (:func:`face_list`) or the
+    faces of all zones (:func:`is_zones`), in order."""
+    if not is_zones(where):
+        return face_list(where)
+    items = [k for k, v in where.items() if v is not None] if isinstance(where, dict) else [z[0] for z in where]
+    return [f for faces in items for f in face_list(faces)]
 
 
 def face_list(faces: Any) -> list:

@@ -10,7 +10,7 @@ import os
 
 from ..errors import ResourceError
 
-__all__ = ["available_memory", "require_memory", "texture_bytes", "fitting_pitch", "finest_pitch", "require_pitch"]
+__all__ = ["available_memory", "require_memory", "texture_bytes", "fitting_pitch", "finest_pitch", "require_pitch", "round_up"]
 
 #: Peak bytes per texture pixel of the whole texturing job (slab, manifold3d union,
 #: fused mesh, writers), measured on a 100 x 100 mm stones plate at 0.125 mm: 1.10 KB
@@ -111,7 +111,7 @@ def fitting_pitch(pitch: float, need: float, have: float | None = None) -> float
     return float(pitch) * (1.2 * need / max(have, 1.0)) ** 0.5
 
 
-def _round_up(x: float, digits: int = 3) -> float:
+def round_up(x: float, digits: int = 3) -> float:
     """``x`` rounded up to ``digits`` significant figures (a named pitch must not be finer
     than the one computed)."""
     if not (math.isfinite(x) and x > 0):
@@ -130,7 +130,7 @@ def finest_pitch(pitch: float, scaled: float, fixed: float = 0.0, have: float | 
     budget = have / 1.2 - fixed
     if budget <= 0:
         return math.inf
-    return _round_up(float(pitch) * math.sqrt(max(scaled, 0.0) / budget))
+    return round_up(float(pitch) * math.sqrt(max(scaled, 0.0) / budget))
 
 
 def require_pitch(what: str, pitch: float, scaled: float, fixed: float = 0.0, *, unit: str = "pitch") -> None:

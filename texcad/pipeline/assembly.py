@@ -1,0 +1,100 @@
+"""The result of texturing one solid of an assembly: the textured solid with the
+other solids as they were, written as separate bodies (one STL of several closed
+bodies, one 3MF part per solid, a STEP compound, a picture of all). Lengths in mm.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any, Sequence
+
+from ..brep.assembly import all_bodies, body_names
+from ..targets.assembly import AssemblySplit
+from .result import Textured
+
+__all__ = ["AssemblyTextured", "assembly_result", "write_assembly"]
+
+
+def write_assembly(textured: Any, index: int, others: Sequence[Any], other_meshes: Sequence[Any], path: Any, *,
+                   separate_texture: bool = False, name: "str | None" = None):
+    """Write a textured solid with the other solids of its assembly, atomically: STL
+    one file of several closed bodies, 3MF one named part per solid (the textured
+    one as base and texture parts with ``separate_texture``), STEP a compound, PNG a
+    picture of all. Returns the path."""
+    from pathlib import Path
+
+    from ..io import export, write_3mf, write_step
+    from ..render import render_part
+
+    p = Path(path)
+    suffix = p.suffix.lower()
+    names = body_names(index, len(others) + 1)
+    if suffix == ".png":
+        return render_part(all_bodies(textured.mesh, other_meshes), p)
+    if suffix == ".3mf":
+        first = [("base", textured.base_mesh), ("texture", textured.texture_mesh)] if separate_texture else \
+            [(names[0], textured.mesh)]
+        write_3mf(first + list(zip(names[1:], other_meshes)), p, name=name or p.stem)
+        return p
+    if suffix in (".step", ".stp"):
+        from ..brep import compound, to_topods
+
+        write_step(compound([to_topods(textured.shape)] + [to_topods(s) for s in others]), p, name=name or p.stem)
+        return p
+    return export(all_bodies(textured.mesh, other_meshes), p, name=name)
+
+
+class AssemblyTextured(Textured):
+    """A :class:`texcad.Textured` of one solid of an assembly, with the other solids
+    kept as they were (made by :func:`assembly_result`). Lengths in mm.
+
+    Attributes:
+        solid_index: the textured solid's index in the assembly (from 0).
+        others: the other solids (OCP ``TopoDS_Solid``), in order.
+        tolerance: the chord tolerance of the other solids' meshes, mm.
+    """
+
+    def __init__(self, textured: Textured, split: AssemblySplit, tolerance: float = 0.01) -> None:
+        super().__init__(textured.stages)
+        self.info = dict(textured.info, solid=split.index, solids=split.count)
+        self.solid_index, self.others, self.tolerance = split.index, split.others, tolerance
+
+    @functools.cached_property
+    def other_meshes(self) -> list:
+        """The other solids' meshes (their tessellation at ``tolerance`` mm), in order."""
+        from ..brep import shape_to_mesh
+
+        return [shape_to_mesh(s, tolerance=self.tolerance) for s in self.others]  # per kept solid
+
+    @property
+    def bodies(self) -> list:
+        """Every body's mesh: the textured solid first, then the others in order."""
+        return [self.mesh] + self.other_meshes
+
+    @property
+    def assembly_mesh(self):
+        """All bodies as one mesh of several closed bodies (what the STL holds)."""
+        return all_bodies(self.mesh, self.other_meshes)
+
+    def export(self, path: Any, *, separate_texture: bool = False, name: "str | None" = None):
+        """Write the textured solid with the others as separate bodies (:func:`write_assembly`)."""
+        return write_assembly(self, self.solid_index, self.others, self.other_meshes, path,
+                              separate_texture=separate_texture, name=name)
+
+    def render(self, path: Any, **kwargs: Any):
+        """PNG picture of every body."""
+        from ..render import render_part
+
+        return render_part(self.assembly_mesh, path, **kwargs)
+
+    def __repr__(self) -> str:
+        return f"{Textured.__repr__(self)[:-1]}, solid {self.solid_index} of {len(self.others) + 1})"
+
+
+def assembly_result(textured: Textured, split: AssemblySplit, *, tolerance: float = 0.01) -> AssemblyTextured:
+    """The result of solid ``split.index`` (its mesh, volume, gate: that solid's)
+    made the result of the whole assembly: ``info["solid"]`` is the solid textured,
+    ``info["solids"]`` their number; ``others`` / ``other_meshes`` the other solids
+    as they were; ``bodies`` every body's mesh; ``export`` writes all of them as
+    separate bodies (:func:`write_assembly`)."""
+    return AssemblyTextured(textured, split, tolerance)
