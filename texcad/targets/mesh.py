@@ -671,6 +671,13 @@ def _layers(where: Any, texture: Any, o: Options) -> tuple:
     return tuple(Layer.make(r, t, {**base, **dict(opts)}) for r, t, opts in raw), raw
 
 
+def _one_blas_thread():
+    """numpy's BLAS limited to one thread within the block (threadpoolctl)."""
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(1, user_api="blas")
+
+
 def _vertex_areas(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     """A third of the area (mm^2) of every face around each vertex (coordinate by
     coordinate: the edges, their cross product and its length)."""
@@ -720,7 +727,10 @@ class MeshAdapter(Adapter):
     def relief(self, placement: Placement, texture: Any, options: Options) -> Relief:
         mp: MeshPlace = placement.data
         progress = options.report
-        with beside(assert_uncrossed, mp.vertices, mp.faces, mp.name, options.union) as crossed:  # the self-intersection test
+        # numpy's BLAS on one thread: texcad runs its own two here (the self-intersection test beside, the
+        # samplers and kd queries split by rows), and BLAS threads would only spin against them (its
+        # products split by rows: the same values on one thread; the same bytes on bench_mesh)
+        with beside(assert_uncrossed, mp.vertices, mp.faces, mp.name, options.union) as crossed, _one_blas_thread():
             try:
                 r, d, limit, max_error = _displace(list(mp.layers), mp.vertices, mp.faces, mp.info, options.directions,
                                                    options.critical_angle, options.tolerance, progress)
