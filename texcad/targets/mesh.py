@@ -45,6 +45,7 @@ texture as its own object of the build item. A mesh has no B-rep: ``.shape`` rai
 
 from __future__ import annotations
 
+import contextlib
 import os
 import warnings
 from dataclasses import dataclass, replace
@@ -672,9 +673,12 @@ def _layers(where: Any, texture: Any, o: Options) -> tuple:
 
 
 def _one_blas_thread():
-    """numpy's BLAS limited to one thread within the block (threadpoolctl)."""
-    from threadpoolctl import threadpool_limits
-
+    """numpy's BLAS limited to one thread within the block (threadpoolctl; nothing
+    without it)."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        return contextlib.nullcontext()
     return threadpool_limits(1, user_api="blas")
 
 
