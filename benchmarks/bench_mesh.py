@@ -13,13 +13,24 @@ freed memory for reuse, as the ``texcad`` CLI does
 a host process that calls the library. Usage:
 
     python benchmarks/bench_mesh.py [--pitch 0.2] [--segments 624] [--tolerance 0.02] [--allocator retain]
+    python benchmarks/bench_mesh.py --table --against /tmp/base0d4 [--rounds 2]
+
+``--against DIR``: a checkout of another commit (``git worktree add DIR REV``); the
+same job runs ``--rounds`` times in each, alternately, each in a fresh process, and the
+texture stage's median CPU seconds of both are printed (and noted under the table).
+On a shared machine CPU seconds vary by 2x with the load, so only runs made side by
+side compare.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import re
 import resource
+import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -48,6 +59,33 @@ def bench_part(n: int = 624) -> Mesh:
     return Mesh(np.asarray(g.vert_properties)[:, :3], np.asarray(g.tri_verts))
 
 
+def _texture_cpu(checkout: Path, args) -> float:
+    """The texture stage's CPU seconds of one run of this script as it is in
+    ``checkout`` (a fresh process with that checkout's texcad), same job."""
+    env = dict(os.environ, PYTHONPATH=str(checkout))
+    cmd = [sys.executable, str(checkout / "benchmarks" / "bench_mesh.py"), "--pitch", str(args.pitch), "--segments",
+           str(args.segments), "--texture", args.texture, "--tolerance", str(args.tolerance), "--allocator", args.allocator]
+    out = subprocess.run(cmd, cwd=checkout, env=env, capture_output=True, text=True, check=True).stdout
+    m = re.search(r"^texture\s+[\d.]+ s, CPU\s+([\d.]+) s", out, re.M)
+    if m is None:
+        raise RuntimeError(f"no texture line in the output of {checkout}: {out[-500:]}")
+    return float(m.group(1))
+
+
+def _compare(other: Path, args) -> str:
+    """Alternate runs here and in ``other``: a sentence with both medians."""
+    here = Path(__file__).resolve().parents[1]
+    ours, theirs = [], []
+    for _ in range(args.rounds):  # per round: one run in each checkout, alternately
+        ours.append(_texture_cpu(here, args))
+        theirs.append(_texture_cpu(other, args))
+    rev = subprocess.run(["git", "-C", str(other), "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+    a, b = statistics.median(ours), statistics.median(theirs)
+    return (f"Side by side with commit {rev or other} ({args.rounds} runs each, alternated, fresh processes): texture stage "
+            f"{a:.2f} CPU s here against {b:.2f} there (x {a / b:.2f}; runs {', '.join(f'{x:.2f}' for x in ours)} / "
+            f"{', '.join(f'{x:.2f}' for x in theirs)}).")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--pitch", type=float, default=0.2)
@@ -56,6 +94,8 @@ def main() -> None:
     ap.add_argument("--tolerance", type=float, default=0.02, help="mm (0: the uniform pitch grid)")
     ap.add_argument("--allocator", choices=["retain", "default"], default="retain")
     ap.add_argument("--table", action="store_true", help="write the stages to docs/benchmarks/mesh.md")
+    ap.add_argument("--against", type=Path, default=None, help="a checkout of another commit to compare with, side by side")
+    ap.add_argument("--rounds", type=int, default=2, help="runs per checkout with --against")
     args = ap.parse_args()
     if args.allocator == "retain":
         from texcad.solid import retain_freed_memory
@@ -101,9 +141,11 @@ def main() -> None:
     print(f"peak memory  {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB (RSS)")
     print(f"load         {os.getloadavg()[0]:.1f} (1-min load average, {os.cpu_count()} CPUs); allocator: {args.allocator}, "
           f"{texcad.util.threads()} threads")
+    versus = ""
+    if args.against is not None:
+        versus = _compare(args.against.resolve(), args)
+        print(versus)
     if args.table:
-        import sys
-
         sys.path.insert(0, str(Path(__file__).resolve().parent))
         from _table import write_table
 
@@ -115,7 +157,7 @@ def main() -> None:
             title=f"Texturing a {src.num_triangles:,}-triangle STL everywhere but its bed face ({tx.mesh.num_triangles:,} triangles out)",
             notes=f"builtin:stones, triplanar projection, pitch {args.pitch} mm, tolerance {args.tolerance:g} mm, limited for +z "
             f"at 45 degrees (the slicers' margin); measured error {tx.max_error:.4f} mm; peak memory "
-            f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB; load average {os.getloadavg()[0]:.1f}.")
+            f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB; load average {os.getloadavg()[0]:.1f}. " + versus)
         print(f"table written to {path}")
 
 

@@ -163,3 +163,32 @@ def test_cad_operations_work_on_mesh_results():
         cut.shape
     assert (tx + Cylinder(2, 40)).volume > tx.volume
     assert tx.mirrored().volume == pytest.approx(tx.volume, rel=1e-6)
+
+
+def test_weld_by_position_finds_repeated_positions_and_leaves_distinct_ones():
+    """The float32 weld's hash pass: faces unchanged when no two positions are equal,
+    and vertices at one position made one when some are (as np.unique of the bytes)."""
+    from texcad.report.gate import _by_position
+
+    v, f = _mesh(m3d.Manifold.sphere(5.0, 48))
+    assert _by_position(v, f) is f
+    v2 = np.concatenate([v, v[:7]])  # 7 copies of existing positions
+    f2 = f.copy()
+    f2[:7, 0] = len(v) + np.arange(7)
+    welded = _by_position(v2, f2)
+    assert np.array_equal(welded, np.where(f2 >= len(v), f2 - len(v), f2))
+
+
+def test_reach_takes_no_bound_from_vertices_of_the_same_index_off_the_surface():
+    """Check 5's same-index bound is a distance to a point of the selected surface,
+    so a vertex far from it is refused even when the selected surface's vertex of the
+    same index is near (or the numbers do not correspond at all)."""
+    base = _together(BOX)
+    tall = _together(_mesh(m3d.Manifold.cube((10, 10, 11))))
+    side = (np.array([[10, 0, 0], [10, 10, 0], [10, 10, 10], [10, 0, 10]], np.float64), np.array([[0, 1, 2], [0, 2, 3]]))
+    # the selected surface's vertices renumbered to sit where the tall box's vertices are
+    pts = np.asarray(tall.vertices, dtype=np.float64)
+    sv = np.concatenate([pts, side[0]])
+    sel = (sv, side[1] + len(pts))
+    with pytest.raises(GeometryError, match="from the selected surface"):
+        gate(tall, Expectation(bodies=1, base=base, selected=sel, height=0.2))

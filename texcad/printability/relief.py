@@ -290,14 +290,15 @@ def _distinct(idx: np.ndarray, n: int) -> np.ndarray:
 def _faces_at(f: np.ndarray, n: int):
     """Vertex -> face incidence of the faces ``f`` ``(3, M)``: ``faces_of(verts)`` gives
     the faces (indices into ``M``) at any of ``verts``, sorted and unique, in time
-    proportional to the answer. One sort of ``vertex << bits | face`` keys (a plain
-    sort, 4 times faster than a stable argsort of the vertices)."""
+    proportional to the answer. One sort of ``vertex << bits | face`` keys (a sort
+    of values, 4 times faster than a stable argsort of the vertices; timsort, as a
+    mesh's faces come in runs: half the time of the default sort)."""
     m = f.shape[1]
     bits = max(1, m.bit_length())
     key = f.astype(np.int64) << bits
     key |= np.arange(m)
     key = key.ravel()
-    key.sort()
+    key.sort(kind="stable")
     start = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(np.bincount(f.ravel(), minlength=n), out=start[1:])
     low = (1 << bits) - 1
@@ -415,41 +416,69 @@ def _steep_ridges(ctx: _Ctx, out: np.ndarray, tab: _Edges, sel: np.ndarray, tan_
     grown layer below unless the edge itself rises at ``alpha`` or more, however
     steep its faces are (a pyramid's edges are less steep than its faces: a diamond
     knurl limited facet by facet still got 43 m of support in PrusaSlicer on a 24 mm
-    cylinder). Edges whose ends are both undisplaced are the part's own.
+    cylinder). Edges whose ends are both undisplaced are the part's own (left out
+    before anything is computed for them).
     """
     p = ctx.v0 + ctx.nrm * out
-    a, b = tab.a[sel], tab.b[sel]
+    bad, end = np.zeros(len(sel), dtype=bool), tab.b[sel]
+    live = np.flatnonzero((out[tab.a[sel]] != 0) | (out[tab.b[sel]] != 0))
+    a, b = tab.a[sel[live]], tab.b[sel[live]]
     e = np.take(p, b, axis=1) - np.take(p, a, axis=1)
     ee = (e * e).sum(axis=0)
     flat = np.zeros(len(a), dtype=bool)
     for d in ctx.dirs:  # per build direction: rises less steeply than the limit (cheap test first)
         ez = d @ e
         flat |= (ee - ez * ez) * (tan_limit * tan_limit) > ez * ez
-    cand = np.flatnonzero(flat & ((out[a] != 0) | (out[b] != 0)))
-    bad, end = np.zeros(len(a), dtype=bool), b.copy()
+    cand = np.flatnonzero(flat)
     if len(cand):
-        bad[cand], end[cand] = _ridge_test(ctx, p, out, tab, sel[cand], e[:, cand], tan_limit)
+        bad[live[cand]], end[live[cand]] = _ridge_test(ctx, p, out, tab, sel[live[cand]], e[:, cand], tan_limit)
     return bad, end
+
+
+def _face_normals_of(p: np.ndarray, f: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit normals ``(3, E)`` of the faces ``f1`` and ``f2`` at positions ``p``
+    (:func:`_unit`, face by face, so the same bits either way): of every face once when
+    they name most faces, else of each named face."""
+    if 2 * len(f1) >= f.shape[1]:
+        n = _unit(np.take(p, f, axis=1))[0]
+        return np.take(n, f1, axis=1), np.take(n, f2, axis=1)
+    return _ridge_normals(p, f, f1), _ridge_normals(p, f, f2)
 
 
 def _ridge_test(ctx: _Ctx, p: np.ndarray, out: np.ndarray, tab: _Edges, sel: np.ndarray, e: np.ndarray, tan_limit: float):
     """:func:`_steep_ridges` on candidate edges ``sel`` with vectors ``e`` ``(3, E)``
     (positions ``p`` ``(3, N)``): convex, and their corner moving between the faces'
-    outward normals."""
+    outward normals. For an axis build direction ``s e_k`` the horizontal parts are the
+    other two coordinates and ``d . (x X y)`` is ``s`` times the k-th component of the
+    cross product: the same numbers, without the zero terms."""
     a, b = tab.a[sel], tab.b[sel]
-    n1, n2 = _ridge_normals(p, ctx.f, tab.f1[sel]), _ridge_normals(p, ctx.f, tab.f2[sel])
+    n1, n2 = _face_normals_of(p, ctx.f, tab.f1[sel], tab.f2[sel])
     convex = ((np.take(p, tab.c2[sel], axis=1) - np.take(p, a, axis=1)) * n1).sum(axis=0) < 0
     bad = np.zeros(len(a), dtype=bool)
     upper = b.copy()
-    for d in ctx.dirs:  # per build direction
-        ez = d @ e
+    for d, (k, sk) in zip(ctx.dirs, ctx.plan):  # per build direction
+        if k is not None:  # s e_k: ez = s e_k exactly; the products below all carry s twice or not at all
+            ez = e[k] * sk
+            sg = np.where(ez < 0, -1.0, 1.0)
+            i, j = (k + 1) % 3, (k + 2) % 3  # the cross product's k-th component: x_i y_j - x_j y_i
+            ui, uj = e[i] * sg, e[j] * sg
+            s12 = n1[i] * n2[j] - n1[j] * n2[i]
+            s1u = n1[i] * uj - n1[j] * ui
+            su2 = ui * n2[j] - uj * n2[i]
+            lo_, hi_ = min(i, j), max(i, j)  # sums of squares in coordinate order
+            h11 = n1[lo_] * n1[lo_] + n1[hi_] * n1[hi_]
+            h22 = n2[lo_] * n2[lo_] + n2[hi_] * n2[hi_]
+            uu = (e[lo_] * sg) ** 2 + (e[hi_] * sg) ** 2
+        else:
+            ez = d @ e
+            u = (e - np.outer(d, ez)) * np.where(ez < 0, -1.0, 1.0)
+            h1, h2 = n1 - np.outer(d, d @ n1), n2 - np.outer(d, d @ n2)
+            s12, s1u, su2 = (d @ np.cross(h1, h2, axis=0)), (d @ np.cross(h1, u, axis=0)), (d @ np.cross(u, h2, axis=0))
+            h11, h22, uu = (h1 * h1).sum(axis=0), (h2 * h2).sum(axis=0), (u * u).sum(axis=0)
         up = np.where(ez < 0, a, b)
-        u = (e - np.outer(d, ez)) * np.where(ez < 0, -1.0, 1.0)
-        h1, h2 = n1 - np.outer(d, d @ n1), n2 - np.outer(d, d @ n2)
-        s12, s1u, su2 = (d @ np.cross(h1, h2, axis=0)), (d @ np.cross(h1, u, axis=0)), (d @ np.cross(u, h2, axis=0))
-        big = np.abs(s12) > 1e-9 * np.sqrt((h1 * h1).sum(axis=0) * (h2 * h2).sum(axis=0))  # not (anti)parallel
+        big = np.abs(s12) > 1e-9 * np.sqrt(h11 * h22)  # not (anti)parallel
         inside = big & (s1u * s12 >= 0) & (su2 * s12 >= 0)
-        flat = np.sqrt((u * u).sum(axis=0)) * tan_limit > np.abs(ez)
+        flat = np.sqrt(uu) * tan_limit > np.abs(ez)
         hit = convex & inside & flat
         upper = np.where(hit & ~bad, up, upper)
         bad |= hit

