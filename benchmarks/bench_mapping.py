@@ -6,7 +6,7 @@
    Target: <= 0.1 s (>= 6.4 M vertices/s).
 2. The whole make-to-STL job for a cylinder of 20 mm radius, 100 mm long (5 mm wall),
    stones texture 2 mm high at 0.125 mm pitch (fitted to 5 whole tiles around), per
-   stage, and the same job through textured_surface + write_stl as `texcad make`
+   stage, and the same job through texcad.texture + write_stl as `texcad make`
    runs it.
 
     python benchmarks/bench_mapping.py [--repeat 5] [--pitch 0.125]
@@ -25,7 +25,6 @@ import warnings
 from pathlib import Path
 
 import texcad
-import texcad.mapping as texcad_mapping
 from texcad.mapping import fit_texture, map_texture
 from texcad.mapping import Profile, Surface
 
@@ -111,8 +110,8 @@ def bench_cylinder(repeat: int, pitch: float, out: Path) -> None:
         t0 = time.perf_counter()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            part = texcad_mapping.textured_surface(
-                Surface.cylinder(20.0, 100.0, 5.0), "builtin:stones", height=2.0, mapping="angle", pitch=pitch
+            part = texcad.texture(
+                Surface.cylinder(20.0, 100.0, 5.0), None, "builtin:stones", height=2.0, mapping="angle", pitch=pitch
             )
         texcad.io.write_stl(part.mesh, out / "cylinder_api.stl")
         ends.append(time.perf_counter() - t0)
@@ -124,7 +123,7 @@ def bench_cylinder(repeat: int, pitch: float, out: Path) -> None:
     for key in r0:
         if not key.startswith("_"):
             print(f"  {key:40s} {statistics.median(r[key] for r in runs):6.3f} s")
-    print(f"  {'textured_surface + write_stl (make)':40s} {statistics.median(ends):6.3f} s  (incl. texture synthesis)")
+    print(f"  {'texcad.texture + write_stl (make)':40s} {statistics.median(ends):6.3f} s  (incl. texture synthesis)")
 
 
 def main() -> None:
