@@ -35,7 +35,6 @@ such information: whole-part numbers only.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 from concurrent.futures import ThreadPoolExecutor
@@ -45,7 +44,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..errors import ParameterError
-from ..util import threads
+from ..util import one_blas_thread, threads
 from ..sources import Heightmap
 from ..io import read_part
 from ..solid import Mesh, box_cells, closed_and_oriented, edge_report, shells
@@ -443,7 +442,7 @@ def check(
         source, items, hm_from_part = _items(part)
     heightmap = heightmap if heightmap is not None else hm_from_part
     notes: list[str] = []
-    with ThreadPoolExecutor(min(2, threads())) as pool, _one_blas_thread():  # independent measures side by side (numpy releases the GIL)
+    with ThreadPoolExecutor(min(2, threads())) as pool, one_blas_thread():  # independent measures side by side (numpy releases the GIL)
         if len(items) == 1:  # nothing to unite: the same test as manifold3d's, vectorized (below)
             mans, ids, manif = [None], None, []
         else:
@@ -522,16 +521,6 @@ def _areas_of(mesh: Mesh, which: np.ndarray) -> np.ndarray:
     return area
 
 
-def _one_blas_thread():
-    """numpy's BLAS on one thread while :func:`check` runs its own two (the BLAS
-    threads would only spin against them: 0.2 of 0.9 CPU seconds of the measures on a
-    983 620-triangle part); nothing if threadpoolctl is not installed. The values are
-    the same: BLAS splits rows between its threads, each row's sum is the same."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        return contextlib.nullcontext()
-    return threadpool_limits(1, user_api="blas")
 
 
 def _mesh_and_texture(items, mans, ids, manif, notes: list[str]) -> tuple[Mesh, np.ndarray | None]:

@@ -45,7 +45,6 @@ texture as its own object of the build item. A mesh has no B-rep: ``.shape`` rai
 
 from __future__ import annotations
 
-import contextlib
 import os
 import warnings
 from dataclasses import dataclass, replace
@@ -64,7 +63,7 @@ from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, closed_and_oriente
 from ..solid.adaptive import build, carried, coarse_mesh, edge_counts, measure, pitch_samples
 from ..solid.repair import repair_crossings
 from ..solid.subdivide import coarsen, face_normals, offset_directions, refine, vertex_normals
-from ..util import beside, colmax, colmin, rowany, split_rows, threads
+from ..util import beside, colmax, colmin, one_blas_thread, rowany, split_rows, threads
 from ..contracts import Fused, Placement, Relief, Stages
 from ..options import Options
 from ..report.gate import Expectation
@@ -673,14 +672,6 @@ def _layers(where: Any, texture: Any, o: Options) -> tuple:
     return tuple(Layer.make(r, t, {**base, **dict(opts)}) for r, t, opts in raw), raw
 
 
-def _one_blas_thread():
-    """numpy's BLAS limited to one thread within the block (threadpoolctl; nothing
-    without it)."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        return contextlib.nullcontext()
-    return threadpool_limits(1, user_api="blas")
 
 
 def _vertex_areas(v: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -737,7 +728,7 @@ class MeshAdapter(Adapter):
         # numpy's BLAS on one thread: texcad runs its own two here (the self-intersection test beside, the
         # samplers and kd queries split by rows), and BLAS threads would only spin against them (its
         # products split by rows: the same values on one thread; the same bytes on bench_mesh)
-        with beside(assert_uncrossed, mp.vertices, mp.faces, mp.name, options.union) as crossed, _one_blas_thread():
+        with beside(assert_uncrossed, mp.vertices, mp.faces, mp.name, options.union) as crossed, one_blas_thread():
             try:
                 r, d, limit, max_error = _displace(list(mp.layers), mp.vertices, mp.faces, mp.info, options.directions,
                                                    options.critical_angle, options.tolerance, progress)

@@ -11,6 +11,7 @@ from .checks import (
 )
 from .parallel import (
     beside,
+    one_blas_thread,
     split_rows,
     threads,
 )
@@ -48,6 +49,7 @@ from .vectors import (
 )
 
 __all__ = [
+    "one_blas_thread",
     'atomic_path',
     'positive',
     'beside',

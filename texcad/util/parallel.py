@@ -16,7 +16,7 @@ import os
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Callable, Iterator, TypeVar
 
-__all__ = ["threads", "split_rows", "beside"]
+__all__ = ["threads", "split_rows", "beside", "one_blas_thread"]
 
 T = TypeVar("T")
 
@@ -60,3 +60,15 @@ def beside(fn: Callable[..., T], *args: Any) -> Iterator["Future[T]"]:
         return
     with ThreadPoolExecutor(1) as pool:
         yield pool.submit(fn, *args)
+
+
+def one_blas_thread():
+    """A context in which numpy's BLAS runs on one thread (threadpoolctl; nothing
+    when it is not installed), for blocks where texcad runs its own threads (the
+    BLAS threads would only spin against them). Values do not change: BLAS splits
+    rows between its threads, and each row's sum is the same."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        return contextlib.nullcontext()
+    return threadpool_limits(1, user_api="blas")
