@@ -56,8 +56,10 @@ class Relief:
         heightmap: the texture as applied (mm; ramped, clipped, limited), or None
             where there is no single grid (several patches, a mesh).
         limits: the overhang limiter's report for ``build_dir``, or None.
-        volume: the texture's own integral ``sum h dA`` as applied, mm^3 (raised +,
-            engraved -), the gate's expected volume change.
+        volume: the texture's own integral as applied, mm^3 (raised +, engraved -),
+            the gate's expected volume change: ``sum h dA`` on a plane, the swept
+            volume ``int (h + H h^2 + K h^3 / 3) dA`` on a curved face (H mean, K
+            Gaussian curvature; ``int (h + k h^2 / 2) ds dy`` on an extruded profile).
         volume_slack: the difference accepted between ``volume`` and the mesh's
             volume change, mm^3 (mesh tolerance times area, curvature terms).
         nominal_volume: the integral before the overhang and curvature limits, mm^3.
