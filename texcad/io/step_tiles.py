@@ -329,7 +329,8 @@ def _keep(p: np.ndarray, t: np.ndarray, tol: float) -> np.ndarray:
     i = np.arange(n)[:, None, None]
     j = np.minimum(i + np.arange(1, w_ + 1)[None, None, :], n - 1)  # (i, 1, s): chords up to SPAN long
     k = np.minimum(i + np.arange(1, w_)[None, :, None], n - 1)  # (i, q, 1): the points they skip
-    w = np.clip((t[k] - t[i]) / (t[j] - t[i]), 0.0, 1.0)[..., None, None]  # (i, q, s, 1, 1)
+    span = t[j] - t[i]  # 0 only for the last point's (empty) chords
+    w = np.clip((t[k] - t[i]) / np.where(span > 0, span, 1.0), 0.0, 1.0)[..., None, None]  # (i, q, s, 1, 1)
     chord = p[i] * (1 - w) + p[j] * w  # (i, q, s, m, 3)
     d = np.sqrt(((chord - p[k]) ** 2).sum(-1)).max(-1)  # (i, q, s)
     d = np.where(k < j, d, 0.0).max(1)  # (i, s): the chord from i, s + 1 points on, its largest miss
