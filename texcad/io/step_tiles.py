@@ -311,10 +311,10 @@ def _outer(sides: list, grids: list) -> list:
 #: Longest chord (grid cells) :func:`_keep` tries.
 SPAN = 8
 #: Share of the tolerance an edge's polyline may miss its grid points by.
-EDGE_SHARE = 0.75
+EDGE_SHARE = 1.0
 #: Shares of the tolerance a tile's rows and columns are first chosen within (each
 #: direction); the bilinear result is then checked against the whole tolerance.
-INNER_SHARES = (0.75, 0.5, 0.25)
+INNER_SHARES = (1.0, 0.75, 0.5, 0.25)
 
 
 def _keep(p: np.ndarray, t: np.ndarray, tol: float) -> np.ndarray:
