@@ -1,23 +1,33 @@
 """STEP of texcad's texture tiles, written with numpy instead of OCCT's per-number writer.
 
 OCCT's STEP writer formats every number on its own; for the demo plate (1089 tiles,
-680 k poles, each also a node of the tile's stored triangulation) that was 8.5 s of
-the 10 s write and 142 MB. Here OCCT writes everything but the tiles' poles and
-triangulations: each degree-1 tile surface is swapped, in a topological copy of the
-shape, for a 2 x 2-pole stand-in with the same parameter range (its edges get the
-same pcurves on it), and the STEP text is then completed with numpy:
+680 k poles) that was most of the write time and size. Here OCCT writes everything
+but the tiles' poles (and triangulations): each degree-1 tile surface is swapped, in
+a topological copy of the shape, for a 2 x 2-pole stand-in with the same parameter
+range (its edges get the same pcurves on it), and the STEP text is then completed
+with numpy:
 
+* every point is written once (``CARTESIAN_POINT``, four to a line): a pole on the
+  border of two tiles is one entity both surfaces refer to, and OCCT's own points
+  that are poles (the tiles' edge curves and vertices) are dropped and refer to it,
+  so tiles, edges and vertices meet exactly whatever the decimals;
+* at a tolerance (:meth:`texcad.Textured.export` passes the mesh's, 0.02 mm by
+  default) the tiles keep fewer poles (:func:`_reduced`): each edge between two
+  tiles keeps the points its polyline needs (its 3-D curve becomes that polyline and
+  both tiles' border poles move onto it), each tile the rows and columns its edges
+  and its interior need, checked bilinear on every grid point; and fewer decimals
+  (:func:`decimals_for`: 3 at 0.02 mm; 8 on edges shared with the part's own faces,
+  whose pcurves are OCCT's, and on border poles moved onto an edge). Issue 28: the
+  demo plate's STEP about twice its binary STL (``docs/benchmarks/step.md``);
 * the stand-in's ``B_SPLINE_SURFACE_WITH_KNOTS`` is rewritten with the tile's poles
-  (``CARTESIAN_POINT`` entities: 8 decimals on the tile's border, 5e-9 mm, inside the
-  edges' 1e-7 mm; 4 decimals inside, 5e-5 mm, far below any mesh tolerance; trailing
-  zeros dropped; the stand-in's four corner points are the tile's corner poles) and
-  knots;
-* each tile that carries its triangulation (texcad's mesh: two triangles per grid
-  cell) gets a ``COMPLEX_TRIANGULATED_FACE`` linked to its ``ADVANCED_FACE`` (AP242),
-  with its nodes (``COORDINATES_LIST``, the same numbers as the poles, formatted
-  once), no normals (optional in AP242; OCCT's viewers compute them) and its
-  triangles as one strip per column of cells (two numbers per node instead of six);
-* a ``TESSELLATED_SOLID`` per solid lists them, as OCCT's own writer does.
+  and knots;
+* with ``tessellate`` each tile that carries its triangulation (texcad's mesh: two
+  triangles per grid cell) also gets a ``COMPLEX_TRIANGULATED_FACE`` linked to its
+  ``ADVANCED_FACE`` (AP242), with its nodes (``COORDINATES_LIST``, the same numbers as
+  the poles, formatted once), no normals (optional in AP242; OCCT's viewers compute
+  them) and its triangles as one strip per column of cells (two numbers per node
+  instead of six), and a ``TESSELLATED_SOLID`` per solid lists them, as OCCT's own
+  writer does; the tiles then keep every pole.
 
 The stand-ins are matched to the STEP entities through the shells' face order and
 checked by their corner points; anything unexpected returns None and the caller uses
