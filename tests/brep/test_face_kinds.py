@@ -112,3 +112,18 @@ def test_hole_through_torus_says_which_face(tmp_path):
         chk = check_shape(shape)
         assert chk["valid"] and chk["solids"] == 1
         assert abs(occt_volume(shape) - cut.volume) <= 1e-3 * cut.volume + cut.info.get("volume_slack", 0.0)
+
+
+def test_chained_result_says_why_no_brep():
+    """Texturing a face of an earlier result (chained): the mesh holds both textures;
+    ``.shape`` raises a GeometryError that says the result is chained and names the
+    face kind and STL/3MF (nothing silently wrong)."""
+    from build123d import Axis, Box
+
+    box = Box(20, 20, 6)
+    tx = texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=0.6, pitch=0.5)
+    side = tx.part.faces().sort_by(Axis.X)[-1]
+    chained = texcad.texture(tx, side, "builtin:diamond_knurl", height=0.4, pitch=0.5)
+    assert chained.volume > tx.volume  # the second texture is on the mesh
+    with pytest.raises(texcad.TexcadError, match=r"plane face of an earlier textured result \(chained\).*STL or 3MF"):
+        chained.shape
