@@ -101,14 +101,15 @@ def test_face_kind_step_is_one_solid_shown_as_texcads_mesh(make, tmp_path):
     assert check_shape(shape)["faces"] == len(part.faces())  # the face replaced in place: no boolean, no extra faces
     path = tmp_path / "part.step"
     tx.export(path)
-    assert b"TRIANGULATED_FACE" in path.read_bytes()  # the textured face carries texcad's grid mesh
+    assert b"TRIANGULATED_FACE" not in path.read_bytes()  # the B-rep at the mesh's tolerance; OCCT meshes it
     back = texcad.io.read_step(path)
     chk = check_shape(back)
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
     assert occt_volume(back) == pytest.approx(tx.volume, rel=1e-3)
     shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
     assert _distance(shown.vertices, tx.mesh) < DEFLECTION
-    assert _distance(tx.mesh.vertices, shown) < DEFLECTION
+    # OCCT meshes the B-spline tiles itself (no tessellation in the default STEP): + half the pitch
+    assert _distance(tx.mesh.vertices, shown) < DEFLECTION + 0.5 * 0.5
 
 
 def test_faces_flattened_together_have_no_brep_and_say_so():

@@ -269,7 +269,7 @@ def _sides(shape, tiles: list, grids: list) -> list:
     rows ``lo..hi``), 0 for an iso-v edge (grid row ``line``, columns ``lo..hi``).
     An edge that is neither (a given outline's) has side None."""
     from OCP.BRep import BRep_Tool
-    from OCP.gp import gp_Pnt2d
+    from OCP.BRepTools import BRepTools
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
     from OCP.TopExp import TopExp, TopExp_Explorer
     from OCP.TopoDS import TopoDS
@@ -289,17 +289,20 @@ def _sides(shape, tiles: list, grids: list) -> list:
             exp.Next()
             faces = ancestors.FindFromKey(edge)
             shared = faces.Size() == 2 and all(mine.Contains(f) for f in faces) and not BRep_Tool.IsClosed_s(edge, face)
-            p, q = gp_Pnt2d(), gp_Pnt2d()
-            BRep_Tool.UVPoints_s(edge, face, p, q)
+            tiles_of_edge = tuple(mine.FindIndex(f) - 1 for f in faces) if shared else ()
+            u0, u1, v0, v1 = BRepTools.UVBounds_s(face, edge)  # the pcurve's box (a hole's circle too)
             eu, ev = 1e-9 * (1 + abs(u).max()), 1e-9 * (1 + abs(v).max())
-            iu = np.flatnonzero((u >= min(p.X(), q.X()) - eu) & (u <= max(p.X(), q.X()) + eu))
-            iv = np.flatnonzero((v >= min(p.Y(), q.Y()) - ev) & (v <= max(p.Y(), q.Y()) + ev))
+            iu = np.flatnonzero((u >= u0 - eu) & (u <= u1 + eu))
+            iv = np.flatnonzero((v >= v0 - ev) & (v <= v1 + ev))
             side = None
-            if len(iu) == 1 and iu[0] in (0, len(u) - 1) and len(iv) >= 2:
+            if len(iu) == 1 and iu[0] in (0, len(u) - 1) and len(iv) >= 2 and u1 - u0 <= 2 * eu:
                 side = (1, int(iu[0]), int(iv[0]), int(iv[-1]))
-            elif len(iv) == 1 and iv[0] in (0, len(v) - 1) and len(iu) >= 2:
+            elif len(iv) == 1 and iv[0] in (0, len(v) - 1) and len(iu) >= 2 and v1 - v0 <= 2 * ev:
                 side = (0, int(iv[0]), int(iu[0]), int(iu[-1]))
-            sides.append((edge, shared, side, (iu, iv)))
+            if side is None:  # any other edge (a given outline, a hole's trace): the grid lines around it
+                iu = np.arange(max(np.searchsorted(u, u0 - eu, "right") - 1, 0), min(np.searchsorted(u, u1 + eu), len(u) - 1) + 1)
+                iv = np.arange(max(np.searchsorted(v, v0 - ev, "right") - 1, 0), min(np.searchsorted(v, v1 + ev), len(v) - 1) + 1)
+            sides.append((edge, shared, side, (iu, iv), tiles_of_edge))
         out.append(sides)
     return out
 
@@ -311,7 +314,7 @@ def _outer(sides: list, grids: list) -> list:
     out = []
     for tile, (g, _, _) in zip(sides, grids):  # one per tile
         on = np.zeros(g.shape[:2], bool)
-        for _, shared, _, (iu, iv) in tile:  # one per edge
+        for _, shared, _, (iu, iv), _ in tile:  # one per edge
             if not shared:
                 on[np.ix_(iv, iu)] = True
         out.append(on)
@@ -352,6 +355,11 @@ def _keep(p: np.ndarray, t: np.ndarray, tol: float) -> np.ndarray:
     return np.asarray(kept)
 
 
+def _side_index(side: tuple) -> tuple:
+    """``(rows, cols)`` index arrays of a tile side ``(axis, line, lo, hi)``."""
+    return (np.arange(side[2], side[3] + 1), np.array([side[1]])) if side[0] == 1 else (np.array([side[1]]), np.arange(side[2], side[3] + 1))
+
+
 def _hats(t: np.ndarray, kept: np.ndarray) -> np.ndarray:
     """``(len(t), len(kept))``: the degree-1 B-spline basis on the knots ``t[kept]``
     at the parameters ``t``."""
@@ -386,10 +394,20 @@ def _reduced(b, sides: list, grids: list, tol: float) -> list:
     keep_r = [np.zeros(g.shape[0], bool) for g, _, _ in grids]
     keep_c = [np.zeros(g.shape[1], bool) for g, _, _ in grids]
     on_line = [np.zeros(g.shape[:2], bool) for g, _, _ in grids]  # moved onto an edge's polyline
+    frozen = [np.zeros(g.shape[:2], bool) for g, _, _ in grids]  # around edges that are not whole tile sides
+    for ti, tile in enumerate(sides):  # one per tile
+        for _, _, side, (iu, iv), _ in tile:  # one per edge
+            if side is None:
+                frozen[ti][np.ix_(iv, iu)] = True
+    stay = TopTools_IndexedMapOfShape()  # edges with a frozen point in either tile: kept whole
+    for ti, tile in enumerate(sides):  # one per tile
+        for edge, _, side, _, _ in tile:  # one per edge
+            if side is not None and frozen[ti][np.ix_(*_side_index(side))].any():
+                stay.Add(edge)
     for ti, tile in enumerate(sides):  # one per tile
         g, u, v = grids[ti]
-        for edge, shared, side, (iu, iv) in tile:  # one per edge
-            if side is None:  # a given outline: every pole it touches stays
+        for edge, shared, side, (iu, iv), _ in tile:  # one per edge
+            if side is None:  # not a whole tile side: the rows and columns of the cells it crosses stay
                 keep_r[ti][iv], keep_c[ti][iu] = True, True
                 continue
             axis, line, lo, hi = side
@@ -399,7 +417,7 @@ def _reduced(b, sides: list, grids: list, tol: float) -> list:
             if key == 0:
                 key = done.Add(edge)
                 sel = None
-                if shared:
+                if shared and not stay.Contains(edge):
                     sel = _keep(pts[:, None], t, EDGE_SHARE * tol)
                     first, last = BRep_Tool.Range_s(edge)
                     if len(sel) == len(t) or abs(first - t[0]) > 1e-9 or abs(last - t[-1]) > 1e-9:
@@ -533,7 +551,11 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list,
     remap = {e: pole_id[t] for e, t in zip(occt_pts, occt_tok.tolist()) if t in pole_id}
     repl.update((e, "") for e in remap)
     inter = [None] * (2 * n_emit)
-    inter[0::2], inter[1::2] = (next_id + np.arange(n_emit)).tolist(), tok[first[order]].tolist()
+    exact = np.zeros(len(uniq), bool)  # a point is written with 8 decimals if any of its uses needs them
+    np.logical_or.at(exact, inv, outer)
+    emit_tok = tok[first]
+    emit_tok[exact & ~outer[first]] = _tokens(pts[first[exact & ~outer[first]]], 8)
+    inter[0::2], inter[1::2] = (next_id + np.arange(n_emit)).tolist(), emit_tok[order].tolist()
     one = "#%d=CARTESIAN_POINT('',(%s));"  # four to a line (lines of ~200 characters)
     new = [(((one * 4 + "\n") * (n_emit // 4)) + one * (n_emit % 4) + "\n") % tuple(inter)]
     repl.update(_surfaces_text(swaps, ids))
