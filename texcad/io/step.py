@@ -60,15 +60,15 @@ def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part"
     passes: the mesh's tolerance) a tile keeps only the rows and columns of poles,
     and an edge between tiles only the points, needed to stay within ``tolerance``
     of every grid point, with 3 decimals inside the tiles at 0.02 mm: a plain AP214
-    B-rep about twice the size of the binary STL at the same tolerance (see
-    ``docs/benchmarks/step.md``).
+    B-rep; its size against the binary STL at the same tolerance is in
+    ``docs/benchmarks/step.md``.
 
     ``tessellated=True`` adds each tile's triangulation (texcad's grid mesh) as AP242
     tessellated geometry (``COMPLEX_TRIANGULATED_FACE`` next to the B-spline face):
     OCCT's STEP reader attaches it to the face again and its mesher
     (``BRepMesh_IncrementalMesh``, what CQ-editor, ocp_vscode and FreeCAD run to show a
-    part) keeps it instead of meshing the tiles, at about 1.7 times the size (every
-    pole, written twice). The schema is then AP242
+    part) keeps it instead of meshing the tiles, in a larger file (every pole, and
+    every pixel twice). The schema is then AP242
     (``AP242_MANAGED_MODEL_BASED_3D_ENGINEERING``), else AP214.
 
     Args:
@@ -77,7 +77,7 @@ def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part"
         name: product name shown by CAD programs (ASCII).
         tessellated: write the tiles' triangulations (default False).
         tolerance: mm, how far the written tiles may lie from their grid points
-            (0: every pole, to 5e-5 mm).
+            (0: the exact B-rep, every number as OCCT holds it).
 
     Raises:
         GeometryError: OCCT could not translate or write the shape.

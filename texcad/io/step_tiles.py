@@ -218,12 +218,15 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
             (:func:`decimals_for`, :func:`_reduced`): a STEP at the mesh's tolerance.
 
     Returns:
-        The STEP bytes, or None where this does not apply or a check fails (write
-        with OCCT's own writer then).
+        The STEP bytes, or None where this does not apply (no tiles; neither
+        ``tessellate`` nor a tolerance: the exact B-rep) or a check fails (write with
+        OCCT's own writer then).
     """
     from OCP.BRep import BRep_Builder
     from OCP.BRepBuilderAPI import BRepBuilderAPI_Copy
 
+    if not tessellate and tolerance <= 0:  # exact and plain: OCCT's own writer, every number as it is
+        return None
     order0, tiles0 = _tiles_of(topo)
     if not tiles0:
         return None
