@@ -101,14 +101,15 @@ def test_face_kind_step_is_one_solid_shown_as_texcads_mesh(make, tmp_path):
     assert check_shape(shape)["faces"] == len(part.faces())  # the face replaced in place: no boolean, no extra faces
     path = tmp_path / "part.step"
     tx.export(path)
-    assert b"TRIANGULATED_FACE" in path.read_bytes()  # the textured face carries texcad's grid mesh
+    assert b"TRIANGULATED_FACE" not in path.read_bytes()  # the B-rep at the mesh's tolerance; OCCT meshes it
     back = texcad.io.read_step(path)
     chk = check_shape(back)
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
     assert occt_volume(back) == pytest.approx(tx.volume, rel=1e-3)
     shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
     assert _distance(shown.vertices, tx.mesh) < DEFLECTION
-    assert _distance(tx.mesh.vertices, shown) < DEFLECTION
+    # OCCT meshes the B-spline tiles itself (no tessellation in the default STEP): + half the pitch
+    assert _distance(tx.mesh.vertices, shown) < DEFLECTION + 0.5 * 0.5
 
 
 def test_faces_flattened_together_have_no_brep_and_say_so():
@@ -175,8 +176,11 @@ def test_open_extrusion_faces_are_tiles_sewn_in_place(tmp_path):
         assert occt_volume(shape, 1e-3) == pytest.approx(tx.volume, rel=1e-3)
         back = _reread(tx, tmp_path / "part.step", 1e-3)
         shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
-        assert _distance(shown.vertices, tx.mesh) < DEFLECTION
-        assert _distance(tx.mesh.vertices, shown) < DEFLECTION
+        # OCCT meshes the tiles itself (the default STEP carries no triangulation): its nodes sample the
+        # bilinear grid between pixel centres, where the lean mesh's bound does not hold (the same with
+        # the exact B-rep: 0.11 / 0.23 mm on the plate with holes at 0.5 mm): + the pitch
+        assert _distance(shown.vertices, tx.mesh) < DEFLECTION + 0.5
+        assert _distance(tx.mesh.vertices, shown) < DEFLECTION + 0.5
 
 
 def test_hole_through_the_textured_sine():
@@ -240,8 +244,9 @@ def test_plate_with_holes_in_tiles(tmp_path):
     chk = check_shape(back)
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
     shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
-    assert _distance(shown.vertices, tx.mesh) < DEFLECTION
-    assert _distance(tx.mesh.vertices, shown) < DEFLECTION
+    # OCCT meshes the tiles itself: + the pitch (see test_open_extrusion_faces_are_tiles_sewn_in_place)
+    assert _distance(shown.vertices, tx.mesh) < DEFLECTION + 0.5
+    assert _distance(tx.mesh.vertices, shown) < DEFLECTION + 0.5
     cut = tx - Pos(0, 0, 0) * Cylinder(4, 30)
     assert tx.volume - cut.volume > 300
     cs = cut.shape  # checked: valid, one solid, volume within 0.1 % of manifold3d's
@@ -265,8 +270,9 @@ def test_engraved_and_centred_planar_faces_have_their_step(mode, tmp_path):
     if mode == "engraved":  # cut in: less than the part
         assert occt_volume(back, 1e-3) < plate.volume - 100
     shown = shape_to_mesh(back, tolerance=DEFLECTION, angular_tolerance=0.5)
-    assert _distance(shown.vertices, tx.mesh) < DEFLECTION
-    assert _distance(tx.mesh.vertices, shown) < DEFLECTION
+    # OCCT meshes the tiles itself: + the pitch (see test_open_extrusion_faces_are_tiles_sewn_in_place)
+    assert _distance(shown.vertices, tx.mesh) < DEFLECTION + 0.3
+    assert _distance(tx.mesh.vertices, shown) < DEFLECTION + 0.3
     cut = tx - Pos(8, 3, 0) * Cylinder(3, 30)  # a hole drilled through the texture
     assert tx.volume - cut.volume > 200
     chk = check_shape(cut.shape)  # checked by ops against manifold3d's cut

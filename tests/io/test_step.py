@@ -22,13 +22,14 @@ def _distance(points: np.ndarray, mesh: texcad.solid.Mesh) -> float:
     return float(np.sqrt(d2.max()))
 
 
-def _shown(tx, path, tol, occt_integrates=True):
-    """Write ``tx`` as STEP, read it, mesh it with OCCT; the two one-sided distances
+def _shown(tx, path, tol, occt_integrates=True, write=None):
+    """Write ``tx`` as STEP (``write(path)``, else ``tx.export``: at the mesh's
+    tolerance), read it, mesh it with OCCT; the two one-sided distances
     between OCCT's mesh and texcad's (mm) must be within ``tol``. ``occt_integrates``
     False: the textured face is one large trimmed B-spline face, which OCCT's adaptive
     volume integration does not resolve (its result changes by percents with eps),
     so the volume of OCCT's shown mesh stands in for it."""
-    tx.export(path)
+    (write or tx.export)(path)
     back = texcad.io.read_step(path)
     chk = check_shape(back)
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
@@ -50,13 +51,13 @@ def test_plate_step_carries_texcads_mesh(tmp_path):
     box = Box(30, 20, 5)
     tx = texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=1.5, pitch=0.25)
     path = tmp_path / "plate.step"
-    # The tiles carry the pixel grid (one pole per pixel); texcad's fused mesh is the
-    # lean one, within its tolerance of that grid.
-    back = _shown(tx, path, tx.info["tolerance"] + 1e-3)
+    # tessellated: the tiles carry the pixel grid (one pole per pixel) and its mesh;
+    # texcad's fused mesh is the lean one, within its tolerance of that grid.
+    back = _shown(tx, path, tx.info["tolerance"] + 1e-3, write=lambda p: texcad.io.write_step(tx.shape, p, tessellated=True))
     text = path.read_bytes()
     assert b"TRIANGULATED_FACE" in text and b"AP242" in text[:2000]
-    # Without tessellation: plain AP214, and OCCT meshes the B-spline tiles itself.
-    texcad.io.write_step(back, tmp_path / "plain.step", tessellated=False)
+    # Without tessellation (the default): plain AP214, and OCCT meshes the B-spline tiles itself.
+    texcad.io.write_step(back, tmp_path / "plain.step")
     plain = (tmp_path / "plain.step").read_bytes()
     assert b"TRIANGULATED_FACE" not in plain and b"AUTOMOTIVE_DESIGN" in plain[:2000]
     again = texcad.io.read_step(tmp_path / "plain.step")
@@ -98,12 +99,12 @@ def test_numpy_step_matches_occts_own(tmp_path, monkeypatch):
     box = Box(30, 20, 5)
     tx = texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=1.5, pitch=0.5)
     mirrored = tx.mirrored((0, 0, 0), (1, 0, 0))  # copied tiles, remembered with their mirrored grids
-    texcad.io.write_step(mirrored.shape, tmp_path / "fast.step")
+    texcad.io.write_step(mirrored.shape, tmp_path / "fast.step", tessellated=True)
     fast = (tmp_path / "fast.step").read_bytes()
-    texcad.io.write_step(mirrored.shape, tmp_path / "again.step")
+    texcad.io.write_step(mirrored.shape, tmp_path / "again.step", tessellated=True)
     assert (tmp_path / "again.step").read_bytes() == fast  # reproducible
-    monkeypatch.setattr(step, "tiled_step_text", lambda *a: None)
-    texcad.io.write_step(mirrored.shape, tmp_path / "occt.step")
+    monkeypatch.setattr(step, "tiled_step_text", lambda *a, **k: None)
+    texcad.io.write_step(mirrored.shape, tmp_path / "occt.step", tessellated=True)
     occt = (tmp_path / "occt.step").read_bytes()
     assert len(fast) < 0.85 * len(occt)  # no per-node normals (0.72 on the demo plate)
     assert fast.count(b"TRIANGULATED_FACE(") == occt.count(b"TRIANGULATED_FACE(") > 0
@@ -119,16 +120,24 @@ def test_numpy_step_matches_occts_own(tmp_path, monkeypatch):
 
 
 def test_step_size_and_reread(tmp_path):
-    """The tiled STEP: compact (4 decimals inside the tiles, triangle strips), the
-    same bytes twice, re-read as one valid solid within 0.1 % of the mesh volume,
-    and OCCT reads back exactly texcad's grid triangles, counter-clockwise."""
+    """The STEP at the mesh's tolerance (the default export): about twice the binary
+    STL, the same bytes twice, re-read as one valid solid within 0.1 % of the mesh
+    volume whose edges keep OCCT's 1e-7 mm (tiles, edge curves and vertices share
+    their points), and every grid point of every tile within the tolerance of the
+    written surface; the tessellated STEP's strips are texcad's grid triangles,
+    counter-clockwise, as OCCT's reader expands them."""
     from build123d import Axis, Box
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopoDS import TopoDS
 
-    from texcad.io.step_tiles import _strips_text
+    from texcad.brep import explore, faces_of, tile_grid, to_topods
+    from texcad.io.step_tiles import _strips_text, decimals_for
     from texcad.solid import grid_faces
 
     box = Box(24, 24, 4)
     tx = texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=1.5, pitch=0.25)
+    tol = tx.info["tolerance"]
     (tmp_path / "again").mkdir()
     a, b = tmp_path / "a.step", tmp_path / "again" / "a.step"  # the header holds the name
     tx.export(a)
@@ -136,13 +145,29 @@ def test_step_size_and_reread(tmp_path):
     assert a.read_bytes() == b.read_bytes()
     tx.export(tmp_path / "a.stl")
     ratio = a.stat().st_size / (tmp_path / "a.stl").stat().st_size
-    # Issue 28 asks for 2; the tiles carry every pixel twice (B-spline poles and
-    # their triangulation) while the STL is texcad's lean mesh (3.8 on the demo).
-    assert ratio < 4.5, ratio
+    assert ratio < 2.3, ratio  # issue 28 asks for 2 (2.05 on a 30 mm plate at 0.125 mm)
     back = texcad.io.read_step(a)
     chk = check_shape(back)
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
     assert occt_volume(back) == pytest.approx(tx.volume, rel=1e-3)
+    assert max(BRep_Tool.Tolerance_s(TopoDS.Edge_s(e)) for e in explore(back, TopAbs_EDGE)) < 1e-6
+    # every grid point of the original tiles against the written surfaces at its (u, v)
+    grids = {}
+    for f in faces_of(to_topods(tx.shape)):  # one per face
+        got = tile_grid(BRep_Tool.Surface_s(f))
+        if got is not None:
+            grids[(round(got[1][0], 6), round(got[2][0], 6))] = got
+    worst, seen = 0.0, 0
+    for f in faces_of(back):  # one per face
+        s = BRep_Tool.Surface_s(f)
+        if not hasattr(s, "UDegree") or s.UDegree() != 1:
+            continue
+        g, u, v = grids[(round(s.UKnot(1), 6), round(s.VKnot(1), 6))]
+        assert s.NbUPoles() * s.NbVPoles() <= len(u) * len(v)
+        ev = np.array([[s.Value(x, y).Coord() for x in u] for y in v])  # per grid point (a test: 9 k)
+        worst, seen = max(worst, float(np.sqrt(((ev - g) ** 2).sum(-1)).max())), seen + 1
+    assert seen == len(grids) and worst <= tol + 1e-9, worst
+    assert decimals_for(tol)[0] == 3 and decimals_for(0.0)[0] == 4
     # The strips OCCT's reader expands are grid_faces' triangles (orientation kept).
     strips = [[int(i) for i in s.split(",")] for s in _strips_text(4, 5)[1:-1].split("),(")]
     got = []

@@ -370,7 +370,8 @@ def export(obj: Any, path: str | os.PathLike, *, separate_texture: bool = False,
     if suffix in (".step", ".stp"):
         from .step import write_step
 
-        write_step(obj.shape if textured else obj, p, name=label)
+        # a textured part's B-rep at its mesh's tolerance (mm), as its STL (issue 28)
+        write_step(obj.shape if textured else obj, p, name=label, tolerance=obj.info.get("tolerance") or 0.0 if textured else 0.0)
         return p
     if textured:
         meshes: Any = [("base", obj.base_mesh), ("texture", obj.texture_mesh)] if separate_texture else obj.mesh

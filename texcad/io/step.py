@@ -45,39 +45,50 @@ def _ascii(text: str) -> str:
     return re.sub(r"[^ -~]", "_", str(text)).replace("'", "_").replace(";", "_")
 
 
-def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part", tessellated: bool | None = None) -> None:
+def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part", tessellated: bool | None = None,
+               tolerance: float = 0.0) -> None:
     """Write a shape as a STEP file in mm (atomic, silent, reproducible).
 
     The header's time stamp is fixed (1980-01-01, as in texcad's 3MF) and the product
     is named ``name`` instead of OCCT's per-session counter, so the same shape gives
     the same bytes.
 
-    Faces that carry a triangulation (texcad's texture tiles carry texcad's own
-    mesh, see :func:`texcad.brep.tiled_grid_faces`) are written with it as AP242
-    tessellated geometry (``TRIANGULATED_FACE`` next to the B-spline face): OCCT's
-    STEP reader attaches it to the face again, and its mesher
-    (``BRepMesh_IncrementalMesh``, what CQ-editor, ocp_vscode and FreeCAD run to show
-    a part) then keeps it instead of meshing hundreds of thousands of poles. The
-    schema is then AP242 (``AP242_MANAGED_MODEL_BASED_3D_ENGINEERING``), else AP214.
+    texcad's texture tiles (degree-1 B-spline faces through the texture's grid, see
+    :func:`texcad.brep.tiled_grid_faces`) are written with numpy
+    (:mod:`texcad.io.step_tiles`): every point once, shared by the tiles and edges
+    that meet there. With ``tolerance`` > 0 (what :meth:`texcad.Textured.export`
+    passes: the mesh's tolerance) a tile keeps only the rows and columns of poles,
+    and an edge between tiles only the points, needed to stay within ``tolerance``
+    of every grid point, with 3 decimals inside the tiles at 0.02 mm: a plain AP214
+    B-rep; its size against the binary STL at the same tolerance is in
+    ``docs/benchmarks/step.md``.
+
+    ``tessellated=True`` adds each tile's triangulation (texcad's grid mesh) as AP242
+    tessellated geometry (``COMPLEX_TRIANGULATED_FACE`` next to the B-spline face):
+    OCCT's STEP reader attaches it to the face again and its mesher
+    (``BRepMesh_IncrementalMesh``, what CQ-editor, ocp_vscode and FreeCAD run to show a
+    part) keeps it instead of meshing the tiles, in a larger file (every pole, and
+    every pixel twice). The schema is then AP242
+    (``AP242_MANAGED_MODEL_BASED_3D_ENGINEERING``), else AP214.
 
     Args:
         shape: build123d / CadQuery object or ``TopoDS_Shape``.
         path: output ``.step`` / ``.stp`` file.
         name: product name shown by CAD programs (ASCII).
-        tessellated: write the faces' triangulations (default: when a face of
-            ``shape`` is a texcad tile with its mesh); False gives a plain AP214
-            B-rep (smaller; viewers then mesh the B-spline faces themselves).
+        tessellated: write the tiles' triangulations (default False).
+        tolerance: mm, how far the written tiles may lie from their grid points
+            (0: the exact B-rep, every number as OCCT holds it).
 
     Raises:
         GeometryError: OCCT could not translate or write the shape.
     """
     topo = to_topods(shape)
     label = _ascii(name)
-    if tessellated is None:
-        tessellated = _has_tiles(topo)
-    data = None
-    if tessellated:
-        data = tiled_step_text(topo, lambda s: _occt_step(s, label, tessellated=False, ap242=True, path=path))
+    tessellated = bool(tessellated) and _has_tiles(topo)
+    data = tiled_step_text(
+        topo, lambda s: _occt_step(s, label, tessellated=False, ap242=tessellated, path=path),
+        tessellate=tessellated, tolerance=float(tolerance),
+    )  # fmt: skip
     if data is None:
         if tessellated:
             _keep_tile_meshes(topo)

@@ -1,23 +1,33 @@
 """STEP of texcad's texture tiles, written with numpy instead of OCCT's per-number writer.
 
 OCCT's STEP writer formats every number on its own; for the demo plate (1089 tiles,
-680 k poles, each also a node of the tile's stored triangulation) that was 8.5 s of
-the 10 s write and 142 MB. Here OCCT writes everything but the tiles' poles and
-triangulations: each degree-1 tile surface is swapped, in a topological copy of the
-shape, for a 2 x 2-pole stand-in with the same parameter range (its edges get the
-same pcurves on it), and the STEP text is then completed with numpy:
+680 k poles) that was most of the write time and size. Here OCCT writes everything
+but the tiles' poles (and triangulations): each degree-1 tile surface is swapped, in
+a topological copy of the shape, for a 2 x 2-pole stand-in with the same parameter
+range (its edges get the same pcurves on it), and the STEP text is then completed
+with numpy:
 
+* every point is written once (``CARTESIAN_POINT``, four to a line): a pole on the
+  border of two tiles is one entity both surfaces refer to, and OCCT's own points
+  that are poles (the tiles' edge curves and vertices) are dropped and refer to it,
+  so tiles, edges and vertices meet exactly whatever the decimals;
+* at a tolerance (:meth:`texcad.Textured.export` passes the mesh's, 0.02 mm by
+  default) the tiles keep fewer poles (:func:`_reduced`): each edge between two
+  tiles keeps the points its polyline needs (its 3-D curve becomes that polyline and
+  both tiles' border poles move onto it), each tile the rows and columns its edges
+  and its interior need, checked bilinear on every grid point; and fewer decimals
+  (:func:`decimals_for`: 3 at 0.02 mm; 8 on edges shared with the part's own faces,
+  whose pcurves are OCCT's, and on border poles moved onto an edge). Issue 28: the
+  demo plate's STEP about twice its binary STL (``docs/benchmarks/step.md``);
 * the stand-in's ``B_SPLINE_SURFACE_WITH_KNOTS`` is rewritten with the tile's poles
-  (``CARTESIAN_POINT`` entities: 8 decimals on the tile's border, 5e-9 mm, inside the
-  edges' 1e-7 mm; 4 decimals inside, 5e-5 mm, far below any mesh tolerance; trailing
-  zeros dropped; the stand-in's four corner points are the tile's corner poles) and
-  knots;
-* each tile that carries its triangulation (texcad's mesh: two triangles per grid
-  cell) gets a ``COMPLEX_TRIANGULATED_FACE`` linked to its ``ADVANCED_FACE`` (AP242),
-  with its nodes (``COORDINATES_LIST``, the same numbers as the poles, formatted
-  once), no normals (optional in AP242; OCCT's viewers compute them) and its
-  triangles as one strip per column of cells (two numbers per node instead of six);
-* a ``TESSELLATED_SOLID`` per solid lists them, as OCCT's own writer does.
+  and knots;
+* with ``tessellate`` each tile that carries its triangulation (texcad's mesh: two
+  triangles per grid cell) also gets a ``COMPLEX_TRIANGULATED_FACE`` linked to its
+  ``ADVANCED_FACE`` (AP242), with its nodes (``COORDINATES_LIST``, the same numbers as
+  the poles, formatted once), no normals (optional in AP242; OCCT's viewers compute
+  them) and its triangles as one strip per column of cells (two numbers per node
+  instead of six), and a ``TESSELLATED_SOLID`` per solid lists them, as OCCT's own
+  writer does; the tiles then keep every pole.
 
 The stand-ins are matched to the STEP entities through the shells' face order and
 checked by their corner points; anything unexpected returns None and the caller uses
@@ -193,22 +203,30 @@ def _tokens(p: np.ndarray, decimals: int) -> np.ndarray:
     return np.array(text.split("\n")[:-1], dtype=object)
 
 
-def tiled_step_text(topo: Any, occt_write) -> bytes | None:
+def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance: float = 0.0) -> bytes | None:
     """STEP text of ``topo`` whose texture tiles' poles and triangulations are written
     with numpy (see the module docstring).
 
     Args:
         topo: ``TopoDS_Shape`` (not changed: the stand-ins go into a topological copy).
-        occt_write: ``occt_write(shape) -> bytes``, OCCT's AP242 writer without
-            tessellation.
+        occt_write: ``occt_write(shape) -> bytes``, OCCT's writer (AP242 when
+            ``tessellate``, else AP214) without tessellation.
+        tessellate: add the tiles' triangulations (texcad's grid mesh) as AP242
+            ``COMPLEX_TRIANGULATED_FACE``; the tiles keep every pole then.
+        tolerance: mm; when > 0 (and not ``tessellate``) the tiles are written with
+            fewer poles and fewer decimals, within ``tolerance`` of every grid point
+            (:func:`decimals_for`, :func:`_reduced`): a STEP at the mesh's tolerance.
 
     Returns:
-        The STEP bytes, or None where this does not apply or a check fails (write
-        with OCCT's own writer then).
+        The STEP bytes, or None where this does not apply (no tiles; neither
+        ``tessellate`` nor a tolerance: the exact B-rep) or a check fails (write with
+        OCCT's own writer then).
     """
     from OCP.BRep import BRep_Builder
     from OCP.BRepBuilderAPI import BRepBuilderAPI_Copy
 
+    if not tessellate and tolerance <= 0:  # exact and plain: OCCT's own writer, every number as it is
+        return None
     order0, tiles0 = _tiles_of(topo)
     if not tiles0:
         return None
@@ -221,13 +239,226 @@ def tiled_step_text(topo: Any, occt_write) -> bytes | None:
         return None
     meshed = [_carries_grid_mesh(f, g[0].shape[0], g[0].shape[1]) for (_, f, _), g in zip(tiles0, grids)]
     b = BRep_Builder()
+    sides = _sides(copy, tiles, grids)
+    outer = _outer(sides, grids)
+    inner = 4
+    if tolerance > 0 and not tessellate:
+        inner, rounding = decimals_for(tolerance)
+        red = _reduced(b, sides, grids, tolerance - rounding)
+        # the points moved onto an edge's polyline keep 8 decimals too (so they stay on it)
+        outer = [o[np.ix_(r, c)] | line for o, (_, _, _, r, c, line) in zip(outer, red)]
+        grids = [(g, u, v) for g, u, v, _, _, _ in red]
     try:
         for _, face, surf in tiles:  # one per tile
             _stand_in(b, face, surf)
     except ValueError:
         return None
     data = occt_write(copy)
-    return _complete(data, len(order), tiles, grids, meshed)
+    return _complete(data, len(order), tiles, grids, meshed if tessellate else [False] * len(meshed), outer, inner)
+
+
+def decimals_for(tolerance: float) -> tuple[int, float]:
+    """Decimals for the poles inside the tiles of a STEP at ``tolerance`` mm, and the
+    largest distance (mm) that rounding moves a point: a tenth of the tolerance at
+    most (4 decimals, 5e-5 mm a coordinate, for an exact grid; 3 for 0.02 mm)."""
+    d = 4 if tolerance <= 0 else int(min(4, max(2, np.ceil(np.log10(5 * np.sqrt(3) / tolerance)))))
+    return d, 0.5 * 10.0**-d * np.sqrt(3)
+
+
+def _sides(shape, tiles: list, grids: list) -> list:
+    """Each tile's edges as ``(edge, shared, tile side)``: ``shared`` when the edge
+    lies between two tiles (else it meets the part's own faces, or is a seam); the
+    side ``(axis, line, lo, hi)``: ``axis`` 1 for an iso-u edge (grid column ``line``,
+    rows ``lo..hi``), 0 for an iso-v edge (grid row ``line``, columns ``lo..hi``).
+    An edge that is neither (a given outline's) has side None."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepTools import BRepTools
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp, TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_IndexedMapOfShape
+
+    ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
+    mine = TopTools_IndexedMapOfShape()
+    for _, face, _ in tiles:  # one per tile
+        mine.Add(face)
+    out = []
+    for (_, face, _), (g, u, v) in zip(tiles, grids):  # one per tile
+        sides = []
+        exp = TopExp_Explorer(face, TopAbs_EDGE)
+        while exp.More():  # one per edge of the tile (a handful)
+            edge = TopoDS.Edge_s(exp.Current())
+            exp.Next()
+            faces = ancestors.FindFromKey(edge)
+            shared = faces.Size() == 2 and all(mine.Contains(f) for f in faces) and not BRep_Tool.IsClosed_s(edge, face)
+            tiles_of_edge = tuple(mine.FindIndex(f) - 1 for f in faces) if shared else ()
+            u0, u1, v0, v1 = BRepTools.UVBounds_s(face, edge)  # the pcurve's box (a hole's circle too)
+            eu, ev = 1e-9 * (1 + abs(u).max()), 1e-9 * (1 + abs(v).max())
+            iu = np.flatnonzero((u >= u0 - eu) & (u <= u1 + eu))
+            iv = np.flatnonzero((v >= v0 - ev) & (v <= v1 + ev))
+            side = None
+            if len(iu) == 1 and iu[0] in (0, len(u) - 1) and len(iv) >= 2 and u1 - u0 <= 2 * eu:
+                side = (1, int(iu[0]), int(iv[0]), int(iv[-1]))
+            elif len(iv) == 1 and iv[0] in (0, len(v) - 1) and len(iu) >= 2 and v1 - v0 <= 2 * ev:
+                side = (0, int(iv[0]), int(iu[0]), int(iu[-1]))
+            if side is None:  # any other edge (a given outline, a hole's trace): the grid lines around it
+                iu = np.arange(max(np.searchsorted(u, u0 - eu, "right") - 1, 0), min(np.searchsorted(u, u1 + eu), len(u) - 1) + 1)
+                iv = np.arange(max(np.searchsorted(v, v0 - ev, "right") - 1, 0), min(np.searchsorted(v, v1 + ev), len(v) - 1) + 1)
+            sides.append((edge, shared, side, (iu, iv), tiles_of_edge))
+        out.append(sides)
+    return out
+
+
+def _outer(sides: list, grids: list) -> list:
+    """Per tile, ``(rows, cols)`` True on the poles of an edge that is not shared with
+    another tile: where the patchwork meets the part's own faces (their curves and
+    pcurves are OCCT's, so these poles keep 8 decimals)."""
+    out = []
+    for tile, (g, _, _) in zip(sides, grids):  # one per tile
+        on = np.zeros(g.shape[:2], bool)
+        for _, shared, _, (iu, iv), _ in tile:  # one per edge
+            if not shared:
+                on[np.ix_(iv, iu)] = True
+        out.append(on)
+    return out
+
+
+#: Longest chord (grid cells) :func:`_keep` tries.
+SPAN = 8
+#: Share of the tolerance an edge's polyline may miss its grid points by.
+EDGE_SHARE = 1.0
+#: Shares of the tolerance a tile's rows and columns are first chosen within (each
+#: direction); the bilinear result is then checked against the whole tolerance.
+INNER_SHARES = (1.0, 0.75, 0.5, 0.25)
+
+
+def _keep(p: np.ndarray, t: np.ndarray, tol: float) -> np.ndarray:
+    """Indices along axis 0 of ``p`` (``(n, m, 3)`` mm: ``m`` polylines sampled at
+    the parameters ``t``) to keep so that the polylines through the kept points stay
+    within ``tol`` mm (3-D distance) of every point; first and last always kept.
+    Greedy: from each kept point, the farthest one whose chord holds all between."""
+    n = len(t)
+    if n <= 2 or n**3 * p.shape[1] > 4_000_000:  # a tile's 25 x 25 points: 0.4 M
+        return np.arange(n)
+    w_ = min(n - 1, SPAN)
+    i = np.arange(n)[:, None, None]
+    j = np.minimum(i + np.arange(1, w_ + 1)[None, None, :], n - 1)  # (i, 1, s): chords up to SPAN long
+    k = np.minimum(i + np.arange(1, w_)[None, :, None], n - 1)  # (i, q, 1): the points they skip
+    span = t[j] - t[i]  # 0 only for the last point's (empty) chords
+    w = np.clip((t[k] - t[i]) / np.where(span > 0, span, 1.0), 0.0, 1.0)[..., None, None]  # (i, q, s, 1, 1)
+    chord = p[i] * (1 - w) + p[j] * w  # (i, q, s, m, 3)
+    d = np.sqrt(((chord - p[k]) ** 2).sum(-1)).max(-1)  # (i, q, s)
+    d = np.where(k < j, d, 0.0).max(1)  # (i, s): the chord from i, s + 1 points on, its largest miss
+    ok = d <= tol  # (i, s): the chord from i to i + 1 + s holds its points
+    kept, at = [0], 0
+    while at < n - 1:  # one per kept point
+        at = int(min(at + 1 + np.flatnonzero(ok[at])[-1], n - 1)) if ok[at].any() else at + 1
+        kept.append(at)
+    return np.asarray(kept)
+
+
+def _side_index(side: tuple) -> tuple:
+    """``(rows, cols)`` index arrays of a tile side ``(axis, line, lo, hi)``."""
+    return (np.arange(side[2], side[3] + 1), np.array([side[1]])) if side[0] == 1 else (np.array([side[1]]), np.arange(side[2], side[3] + 1))
+
+
+def _hats(t: np.ndarray, kept: np.ndarray) -> np.ndarray:
+    """``(len(t), len(kept))``: the degree-1 B-spline basis on the knots ``t[kept]``
+    at the parameters ``t``."""
+    tk = t[kept]
+    at = np.clip(np.searchsorted(tk, t, side="right") - 1, 0, len(tk) - 2)
+    w = (t - tk[at]) / (tk[at + 1] - tk[at])
+    m = np.zeros((len(t), len(tk)))
+    m[np.arange(len(t)), at] = 1 - w
+    m[np.arange(len(t)), at + 1] += w
+    return m
+
+
+def _reduced(b, sides: list, grids: list, tol: float) -> list:
+    """The tiles' grids with fewer poles, within ``tol`` mm of every pole (issue 28:
+    a STEP at the mesh's tolerance). Each edge between two tiles keeps the points
+    its polyline needs within ``tol / 2`` (its 3-D curve is replaced by that
+    polyline, so both tiles' borders and the edge stay one curve: the dropped border
+    points move onto it); each tile keeps the rows and columns its edges keep plus
+    those its interior needs, checked on every grid point (bilinear, 3-D distance)
+    against ``tol``, else all of them. Returns ``(grid, u, v)`` per tile."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom import Geom_BSplineCurve
+    from OCP.TColgp import TColgp_Array1OfPnt
+    from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+    from OCP.gp import gp_Pnt
+
+    done = TopTools_IndexedMapOfShape()
+    plans = {}  # edge index -> kept indices along it (None: all)
+    moved = [g.copy() for g, _, _ in grids]
+    keep_r = [np.zeros(g.shape[0], bool) for g, _, _ in grids]
+    keep_c = [np.zeros(g.shape[1], bool) for g, _, _ in grids]
+    on_line = [np.zeros(g.shape[:2], bool) for g, _, _ in grids]  # moved onto an edge's polyline
+    frozen = [np.zeros(g.shape[:2], bool) for g, _, _ in grids]  # around edges that are not whole tile sides
+    for ti, tile in enumerate(sides):  # one per tile
+        for _, _, side, (iu, iv), _ in tile:  # one per edge
+            if side is None:
+                frozen[ti][np.ix_(iv, iu)] = True
+    stay = TopTools_IndexedMapOfShape()  # edges with a frozen point in either tile: kept whole
+    for ti, tile in enumerate(sides):  # one per tile
+        for edge, _, side, _, _ in tile:  # one per edge
+            if side is not None and frozen[ti][np.ix_(*_side_index(side))].any():
+                stay.Add(edge)
+    for ti, tile in enumerate(sides):  # one per tile
+        g, u, v = grids[ti]
+        for edge, shared, side, (iu, iv), _ in tile:  # one per edge
+            if side is None:  # not a whole tile side: the rows and columns of the cells it crosses stay
+                keep_r[ti][iv], keep_c[ti][iu] = True, True
+                continue
+            axis, line, lo, hi = side
+            pts = g[lo : hi + 1, line] if axis == 1 else g[line, lo : hi + 1]
+            t = (v if axis == 1 else u)[lo : hi + 1]
+            key = done.FindIndex(edge)
+            if key == 0:
+                key = done.Add(edge)
+                sel = None
+                if shared and not stay.Contains(edge):
+                    sel = _keep(pts[:, None], t, EDGE_SHARE * tol)
+                    first, last = BRep_Tool.Range_s(edge)
+                    if len(sel) == len(t) or abs(first - t[0]) > 1e-9 or abs(last - t[-1]) > 1e-9:
+                        sel = None  # nothing to drop, or a curve not parametrised as the grid
+                    else:
+                        poles, knots, mult = TColgp_Array1OfPnt(1, len(sel)), TColStd_Array1OfReal(1, len(sel)), TColStd_Array1OfInteger(1, len(sel))
+                        for n, (x, y, z) in enumerate(pts[sel].tolist()):  # one per kept point of the edge
+                            poles.SetValue(n + 1, gp_Pnt(x, y, z))
+                            knots.SetValue(n + 1, float(t[sel[n]]))
+                            mult.SetValue(n + 1, 2 if n in (0, len(sel) - 1) else 1)
+                        b.UpdateEdge(edge, Geom_BSplineCurve(poles, knots, mult, 1), TopLoc_Location(), BRep_Tool.Tolerance_s(edge))
+                plans[key] = sel
+            sel = plans[key]
+            idx = np.arange(lo, hi + 1) if sel is None else lo + sel
+            if axis == 1:
+                keep_r[ti][idx] = True
+                if sel is not None:
+                    moved[ti][lo : hi + 1, line] = np.stack([np.interp(t, t[sel], pts[sel, c]) for c in range(3)], axis=-1)
+                    on_line[ti][lo : hi + 1, line] = True
+            else:
+                keep_c[ti][idx] = True
+                if sel is not None:
+                    moved[ti][line, lo : hi + 1] = np.stack([np.interp(t, t[sel], pts[sel, c]) for c in range(3)], axis=-1)
+                    on_line[ti][line, lo : hi + 1] = True
+    out = []
+    for ti, (g, u, v) in enumerate(grids):  # one per tile
+        m = moved[ti]
+        for frac in INNER_SHARES:  # the interior rows and columns first within these shares of the tolerance
+            rows = np.union1d(np.flatnonzero(keep_r[ti]), _keep(m, v, frac * tol))
+            cols = np.union1d(np.flatnonzero(keep_c[ti]), _keep(m.transpose(1, 0, 2), u, frac * tol))
+            mv, mu = _hats(v, rows), _hats(u, cols)
+            s = np.einsum("ra,abk,cb->rck", mv, m[np.ix_(rows, cols)], mu)
+            if np.sqrt(((s - g) ** 2).sum(-1)).max() <= tol:
+                break
+        else:
+            rows, cols = np.arange(len(v)), np.arange(len(u))
+        out.append((m[np.ix_(rows, cols)], u[cols], v[rows], rows, cols, on_line[ti][np.ix_(rows, cols)]))
+    return out
 
 
 def _layout(ents: dict):
@@ -271,22 +502,35 @@ def _stand_in_ids(ents: dict, face: int, pts: np.ndarray, corners: list) -> tupl
     return sid, corner_ids
 
 
-def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list) -> bytes | None:
+def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list, outer: np.ndarray,
+              inner: int = 4) -> bytes | None:
     """Rewrite the stand-in surfaces of OCCT's STEP text ``data`` with the tiles' poles
-    and add their triangulations; None when the text is not laid out as expected."""
+    and add their triangulations; None when the text is not laid out as expected.
+
+    Every point is written once: a pole shared by neighbouring tiles (their common
+    border) is one ``CARTESIAN_POINT`` both surfaces refer to, and OCCT's own points
+    that are poles (the tiles' edge curves and vertices: iso-curves of the tiles,
+    through their border poles) are dropped and refer to it too, so an edge between
+    two tiles is exactly both tiles' border whatever the decimals. ``outer``: the
+    poles on edges shared with the part's own faces, written with 8 decimals (5e-9
+    mm, inside the edges' 1e-7 mm: those faces' pcurves are OCCT's); every other
+    pole with ``inner`` decimals (4: 5e-5 mm, far below any mesh tolerance)."""
     ents = {int(m.group(1)): m for m in _ENTITY.finditer(data)}
     face_ids, shell_of, msb, absr_of = _layout(ents)
     if len(face_ids) != n_faces:
         return None
     pts = np.concatenate([g.transpose(1, 0, 2).reshape(-1, 3) for g, _, _ in grids])
-    # Each pole formatted once, for its point and its mesh node: on the tile's border
-    # (on its edges' curves) 8 decimals (5e-9 mm, inside the edges' 1e-7 mm), inside
-    # 4 decimals (5e-5 mm, far below any mesh tolerance).
     border = np.concatenate([_border(g.shape[0], g.shape[1]) for g, _, _ in grids])
-    tok = np.empty(len(pts), dtype=object)
-    tok[border], tok[~border] = _tokens(pts[border], 8), _tokens(pts[~border], 4)
-    ids, emit = np.zeros(len(pts), np.int64), np.ones(len(pts), bool)
-    swaps, tess = {}, []
+    outer = np.concatenate([o.T.ravel() for o in outer])  # u-major as pts
+    tok = _tokens(pts, inner)
+    tok[outer] = _tokens(pts[outer], 8)
+    key = "i" + tok  # a point on a tile border is shared by its exact value (elementwise, object arrays)
+    key[border] = "b" + _tokens(pts[border], 8)
+    uniq, first, inv = np.unique(key, return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")  # the points in the order they first occur
+    rank = np.empty(len(order), np.int64)
+    rank[order] = np.arange(len(order))
+    swaps, tess, repl = {}, [], {}
     off = 0
     for (k, _, _), (g, u, v), mesh in zip(tiles, grids, meshed):  # one per tile
         rows, cols = g.shape[:2]
@@ -294,7 +538,6 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list)
         got = _stand_in_ids(ents, face_ids[k], pts, corners)
         if got is None:
             return None
-        ids[corners], emit[corners] = got[1], False
         swaps[got[0]] = (off, rows, cols, u, v)
         if mesh:
             if absr_of.get(msb.get(shell_of.get(face_ids[k], -1), -1)) is None:
@@ -302,12 +545,23 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list)
             tess.append((face_ids[k], off, rows, cols))
         off += rows * cols
     next_id = max(ents) + 1
-    n_emit = int(emit.sum())
-    ids[emit] = next_id + np.arange(n_emit)
+    ids = next_id + rank[inv]
+    n_emit = len(order)
+    # OCCT's points that are poles (8 decimals: border poles) refer to the pole instead.
+    pole_id = {t[1:]: next_id + rank[i] for i, t in enumerate(uniq.tolist()) if t[0] == "b"}
+    occt_pts = [e for e, m in ents.items() if m.group(2) == b"CARTESIAN_POINT"]
+    occt_tok = _tokens(np.array([_xyz(ents[e]) for e in occt_pts], np.float64).reshape(-1, 3), 8)
+    remap = {e: pole_id[t] for e, t in zip(occt_pts, occt_tok.tolist()) if t in pole_id}
+    repl.update((e, "") for e in remap)
     inter = [None] * (2 * n_emit)
-    inter[0::2], inter[1::2] = ids[emit].tolist(), tok[emit].tolist()
-    new = [("#%d=CARTESIAN_POINT('',(%s));\n" * n_emit) % tuple(inter)]
-    repl = _surfaces_text(swaps, ids)
+    exact = np.zeros(len(uniq), bool)  # a point is written with 8 decimals if any of its uses needs them
+    np.logical_or.at(exact, inv, outer)
+    emit_tok = tok[first]
+    emit_tok[exact & ~outer[first]] = _tokens(pts[first[exact & ~outer[first]]], 8)
+    inter[0::2], inter[1::2] = (next_id + np.arange(n_emit)).tolist(), emit_tok[order].tolist()
+    one = "#%d=CARTESIAN_POINT('',(%s));"  # four to a line (lines of ~200 characters)
+    new = [(((one * 4 + "\n") * (n_emit // 4)) + one * (n_emit % 4) + "\n") % tuple(inter)]
+    repl.update(_surfaces_text(swaps, ids))
     new_ids, items = _tessellation_text(tess, tok, next_id + n_emit, shell_of, msb, new)
     for rep in sorted({absr_of[solid] for solid, _ in items}):  # one per shape representation
         mine = [t for solid, t in items if absr_of[solid] == rep]
@@ -320,10 +574,32 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list)
     chunks, at = [], 0
     for eid in sorted(repl, key=lambda e: ents[e].start()):  # one per rewritten entity
         chunks += [data[at : ents[eid].start()], repl[eid].encode("ascii")]
-        at = ents[eid].end()
+        at = ents[eid].end() + (not repl[eid] and data[ents[eid].end() : ents[eid].end() + 1] == b"\n")
     if at > end:
         return None
-    return b"".join(chunks + [data[at:end], "".join(new).encode("ascii"), data[end:]])
+    occt = b"".join(chunks + [data[at:end]])
+    head, body = occt.split(b"\nDATA;", 1)
+    body = _compact(body)
+    if remap:  # references to the dropped points, in OCCT's entities (one per reference)
+        body = _REF.sub(lambda m: b"#%d" % remap.get(int(m.group(1)), int(m.group(1))), body)
+    return b"".join([head, b"\nDATA;", body, "".join(new).encode("ascii"), data[end:]])
+
+
+_WRAP = re.compile(rb"(?<=[,(])\n +")
+
+
+def _compact(body: bytes) -> bytes:
+    """OCCT's entities without its layout whitespace: ``#1 = X(`` as ``#1=X(`` and no
+    line breaks inside an entity (after a comma or parenthesis, never in a string:
+    texcad's names are single-line). Whitespace between tokens means nothing in STEP."""
+    return _WRAP.sub(b"", body.replace(b" = ", b"="))
+
+
+def _xyz(m) -> list:
+    """The three coordinates of a ``CARTESIAN_POINT`` entity match (mm; a 2-D point
+    gets z = NaN, so it matches no pole)."""
+    xyz = [float(c) for c in m.group(3).split(b"(")[1].split(b")")[0].split(b",")]
+    return xyz if len(xyz) == 3 else [xyz[0], xyz[1], float("nan")]
 
 
 def _surfaces_text(swaps: dict, ids: np.ndarray) -> dict:

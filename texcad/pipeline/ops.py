@@ -246,16 +246,17 @@ def _checked(shape, mesh: Mesh, op: str, bodies: int, info: dict | None = None, 
     lean mesh lies within its tolerance of the B-rep's pixel grid, 1.5 mm^3 on a 12 mm
     cylinder at 0.02 mm) within :data:`OP_VOLUME_TOLERANCE`."""
     chk = check_shape(shape)
+    face = f" (the textured {info['face']} face)" if info and isinstance(info.get("face"), str) else ""
     if not chk["valid"] or chk["solids"] != bodies:
         raise GeometryError(
-            f"OCCT's {op} of the textured B-rep gave {chk['solids']} solid(s) (valid: {chk['valid']}) where the mesh "
+            f"OCCT's {op} of the textured B-rep{face} gave {chk['solids']} solid(s) (valid: {chk['valid']}) where the mesh "
             f"has {bodies}; the mesh result is fine: write STL or 3MF, or make the cut before texturing"
         )
     vb, vm = volume(shape), float(mesh.volume)
     if abs(vb - offset - vm) > OP_VOLUME_TOLERANCE * abs(vm):
         beyond = f" (+ {offset:.2f} mm3 the textured part's B-rep holds beyond its mesh)" if offset else ""
         raise GeometryError(
-            f"OCCT's {op} of the textured B-rep encloses {vb:.1f} mm3 but the same {op} on texcad's mesh "
+            f"OCCT's {op} of the textured B-rep{face} encloses {vb:.1f} mm3 but the same {op} on texcad's mesh "
             f"{vm:.1f} mm3{beyond} (OCCT lost or kept material it should not); the mesh result is fine: write STL or 3MF, "
             "or make the cut before texturing"
         )

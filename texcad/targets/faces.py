@@ -321,7 +321,12 @@ class FacesAdapter(Adapter):
         if not stages.options.brep:
             raise GeometryError("textured with brep=False; texture it again with brep=True for STEP")
         if stages.placement.previous is not None:
-            raise GeometryError(f"this face result has no B-rep ({no_brep}); write STL or 3MF instead")
+            kind = stages.fused.info.get("face", "face")
+            raise GeometryError(
+                f"this result textures a {kind} face of an earlier textured result (chained), which has no B-rep: "
+                "texcad makes the B-rep of one texturing of a CAD part; write STL or 3MF instead (the mesh holds "
+                "both textures), or texture the faces together in one texcad.texture(part, [faces...]) call for STEP"
+            )
         return _brep(stages.placement.topo, stages.fused.data.patches, no_brep, float(stages.options.rotation), fine)
 
     def fine_frame(self, stages: Stages) -> Any:
