@@ -139,7 +139,7 @@ def _edge_keys(faces: np.ndarray, n: int) -> np.ndarray:
     f = np.asarray(faces, dtype=np.int64)
     a = f.reshape(-1)
     b = f[:, [1, 2, 0]].reshape(-1)
-    return np.sort(2 * (np.minimum(a, b) * n + np.maximum(a, b)) + (a > b))
+    return np.sort(2 * (np.minimum(a, b) * n + np.maximum(a, b)) + (a > b), kind="stable")  # runs: timsort is faster
 
 
 def closed_and_oriented(faces: np.ndarray, num_vertices: int) -> bool:
@@ -496,10 +496,15 @@ def heightfield_volume(heights: np.ndarray, pitch: Sequence[float]) -> tuple[flo
     g = np.asarray(heights, dtype=np.float64)
     h = np.maximum(g, 0.0)
     px, py = (float(p) for p in pitch)
-    w = np.ones(h.shape)
-    w[[0, -1], :] *= 0.5
-    w[:, [0, -1]] *= 0.5
+    if min(h.shape) > 1:  # trapezoid weights without a weight array: all, minus half the sides, plus a quarter of the corners
+        total = float(h.sum()) - 0.5 * float(h[[0, -1], :].sum() + h[:, [0, -1]].sum()) \
+            + 0.25 * float(h[[0, 0, -1, -1], [0, -1, 0, -1]].sum())
+    else:  # one row or column: its weights halved twice over
+        w = np.ones(h.shape)
+        w[[0, -1], :] *= 0.5
+        w[:, [0, -1]] *= 0.5
+        total = float((h * w).sum())
     corners = [g[:-1, :-1], g[:-1, 1:], g[1:, :-1], g[1:, 1:]]
     lo, hi = np.minimum.reduce(corners), np.maximum.reduce(corners)
     crossing = float(np.where((lo < 0) & (hi > 0), hi, 0.0).sum())
-    return float((h * w).sum()) * px * py, px * py * (float(h.max()) + crossing)
+    return total * px * py, px * py * (float(h.max()) + crossing)

@@ -76,7 +76,8 @@ class PlaneFused:
 class PlaneRelief:
     """The relief on a planar face: heights ``h`` (R, C) mm on pixel centres ``xs``,
     ``ys`` (face frame), the meshed field ``h_mesh`` (-1 mm off the face), the slab,
-    and whether body material lies over the face."""
+    whether body material lies over the face, and ``field_volume``: ``h_mesh``'s
+    :func:`~texcad.solid.mesh.heightfield_volume` ``(volume, slack)`` mm^3."""
 
     h: np.ndarray
     h_mesh: np.ndarray
@@ -86,6 +87,7 @@ class PlaneRelief:
     slab_origin: tuple
     tolerance: float
     obstructed: bool
+    field_volume: tuple = (0.0, 0.0)
 
 
 def _local(points: np.ndarray, origin: np.ndarray, axes: np.ndarray) -> np.ndarray:
@@ -278,7 +280,7 @@ class PlaneAdapter(Adapter):
         else:
             slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin, tolerance=tolerance)
         vol, slack = heightfield_volume(h_mesh, (px, py))
-        data = PlaneRelief(h, h_mesh, xs, ys, slab, slab_origin, float(tolerance), obstructed)
+        data = PlaneRelief(h, h_mesh, xs, ys, slab, slab_origin, float(tolerance), obstructed, (vol, slack))
         return Relief(
             heightmap=Heightmap(h, (px, py)), limits=limits, volume=vol,
             volume_slack=slack + float(tolerance) * px * py * h_mesh.size + 1e-3 * abs(vol),
@@ -293,7 +295,7 @@ class PlaneAdapter(Adapter):
         how, stitched = "manifold3d", None
         field = Heightmap(r.h_mesh, relief.heightmap.pitch)
         if not r.obstructed and r.tolerance > 0:
-            vol, slack = heightfield_volume(field.heights, field.pitch)
+            vol, slack = r.field_volume
             expect = (vol, slack + r.tolerance * field.pitch[0] * field.pitch[1] * field.heights.size)
             try:
                 fused_local, stitched = fuse_on_plane(fr.base_local, r.slab.vertices, r.slab.faces[r.slab.groups["texture"]], expect=expect)
