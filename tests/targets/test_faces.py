@@ -160,3 +160,46 @@ def test_patch_numerics_are_plain_data():
     assert g.H.shape == g.d.shape == s.surface.shape == g.grid.valid.shape
     assert np.all(s.surface[g.keep & ~s.band] >= s.floor_c - 1e-12)  # raised: at least the floor inside
     assert g.fade.min() == 0.0 and g.fade.max() == pytest.approx(1.0)  # the poles fade out, the equator keeps it all
+
+
+# --- masks on any face (issue 31): the height scaled by a grey-level mask over the patch's texture coordinates ---
+
+def _added(part, face, **kw) -> float:
+    import texcad
+
+    tx = texcad.texture(part, face, "builtin:pins", height=0.8, pitch=0.4, brep=False, **kw)
+    assert tx.mesh.is_watertight and tx.gate is not None
+    return float(tx.mesh.volume - part.volume)
+
+
+def test_a_mask_on_a_curved_face_keeps_the_texture_where_it_is_white():
+    from build123d import Cylinder, GeomType
+
+    part = Cylinder(10, 30)
+    side = part.faces().filter_by(GeomType.CYLINDER)[0]
+    full = _added(part, side)
+    square = np.zeros((40, 40))
+    square[10:30, 10:30] = 1.0  # the middle quarter of the patch's texture coordinates
+    quarter = _added(part, side, mask=square)
+    assert 0.12 * full < quarter < 0.4 * full  # a quarter of the area (and the mask's bilinear rim), less its ramps
+    half = _added(part, side, mask=np.full((4, 4), 0.5))
+    assert half == pytest.approx(0.5 * full, rel=0.05)  # heights halved everywhere
+
+
+def test_each_zone_takes_its_own_mask():
+    import texcad
+    from build123d import Box, Axis
+
+    part = Box(30, 30, 10)
+    top, bottom = part.faces().sort_by(Axis.Z)[-1], part.faces().sort_by(Axis.Z)[0]
+    middle = np.zeros((40, 40))
+    middle[10:30, 10:30] = 1.0  # white in the middle quarter of the top only
+    tx = texcad.texture(part, [(top, "builtin:pins", {"mask": middle}), (bottom, "builtin:pins")], height=0.6, pitch=0.5)
+    v = tx.mesh.vertices
+    up = v[v[:, 2] > 5.0 + 0.05]
+    assert len(up) and np.abs(up[:, :2]).max() < 7.5 + 1.0  # raised on the top only inside the mask's white square
+    assert v[:, 2].min() < -5.0 - 0.4  # the bottom is textured all over
+    low = v[v[:, 2] < -5.0 - 0.05]
+    assert np.abs(low[:, :2]).max() > 12.0
+    with pytest.raises(GeometryError, match="zone 1"):  # a black mask leaves nothing: said, with the zone
+        texcad.texture(part, [(top, "builtin:pins", {"mask": np.zeros((4, 4))}), (bottom, "builtin:pins")], height=0.6, pitch=0.5)

@@ -21,7 +21,7 @@ __all__ = ["selected_faces", "CadPart", "CadZone", "ZONE_OPTIONS", "cad_part", "
 
 #: The options a zone of a CAD part may set for itself (the rest are the call's: one
 #: build direction, one B-rep for the whole part).
-ZONE_OPTIONS = ("height", "pitch", "mode", "depth", "edge_angle", "rotation", "tolerance", "gradient")
+ZONE_OPTIONS = ("height", "pitch", "mode", "depth", "edge_angle", "rotation", "tolerance", "gradient", "mask", "mask_size")
 
 
 @dataclass(frozen=True)

@@ -151,6 +151,7 @@ def patch_options(options: Options) -> PatchOptions:
         height=options.height, pitch=options.pitch, depth=options.depth, edge_angle=float(options.edge_angle),
         rotation=float(options.rotation), build_dir=dirs, critical_angle=options.critical_angle,
         tolerance=options.tolerance, mode=options.mode.value, share=options.mode.share, gradient=options.gradient,
+        mask=options.mask, mask_size=options.mask_size,
     )
 
 
@@ -160,7 +161,7 @@ class FacesAdapter(Adapter):
     kind = "faces"
     label = "faces of a CAD part"
     options = frozenset({"height", "pitch", "depth", "edge_angle", "rotation", "build_dir", "critical_angle", "tolerance",
-                         "mode", "gradient", "brep"})
+                         "mode", "gradient", "brep", "mask", "mask_size"})
 
     def accepts(self, target: Any, where: Any, options: Options) -> bool:
         return where is not None and is_cad_target(target)

@@ -95,6 +95,11 @@ class PatchOptions:
         share: the share ``c`` of the height that goes into the part (0, 1, 1/2).
         gradient: two points (mm) of a height gradient, or None.
         jitter: mm: a nudge after a union that pinched (0 the first time).
+        mask: a grey-level mask scaling the height (0 none, 1 full; an array, a
+            Heightmap or an image path: :func:`texcad.sources.mask.mask_sampler`) over
+            the patch's texture coordinates, or None.
+        mask_size: ``(w, d)`` mm of texture coordinates the mask covers, centred on
+            the patch's (default: the patch's whole extent).
     """
 
     height: float
@@ -109,6 +114,8 @@ class PatchOptions:
     share: float
     gradient: Any = None
     jitter: float = 0.0
+    mask: Any = None
+    mask_size: Optional[tuple] = None
 
 
 @dataclass(frozen=True)
@@ -454,9 +461,26 @@ def patch_grid(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> Patch
         ramp = np.where(d > d_floor, np.inf, 0.0)
     concave, convex = concave_convex(grid)
     keep = grid.valid & (d >= d_keep)
-    gain = _gradient(grid.points.reshape(-1, 3), opts.gradient).reshape(d.shape)
+    gain = _gradient(grid.points.reshape(-1, 3), opts.gradient).reshape(d.shape) * _mask(grid, par.XY, opts)
     return PatchGrid(par, grid, H, px, py, diag, d, fade, ramp, concave, convex, d_keep, d_floor, keep, gain,
                      cell_mask(keep, grid.wrap_y))
+
+
+def _mask(grid: Any, XY: np.ndarray, opts: PatchOptions) -> "np.ndarray | float":
+    """The mask's value ``m`` in [0, 1] at every grid point (1 without a mask): the
+    mask stretched over ``opts.mask_size`` mm (default: the patch's extent in
+    texture coordinates ``XY``), centred on the patch, sampled bilinearly at the
+    grid's texture coordinates; 0 outside it. It scales the height like the gradient
+    (``h = min(H fade, ramp) g m``), before the limits, so ramps and limits hold."""
+    if opts.mask is None:
+        return 1.0
+    from ..sources.mask import mask_sampler
+
+    lo, hi = XY.min(axis=0), XY.max(axis=0)
+    size = opts.mask_size if opts.mask_size is not None else tuple(float(t) for t in hi - lo)
+    cx, cy = 0.5 * (lo + hi)
+    gx, gy = np.meshgrid(grid.xs - cx, grid.ys - cy)
+    return mask_sampler(opts.mask, size)(gx, gy)
 
 
 # ------------------------------------------------------------------------------------------
