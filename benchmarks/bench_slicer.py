@@ -2,6 +2,7 @@
 CuraEngine's CLIs (texcad.report.slicer) and read the G-code.
 
     python benchmarks/bench_slicer.py table       [--pitch 0.25]
+    python benchmarks/bench_slicer.py cost        [--pitch 0.25] [--demo-pitch 0.25] [--demo-side 100] [--no-demo]
     python benchmarks/bench_slicer.py demo        [--timeout 900]
     python benchmarks/bench_slicer.py support     [--pitch 0.25]
     python benchmarks/bench_slicer.py perimeters  [--side 40]
@@ -12,6 +13,11 @@ CuraEngine's CLIs (texcad.report.slicer) and read the G-code.
   with support on at threshold 45 (the critical angle): support in m and CPU
   seconds of each slice; written to docs/benchmarks/slicer.md (machine, date,
   command) for the printing guide.
+* ``cost``: PrusaSlicer's CPU seconds at its defaults for the demo plate (stones
+  grown over 100 x 100 mm at ``--demo-pitch``) and the ``table`` parts: bare,
+  textured as an STL, textured as the 3MF texcad writes (per-object settings from
+  ``texcad.io.slicer_settings``), and the largest per-layer distance between the
+  STL's and the 3MF's toolpaths; written to docs/benchmarks/slicer_cost.md.
 * ``demo``: the demo plate (800 x 800 px stones, 100 x 100 mm, as ``texcad demo``
   makes it) with one vertex per pixel (tolerance 0) and lean (default tolerance),
   side by side: slicing time and peak memory with PrusaSlicer's defaults, and with
@@ -305,6 +311,73 @@ def table(args) -> None:
     print(f"wrote {path}")
 
 
+# -- cost (issue 29): what slicing a textured part costs, STL against texcad's 3MF -----
+def _demo_part(pitch: float, side: float = 100.0):
+    """(bare mesh, textured mesh) of the demo plate: ``texcad demo``'s stones grown
+    over a ``side`` mm plate at ``pitch`` mm (default tolerance)."""
+    from build123d import Axis
+
+    from bench_lean import demo_heightmap
+    from texcad import texture
+    from texcad.brep import shape_to_mesh
+    from texcad.pipeline import plate_base
+
+    plate = plate_base((side, side), 5.0)
+    part = texture(plate, plate.faces().sort_by(Axis.Z)[-1], demo_heightmap(pitch, side), brep=False)
+    return shape_to_mesh(plate), part.mesh
+
+
+def cost(args) -> None:
+    """PrusaSlicer's CPU seconds at its defaults for each part bare (STL), textured as
+    an STL, and textured as the 3MF texcad writes (its per-object settings), and how
+    far the 3MF's toolpaths lie from the STL's (per layer Hausdorff, mm)."""
+    import tempfile
+
+    import numpy as np
+
+    from texcad.io import slicer_settings
+    from texcad.report.slicer import read_toolpaths, slice_mesh, toolpath_deviation
+
+    parts = []
+    if not args.no_demo:
+        bare, tex = _demo_part(args.demo_pitch, args.demo_side)
+        parts.append((f"demo plate {args.demo_side:g} x {args.demo_side:g} mm, stones at {args.demo_pitch:g} mm", "+z", bare, tex, (0.0, 0.0, 1.0)))
+    parts += _table_parts(args.pitch)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, orient, bare, textured, d in parts:
+            print(f"  {name}: load {load()}", flush=True)
+            g_stl, g_3mf = Path(tmp) / "stl.gcode", Path(tmp) / "3mf.gcode"
+            b = slice_mesh(bare, build_dir=d, timeout=args.timeout)
+            a = slice_mesh(textured, build_dir=d, timeout=args.timeout, keep=g_stl)
+            c = slice_mesh(textured, build_dir=d, timeout=args.timeout, keep=g_3mf, file="3mf")
+            for label, rep in (("bare", b), ("textured STL", a), ("textured 3MF", c)):
+                row(f"{name[:30]} {label}", rep)
+            dev = toolpath_deviation(read_toolpaths(g_stl), read_toolpaths(g_3mf))
+            from texcad.printability import print_rotation
+
+            R = print_rotation(d)
+            placed = type(textured)((textured.vertices.astype(np.float64) @ R.T).astype(np.float32), textured.faces)
+            written = ", ".join(f"{k} = {v}" for k, v in slicer_settings(placed).items()) or "none"
+            rows.append([name, orient, f"{textured.num_triangles:,}", f"{b.cpu_seconds:.1f}", f"{a.cpu_seconds:.1f}",
+                         f"{c.cpu_seconds:.1f}", f"{c.cpu_seconds / b.cpu_seconds:.1f}x", written, f"{dev.max():.2f}"])
+    headers = ["part", "printed", "triangles", "bare CPU s", "textured STL CPU s", "textured 3MF CPU s", "3MF / bare",
+               "settings in the 3MF", "toolpaths STL vs 3MF, mm"]
+    notes = (
+        "PrusaSlicer 2.5 at its defaults (0.2 mm layers, 0.4 mm nozzle, support off), each part in its print orientation. "
+        "CPU s = user + system time of the slicer process (all threads). The 3MF is what `export()` writes: the same mesh "
+        "with the per-object settings of `texcad.io.slicer_settings`. Toolpaths: the largest distance, over every layer, "
+        "between the extrusion paths of the STL's G-code and the 3MF's (per-layer Hausdorff distance of the paths sampled "
+        f"every 0.05 mm; `texcad.report.slicer.toolpath_deviation`). Small parts at texture pitch {args.pitch:g} mm."
+    )
+    try:
+        from _table import write_table
+    except ImportError:
+        write_table = _write_table
+    path = write_table("slicer_cost", headers, rows, title="Slicing cost, bare and textured, STL and texcad's 3MF", notes=notes)
+    print(f"wrote {path}")
+
+
 def _write_table(name, headers, rows, *, title="", notes=""):
     import datetime as dt
     import platform
@@ -327,10 +400,13 @@ def _write_table(name, headers, rows, *, title="", notes=""):
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=("table", "demo", "support", "perimeters", "recipes"))
+    ap.add_argument("what", choices=("table", "cost", "demo", "support", "perimeters", "recipes"))
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds per slice (default 900)")
     ap.add_argument("--pitch", type=float, default=0.25, help="support: texture pitch in mm (default 0.25)")
     ap.add_argument("--side", type=float, default=40.0, help="perimeters: plate side in mm (default 40)")
+    ap.add_argument("--demo-pitch", type=float, default=0.25, help="cost: the demo plate's texture pitch in mm (default 0.25)")
+    ap.add_argument("--demo-side", type=float, default=100.0, help="cost: the demo plate's side in mm (default 100)")
+    ap.add_argument("--no-demo", action="store_true", help="cost: leave the demo plate out")
     ap.add_argument("--sledgehammer", action="store_true", help="support: also the sledgehammer recipe (slow)")
     ap.add_argument("--fast", action="store_true", help="recipes: 'detect bridging perimeters' off (support is unchanged)")
     ap.add_argument("--compare", action="store_true",
@@ -347,7 +423,7 @@ def main() -> None:
         sys.exit("prusa-slicer is not installed (Debian: apt-get install prusa-slicer)")
     print(f"slicers {exe}, {find_slicer('curaengine')}; load average {load()} (2-core machine)")
     t0 = time.perf_counter()
-    {"table": table, "demo": demo, "support": support, "perimeters": perimeters, "recipes": recipes}[args.what](args)
+    {"table": table, "cost": cost, "demo": demo, "support": support, "perimeters": perimeters, "recipes": recipes}[args.what](args)
     print(f"done in {time.perf_counter() - t0:.0f} s; load average {load()}")
 
 
