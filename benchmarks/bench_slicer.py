@@ -343,29 +343,10 @@ def cost(args) -> None:
     from texcad.io import slicer_settings
     from texcad.report.slicer import read_toolpaths, slice_mesh, toolpath_deviation
 
-    parts = []
-    if not args.no_demo:
+    parts = list(_table_parts(args.pitch))
+    if not args.no_demo:  # last: the slow one (the table is written after every part)
         bare, tex = _demo_part(args.demo_pitch, args.demo_side)
         parts.append((f"demo plate {args.demo_side:g} x {args.demo_side:g} mm, stones at {args.demo_pitch:g} mm", "+z", bare, tex, (0.0, 0.0, 1.0)))
-    parts += _table_parts(args.pitch)
-    rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for name, orient, bare, textured, d in parts:
-            print(f"  {name}: load {load()}", flush=True)
-            g_stl, g_3mf = Path(tmp) / "stl.gcode", Path(tmp) / "3mf.gcode"
-            b = slice_mesh(bare, build_dir=d, timeout=args.timeout)
-            a = slice_mesh(textured, build_dir=d, timeout=args.timeout, keep=g_stl)
-            c = slice_mesh(textured, build_dir=d, timeout=args.timeout, keep=g_3mf, file="3mf")
-            for label, rep in (("bare", b), ("textured STL", a), ("textured 3MF", c)):
-                row(f"{name[:30]} {label}", rep)
-            dev = toolpath_deviation(read_toolpaths(g_stl), read_toolpaths(g_3mf))
-            from texcad.printability import print_rotation
-
-            R = print_rotation(d)
-            placed = type(textured)((textured.vertices.astype(np.float64) @ R.T).astype(np.float32), textured.faces)
-            written = ", ".join(f"{k} = {v}" for k, v in slicer_settings(placed).items()) or "none"
-            rows.append([name, orient, f"{textured.num_triangles:,}", f"{b.cpu_seconds:.1f}", f"{a.cpu_seconds:.1f}",
-                         f"{c.cpu_seconds:.1f}", f"{c.cpu_seconds / b.cpu_seconds:.1f}x", written, f"{dev.max():.2f}"])
     headers = ["part", "printed", "triangles", "bare CPU s", "textured STL CPU s", "textured 3MF CPU s", "3MF / bare",
                "settings in the 3MF", "toolpaths STL vs 3MF, mm"]
     notes = (
@@ -373,13 +354,35 @@ def cost(args) -> None:
         "CPU s = user + system time of the slicer process (all threads). The 3MF is what `export()` writes: the same mesh "
         "with the per-object settings of `texcad.io.slicer_settings`. Toolpaths: the largest distance, over every layer, "
         "between the extrusion paths of the STL's G-code and the 3MF's (per-layer Hausdorff distance of the paths sampled "
-        f"every 0.05 mm; `texcad.report.slicer.toolpath_deviation`). Small parts at texture pitch {args.pitch:g} mm."
+        "every 0.05 mm; `texcad.report.slicer.toolpath_deviation`); the 3MF's coordinates are rounded to 0.1 um, the STL's "
+        "are float32, which alone moves paths by a few tenths of a mm where a layer grazes a flat top (the rows with no "
+        f"setting). Small parts at texture pitch {args.pitch:g} mm; a slice that ran past {args.timeout:g} s of wall time "
+        "(2 cores shared with other jobs) is marked so."
     )
     try:
         from _table import write_table
     except ImportError:
         write_table = _write_table
-    path = write_table("slicer_cost", headers, rows, title="Slicing cost, bare and textured, STL and texcad's 3MF", notes=notes)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, orient, bare, textured, d in parts:
+            print(f"  {name}: load {load()}", flush=True)
+            g_stl, g_3mf = Path(tmp) / "stl.gcode", Path(tmp) / "3mf.gcode"
+            b = sliced(bare, args.timeout, build_dir=d)
+            c = sliced(textured, args.timeout, build_dir=d, keep=g_3mf, file="3mf")
+            a = sliced(textured, args.timeout, build_dir=d, keep=g_stl)
+            for label, rep in (("bare", b), ("textured STL", a), ("textured 3MF", c)):
+                row(f"{name[:30]} {label}", rep)
+            cpu = lambda r: f"{r.cpu_seconds:.1f}" if r else f"ran past {args.timeout:g} s"
+            dev = toolpath_deviation(read_toolpaths(g_stl), read_toolpaths(g_3mf)).max() if a and c else float("nan")
+            from texcad.printability import print_rotation
+
+            R = print_rotation(d)
+            placed = type(textured)((textured.vertices.astype(np.float64) @ R.T).astype(np.float32), textured.faces)
+            written = ", ".join(f"{k} = {v}" for k, v in slicer_settings(placed).items()) or "none"
+            rows.append([name, orient, f"{textured.num_triangles:,}", cpu(b), cpu(a), cpu(c),
+                         f"{c.cpu_seconds / b.cpu_seconds:.1f}x" if b and c else "-", written, f"{dev:.2f}" if a and c else "-"])
+            path = write_table("slicer_cost", headers, rows, title="Slicing cost, bare and textured, STL and texcad's 3MF", notes=notes)
     print(f"wrote {path}")
 
 
