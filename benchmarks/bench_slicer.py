@@ -348,15 +348,17 @@ def cost(args) -> None:
         bare, tex = _demo_part(args.demo_pitch, args.demo_side)
         parts.append((f"demo plate {args.demo_side:g} x {args.demo_side:g} mm, stones at {args.demo_pitch:g} mm", "+z", bare, tex, (0.0, 0.0, 1.0)))
     headers = ["part", "printed", "triangles", "bare CPU s", "textured STL CPU s", "textured 3MF CPU s", "3MF / bare",
-               "settings in the 3MF", "toolpaths STL vs 3MF, mm"]
+               "settings in the 3MF", "toolpaths moved by the settings, mm", "toolpaths STL vs 3MF, mm"]
     notes = (
         "PrusaSlicer 2.5 at its defaults (0.2 mm layers, 0.4 mm nozzle, support off), each part in its print orientation. "
         "CPU s = user + system time of the slicer process (all threads). The 3MF is what `export()` writes: the same mesh "
         "with the per-object settings of `texcad.io.slicer_settings`. Toolpaths: the largest distance, over every layer, "
         "between the extrusion paths of the STL's G-code and the 3MF's (per-layer Hausdorff distance of the paths sampled "
-        "every 0.05 mm; `texcad.report.slicer.toolpath_deviation`); the 3MF's coordinates are rounded to 0.1 um, the STL's "
-        "are float32, which alone moves paths by a few tenths of a mm where a layer grazes a flat top (the rows with no "
-        f"setting). Small parts at texture pitch {args.pitch:g} mm; a slice that ran past {args.timeout:g} s of wall time "
+        "every 0.05 mm; `texcad.report.slicer.toolpath_deviation`). Moved by the settings: the same between the STL at "
+        "the defaults and the STL sliced with the 3MF's settings given on the command line (what the settings change, "
+        "and nothing else). STL vs 3MF adds what loading another file format changes: coordinates rounded "
+        "differently move paths by a few tenths of a mm where a layer grazes a flat facet (the rows with no setting). "
+        f"Small parts at texture pitch {args.pitch:g} mm; a slice that ran past {args.timeout:g} s of wall time "
         "(2 cores shared with other jobs) is marked so."
     )
     try:
@@ -371,17 +373,23 @@ def cost(args) -> None:
             b = sliced(bare, args.timeout, build_dir=d)
             c = sliced(textured, args.timeout, build_dir=d, keep=g_3mf, file="3mf")
             a = sliced(textured, args.timeout, build_dir=d, keep=g_stl)
-            for label, rep in (("bare", b), ("textured STL", a), ("textured 3MF", c)):
-                row(f"{name[:30]} {label}", rep)
-            cpu = lambda r: f"{r.cpu_seconds:.1f}" if r else f"ran past {args.timeout:g} s"
-            dev = toolpath_deviation(read_toolpaths(g_stl), read_toolpaths(g_3mf)).max() if a and c else float("nan")
             from texcad.printability import print_rotation
 
             R = print_rotation(d)
             placed = type(textured)((textured.vertices.astype(np.float64) @ R.T).astype(np.float32), textured.faces)
-            written = ", ".join(f"{k} = {v}" for k, v in slicer_settings(placed).items()) or "none"
+            settings = slicer_settings(placed)
+            g_set = Path(tmp) / "set.gcode"
+            flags = {k: (bool(v) if k == "overhangs" else v) for k, v in settings.items()}
+            e = sliced(textured, args.timeout, build_dir=d, keep=g_set, config=flags) if settings else None
+            for label, rep in (("bare", b), ("textured STL", a), ("textured 3MF", c), ("STL + settings", e)):
+                row(f"{name[:30]} {label}", rep)
+            cpu = lambda r: f"{r.cpu_seconds:.1f}" if r else f"ran past {args.timeout:g} s"
+            dev = toolpath_deviation(read_toolpaths(g_stl), read_toolpaths(g_3mf)).max() if a and c else float("nan")
+            moved = toolpath_deviation(read_toolpaths(g_stl), read_toolpaths(g_set)).max() if a and e else (0.0 if a and not settings else float("nan"))
+            written = ", ".join(f"{k} = {v}" for k, v in settings.items()) or "none"
             rows.append([name, orient, f"{textured.num_triangles:,}", cpu(b), cpu(a), cpu(c),
-                         f"{c.cpu_seconds / b.cpu_seconds:.1f}x" if b and c else "-", written, f"{dev:.2f}" if a and c else "-"])
+                         f"{c.cpu_seconds / b.cpu_seconds:.1f}x" if b and c else "-", written,
+                         f"{moved:.2f}" if np.isfinite(moved) else "-", f"{dev:.2f}" if a and c else "-"])
             path = write_table("slicer_cost", headers, rows, title="Slicing cost, bare and textured, STL and texcad's 3MF", notes=notes)
     print(f"wrote {path}")
 
