@@ -7,6 +7,7 @@ from .export import (
     write_stl,
     write_3mf,
     export,
+    slicer_settings,
 )
 from .read import (
     read_part,
@@ -23,6 +24,7 @@ __all__ = [
     'write_stl',
     'write_3mf',
     'export',
+    'slicer_settings',
     'read_part',
     'read_mesh',
     'load_mesh',

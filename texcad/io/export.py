@@ -13,7 +13,7 @@ import os
 import zipfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Sequence
+from typing import Any, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -21,7 +21,7 @@ from ..util import atomic_path, threads
 from ..errors import GeometryError, ParameterError
 from ..solid import Mesh
 
-__all__ = ["write_stl", "write_3mf", "export"]
+__all__ = ["write_stl", "write_3mf", "export", "slicer_settings", "BRIDGING_FREE_ANGLE"]
 
 _STL_DTYPE = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
 
@@ -211,6 +211,7 @@ def write_3mf(
     *,
     name: str = "texcad part",
     build_dir=None,
+    settings: Mapping[str, Any] | None = None,
 ) -> None:
     """Write a 3MF package (3MF core spec, ``unit="millimeter"``), zip-deflated.
 
@@ -234,6 +235,14 @@ def write_3mf(
             :func:`texcad.util.rotation_to_z`) and rests on the bed (lowest
             point at z = 0), so a slicer loads it as it is meant to print. The
             vertices themselves stay in the part's frame. None: no transform.
+        settings: PrusaSlicer per-object settings ``{option: value}`` (its config
+            keys, e.g. ``{"overhangs": 0}``; :func:`slicer_settings` gives the ones
+            :func:`export` writes), stored as the object's metadata in
+            ``Metadata/Slic3r_PE_model.config`` (a one-part object then names its one
+            part there too: PrusaSlicer 2.5 loads no part of an object listed there
+            without one). The slicer applies them to this object only, over the
+            print profile; the user sees and can remove them in its object list.
+            None or empty: none written.
     """
     items = [(name, mesh)] if isinstance(mesh, Mesh) else list(mesh)
     if not items:
@@ -243,8 +252,10 @@ def write_3mf(
     config = None
     if len(items) == 1:
         label, part = _xml_escape(name if isinstance(mesh, Mesh) else items[0][0]), items[0][1]
+        if settings:
+            _, _, config = _merged([(name if isinstance(mesh, Mesh) else items[0][0], part)], name, settings)
     else:
-        label, part, config = _merged(items, name)
+        label, part, config = _merged(items, name, settings)
     head = (
         b'<?xml version="1.0" encoding="UTF-8"?>\n'
         b'<model unit="millimeter" xml:lang="en-US" '
@@ -276,9 +287,10 @@ def _print_transform(mesh: Mesh, build_dir) -> str:
     return " ".join(f"{x:.9g}" for x in M.ravel())
 
 
-def _merged(items: list[tuple[str, Mesh]], name: str) -> tuple[str, Mesh, bytes]:
+def _merged(items: list[tuple[str, Mesh]], name: str, settings: Mapping[str, Any] | None = None) -> tuple[str, Mesh, bytes]:
     """Parts as one object: (escaped name, the parts' meshes one after the other,
-    ``Metadata/Slic3r_PE_model.config`` naming each part's triangle range)."""
+    ``Metadata/Slic3r_PE_model.config`` naming each part's triangle range, with the
+    object's ``settings`` as its metadata)."""
     v_off = np.cumsum([0] + [len(m.vertices) for _, m in items])
     t_off = np.cumsum([0] + [len(m.faces) for _, m in items])
     merged = Mesh(
@@ -292,11 +304,58 @@ def _merged(items: list[tuple[str, Mesh]], name: str) -> tuple[str, Mesh, bytes]
         "  </volume>\n"
         for i, (n, _) in enumerate(items)
     )
+    meta = "".join(
+        f'  <metadata type="object" key="{_xml_escape(str(k))}" value="{_xml_escape(_setting(v))}"/>\n'
+        for k, v in sorted((settings or {}).items())
+    )
     config = (
         '<?xml version="1.0" encoding="UTF-8"?>\n<config>\n <object id="1" instances_count="1">\n'
-        f'  <metadata type="object" key="name" value="{_xml_escape(name)}"/>\n{vols} </object>\n</config>\n'
+        f'  <metadata type="object" key="name" value="{_xml_escape(name)}"/>\n{meta}{vols} </object>\n</config>\n'
     ).encode()
     return _xml_escape(name), merged, config
+
+
+def _setting(v: Any) -> str:
+    """A setting's value as PrusaSlicer's config writes it (booleans as 0 / 1)."""
+    return str(int(v)) if isinstance(v, (bool, np.bool_)) else str(v)
+
+
+#: Steepest downward facet, degrees from the build plate, of a part on which
+#: PrusaSlicer's "detect bridging perimeters" finds nothing (:func:`slicer_settings`).
+BRIDGING_FREE_ANGLE = 45.0
+
+
+def slicer_settings(mesh: Mesh, build_dir=None) -> dict[str, Any]:
+    """The PrusaSlicer per-object settings :func:`export` writes into a 3MF of
+    ``mesh`` printed along ``build_dir`` (None: +z as placed).
+
+    ``{"overhangs": 0}`` ("detect bridging perimeters" off) when no facet of the part
+    faces down flatter than :data:`BRIDGING_FREE_ANGLE` (45) degrees from the build
+    plate, other than those resting on it; otherwise ``{}``. PrusaSlicer 2.5 calls a
+    perimeter bridging where it lies more than half a nozzle width outside the
+    layer below (its perimeter generator grows the lower layer by ``nozzle / 2``);
+    a perimeter's centre line lies at least half a bead inside its contour, so a
+    contour that moves outwards by at most ``h / tan(45 deg) = h`` per layer of
+    height ``h`` mm never makes one while ``h`` is under ``nozzle / 2`` plus half a
+    bead (0.3 mm layers with a 0.4 mm nozzle and less). On such a part the setting
+    only decides whether the slicer looks, and on a texture looking is most of the
+    slicing time: it clips every perimeter of a layer with the whole layer below,
+    islands times vertices (docs/guides/printing.md, "Slicing time"). Textures
+    limited for their build direction (at least 45 degrees) and reliefs facing up
+    qualify; a part with its own overhangs or bridges keeps the profile's setting.
+    """
+    if not len(mesh.faces):
+        return {}
+    d = np.array([0.0, 0.0, 1.0]) if build_dir is None else np.asarray(build_dir, dtype=np.float64).reshape(-1, 3)[0]
+    d = d / np.linalg.norm(d)
+    v = mesh.vertices.astype(np.float64)
+    tri = v[mesh.faces]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(n, axis=1)
+    down = -(n @ d) > np.cos(np.radians(BRIDGING_FREE_ANGLE)) * length
+    level = v @ d
+    on_bed = (level[mesh.faces] <= level.min() + 0.01).all(axis=1)  # within 0.01 mm of the lowest point
+    return {} if np.any(down & ~on_bed & (length > 0)) else {"overhangs": 0}
 
 
 def _zip_info(arcname: str) -> zipfile.ZipInfo:
@@ -386,7 +445,10 @@ def export(obj: Any, path: str | os.PathLike, *, separate_texture: bool = False,
             raise ParameterError("an STL holds one mesh; write several objects as .3mf")
         write_stl(meshes, p)
     else:
-        write_3mf(meshes, p, name=label, build_dir=_build_dir_of(obj) if textured else None)
+        up = _build_dir_of(obj) if textured else None
+        whole = obj.mesh if textured else (meshes if isinstance(meshes, Mesh) else None)
+        settings = slicer_settings(whole, up) if whole is not None else None
+        write_3mf(meshes, p, name=label, build_dir=up, settings=settings)
     return p
 
 

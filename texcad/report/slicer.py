@@ -37,6 +37,9 @@ __all__ = [
     "slice_mesh",
     "read_gcode",
     "support_near",
+    "Toolpaths",
+    "read_toolpaths",
+    "toolpath_deviation",
     "SLICERS",
     "SUPPORT_TYPES",
     "CURA_DEFINITION",
@@ -128,12 +131,35 @@ def read_gcode(path: str | os.PathLike) -> tuple[dict, np.ndarray, int]:
         ``(lengths, support_points, layers)``: ``{type: mm}``, ``(K, 3)`` G-code
         coordinates (mm) of the support extrusions' end points, layer count.
     """
+    data = _gcode_bytes(path)
+    moves = _moves(data)
+    if moves is None:
+        return {}, np.zeros((0, 3)), 0
+    xyz, seg, extruding, kind, names = moves
+    lengths: dict[str, float] = {}
+    sums = np.bincount(kind[extruding], weights=seg[extruding], minlength=len(names))
+    for i, s in enumerate(sums):
+        if s > 0:
+            lengths[names[i]] = lengths.get(names[i], 0.0) + float(s)
+    is_support = np.isin(np.array(names, dtype=object), SUPPORT_TYPES)
+    sup = extruding & is_support[kind]
+    layers = data.count(b";LAYER_CHANGE") or data.count(b";LAYER:")
+    return lengths, xyz[sup], layers
+
+
+def _gcode_bytes(path) -> bytes:
     data = Path(path).read_bytes()
     if not data:
         raise InputError(f"the G-code {os.fspath(path)!r} is empty")
+    return data
+
+
+def _moves(data: bytes):
+    """``(xyz (K, 3), xy length of each move (K,), extruding (K,) bool, ;TYPE:
+    index (K,), type names)`` of a G-code's G0/G1 moves (relative E), or None."""
     moves = [(m.start(), m.groups()) for m in _MOVE.finditer(data) if any(g is not None for g in m.groups())]
     if not moves:
-        return {}, np.zeros((0, 3)), 0
+        return None
     pos = np.array([p for p, _ in moves], dtype=np.int64)
     vals = np.array([[np.nan if g is None else float(g) for g in gs] for _, gs in moves], dtype=np.float64)
     e = np.nan_to_num(vals[:, 3], nan=0.0)
@@ -152,15 +178,77 @@ def read_gcode(path: str | os.PathLike) -> tuple[dict, np.ndarray, int]:
     names = ["(none)"] + [t for _, t in tmarks]
     tpos = np.array([p for p, _ in tmarks], dtype=np.int64)
     kind = np.searchsorted(tpos, pos, side="right")  # 0 = before any ;TYPE:
-    lengths: dict[str, float] = {}
-    sums = np.bincount(kind[extruding], weights=seg[extruding], minlength=len(names))
-    for i, s in enumerate(sums):
-        if s > 0:
-            lengths[names[i]] = lengths.get(names[i], 0.0) + float(s)
-    is_support = np.isin(np.array(names, dtype=object), SUPPORT_TYPES)
-    sup = extruding & is_support[kind]
-    layers = data.count(b";LAYER_CHANGE") or data.count(b";LAYER:")
-    return lengths, xyz[sup], layers
+    return xyz, seg, extruding, kind, names
+
+
+@dataclass(frozen=True)
+class Toolpaths:
+    """The extrusion paths of a G-code, layer by layer (what the printer lays down).
+
+    Attributes:
+        z: ``(L,)`` float64 heights of the layers that extrude, mm, ascending.
+        layer: ``(N,)`` int64 index into ``z`` of each extrusion segment.
+        start, end: ``(N, 2)`` float64 x, y of each segment's ends, mm (G-code frame).
+    """
+
+    z: np.ndarray
+    layer: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """``(L,)`` extrusion path length per layer, mm."""
+        seg = np.linalg.norm(self.end - self.start, axis=1)
+        return np.bincount(self.layer, weights=seg, minlength=len(self.z))
+
+    def points(self, step: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
+        """Points along every segment at most ``step`` mm apart (both ends
+        included): ``(layer index (P,), x, y (P, 2))``."""
+        seg = self.end - self.start
+        n = np.maximum(1, np.ceil(np.linalg.norm(seg, axis=1) / step).astype(np.int64))  # pieces per segment
+        owner = np.repeat(np.arange(len(n)), n + 1)
+        first = np.cumsum(n + 1) - (n + 1)
+        t = (np.arange(len(owner)) - first[owner]) / n[owner]
+        return self.layer[owner], self.start[owner] + seg[owner] * t[:, None]
+
+
+def read_toolpaths(path: str | os.PathLike, *, exclude=SUPPORT_TYPES) -> Toolpaths:
+    """The extrusion segments of a G-code (relative E) by layer, leaving out the
+    ``;TYPE:`` sections named in ``exclude`` (support by default: what prints the
+    part). Layers are told apart by their z (mm, rounded to 1 um)."""
+    moves = _moves(_gcode_bytes(path))
+    if moves is None:
+        return Toolpaths(np.zeros(0), np.zeros(0, np.int64), np.zeros((0, 2)), np.zeros((0, 2)))
+    xyz, seg, extruding, kind, names = moves
+    keep = extruding & ~np.isin(np.array(names, dtype=object), tuple(exclude))[kind]
+    keep[0] = False  # a segment needs the move before it
+    i = np.flatnonzero(keep)
+    z, layer = np.unique(np.round(xyz[i, 2], 3), return_inverse=True)
+    return Toolpaths(z, layer.astype(np.int64), xyz[i - 1, :2].copy(), xyz[i, :2].copy())
+
+
+def toolpath_deviation(a: Toolpaths, b: Toolpaths, *, step: float = 0.05) -> np.ndarray:
+    """Per layer, the Hausdorff distance in mm between the extrusion paths of two
+    G-codes of the same part: the farthest any point of one layer's paths lies
+    from the other's paths at the same height (inf for a layer only one of them
+    prints). Paths are sampled every ``step`` mm, so the figure is exact to within
+    ``step / 2``. Returns ``(L,)`` float64 over the union of both layer heights
+    (ascending)."""
+    from scipy.spatial import cKDTree
+
+    z = np.union1d(a.z, b.z)
+    out = np.full(len(z), np.inf)
+    (la, pa), (lb, pb) = a.points(step), b.points(step)
+    ia, ib = np.searchsorted(z, a.z), np.searchsorted(z, b.z)
+    la, lb = ia[la], ib[lb]
+    oa, ob = np.argsort(la, kind="stable"), np.argsort(lb, kind="stable")
+    ca, cb = np.searchsorted(la[oa], np.arange(len(z) + 1)), np.searchsorted(lb[ob], np.arange(len(z) + 1))
+    for k in range(len(z)):  # per layer
+        p, q = pa[oa[ca[k] : ca[k + 1]]], pb[ob[cb[k] : cb[k + 1]]]
+        if len(p) and len(q):
+            out[k] = max(cKDTree(q).query(p)[0].max(), cKDTree(p).query(q)[0].max())
+    return out
 
 
 def _oriented(mesh, build_dir) -> tuple[np.ndarray, np.ndarray]:
@@ -179,6 +267,7 @@ def slice_mesh(
     config: dict | None = None,
     timeout: float = 1800.0,
     keep: str | os.PathLike | None = None,
+    file: str = "stl",
 ) -> SliceReport:
     """Slice ``mesh`` (a :class:`texcad.solid.Mesh`, mm) with PrusaSlicer's or
     CuraEngine's CLI.
@@ -196,14 +285,22 @@ def slice_mesh(
       (:data:`CURA_DEFINITION`); ``config`` adds ``-s key=value`` settings
       (True / False become ``true`` / ``false``).
 
+    ``file="3mf"`` hands the slicer the 3MF that :func:`texcad.io.export` writes
+    instead of an STL: the same mesh, with the per-object settings of
+    :func:`texcad.io.slicer_settings` (PrusaSlicer reads them; CuraEngine reads no
+    3MF, so it always gets the STL). ``keep``: copy the G-code there.
+
     Returns:
         :class:`SliceReport` (support points mapped back to the mesh's own frame).
 
     Raises:
         ResourceError: the slicer is not installed, or it ran past ``timeout`` s.
     """
-    from ..io import write_stl
+    from ..io import slicer_settings, write_3mf, write_stl
     from ..solid import Mesh
+
+    if file not in ("stl", "3mf"):
+        raise InputError(f"file must be 'stl' or '3mf', got {file!r}")
 
     exe = find_slicer(slicer)
     if exe is None:
@@ -215,9 +312,13 @@ def slice_mesh(
     placed = Mesh((v + shift).astype(np.float32), mesh.faces)
     placed.__dict__["is_watertight"] = mesh.is_watertight
     with tempfile.TemporaryDirectory() as tmp:
-        stl = Path(tmp) / "part.stl"
         gcode = Path(tmp) / "part.gcode"
-        write_stl(placed, stl)
+        if file == "3mf" and slicer == "prusaslicer":
+            stl = Path(tmp) / "part.3mf"
+            write_3mf(placed, stl, name="part", settings=slicer_settings(placed))
+        else:
+            stl = Path(tmp) / "part.stl"
+            write_stl(placed, stl)
         if slicer == "prusaslicer":
             args = ["--use-relative-e-distances"]
             for k, val in (config or {}).items():
