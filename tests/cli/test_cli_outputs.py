@@ -47,6 +47,21 @@ def test_render_too_wide_names_a_width_that_fits(tmp_path, capsys):
     assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob(".*"))
 
 
+def test_max_memory_bounds_the_job_and_names_a_pitch_that_fits(tmp_path, capsys):
+    """``--max-memory`` (the API's max_memory): a job too large for it is refused up
+    front in one line naming a pitch, and that pitch then works under the same bound."""
+    stl = _box_stl(tmp_path)
+    out = tmp_path / "m.stl"
+    args = ["texture", str(stl), "-o", str(out), "--quiet", "--max-memory", "400MB"]
+    assert main(args + ["--pitch", "0.0005"]) == 2
+    line = _one_line_error(capsys)
+    pitch = float(line.split("use a pitch of at least ")[1].split()[0])
+    assert not out.exists() and 0.0005 < pitch < 1.0
+    assert main(args + ["--pitch", str(max(pitch, 0.3))]) == 0 and out.stat().st_size > 0
+    assert main(["texture", str(stl), "-o", str(out), "--max-memory", "lots"]) == 2
+    assert "4GB" in _one_line_error(capsys)
+
+
 def test_an_output_folder_that_is_missing_fails_before_any_work(tmp_path, capsys):
     stl = _box_stl(tmp_path)
     a = tmp_path / "a.stl"

@@ -72,7 +72,7 @@ def run_mesh(args: argparse.Namespace) -> int:
             args.part, layers, height=args.height, pitch=args.pitch, projection=args.projection, mode=args.mode,
             border=args.border, blend=args.blend, scale=args.scale, build_dir=args.build_dir,
             critical_angle=args.critical_angle, tolerance=args.tolerance, progress=None if args.quiet else StageReporter(),
-            union=args.union or None, size=args.size,
+            union=args.union or None, size=args.size, max_memory=args.max_memory,
         )
     write_outputs(tx, args.out, separate_texture=args.separate_texture)
     m = tx.mesh

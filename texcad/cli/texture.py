@@ -159,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
             warnings.simplefilter("ignore", TexcadWarning)
         tx = texture(part, where, args.texture, height=args.height, pitch=args.pitch, mapping=args.mapping,
                      rotation=args.rotation, build_dir=args.build_dir, critical_angle=args.critical_angle,
-                     tolerance=args.tolerance, mode=args.mode, gradient=args.gradient,
+                     tolerance=args.tolerance, mode=args.mode, gradient=args.gradient, max_memory=args.max_memory,
                      progress=None if args.quiet else StageReporter())
     write_outputs(tx, args.out, separate_texture=args.separate_texture)
     _summary(args, tx, selectors, faces, t0)
@@ -216,6 +216,9 @@ def add(sub: argparse._SubParsersAction) -> None:
         "(a mode word or key=value,... of height, pitch, mode, depth, edge_angle, rotation, tolerance), e.g. "
         "top@builtin:diamond_knurl@height=0.8 --zone right@builtin:stones@engraved",
     )
+    t.add_argument("--max-memory", default=None, metavar="SIZE",
+                   help="bound on the job's memory, e.g. 4GB or 512MB (default: what the machine has); a job that needs "
+                   "more is refused up front, naming the finest pitch that fits")
     t.add_argument("--texture", default="builtin:stones", help="builtin:NAME[:k=v] or an image (default builtin:stones)")
     t.add_argument("--height", type=positive_float, default=DEFAULTS.height, help=f"texture height in mm (default {DEFAULTS.height:g})")
     t.add_argument("--pitch", type=positive_float, default=DEFAULTS.pitch, help=f"mm per pixel; on meshes the longest edge (default {DEFAULTS.pitch:g})")
