@@ -16,6 +16,17 @@ the surface, a point at height ``h`` moves by ``t = g (h - c H)`` along its offs
 
 **Fuse.** ``(base - cutter) + slab`` with manifold3d, welded
 (:func:`texcad.solid.weld.join_bodies`). There is no B-rep.
+
+**Tiles.** Where the untiled relief would not fit in the memory available (the
+machine's, or ``max_memory``), a closed smooth surface whose base is its profile's
+solid, raised, is made in tiles instead (:func:`texcad.targets.tiled.surface_tiles`):
+the fitted texture is held whole (4 bytes a pixel), the fused mesh is a
+:class:`~texcad.targets.tiled.TiledSurfaceMesh` that the gate checks and the export
+streams, tile by tile. Its texture vertices are the untiled ones (every pixel: its
+error is 0, within any ``tolerance``; ``depth`` is not used) and its ends slope from
+the first and last texture row to the profile (``info["fuse"] == "tiled"``). Other
+surfaces (open or with corners, a tube, engraved or centred, a gradient,
+``build_dir``) are refused as before, naming a pitch that fits.
 """
 
 from __future__ import annotations
@@ -262,6 +273,7 @@ class SurfacePlace:
     surface: Surface
     depth: float
     wall: float
+    deferred: "float | None" = None  # the selected surface not made yet (too large?): its spacing, mm
 
 
 @dataclass(frozen=True)
@@ -272,6 +284,17 @@ class SurfaceRelief:
     bodies: ModeBodies
     lean: Lean
     s: np.ndarray
+
+
+@dataclass(frozen=True)
+class SurfaceTiles:
+    """The relief of a surface made in tiles: the
+    :class:`~texcad.targets.tiled.TiledSurfaceMesh` (the fused part, kept as its
+    tiles) and what the gate expects of it, ``expect``
+    (:func:`texcad.targets.tiled.surface_tiles`)."""
+
+    mesh: Any
+    expect: Any
 
 
 @dataclass(frozen=True)
@@ -309,6 +332,16 @@ def _selected(surf: Surface, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     v = np.stack([np.broadcast_to(p[None, :, 0], (len(ys), len(p))), np.broadcast_to(ys[:, None], (len(ys), len(p))),
                   np.broadcast_to(p[None, :, 1], (len(ys), len(p)))], axis=-1).reshape(-1, 3)
     return v, np.asarray(grid_faces(len(ys), len(p)), dtype=np.int64)
+
+
+def _may_not_fit(surf: Surface, options: Options) -> bool:
+    """Whether the untiled relief might not fit in the memory available: the
+    texture's pixels estimated at ``options.pitch`` before it is fitted (then
+    :func:`_selected`, one vertex a pixel too, waits until the relief is made)."""
+    from ..util import available_memory, texture_bytes
+
+    p = float(options.pitch)
+    return texture_bytes((float(surf.profile.length) / p + 1) * (float(surf.length) / p + 1), 0.0) > 0.5 * available_memory()
 
 
 def _build_dir(options: Options) -> Any:
@@ -365,22 +398,48 @@ class SurfaceAdapter(Adapter):
         wall = float(surf.thickness) if surf.thickness else float("inf")
         options.report(0.02, "meshing the base body")
         base = surf.base if isinstance(surf.base, Mesh) else shape_to_mesh(surf.base)
-        selected = _selected(surf, options.pitch)
-        return Placement("surface", base, united_bodies(base), selected, data=SurfacePlace(surf, float(depth), wall))
+        large = _may_not_fit(surf, options)  # then the surface for check 5 is made only if the relief is not tiled
+        selected = None if large else _selected(surf, options.pitch)
+        return Placement("surface", base, united_bodies(base), selected,
+                         data=SurfacePlace(surf, float(depth), wall, float(options.pitch) if large else None))
 
     # -- relief -------------------------------------------------------------------------
     def _fitted(self, surf: Surface, texture: Any, options: Options):
         """The texture fitted to the developed surface: ``(Heightmap, periodic)``."""
         from ..mapping import fit_texture
-        from ..util import fitting_pitch, require_memory, texture_bytes
 
         options.report(0.05, "loading texture")
-        hm, periodic = fit_texture(surf.profile, texture, length=surf.length, pitch=options.pitch, height=options.height,
-                                   periodic_x=options.periodic_x)
+        return fit_texture(surf.profile, texture, length=surf.length, pitch=options.pitch, height=options.height,
+                           periodic_x=options.periodic_x)
+
+    def _tiled(self, placement: Placement, hm: Any, periodic: bool, options: Options) -> "Relief | None":
+        """The relief in tiles where the untiled one would not fit in the memory
+        available, else None; ResourceError naming a pitch where it does not fit and
+        tiles are not made for this surface (see the module's docstring)."""
+        from ..util import available_memory, fitting_pitch, require_memory, texture_bytes
+        from .tiled import NotTiled, surface_tiles
+
         need = texture_bytes(hm.shape[0] * hm.shape[1], 0.0)
+        if need <= available_memory():
+            return None
+        sp: SurfacePlace = placement.data
+        what = f"a {hm.shape[0]} x {hm.shape[1]} px texture on the surface"
         fix = f"use pitch >= {fitting_pitch(min(hm.pitch), need):.3g} mm"
-        require_memory(need, f"a {hm.shape[0]} x {hm.shape[1]} px texture on the surface", fix)
-        return hm, periodic
+        why = ("build_dir (the overhang limiter)" if options.directions is not None else
+               f"the {options.mode.value} mode" if options.mode.share else
+               "a gradient" if options.gradient is not None else None)
+        if why is None:
+            options.report(0.1, f"{what}: made in tiles")
+            try:
+                mesh, ex = surface_tiles(sp.surface, hm, periodic, mapping=options.mapping.value, transition=options.transition,
+                                         max_memory=options.max_memory, base=placement.base)
+            except NotTiled as exc:
+                why = exc.reason
+        if why is not None:
+            require_memory(need, what, f"{why} is not made in tiles; {fix}")
+            return None  # it fits after all (the memory available changed since)
+        return Relief(heightmap=hm, limits=None, volume=ex.volume, volume_slack=ex.volume_slack,
+                      nominal_volume=ex.nominal_volume, reach=ex.height, max_error=0.0, data=SurfaceTiles(mesh, ex))
 
     def relief(self, placement: Placement, texture: Any, options: Options) -> Relief:
         from ..mapping import CUT_FLOOR, map_texture
@@ -389,6 +448,9 @@ class SurfaceAdapter(Adapter):
         sp: SurfacePlace = placement.data
         surf, share, mapping, bd = sp.surface, options.mode.share, options.mapping.value, _build_dir(options)
         hm, periodic = self._fitted(surf, texture, options)
+        tiled = self._tiled(placement, hm, periodic, options)
+        if tiled is not None:
+            return tiled
         full = float(hm.heights.max())  # the envelope H of engraved and centred textures, mm
         hm_nominal, overhang = hm, None
         if bd is not None:
@@ -423,12 +485,27 @@ class SurfaceAdapter(Adapter):
         import dataclasses
 
         ex = super().expectation(placement, relief, fused)
-        return ex if relief.data.bodies.cutter is None else dataclasses.replace(ex, selected=None)
+        if isinstance(relief.data, SurfaceTiles):  # the tiles' own (check 5 against each column's profile point)
+            return dataclasses.replace(relief.data.expect, bodies=placement.bodies)
+        sp: SurfacePlace = placement.data
+        if relief.data.bodies.cutter is not None:
+            return dataclasses.replace(ex, selected=None)
+        if ex.selected is None and sp.deferred is not None:  # not made in place(): it might not have fitted
+            ex = dataclasses.replace(ex, selected=_selected(sp.surface, sp.deferred))
+        return ex
 
     # -- fuse ---------------------------------------------------------------------------
     def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
         from ..solid.weld import join_bodies
 
+        if isinstance(relief.data, SurfaceTiles):
+            t = relief.data.mesh
+            options.report(0.45, f"{t.grid.count} tile(s) of up to {t.grid.tile} x {t.grid.tile} nodes")
+            t.progress = lambda f, m: options.report(0.92 + 0.07 * f, f"checking the result (texcad's gate): {m}")
+            info = {"face": "surface", "mapping": options.mapping.value, "grid": tuple(relief.heightmap.shape), "closed": True,
+                    "tolerance": options.tolerance, "mode": options.mode.value, "fuse": "tiled", "tiles": t.grid.count,
+                    "tile": int(t.grid.tile), "no_brep": "a 2.5D surface is textured as a mesh"}
+            return Fused(t, placement.base, info)
         b: ModeBodies = relief.data.bodies
         mapped = relief.mapped
         options.report(0.5, f"fusing {b.triangles} texture triangles onto the base (manifold3d)")
@@ -446,6 +523,9 @@ class SurfaceAdapter(Adapter):
         import dataclasses
 
         r: SurfaceRelief = stages.relief.data
+        if isinstance(r, SurfaceTiles):
+            raise GeometryError("a surface made in tiles keeps no separate texture body (it does not fit in memory); "
+                                "write the part's STL or 3MF, or use a coarser pitch")
         b = r.bodies
         if b.cutter is None:
             return b.slab

@@ -39,7 +39,7 @@ from ..errors import ParameterError, ResourceError
 from ..sources import Heightmap
 from ..util import Progress, report
 
-__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "TiledSurfaceMesh", "tiled_surface", "gate_tiled", "plate_source", "builtin_grid", "tile_for_memory", "BYTES_PER_TILE_NODE"]
+__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "tile_for_memory", "BYTES_PER_TILE_NODE"]
 
 #: Peak bytes per node of one tile: the texture function's temporaries (float64),
 #: the float32 vertices, int64 faces and ids, STL records or 3MF text (measured on
@@ -474,6 +474,10 @@ class TiledMesh:
         self.__dict__.pop("_faces_by_shape", None)  # not kept between passes
         yield (None, *walls(grid, numbering, self.thickness))
 
+    def _stream_blocks(self, progress: Progress = None) -> Any:
+        """:meth:`blocks` as the streaming writers take them (each new vertex once)."""
+        return self.blocks(progress)
+
     def _faces(self, t: Any) -> np.ndarray:
         """Tile ``t``'s local triangles (:meth:`PlateGrid.faces`), kept for the last two
         tile shapes (most tiles have one shape: the grid rule is made once for them)."""
@@ -494,7 +498,7 @@ class TiledMesh:
         known = "volume" in self.__dict__
         volume = 0.0
         with open_stream(out, **kwargs) as stream:
-            for t, v, f, ids in self.blocks(progress):  # per tile
+            for t, v, f, ids in self._stream_blocks(progress):  # per tile
                 stream.add(v, f, ids)
                 if not known:
                     volume += block_volume(v, f) if t is None else self.share(t, v, f)
@@ -773,6 +777,26 @@ class TiledSurfaceMesh(TiledMesh):
 
         return block_volume(v, f)
 
+    def gate(self, ex: Any) -> Any:
+        """texcad's gate on this mesh, tile by tile (:func:`gate_tiled`)."""
+        return gate_tiled(self, ex, what="textured surface")
+
+    def _stream_blocks(self, progress: Progress = None) -> Any:
+        """:meth:`blocks` for the streaming writers: a tile that runs all the way round
+        the profile holds its seam column twice (first and last, the same numbers):
+        there it is given once."""
+        nc = self.grid.nodes[1]
+        for t, v, f, ids in self.blocks(progress):  # per tile
+            if t is not None and t.j0 == 0 and t.j1 == nc - 1:
+                r, c = t.shape
+                local = np.arange(r * c).reshape(r, c)
+                local[:, -1] = local[:, 0]  # the last column is the first
+                keep = local[:, :-1].ravel()
+                renum = np.empty(r * c, np.int64)
+                renum[keep] = np.arange(len(keep))
+                v, f, ids = v[keep], renum[local.ravel()[f]], ids[keep]
+            yield t, v, f, ids
+
     def reach(self, t: Any, v: np.ndarray) -> tuple[float, float]:
         """``(farthest, farthest)``: the largest distance of tile ``t``'s vertices from
         their column's profile point, in the (x, z) plane, mm."""
@@ -796,11 +820,14 @@ class TiledSurfaceMesh(TiledMesh):
 
 
 def tiled_surface(surface: Any, texture: Any, *, pitch: float = 0.125, height: float = 1.0, mapping: str = "angle",
-                  tile: Optional[int] = None, max_memory: Any = None) -> tuple[TiledSurfaceMesh, Any]:
+                  tile: Optional[int] = None, max_memory: Any = None, periodic_x: Optional[bool] = None,
+                  transition: Optional[float] = None) -> tuple[TiledSurfaceMesh, Any]:
     """A closed 2.5D surface (a :class:`texcad.Surface` whose profile is closed and has
     no corners, its base the profile's solid: e.g. ``Surface.cylinder(r, length)``)
-    textured whole, as tiles: ``(mesh, expectation)``; ``mesh.gate(expectation)``
-    checks it and ``mesh.write("part.stl")`` streams it, tile by tile.
+    textured whole, raised, as tiles: ``(mesh, expectation)``; ``mesh.gate(expectation)``
+    checks it (checks 1-5, the volume against the texture's integral) and
+    ``mesh.write("part.stl")`` streams it, tile by tile. ``texcad.texture`` takes this
+    path by itself on such a surface when the untiled one would not fit in memory.
 
     The texture is fitted and mapped as :func:`texcad.texture` does on that surface
     (:func:`texcad.mapping.fit_texture`, :func:`texcad.mapping.map_texture` with
@@ -809,42 +836,88 @@ def tiled_surface(surface: Any, texture: Any, *, pitch: float = 0.125, height: f
     slab's top grid vertex, the same float32 numbers (tested). What differs: the ends.
     The untiled slab ends in walls at the first and last texture row and is united
     with the base; the tiled surface runs from those rows down to the profile at y = 0
-    and ``length`` (as the tiled plate's rim), closed by flat caps. Lengths in mm.
+    and ``length`` (as the tiled plate's rim), closed by flat caps: the volume differs
+    by at most ``2 x perimeter x (margin + py / 2) x height / 2`` (``margin`` the
+    length the texture leaves at each end, ``py`` its row pitch). Lengths in mm.
 
     Raises:
         ParameterError: an open profile, a profile with corners, a base that is not
             the profile's solid, or a bad texture or parameter.
         ResourceError: ``max_memory`` leaves no room for a tile.
     """
-    from ..mapping import fit_texture, map_texture
+    from ..mapping import fit_texture
+
+    if not surface.profile.closed:
+        raise ParameterError("tiled_surface takes a closed profile (a full cylinder, a closed spline); "
+                             "texture open surfaces with texcad.texture")
+    hm, periodic = fit_texture(surface.profile, texture, length=float(surface.length), pitch=pitch, height=height,
+                               periodic_x=periodic_x)
+    return surface_tiles(surface, hm, periodic, mapping=mapping, transition=transition, tile=tile, max_memory=max_memory)
+
+
+class NotTiled(ParameterError):
+    """A surface :func:`surface_tiles` does not make; ``reason`` names what (``"an
+    open profile"``)."""
+
+    def __init__(self, message: str, reason: str) -> None:
+        super().__init__(message)
+        self.reason = reason
+
+
+#: Texture pixels per block when the tiled surface's integral is summed (a block of
+#: whole rows, float64 temporaries: some 100 bytes a pixel).
+INTEGRAL_BLOCK = 1 << 18
+
+
+def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str = "angle", transition: Optional[float] = None,
+                  tile: Optional[int] = None, max_memory: Any = None, base: Any = None) -> tuple[TiledSurfaceMesh, Any]:
+    """:func:`tiled_surface` from the texture already fitted to the surface (``hm``,
+    heights mm, and whether it is ``periodic`` round the profile, as
+    :func:`texcad.mapping.fit_texture` returns them); ``base``: the surface's base
+    as a :class:`texcad.Mesh` (default: meshed here). Returns ``(mesh, expectation)``.
+
+    The expectation's volume is the texture's integral as the untiled surface sums it
+    (:func:`texcad.targets.surface.surface_volume` for a raised texture at tolerance
+    0: the swept prisms between the profile's polygon and the texture sheet, less the
+    chord excess), summed over blocks of rows; its slack is the untiled one's plus the
+    ends' difference (see :func:`tiled_surface`).
+
+    Raises:
+        ParameterError: an open profile, a profile with corners or a base that is not
+            the profile's solid (what the tiles do not make).
+        ResourceError: ``max_memory`` leaves no room for a tile.
+    """
+    from ..mapping import map_texture
+    from ..mapping.surface import chord_excess
     from ..options import memory_bytes
     from ..report.gate import Expectation
     from ..solid.tiles import SurfaceGrid
 
     prof, length = surface.profile, float(surface.length)
     if not prof.closed:
-        raise ParameterError("tiled_surface takes a closed profile (a full cylinder, a closed spline); "
-                             "texture open surfaces with texcad.texture")
-    hm, periodic = fit_texture(prof, texture, length=length, pitch=pitch, height=height)
+        raise NotTiled("tiled_surface takes a closed profile (a full cylinder, a closed spline); "
+                       "texture open surfaces with texcad.texture", "an open profile")
     h = np.asarray(hm.heights, dtype=np.float32)
     top_row = int(np.unravel_index(int(np.argmax(h)), h.shape)[0])
     strip = Heightmap(np.ascontiguousarray(h[[0, top_row]]), hm.pitch)  # the columns depend on the highest point only
-    m = map_texture(prof, strip, mapping=mapping, length=length, periodic_x=periodic)
+    m = map_texture(prof, strip, mapping=mapping, length=length, periodic_x=periodic, transition=transition)
     if len(m.s) != m.heightmap.shape[1]:
-        raise ParameterError("the profile has corners (extra columns there): tiled_surface takes smooth closed profiles")
+        raise NotTiled("the profile has corners (extra columns there): tiled_surface takes smooth closed profiles",
+                       "a profile with corners")
     r, py = h.shape[0], float(hm.pitch[1])
     y = (length - r * py) / 2 + (np.arange(r) + 0.5) * py  # as map_texture's rows
     point = np.asarray(prof.at(m.s).point, dtype=np.float32)
     offset = np.asarray(m.offset, dtype=np.float32)
     area = 0.5 * float(np.sum(point[:, 0].astype(np.float64) * np.roll(point[:, 1], -1) - np.roll(point[:, 0], -1) * point[:, 1]))
-    base = surface.base if hasattr(surface.base, "faces") and hasattr(surface.base, "vertices") else None
+    if base is None:
+        base = surface.base if hasattr(surface.base, "faces") and hasattr(surface.base, "vertices") else None
     if base is None:
         from ..brep import shape_to_mesh
 
         base = shape_to_mesh(surface.base)
     if abs(float(base.volume) - abs(area) * length) > 0.01 * abs(area) * length:
-        raise ParameterError(f"tiled_surface takes a surface whose base is its profile's solid ({abs(area) * length:.0f} mm3); "
-                             f"this base is {float(base.volume):.0f} mm3 (a tube?)")
+        raise NotTiled(f"tiled_surface takes a surface whose base is its profile's solid ({abs(area) * length:.0f} mm3); "
+                       f"this base is {float(base.volume):.0f} mm3 (a tube?)", "a base that is not its profile's solid")
     c = len(m.s)
     nodes = (r + 2, c + 1)
     side = int(tile) if tile else tile_for_memory(None if max_memory is None else memory_bytes(max_memory), nodes)
@@ -852,6 +925,51 @@ def tiled_surface(surface: Any, texture: Any, *, pitch: float = 0.125, height: f
     t = point[1].astype(np.float64) - point[0]
     normal = np.array([-t[1], t[0]])  # the grid triangles' normal, (x, z)
     flip = float(normal @ m.offset[0]) < 0
-    reach = float(h.max()) * float(np.hypot(offset[:, 0], offset[:, 1]).max()) + 1e-3
-    ex = Expectation(bodies=1, base=base, height=reach)
+    top = float(h.max())
+    reach = top * float(np.hypot(offset[:, 0], offset[:, 1]).max()) + 1e-3
+    # check 4: surface_volume's raised case (tolerance 0), block by block of rows
+    s = np.asarray(m.s, np.float64)
+    vol = _surface_integral(prof, s, y, point, offset, h)
+    span = float(y[-1] - y[0])
+    chord = chord_excess(prof, s, closed=True)
+    vol -= chord * span
+    sheet = prof.length * span
+    slack = 0.01 * sheet + abs(chord) * span + 1e-3 * abs(vol) + 1e-3  # the untiled slack (tessellation, chords, float32)
+    end = float(y[0])  # each end: the slope from the first (last) texture row to the profile, and the polygon's caps
+    slack += 2 * (prof.length + 2 * np.pi * reach) * end * reach / 2 + 2 * abs(chord) * end
+    ex = Expectation(bodies=1, base=base, height=reach, volume=vol, volume_slack=slack, nominal_volume=vol)
     return TiledSurfaceMesh(grid, h, flip), ex
+
+
+def _surface_integral(prof: Any, s: np.ndarray, y: np.ndarray, point: np.ndarray, offset: np.ndarray, h: np.ndarray) -> float:
+    """The swept volume (mm^3) between the profile's polygon through ``point`` (at arc
+    lengths ``s``) and the raised sheet ``point + h offset`` (float32, as the tiles'
+    vertices) over the texture rows ``y`` (mm), where it lies outside the profile:
+    :func:`texcad.mapping.surface.grid_swept` over blocks of whole rows (a block's
+    last row is the next one's first)."""
+    from ..mapping.surface import grid_swept
+
+    r, c = h.shape
+    fc = prof.at(s)
+    nrm = np.zeros((c, 3))
+    nrm[:, 0], nrm[:, 2] = fc.normal[:, 0], fc.normal[:, 1]
+    p = np.asarray(fc.point, np.float64)
+    rows = max(2, INTEGRAL_BLOCK // max(c, 1))
+    vol = 0.0
+    for r0 in range(0, r - 1, rows - 1):  # per block of rows
+        r1 = min(r, r0 + rows)
+        n = r1 - r0
+        base = np.empty((n, c, 3))
+        base[..., 0], base[..., 1], base[..., 2] = p[None, :, 0], y[r0:r1, None], p[None, :, 1]
+        hb = h[r0:r1]
+        top = np.empty((n, c, 3), np.float32)  # as SurfaceGrid.vertices (and map_texture's top grid)
+        top[..., 0] = hb * offset[:, 0]
+        top[..., 0] += point[:, 0]
+        top[..., 1] = y[r0:r1, None]
+        top[..., 2] = hb * offset[:, 1]
+        top[..., 2] += point[:, 1]
+        new = top.astype(np.float64)
+        up = np.einsum("rck,ck->rc", new - base, nrm)
+        new = np.where((up > 0)[..., None], new, base)
+        vol += grid_swept(base, new, np.broadcast_to(nrm, (n, c, 3)), wrap_cols=True, measure=False).volume
+    return vol
