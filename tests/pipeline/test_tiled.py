@@ -321,3 +321,112 @@ def test_texture_switches_to_tiles_with_a_heightmap(tmp_path, untiled, monkeypat
     inner = np.all((tri[:, :, 0] > 0) & (tri[:, :, 0] < w) & (tri[:, :, 1] > 0) & (tri[:, :, 1] < d), axis=1)
     slab = untiled.texture_mesh
     assert np.array_equal(_key(tri[inner]), _key(slab.vertices[slab.faces[slab.groups["texture"]]]))
+
+
+def _small_surface_budget(monkeypatch):
+    """Make the surface adapter's untiled estimate larger than any machine (the switch
+    itself is what is tested)."""
+    import texcad.util
+
+    monkeypatch.setattr(texcad.util, "texture_bytes", lambda pixels, tolerance: 1e18)
+
+
+@pytest.mark.parametrize("mapping", ["angle", "distance"])
+def test_texture_switches_a_cylinder_to_tiles_with_the_untiled_texture_vertices(tmp_path, monkeypatch, mapping):
+    """texcad.texture on a full cylinder that would not fit untiled goes through tiles:
+    a Textured gated tile by tile (closed, the volume change the untiled texture's
+    integral within its slack plus the ends), every texture vertex the untiled one's,
+    the volume the untiled one's within the documented end difference, STL and 3MF
+    streamed (the seam column written once where one tile runs all the way round)."""
+    import warnings
+
+    surf = texcad.Surface.cylinder(8.0, 12.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the texture scaled to whole repeats round the cylinder (both paths)
+        untiled = texcad.texture(surf, None, "builtin:stones", pitch=0.5, height=0.6, tolerance=0, mapping=mapping)
+        _small_surface_budget(monkeypatch)
+        tx = texcad.texture(surf, None, "builtin:stones", pitch=0.5, height=0.6, mapping=mapping, max_memory="2GB")
+    assert isinstance(tx, texcad.Textured) and tx.info["fuse"] == "tiled" and tx.max_error == 0.0
+    assert tx.info["grid"] == untiled.info["grid"] and tx.info["tiles"] == 1  # one tile all the way round
+    g = tx.gate
+    assert g.shells.closed and g.shells.bodies == 1 and abs(g.volume_change - g.expected_volume) <= g.volume_slack
+    assert np.isclose(g.expected_volume, untiled.gate.expected_volume, rtol=1e-6)
+    assert g.farthest_mm <= 0.6 + 1e-5
+    mesh = tx.mesh
+    top = untiled.stages.relief.mapped.top
+    r, c = mesh.grid.texture_shape
+    assert top.shape == (r, c, 3)
+    for t, v, f, ids in mesh.blocks():  # every tile's texture vertices against the untiled grid
+        if t is not None:
+            rows, cols, nrs = mesh.grid.texture_block(t)
+            assert np.array_equal(v.reshape(*t.shape, 3)[nrs], top[rows][:, cols % c])
+    py = float(untiled.stages.relief.mapped.heightmap.pitch[1])
+    bound = 2 * surf.profile.length * ((12.0 - r * py) / 2 + py / 2) * 0.6 / 2  # the ends (tiled_surface)
+    assert 0 <= tx.volume - untiled.mesh.volume <= bound, (tx.volume, untiled.mesh.volume, bound)
+    tx.export(tmp_path / "cyl.stl")
+    assert (tmp_path / "cyl.stl").stat().st_size == 84 + 50 * mesh.num_triangles
+    tx.export(tmp_path / "cyl.3mf")
+    back = texcad.io.read_mesh(tmp_path / "cyl.3mf")
+    assert back.is_watertight and len(back.vertices) == mesh.num_vertices == len(np.unique(back.vertices, axis=0))
+    assert np.isclose(back.volume, g.shells.volumes[0], rtol=1e-5)  # the 3MF's decimal vertices
+    whole = mesh.to_mesh()  # the STL's triangles, one for one
+    assert np.array_equal(_key(_triangles(tmp_path / "cyl.stl")), _key(whole.vertices[whole.faces]))
+    assert not list(tmp_path.glob(".*"))
+    with pytest.raises(texcad.GeometryError, match="keeps no separate texture body"):
+        tx.texture_mesh
+
+
+def test_surfaces_not_made_in_tiles_are_refused_naming_a_pitch(monkeypatch):
+    import warnings
+
+    _small_surface_budget(monkeypatch)
+    cyl = texcad.Surface.cylinder(8.0, 12.0)
+    cases = [
+        (cyl, {"mode": "engraved"}, "the engraved mode"),
+        (cyl, {"build_dir": (0, 0, 1)}, r"build_dir \(the overhang limiter\)"),
+        (texcad.Surface.cylinder(8.0, 12.0, thickness=2.0), {}, "a base that is not its profile's solid"),
+        (texcad.Surface.arc(20.0, 90.0, 10.0, 2.0), {}, "an open profile"),
+    ]
+    for surf, kw, why in cases:
+        with warnings.catch_warnings(), pytest.raises(texcad.ResourceError, match=why + r" is not made in tiles; use pitch >= "):
+            warnings.simplefilter("ignore")
+            texcad.texture(surf, None, "builtin:stones", pitch=0.5, height=0.6, **kw)
+
+
+def test_cylinder_under_an_address_space_limit_is_made_in_tiles(tmp_path):
+    """texcad.texture on a full cylinder whose untiled relief needs more than
+    max_memory (and than the process may map: RLIMIT_AS) completes in tiles, gated, its
+    STL and 3MF streamed; the same surface engraved (not tiled) is refused naming a pitch."""
+    out = tmp_path / "roller"
+    script = textwrap.dedent(f"""
+        import resource, warnings
+        import build123d, scipy.optimize, scipy.spatial  # libraries loaded first: the limit is for the job's arrays
+        import texcad
+        texcad.Surface.cylinder(5.0, 5.0)
+        def vm():
+            return int(open("/proc/self/status").read().split("VmSize:")[1].split()[0]) * 1024
+        limit = vm() + (600 << 20)
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+        warnings.simplefilter("ignore")  # the texture scaled to whole repeats round the cylinder
+        surf = texcad.Surface.cylinder(20.0, 100.0)
+        try:
+            texcad.texture(surf, None, "builtin:stones", pitch=0.125, height=0.8, mode="engraved", max_memory=600 << 20)
+        except texcad.ResourceError as exc:
+            print("engraved:", "is not made in tiles; use pitch >=" in str(exc))
+        tx = texcad.texture(surf, None, "builtin:stones", pitch=0.125, height=0.8, max_memory=600 << 20)
+        tx.export({str(out) + ".stl"!r})
+        tx.export({str(out) + ".3mf"!r})
+        peak = int(open("/proc/self/status").read().split("VmPeak:")[1].split()[0]) * 1024
+        g = tx.gate
+        print(tx.info["fuse"], tx.info["tiles"], tx.info["grid"][0] * tx.info["grid"][1], tx.mesh.num_triangles,
+              g.shells.closed, abs(g.volume_change - g.expected_volume) <= g.volume_slack, peak <= limit)
+    """)
+    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr[-2000:]
+    lines = res.stdout.split("\n")
+    assert lines[0] == "engraved: True", res.stdout
+    how, tiles, px, tris, closed, volume_ok, under = lines[1].split()
+    assert how == "tiled" and int(tiles) > 1 and int(px) * 1300 > 600 << 20  # the untiled estimate does not fit
+    assert closed == volume_ok == under == "True"
+    assert (tmp_path / "roller.stl").stat().st_size == 84 + 50 * int(tris)
+    assert (tmp_path / "roller.3mf").stat().st_size > 0 and not list(tmp_path.glob(".*"))
