@@ -2,7 +2,8 @@
 (manifold3d), the volume within the documented rim difference, no duplicate vertex,
 the same file for any tile size; texcad.texture switches to it when the untiled plate
 does not fit, through the driver and the gate (checked tile by tile: a broken seam is
-caught); and a plate that does not fit untiled is made under an address-space limit."""
+caught); and a plate that does not fit untiled is made under an address-space limit.
+The same for a full cylinder (tiled_surface, and texcad.texture's switch to it)."""
 
 from __future__ import annotations
 

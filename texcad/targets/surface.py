@@ -503,7 +503,7 @@ class SurfaceAdapter(Adapter):
             options.report(0.45, f"{t.grid.count} tile(s) of up to {t.grid.tile} x {t.grid.tile} nodes")
             t.progress = lambda f, m: options.report(0.92 + 0.07 * f, f"checking the result (texcad's gate): {m}")
             info = {"face": "surface", "mapping": options.mapping.value, "grid": tuple(relief.heightmap.shape), "closed": True,
-                    "tolerance": options.tolerance, "mode": options.mode.value, "fuse": "tiled", "tiles": t.grid.count,
+                    "tolerance": 0.0, "mode": options.mode.value, "fuse": "tiled", "tiles": t.grid.count,  # every pixel kept
                     "tile": int(t.grid.tile), "no_brep": "a 2.5D surface is textured as a mesh"}
             return Fused(t, placement.base, info)
         b: ModeBodies = relief.data.bodies

@@ -1,6 +1,7 @@
 """Targets too large for memory, made in tiles: a plate (:class:`TiledMesh`, chosen
 by the plate adapter under ``max_memory``; :func:`textured_plate_tiled` straight to a
-file) and a closed 2.5D surface (:func:`tiled_surface`). Re-exported by
+file) and a closed 2.5D surface (:class:`TiledSurfaceMesh`, chosen by the surface
+adapter under ``max_memory``: :func:`surface_tiles`; :func:`tiled_surface` alone). Re-exported by
 :mod:`texcad.pipeline.tiled`.
 
 A large textured plate in bounded memory: :func:`textured_plate_tiled`.
