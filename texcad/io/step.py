@@ -9,6 +9,8 @@ import os
 import re
 from typing import Any
 
+import numpy as np
+
 from ..errors import GeometryError, InputError
 from ..brep import to_topods
 from ..util import atomic_path
@@ -215,7 +217,7 @@ def read_step(path: str | os.PathLike):
         status = reader.ReadFile(p)
     if status != IFSelect_RetDone or reader.StepModel() is None:
         raise InputError(_syntax_message(p, log.text))
-    fault = _first_fault(reader, p)
+    fault = _first_fault(reader, p) or _text_fault(p)
     if fault:
         raise InputError(fault)
     with _Quiet():
@@ -312,6 +314,43 @@ def _first_fault(reader, p: str) -> str | None:
     where = f"entity {label} (line {line})" if label else f"entity number {n} of the DATA section"
     more = f" ({len(faults) - 1} more entities have faults)" if len(faults) > 1 else ""
     return f"STEP file {p!r}: {where} cannot be read: {what}{more}; {_FIX}"
+
+
+_NAME = rb"\s*\(\s*'[^']*'\s*,\s*"
+_HUGE = re.compile(rb"[-+]?[0-9]*\.?[0-9]*[eE]\+?0*[0-9]{3,}")
+_POINT = re.compile(rb"#([0-9]+)\s*=\s*(CARTESIAN_POINT|DIRECTION)" + _NAME + rb"\(([^()]*)\)")
+_USER_3D = re.compile(rb"(VERTEX_POINT|AXIS2_PLACEMENT_3D)" + _NAME + rb"(#[0-9]+)(?:\s*,\s*(#[0-9]+|\$)\s*,\s*(#[0-9]+|\$))?")
+
+
+def _text_fault(p: str) -> str | None:
+    """Faults OCCT's parser lets through and its translator crashes or loops on: a
+    number too large for a double (``-1E999`` read as infinite), a vertex or a 3D
+    placement on a point or direction that does not have 3 coordinates."""
+    with open(p, "rb") as fh:
+        data = fh.read()
+    for m in _HUGE.finditer(data):  # per number with a 3-digit exponent (rare)
+        try:
+            value = float(m.group())
+        except ValueError:
+            continue
+        if not np.isfinite(value):
+            line = data.count(b"\n", 0, m.start()) + 1
+            return (f"STEP file {p!r}: the number {m.group().decode('ascii')!r} at line {line} is too large for a "
+                    f"double (it reads as infinite); {_FIX}")
+    flat = {m.group(1): (m.group(2), m.group(3).count(b",") + 1, m.start()) for m in _POINT.finditer(data)
+            if m.group(3).count(b",") != 2}  # points and directions that are not 3D (a pcurve's are 2D)
+    if not flat:
+        return None
+    for m in _USER_3D.finditer(data):  # per vertex and 3D placement
+        for ref in (m.group(2), m.group(3), m.group(4)):
+            key = ref[1:] if ref and ref.startswith(b"#") else None
+            if key in flat:
+                kind, dim, at = flat[key]
+                line, user_line = data.count(b"\n", 0, at) + 1, data.count(b"\n", 0, m.start()) + 1
+                return (f"STEP file {p!r}: {m.group(1).decode()} at line {user_line} "
+                        f"uses {kind.decode()} #{key.decode()} (line {line}), which has {dim} coordinate(s) instead "
+                        f"of 3; {_FIX}")
+    return None
 
 
 def _entity_place(p: str, n: int) -> tuple[str | None, int]:
