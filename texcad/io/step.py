@@ -324,7 +324,7 @@ _USER_3D = re.compile(rb"(VERTEX_POINT|AXIS2_PLACEMENT_3D)" + _NAME + rb"(#[0-9]
 
 def _text_fault(p: str) -> str | None:
     """Faults OCCT's parser lets through and its translator crashes or loops on: a
-    number too large for a double (``-1E999`` read as infinite), a vertex or a 3D
+    number of 1e100 or more (``-1E999`` is read as infinite, ``1.E300`` crashes), a vertex or a 3D
     placement on a point or direction that does not have 3 coordinates."""
     with open(p, "rb") as fh:
         data = fh.read()
@@ -333,10 +333,10 @@ def _text_fault(p: str) -> str | None:
             value = float(m.group())
         except ValueError:
             continue
-        if not np.isfinite(value):
+        if not abs(value) < 1e100:  # OCCT's translator crashed on a point at 1e300 (its squares overflow)
             line = data.count(b"\n", 0, m.start()) + 1
-            return (f"STEP file {p!r}: the number {m.group().decode('ascii')!r} at line {line} is too large for a "
-                    f"double (it reads as infinite); {_FIX}")
+            what = "too large for a double (it reads as infinite)" if not np.isfinite(value) else "absurdly large"
+            return f"STEP file {p!r}: the number {m.group().decode('ascii')!r} at line {line} is {what}; {_FIX}"
     flat = {m.group(1): (m.group(2), m.group(3).count(b",") + 1, m.start()) for m in _POINT.finditer(data)
             if m.group(3).count(b",") != 2}  # points and directions that are not 3D (a pcurve's are 2D)
     if not flat:
