@@ -317,7 +317,8 @@ def _first_fault(reader, p: str) -> str | None:
 
 
 _NAME = rb"\s*\(\s*'[^']*'\s*,\s*"
-_HUGE = re.compile(rb"[-+]?[0-9]*\.?[0-9]*[eE]\+?0*[0-9]{3,}")
+_EXPONENT = re.compile(rb"[eE]\+?[0-9]{3,}")  # a plain search, fast on a large file
+_HUGE = re.compile(rb"[-+]?[0-9]*\.?[0-9]*[eE]\+?[0-9]{3,}(?![0-9])")
 _POINT = re.compile(rb"#([0-9]+)\s*=\s*(CARTESIAN_POINT|DIRECTION)" + _NAME + rb"\(([^()]*)\)")
 _USER_3D = re.compile(rb"(VERTEX_POINT|AXIS2_PLACEMENT_3D)" + _NAME + rb"(#[0-9]+)(?:\s*,\s*(#[0-9]+|\$)\s*,\s*(#[0-9]+|\$))?")
 
@@ -328,9 +329,10 @@ def _text_fault(p: str) -> str | None:
     placement on a point or direction that does not have 3 coordinates."""
     with open(p, "rb") as fh:
         data = fh.read()
-    for m in _HUGE.finditer(data):  # per number with a 3-digit exponent (rare)
+    for e in _EXPONENT.finditer(data):  # per 3-digit exponent (rare): its whole number
+        m = _HUGE.search(data, max(e.start() - 64, 0), e.end())
         try:
-            value = float(m.group())
+            value = float(m.group()) if m else 0.0
         except ValueError:
             continue
         if not abs(value) < 1e100:  # OCCT's translator crashed on a point at 1e300 (its squares overflow)
