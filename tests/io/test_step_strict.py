@@ -86,3 +86,16 @@ def test_cli_prints_one_line_and_writes_nothing(tmp_path, good, capsys, command)
     err = capsys.readouterr().err.strip()
     assert err.startswith("texcad: error: STEP file") and "\n" not in err and "export the part again" in err
     assert not out.exists() and not list(tmp_path.glob("*.part"))
+
+
+def test_a_pcurve_made_of_a_direction_is_refused(tmp_path, good):
+    """Found by fuzzing: OCCT crashed on a DEFINITIONAL_REPRESENTATION whose item was
+    a DIRECTION (a reference turned to another entity)."""
+    from texcad.io import read_step
+
+    rep = next(ln for ln in good.splitlines() if "DEFINITIONAL_REPRESENTATION(" in ln)
+    direction = next(ln for ln in good.splitlines() if "= DIRECTION(" in ln).split(" =")[0]
+    p = tmp_path / "pcurve.step"
+    p.write_text(good.replace(rep, re.sub(r"\(#\d+\)", f"({direction})", rep, count=1)))
+    with pytest.raises(InputError, match=rf"DEFINITIONAL_REPRESENTATION at line \d+ holds DIRECTION {direction} where"):
+        read_step(p)
