@@ -322,8 +322,8 @@ _HUGE = re.compile(rb"[-+]?[0-9]*\.?[0-9]*[eE]\+?[0-9]{3,}(?![0-9])")
 _POINT = re.compile(rb"#([0-9]+)\s*=\s*(CARTESIAN_POINT|DIRECTION)" + _NAME + rb"\(([^()]*)\)")
 _PCURVE = re.compile(rb"DEFINITIONAL_REPRESENTATION" + _NAME + rb"\(([^()]*)\)")
 _KIND = re.compile(rb"#([0-9]+)\s*=\s*([A-Z_0-9]+)")
-_NOT_CURVES = {b"CARTESIAN_POINT", b"DIRECTION", b"VECTOR", b"AXIS2_PLACEMENT_2D", b"AXIS2_PLACEMENT_3D", b"VERTEX_POINT",
-               b"AXIS1_PLACEMENT"}
+_CURVES = {b"LINE", b"CIRCLE", b"ELLIPSE", b"PARABOLA", b"HYPERBOLA", b"POLYLINE", b""}  # b"": a complex entity
+_NOT_CURVES = {b"EDGE_CURVE", b"SURFACE_CURVE", b"SEAM_CURVE", b"INTERSECTION_CURVE"}  # topology, 3D
 _USER_3D = re.compile(rb"(VERTEX_POINT|AXIS2_PLACEMENT_3D)" + _NAME + rb"(#[0-9]+)(?:\s*,\s*(#[0-9]+|\$)\s*,\s*(#[0-9]+|\$))?")
 
 
@@ -344,14 +344,14 @@ def _text_fault(p: str) -> str | None:
             what = "too large for a double (it reads as infinite)" if not np.isfinite(value) else "absurdly large"
             return f"STEP file {p!r}: the number {m.group().decode('ascii')!r} at line {line} is {what}; {_FIX}"
     pcurves = [(m.start(), ref) for m in _PCURVE.finditer(data) for ref in re.findall(rb"#([0-9]+)", m.group(1))]
-    if pcurves:  # OCCT crashed on a pcurve made of a point or a direction instead of a curve
+    if pcurves:  # OCCT crashed on a pcurve made of a direction or an edge instead of a 2D curve
         kinds = dict(_KIND.findall(data))
         for at, ref in pcurves:  # per pcurve
             kind = kinds.get(ref, b"")
-            if kind in _NOT_CURVES:
+            if kind not in _CURVES and (not kind.endswith(b"CURVE") or kind in _NOT_CURVES):
                 line = data.count(b"\n", 0, at) + 1
                 return (f"STEP file {p!r}: DEFINITIONAL_REPRESENTATION at line {line} "
-                        f"holds {kind.decode()} #{ref.decode()} where a curve belongs; {_FIX}")
+                        f"holds {kind.decode()} #{ref.decode()} where a 2D curve belongs; {_FIX}")
     flat = {m.group(1): (m.group(2), m.group(3).count(b",") + 1, m.start()) for m in _POINT.finditer(data)
             if m.group(3).count(b",") != 2}  # points and directions that are not 3D (a pcurve's are 2D)
     if not flat:
