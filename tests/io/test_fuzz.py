@@ -1,4 +1,5 @@
-"""Fuzzing the readers (issue 27): valid files of every format, mutated (bytes
+"""Fuzzing the readers (issue 27): valid files of every format (STL, OBJ, 3MF, images,
+TIFF, PLY scans, STEP parts), mutated (bytes
 flipped, cut short, lines duplicated or dropped), give a result or a TexcadError,
 never another exception."""
 

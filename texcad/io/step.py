@@ -353,7 +353,7 @@ def _text_fault(p: str) -> str | None:
         kinds = dict(_KIND.findall(data))
         for at, ref in pcurves:  # per pcurve
             kind = kinds.get(ref, b"")
-            if kind not in _CURVES and (not kind.endswith(b"CURVE") or kind in _NOT_CURVES):
+            if kind not in _CURVES and (b"CURVE" not in kind or kind in _NOT_CURVES):
                 line = data.count(b"\n", 0, at) + 1
                 return (f"STEP file {p!r}: DEFINITIONAL_REPRESENTATION at line {line} "
                         f"holds {kind.decode()} #{ref.decode()} where a 2D curve belongs; {_FIX}")
