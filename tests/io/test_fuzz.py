@@ -1,4 +1,5 @@
-"""Fuzzing the readers (issue 27): valid files of every format, mutated (bytes
+"""Fuzzing the readers (issue 27): valid files of every format (STL, OBJ, 3MF, images,
+TIFF, PLY scans, STEP parts), mutated (bytes
 flipped, cut short, lines duplicated or dropped), give a result or a TexcadError,
 never another exception."""
 
@@ -119,3 +120,118 @@ def test_text_meshes_read_are_finite(tmp_path, name, m):
     except TexcadError:
         return
     assert np.isfinite(mesh.vertices).all() and mesh.faces.max(initial=0) < len(mesh.vertices)
+
+
+# -- PLY scans and STEP parts ------------------------------------------------------------------------
+def _plys() -> dict[str, bytes]:
+    box = trimesh.creation.box((10.0, 20.0, 5.0))
+    cloud = trimesh.PointCloud(np.random.default_rng(0).uniform(-5, 5, (40, 3)))
+    return {
+        "ascii.ply": box.export(file_type="ply", encoding="ascii"),
+        "binary.ply": box.export(file_type="ply", encoding="binary"),
+        "cloud.ply": cloud.export(file_type="ply", encoding="ascii"),
+    }
+
+
+PLY = _plys()
+NUMBER = rb"(?<![#\w.])-?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?"
+BAD_NUMBERS = [b"nan", b"NaN", b"inf", b"1e999", b"-1E999", b"1.E300", b"1.2.3", b"x", b"", b"-", b"1E400", b"99999999."]
+
+
+def _replace_number(data: bytes, at: float, value: bytes, pattern: bytes = NUMBER) -> bytes:
+    import re
+
+    found = list(re.finditer(pattern, data))
+    if not found:
+        return data
+    m = found[int(at * (len(found) - 1))]
+    return data[: m.start()] + value + data[m.end():]
+
+
+SCAN_MUTATION = st.one_of(MUTATION, st.tuples(st.just("number"), st.floats(0, 1), st.sampled_from(BAD_NUMBERS)))
+
+
+def _mutate_any(data: bytes, m: tuple) -> bytes:
+    if m[0] == "number":
+        return _replace_number(data, m[1], m[2])
+    return _mutate(data, *m)
+
+
+@pytest.mark.parametrize("name", sorted(PLY))
+@SETTINGS
+@given(m=SCAN_MUTATION)
+def test_mutated_ply_scans_give_points_or_a_texcad_error(tmp_path, name, m):
+    from texcad.sources.scan import read_scan
+
+    p = tmp_path / name
+    p.write_bytes(_mutate_any(PLY[name], m))
+    try:
+        scan = read_scan(p)
+    except TexcadError:
+        return
+    assert np.isfinite(scan.points).all()  # a damaged number is refused, never read as NaN or inf
+    if scan.faces is not None:
+        assert scan.faces.min(initial=0) >= 0 and scan.faces.max(initial=0) < len(scan.points)
+
+
+def _step() -> bytes:
+    import tempfile
+    from pathlib import Path
+
+    from build123d import Box, Cylinder
+
+    from texcad.io import write_step
+
+    with tempfile.TemporaryDirectory() as d:
+        write_step(Box(20, 10, 5) - Cylinder(2, 10), Path(d) / "part.step")  # planes and a cylinder with its pcurves
+        return (Path(d) / "part.step").read_bytes()
+
+
+STEP_MUTATION = st.one_of(
+    MUTATION,
+    st.tuples(st.just("number"), st.floats(0, 1), st.sampled_from(BAD_NUMBERS)),
+    st.tuples(st.just("ref"), st.floats(0, 1), st.sampled_from([b"#99999", b"#0", b"#1", b"#7", b"#30", b"#", b"#-3", b"$"])),
+    st.tuples(st.just("endsec"), st.floats(0, 1), st.just(b"")),
+    st.tuples(st.just("param"), st.floats(0, 1), st.sampled_from([b"", b"$", b"*", b".T.", b"'x'", b"3", b"(#5)", b"()"])),
+)
+
+
+def _mutate_step(data: bytes, m: tuple) -> bytes:
+    import re
+
+    how, at, value = m[0], m[1], m[2]
+    if how == "number":
+        return _replace_number(data, at, value, rb"(?<![#\w.])-?\d+\.\d*(?:E[-+]?\d+)?")
+    if how == "ref":  # a reference to a missing entity, to one of the wrong type, or none
+        return _replace_number(data, at, value, rb"#\d+")
+    if how == "endsec":
+        return _replace_number(data, at, b"", rb"ENDSEC;")
+    if how == "param":  # an entity with a parameter dropped (value b"") or one too many
+        found = list(re.finditer(rb"#\d+ = [A-Z_0-9]+\((.*?)\);", data, re.S))
+        f = found[int(at * (len(found) - 1))]
+        parts = f.group(1).split(b",")
+        k = int(at * 7919) % len(parts)
+        parts[k:k + 1] = [] if value == b"" else [value, parts[k]]
+        return data[: f.start(1)] + b",".join(parts) + data[f.end(1):]
+    return _mutate(data, *m)
+
+
+@SETTINGS
+@given(m=STEP_MUTATION)
+def test_mutated_step_files_give_a_part_or_a_texcad_error(tmp_path, m, step_bytes):
+    """OCCT's lenient reader looped (a NaN coordinate) or crashed (a missing parameter,
+    a 2D vertex point) on such files; read_step refuses them before translating."""
+    from texcad.io import load_mesh
+
+    p = tmp_path / "part.step"
+    p.write_bytes(_mutate_step(step_bytes, m))
+    try:
+        mesh = load_mesh(p, tolerance=0.05)  # read_step, then OCCT's tessellation of what was read
+    except TexcadError:
+        return
+    assert np.isfinite(mesh.vertices).all()
+
+
+@pytest.fixture(scope="module")
+def step_bytes():
+    return _step()

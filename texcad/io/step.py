@@ -9,6 +9,8 @@ import os
 import re
 from typing import Any
 
+import numpy as np
+
 from ..errors import GeometryError, InputError
 from ..brep import to_topods
 from ..util import atomic_path
@@ -186,23 +188,224 @@ def _keep_tile_meshes(topo) -> None:
 
 
 def read_step(path: str | os.PathLike):
-    """Read a STEP file (silently) into one ``TopoDS_Shape`` (mm).
+    """Read a STEP file (silently) into one ``TopoDS_Shape`` (mm), strictly.
+
+    OCCT's reader is lenient: it skips what it cannot parse, leaves an unresolved
+    ``#N`` reference empty and reads a malformed number as nothing, and its translator
+    then makes a part with holes in it, or loops or crashes on the empty places. So
+    the file is refused, before the translation, when OCCT's parser reports a syntax
+    error (a file cut short, a missing ``ENDSEC;``, an unbalanced parenthesis) or an
+    entity it could not load (a number that is not a real, such as ``nan`` or
+    ``1e999``; a reference to a missing entity or to one of the wrong type; a wrong
+    count of parameters), and after it when the part holds no faces or a coordinate
+    beyond :data:`MAX_COORDINATE_MM`.
 
     Raises:
-        InputError: missing or unreadable file.
+        InputError: missing, empty, unreadable or damaged file, naming the line and
+            the entity (``#N``) where OCCT found the fault.
     """
     from OCP.IFSelect import IFSelect_RetDone
     from OCP.STEPControl import STEPControl_Reader
 
     p = os.fspath(path)
     if not os.path.isfile(p):
-        raise InputError(f"STEP file {p!r} does not exist")
-    with _Quiet():
+        raise InputError(f"STEP file {p!r} does not exist; check the path")
+    if os.path.getsize(p) == 0:
+        raise InputError(f"STEP file {p!r} is empty (0 bytes); export the part again")
+    with _Quiet() as quiet, _FailLog(quiet) as log:
         reader = STEPControl_Reader()
-        if reader.ReadFile(p) != IFSelect_RetDone:
-            raise InputError(f"cannot read {p!r} as STEP")
+        status = reader.ReadFile(p)
+    if status != IFSelect_RetDone or reader.StepModel() is None:
+        raise InputError(_syntax_message(p, log.text))
+    fault = _first_fault(reader, p) or _text_fault(p)
+    if fault:
+        raise InputError(fault)
+    with _Quiet():
         reader.TransferRoots()
         shape = reader.OneShape()
     if shape.IsNull():
-        raise InputError(f"{p!r} holds no shape")
+        raise InputError(f"STEP file {p!r} holds no shape OCCT can translate (no solid, shell or face); "
+                         "export the part again as a solid body (STEP AP214 or AP242)")
+    _check_shape(shape, p)
     return shape
+
+
+#: mm; a STEP coordinate farther from the origin is refused (a damaged number: no
+#: printable part is a kilometre across).
+MAX_COORDINATE_MM = 1.0e6
+
+_FIX = "the file is damaged; export the part again from its CAD program (STEP AP214 or AP242)"
+
+
+class _FailLog:
+    """OCCT's parser messages of gravity Fail and above (syntax errors with their line)
+    written to a temporary file for the duration of a ``with`` block (inside
+    :class:`_Quiet`, which detached the other printers)."""
+
+    def __init__(self, quiet: _Quiet):
+        self.quiet = quiet
+        self.text = ""
+
+    def __enter__(self):
+        import tempfile
+
+        from OCP.Message import Message_Gravity, Message_PrinterOStream
+
+        fd, self.path = tempfile.mkstemp(prefix="texcad-step-", suffix=".log")
+        os.close(fd)
+        self.printer = Message_PrinterOStream(self.path, False, Message_Gravity.Message_Fail)
+        self.printer.SetToColorize(False)
+        self.quiet.messenger.AddPrinter(self.printer)
+        return self
+
+    def __exit__(self, *exc):
+        self.quiet.messenger.RemovePrinter(self.printer)
+        del self.printer  # closes the file
+        try:
+            with open(self.path, encoding="latin-1") as fh:
+                self.text = fh.read(65536)
+        finally:
+            os.unlink(self.path)
+        return False
+
+
+def _syntax_message(p: str, log: str) -> str:
+    """What is wrong with a STEP file OCCT's parser refused, with the line."""
+    with open(p, "rb") as fh:
+        head = fh.read(4096).lstrip()
+    if not head.startswith(b"ISO-10303-21"):
+        return (f"{p!r} is not a STEP file (it does not start with 'ISO-10303-21;'); give a .step / .stp file "
+                "exported from a CAD program")
+    found = re.search(r"Line (\d+):\s*(.*?)\s*\*{0,4}\s*$", log, re.M)
+    where = f" at line {found.group(1)}: {found.group(2)}" if found else ""
+    size = os.path.getsize(p)
+    with open(p, "rb") as fh:
+        fh.seek(max(size - 4096, 0))
+        tail = fh.read()
+    if b"END-ISO-10303-21" not in tail:
+        return f"STEP file {p!r} is cut short (it does not end with 'END-ISO-10303-21;'){where}; {_FIX}"
+    return f"STEP file {p!r} has a syntax error{where}; {_FIX}"
+
+
+def _first_fault(reader, p: str) -> str | None:
+    """The message for the first fault OCCT's parser recorded (a syntax error it read
+    past, an entity it could not load), naming its line and entity, or None."""
+    checks = reader.WS().ModelCheckList(True)
+    faults = {}  # entity number in the model (0: the file) -> OCCT's messages
+    checks.Start()
+    while checks.More():  # per entity with a check
+        check = checks.Value()
+        if check.HasFailed():
+            faults.setdefault(checks.Number(), []).extend(check.CFail(i) for i in range(1, check.NbFails() + 1))
+        checks.Next()
+    if not faults:
+        return None
+    general = faults.pop(0, [])
+    if not faults:  # a syntax error the parser read past
+        found = next((m for m in map(re.compile(r"Line (\d+):\s*(.*)").search, general) if m), None)
+        where = f"a syntax error at line {found.group(1)}: {found.group(2).strip()}" if found else f"a fault: {general[0]}"
+        return f"STEP file {p!r} has {where}; {_FIX}"
+    n = min(faults)
+    label, line = _entity_place(p, n)
+    what = "; ".join(dict.fromkeys(faults[n]))
+    missing = [m.group(1) for m in (re.search(rf"Ent\.Id\.{label}\b.*\(Id\.(#\d+)\)", g) for g in general) if m]
+    if label and missing:
+        what += f" ({label} refers to {', '.join(missing)}, which the file does not define)"
+    where = f"entity {label} (line {line})" if label else f"entity number {n} of the DATA section"
+    more = f" ({len(faults) - 1} more entities have faults)" if len(faults) > 1 else ""
+    return f"STEP file {p!r}: {where} cannot be read: {what}{more}; {_FIX}"
+
+
+_NAME = rb"\s*\(\s*'[^']*'\s*,\s*"
+_EXPONENT = re.compile(rb"[eE]\+?[0-9]{3,}")  # a plain search, fast on a large file
+_HUGE = re.compile(rb"[-+]?[0-9]*\.?[0-9]*[eE]\+?[0-9]{3,}(?![0-9])")
+_POINT = re.compile(rb"#([0-9]+)\s*=\s*(CARTESIAN_POINT|DIRECTION)" + _NAME + rb"\(([^()]*)\)")
+_PCURVE = re.compile(rb"DEFINITIONAL_REPRESENTATION" + _NAME + rb"\(([^()]*)\)")
+_KIND = re.compile(rb"#([0-9]+)\s*=\s*([A-Z_0-9]+)")
+_CURVES = {b"LINE", b"CIRCLE", b"ELLIPSE", b"PARABOLA", b"HYPERBOLA", b"POLYLINE", b""}  # b"": a complex entity
+_NOT_CURVES = {b"EDGE_CURVE", b"SURFACE_CURVE", b"SEAM_CURVE", b"INTERSECTION_CURVE"}  # topology, 3D
+_USER_3D = re.compile(rb"(VERTEX_POINT|AXIS2_PLACEMENT_3D)" + _NAME + rb"(#[0-9]+)(?:\s*,\s*(#[0-9]+|\$)\s*,\s*(#[0-9]+|\$))?")
+
+
+def _text_fault(p: str) -> str | None:
+    """Faults OCCT's parser lets through and its translator crashes or loops on: a
+    number of 1e100 or more (``-1E999`` is read as infinite, ``1.E300`` crashes), a
+    pcurve (``DEFINITIONAL_REPRESENTATION``) holding something other than a 2D curve, a
+    vertex or a 3D placement on a point or direction that does not have 3 coordinates.
+    Found by fuzzing (``tests/io/test_fuzz.py``); OCCT checks none of them. Regular
+    expressions over the bytes: about 0.35 s for a 10 MB file that reads in 3 s.
+    Other type mismatches the parser lets through may still crash the translator
+    (running it in a child process would be the general guard)."""
+    with open(p, "rb") as fh:
+        data = fh.read()
+    for e in _EXPONENT.finditer(data):  # per 3-digit exponent (rare): its whole number
+        m = _HUGE.search(data, max(e.start() - 64, 0), e.end())
+        try:
+            value = float(m.group()) if m else 0.0
+        except ValueError:
+            continue
+        if not abs(value) < 1e100:  # OCCT's translator crashed on a point at 1e300 (its squares overflow)
+            line = data.count(b"\n", 0, m.start()) + 1
+            what = "too large for a double (it reads as infinite)" if not np.isfinite(value) else "absurdly large"
+            return f"STEP file {p!r}: the number {m.group().decode('ascii')!r} at line {line} is {what}; {_FIX}"
+    pcurves = [(m.start(), ref) for m in _PCURVE.finditer(data) for ref in re.findall(rb"#([0-9]+)", m.group(1))]
+    if pcurves:  # OCCT crashed on a pcurve made of a direction or an edge instead of a 2D curve
+        kinds = dict(_KIND.findall(data))
+        for at, ref in pcurves:  # per pcurve
+            kind = kinds.get(ref, b"")
+            if kind not in _CURVES and (b"CURVE" not in kind or kind in _NOT_CURVES):
+                line = data.count(b"\n", 0, at) + 1
+                return (f"STEP file {p!r}: DEFINITIONAL_REPRESENTATION at line {line} "
+                        f"holds {kind.decode()} #{ref.decode()} where a 2D curve belongs; {_FIX}")
+    flat = {m.group(1): (m.group(2), m.group(3).count(b",") + 1, m.start()) for m in _POINT.finditer(data)
+            if m.group(3).count(b",") != 2}  # points and directions that are not 3D (a pcurve's are 2D)
+    if not flat:
+        return None
+    for m in _USER_3D.finditer(data):  # per vertex and 3D placement
+        for ref in (m.group(2), m.group(3), m.group(4)):
+            key = ref[1:] if ref and ref.startswith(b"#") else None
+            if key in flat:
+                kind, dim, at = flat[key]
+                line, user_line = data.count(b"\n", 0, at) + 1, data.count(b"\n", 0, m.start()) + 1
+                return (f"STEP file {p!r}: {m.group(1).decode()} at line {user_line} "
+                        f"uses {kind.decode()} #{key.decode()} (line {line}), which has {dim} coordinate(s) instead "
+                        f"of 3; {_FIX}")
+    return None
+
+
+def _entity_place(p: str, n: int) -> tuple[str | None, int]:
+    """The label (``#N``) and line of the ``n``-th entity (from 1) of the DATA section."""
+    with open(p, "rb") as fh:
+        data = fh.read()
+    start = data.find(b"DATA;")
+    if start < 0:
+        return None, 0
+    for k, m in enumerate(re.finditer(rb"#(\d+)\s*=", data[start:])):  # per entity, up to the n-th (an error path)
+        if k == n - 1:
+            return f"#{int(m.group(1))}", data.count(b"\n", 0, start + m.start()) + 1
+    return None, 0
+
+
+def _check_shape(shape, p: str) -> None:
+    """InputError if the translated shape has no face or a coordinate that is not a
+    finite number within :data:`MAX_COORDINATE_MM`."""
+    from OCP.Bnd import Bnd_Box
+    from OCP.BRepBndLib import BRepBndLib
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+
+    if not TopExp_Explorer(shape, TopAbs_FACE).More():
+        raise InputError(f"STEP file {p!r} holds no faces (only points, curves or empty bodies); "
+                         "export the part again as a solid body")
+    box = Bnd_Box()
+    BRepBndLib.Add_s(shape, box, False)
+    if box.IsVoid():
+        raise InputError(f"STEP file {p!r} holds no geometry with a position; export the part again as a solid body")
+    lo, hi = box.CornerMin(), box.CornerMax()
+    corners = [lo.X(), lo.Y(), lo.Z(), hi.X(), hi.Y(), hi.Z()]
+    import math
+
+    if not all(math.isfinite(c) and abs(c) <= MAX_COORDINATE_MM for c in corners):
+        raise InputError(f"STEP file {p!r} has a coordinate out of range (the part spans "
+                         f"{[round(c, 3) for c in corners[:3]]} .. {[round(c, 3) for c in corners[3:]]} mm; more than "
+                         f"{MAX_COORDINATE_MM:g} mm from the origin is a damaged number); {_FIX}")

@@ -226,6 +226,10 @@ def _ply_counts(p: Path) -> dict:
     return counts
 
 
+#: mm; a scan vertex farther from the origin is refused as a damaged number.
+MAX_COORDINATE_MM = 1.0e6
+
+
 def _check_read(p: Path, verts: np.ndarray, faces: "np.ndarray | None") -> None:
     """InputError naming the file, the place and the fix for what trimesh lets through:
     non-finite coordinates, faces that index missing vertices, fewer vertices or faces
@@ -234,6 +238,12 @@ def _check_read(p: Path, verts: np.ndarray, faces: "np.ndarray | None") -> None:
     if bad.any():
         raise InputError(f"scan {str(p)!r} has {int(bad.sum())} vertices that are not finite numbers (NaN or inf; the "
                          f"first is vertex {int(np.argmax(bad))}, from 0); export it again")
+    far = np.abs(verts).max(axis=1) > MAX_COORDINATE_MM if len(verts) else np.zeros(0, bool)
+    if far.any():  # a damaged number (a flipped byte of a binary file): no scanned part is a kilometre across
+        k = int(np.argmax(far))
+        raise InputError(f"scan {str(p)!r}: vertex {k} (from 0) is at {verts[k].round(3).tolist()} mm, more than "
+                         f"{MAX_COORDINATE_MM:g} mm from the origin ({int(far.sum())} such vertices); the file is "
+                         "damaged, export it again")
     if faces is not None and (faces.min() < 0 or faces.max() >= len(verts)):
         k = int(np.argmax((faces < 0).any(axis=1) | (faces >= len(verts)).any(axis=1)))
         raise InputError(f"scan {str(p)!r}: face {k} (from 0) indexes vertex {faces[k].tolist()} but the file has "

@@ -1,0 +1,101 @@
+"""Hand-made bad STEP files (issue 27): each is an InputError naming the file, the
+line or entity and the fix, before OCCT's translator (which looped on a NaN
+coordinate and crashed on a missing parameter or a 2D vertex point); through the
+CLI, one line ``texcad: error: ...``, status 2 and no output file."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from texcad.errors import InputError
+
+
+@pytest.fixture(scope="module")
+def good(tmp_path_factory):
+    from build123d import Box
+
+    from texcad.io import write_step
+
+    path = tmp_path_factory.mktemp("step") / "good.step"
+    write_step(Box(20, 10, 5), path)
+    return path.read_text()
+
+
+def _line(text: str, start: str) -> str:
+    return next(ln for ln in text.splitlines() if ln.startswith(start))
+
+
+def _face(text):  # the first face: '#N = ADVANCED_FACE('',(#a),#b,.T.);'
+    return next(ln for ln in text.splitlines() if "ADVANCED_FACE(" in ln)
+
+
+def _point(text):
+    return next(ln for ln in text.splitlines() if "= CARTESIAN_POINT(" in ln and ln.count(",") == 3)
+
+
+BAD = {
+    "reference": (lambda t: t.replace(_face(t), _face(t).rsplit(",", 2)[0] + ",#99999,.T.);"),
+                  r"entity #\d+ \(line \d+\) cannot be read.*refers to #99999, which the file does not define"),
+    "nan": (lambda t: t.replace(_point(t), re.sub(r"\(([-0-9.E]+),", "(nan,", _point(t), count=1)),
+            r"entity #\d+ \(line \d+\) cannot be read: .*not a Real"),
+    "infinite": (lambda t: t.replace(_point(t), re.sub(r"\(([-0-9.E]+),", "(-1E999,", _point(t), count=1)),
+                 r"the number '-1E999' at line \d+ is too large for a double"),
+    "cut": (lambda t: t[: len(t) // 2], r"is cut short .* at line \d+"),
+    "endsec": (lambda t: t[: t.rindex("ENDSEC;")] + t[t.rindex("ENDSEC;") + 7:], r"syntax error at line \d+"),
+    "parameters": (lambda t: t.replace(_face(t), _face(t).replace(",.T.);", ");").replace(",.F.);", ");")),
+                   r"Count of Parameters"),
+    "not step": (lambda t: "solid x\nendsolid x\n", r"is not a STEP file"),
+}
+
+
+@pytest.mark.parametrize("how", sorted(BAD))
+def test_bad_step_is_an_input_error_naming_the_place(tmp_path, good, how):
+    from texcad.io import read_step
+
+    make, message = BAD[how]
+    p = tmp_path / "bad.step"
+    p.write_text(make(good))
+    assert p.read_text() != good
+    with pytest.raises(InputError, match=message) as info:
+        read_step(p)
+    assert "bad.step" in str(info.value) and ("export" in str(info.value) or "give a .step" in str(info.value))
+
+
+def test_a_vertex_on_a_2d_point_is_refused(tmp_path, good):
+    from texcad.io import read_step
+
+    pt = next(ln for ln in good.splitlines() if "VERTEX_POINT(" in ln).rsplit("#", 1)[1].rstrip(");")
+    line = _line(good, f"#{pt} = CARTESIAN_POINT(")
+    p = tmp_path / "flat.step"
+    p.write_text(good.replace(line, line.rsplit(",", 1)[0] + "));"))
+    with pytest.raises(InputError, match=rf"VERTEX_POINT at line \d+ uses CARTESIAN_POINT #{pt} .* 2 coordinate"):
+        read_step(p)
+
+
+@pytest.mark.parametrize("command", ["faces", "texture"])
+def test_cli_prints_one_line_and_writes_nothing(tmp_path, good, capsys, command):
+    from texcad.cli import main
+
+    p = tmp_path / "bad.step"
+    p.write_text(BAD["reference"][0](good))
+    out = tmp_path / "x.stl"
+    argv = [command, str(p)] + (["-o", str(out)] if command == "texture" else [])
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("texcad: error: STEP file") and "\n" not in err and "export the part again" in err
+    assert not out.exists() and not list(tmp_path.glob("*.part"))
+
+
+def test_a_pcurve_made_of_a_direction_is_refused(tmp_path, good):
+    """Found by fuzzing: OCCT crashed on a DEFINITIONAL_REPRESENTATION whose item was
+    a DIRECTION (a reference turned to another entity)."""
+    from texcad.io import read_step
+
+    rep = next(ln for ln in good.splitlines() if "DEFINITIONAL_REPRESENTATION(" in ln)
+    direction = next(ln for ln in good.splitlines() if "= DIRECTION(" in ln).split(" =")[0]
+    p = tmp_path / "pcurve.step"
+    p.write_text(good.replace(rep, re.sub(r"\(#\d+\)", f"({direction})", rep, count=1)))
+    with pytest.raises(InputError, match=rf"DEFINITIONAL_REPRESENTATION at line \d+ holds DIRECTION {direction} where"):
+        read_step(p)
