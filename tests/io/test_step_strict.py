@@ -99,3 +99,22 @@ def test_a_pcurve_made_of_a_direction_is_refused(tmp_path, good):
     p.write_text(good.replace(rep, re.sub(r"\(#\d+\)", f"({direction})", rep, count=1)))
     with pytest.raises(InputError, match=rf"DEFINITIONAL_REPRESENTATION at line \d+ holds DIRECTION {direction} where"):
         read_step(p)
+
+
+def test_a_damaged_colour_does_not_refuse_the_part(good, tmp_path):
+    """Faults in entities that carry no shape (a colour, a style, product data) are
+    left to OCCT, which reads the shape whole: real CAD exports are full of such
+    entities. A damaged point of the shape is refused."""
+    from texcad.io import read_step
+
+    colour = good.replace("ENDSEC;\nEND-ISO", "#99990 = COLOUR_RGB('',nan,0.5,0.2);\nENDSEC;\nEND-ISO")
+    assert colour != good
+    (tmp_path / "colour.step").write_text(colour)
+    shape = read_step(tmp_path / "colour.step")
+    assert not shape.IsNull()
+    p = _point(good)
+    at = p.index("',(") + 3  # the first coordinate
+    nan_point = good.replace(p, p[:at] + "nan" + p[p.index(",", at):])
+    (tmp_path / "point.step").write_text(nan_point)
+    with pytest.raises(InputError, match="cannot be read"):
+        read_step(tmp_path / "point.step")

@@ -305,7 +305,10 @@ def _first_fault(reader, p: str) -> str | None:
         found = next((m for m in map(re.compile(r"Line (\d+):\s*(.*)").search, general) if m), None)
         where = f"a syntax error at line {found.group(1)}: {found.group(2).strip()}" if found else f"a fault: {general[0]}"
         return f"STEP file {p!r} has {where}; {_FIX}"
-    n = min(faults)
+    shape_faults = [k for k in sorted(faults) if not _METADATA.search(_entity_kind(p, k))]
+    if not shape_faults:  # only styles, colours, product data... at fault: the shape itself reads whole
+        return None
+    n = shape_faults[0]
     label, line = _entity_place(p, n)
     what = "; ".join(dict.fromkeys(faults[n]))
     missing = [m.group(1) for m in (re.search(rf"Ent\.Id\.{label}\b.*\(Id\.(#\d+)\)", g) for g in general) if m]
@@ -371,6 +374,25 @@ def _text_fault(p: str) -> str | None:
                         f"uses {kind.decode()} #{key.decode()} (line {line}), which has {dim} coordinate(s) instead "
                         f"of 3; {_FIX}")
     return None
+
+
+#: Entities that carry no shape (presentation, colours, layers, product and document
+#: data): a fault in one of them is left to OCCT, which reads the shape without it
+#: (CAD programs write many of them; real files must not be refused for one).
+_METADATA = re.compile(r"STYLE|COLOUR|PRESENTATION|DRAUGHTING|ANNOTATION|PROPERTY|DOCUMENT|APPROVAL|PERSON|"
+                       r"ORGANIZATION|DATE|TIME|SECURITY|CLASSIFICATION|PRODUCT|APPLICATION|DESCRIPTIVE|LAYER|"
+                       r"INVISIBILITY|TEXT|FONT|OVER_RIDING|CONTEXT_DEPENDENT|MEASURE_REPRESENTATION_ITEM|VALUE_REPRESENTATION_ITEM")
+
+
+def _entity_kind(p: str, n: int) -> str:
+    """The type name(s) of the ``n``-th entity of the DATA section ("" if not found)."""
+    label, line = _entity_place(p, n)
+    if not label:
+        return ""
+    with open(p, "rb") as fh:
+        data = fh.read()
+    at = re.search(rb"(?m)^\s*" + re.escape(label.encode()) + rb"\s*=\s*(.{0,400})", data)
+    return "" if at is None else " ".join(re.findall(r"[A-Z_][A-Z_0-9]{2,}(?=\s*\()", at.group(1).decode("latin-1")))
 
 
 def _entity_place(p: str, n: int) -> tuple[str | None, int]:
