@@ -305,11 +305,12 @@ def _first_fault(reader, p: str) -> str | None:
         found = next((m for m in map(re.compile(r"Line (\d+):\s*(.*)").search, general) if m), None)
         where = f"a syntax error at line {found.group(1)}: {found.group(2).strip()}" if found else f"a fault: {general[0]}"
         return f"STEP file {p!r} has {where}; {_FIX}"
-    shape_faults = [k for k in sorted(faults) if not _METADATA.search(_entity_kind(p, k))]
+    ents = _entities(p, faults)
+    shape_faults = [k for k in sorted(faults) if not _METADATA.search(ents.get(k, ("", 0, ""))[2])]
     if not shape_faults:  # only styles, colours, product data... at fault: the shape itself reads whole
         return None
     n = shape_faults[0]
-    label, line = _entity_place(p, n)
+    label, line, _ = ents.get(n, (None, 0, ""))
     what = "; ".join(dict.fromkeys(faults[n]))
     missing = [m.group(1) for m in (re.search(rf"Ent\.Id\.{label}\b.*\(Id\.(#\d+)\)", g) for g in general) if m]
     if label and missing:
@@ -384,28 +385,24 @@ _METADATA = re.compile(r"STYLE|COLOUR|PRESENTATION|DRAUGHTING|ANNOTATION|PROPERT
                        r"INVISIBILITY|TEXT|FONT|OVER_RIDING|CONTEXT_DEPENDENT|MEASURE_REPRESENTATION_ITEM|VALUE_REPRESENTATION_ITEM")
 
 
-def _entity_kind(p: str, n: int) -> str:
-    """The type name(s) of the ``n``-th entity of the DATA section ("" if not found)."""
-    label, line = _entity_place(p, n)
-    if not label:
-        return ""
-    with open(p, "rb") as fh:
-        data = fh.read()
-    at = re.search(rb"(?m)^\s*" + re.escape(label.encode()) + rb"\s*=\s*(.{0,400})", data)
-    return "" if at is None else " ".join(re.findall(r"[A-Z_][A-Z_0-9]{2,}(?=\s*\()", at.group(1).decode("latin-1")))
-
-
-def _entity_place(p: str, n: int) -> tuple[str | None, int]:
-    """The label (``#N``) and line of the ``n``-th entity (from 1) of the DATA section."""
+def _entities(p: str, numbers) -> dict:
+    """``{n: (label "#N", line, type names)}`` of the ``n``-th entities (from 1) of the
+    DATA section, for the entity numbers ``numbers`` OCCT reported: one pass over the file."""
+    want = set(numbers)
     with open(p, "rb") as fh:
         data = fh.read()
     start = data.find(b"DATA;")
-    if start < 0:
-        return None, 0
-    for k, m in enumerate(re.finditer(rb"#(\d+)\s*=", data[start:])):  # per entity, up to the n-th (an error path)
-        if k == n - 1:
-            return f"#{int(m.group(1))}", data.count(b"\n", 0, start + m.start()) + 1
-    return None, 0
+    out = {}
+    if start < 0 or not want:
+        return out
+    last = max(want)
+    for k, m in enumerate(re.finditer(rb"#(\d+)\s*=(?=\s*(.{0,400}))", data[start:]), start=1):  # up to the last one asked
+        if k in want:
+            kinds = " ".join(re.findall(r"[A-Z_][A-Z_0-9]{2,}(?=\s*\()", m.group(2).decode("latin-1")))
+            out[k] = (f"#{int(m.group(1))}", data.count(b"\n", 0, start + m.start()) + 1, kinds)
+        if k >= last:
+            break
+    return out
 
 
 def _check_shape(shape, p: str) -> None:
