@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import ParameterError
 from .heightmap import Heightmap
 
-__all__ = ["mask_sampler"]
+__all__ = ["mask_sampler", "mask_on_grid"]
 
 
 def mask_sampler(mask: Any, size: Any) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
@@ -48,3 +48,11 @@ def mask_sampler(mask: Any, size: Any) -> Callable[[np.ndarray, np.ndarray], np.
         return np.where(inside, val, 0.0)
 
     return f
+
+
+def mask_on_grid(mask: Any, size: Any, xs: np.ndarray, ys: np.ndarray, centre=(0.0, 0.0)) -> np.ndarray:
+    """``mask`` (:func:`mask_sampler`) over ``size`` ``(w, d)`` mm centred on ``centre``
+    (mm), sampled at the grid of texture coordinates ``xs`` (columns) and ``ys``
+    (rows), mm: an ``(len(ys), len(xs))`` array in [0, 1]."""
+    gx, gy = np.meshgrid(np.asarray(xs, np.float64) - centre[0], np.asarray(ys, np.float64) - centre[1])
+    return mask_sampler(mask, size)(gx, gy)

@@ -474,13 +474,11 @@ def _mask(grid: Any, XY: np.ndarray, opts: PatchOptions) -> "np.ndarray | float"
     (``h = min(H fade, ramp) g m``), before the limits, so ramps and limits hold."""
     if opts.mask is None:
         return 1.0
-    from ..sources.mask import mask_sampler
+    from ..sources.mask import mask_on_grid
 
     lo, hi = XY.min(axis=0), XY.max(axis=0)
     size = opts.mask_size if opts.mask_size is not None else tuple(float(t) for t in hi - lo)
-    cx, cy = 0.5 * (lo + hi)
-    gx, gy = np.meshgrid(grid.xs - cx, grid.ys - cy)
-    return mask_sampler(opts.mask, size)(gx, gy)
+    return mask_on_grid(opts.mask, size, grid.xs, grid.ys, centre=0.5 * (lo + hi))
 
 
 # ------------------------------------------------------------------------------------------

@@ -150,11 +150,10 @@ def _masked(h: np.ndarray, fr: PlaneFrame, xs: np.ndarray, ys: np.ndarray, optio
     are scaled before the ramps and the limiter, so both still hold."""
     if options.mask is None:
         return h
-    from ..sources.mask import mask_sampler
+    from ..sources.mask import mask_on_grid
 
     size = options.mask_size if options.mask_size is not None else tuple(float(t) for t in fr.hi - fr.lo)
-    gx, gy = np.meshgrid(xs, ys)
-    return (h * mask_sampler(options.mask, size)(gx, gy)).astype(h.dtype)
+    return (h * mask_on_grid(options.mask, size, xs, ys)).astype(h.dtype)
 
 
 class PlaneAdapter(Adapter):
