@@ -10,26 +10,19 @@ in a larger window and keeps the screenshot taken after Render. Needs Xvfb
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-
-
-def _session_helpers():
-    """tests/test_cq_editor.py as a module (it is not in a package)."""
-    spec = importlib.util.spec_from_file_location("texcad_test_cq_editor", HERE.parent / "tests" / "test_cq_editor.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+sys.path.insert(0, str(HERE))
+from _figure import load_test  # noqa: E402
 
 
 def main(out: Path = HERE / "cq_editor.png") -> Path:
     from PIL import Image
 
-    tc = _session_helpers()
+    tc = load_test("test_cq_editor.py")
     if tc.XVFB is None:
         raise SystemExit("Xvfb is not installed: apt-get install xvfb")
     with tempfile.TemporaryDirectory() as tmp, tc.cq_editor_session(Path(tmp), window=(1280, 860)) as result:

@@ -10,7 +10,6 @@ Needs Chromium (``apt-get install chromium``) and ``pip install ocp_viewer``.
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 import tempfile
 from pathlib import Path
@@ -18,18 +17,12 @@ from pathlib import Path
 import texcad
 
 HERE = Path(__file__).resolve().parent
-
-
-def _session_helpers():
-    """tests/test_viewer.py as a module (it is not in a package)."""
-    spec = importlib.util.spec_from_file_location("texcad_test_viewer", HERE.parent / "tests" / "test_viewer.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+sys.path.insert(0, str(HERE))
+from _figure import load_test  # noqa: E402
 
 
 def main(out: Path = HERE / "viewer.png") -> Path:
-    tv = _session_helpers()
+    tv = load_test("render/test_viewer.py")
     if tv.CHROMIUM is None:
         raise SystemExit("Chromium is not installed: apt-get install chromium")
     part, _ = tv.small_textured_box()
