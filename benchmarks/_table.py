@@ -20,11 +20,13 @@ import sys
 from pathlib import Path
 from typing import Any, Sequence
 
-__all__ = ["write_table", "write_output", "machine", "command", "markdown_table", "TABLE_DIR"]
+__all__ = ["write_table", "write_output", "write_readme_block", "machine", "command", "markdown_table", "TABLE_DIR", "README"]
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Where the tables go (one file per benchmark table).
 TABLE_DIR = ROOT / "docs" / "benchmarks"
+#: The README, whose few figures are blocks written by the benchmark scripts too.
+README = ROOT / "README.md"
 
 
 def _cpu_model() -> str:
@@ -141,6 +143,27 @@ def write_output(script: str, args: Sequence[str] = ()) -> Path:
     path = TABLE_DIR / f"{name}.md"
     tmp = path.with_name(f".{path.name}.tmp")
     tmp.write_text("\n".join(text))
+    os.replace(tmp, path)
+    return path
+
+
+def write_readme_block(name: str, text: str, *, cmd: str | None = None, path: "str | os.PathLike" = README) -> Path:
+    """Replace the README's block ``<!-- bench:NAME ... -->`` ... ``<!-- /bench:NAME -->``
+    with ``text`` and a line naming the command and the date, so that the README's few
+    figures are written by the script that measured them, like the docs' tables. The
+    README must hold the block's two marker lines (a missing block is a ValueError, so
+    a renamed block is noticed). Written to a temporary file and renamed."""
+    path = Path(path)
+    doc = path.read_text()
+    start, end = f"<!-- bench:{name}", f"<!-- /bench:{name} -->"
+    i, j = doc.find(start), doc.find(end)
+    if i < 0 or j < i:
+        raise ValueError(f"{path.name} has no block {start} ... {end}")
+    when = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d")
+    head = f"{start}: written by {cmd or command()}; do not edit, run the command again -->"
+    body = f"{head}\n{text.strip()}\n\n<sub>Measured {when} by `{cmd or command()}` ({_texcad_version()}).</sub>\n"
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(doc[:i] + body + doc[j:])
     os.replace(tmp, path)
     return path
 

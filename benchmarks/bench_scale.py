@@ -163,6 +163,19 @@ def table(plates: list[dict], batches: list[dict], command: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+def readme_block(plates: list[dict], batches: list[dict]) -> str:
+    """The README's few scale figures: each plate made through texcad.texture (peak
+    memory, time per M px), then the batch's jobs per minute and efficiency."""
+    rows = [p for p in plates if "error" not in p and p["how"].startswith("texcad.texture") and p["max_memory"] != "1GB"]
+    lines = ["| plate of stones at 0.1 mm | tiles | peak memory | s per M px |", "|---|---:|---:|---:|"]
+    lines += [f"| {p['side']:g} x {p['side']:g} mm ({p['mpx']:g} M px) | {p['tiles']} | {p['peak'] / 2**30:.2f} GiB | "
+              f"{p['seconds'] / p['mpx']:.2f} |" for p in rows]
+    lines += ["", "| local Dask workers | jobs per minute | efficiency |", "|---:|---:|---:|"]
+    lines += [f"| {b['workers']} | {60 * b['jobs'] / b['seconds']:.1f} | "
+              f"{'' if b['efficiency'] is None else format(b['efficiency'], '.2f')} |" for b in batches]
+    return "\n".join(lines)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--mpx", type=float, nargs="+", default=list(PIXELS), help="plate sizes, M px (1, 9, 36, 100)")
@@ -174,6 +187,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, nargs="*", default=[1, 2, 4])
     ap.add_argument("--parts", type=int, default=8)
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent.parent / "docs" / "benchmarks" / "scale.md")
+    ap.add_argument("--readme", action="store_true", help="also write the README's scale figures (its bench:scale block)")
     args = ap.parse_args()
     command = "python benchmarks/bench_scale.py " + " ".join(sys.argv[1:])
     plates = []
@@ -199,6 +213,11 @@ def main() -> None:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text)
     print(text)
+    if args.readme:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from _table import write_readme_block
+
+        write_readme_block("scale", readme_block(plates, batches), cmd=command)
 
 
 if __name__ == "__main__":
