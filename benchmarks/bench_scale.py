@@ -20,7 +20,9 @@ seconds each) as one :func:`texcad.batch` per worker count, on a fresh local clu
 each whose workers have imported texcad before the clock starts (the cluster's start
 is shown apart: it is paid once per batch, not per job). Efficiency = t(1 worker) /
 (workers x t(workers)); on a machine with fewer cores than workers it cannot pass
-cores / workers.
+cores / workers, and on a busy machine it says how busy the machine was: the CPU
+seconds per job (:attr:`texcad.batch.JobResult.cpu_seconds`) say whether the jobs
+themselves got dearer with more workers.
 
     python benchmarks/bench_scale.py [--max-mpx 100] [--workers 1 2 4] [--parts 8] [--out docs/benchmarks/scale.md]
 """
@@ -110,7 +112,8 @@ def batch_rows(workers: list[int], parts: int) -> list[dict]:
                 client.close()
                 cluster.close()
             rows.append({"workers": n, "start": t1 - t0, "seconds": t2 - t1, "ok": sum(r.ok for r in res), "jobs": parts,
-                         "job_seconds": sum(r.seconds for r in res)})
+                         "job_seconds": sum(r.seconds for r in res),
+                         "job_cpu": sum(r.cpu_seconds for r in res) / parts})
     t1 = rows[0]["seconds"] if rows and rows[0]["workers"] == 1 else None
     for r in rows:
         r["efficiency"] = t1 / (r["workers"] * r["seconds"]) if t1 else None
@@ -156,10 +159,10 @@ def table(plates: list[dict], batches: list[dict], command: str) -> str:
                               f"{(p['cpu'] / p['mpx']) / (b['cpu'] / b['mpx']):.2f} x in CPU time" for p in big)
                   + ". The machine is shared: CPU time (user + system, this process) is the steadier measure."]
     lines += ["", "## Batch throughput against local Dask workers", "",
-              "| workers | jobs ok | cluster start s | jobs s | jobs per minute | efficiency |", "|---:|---:|---:|---:|---:|---:|"]
+              "| workers | jobs ok | cluster start s | jobs s | jobs per minute | efficiency | CPU s per job |", "|---:|---:|---:|---:|---:|---:|---:|"]
     for b in batches:
         eff = "" if b["efficiency"] is None else f"{b['efficiency']:.2f}"
-        lines.append(f"| {b['workers']} | {b['ok']}/{b['jobs']} | {b['start']:.1f} | {b['seconds']:.1f} | {60 * b['jobs'] / b['seconds']:.1f} | {eff} |")
+        lines.append(f"| {b['workers']} | {b['ok']}/{b['jobs']} | {b['start']:.1f} | {b['seconds']:.1f} | {60 * b['jobs'] / b['seconds']:.1f} | {eff} | {b['job_cpu']:.2f} |")
     return "\n".join(lines) + "\n"
 
 
@@ -170,9 +173,9 @@ def readme_block(plates: list[dict], batches: list[dict]) -> str:
     lines = ["| plate of stones at 0.1 mm | tiles | peak memory | s per M px |", "|---|---:|---:|---:|"]
     lines += [f"| {p['side']:g} x {p['side']:g} mm ({p['mpx']:g} M px) | {p['tiles']} | {p['peak'] / 2**30:.2f} GiB | "
               f"{p['seconds'] / p['mpx']:.2f} |" for p in rows]
-    lines += ["", "| local Dask workers | jobs per minute | efficiency |", "|---:|---:|---:|"]
+    lines += ["", "| local Dask workers | jobs per minute | efficiency | CPU s per job |", "|---:|---:|---:|---:|"]
     lines += [f"| {b['workers']} | {60 * b['jobs'] / b['seconds']:.1f} | "
-              f"{'' if b['efficiency'] is None else format(b['efficiency'], '.2f')} |" for b in batches]
+              f"{'' if b['efficiency'] is None else format(b['efficiency'], '.2f')} | {b['job_cpu']:.2f} |" for b in batches]
     return "\n".join(lines)
 
 

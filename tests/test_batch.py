@@ -58,6 +58,7 @@ def test_two_workers_same_bytes_as_one_process_failure_reported(parts, tmp_path,
     assert not (two / "broken.stl").exists()
     for r in results[:3]:
         assert r.seconds > 0 and r.triangles > 0
+        assert 0 < r.cpu_seconds < 2 * r.seconds + 1.0  # the worker's CPU time for the job, one thread each
         for o in r.outputs:
             assert Path(o).read_bytes() == (one / Path(o).name).read_bytes(), o
     assert len(seen) == 4 and seen[-1][0] == 1.0 and "4/4 jobs" in seen[-1][1]

@@ -75,6 +75,8 @@ class JobResult:
         error: the error's one-line message (``"InputError: ..."``), or None.
         seconds: wall time of the job in its worker (0 when its worker died).
         triangles: triangles of the textured mesh (0 when it failed).
+        cpu_seconds: CPU time (user + system) of the worker process during the job,
+            threads included: the job's cost apart from how busy the machine was.
     """
 
     name: str
@@ -83,6 +85,7 @@ class JobResult:
     error: Optional[str] = None
     seconds: float = 0.0
     triangles: int = 0
+    cpu_seconds: float = 0.0
 
     @property
     def ok(self) -> bool:
@@ -322,7 +325,7 @@ def run_job(job: Job) -> JobResult:
     from . import texture
     from .errors import TexcadWarning
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), _cpu()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", TexcadWarning)
@@ -342,13 +345,21 @@ def run_job(job: Job) -> JobResult:
             for o in job.outputs:  # atomic: Textured.export writes a temporary file and renames it
                 Path(o).parent.mkdir(parents=True, exist_ok=True)
                 tx.export(o)
-        return JobResult(job.name, "ok", job.outputs, None, time.perf_counter() - t0, int(tx.mesh.num_triangles))
+        return JobResult(job.name, "ok", job.outputs, None, time.perf_counter() - t0, int(tx.mesh.num_triangles), _cpu() - c0)
     except TexcadError as exc:
         msg = f"{type(exc).__name__}: {exc}"
     except Exception as exc:  # a bug: reported, the other jobs go on
         tb = traceback.extract_tb(exc.__traceback__)[-1]
         msg = f"{type(exc).__name__}: {exc} (at {Path(tb.filename).name}:{tb.lineno}; please report this)"
-    return JobResult(job.name, "failed", (), msg, time.perf_counter() - t0, 0)
+    return JobResult(job.name, "failed", (), msg, time.perf_counter() - t0, 0, _cpu() - c0)
+
+
+def _cpu() -> float:
+    """CPU seconds (user + system) of this process so far."""
+    import resource
+
+    u = resource.getrusage(resource.RUSAGE_SELF)
+    return u.ru_utime + u.ru_stime
 
 
 # -- the cluster ------------------------------------------------------------------------------
