@@ -295,7 +295,7 @@ class PlaneAdapter(Adapter):
         part material over it are not tiled: refused, naming a pitch that fits."""
         from ..util import available_memory
         from .tiled import builtin_grid, plate_source
-        from .tiled_faces import face_tiles
+        from .tiled_faces import face_tiles, material_over
 
         fr: PlaneFrame = placement.data
         size = tuple(float(t) for t in fr.hi - fr.lo)
@@ -307,10 +307,15 @@ class PlaneAdapter(Adapter):
         if need <= available_memory():
             return None
         what = f"a {shape[0] + 5} x {shape[1] + 5} px texture on the face"
+        base = placement.base
+        sel = np.asarray(placement.selected[1], np.int64)
+        n = len(base.vertices)
+        key = lambda f: (f[:, 0] * n + f[:, 1]) * n + f[:, 2]  # noqa: E731 - one number per triangle
+        face_tris = np.isin(key(np.asarray(base.faces, np.int64)), key(sel))
         why = None
         if options.directions is not None:
             why = "build_dir (the overhang limiter)"
-        elif _obstruction_segments(fr.base_local, fr.lo - pitch, fr.hi + pitch, float(options.height) + 1e-3) is not None:
+        elif material_over(fr.base_local, face_tris, float(options.height) + 1e-3, 0.5 * pitch):
             why = "a face with part material over it within the texture's height"
         if why is not None:
             require_memory(need, what, f"{why} is not made in tiles; use pitch >= {fitting_pitch(pitch, need):.3g} mm")
@@ -321,11 +326,7 @@ class PlaneAdapter(Adapter):
         if not vol > 0:
             source.close()
             _require_relief(Heightmap(np.zeros((2, 2), np.float32), source.pitch), texture)
-        base = placement.base
-        sel = np.asarray(placement.selected[1], np.int64)
-        n = len(base.vertices)
-        key = lambda f: (f[:, 0] * n + f[:, 1]) * n + f[:, 2]  # noqa: E731 - one number per triangle
-        tiles = face_tiles(fr, base, np.isin(key(np.asarray(base.faces, np.int64)), key(sel)), source, options, side=side)
+        tiles = face_tiles(fr, base, face_tris, source, options, side=side)
         return Relief(heightmap=None, limits=None, volume=vol, volume_slack=slack, nominal_volume=vol,
                       reach=tiles.reach, max_error=0.0, data=tiles)
 

@@ -54,7 +54,7 @@ from ..solid.tiles import PlateGrid, Tile, block_volume
 from ..util import Progress, report
 from .tiled import TiledMesh, _at, _open_edges
 
-__all__ = ["FaceGrid", "TiledFaceMesh", "face_tiles", "gate_faces", "tile_halo"]
+__all__ = ["FaceGrid", "TiledFaceMesh", "face_tiles", "gate_faces", "tile_halo", "material_over"]
 
 
 @dataclass(frozen=True)
@@ -505,6 +505,27 @@ def face_tiles(fr: Any, base: Any, face_tris: np.ndarray, source: Any, options: 
         size = options.mask_size if options.mask_size is not None else tuple(float(t) for t in fr.hi - fr.lo)
         mask = (options.mask, size)
     return FaceTiles(grid, source, base, face_tris, mask, top + 1e-3)
+
+
+def material_over(base_local: Any, face_tris: np.ndarray, top: float, inset: float) -> bool:
+    """Whether the part has material over the face's interior (its outline inset by
+    ``inset`` mm) between 1 um and ``top`` mm above it (``base_local``: the part's
+    mesh in the face frame, the face at z = 0). Walls that stand on the outline (a
+    boss in a hole of the face, a step beside it) are not over it: the texture is 0 mm
+    there (the M-I ramps), so it cannot meet them."""
+    import manifold3d as m3d
+
+    from ..solid import to_manifold
+    from ..solid.boolean import boundary_loops
+
+    v = np.asarray(base_local.vertices, np.float64)
+    loops = boundary_loops(np.asarray(base_local.faces, np.int64)[face_tris], len(v), xy=v[:, :2])
+    section = m3d.CrossSection([v[lp, :2] for lp in loops], m3d.FillRule.Positive).offset(-inset, m3d.JoinType.Miter)
+    if section.is_empty() or top <= 1e-3:
+        return False
+    prism = m3d.Manifold.extrude(section, float(top) - 1e-3).translate((0.0, 0.0, 1e-3))
+    over = to_manifold(base_local) ^ prism
+    return not over.is_empty() and over.volume() > 1e-9
 
 
 def face_integral(grid: FaceGrid, t: Tile, h: np.ndarray) -> float:
