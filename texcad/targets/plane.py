@@ -20,6 +20,15 @@ edge modification M-I (section 2.1.3) on every border,
 without a boolean (:func:`texcad.solid.boolean.fuse_on_plane`, checked); otherwise
 manifold3d's union. **B-rep**: the textured part of the plane becomes B-spline tiles
 sewn to the face's own edges (:func:`texcad.brep.textured_plane_solid`).
+
+**Tiles.** Where the untiled relief would not fit in the memory available (the
+machine's, or ``max_memory``), the face is made in tiles instead
+(:mod:`texcad.targets.tiled_faces`): the same heights and ramps a tile at a time, every
+pixel centre kept (error 0), the face round the texture re-triangulated on its own
+outline, the result a :class:`~texcad.targets.tiled_faces.TiledFaceMesh` that the
+gate checks and the export streams tile by tile (``info["fuse"] == "tiled"``).
+``build_dir`` and part material over the face within the texture's height are not
+tiled: refused, naming a pitch that fits; a tiled face has no B-rep (STL / 3MF).
 """
 
 from __future__ import annotations

@@ -52,9 +52,9 @@ import numpy as np
 from ..errors import GeometryError, ParameterError
 from ..solid.tiles import PlateGrid, Tile, block_volume
 from ..util import Progress, report
-from .tiled import TiledMesh, _at, _open_edges
+from .tiled import TiledMesh, _at
 
-__all__ = ["FaceGrid", "TiledFaceMesh", "face_tiles", "gate_faces", "tile_halo", "material_over"]
+__all__ = ["FaceGrid", "TiledFaceMesh", "TileCells", "face_tiles", "gate_faces", "tile_halo", "material_over", "open_edges"]
 
 
 @dataclass(frozen=True)
@@ -124,7 +124,7 @@ class FaceGrid:
 
     def to_local(self, v: np.ndarray) -> np.ndarray:
         """The part's points ``(k, 3)`` in the face frame, float64 mm."""
-        return (np.asarray(v, np.float64) - self.origin) @ self.axes.T
+        return np.einsum("ij,kj->ik", np.asarray(v, np.float64) - self.origin, self.axes)  # faster than @ here
 
 
 def tile_halo(margin: float, height: float, edge_angle: float, pitch: float) -> int:
@@ -350,12 +350,13 @@ class TiledFaceMesh(TiledMesh):
     def share(self, t: Any, v: np.ndarray, f: np.ndarray) -> float:
         return block_volume(v, f)
 
-    def reach(self, t: Any, v: np.ndarray) -> tuple[float, float]:
+    def reach(self, t: Any, v: np.ndarray, q: "np.ndarray | None" = None) -> tuple[float, float]:
         """``(farthest, highest)``: tile ``t``'s largest distance from the face's plane
-        (inf off the grid's rectangle) and its highest point over it, mm."""
+        (inf off the grid's rectangle) and its highest point over it, mm (``q``: ``v``
+        in the face frame, if known)."""
         if not len(v):
             return 0.0, -np.inf
-        q = self.grid.to_local(v)
+        q = self.grid.to_local(v) if q is None else q
         xs, ys = self.grid.xs(0, self.grid.shape[1] - 1), self.grid.ys(0, self.grid.shape[0] - 1)
         px, py = self.grid.pitch
         off = (q[:, 0].min() < xs[0] - px) | (q[:, 0].max() > xs[-1] + px) | (q[:, 1].min() < ys[0] - py) | (q[:, 1].max() > ys[-1] + py)
@@ -565,20 +566,21 @@ def gate_faces(mesh: TiledFaceMesh, ex: Any) -> Any:
     nv, nt = 0, 0
     for t, v, f, ids in mesh.blocks(mesh.progress):  # per tile
         finite &= bool(np.isfinite(v).all())
-        volume += block_volume(v, f)
         nv, nt = max(nv, int(ids.max(initial=-1)) + 1), nt + len(f)
-        if t is None:
+        q = grid.to_local(v)
+        if t is None:  # the rest of the part: its volume in the face frame too (the field (0, 0, z) there)
+            volume += block_volume(q, f)
             g = ids[f]
             edges.append(np.concatenate([g[:, [0, 1]], g[:, [1, 2]], g[:, [2, 0]]]))
             seam_ids.append(ids)
             seam_xyz.append(v)
             continue
-        far, high = mesh.reach(t, v)
+        far, high = mesh.reach(t, v, q)
         farthest, top = max(farthest, far), max(top, high)
-        integral += face_integral(grid, t, _heights_of(grid, t, v, ids))
-        open_, bad = _open_edges(ids[f])
-        if bad:
-            raise GeometryError(f"the {what} failed texcad's gate: a tile has {bad} non-manifold edges; please report this")
+        cells = TileCells.of(grid, t, q, f, what)
+        integral += face_integral(grid, t, cells.h)
+        volume += cells.volume(grid.pitch)
+        open_ = ids[cells.open_edges()]
         edges.append(open_)
         ring = np.unique(open_)
         seam_ids.append(ring)
@@ -591,7 +593,7 @@ def gate_faces(mesh: TiledFaceMesh, ex: Any) -> Any:
     if apart:
         raise GeometryError(f"the {what} failed texcad's gate: {apart} vertices differ between neighbouring blocks "
                             "(a gap at a seam); please report this")
-    open_, bad = _open_edges(np.concatenate(edges))
+    open_, bad = open_edges(np.concatenate(edges))
     closed = finite and not len(open_) and not bad
     shells = ShellReport(closed=closed, open_edges=len(open_), nonmanifold_edges=bad, misoriented_edges=0,
                          volumes=(volume,), nesting=(0,), inside_out=int(volume <= 0), nested_bodies=0, bodies=int(ex.bodies))
@@ -612,16 +614,103 @@ def gate_faces(mesh: TiledFaceMesh, ex: Any) -> Any:
     return GateReport(shells, change, integral, slack, farthest, float(ex.height))
 
 
-def _heights_of(grid: FaceGrid, t: Tile, v: np.ndarray, ids: np.ndarray) -> np.ndarray:
-    """Tile ``t``'s node heights over the face (mm, float64; 0 where no vertex),
-    read back from its vertices."""
-    h = np.zeros(t.shape)
-    if not len(v):
-        return h
-    q = grid.to_local(v)
-    px, py = grid.pitch
-    oy, ox = grid.ys(t.i0, t.i0)[0], grid.xs(t.j0, t.j0)[0]
-    i = np.rint((q[:, 1] - oy) / py).astype(np.int64)
-    j = np.rint((q[:, 0] - ox) / px).astype(np.int64)
-    h[i, j] = np.maximum(q[:, 2], 0.0)
-    return h
+@dataclass(frozen=True)
+class TileCells:
+    """A tile's triangles read back as cells of the node grid (checked).
+
+    Attributes:
+        node: ``(r, c)`` int64, the tile's vertex at each node, -1 where none.
+        cells: ``(r - 1, c - 1)`` bool, cells that hold their two triangles.
+        h: ``(r, c)`` float64 mm, the nodes' heights over the face (0 where none).
+    """
+
+    node: np.ndarray
+    cells: np.ndarray
+    h: np.ndarray
+
+    @classmethod
+    def of(cls, grid: FaceGrid, t: Tile, q: np.ndarray, f: np.ndarray, what: str) -> "TileCells":
+        """Read tile ``t``'s vertices ``q`` (face frame, mm) and triangles ``f``: every
+        vertex on a node of the tile (within a hundredth of a pixel), one vertex per
+        node, every pair of triangles ``(a, b, c), (a, c, d)`` a cell counter-clockwise
+        from +z (:func:`texcad.solid.grid_faces`), each cell once.
+
+        Raises:
+            GeometryError: naming what is not so.
+        """
+        r, c = t.shape
+        px, py = grid.pitch
+        y0, x0 = grid.ys(t.i0, t.i0)[0], grid.xs(t.j0, t.j0)[0]
+        fi, fj = (q[:, 1] - y0) / py, (q[:, 0] - x0) / px
+        i, j = np.rint(fi).astype(np.int64), np.rint(fj).astype(np.int64)
+        if len(q) and (i.min() < 0 or j.min() < 0 or i.max() >= r or j.max() >= c
+                       or max(np.abs(fi - i).max(), np.abs(fj - j).max()) > 0.01):
+            raise GeometryError(f"the {what} failed texcad's gate: a tile's vertices are off its node grid; please report this")
+        node = np.full((r, c), -1, np.int64)
+        node[i, j] = np.arange(len(q))
+        if int((node >= 0).sum()) != len(q):
+            raise GeometryError(f"the {what} failed texcad's gate: two vertices of a tile on one node (a duplicate vertex); "
+                                "please report this")
+        f0, f1 = f[0::2], f[1::2]
+        ci, cj = i[f0[:, 0]], j[f0[:, 0]]
+        ok = len(f) % 2 == 0 and ci.max(initial=0) < r - 1 and cj.max(initial=0) < c - 1
+        if ok:
+            a, b, cc, d = node[ci, cj], node[ci, cj + 1], node[ci + 1, cj + 1], node[ci + 1, cj]
+            ok = bool((f0[:, 1] == b).all() and (f0[:, 2] == cc).all() and (f1[:, 0] == a).all()
+                      and (f1[:, 1] == cc).all() and (f1[:, 2] == d).all())
+        cells = np.zeros((r - 1, c - 1), bool)
+        if ok:
+            cells[ci, cj] = True
+            ok = int(cells.sum()) == len(f0)
+        if not ok:
+            raise GeometryError(f"the {what} failed texcad's gate: a tile's triangles are not its grid's cells, "
+                                "each once, counter-clockwise; please report this")
+        h = np.zeros((r, c))
+        h[i, j] = q[:, 2]
+        return cls(node, cells, h)
+
+    def open_edges(self) -> np.ndarray:
+        """``(k, 2)`` the cells' directed border edges (vertex indices): where a cell's
+        neighbour across an edge is not a cell of the tile (counter-clockwise round
+        them; the diagonals pair up inside each cell)."""
+        m, n = self.cells, self.node
+        none = np.zeros((1, m.shape[1]), bool)
+        below = np.vstack([none, m[:-1]])
+        above = np.vstack([m[1:], none])
+        left = np.hstack([np.zeros((m.shape[0], 1), bool), m[:, :-1]])
+        right = np.hstack([m[:, 1:], np.zeros((m.shape[0], 1), bool)])
+        out = []
+        for side, (p0, p1) in (((m & ~below), ((0, 0), (0, 1))), ((m & ~right), ((0, 1), (1, 1))),
+                               ((m & ~above), ((1, 1), (1, 0))), ((m & ~left), ((1, 0), (0, 0)))):  # per side
+            ci, cj = np.nonzero(side)
+            out.append(np.stack([n[ci + p0[0], cj + p0[1]], n[ci + p1[0], cj + p1[1]]], 1))
+        return np.concatenate(out)
+
+    def volume(self, pitch: tuple) -> float:
+        """The cells' share of the volume in the face frame (the field ``(0, 0, z)``):
+        a cell ``px`` by ``py`` mm with corners ``a`` (lower left), ``b``, ``c``, ``d``
+        (counter-clockwise) adds ``px py (2 h_a + h_b + 2 h_c + h_d) / 6``."""
+        h, m = self.h, self.cells
+        cell = 2 * h[:-1, :-1] + h[:-1, 1:] + 2 * h[1:, 1:] + h[1:, :-1]
+        return float(cell[m].sum()) * pitch[0] * pitch[1] / 6.0
+
+
+def open_edges(faces: np.ndarray) -> tuple[np.ndarray, int]:
+    """``(open, bad)``: the directed edges ``(k, 2)`` of triangles ``faces`` (or of
+    directed edges ``(m, 2)``; indices from 0) whose reverse is not among them, and how
+    many edges come twice the same way or more than twice (non-manifold or
+    misoriented). One sort of int64 keys."""
+    f = np.asarray(faces, np.int64)
+    if not len(f):
+        return np.zeros((0, 2), np.int64), 0
+    a, b = (f.ravel(), f[:, [1, 2, 0]].ravel()) if f.shape[1] == 3 else (f[:, 0], f[:, 1])
+    n = int(f.max()) + 1
+    k = np.sort((np.minimum(a, b) * n + np.maximum(a, b)) * 2 + (a > b))
+    und = k >> 1
+    bad = int(np.sum(k[1:] == k[:-1])) + (int(np.sum(und[2:] == und[:-2])) if len(k) > 2 else 0)
+    single = np.ones(len(k), bool)
+    single[1:] &= und[1:] != und[:-1]
+    single[:-1] &= und[:-1] != und[1:]
+    ks = k[single]
+    lo, hi, flip = (ks >> 1) // n, (ks >> 1) % n, (ks & 1).astype(bool)
+    return np.stack([np.where(flip, hi, lo), np.where(flip, lo, hi)], 1), bad
