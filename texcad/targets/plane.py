@@ -335,7 +335,7 @@ class PlaneAdapter(Adapter):
         if not vol > 0:
             source.close()
             _require_relief(Heightmap(np.zeros((2, 2), np.float32), source.pitch), texture)
-        tiles = face_tiles(fr, base, face_tris, source, options, side=side)
+        tiles = face_tiles(fr, base, face_tris, source, options, side=side, floor=FLOOR)
         return Relief(heightmap=None, limits=None, volume=vol, volume_slack=slack, nominal_volume=vol,
                       reach=tiles.reach, max_error=0.0, data=tiles)
 

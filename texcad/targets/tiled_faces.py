@@ -69,7 +69,8 @@ class FaceGrid:
             ``j`` is at ``x0 + (kx0 + j + 1/2) px``, as the untiled grid.
         pitch: ``(px, py)`` mm.
         tile: nodes per tile side; halo: px of neighbours each tile's distances see.
-        margin: mm, the zero band along the outline; edge_angle: degrees.
+        margin: mm, the zero band along the outline; edge_angle: degrees; floor: mm,
+            the least height inside the ramp (:data:`texcad.targets.plane.FLOOR`).
         segments: ``(S, 2, 2)`` float64 the face's outline (all loops).
         marks: ``(P, 2)`` int64 ``(row, col)`` of the nodes nearest the outline
             samples (0 mm, as the untiled grid marks them).
@@ -85,6 +86,7 @@ class FaceGrid:
     halo: int
     margin: float
     edge_angle: float
+    floor: float
     segments: np.ndarray
     marks: np.ndarray
     origin: np.ndarray
@@ -169,7 +171,6 @@ def _ramped(grid: FaceGrid, h: np.ndarray, rows: slice, cols: slice, mask_scale:
     from scipy.ndimage import distance_transform_edt
 
     from ..brep import inside
-    from .plane import FLOOR
 
     px, py = grid.pitch
     xs, ys = grid.xs(cols.start, cols.stop - 1), grid.ys(rows.start, rows.stop - 1)
@@ -188,7 +189,7 @@ def _ramped(grid: FaceGrid, h: np.ndarray, rows: slice, cols: slice, mask_scale:
     else:
         ramp = np.tan(np.radians(grid.edge_angle)) * np.maximum(dist - margin, 0.0)
     h = np.where(mask, np.minimum(h, ramp), 0.0)
-    return np.where(mask, np.maximum(h, np.minimum(FLOOR, ramp)), 0.0).astype(np.float32)
+    return np.where(mask, np.maximum(h, np.minimum(grid.floor, ramp)), 0.0).astype(np.float32)
 
 
 def tile_heights(grid: FaceGrid, source: Any, t: Tile, mask_scale: Any = None) -> TileHeights:
@@ -475,10 +476,10 @@ def _check_ring(xy: np.ndarray, tri: np.ndarray, outline: list, holes: list) -> 
         )
 
 
-def face_tiles(fr: Any, base: Any, face_tris: np.ndarray, source: Any, options: Any, *, side: int) -> FaceTiles:
+def face_tiles(fr: Any, base: Any, face_tris: np.ndarray, source: Any, options: Any, *, side: int, floor: float) -> FaceTiles:
     """The :class:`FaceTiles` of a planar face ``fr`` (the plane adapter's frame) with
     the texture's ``source`` (its pixels centred on the face, ``offset`` added), ``side``
-    nodes per tile side."""
+    nodes per tile side and ``floor`` mm the least height inside the ramps."""
     from ..brep import sample_segments
 
     px, py = (float(p) for p in source.pitch)
@@ -499,7 +500,7 @@ def face_tiles(fr: Any, base: Any, face_tris: np.ndarray, source: Any, options: 
     halo = tile_halo(margin, top, float(options.edge_angle), min(px, py))
     if halo > side // 2:
         side = 2 * halo + 2
-    grid = FaceGrid(shape, (ky[0], kx[0]), x0, y0, (px, py), int(side), halo, margin, float(options.edge_angle),
+    grid = FaceGrid(shape, (ky[0], kx[0]), x0, y0, (px, py), int(side), halo, margin, float(options.edge_angle), float(floor),
                     np.asarray(fr.segments, np.float64), marks, np.asarray(fr.origin, np.float64), np.asarray(fr.axes, np.float64))
     mask = None
     if options.mask is not None:
