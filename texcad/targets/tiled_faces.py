@@ -107,6 +107,14 @@ class FaceGrid:
         """y (mm, float64) of node rows ``i0..i1`` (inclusive)."""
         return self.y0 + (np.arange(self.k0[0] + i0, self.k0[0] + i1 + 1) + 0.5) * self.pitch[1]
 
+    @property
+    def ramp_pitch(self) -> tuple[float, float]:
+        """``(px, py)`` mm as the untiled ramps take them: the first two nodes' spacing
+        (the distance transform is not exact where the sampling is a hair anisotropic;
+        the same numbers give the same distances)."""
+        xs, ys = self.xs(0, 1), self.ys(0, 1)
+        return float(xs[1] - xs[0]), float(ys[1] - ys[0])
+
     def local(self, i: np.ndarray, j: np.ndarray, h: np.ndarray) -> np.ndarray:
         """``(k, 3)`` float32 face-frame points of nodes ``(i, j)`` at heights ``h``:
         ``(ox + (j + 1/2) px, oy + (i + 1/2) py, h)`` with ``o`` the grid's corner,
@@ -172,7 +180,7 @@ def _ramped(grid: FaceGrid, h: np.ndarray, rows: slice, cols: slice, mask_scale:
 
     from ..brep import inside
 
-    px, py = grid.pitch
+    px, py = grid.ramp_pitch
     xs, ys = grid.xs(cols.start, cols.stop - 1), grid.ys(rows.start, rows.stop - 1)
     if mask_scale is not None:
         h = (h * mask_scale(xs, ys)).astype(h.dtype)
@@ -490,11 +498,12 @@ def face_tiles(fr: Any, base: Any, face_tris: np.ndarray, source: Any, options: 
     ky = (int(np.floor((fr.lo[1] - y0) / py - 0.5)) - 2, int(np.ceil((fr.hi[1] - y0) / py - 0.5)) + 3)
     shape = (ky[1] - ky[0], kx[1] - kx[0])
     xs0, ys0 = x0 + (kx[0] + 0.5) * px, y0 + (ky[0] + 0.5) * py
-    pts = sample_segments(fr.segments, 0.5 * min(px, py))
+    rx, ry = float(np.diff(x0 + (kx[0] + np.array([0.5, 1.5])) * px)[0]), float(np.diff(y0 + (ky[0] + np.array([0.5, 1.5])) * py)[0])
+    pts = sample_segments(fr.segments, 0.5 * min(rx, ry))
     ci = np.clip(np.rint((pts[:, 0] - xs0) / px).astype(np.int64), 0, shape[1] - 1)
     ri = np.clip(np.rint((pts[:, 1] - ys0) / py).astype(np.int64), 0, shape[0] - 1)
     marks = np.unique(np.stack([ri, ci], 1), axis=0)
-    margin = 3.0 * float(np.hypot(px, py))
+    margin = 3.0 * float(np.hypot(rx, ry))  # as the untiled ramps: on the grid's own spacing
     hm = getattr(source, "hm", None)  # a heightmap held whole, else a built-in of the height asked for
     top = float(hm.heights.max()) if hm is not None else float(source.height)
     halo = tile_halo(margin, top, float(options.edge_angle), min(px, py))
