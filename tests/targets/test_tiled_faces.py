@@ -87,6 +87,24 @@ def test_tiled_face_equals_the_untiled_one(case, monkeypatch, tmp_path):
     assert not list(tmp_path.glob(".*"))
 
 
+@pytest.mark.parametrize("seed", [3, 11])
+def test_tiled_face_with_random_holes_has_the_untiled_texture(seed, monkeypatch):
+    """Holes anywhere (overlapping the outline and each other), any pitch, offset and
+    rotation: the same texture vertices, bit for bit, and the same volume."""
+    rng = np.random.default_rng(seed)
+    part = Box(30, 20, 5)
+    for _ in range(6):
+        part = part - Pos(rng.uniform(-13, 13), rng.uniform(-8, 8), 0) * Cylinder(rng.uniform(0.5, 3), 10)
+    face = _top(part, 2.5)
+    kw = dict(pitch=float(rng.uniform(0.15, 0.4)), offset=(float(rng.uniform(-1, 1)), 0.3), rotation=float(rng.uniform(0, 90)))
+    untiled = texcad.texture(part, face, "builtin:stones", **dict(KW, **kw))
+    tx = _tiled(monkeypatch, part, face, tile=33, **kw)
+    whole = tx.mesh.to_mesh()
+    assert whole.is_watertight and tx.info["tiles"] > 4
+    assert _texture_vertices(tx, whole) == _texture_vertices(tx, untiled.mesh)
+    assert np.isclose(tx.volume, untiled.volume, rtol=1e-6, atol=0)
+
+
 def test_the_parts_other_faces_are_kept(monkeypatch):
     """The faces round the textured one are the part's tessellation as it was: the
     holes' walls keep their vertices (no T-junction: the face's outline is theirs)."""
