@@ -321,6 +321,11 @@ class TiledFaceMesh(TiledMesh):
     def num_triangles(self) -> int:
         return self._counts()[1]
 
+    @property
+    def is_watertight(self) -> bool:
+        """Closed and oriented, as the gate found it tile by tile (False before it ran)."""
+        return bool(self.__dict__.get("closed", False))
+
     def _counts(self) -> tuple[int, int]:
         if "counts" not in self.__dict__:
             nv, nt = 0, 0
@@ -609,7 +614,7 @@ def gate_faces(mesh: TiledFaceMesh, ex: Any) -> Any:
                          volumes=(volume,), nesting=(0,), inside_out=int(volume <= 0), nested_bodies=0, bodies=int(ex.bodies))
     if not shells.manifold:
         raise GeometryError(f"the {what} failed texcad's gate: {shells.problem() or 'its vertices are not finite'}; please report this")
-    mesh.__dict__.update(volume=volume, top=top, counts=(nv, nt))
+    mesh.__dict__.update(volume=volume, top=top, counts=(nv, nt), closed=closed)
     change = volume - float(ex.base.volume)
     px, py = grid.pitch
     slack = px * py * float(ex.height) + 1e-3 * abs(integral) + 1e-6 * abs(float(ex.base.volume)) + 1e-3
