@@ -54,6 +54,8 @@ CASES = {
     "tilted side, rotated and offset texture": (lambda: Rot(10, 20, 30) * Box(40, 30, 5),
                                                 lambda p: p.faces().sort_by(Axis.X)[-1], dict(rotation=15, offset=(1.3, -0.7))),
     "box top round a boss": (lambda: Box(40, 30, 5) + Pos(5, 3, 5) * Cylinder(4, 6), lambda p: _top(p, 2.5), dict(edge_angle=60)),
+    "box top with a hole and a mask": (lambda: Box(30, 20, 5) - Pos(5, 2, 0) * Cylinder(3, 10), lambda p: _top(p, 2.5),
+                                       dict(mask=np.clip(np.mgrid[0:50, 0:80][1] / 79.0, 0, 1) * (np.mgrid[0:50, 0:80][0] > 10))),
 }
 
 
