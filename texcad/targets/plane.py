@@ -304,6 +304,7 @@ class PlaneAdapter(Adapter):
         part material over it are not tiled: refused, naming a pitch that fits."""
         from ..util import available_memory
         from .tiled import builtin_grid, plate_source
+        from .budget import TILED_PIXELS, tiles_fit
         from .tiled_faces import face_tiles, material_over
 
         fr: PlaneFrame = placement.data
@@ -322,7 +323,9 @@ class PlaneAdapter(Adapter):
         key = lambda f: (f[:, 0] * n + f[:, 1]) * n + f[:, 2]  # noqa: E731 - one number per triangle
         face_tris = np.isin(key(np.asarray(base.faces, np.int64)), key(sel))
         why = None
-        if options.directions is not None:
+        if not tiles_fit(float(shape[0] + 5) * (shape[1] + 5), texture):
+            why = f"a texture of more than {TILED_PIXELS:.0e} px (or whose heights file would not fit in the temporary folder)"
+        elif options.directions is not None:
             why = "build_dir (the overhang limiter)"
         elif material_over(fr.base_local, face_tris, float(options.height) + 1e-3, 0.5 * pitch):
             why = "a face with part material over it within the texture's height"
