@@ -107,6 +107,22 @@ def test_tiled_face_with_random_holes_has_the_untiled_texture(seed, monkeypatch)
     assert np.isclose(tx.volume, untiled.volume, rtol=1e-6, atol=0)
 
 
+def test_tiled_face_with_a_heightmap_has_the_untiled_texture(monkeypatch):
+    """A Heightmap is held whole (its own pitch) and read a tile at a time."""
+    part = Box(30, 20, 5) - Pos(5, 2, 0) * Cylinder(3, 10)
+    face = _top(part, 2.5)
+    hm = texcad.builtin("builtin:ridges", size=(12, 9), pitch=0.2, height=0.7)
+    untiled = texcad.texture(part, face, hm, tolerance=0)
+    with monkeypatch.context() as m:
+        m.setattr(plane, "texture_bytes", lambda pixels, tolerance: 1e18)
+        m.setattr(tiled, "tile_for_memory", lambda bound, nodes: 33)
+        tx = texcad.texture(part, face, hm, tolerance=0)
+    whole = tx.mesh.to_mesh()
+    assert whole.is_watertight and tx.info["tiles"] > 4
+    assert _texture_vertices(tx, whole) == _texture_vertices(tx, untiled.mesh)
+    assert np.isclose(tx.volume, untiled.volume, rtol=1e-6, atol=0)
+
+
 def test_the_parts_other_faces_are_kept(monkeypatch):
     """The faces round the textured one are the part's tessellation as it was: the
     holes' walls keep their vertices (no T-junction: the face's outline is theirs)."""

@@ -332,7 +332,7 @@ class PlaneAdapter(Adapter):
         if why is not None:
             require_memory(need, what, f"{why} is not made in tiles; use pitch >= {fitting_pitch(pitch, need):.3g} mm")
         options.report(0.1, f"{what}: made in tiles")
-        source, side = plate_source(texture, size, pitch, options.height, bound=options.max_memory,
+        source, side = plate_source(texture, size, float(options.pitch), options.height, bound=options.max_memory,
                                     progress=lambda f, m: options.report(0.1 + 0.2 * f, m))
         vol, slack = source.integral()
         if not vol > 0:
