@@ -45,11 +45,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
-from ..errors import GeometryError, ParameterError
+from ..errors import GeometryError
 from ..solid.tiles import PlateGrid, Tile, block_volume
 from ..util import Progress, report
 from .tiled import TiledMesh, _at
@@ -553,6 +553,15 @@ def face_integral(grid: FaceGrid, t: Tile, h: np.ndarray) -> float:
     return float((g[:-1, :-1] + g[:-1, 1:] + g[1:, :-1] + g[1:, 1:]).sum()) * px * py / 4.0
 
 
+def _apart(sid: np.ndarray, sxyz: np.ndarray) -> int:
+    """How many vertices numbered ``sid`` in two blocks are not the same float32
+    point ``sxyz`` in both."""
+    order = np.argsort(sid, kind="stable")
+    sid, sxyz = sid[order], sxyz[order]
+    same = sid[1:] == sid[:-1]
+    return int(np.sum(np.any(sxyz[1:][same] != sxyz[:-1][same], axis=1)))
+
+
 def gate_faces(mesh: TiledFaceMesh, ex: Any) -> Any:
     """texcad's gate (checks 1-5, :func:`texcad.report.gate.gate`) on a tiled face, one
     tile at a time, in memory that goes with one tile plus the tiles' open edges:
@@ -600,11 +609,7 @@ def gate_faces(mesh: TiledFaceMesh, ex: Any) -> Any:
         ring = np.unique(open_)
         seam_ids.append(ring)
         seam_xyz.append(_at(ids, v, ring))
-    sid, sxyz = np.concatenate(seam_ids), np.concatenate(seam_xyz)
-    order = np.argsort(sid, kind="stable")
-    sid, sxyz = sid[order], sxyz[order]
-    same = sid[1:] == sid[:-1]
-    apart = int(np.sum(np.any(sxyz[1:][same] != sxyz[:-1][same], axis=1)))
+    apart = _apart(np.concatenate(seam_ids), np.concatenate(seam_xyz))
     if apart:
         raise GeometryError(f"the {what} failed texcad's gate: {apart} vertices differ between neighbouring blocks "
                             "(a gap at a seam); please report this")
