@@ -44,6 +44,24 @@ def _texture_vertices(tx, mesh):
     return set(map(bytes, v[(v.astype(np.float64) - o) @ n > 1e-6]))
 
 
+def _triangles_above(tx, *meshes):
+    """Per mesh, its triangles with every vertex above the textured face's plane, as
+    sorted rows of vertex numbers shared by all the meshes (equal float32 points, one
+    number), each rotated to start at its smallest (orientation kept)."""
+    n, o = np.asarray(tx.info["normal"]), np.asarray(tx.info["origin"])
+    v = [np.asarray(m.vertices, np.float32) for m in meshes]
+    _, inv = np.unique(np.concatenate(v), axis=0, return_inverse=True)
+    out, start = [], 0
+    for m, vm in zip(meshes, v):
+        ids = inv.reshape(-1)[start : start + len(vm)]
+        start += len(vm)
+        f = np.asarray(m.faces, np.int64)
+        f = ids[f[((vm.astype(np.float64) - o) @ n > 1e-6)[f].all(axis=1)]]
+        k = np.argmin(f, axis=1)[:, None]
+        out.append(np.unique(np.take_along_axis(f, (k + np.arange(3)) % 3, axis=1), axis=0))
+    return out
+
+
 def _holed():
     return Box(40, 30, 5) - Pos(5, 3, 0) * Cylinder(4, 10) - Pos(-10, -5, 0) * Box(6, 4, 10)
 
@@ -72,6 +90,10 @@ def test_tiled_face_equals_the_untiled_one(case, monkeypatch, tmp_path):
     # the texture: the same float32 vertices, bit for bit, as the untiled face's
     tex = _texture_vertices(tx, whole)
     assert len(tex) > 1000 and tex == _texture_vertices(tx, untiled.mesh)
+    # and the same triangles wherever all three corners stand above the face (those that touch
+    # the face at the texture's foot differ: the untiled union re-triangulates them there)
+    a, b = _triangles_above(tx, whole, untiled.mesh)
+    assert len(a) > 1000 and np.array_equal(a, b)
     # the face round it is flat in its plane either way: the same solid, to float rounding
     assert np.isclose(tx.volume, untiled.volume, rtol=1e-6, atol=0)
     assert whole.is_watertight and np.isclose(whole.volume, tx.volume, rtol=1e-9)

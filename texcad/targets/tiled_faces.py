@@ -13,9 +13,9 @@ is the untiled one's geometry, made a tile at a time:
   outline and ramped down to it (the paper's M-I edge modification, the same formula
   as the untiled adapter, ``h' = min(h, tan(edge_angle) max(0, d - margin))``, with its
   1 um floor), where ``d`` is the distance transform of the tile's block grown by a
-  halo of ``ceil((margin + height / tan(edge_angle)) / pitch) + 2`` px: every node's
-  height is the untiled one (a node farther than the halo from the outline is not
-  ramped at all).
+  halo of ``ceil((margin + height / tan(edge_angle)) / pitch) + 2`` px, on the grid's
+  own node spacing: every node's height is the untiled one (a node farther than the
+  halo from the outline is not ramped at all).
 * **the textured cells.** A cell with a corner above the face (h > 0) is textured:
   two triangles, as :func:`texcad.solid.grid_faces` makes them. Every corner of such a
   cell lies at least two cell diagonals inside the outline, and where textured cells
@@ -28,17 +28,22 @@ is the untiled one's geometry, made a tile at a time:
   body: the base's volume plus the texture's.
 
 :class:`TiledFaceMesh` is that mesh kept as a recipe: its blocks are made on demand,
-one tile at a time, for the gate (:func:`gate_faces`: closed and oriented across tile
-borders, the volume change against the heights' own integral, reach) and for the
-streaming STL / 3MF writers. Lengths in mm.
+one tile at a time, for the gate (:func:`gate_faces`: each tile's triangles read back
+as cells of its grid, closed and oriented across tile borders, the same float32
+points where blocks meet, the volume change against the heights' own integral,
+reach) and for the streaming STL / 3MF writers. Lengths in mm.
 
 **Against the untiled face** (tolerance 0: one vertex per pixel centre): the same
-textured triangles, the same float32 vertices where the texture stands (the same
-heights and the same frame transform); the face around them is triangulated
-differently (flat, in the face's plane: the same surface), so the volumes agree to
-float rounding. Not tiled (refused, naming a pitch that fits): ``build_dir`` (the
-overhang limiter), faces with part material over them within the texture's height,
-and the lean mesh (a tiled face keeps every pixel centre: its error is 0).
+float32 vertices wherever the texture stands above the face (the same heights, ramps
+and frame transform) and the same triangles wherever all three corners do (tested);
+the triangles that touch the face at the texture's foot and the flat face around
+them are triangulated differently (the untiled union re-triangulates them; the
+surface is the same), so the volumes agree to float rounding (1e-6 relative, tested).
+A tiled face keeps every pixel centre (its error is 0, within any ``tolerance``: the
+lean mesh is not made in tiles). Not tiled (refused, naming a pitch that fits):
+``build_dir`` (the overhang limiter), faces with part material over them within the
+texture's height (material standing on the outline, a boss or a step, is fine) and
+more than :data:`texcad.targets.budget.TILED_PIXELS` pixels.
 """
 
 from __future__ import annotations
