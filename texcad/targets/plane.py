@@ -318,10 +318,8 @@ class PlaneAdapter(Adapter):
             return None
         what = f"a {shape[0] + 5} x {shape[1] + 5} px texture on the face"
         base = placement.base
-        sel = np.asarray(placement.selected[1], np.int64)
-        n = len(base.vertices)
-        key = lambda f: (f[:, 0] * n + f[:, 1]) * n + f[:, 2]  # noqa: E731 - one number per triangle
-        face_tris = np.isin(key(np.asarray(base.faces, np.int64)), key(sel))
+        row = lambda f: np.ascontiguousarray(f, np.int64).view([("", np.int64)] * 3).ravel()  # noqa: E731 - a triangle as one value
+        face_tris = np.isin(row(base.faces), row(placement.selected[1]))  # the textured face's triangles in the part's mesh
         why = None
         if not tiles_fit(float(shape[0] + 5) * (shape[1] + 5), texture):
             why = f"a texture of more than {TILED_PIXELS:.0e} px (or whose heights file would not fit in the temporary folder)"
