@@ -244,3 +244,22 @@ def test_a_face_that_does_not_fit_untiled_is_made_in_tiles_under_an_address_spac
     assert how == "tiled" and int(tiles) > 1 and int(px) > 1200 * 1200
     assert closed == volume_ok == under == "True"
     assert out.stat().st_size == 84 + 50 * int(tris)
+
+
+def test_texcad_texture_makes_a_step_face_in_tiles(tmp_path, monkeypatch, capsys):
+    """The CLI on a STEP part: the face made in tiles, its summary, STL and 3MF written."""
+    from build123d import export_step
+
+    from texcad.cli import main
+
+    step = tmp_path / "plate.step"
+    export_step(Box(40, 30, 5) - Pos(8, 0, 0) * Cylinder(4, 10), str(step))
+    outs = [tmp_path / "p.stl", tmp_path / "p.3mf"]
+    with monkeypatch.context() as m:
+        m.setattr(plane, "texture_bytes", lambda pixels, tolerance: 1e18)
+        m.setattr(tiled, "tile_for_memory", lambda bound, nodes: 64)
+        assert main(["texture", str(step), "--face", "top", "--pitch", "0.25", "-o", str(outs[0]), "-o", str(outs[1])]) == 0
+    out = capsys.readouterr().out
+    assert "watertight True" in out and "max error    0.0000 mm" in out
+    meshes = [texcad.io.read_mesh(p) for p in outs]
+    assert all(mm.is_watertight for mm in meshes) and np.isclose(meshes[0].volume, meshes[1].volume, rtol=2e-5)
