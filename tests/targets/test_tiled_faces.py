@@ -14,7 +14,7 @@ import pytest
 import texcad
 
 pytest.importorskip("build123d")
-from build123d import Axis, Box, Cylinder, Pos, Rot  # noqa: E402
+from build123d import Axis, Box, Cylinder, Polygon, Pos, Rot, extrude  # noqa: E402
 
 import texcad.targets.plane as plane  # noqa: E402
 import texcad.targets.tiled as tiled  # noqa: E402
@@ -72,6 +72,9 @@ CASES = {
     "tilted side, rotated and offset texture": (lambda: Rot(10, 20, 30) * Box(40, 30, 5),
                                                 lambda p: p.faces().sort_by(Axis.X)[-1], dict(rotation=15, offset=(1.3, -0.7))),
     "box top round a boss": (lambda: Box(40, 30, 5) + Pos(5, 3, 5) * Cylinder(4, 6), lambda p: _top(p, 2.5), dict(edge_angle=60)),
+    "cylinder top (a disc)": (lambda: Cylinder(15, 8), lambda p: p.faces().sort_by(Axis.Z)[-1], {}),
+    "L-shaped bottom face": (lambda: extrude(Polygon((0, 0), (30, 0), (30, 10), (12, 10), (12, 25), (0, 25), align=None), 6),
+                             lambda p: p.faces().sort_by(Axis.Z)[0], dict(rotation=30)),
     "box top with a hole and a mask": (lambda: Box(30, 20, 5) - Pos(5, 2, 0) * Cylinder(3, 10), lambda p: _top(p, 2.5),
                                        dict(mask=np.clip(np.mgrid[0:50, 0:80][1] / 79.0, 0, 1) * (np.mgrid[0:50, 0:80][0] > 10))),
 }
