@@ -325,7 +325,8 @@ class PlaneAdapter(Adapter):
             why = f"a texture of more than {TILED_PIXELS:.0e} px (or whose heights file would not fit in the temporary folder)"
         elif options.directions is not None:
             why = "build_dir (the overhang limiter)"
-        elif material_over(fr.base_local, face_tris, float(options.height) + 1e-3, 0.5 * pitch):
+        elif material_over(fr.base_local, face_tris, max(float(options.height), float(getattr(texture, "max_height", 0.0))) + 1e-3,
+                           0.5 * pitch):
             why = "a face with part material over it within the texture's height"
         if why is not None:
             require_memory(need, what, f"{why} is not made in tiles; use pitch >= {fitting_pitch(pitch, need):.3g} mm")
