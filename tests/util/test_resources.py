@@ -28,7 +28,8 @@ assert available_memory() < 3 * 2**30
 from build123d import Box, Axis
 box = Box(157, 128, 10)
 try:
-    texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=1.0, pitch=0.05, tolerance=0)
+    # build_dir: not made in tiles (a plain planar face now is: tests/targets/test_tiled_faces.py)
+    texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=1.0, pitch=0.05, tolerance=0, build_dir=(0, 0, 1))
 except texcad.ResourceError as e:
     print("ResourceError:", e)
     sys.exit(3)

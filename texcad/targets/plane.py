@@ -20,6 +20,15 @@ edge modification M-I (section 2.1.3) on every border,
 without a boolean (:func:`texcad.solid.boolean.fuse_on_plane`, checked); otherwise
 manifold3d's union. **B-rep**: the textured part of the plane becomes B-spline tiles
 sewn to the face's own edges (:func:`texcad.brep.textured_plane_solid`).
+
+**Tiles.** Where the untiled relief would not fit in the memory available (the
+machine's, or ``max_memory``), the face is made in tiles instead
+(:mod:`texcad.targets.tiled_faces`): the same heights and ramps a tile at a time, every
+pixel centre kept (error 0), the face round the texture re-triangulated on its own
+outline, the result a :class:`~texcad.targets.tiled_faces.TiledFaceMesh` that the
+gate checks and the export streams tile by tile (``info["fuse"] == "tiled"``).
+``build_dir`` and part material over the face within the texture's height are not
+tiled: refused, naming a pitch that fits; a tiled face has no B-rep (STL / 3MF).
 """
 
 from __future__ import annotations
@@ -247,6 +256,9 @@ class PlaneAdapter(Adapter):
 
     def relief(self, placement: Placement, texture: Any, options: Options) -> Relief:
         fr: PlaneFrame = placement.data
+        tiled = self._tiled(placement, texture, options)
+        if tiled is not None:
+            return tiled
         h, xs, ys, (px, py) = self._grid(fr, texture, options)
         options.report(0.1, f"clipping the {len(ys)} x {len(xs)} texture to the face outline")
         h, dist, obstructed, margin = self._ramp(fr, h, xs, ys, options.edge_angle)
@@ -286,9 +298,54 @@ class PlaneAdapter(Adapter):
             nominal_volume=nominal, reach=float(h.max()) + 1e-3, data=data,
         )
 
+    def _tiled(self, placement: Placement, texture: Any, options: Options) -> "Relief | None":
+        """The relief in tiles (:mod:`texcad.targets.tiled_faces`) where the untiled one
+        would not fit in the memory available, else None. ``build_dir`` and a face with
+        part material over it are not tiled: refused, naming a pitch that fits."""
+        from ..util import available_memory
+        from .tiled import builtin_grid, plate_source
+        from .budget import TILED_PIXELS, tiles_fit
+        from .tiled_faces import face_tiles, material_over
+
+        fr: PlaneFrame = placement.data
+        size = tuple(float(t) for t in fr.hi - fr.lo)
+        pitch = float(min(texture.pitch)) if isinstance(texture, Heightmap) else float(options.pitch)
+        shape = texture.shape if isinstance(texture, Heightmap) else builtin_grid(texture, size, pitch)
+        if shape is None:  # an image: its pixels at this pitch
+            shape = (int(size[1] / pitch), int(size[0] / pitch))
+        need = texture_bytes((shape[0] + 5) * (shape[1] + 5), options.tolerance)
+        if need <= available_memory():
+            return None
+        what = f"a {shape[0] + 5} x {shape[1] + 5} px texture on the face"
+        base = placement.base
+        row = lambda f: np.ascontiguousarray(f, np.int64).view([("", np.int64)] * 3).ravel()  # noqa: E731 - a triangle as one value
+        face_tris = np.isin(row(base.faces), row(placement.selected[1]))  # the textured face's triangles in the part's mesh
+        why = None
+        if not tiles_fit(float(shape[0] + 5) * (shape[1] + 5), texture):
+            why = f"a texture of more than {TILED_PIXELS:.0e} px (or whose heights file would not fit in the temporary folder)"
+        elif options.directions is not None:
+            why = "build_dir (the overhang limiter)"
+        elif material_over(fr.base_local, face_tris, max(float(options.height), float(getattr(texture, "max_height", 0.0))) + 1e-3,
+                           0.5 * pitch):
+            why = "a face with part material over it within the texture's height"
+        if why is not None:
+            require_memory(need, what, f"{why} is not made in tiles; use pitch >= {fitting_pitch(pitch, need):.3g} mm")
+        options.report(0.1, f"{what}: made in tiles")
+        source, side = plate_source(texture, size, float(options.pitch), options.height, bound=options.max_memory,
+                                    progress=lambda f, m: options.report(0.1 + 0.2 * f, m))
+        vol, slack = source.integral()
+        if not vol > 0:
+            source.close()
+            _require_relief(Heightmap(np.zeros((2, 2), np.float32), source.pitch), texture)
+        tiles = face_tiles(fr, base, face_tris, source, options, side=side, floor=FLOOR)
+        return Relief(heightmap=None, limits=None, volume=vol, volume_slack=slack, nominal_volume=vol,
+                      reach=tiles.reach, max_error=0.0, data=tiles)
+
     # -- fuse ---------------------------------------------------------------------------
     def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
         fr: PlaneFrame = placement.data
+        if not isinstance(relief.data, PlaneRelief):  # made in tiles
+            return self._fuse_tiled(fr, placement, relief, options)
         r: PlaneRelief = relief.data
         options.report(0.4, f"fusing {r.slab.num_triangles} texture triangles onto the part")
         how, stitched = "manifold3d", None
@@ -316,6 +373,20 @@ class PlaneAdapter(Adapter):
         return Fused(self._world(fused_local, fr), placement.base, info, PlaneFused(fused_local, stitched))
 
     @staticmethod
+    def _fuse_tiled(fr: PlaneFrame, placement: Placement, relief: Relief, options: Options) -> Fused:
+        from .tiled_faces import TiledFaceMesh
+
+        g = relief.data.grid
+        options.report(0.45, f"{g.count} tile(s) of up to {g.tile} x {g.tile} nodes")
+        told = lambda f, m: options.report(0.92 + 0.07 * f, f"checking the result (texcad's gate): {m}")  # noqa: E731
+        info = {
+            "face": "plane", "origin": fr.origin.tolist(), "xdir": fr.axes[0].tolist(), "ydir": fr.axes[1].tolist(),
+            "normal": fr.axes[2].tolist(), "grid": tuple(g.shape), "obstructed": False, "fuse": "tiled",
+            "tiles": g.count, "tile": int(g.tile), "tolerance": 0.0, "pitch": float(g.pitch[0]),
+        }
+        return Fused(TiledFaceMesh(relief.data, progress=told), placement.base, info)
+
+    @staticmethod
     def _world(m: Mesh, fr: PlaneFrame) -> Mesh:
         v = np.einsum("ij,jk->ik", m.vertices.astype(np.float64), fr.axes) + fr.origin  # 6 x faster than @ here
         out = Mesh(v.astype(np.float32), m.faces)
@@ -328,6 +399,9 @@ class PlaneAdapter(Adapter):
         plane consistently this way round); a stitched relief is that already."""
         fr: PlaneFrame = stages.placement.data
         f: PlaneFused = stages.fused.data
+        if f is None:  # made in tiles
+            raise GeometryError("a face textured in tiles keeps no separate texture body (it does not fit in memory); "
+                                "write the part's STL or 3MF, or use a coarser pitch")
         return self._world(f.stitched or welded_mesh(to_manifold(f.local) - to_manifold(fr.base_local)), fr)
 
     def max_error(self, stages: Stages) -> float:
@@ -338,6 +412,9 @@ class PlaneAdapter(Adapter):
     def brep(self, stages: Stages, fine: Any = None) -> Any:
         if not stages.options.brep:
             raise GeometryError("textured with brep=False; texture it again with brep=True for STEP")
+        if not isinstance(stages.relief.data, PlaneRelief):  # made in tiles (tileplane's hook)
+            raise GeometryError("a face textured in tiles has no B-rep (it does not fit in memory); write STL or 3MF, "
+                                "or use a coarser pitch for STEP")
         fr: PlaneFrame = stages.placement.data
         r: PlaneRelief = stages.relief.data
         return textured_plane_solid(stages.placement.topo, fr.face, r.h, r.xs, r.ys, origin=fr.origin, xdir=fr.axes[0],
