@@ -556,9 +556,10 @@ def sample_segments(segs: np.ndarray, spacing: float) -> np.ndarray:
 
 
 # -- booleans and checks ----------------------------------------------------------------------
-def occt_boolean(shape: Any, tool: Any, op: str = "fuse", *, parallel: bool = True):
+def occt_boolean(shape: Any, tool: Any, op: str = "fuse", *, parallel: bool = True, maker: bool = False):
     """OCCT's general boolean (``BRepAlgoAPI_Cut`` / ``_Fuse`` / ``_Common``) of two
-    shapes: the one place texcad calls it.
+    shapes: the one place texcad calls it. ``maker``: return ``(shape, algorithm)``,
+    the algorithm for its history (``Modified``, ``IsDeleted``).
 
     Raises:
         ParameterError: unknown ``op``.
@@ -580,7 +581,7 @@ def occt_boolean(shape: Any, tool: Any, op: str = "fuse", *, parallel: bool = Tr
     algo.Build()
     if not algo.IsDone():
         raise GeometryError(f"OCCT's {op} of the textured B-rep failed; the mesh (STL/3MF) is still valid")
-    return algo.Shape()
+    return (algo.Shape(), algo) if maker else algo.Shape()
 
 
 def fuse_solids(base: Any, tool: Any, *, parallel: bool = True, solids: int = 1):

@@ -41,6 +41,7 @@ from ..errors import GeometryError, ParameterError
 from ..solid import Mesh, from_manifold, to_manifold
 from ..solid.boolean import welded_mesh
 from ..brep.occt import matrix_of
+from ..brep.uvfaces import uv_face_pairs, uv_retextured_solid
 from ..brep import FINE, occt_boolean, check_shape, shape_to_mesh, to_topods, transformed_shape, volume
 
 __all__ = ["cad_op", "fillet", "mirror", "pattern", "OPS", "OP_VOLUME_TOLERANCE"]
@@ -121,8 +122,9 @@ def _history(part: Any) -> dict:
         o, ex, ey, pitch = info["fine_frame"]
         frame = (np.asarray(o), np.asarray(ex), np.asarray(ey), float(pitch))
     make = part.brep if frame is not None else None
+    uv = uv_face_pairs(part.base_shape, unplaced) if make is None and part.base_shape is not None else None
     return {"make": make, "shape": unplaced, "steps": [], "to_world": np.eye(3, 4), "frame": frame, "base": part.base_shape,
-            "offset": _offset(part, shape)}
+            "offset": _offset(part, shape), "uv": uv}
 
 
 def _offset(part: Any, shape) -> float:
@@ -184,6 +186,36 @@ def _replay(hist: dict, cells: int | None = None):
     return shape
 
 
+def _uv_replay(hist: dict):
+    """The B-rep of a history whose textured faces lie on their own ``(u, v)``
+    (:func:`texcad.brep.uvfaces.uv_face_pairs`), as parametric CAD makes it: the
+    operations on the plain part, each textured face followed through OCCT's history
+    (``Modified``, ``IsDeleted``), and the texture put again on what is left of it
+    (:func:`texcad.brep.uvfaces.uv_retextured_solid`: a hole's wall stays plain)."""
+    shape = hist["base"]
+    pieces = [[face] for face, _, _ in hist["uv"]]
+    for step in hist["steps"]:  # one per operation so far
+        if step["op"] == "fillet":
+            shape, algo = _occt_fillet(shape, step["edges"], step["radius"], maker=True)
+        else:
+            shape, algo = occt_boolean(shape, step["tool"], step["op"], maker=True)
+        followed = []
+        for faces in pieces:  # one per textured face
+            now = []
+            for f in faces:  # the pieces so far
+                if not algo.IsDeleted(f):
+                    mods = _listed(algo.Modified(f))
+                    now += mods if mods else [f]
+            followed.append(now)
+        pieces = followed
+    return uv_retextured_solid(shape, [(p, tex, grid) for p, (_, tex, grid) in zip(pieces, hist["uv"])])
+
+
+def _listed(shapes) -> list:
+    """A ``TopTools_ListOfShape`` as a Python list."""
+    return list(shapes)
+
+
 # -- OCCT --------------------------------------------------------------------------------------
 def _edge_mids(edges) -> np.ndarray:
     """``(n, 3)`` mid-points (mm) of edges, at their mid parameter."""
@@ -221,7 +253,9 @@ def _find_edges(shape, mids: np.ndarray, tol: float = 1e-4) -> list:
     return found
 
 
-def _occt_fillet(shape, mids: np.ndarray, radius: float):
+def _occt_fillet(shape, mids: np.ndarray, radius: float, maker: bool = False):
+    """``shape`` with the edges at ``mids`` rounded (``maker``: and OCCT's fillet
+    algorithm, for its history)."""
     from OCP.BRepFilletAPI import BRepFilletAPI_MakeFillet
 
     mk = BRepFilletAPI_MakeFillet(shape)
@@ -237,7 +271,7 @@ def _occt_fillet(shape, mids: np.ndarray, radius: float):
             f"OCCT cannot fillet these edges with r = {radius:g} mm; use a smaller radius or edges away from the "
             "texture (fillet the part before texturing it)"
         )
-    return mk.Shape()
+    return (mk.Shape(), mk) if maker else mk.Shape()
 
 
 def _checked(shape, mesh: Mesh, op: str, bodies: int, info: dict | None = None, offset: float = 0.0):
@@ -263,6 +297,19 @@ def _checked(shape, mesh: Mesh, op: str, bodies: int, info: dict | None = None, 
     if info is not None:
         info["brep_volume"] = vb
     return shape
+
+
+def _plain_first(hist: dict, world: np.ndarray, mesh: Mesh, op: str, bodies: int, info: dict):
+    """The checked B-rep of a history without fine tiles: faces on their own ``(u,
+    v)`` by :func:`_uv_replay` (the operations on the plain part), else - or if that
+    disagrees with the mesh - the operations replayed on the textured B-rep."""
+    offset = hist.get("offset", 0.0)
+    if hist.get("uv"):
+        try:
+            return _checked(_apply(_uv_replay(hist), world), mesh, op, bodies, info, offset)
+        except GeometryError:
+            pass  # the operations on the textured B-rep instead
+    return _checked(_apply(_replay(hist), world), mesh, op, bodies, info, offset)
 
 
 def _derived(part: Any, *, mesh, texture_mesh, base_mesh, shape, info, hist) -> Any:
@@ -324,7 +371,7 @@ def cad_op(part: Any, tool: Any, op: str) -> Any:
 
         def shape():
             if hist["make"] is None:
-                return _checked(_apply(_replay(hist), world), mesh, op, bodies, info, hist.get("offset", 0.0))
+                return _plain_first(hist, world, mesh, op, bodies, info)
             for k, cells in enumerate(FINE_TRIES):  # another tiling under the tool if OCCT got it wrong
                 try:
                     return _checked(_apply(_replay(hist, cells), world), mesh, op, bodies, info, hist.get("offset", 0.0))
@@ -374,7 +421,7 @@ def fillet(part: Any, edges: Sequence[Any], radius: float) -> Any:
     bodies = len(to_manifold(mesh).decompose())
 
     def shape():
-        return _checked(_apply(_replay(hist), world), mesh, "fillet", bodies, info, hist.get("offset", 0.0))
+        return _plain_first(hist, world, mesh, "fillet", bodies, info)
 
     info = _info(part, "fillet")
     return _derived(part, mesh=mesh, texture_mesh=tex, base_mesh=base_world, shape=shape, info=info, hist=hist)
