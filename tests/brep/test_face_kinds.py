@@ -106,7 +106,7 @@ def _kind(kind):
         return part, part.faces()[0], across, "raised"
     if base == "torus":
         part = Torus(12, 4)
-        return part, part.faces()[0], Pos(12, 0, 0) * Cylinder(1.5, 30), "raised"
+        return part, part.faces()[0], Pos(0, 12, 0) * Cylinder(1.5, 30), "raised"
     part, face = _revolved() if base == "revolved" else _bspline()
     return part, face, (Pos(0, 0, 6) * across if base == "revolved" else Cylinder(1.5, 30)), "raised"
 

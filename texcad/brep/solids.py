@@ -834,7 +834,7 @@ def _grid_face_flux(face, ref: np.ndarray) -> float | None:
     """
     info = _grid_face_info(face)
     if info is None:
-        return None
+        return _holed_grid_flux(face, ref)
     grid = info["grid"] - ref
     if info["kind"] == "natural":
         return info["sign"] * grid_flux(grid)
@@ -842,6 +842,46 @@ def _grid_face_flux(face, ref: np.ndarray) -> float | None:
     flat = grid - ((grid - point) @ nrm)[..., None] * nrm
     plane_part = _plane_flux(info["plane_face"], ref, 0.01 * info["extent"] / max(grid.shape))
     return info["sign"] * (plane_part + grid_flux(grid) - grid_flux(flat))
+
+
+def _holed_grid_flux(face, ref: np.ndarray) -> float | None:
+    """The share (mm^3) of a face on a degree-1 grid surface whose outer wire runs
+    along the surface's bounds and whose other wires are holes (a textured face a
+    tool drilled, :func:`texcad.brep.uvfaces.uv_retextured_solid`): the whole grid's
+    exact :func:`grid_flux` minus each hole's share, a face on the same surface
+    bounded by the hole's wire (OCCT's adaptive integration over the hole's small
+    ``(u, v)`` range instead of the whole face's: seconds -> milliseconds). None for
+    any other face."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.BRepTools import BRepTools
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED, TopAbs_WIRE
+    from OCP.TopoDS import TopoDS
+
+    surf = BRep_Tool.Surface_s(face)
+    got = surface_grid(surf)
+    if got is None or not face.Location().IsIdentity():
+        return None
+    grid, uk, vk = got
+    fwd = TopoDS.Face_s(face.Oriented(TopAbs_FORWARD))
+    outer = BRepTools.OuterWire_s(fwd)
+    u0, u1, v0, v1 = BRepTools.UVBounds_s(fwd)
+    span = max(uk[-1] - uk[0], vk[-1] - vk[0])
+    if outer.IsNull() or max(abs(u0 - uk[0]), abs(u1 - uk[-1]), abs(v0 - vk[0]), abs(v1 - vk[-1])) > 1e-9 * span:
+        return None
+    whole = TopoDS.Face_s(fwd.EmptyCopied())
+    BRep_Builder().Add(whole, outer)
+    if not _on_bounds(whole, uk, vk):
+        return None
+    total = grid_flux(grid - ref)
+    for w in explore(fwd, TopAbs_WIRE):  # the holes
+        if w.IsSame(outer):
+            continue
+        mk = BRepBuilderAPI_MakeFace(surf, TopoDS.Wire_s(w.Reversed()), True)
+        if not mk.IsDone():
+            return None
+        total -= _face_flux(mk.Face(), ref)
+    return (-1.0 if face.Orientation() == TopAbs_REVERSED else 1.0) * total
 
 
 def shape_mesh(shape: Any, *, tolerance: float = 0.05) -> "Mesh":
