@@ -141,6 +141,46 @@ def test_face_kind_step_and_hole(kind, tmp_path):
     assert abs(occt_volume(shape) - cut.volume) <= 1e-3 * cut.volume + abs(own)
 
 
+def _agree(result, own: float):
+    """``result.shape`` valid, one solid per body, within 0.1 % of its mesh (plus
+    ``own``, mm^3: what the textured part's B-rep is off its mesh)."""
+    shape = result.shape
+    chk = check_shape(shape)
+    assert chk["valid"]
+    assert abs(occt_volume(shape) - result.volume) <= 1e-3 * result.volume + abs(own)
+    return chk
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+@pytest.mark.parametrize("kind", ["cylinder", "cone"])
+def test_fillet_mirror_pattern_and_boss_on_curved_face(kind):
+    """A textured cylinder / cone on a square foot: fillet of the foot's upright
+    edges (untextured), a mirror, a pattern of two and a boss on the texture each
+    give a valid B-rep within 0.1 % of the same operation on the mesh."""
+    from build123d import Align, Axis, Box, Cone, Cylinder, GeomType, Pos
+
+    up = (Align.CENTER, Align.CENTER, Align.MIN)
+    body = Cylinder(8, 12, align=up) if kind == "cylinder" else Cone(10, 6, 12, align=up)
+    part = Box(24, 24, 3) + Pos(0, 0, 1.5) * body
+    face = part.faces().filter_by(GeomType.CYLINDER if kind == "cylinder" else GeomType.CONE)[0]
+    tx = texcad.texture(part, face, "builtin:stones", height=0.4, pitch=0.5)
+    own = occt_volume(tx.shape) - tx.volume
+    assert abs(own) <= 1e-3 * tx.volume
+    rounded = tx.fillet(tx.part.edges().filter_by(Axis.Z).group_by(Axis.X)[0], 1.0)
+    assert tx.volume - 2 < rounded.volume < tx.volume - 0.1  # two 1 mm fillets took material off
+    assert check_shape(rounded.shape)["solids"] == 1
+    _agree(rounded, own)
+    mirrored = tx.mirrored((20, 0, 0), (1, 0, 0))
+    assert mirrored.volume == pytest.approx(tx.volume, rel=1e-6) and mirrored.mesh.vertices[:, 0].min() > 15
+    _agree(mirrored, own)
+    two = tx.patterned([Pos(0, 0, 0), Pos(40, 0, 0)])
+    assert check_shape(two.shape)["solids"] == 2
+    _agree(two, 2 * own)
+    boss = tx + Pos(0, 0, 14) * Box(4, 4, 4)  # into the top, off the texture
+    assert boss.volume > tx.volume + 10
+    _agree(boss, own)
+
+
 def test_chained_result_says_why_no_brep():
     """Texturing a face of an earlier result (chained): the mesh holds both textures;
     ``.shape`` raises a GeometryError that says the result is chained and names the

@@ -14,9 +14,10 @@
   replayed on it. If OCCT's result still disagrees with the mesh, the B-rep is made
   again with another tile size under the tool (:data:`FINE_TRIES`) before
   ``GeometryError`` is raised.
-* :func:`fillet` (``Textured.fillet``): OCCT's fillet of the textured B-rep; the mesh
-  is the filleted *untextured* part (OCCT, tessellated at 5 um) united with the
-  texture mesh (manifold3d).
+* :func:`fillet` (``Textured.fillet``): OCCT's fillet of the textured B-rep (faces
+  on their own ``(u, v)``: of the plain part, textured again); the mesh is the
+  textured mesh with what the fillet takes off the *untextured* part cut away and what
+  it adds united (OCCT's exact difference, tessellated at 5 um; manifold3d).
 * :func:`mirror` (``Textured.mirrored``): meshes and B-rep mirrored about a plane.
 * :func:`pattern` (``Textured.patterned``): copies at a list of placements (a linear
   or polar pattern), which must not overlap: the meshes side by side, the B-rep a
@@ -41,6 +42,7 @@ from ..errors import GeometryError, ParameterError
 from ..solid import Mesh, from_manifold, to_manifold
 from ..solid.boolean import welded_mesh
 from ..brep.occt import matrix_of
+from ..brep.occt import solids_of
 from ..brep.uvfaces import uv_face_pairs, uv_retextured_solid
 from ..brep import FINE, occt_boolean, check_shape, shape_to_mesh, to_topods, transformed_shape, volume
 
@@ -387,17 +389,17 @@ def fillet(part: Any, edges: Sequence[Any], radius: float) -> Any:
     """``part`` with ``edges`` rounded to ``radius`` mm (edges of the body away from
     the texture, chosen from ``textured.part.edges()`` or from the original part).
 
-    The B-rep is OCCT's fillet of the textured B-rep; the mesh is OCCT's fillet of the
-    *untextured* part (the operations made so far replayed on it), tessellated at
-    :data:`TOOL_TOLERANCE` mm and united (manifold3d) with the texture mesh. They must
+    The B-rep is OCCT's fillet of the textured B-rep (or, for faces on their own ``(u,
+    v)``, of the plain part, textured again); the mesh is the textured mesh changed by
+    what OCCT's fillet changes on the *untextured* part (the operations made so far
+    replayed on it): the material taken off cut away, any added united, each
+    tessellated at :data:`TOOL_TOLERANCE` mm (:func:`_fillet_change`). They must
     agree (valid, same number of solids, volume within :data:`OP_VOLUME_TOLERANCE`).
 
     Raises:
         ParameterError: no edges, a non-positive radius, or an edge not on the part.
         GeometryError: OCCT cannot make the fillet, or the results disagree.
     """
-    from ..solid import fuse
-
     if not (isinstance(radius, (int, float)) and np.isfinite(radius) and radius > 0):
         raise ParameterError(f"the fillet radius must be a positive number of mm, got {radius!r}")
     edge_list = [edges] if hasattr(edges, "wrapped") and not hasattr(edges, "__len__") else list(edges)
@@ -414,17 +416,36 @@ def fillet(part: Any, edges: Sequence[Any], radius: float) -> Any:
     base = hist["base"]
     for st in hist_src["steps"]:  # the operations so far, on the untextured part
         base = occt_boolean(base, st["tool"], st["op"]) if st["op"] != "fillet" else _occt_fillet(base, st["edges"], st["radius"])
-    base = _occt_fillet(base, mids, radius)
-    base_world = shape_to_mesh(_apply(base, world), tolerance=TOOL_TOLERANCE)
-    tex = part.texture_mesh
-    mesh = fuse(base_world, tex)
+    change = _fillet_change(base, _occt_fillet(base, mids, radius), world)
+    mesh = _changed(part.mesh, change)
     bodies = len(to_manifold(mesh).decompose())
 
     def shape():
         return _plain_first(hist, world, mesh, "fillet", bodies, info)
 
     info = _info(part, "fillet")
-    return _derived(part, mesh=mesh, texture_mesh=tex, base_mesh=base_world, shape=shape, info=info, hist=hist)
+    return _derived(part, mesh=mesh, texture_mesh=lambda: part.texture_mesh, base_mesh=lambda: _changed(part.base_mesh, change),
+                    shape=shape, info=info, hist=hist)
+
+
+def _fillet_change(before, after, world: np.ndarray) -> list:
+    """What a fillet changed on the plain part, ``[(mesh, "cut" | "fuse"), ...]`` in
+    the world (mm): the material it took off (``before - after``, OCCT, exact on the
+    plain part) and what it added (a concave edge), tessellated at
+    :data:`TOOL_TOLERANCE`."""
+    out = []
+    for a, b, op in ((before, after, "cut"), (after, before, "fuse")):  # taken off, added
+        piece = occt_boolean(a, b, "cut")
+        if solids_of(piece) and abs(volume(piece)) > 1e-9:
+            out.append((shape_to_mesh(_apply(piece, world), tolerance=TOOL_TOLERANCE), op))
+    return out
+
+
+def _changed(mesh: Mesh, change: list) -> Mesh:
+    """``mesh`` with a fillet's change (:func:`_fillet_change`) applied (manifold3d)."""
+    for piece, op in change:  # taken off, then added
+        mesh = _mesh_op(mesh, piece, op)
+    return mesh
 
 
 def _mirror_matrix(origin: Sequence[float], normal: Sequence[float]) -> np.ndarray:
