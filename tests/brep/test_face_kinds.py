@@ -111,8 +111,54 @@ def _kind(kind):
     return part, face, (Pos(0, 0, 6) * across if base == "revolved" else Cylinder(1.5, 30)), "raised"
 
 
+def _occt_meshes_closed(shape) -> bool:
+    """OCCT's mesher (``BRepMesh_IncrementalMesh``, 0.05 mm, 0.3 rad) gives every face
+    a triangulation, and every edge of two faces the same nodes on both (the mesh is
+    closed: no crack along any edge; a texture wall of zero height at a corner gives
+    triangles of no area, which a weld by position would drop)."""
+    import numpy as np
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    BRepMesh_IncrementalMesh(shape, 0.05, False, 0.3, True)
+    owners = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, owners)
+    for i in range(1, owners.Extent() + 1):  # one per edge
+        edge = TopoDS.Edge_s(owners.FindKey(i))
+        faces = [TopoDS.Face_s(f) for f in owners.FindFromIndex(i)]
+        if BRep_Tool.Degenerated_s(edge):
+            continue
+        if len(faces) != 2:
+            return False  # a free edge: the shell is open
+        if faces[0].IsSame(faces[1]):  # a seam: both sides on one face
+            faces = faces[:1]
+        nodes = []
+        for f in faces:  # the faces along it
+            loc = TopLoc_Location()
+            tri = BRep_Tool.Triangulation_s(f, loc)
+            if tri is None:
+                return False
+            poly = BRep_Tool.PolygonOnTriangulation_s(edge, tri, loc)
+            if poly is None:
+                return False
+            nodes.append(np.array([tri.Node(poly.Node(k)).Transformed(loc.Transformation()).Coord()
+                                   for k in range(1, poly.NbNodes() + 1)]))  # fmt: skip
+        if len(nodes) == 2 and not (nodes[0].shape == nodes[1].shape and np.allclose(nodes[0], nodes[1], rtol=0, atol=1e-9)):
+            return False
+    return True
+
+
 KINDS = ["plane", "cylinder", "partial", "cone", "sphere", "torus", "revolved", "bspline", "plane_engraved",
-         "plane_centred", "cylinder_engraved", "cylinder_centred"]
+         # the mesh keeps its 20 um floor out to the outline where the B-rep's planar rim stays at the face
+         # (about 1.2 mm of it): 2.4 mm3, 0.15 % of this 20 x 20 x 4 mm box, so its B-rep is refused
+         pytest.param("plane_centred", marks=pytest.mark.xfail(strict=True, raises=texcad.TexcadError,
+                                                                reason="planar rim vs the mesh's 20 um floor")),
+         "cylinder_engraved", "cylinder_centred"]
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")
@@ -122,8 +168,6 @@ def test_face_kind_step_and_hole(kind, tmp_path):
     solid whose OCCT volume (eps 1e-4) is within 0.1 % of the mesh's and which OCCT
     meshes closed; a 3 mm hole through the texture gives a valid one-solid B-rep within
     0.1 % of the same cut on the mesh (plus what the textured B-rep itself is off)."""
-    from texcad.brep import shape_to_mesh
-
     part, face, tool, mode = _kind(kind)
     tx = texcad.texture(part, face, "builtin:stones", height=0.4, pitch=0.5, mode=mode)
     tx.export(tmp_path / "part.step")
@@ -132,7 +176,7 @@ def test_face_kind_step_and_hole(kind, tmp_path):
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
     own = occt_volume(back) - tx.volume
     assert abs(own) <= 1e-3 * tx.volume
-    assert shape_to_mesh(back, tolerance=0.05, angular_tolerance=0.3).is_watertight  # OCCT meshes it closed
+    assert _occt_meshes_closed(back)
     cut = tx - tool
     assert cut.volume < tx.volume - 20  # the hole went through the textured wall
     shape = cut.shape  # checked by ops: valid, one solid, volume against the mesh
