@@ -112,7 +112,7 @@ def _kind(kind):
 
 
 def _occt_meshes_closed(shape) -> bool:
-    """OCCT's mesher (``BRepMesh_IncrementalMesh``, 0.05 mm, 0.3 rad) gives every face
+    """OCCT's mesher (``BRepMesh_IncrementalMesh``, 0.1 mm, 0.5 rad) gives every face
     a triangulation, and every edge of two faces the same nodes on both (the mesh is
     closed: no crack along any edge; a texture wall of zero height at a corner gives
     triangles of no area, which a weld by position would drop)."""
@@ -125,7 +125,7 @@ def _occt_meshes_closed(shape) -> bool:
     from OCP.TopoDS import TopoDS
     from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
 
-    BRepMesh_IncrementalMesh(shape, 0.05, False, 0.3, True)
+    BRepMesh_IncrementalMesh(shape, 0.1, False, 0.5, True)
     owners = TopTools_IndexedDataMapOfShapeListOfShape()
     TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, owners)
     for i in range(1, owners.Extent() + 1):  # one per edge

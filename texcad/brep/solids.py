@@ -877,11 +877,44 @@ def _holed_grid_flux(face, ref: np.ndarray) -> float | None:
     for w in explore(fwd, TopAbs_WIRE):  # the holes
         if w.IsSame(outer):
             continue
-        mk = BRepBuilderAPI_MakeFace(surf, TopoDS.Wire_s(w.Reversed()), True)
-        if not mk.IsDone():
+        hole = _hole_face(fwd, surf, TopoDS.Wire_s(w), uk, vk)
+        if hole is None:
             return None
-        total -= _face_flux(mk.Face(), ref)
+        total -= _face_flux(hole, ref)
     return (-1.0 if face.Orientation() == TopAbs_REVERSED else 1.0) * total
+
+
+def _hole_face(fwd, surf, wire, uk: np.ndarray, vk: np.ndarray):
+    """The part of ``fwd``'s grid surface inside a hole ``wire`` of it, as a face on
+    the surface cut down to the knot spans around the hole (the same parameters:
+    OCCT's integration then runs over those spans, not the whole face's), bounded by
+    a copy of the wire (its pcurves on ``fwd``); None if OCCT cannot make it."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Copy, BRepBuilderAPI_MakeFace
+    from OCP.BRepTools import BRepTools
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopoDS import TopoDS, TopoDS_Face
+
+    mk = BRepBuilderAPI_MakeFace(surf, TopoDS.Wire_s(wire.Reversed()), True)
+    if not mk.IsDone():
+        return None
+    a0, a1, b0, b1 = BRepTools.UVBounds_s(mk.Face())
+    i0, i1 = max(int(np.searchsorted(uk, a0, side="right")) - 2, 0), min(int(np.searchsorted(uk, a1)) + 1, len(uk) - 1)
+    j0, j1 = max(int(np.searchsorted(vk, b0, side="right")) - 2, 0), min(int(np.searchsorted(vk, b1)) + 1, len(vk) - 1)
+    sub = surf.Copy()  # a Geom_BSplineSurface (OCP gives the dynamic type)
+    sub.Segment(float(uk[i0]), float(uk[i1]), float(vk[j0]), float(vk[j1]))
+    copy = TopoDS.Wire_s(BRepBuilderAPI_Copy(wire, False, False).Shape())
+    b = BRep_Builder()
+    for old, new in zip(explore(wire, TopAbs_EDGE), explore(copy, TopAbs_EDGE)):  # one per edge of the hole
+        e_old, e_new = TopoDS.Edge_s(old), TopoDS.Edge_s(new)
+        pc = BRep_Tool.CurveOnSurface_s(e_old, fwd, 0.0, 0.0)
+        if pc is None:
+            return None
+        b.UpdateEdge(e_new, pc, sub, fwd.Location(), BRep_Tool.Tolerance_s(e_old))
+    f = TopoDS_Face()
+    b.MakeFace(f, sub, TOLERANCE)
+    b.Add(f, copy.Reversed())
+    return f
 
 
 def shape_mesh(shape: Any, *, tolerance: float = 0.05) -> "Mesh":
