@@ -225,6 +225,30 @@ def test_fillet_mirror_pattern_and_boss_on_curved_face(kind):
     _agree(boss, own)
 
 
+@pytest.mark.filterwarnings("ignore::UserWarning")
+@pytest.mark.parametrize("kind", ["torus", "bspline"])
+def test_plain_part_first_takes_big_cuts(kind, monkeypatch):
+    """The operation made on the plain part and the texture put again (OCCT's boolean
+    of the textured B-rep switched off): half a textured torus cut off along its seam
+    (the cut's edge is the old seam, with its two pcurves, used once), a slot through
+    a B-spline face: valid, one solid, within 0.1 % of the mesh."""
+    from build123d import Box, Pos
+
+    from texcad.pipeline import ops
+
+    def no_boolean(*args, **kwargs):
+        raise texcad.GeometryError("the boolean of the textured B-rep was used")
+
+    monkeypatch.setattr(ops, "_replay", no_boolean)
+    part, face, _, mode = _kind(kind)
+    tx = texcad.texture(part, face, "builtin:stones", height=0.4, pitch=0.5, mode=mode)
+    own = occt_volume(tx.shape) - tx.volume
+    cut = tx - (Pos(0, 20, 0) * Box(40, 40, 20) if kind == "torus" else Box(4, 12, 20))
+    assert cut.volume < tx.volume - 200
+    chk = _agree(cut, own)
+    assert check_shape(cut.shape)["solids"] == 1 and chk["closed"]
+
+
 def test_chained_result_says_why_no_brep():
     """Texturing a face of an earlier result (chained): the mesh holds both textures;
     ``.shape`` raises a GeometryError that says the result is chained and names the

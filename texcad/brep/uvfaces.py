@@ -199,6 +199,15 @@ def _seam_edge(b, e, fwd, surf, u, v, top):
     return ne, lines[0], lines[1], up
 
 
+def _used_twice(face, edge) -> bool:
+    """A seam of ``face``: ``edge`` is in its wires twice (both ways). An edge may
+    carry two pcurves on a periodic surface (``BRep_Tool::IsClosed``) and be used once:
+    a cut exactly along the old seam leaves such an edge on the face's border."""
+    from OCP.TopAbs import TopAbs_EDGE
+
+    return sum(1 for e in explore(face, TopAbs_EDGE) if e.IsSame(edge)) > 1
+
+
 def _new_face(face, u, v, top, keep_seam: bool = False):
     """The textured face replacing ``face`` (same wires, same orientation; a new seam
     edge on a closed face unless ``keep_seam``: its rows are then the face itself)."""
@@ -221,7 +230,7 @@ def _new_face(face, u, v, top, keep_seam: bool = False):
         eit = TopoDS_Iterator(wit.Value())
         while eit.More():  # one per edge of the wire
             e = TopoDS.Edge_s(eit.Value())
-            if not keep_seam and BRep_Tool.IsClosed_s(e, fwd) and _u_seam(e, fwd, u):  # the seam: the lifted row at u0 (u1 the same points)
+            if not keep_seam and _used_twice(fwd, e) and _u_seam(e, fwd, u):  # the seam: the lifted row at u0 (u1 the same points)
                 key = next((k for k in seams if k.IsSame(e)), None)
                 if key is None:
                     seams[e] = _seam_edge(b, e, fwd, surf, u, v, top)
@@ -238,7 +247,7 @@ def _new_face(face, u, v, top, keep_seam: bool = False):
         b.Add(new, w)
     for e in explore(fwd, TopAbs_EDGE):  # the kept edges: pcurves on the new surface, tolerance
         edge = TopoDS.Edge_s(e)
-        if BRep_Tool.IsClosed_s(edge, fwd):
+        if _used_twice(fwd, edge):
             if not keep_seam and _u_seam(edge, fwd, u):
                 continue
             c1 = BRep_Tool.CurveOnSurface_s(TopoDS.Edge_s(edge.Oriented(TopAbs_FORWARD)), fwd, 0.0, 0.0)
@@ -1050,7 +1059,7 @@ def _plain_near(face, textured, u: np.ndarray, v: np.ndarray, top: np.ndarray) -
         edge = TopoDS.Edge_s(e)
         if BRep_Tool.Degenerated_s(edge) or any(edge.IsSame(o) for o in own):
             continue
-        if BRep_Tool.IsClosed_s(edge, fwd) and _u_seam(edge, fwd, u):
+        if _used_twice(fwd, edge) and _u_seam(edge, fwd, u):
             c2 = BRepAdaptor_Curve2d(edge, fwd)
             seam_cut |= abs(c2.Value(c2.LastParameter()).Y() - c2.Value(c2.FirstParameter()).Y()) < span * (1 - 1e-9)
             continue
