@@ -16,6 +16,11 @@ and on a closed face the seam edge is replaced by the lifted seam row (the textu
 runs on across it). The face carries its grid's triangulation (texcad's mesh, two
 triangles per cell), which OCCT's mesher and texcad's STEP writer keep.
 
+CAD operations on such a face (:mod:`texcad.pipeline.ops`) are made on the plain part
+and the texture is put again on what is left of the face (:func:`uv_face_pairs`,
+:func:`uv_retextured_solid`): the same poles, the relief taken off where the
+operation's edges cross it.
+
 Faces this does not apply to (several faces flattened together, trimmed faces whose
 outline is not the UV rectangle, an invalid grid point) raise ``GeometryError``
 saying so; the meshes (STL, 3MF) are unaffected.
@@ -54,7 +59,8 @@ from .solids import (
 )
 from .occt import explore, to_topods
 
-__all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid", "textured_plane_solid"]
+__all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid", "textured_plane_solid",
+           "uv_face_pairs", "uv_retextured_solid"]
 
 
 def _surface_rows(face, u: np.ndarray, v: np.ndarray):

@@ -14,6 +14,12 @@
   replayed on it. If OCCT's result still disagrees with the mesh, the B-rep is made
   again with another tile size under the tool (:data:`FINE_TRIES`) before
   ``GeometryError`` is raised.
+  A single curved face textured on its own ``(u, v)`` (cone, sphere, torus, revolved,
+  B-spline; :func:`texcad.brep.uv_textured_solid`) is one large face instead, whose
+  boolean OCCT misses (a textured torus kept the hole's material): there the
+  operations are made on the *plain* part, the face followed through OCCT's history
+  and textured again (:func:`_uv_replay`; the hole's wall stays plain), and OCCT's
+  boolean of the textured B-rep is tried only if that disagrees with the mesh.
 * :func:`fillet` (``Textured.fillet``): OCCT's fillet of the textured B-rep (faces
   on their own ``(u, v)``: of the plain part, textured again); the mesh is the
   textured mesh with what the fillet takes off the *untextured* part cut away and what
