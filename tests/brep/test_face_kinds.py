@@ -62,56 +62,191 @@ def test_cylinder_part_volume():
     _check(texcad.texture(cyl, side, "builtin:stones", height=0.6, pitch=0.5))
 
 
-def _drilled(part, face, tool, tmp_path):
-    """Texture ``face`` (stones 0.4 mm at 0.5 mm), write its STEP and read it back (one
-    valid solid within 0.1 % of the mesh), then drill ``tool`` through the texture."""
-    from texcad.brep import shape_to_mesh
+def _revolved():
+    """A solid of revolution whose side is a spline profile turned about z."""
+    from build123d import Axis, BuildLine, BuildPart, BuildSketch, GeomType, Plane, Polyline, Spline, make_face, revolve
 
-    tx = texcad.texture(part, face, "builtin:stones", height=0.4, pitch=0.5)
-    slack = tx.info.get("volume_slack", 0.0)
-    tx.export(tmp_path / "part.step")
-    back = texcad.io.read_step(tmp_path / "part.step")
-    chk = check_shape(back)
-    assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
-    assert abs(occt_volume(back) - tx.volume) <= 1e-3 * tx.volume + slack
-    assert shape_to_mesh(back, tolerance=0.1, angular_tolerance=0.5).is_watertight  # OCCT meshes it closed
-    return tx, tx - tool
+    with BuildPart() as bp:
+        with BuildSketch(Plane.XZ):
+            with BuildLine():
+                Spline((6, 0), (8, 4), (6.5, 8), (7, 12))
+                Polyline((7, 12), (0, 12), (0, 0), (6, 0))
+            make_face()
+        revolve(axis=Axis.Z)
+    return bp.part, bp.part.faces().filter_by(GeomType.REVOLUTION)[0]
+
+
+def _bspline():
+    """A B-spline sheet (5 x 5 points) thickened to 4 mm; its B-spline face."""
+    import numpy as np
+    from build123d import Face, GeomType, Solid
+
+    pts = [[(x, y, 1.5 * np.sin(x / 6) * np.cos(y / 7)) for y in np.linspace(-10, 10, 5)] for x in np.linspace(-10, 10, 5)]
+    part = Solid.thicken(Face.make_surface_from_array_of_points(pts), 4)
+    return part, max(part.faces().filter_by(GeomType.BSPLINE), key=lambda f: f.area)
+
+
+def _kind(kind):
+    """``(part, face, 3 mm drill through the textured region, mode)`` of a face kind."""
+    from build123d import Axis, Box, Cone, Cylinder, GeomType, Pos, Rot, Sphere, Torus
+
+    base, _, mode = kind.partition("_")
+    across = Rot(0, 90, 0) * Cylinder(1.5, 40)  # along x through the axis
+    if base == "plane":
+        part = Box(20, 20, 4)
+        return part, part.faces().sort_by(Axis.Z)[-1], Cylinder(1.5, 30), mode or "raised"
+    if base in ("cylinder", "partial"):
+        part = Cylinder(8, 12, arc_size=180 if base == "partial" else 360)
+        return part, part.faces().filter_by(GeomType.CYLINDER)[0], Rot(90, 0, 0) * Cylinder(1.5, 40), mode or "raised"
+    if base == "cone":
+        part = Cone(10, 6, 12)
+        return part, part.faces().filter_by(GeomType.CONE)[0], across, "raised"
+    if base == "sphere":
+        part = Sphere(10)
+        return part, part.faces()[0], across, "raised"
+    if base == "torus":
+        part = Torus(12, 4)
+        return part, part.faces()[0], Pos(0, 12, 0) * Cylinder(1.5, 30), "raised"
+    part, face = _revolved() if base == "revolved" else _bspline()
+    return part, face, (Pos(0, 0, 6) * across if base == "revolved" else Cylinder(1.5, 30)), "raised"
+
+
+def _occt_meshes_closed(shape) -> bool:
+    """OCCT's mesher (``BRepMesh_IncrementalMesh``, 0.1 mm, 0.5 rad) gives every face
+    a triangulation, and every edge of two faces the same nodes on both (the mesh is
+    closed: no crack along any edge; a texture wall of zero height at a corner gives
+    triangles of no area, which a weld by position would drop)."""
+    import numpy as np
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    BRepMesh_IncrementalMesh(shape, 0.1, False, 0.5, True)
+    owners = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, owners)
+    for i in range(1, owners.Extent() + 1):  # one per edge
+        edge = TopoDS.Edge_s(owners.FindKey(i))
+        faces = [TopoDS.Face_s(f) for f in owners.FindFromIndex(i)]
+        if BRep_Tool.Degenerated_s(edge):
+            continue
+        if len(faces) != 2:
+            return False  # a free edge: the shell is open
+        if faces[0].IsSame(faces[1]):  # a seam: both sides on one face
+            faces = faces[:1]
+        nodes = []
+        for f in faces:  # the faces along it
+            loc = TopLoc_Location()
+            tri = BRep_Tool.Triangulation_s(f, loc)
+            if tri is None:
+                return False
+            poly = BRep_Tool.PolygonOnTriangulation_s(edge, tri, loc)
+            if poly is None:
+                return False
+            nodes.append(np.array([tri.Node(poly.Node(k)).Transformed(loc.Transformation()).Coord()
+                                   for k in range(1, poly.NbNodes() + 1)]))  # fmt: skip
+        if len(nodes) == 2 and not (nodes[0].shape == nodes[1].shape and np.allclose(nodes[0], nodes[1], rtol=0, atol=1e-9)):
+            return False
+    return True
+
+
+KINDS = ["plane", "cylinder", "partial", "cone", "sphere", "torus", "revolved", "bspline", "plane_engraved",
+         # the mesh keeps its 20 um floor out to the outline where the B-rep's planar rim stays at the face
+         # (about 1.2 mm of it): 2.4 mm3, 0.15 % of this 20 x 20 x 4 mm box, so its B-rep is refused
+         pytest.param("plane_centred", marks=pytest.mark.xfail(strict=True, raises=texcad.TexcadError,
+                                                                reason="planar rim vs the mesh's 20 um floor")),
+         "cylinder_engraved", "cylinder_centred"]
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")
-@pytest.mark.parametrize("kind", ["cone", "sphere"])
-def test_hole_through_curved_face(kind, tmp_path):
-    """A 3 mm hole through a textured cone / sphere: a valid B-rep (one solid) within
-    0.1 % of the same cut on the mesh, which removed material."""
-    from build123d import Cone, Cylinder, GeomType, Rot, Sphere
-
-    part = Cone(10, 6, 12) if kind == "cone" else Sphere(10)
-    face = part.faces().filter_by(GeomType.CONE)[0] if kind == "cone" else part.faces()[0]
-    tx, cut = _drilled(part, face, Rot(0, 90, 0) * Cylinder(1.5, 30), tmp_path)
-    assert cut.volume < tx.volume - 50  # two 3 mm holes through the wall
+@pytest.mark.parametrize("kind", KINDS)
+def test_face_kind_step_and_hole(kind, tmp_path):
+    """Every single face kind (stones 0.4 mm at 0.5 mm): the STEP re-read is one valid
+    solid whose OCCT volume (eps 1e-4) is within 0.1 % of the mesh's and which OCCT
+    meshes closed; a 3 mm hole through the texture gives a valid one-solid B-rep within
+    0.1 % of the same cut on the mesh (plus what the textured B-rep itself is off)."""
+    part, face, tool, mode = _kind(kind)
+    tx = texcad.texture(part, face, "builtin:stones", height=0.4, pitch=0.5, mode=mode)
+    tx.export(tmp_path / "part.step")
+    back = flat_solids(texcad.io.read_step(tmp_path / "part.step"))
+    chk = check_shape(back)
+    assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
+    own = occt_volume(back) - tx.volume
+    assert abs(own) <= 1e-3 * tx.volume
+    assert _occt_meshes_closed(back)
+    cut = tx - tool
+    assert cut.volume < tx.volume - 20  # the hole went through the textured wall
     shape = cut.shape  # checked by ops: valid, one solid, volume against the mesh
     chk = check_shape(shape)
     assert chk["valid"] and chk["solids"] == 1
-    assert abs(occt_volume(shape) - cut.volume) <= 1e-3 * cut.volume + cut.info.get("volume_slack", 0.0)
+    assert abs(occt_volume(shape) - cut.volume) <= 1e-3 * cut.volume + abs(own)
+
+
+def _agree(result, own: float):
+    """``result.shape`` valid, one solid per body, within 0.1 % of its mesh (plus
+    ``own``, mm^3: what the textured part's B-rep is off its mesh)."""
+    shape = result.shape
+    chk = check_shape(shape)
+    assert chk["valid"]
+    assert abs(occt_volume(shape) - result.volume) <= 1e-3 * result.volume + abs(own)
+    return chk
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")
-def test_hole_through_torus_says_which_face(tmp_path):
-    """Where OCCT's cut of a textured torus misses the hole, ``.shape`` raises a
-    GeometryError naming the face kind and STL/3MF; the mesh result is there."""
-    from build123d import Cylinder, Pos, Torus
+@pytest.mark.parametrize("kind", ["cylinder", "cone"])
+def test_fillet_mirror_pattern_and_boss_on_curved_face(kind):
+    """A textured cylinder / cone on a square foot: fillet of the foot's upright
+    edges (untextured), a mirror, a pattern of two and a boss on the texture each
+    give a valid B-rep within 0.1 % of the same operation on the mesh."""
+    from build123d import Align, Axis, Box, Cone, Cylinder, GeomType, Pos
 
-    part = Torus(12, 4)
-    tx, cut = _drilled(part, part.faces()[0], Pos(12, 0, 0) * Cylinder(1.5, 30), tmp_path)
-    assert cut.volume < tx.volume - 30
-    try:
-        shape = cut.shape
-    except texcad.TexcadError as exc:
-        assert "torus face" in str(exc) and "STL or 3MF" in str(exc)
-    else:  # if OCCT gets it right, it must be right
-        chk = check_shape(shape)
-        assert chk["valid"] and chk["solids"] == 1
-        assert abs(occt_volume(shape) - cut.volume) <= 1e-3 * cut.volume + cut.info.get("volume_slack", 0.0)
+    up = (Align.CENTER, Align.CENTER, Align.MIN)
+    body = Cylinder(8, 12, align=up) if kind == "cylinder" else Cone(10, 6, 12, align=up)
+    part = Box(24, 24, 3) + Pos(0, 0, 1.5) * body
+    face = part.faces().filter_by(GeomType.CYLINDER if kind == "cylinder" else GeomType.CONE)[0]
+    tx = texcad.texture(part, face, "builtin:stones", height=0.4, pitch=0.5)
+    own = occt_volume(tx.shape) - tx.volume
+    assert abs(own) <= 1e-3 * tx.volume
+    rounded = tx.fillet(tx.part.edges().filter_by(Axis.Z).group_by(Axis.X)[0], 1.0)
+    assert tx.volume - 2 < rounded.volume < tx.volume - 0.1  # two 1 mm fillets took material off
+    assert check_shape(rounded.shape)["solids"] == 1
+    _agree(rounded, own)
+    mirrored = tx.mirrored((20, 0, 0), (1, 0, 0))
+    assert mirrored.volume == pytest.approx(tx.volume, rel=1e-6) and mirrored.mesh.vertices[:, 0].min() > 15
+    _agree(mirrored, own)
+    two = tx.patterned([Pos(0, 0, 0), Pos(40, 0, 0)])
+    assert check_shape(two.shape)["solids"] == 2
+    _agree(two, 2 * own)
+    boss = tx + Pos(0, 0, 14) * Box(4, 4, 4)  # into the top, off the texture
+    assert boss.volume > tx.volume + 10
+    _agree(boss, own)
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+@pytest.mark.parametrize("kind", ["torus", "bspline"])
+def test_plain_part_first_takes_big_cuts(kind, monkeypatch):
+    """The operation made on the plain part and the texture put again (OCCT's boolean
+    of the textured B-rep switched off): half a textured torus cut off along its seam
+    (the cut's edge is the old seam, with its two pcurves, used once), a slot through
+    a B-spline face: valid, one solid, within 0.1 % of the mesh."""
+    from build123d import Box, Pos
+
+    from texcad.pipeline import ops
+
+    def no_boolean(*args, **kwargs):
+        raise texcad.GeometryError("the boolean of the textured B-rep was used")
+
+    monkeypatch.setattr(ops, "_replay", no_boolean)
+    part, face, _, mode = _kind(kind)
+    tx = texcad.texture(part, face, "builtin:stones", height=0.4, pitch=0.5, mode=mode)
+    own = occt_volume(tx.shape) - tx.volume
+    cut = tx - (Pos(0, 20, 0) * Box(40, 40, 20) if kind == "torus" else Box(4, 12, 20))
+    assert cut.volume < tx.volume - 200
+    chk = _agree(cut, own)
+    assert check_shape(cut.shape)["solids"] == 1 and chk["closed"]
 
 
 def test_chained_result_says_why_no_brep():

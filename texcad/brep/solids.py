@@ -556,9 +556,10 @@ def sample_segments(segs: np.ndarray, spacing: float) -> np.ndarray:
 
 
 # -- booleans and checks ----------------------------------------------------------------------
-def occt_boolean(shape: Any, tool: Any, op: str = "fuse", *, parallel: bool = True):
+def occt_boolean(shape: Any, tool: Any, op: str = "fuse", *, parallel: bool = True, maker: bool = False):
     """OCCT's general boolean (``BRepAlgoAPI_Cut`` / ``_Fuse`` / ``_Common``) of two
-    shapes: the one place texcad calls it.
+    shapes: the one place texcad calls it. ``maker``: return ``(shape, algorithm)``,
+    the algorithm for its history (``Modified``, ``IsDeleted``).
 
     Raises:
         ParameterError: unknown ``op``.
@@ -580,7 +581,7 @@ def occt_boolean(shape: Any, tool: Any, op: str = "fuse", *, parallel: bool = Tr
     algo.Build()
     if not algo.IsDone():
         raise GeometryError(f"OCCT's {op} of the textured B-rep failed; the mesh (STL/3MF) is still valid")
-    return algo.Shape()
+    return (algo.Shape(), algo) if maker else algo.Shape()
 
 
 def fuse_solids(base: Any, tool: Any, *, parallel: bool = True, solids: int = 1):
@@ -833,7 +834,7 @@ def _grid_face_flux(face, ref: np.ndarray) -> float | None:
     """
     info = _grid_face_info(face)
     if info is None:
-        return None
+        return _holed_grid_flux(face, ref)
     grid = info["grid"] - ref
     if info["kind"] == "natural":
         return info["sign"] * grid_flux(grid)
@@ -841,6 +842,79 @@ def _grid_face_flux(face, ref: np.ndarray) -> float | None:
     flat = grid - ((grid - point) @ nrm)[..., None] * nrm
     plane_part = _plane_flux(info["plane_face"], ref, 0.01 * info["extent"] / max(grid.shape))
     return info["sign"] * (plane_part + grid_flux(grid) - grid_flux(flat))
+
+
+def _holed_grid_flux(face, ref: np.ndarray) -> float | None:
+    """The share (mm^3) of a face on a degree-1 grid surface whose outer wire runs
+    along the surface's bounds and whose other wires are holes (a textured face a
+    tool drilled, :func:`texcad.brep.uvfaces.uv_retextured_solid`): the whole grid's
+    exact :func:`grid_flux` minus each hole's share, a face on the same surface
+    bounded by the hole's wire (OCCT's adaptive integration over the hole's small
+    ``(u, v)`` range instead of the whole face's: seconds -> milliseconds). None for
+    any other face."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.BRepTools import BRepTools
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED, TopAbs_WIRE
+    from OCP.TopoDS import TopoDS
+
+    surf = BRep_Tool.Surface_s(face)
+    got = surface_grid(surf)
+    if got is None or not face.Location().IsIdentity():
+        return None
+    grid, uk, vk = got
+    fwd = TopoDS.Face_s(face.Oriented(TopAbs_FORWARD))
+    outer = BRepTools.OuterWire_s(fwd)
+    u0, u1, v0, v1 = BRepTools.UVBounds_s(fwd)
+    span = max(uk[-1] - uk[0], vk[-1] - vk[0])
+    if outer.IsNull() or max(abs(u0 - uk[0]), abs(u1 - uk[-1]), abs(v0 - vk[0]), abs(v1 - vk[-1])) > 1e-9 * span:
+        return None
+    whole = TopoDS.Face_s(fwd.EmptyCopied())
+    BRep_Builder().Add(whole, outer)
+    if not _on_bounds(whole, uk, vk):
+        return None
+    total = grid_flux(grid - ref)
+    for w in explore(fwd, TopAbs_WIRE):  # the holes
+        if w.IsSame(outer):
+            continue
+        hole = _hole_face(fwd, surf, TopoDS.Wire_s(w), uk, vk)
+        if hole is None:
+            return None
+        total -= _face_flux(hole, ref)
+    return (-1.0 if face.Orientation() == TopAbs_REVERSED else 1.0) * total
+
+
+def _hole_face(fwd, surf, wire, uk: np.ndarray, vk: np.ndarray):
+    """The part of ``fwd``'s grid surface inside a hole ``wire`` of it, as a face on
+    the surface cut down to the knot spans around the hole (the same parameters:
+    OCCT's integration then runs over those spans, not the whole face's), bounded by
+    a copy of the wire (its pcurves on ``fwd``); None if OCCT cannot make it."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Copy, BRepBuilderAPI_MakeFace
+    from OCP.BRepTools import BRepTools
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopoDS import TopoDS, TopoDS_Face
+
+    mk = BRepBuilderAPI_MakeFace(surf, TopoDS.Wire_s(wire.Reversed()), True)
+    if not mk.IsDone():
+        return None
+    a0, a1, b0, b1 = BRepTools.UVBounds_s(mk.Face())
+    i0, i1 = max(int(np.searchsorted(uk, a0, side="right")) - 2, 0), min(int(np.searchsorted(uk, a1)) + 1, len(uk) - 1)
+    j0, j1 = max(int(np.searchsorted(vk, b0, side="right")) - 2, 0), min(int(np.searchsorted(vk, b1)) + 1, len(vk) - 1)
+    sub = surf.Copy()  # a Geom_BSplineSurface (OCP gives the dynamic type)
+    sub.Segment(float(uk[i0]), float(uk[i1]), float(vk[j0]), float(vk[j1]))
+    copy = TopoDS.Wire_s(BRepBuilderAPI_Copy(wire, False, False).Shape())
+    b = BRep_Builder()
+    for old, new in zip(explore(wire, TopAbs_EDGE), explore(copy, TopAbs_EDGE)):  # one per edge of the hole
+        e_old, e_new = TopoDS.Edge_s(old), TopoDS.Edge_s(new)
+        pc = BRep_Tool.CurveOnSurface_s(e_old, fwd, 0.0, 0.0)
+        if pc is None:
+            return None
+        b.UpdateEdge(e_new, pc, sub, fwd.Location(), BRep_Tool.Tolerance_s(e_old))
+    f = TopoDS_Face()
+    b.MakeFace(f, sub, TOLERANCE)
+    b.Add(f, copy.Reversed())
+    return f
 
 
 def shape_mesh(shape: Any, *, tolerance: float = 0.05) -> "Mesh":

@@ -16,6 +16,11 @@ and on a closed face the seam edge is replaced by the lifted seam row (the textu
 runs on across it). The face carries its grid's triangulation (texcad's mesh, two
 triangles per cell), which OCCT's mesher and texcad's STEP writer keep.
 
+CAD operations on such a face (:mod:`texcad.pipeline.ops`) are made on the plain part
+and the texture is put again on what is left of the face (:func:`uv_face_pairs`,
+:func:`uv_retextured_solid`): the same poles, the relief taken off where the
+operation's edges cross it.
+
 Faces this does not apply to (several faces flattened together, trimmed faces whose
 outline is not the UV rectangle, an invalid grid point) raise ``GeometryError``
 saying so; the meshes (STL, 3MF) are unaffected.
@@ -54,7 +59,8 @@ from .solids import (
 )
 from .occt import explore, to_topods
 
-__all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid", "textured_plane_solid"]
+__all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid", "textured_plane_solid",
+           "uv_face_pairs", "uv_retextured_solid"]
 
 
 def _surface_rows(face, u: np.ndarray, v: np.ndarray):
@@ -199,9 +205,18 @@ def _seam_edge(b, e, fwd, surf, u, v, top):
     return ne, lines[0], lines[1], up
 
 
-def _new_face(face, u, v, top):
+def _used_twice(face, edge) -> bool:
+    """A seam of ``face``: ``edge`` is in its wires twice (both ways). An edge may
+    carry two pcurves on a periodic surface (``BRep_Tool::IsClosed``) and be used once:
+    a cut exactly along the old seam leaves such an edge on the face's border."""
+    from OCP.TopAbs import TopAbs_EDGE
+
+    return sum(1 for e in explore(face, TopAbs_EDGE) if e.IsSame(edge)) > 1
+
+
+def _new_face(face, u, v, top, keep_seam: bool = False):
     """The textured face replacing ``face`` (same wires, same orientation; a new seam
-    edge on a closed face)."""
+    edge on a closed face unless ``keep_seam``: its rows are then the face itself)."""
     from OCP.BRep import BRep_Builder, BRep_Tool
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_FORWARD, TopAbs_REVERSED, TopAbs_VERTEX
     from OCP.TopLoc import TopLoc_Location
@@ -221,7 +236,7 @@ def _new_face(face, u, v, top):
         eit = TopoDS_Iterator(wit.Value())
         while eit.More():  # one per edge of the wire
             e = TopoDS.Edge_s(eit.Value())
-            if BRep_Tool.IsClosed_s(e, fwd) and _u_seam(e, fwd, u):  # the seam: the lifted row at u0 (u1 the same points)
+            if not keep_seam and _used_twice(fwd, e) and _u_seam(e, fwd, u):  # the seam: the lifted row at u0 (u1 the same points)
                 key = next((k for k in seams if k.IsSame(e)), None)
                 if key is None:
                     seams[e] = _seam_edge(b, e, fwd, surf, u, v, top)
@@ -238,8 +253,8 @@ def _new_face(face, u, v, top):
         b.Add(new, w)
     for e in explore(fwd, TopAbs_EDGE):  # the kept edges: pcurves on the new surface, tolerance
         edge = TopoDS.Edge_s(e)
-        if BRep_Tool.IsClosed_s(edge, fwd):
-            if _u_seam(edge, fwd, u):
+        if _used_twice(fwd, edge):
+            if not keep_seam and _u_seam(edge, fwd, u):
                 continue
             c1 = BRep_Tool.CurveOnSurface_s(TopoDS.Edge_s(edge.Oriented(TopAbs_FORWARD)), fwd, 0.0, 0.0)
             c2 = BRep_Tool.CurveOnSurface_s(TopoDS.Edge_s(edge.Oriented(TopAbs_REVERSED)), fwd, 0.0, 0.0)
@@ -953,3 +968,157 @@ def textured_plane_solid(
     if out is not None:
         return out
     return replace_face(shape, face, textured_plane_face(face, heights, x, y, **frame))
+
+
+# -- CAD work on a face textured on its own (u, v): the operation on the plain part, the texture again --
+def uv_face_pairs(base: Any, textured: Any) -> list | None:
+    """``[(face of base, its textured face in textured), ...]`` for a B-rep made by
+    :func:`uv_textured_solid` from ``base``: every face of ``base`` missing from
+    ``textured`` matched to the one degree-1 B-spline face that replaced it (the same
+    ``(u, v)`` rectangle, the nearest at its middle); None for any other B-rep (tiles,
+    a boolean's result)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepTools import BRepTools
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+
+    from .solids import surface_grid, tile_grid
+
+    old_faces = [TopoDS.Face_s(f) for f in explore(to_topods(base), TopAbs_FACE)]
+    new_faces = [TopoDS.Face_s(f) for f in explore(to_topods(textured), TopAbs_FACE)]
+    gone = [f for f in old_faces if not any(f.IsSame(g) for g in new_faces)]
+    added = [f for f in new_faces if not any(f.IsSame(g) for g in old_faces)]
+    if not gone or len(gone) != len(added):
+        return None
+    grids = []
+    for f in added:  # one per textured face
+        surf = BRep_Tool.Surface_s(f)
+        got = tile_grid(surf) or surface_grid(surf)
+        if got is None:
+            return None
+        grids.append(got)
+    pairs = []
+    for f in gone:  # one per replaced face
+        u0, u1, v0, v1 = BRepTools.UVBounds_s(f)
+        mid = _surface_rows(f, np.array([0.5 * (u0 + u1)]), np.array([0.5 * (v0 + v1)]))[0][0, 0]
+        best, dist = None, np.inf
+        for k, (g, u, v) in enumerate(grids):  # the textured faces on the same rectangle
+            if not np.allclose([u[0], u[-1], v[0], v[-1]], [u0, u1, v0, v1], rtol=0, atol=1e-9 * (abs(u1 - u0) + abs(v1 - v0))):
+                continue
+            d = float(np.linalg.norm(_bilinear(u, v, g.transpose(1, 0, 2), np.array([[0.5 * (u0 + u1), 0.5 * (v0 + v1)]]))[0] - mid))
+            if d < dist:
+                best, dist = k, d
+        if best is None:
+            return None
+        pairs.append((f, added[best], grids[best]))
+    return pairs
+
+
+def _crossed_cells(face, edges, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``(Nu - 1, Nv - 1)`` bool: the cells of the knot grid ``u x v`` that the
+    pcurves of ``edges`` on ``face`` pass through (sampled 16 times per cell of the
+    grid's size)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve2d
+    from OCP.TopoDS import TopoDS
+
+    hit = np.zeros((len(u) - 1, len(v) - 1), bool)
+    n = 16 * (len(u) + len(v)) + 8
+    for e in edges:  # one per edge made by the operations
+        c2 = BRepAdaptor_Curve2d(TopoDS.Edge_s(e), face)
+        ts = np.linspace(c2.FirstParameter(), c2.LastParameter(), n)
+        q = np.array([c2.Value(float(t)).Coord() for t in ts])  # per sample
+        i = np.clip(np.searchsorted(u, q[:, 0]) - 1, 0, len(u) - 2)
+        j = np.clip(np.searchsorted(v, q[:, 1]) - 1, 0, len(v) - 2)
+        hit[i, j] = True
+    return hit
+
+
+#: Each knot interval a new edge crosses is split in this many (the same surface, more
+#: poles), so that only a quarter cell around a hole's rim is made plain.
+SPLIT = 4
+
+
+def _refined(u: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The knots ``u`` with ``SPLIT - 1`` more inside each interval ``rows`` marks."""
+    i = np.nonzero(rows)[0]
+    extra = (u[i, None] + (u[i + 1] - u[i])[:, None] * (np.arange(1, SPLIT) / SPLIT)[None, :]).ravel()
+    return np.unique(np.concatenate([u, extra]))
+
+
+def _plain_near(face, textured, u: np.ndarray, v: np.ndarray, top: np.ndarray) -> tuple:
+    """``(u, v, top, seam_cut)``: a textured face's knots and poles (``(Nu, Nv, 3)``
+    mm) with the relief taken off (the poles put back on ``face``'s surface) at the
+    corners of every cell that an edge of ``face`` not on ``textured`` passes (a
+    hole's rim: the hole's wall stays plain); the knot intervals those edges cross are
+    split in :data:`SPLIT` first (knot insertion: the same surface), so the plain
+    rim is a quarter cell wide. ``seam_cut``: the u-seam was cut (its rows made plain)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve2d
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FORWARD
+    from OCP.TopoDS import TopoDS
+
+    fwd = TopoDS.Face_s(face.Oriented(TopAbs_FORWARD))
+    own = explore(textured, TopAbs_EDGE)
+    new, seam_cut = [], False
+    span = abs(v[-1] - v[0])
+    for e in explore(fwd, TopAbs_EDGE):  # one per edge of the face after the operations
+        edge = TopoDS.Edge_s(e)
+        if BRep_Tool.Degenerated_s(edge) or any(edge.IsSame(o) for o in own):
+            continue
+        if _used_twice(fwd, edge) and _u_seam(edge, fwd, u):
+            c2 = BRepAdaptor_Curve2d(edge, fwd)
+            seam_cut |= abs(c2.Value(c2.LastParameter()).Y() - c2.Value(c2.FirstParameter()).Y()) < span * (1 - 1e-9)
+            continue
+        new.append(edge)
+    if new:  # knot insertion where the new edges run (degree 1: the bilinear surface at the new knots)
+        coarse = _crossed_cells(fwd, new, u, v)
+        u2, v2 = _refined(u, coarse.any(axis=1)), _refined(v, coarse.any(axis=0))
+        q = np.stack(np.meshgrid(u2, v2, indexing="ij"), axis=-1).reshape(-1, 2)
+        top = _bilinear(u, v, top, q).reshape(len(u2), len(v2), 3)
+        u, v = u2, v2
+    out = top.copy()
+    cells = _crossed_cells(fwd, new, u, v) if new else np.zeros((len(u) - 1, len(v) - 1), bool)
+    corners = np.zeros(top.shape[:2], bool)
+    corners[:-1, :-1] |= cells
+    corners[1:, :-1] |= cells
+    corners[:-1, 1:] |= cells
+    corners[1:, 1:] |= cells
+    if seam_cut:
+        corners[0] = corners[-1] = True
+    ri, ci = np.nonzero(corners)
+    if len(ri):
+        from OCP.BRepAdaptor import BRepAdaptor_Surface
+
+        ad = BRepAdaptor_Surface(fwd, False)
+        out[ri, ci] = np.array([ad.Value(float(u[a]), float(v[c])).Coord() for a, c in zip(ri.tolist(), ci.tolist())])
+    return u, v, out, seam_cut
+
+
+def uv_retextured_solid(shape: Any, faces: list) -> Any:
+    """``shape`` (the plain part after CAD operations) with its faces textured again
+    from their textured B-rep: ``faces`` ``[(pieces, textured face, (grid, u, v)),
+    ...]``, ``pieces`` the faces of ``shape`` the operations made of the plain face
+    (OCCT's history), ``grid``, ``u``, ``v`` the textured face's poles (``(Nv, Nu,
+    3)`` mm) and knots (:func:`uv_face_pairs`). Each piece gets the textured
+    surface, its relief taken off around the edges the operations made (the wall of
+    a hole stays plain), and keeps its own wires (:func:`_new_face`).
+
+    Raises:
+        GeometryError: a piece's edge lies off the new surface by more than 0.05 mm.
+    """
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopoDS import TopoDS
+
+    swaps = []
+    for pieces, textured, (grid, u, v) in faces:  # one per textured face
+        top0 = np.ascontiguousarray(np.asarray(grid, np.float64).transpose(1, 0, 2))
+        for piece in pieces:  # the faces the operations left of it
+            f = TopoDS.Face_s(piece)
+            uk, vk, top, seam_cut = _plain_near(f, textured, np.asarray(u, np.float64), np.asarray(v, np.float64), top0)
+            new = _new_face(f, uk, vk, top, keep_seam=seam_cut)
+            worst = max((BRep_Tool.Tolerance_s(TopoDS.Edge_s(e)) for e in explore(new, TopAbs_EDGE)), default=0.0)
+            if worst > 0.05:
+                raise GeometryError(f"an edge of the operated face lies {worst:.3f} mm off its textured surface")
+            swaps.append((f, [new]))
+    return _replace_faces(to_topods(shape), swaps) if swaps else to_topods(shape)

@@ -14,9 +14,16 @@
   replayed on it. If OCCT's result still disagrees with the mesh, the B-rep is made
   again with another tile size under the tool (:data:`FINE_TRIES`) before
   ``GeometryError`` is raised.
-* :func:`fillet` (``Textured.fillet``): OCCT's fillet of the textured B-rep; the mesh
-  is the filleted *untextured* part (OCCT, tessellated at 5 um) united with the
-  texture mesh (manifold3d).
+  A single curved face textured on its own ``(u, v)`` (cone, sphere, torus, revolved,
+  B-spline; :func:`texcad.brep.uv_textured_solid`) is one large face instead, whose
+  boolean OCCT misses (a textured torus kept the hole's material): there the
+  operations are made on the *plain* part, the face followed through OCCT's history
+  and textured again (:func:`_uv_replay`; the hole's wall stays plain), and OCCT's
+  boolean of the textured B-rep is tried only if that disagrees with the mesh.
+* :func:`fillet` (``Textured.fillet``): OCCT's fillet of the textured B-rep (faces
+  on their own ``(u, v)``: of the plain part, textured again); the mesh is the
+  textured mesh with what the fillet takes off the *untextured* part cut away and what
+  it adds united (OCCT's exact difference, tessellated at 5 um; manifold3d).
 * :func:`mirror` (``Textured.mirrored``): meshes and B-rep mirrored about a plane.
 * :func:`pattern` (``Textured.patterned``): copies at a list of placements (a linear
   or polar pattern), which must not overlap: the meshes side by side, the B-rep a
@@ -41,6 +48,8 @@ from ..errors import GeometryError, ParameterError
 from ..solid import Mesh, from_manifold, to_manifold
 from ..solid.boolean import welded_mesh
 from ..brep.occt import matrix_of
+from ..brep.occt import solids_of
+from ..brep.uvfaces import uv_face_pairs, uv_retextured_solid
 from ..brep import FINE, occt_boolean, check_shape, shape_to_mesh, to_topods, transformed_shape, volume
 
 __all__ = ["cad_op", "fillet", "mirror", "pattern", "OPS", "OP_VOLUME_TOLERANCE"]
@@ -121,8 +130,9 @@ def _history(part: Any) -> dict:
         o, ex, ey, pitch = info["fine_frame"]
         frame = (np.asarray(o), np.asarray(ex), np.asarray(ey), float(pitch))
     make = part.brep if frame is not None else None
+    uv = uv_face_pairs(part.base_shape, unplaced) if make is None and part.base_shape is not None else None
     return {"make": make, "shape": unplaced, "steps": [], "to_world": np.eye(3, 4), "frame": frame, "base": part.base_shape,
-            "offset": _offset(part, shape)}
+            "offset": _offset(part, shape), "uv": uv}
 
 
 def _offset(part: Any, shape) -> float:
@@ -184,6 +194,36 @@ def _replay(hist: dict, cells: int | None = None):
     return shape
 
 
+def _uv_replay(hist: dict):
+    """The B-rep of a history whose textured faces lie on their own ``(u, v)``
+    (:func:`texcad.brep.uvfaces.uv_face_pairs`), as parametric CAD makes it: the
+    operations on the plain part, each textured face followed through OCCT's history
+    (``Modified``, ``IsDeleted``), and the texture put again on what is left of it
+    (:func:`texcad.brep.uvfaces.uv_retextured_solid`: a hole's wall stays plain)."""
+    shape = hist["base"]
+    pieces = [[face] for face, _, _ in hist["uv"]]
+    for step in hist["steps"]:  # one per operation so far
+        if step["op"] == "fillet":
+            shape, algo = _occt_fillet(shape, step["edges"], step["radius"], maker=True)
+        else:
+            shape, algo = occt_boolean(shape, step["tool"], step["op"], maker=True)
+        followed = []
+        for faces in pieces:  # one per textured face
+            now = []
+            for f in faces:  # the pieces so far
+                if not algo.IsDeleted(f):
+                    mods = _listed(algo.Modified(f))
+                    now += mods if mods else [f]
+            followed.append(now)
+        pieces = followed
+    return uv_retextured_solid(shape, [(p, tex, grid) for p, (_, tex, grid) in zip(pieces, hist["uv"])])
+
+
+def _listed(shapes) -> list:
+    """A ``TopTools_ListOfShape`` as a Python list."""
+    return list(shapes)
+
+
 # -- OCCT --------------------------------------------------------------------------------------
 def _edge_mids(edges) -> np.ndarray:
     """``(n, 3)`` mid-points (mm) of edges, at their mid parameter."""
@@ -221,7 +261,9 @@ def _find_edges(shape, mids: np.ndarray, tol: float = 1e-4) -> list:
     return found
 
 
-def _occt_fillet(shape, mids: np.ndarray, radius: float):
+def _occt_fillet(shape, mids: np.ndarray, radius: float, maker: bool = False):
+    """``shape`` with the edges at ``mids`` rounded (``maker``: and OCCT's fillet
+    algorithm, for its history)."""
     from OCP.BRepFilletAPI import BRepFilletAPI_MakeFillet
 
     mk = BRepFilletAPI_MakeFillet(shape)
@@ -237,7 +279,7 @@ def _occt_fillet(shape, mids: np.ndarray, radius: float):
             f"OCCT cannot fillet these edges with r = {radius:g} mm; use a smaller radius or edges away from the "
             "texture (fillet the part before texturing it)"
         )
-    return mk.Shape()
+    return (mk.Shape(), mk) if maker else mk.Shape()
 
 
 def _checked(shape, mesh: Mesh, op: str, bodies: int, info: dict | None = None, offset: float = 0.0):
@@ -263,6 +305,19 @@ def _checked(shape, mesh: Mesh, op: str, bodies: int, info: dict | None = None, 
     if info is not None:
         info["brep_volume"] = vb
     return shape
+
+
+def _plain_first(hist: dict, world: np.ndarray, mesh: Mesh, op: str, bodies: int, info: dict):
+    """The checked B-rep of a history without fine tiles: faces on their own ``(u,
+    v)`` by :func:`_uv_replay` (the operations on the plain part), else - or if that
+    disagrees with the mesh - the operations replayed on the textured B-rep."""
+    offset = hist.get("offset", 0.0)
+    if hist.get("uv"):
+        try:
+            return _checked(_apply(_uv_replay(hist), world), mesh, op, bodies, info, offset)
+        except GeometryError:
+            pass  # the operations on the textured B-rep instead
+    return _checked(_apply(_replay(hist), world), mesh, op, bodies, info, offset)
 
 
 def _derived(part: Any, *, mesh, texture_mesh, base_mesh, shape, info, hist) -> Any:
@@ -324,7 +379,7 @@ def cad_op(part: Any, tool: Any, op: str) -> Any:
 
         def shape():
             if hist["make"] is None:
-                return _checked(_apply(_replay(hist), world), mesh, op, bodies, info, hist.get("offset", 0.0))
+                return _plain_first(hist, world, mesh, op, bodies, info)
             for k, cells in enumerate(FINE_TRIES):  # another tiling under the tool if OCCT got it wrong
                 try:
                     return _checked(_apply(_replay(hist, cells), world), mesh, op, bodies, info, hist.get("offset", 0.0))
@@ -340,17 +395,17 @@ def fillet(part: Any, edges: Sequence[Any], radius: float) -> Any:
     """``part`` with ``edges`` rounded to ``radius`` mm (edges of the body away from
     the texture, chosen from ``textured.part.edges()`` or from the original part).
 
-    The B-rep is OCCT's fillet of the textured B-rep; the mesh is OCCT's fillet of the
-    *untextured* part (the operations made so far replayed on it), tessellated at
-    :data:`TOOL_TOLERANCE` mm and united (manifold3d) with the texture mesh. They must
+    The B-rep is OCCT's fillet of the textured B-rep (or, for faces on their own ``(u,
+    v)``, of the plain part, textured again); the mesh is the textured mesh changed by
+    what OCCT's fillet changes on the *untextured* part (the operations made so far
+    replayed on it): the material taken off cut away, any added united, each
+    tessellated at :data:`TOOL_TOLERANCE` mm (:func:`_fillet_change`). They must
     agree (valid, same number of solids, volume within :data:`OP_VOLUME_TOLERANCE`).
 
     Raises:
         ParameterError: no edges, a non-positive radius, or an edge not on the part.
         GeometryError: OCCT cannot make the fillet, or the results disagree.
     """
-    from ..solid import fuse
-
     if not (isinstance(radius, (int, float)) and np.isfinite(radius) and radius > 0):
         raise ParameterError(f"the fillet radius must be a positive number of mm, got {radius!r}")
     edge_list = [edges] if hasattr(edges, "wrapped") and not hasattr(edges, "__len__") else list(edges)
@@ -367,17 +422,36 @@ def fillet(part: Any, edges: Sequence[Any], radius: float) -> Any:
     base = hist["base"]
     for st in hist_src["steps"]:  # the operations so far, on the untextured part
         base = occt_boolean(base, st["tool"], st["op"]) if st["op"] != "fillet" else _occt_fillet(base, st["edges"], st["radius"])
-    base = _occt_fillet(base, mids, radius)
-    base_world = shape_to_mesh(_apply(base, world), tolerance=TOOL_TOLERANCE)
-    tex = part.texture_mesh
-    mesh = fuse(base_world, tex)
+    change = _fillet_change(base, _occt_fillet(base, mids, radius), world)
+    mesh = _changed(part.mesh, change)
     bodies = len(to_manifold(mesh).decompose())
 
     def shape():
-        return _checked(_apply(_replay(hist), world), mesh, "fillet", bodies, info, hist.get("offset", 0.0))
+        return _plain_first(hist, world, mesh, "fillet", bodies, info)
 
     info = _info(part, "fillet")
-    return _derived(part, mesh=mesh, texture_mesh=tex, base_mesh=base_world, shape=shape, info=info, hist=hist)
+    return _derived(part, mesh=mesh, texture_mesh=lambda: part.texture_mesh, base_mesh=lambda: _changed(part.base_mesh, change),
+                    shape=shape, info=info, hist=hist)
+
+
+def _fillet_change(before, after, world: np.ndarray) -> list:
+    """What a fillet changed on the plain part, ``[(mesh, "cut" | "fuse"), ...]`` in
+    the world (mm): the material it took off (``before - after``, OCCT, exact on the
+    plain part) and what it added (a concave edge), tessellated at
+    :data:`TOOL_TOLERANCE`."""
+    out = []
+    for a, b, op in ((before, after, "cut"), (after, before, "fuse")):  # taken off, added
+        piece = occt_boolean(a, b, "cut")
+        if solids_of(piece) and abs(volume(piece)) > 1e-9:
+            out.append((shape_to_mesh(_apply(piece, world), tolerance=TOOL_TOLERANCE), op))
+    return out
+
+
+def _changed(mesh: Mesh, change: list) -> Mesh:
+    """``mesh`` with a fillet's change (:func:`_fillet_change`) applied (manifold3d)."""
+    for piece, op in change:  # taken off, then added
+        mesh = _mesh_op(mesh, piece, op)
+    return mesh
 
 
 def _mirror_matrix(origin: Sequence[float], normal: Sequence[float]) -> np.ndarray:
