@@ -54,7 +54,8 @@ def checked_brep(shape: Any, bodies: int, mesh: Mesh, slack: float = 0.0) -> tup
     vb, vm = volume(shape), float(mesh.volume)
     if abs(vb - vm) > VOLUME_TOLERANCE * abs(vm) + slack:
         raise GeometryError(
-            f"the textured B-rep encloses {vb:.1f} mm3 but the mesh {vm:.1f} mm3 (OCCT's union went wrong); "
+            f"the textured B-rep encloses {vb:.1f} mm3 but the mesh {vm:.1f} mm3 ({100 * (vb - vm) / vm:+.2f} %, "
+            f"accepted {100 * VOLUME_TOLERANCE:g} % and {slack:.2f} mm3), so no B-rep is given; "
             "the meshes are fine: write STL or 3MF"
         )
     return shape, vb
