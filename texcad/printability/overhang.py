@@ -934,7 +934,8 @@ def limit_overhangs_tiled(read, shape, pitch, build_dir, critical_angle: float =
         shape: ``(R, C)`` pixels; pitch: ``(px, py)`` mm.
         build_dir, critical_angle, edges, margin, layer_height: as :func:`limit_overhangs`
             (degrees, mm).
-        block: pixels per block side.
+        block: pixels per side of a block with its halo (memory goes with its
+            square; the blocks are that less twice the halo, at least 32).
         store: ``store(rows, cols, heights)`` takes each block's limited float32
             heights (mm); a later pass stores every block again, the last is final.
         progress: ``progress(fraction, message)`` or None.
@@ -967,7 +968,8 @@ def limit_overhangs_tiled(read, shape, pitch, build_dir, critical_angle: float =
         return LimitPlan((R, C), (px, py), ramped, halo, _erosion_lines(bounds)), oblique, bad
 
     scale = np.ones(C - 1)
-    _, oblique, bad = plan(0.5, scale)
+    first, oblique, bad = plan(0.5, scale)
+    blocks = _grid_blocks((R, C), max(32, int(block) - 2 * max(first.halo)))  # a block and its halo: about block a side
     split = _tiled_split(plan, scale, read, blocks, progress) if oblique else 0.5
     cos_check = np.cos(np.radians(crit + max(0.5 * margin, margin - 0.25)))
     iterations = 1

@@ -40,7 +40,7 @@ from ..errors import ParameterError, ResourceError
 from ..sources import Heightmap
 from ..util import Progress, report
 
-__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "tile_for_memory", "BYTES_PER_TILE_NODE"]
+__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "LimitedSource", "tile_for_memory", "BYTES_PER_TILE_NODE"]
 
 #: Peak bytes per node of one tile: the texture function's temporaries (float64),
 #: the float32 vertices, int64 faces and ids, STL records or 3MF text (measured on
@@ -227,6 +227,71 @@ class _HeightmapSource:
         from ..solid.mesh import heightfield_volume
 
         return heightfield_volume(self.hm.heights, self.hm.pitch)
+
+
+class LimitedSource:
+    """A plate's texture after the overhang limiter, made block by block
+    (:func:`texcad.printability.limit_overhangs_tiled`: each block limited from the
+    block grown by its halo, the same float32 heights as the untiled limiter), its
+    limited heights kept in a temporary file (4 bytes a pixel) and read a block at a
+    time, as the other sources.
+
+    Attributes:
+        shape: ``(R, C)`` pixels; pitch: ``(px, py)`` mm (the source's).
+        limit: the :class:`texcad.printability.TiledLimit` (its report, the limited
+            integral, the highest limited height).
+        nominal: ``(volume, slack)`` mm^3 of the heights before the limiter.
+    """
+
+    def __init__(self, source: Any, build_dir: Any, critical_angle: float, block: int, *,
+                 cache_dir: "Path | None" = None, progress: Progress = None) -> None:
+        from ..printability.overhang import limit_overhangs_tiled
+
+        self.shape, self.pitch = tuple(source.shape), tuple(source.pitch)
+        self.nominal = source.integral()
+        r, c = self.shape
+        self._file = tempfile.NamedTemporaryFile(prefix=".texcad-", suffix=".limited", dir=cache_dir)
+        self._file.truncate(4 * r * c)
+        self._cache = Path(self._file.name)
+
+        def store(rows: slice, cols: slice, h: np.ndarray) -> None:
+            m = self._rows(rows, "r+")
+            m[:, cols] = h
+            m.flush()
+            del m
+
+        try:
+            self.limit = limit_overhangs_tiled(source.heights, self.shape, self.pitch, build_dir, critical_angle,
+                                               block=block, store=store, progress=progress)
+        except BaseException:
+            self.close()
+            raise
+
+    def _rows(self, rows: slice, mode: str) -> np.ndarray:
+        c = self.shape[1]
+        return np.memmap(self._cache, dtype=np.float32, mode=mode, offset=4 * c * rows.start, shape=(rows.stop - rows.start, c))
+
+    def heights(self, rows: slice, cols: slice) -> np.ndarray:
+        """The limited heights of a block, float32 mm."""
+        m = self._rows(rows, "r")
+        h = np.array(m[:, cols])
+        del m
+        return h
+
+    def integral(self) -> tuple[float, float]:
+        """``(volume, slack)`` mm^3 of the limited heights (:func:`texcad.solid.mesh.heightfield_volume`)."""
+        return self.limit.volume, self.limit.slack
+
+    def close(self) -> None:
+        """Remove the limited heights' file; the source cannot be read after."""
+        f, self._file = getattr(self, "_file", None), None
+        if f is not None:
+            f.close()
+
+    def __getstate__(self) -> dict:  # to a Dask worker on this machine: the file by name, not the handle
+        state = dict(self.__dict__)
+        state["_file"] = None
+        return state
 
 
 def _rss() -> int:
