@@ -171,9 +171,81 @@ def test_texture_switches_to_tiles_and_equals_the_untiled_plate(tmp_path, untile
 
 
 def test_tiles_refused_where_they_are_not_made(monkeypatch):
+    from build123d import Align, Box, Cylinder, Pos
+
+    base = Box(*SIZE, THICK, align=(Align.MIN, Align.MIN, Align.MAX)) - Pos(15, 11, -THICK) * Cylinder(3, 2)
     _small_budget(monkeypatch)
-    with pytest.raises(texcad.ResourceError, match=r"build_dir \(the overhang limiter\) is not made in tiles"):
-        texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, build_dir=(0, 0, 1))
+    with pytest.raises(texcad.ResourceError, match=r"a plate with its own base is not made in tiles; use pitch >="):
+        texcad.texture(texcad.Plate(SIZE, THICK, base=base), None, "builtin:stones", pitch=PITCH)
+
+
+@pytest.mark.parametrize("tilt, toward", [(90, "+y"), (70, 30.0), (120, "-x")])
+def test_texture_limited_in_tiles_equals_the_untiled_limited_plate(tmp_path, monkeypatch, tilt, toward):
+    """build_dir on a plate made in tiles: the limiter runs block by block (each from
+    its halo), and the texture's triangles are the untiled limited plate's, bit for
+    bit, with the same report; the gate passes tile by tile; the whole part
+    overhangs no more than the untiled one (the sloped rim adds no overhang); the
+    STL holds the same triangles as textured_plate_tiled's with the same build_dir."""
+    import texcad.targets.tiled as tiled
+    from texcad.printability import orientation, overhang_area
+
+    d = orientation(tilt, toward)
+    un = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, build_dir=d, tolerance=0)
+    slab = un.texture_mesh
+    _small_budget(monkeypatch)
+    monkeypatch.setattr(tiled, "tile_for_memory", lambda bound, nodes: 13)  # many tiles, and limiter blocks
+    tx = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, build_dir=d,
+                        max_memory="2GB")
+    assert tx.info["fuse"] == "tiled" and tx.info["tiles"] > 9
+    assert tx.limits.removed_volume_mm3 > 1.0 and tx.limits.ramped_borders == un.limits.ramped_borders
+    assert tx.limits.max_removed_mm == un.limits.max_removed_mm and tx.limits.iterations == un.limits.iterations
+    assert np.isclose(tx.limits.removed_volume_mm3, un.limits.removed_volume_mm3, rtol=1e-12)
+    g = tx.gate
+    assert g.shells.closed and abs(g.volume_change - g.expected_volume) <= g.volume_slack
+    assert np.isclose(g.expected_volume, un.gate.expected_volume, rtol=1e-9)  # the limited integral
+    tx.export(tmp_path / "t.stl")
+    tri = _triangles(tmp_path / "t.stl")
+    w, dd = SIZE
+    inner = np.all((tri[:, :, 0] > 0) & (tri[:, :, 0] < w) & (tri[:, :, 1] > 0) & (tri[:, :, 1] < dd), axis=1)
+    assert np.array_equal(_key(tri[inner]), _key(slab.vertices[slab.faces[slab.groups["texture"]]]))
+    whole = tx.mesh.to_mesh()
+    assert whole.is_watertight
+    assert overhang_area(whole, d) <= overhang_area(un.mesh, d) + 1e-6
+    ref = textured_plate_tiled(SIZE, THICK, "builtin:stones", PITCH, height=HEIGHT, out=tmp_path / "r.stl", tile=17,
+                               build_dir=d)
+    assert np.array_equal(_key(_triangles(tmp_path / "r.stl")), _key(tri)) and not list(tmp_path.glob(".*"))
+
+
+def test_limited_plate_under_an_address_space_limit_is_made_in_tiles(tmp_path):
+    """A plate limited for standing upright, whose untiled relief needs more than
+    max_memory (and than the process may map: RLIMIT_AS), completes in tiles: limited
+    block by block, gated, its STL streamed, nothing left to overhang."""
+    out = tmp_path / "big.stl"
+    script = textwrap.dedent(f"""
+        import resource
+        import build123d, scipy.optimize, scipy.spatial  # libraries loaded first: the limit is for the job's arrays
+        import texcad
+        from texcad.printability import orientation
+        texcad.Plate((10, 10), 4)
+        def vm():
+            return int(open("/proc/self/status").read().split("VmSize:")[1].split()[0]) * 1024
+        limit = vm() + (600 << 20)
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+        tx = texcad.texture(texcad.Plate((150, 150), 4), None, "builtin:stones", pitch=0.125, max_memory=600 << 20,
+                            build_dir=orientation(90, "+y"))
+        tx.export({str(out)!r})
+        peak = int(open("/proc/self/status").read().split("VmPeak:")[1].split()[0]) * 1024
+        print(tx.info["fuse"], tx.info["tiles"], tx.info["grid"][0] * tx.info["grid"][1], tx.mesh.num_triangles,
+              tx.gate.shells.closed, abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack,
+              peak <= limit, tx.limits.removed_volume_mm3 > 10, tx.limits.remaining_overhang_mm2 == 0.0,
+              tx.limits.ramped_borders == ("y0",))
+    """)
+    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr[-2000:]
+    how, tiles, px, tris, *flags = res.stdout.split()
+    assert how == "tiled" and int(tiles) > 1 and int(px) == 1200 * 1200
+    assert flags == ["True"] * 6, res.stdout
+    assert out.stat().st_size == 84 + 50 * int(tris)
 
 
 def test_the_tiled_gate_catches_a_broken_seam(tmp_path, monkeypatch):

@@ -20,8 +20,15 @@ centres, fused onto the flat plate; the tiled top slopes from the outer pixel
 centres down to the plate's edge (half a pixel plus the margin the texture leaves),
 so the volumes differ by at most ``perimeter x (margin + px / 2) x height / 2``.
 
-Not yet tiled: the overhang limiter (``build_dir``) and the lean mesh
-(``tolerance`` > 0; the tiled plate keeps every pixel centre) -- both are refused.
+With a build direction the texture is limited first, block by block
+(:class:`LimitedSource`, :func:`texcad.printability.limit_overhangs_tiled`: each
+block from the block grown by a halo as wide as a limited height can reach), the
+same heights as the untiled limiter, bit for bit.
+
+Not tiled: the lean mesh (``tolerance`` > 0): the tiled plate keeps every pixel
+centre (its error is 0, within any tolerance). A lean tile would have to keep its
+border at the grid so that its neighbours meet it, and the lean error and the
+limiter's facet check redone per tile; the grid is what the tiles make.
 """
 
 from __future__ import annotations
@@ -345,6 +352,7 @@ def textured_plate_tiled(
     max_memory: Any = None,
     tolerance: float = 0.0,
     build_dir: Any = None,
+    critical_angle: float = 45.0,
     progress: Progress = None,
     client: Any = None,
 ) -> TiledPlate:
@@ -366,7 +374,10 @@ def textured_plate_tiled(
         max_memory: bound on the process's memory, bytes or text (``"4GB"``); default
             half of what the machine has available.
         tolerance: 0 only (one vertex per pixel centre); the lean mesh is not tiled yet.
-        build_dir: None only; the overhang limiter is not tiled yet.
+        build_dir: a build direction ``(3,)`` (or a set ``(K, 3)``) to limit the
+            texture's overhangs for, as :func:`texcad.printability.limit_overhangs`
+            (block by block from a halo: the same heights; not with ``client``).
+        critical_angle: degrees, with ``build_dir``.
         progress: ``progress(fraction, message)``: tiles done / total.
         client: a ``dask.distributed.Client`` or a scheduler address: the tiles are
             sampled and meshed on its workers (a few in flight per worker, so memory
@@ -377,8 +388,8 @@ def textured_plate_tiled(
         :class:`TiledPlate` (counts, volume, time, peak memory).
 
     Raises:
-        ParameterError: bad size, thickness, height, output format, tolerance > 0
-            or build_dir.
+        ParameterError: bad size, thickness, height, output format, tolerance > 0,
+            or build_dir with client.
         ResourceError: ``max_memory`` leaves no room for a tile.
     """
     from ..options import memory_bytes
@@ -392,8 +403,9 @@ def textured_plate_tiled(
             raise ParameterError(f"{label} must be a positive number of mm, got {v!r}")
     if tolerance:
         raise ParameterError("the tiled plate keeps every pixel centre: tolerance must be 0 (the lean mesh is not tiled yet)")
-    if build_dir is not None:
-        raise ParameterError("the overhang limiter is not tiled yet: use texcad.texture for build_dir, or leave it out")
+    if build_dir is not None and client is not None:
+        raise ParameterError("build_dir with client=: the limited heights are kept in a file here, which the cluster's "
+                             "workers cannot read; leave out client= (the limiter runs here, block by block)")
     if Path(out).suffix.lower() not in (".stl", ".3mf"):
         raise ParameterError(f"out {os.fspath(out)!r}: the tiled plate streams .stl or .3mf")
     bound = None if max_memory is None else memory_bytes(max_memory)
@@ -401,20 +413,28 @@ def textured_plate_tiled(
     if own:
         client = _connect(client)
     try:
-        return _tiled(w, d, float(thickness), texture, pitch, float(height), Path(out), tile, bound, progress, client, t0)
+        return _tiled(w, d, float(thickness), texture, pitch, float(height), Path(out), tile, bound, progress, client, t0,
+                      (build_dir, critical_angle))
     finally:
         if own:
             client.close()
 
 
-def _tiled(w, d, thickness, texture, pitch, height, out, tile, bound, progress, client, t0) -> TiledPlate:
-    """The texture's source and the tile size, then :func:`_write`."""
+def _tiled(w, d, thickness, texture, pitch, height, out, tile, bound, progress, client, t0, limit) -> TiledPlate:
+    """The texture's source (limited for ``limit = (build_dir, critical_angle)`` when a
+    direction is given) and the tile size, then :func:`_write`."""
     pool = None
     if client is not None:
         def pool(fn, args):  # noqa: E306 - map on the cluster, results in order
             return client.gather(client.map(fn, *zip(*args), pure=False))
     source, side = plate_source(texture, (w, d), pitch, height, tile=tile, bound=bound, pool=pool,
                                 cache_dir=None if pool is not None else out.parent, progress=progress)
+    if limit[0] is not None:
+        try:
+            limited = LimitedSource(source, limit[0], limit[1], side, cache_dir=out.parent, progress=progress)
+        finally:
+            source.close()
+        source = limited
     try:
         return _write(_grid_of(source, w, d, side), source, out, thickness, progress, client, t0, side)
     finally:
