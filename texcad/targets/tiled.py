@@ -823,8 +823,10 @@ class TiledSurfaceMesh(TiledMesh):
 
     Attributes:
         grid: the node grid and tile size.
-        heights: ``(R, C0)`` float32 mm; node column ``j`` reads texture column
-            ``j mod C0`` (a texture repeated round the profile).
+        heights: ``(R, C0)`` float32 mm, the offsets along the mapping's direction
+            (the texture's heights less the mode's share of its height: negative
+            under the surface); node column ``j`` reads texture column ``j mod C0``
+            (a texture repeated round the profile).
         flip: the grid's triangles reversed (so that they face away from the profile).
     """
 
@@ -956,17 +958,31 @@ INTEGRAL_BLOCK = 1 << 18
 
 
 def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str = "angle", transition: Optional[float] = None,
-                  tile: Optional[int] = None, max_memory: Any = None, base: Any = None) -> tuple[TiledSurfaceMesh, Any]:
+                  tile: Optional[int] = None, max_memory: Any = None, base: Any = None,
+                  share: float = 0.0) -> tuple[TiledSurfaceMesh, Any]:
     """:func:`tiled_surface` from the texture already fitted to the surface (``hm``,
     heights mm, and whether it is ``periodic`` round the profile, as
     :func:`texcad.mapping.fit_texture` returns them); ``base``: the surface's base
     as a :class:`texcad.Mesh` (default: meshed here). Returns ``(mesh, expectation)``.
 
+    ``share``: the mode's share ``c`` of the full height ``H`` (the texture's highest
+    point) that goes under the surface (:mod:`texcad.mapping.modes`): 0 raised, 1/2
+    centred, 1 engraved. The tiles' texture sheet is ``P + (h - c H) v`` (``P`` the
+    column's profile point, ``v`` the mapping's offset per mm): the sheet the untiled
+    modes put there (their ``t = h - c H``), as one closed surface instead of a slab
+    and a cutter united with and cut from the base. Where it differs: an engraved
+    cutter reaches at least :data:`texcad.mapping.CUT_FLOOR` (0.01 mm) under the
+    surface, so the untiled texture's top (``t > -CUT_FLOOR``) lies up to that much
+    deeper than the tiles'; elsewhere the points agree to float32 rounding (tested).
+    The ends slope from the first and last texture row (``t``) to the profile, as in
+    raised mode.
+
     The expectation's volume is the texture's integral as the untiled surface sums it
-    (:func:`texcad.targets.surface.surface_volume` for a raised texture at tolerance
-    0: the swept prisms between the profile's polygon and the texture sheet, less the
-    chord excess), summed over blocks of rows; its slack is the untiled one's plus the
-    ends' difference (see :func:`tiled_surface`).
+    (:func:`texcad.targets.surface.surface_volume` at tolerance 0: the swept prisms
+    between the profile's polygon and the texture sheet, signed: raised +, engraved
+    -, less the chord excess), summed over blocks of rows; its slack is the untiled
+    one's plus the ends' difference (see :func:`tiled_surface`). Its nominal volume is
+    that integral (None when centred, as untiled: its net is about 0 by design).
 
     Raises:
         ParameterError: an open profile, a profile with corners or a base that is not
@@ -1004,6 +1020,9 @@ def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str =
     if abs(float(base.volume) - abs(area) * length) > 0.01 * abs(area) * length:
         raise NotTiled(f"tiled_surface takes a surface whose base is its profile's solid ({abs(area) * length:.0f} mm3); "
                        f"this base is {float(base.volume):.0f} mm3 (a tube?)", "a base that is not its profile's solid")
+    full = float(h.max())  # the envelope H of engraved and centred textures, mm
+    if share:
+        h = h - np.float32(share * full)  # the offsets t = h - c H along v
     c = len(m.s)
     nodes = (r + 2, c + 1)
     side = int(tile) if tile else tile_for_memory(None if max_memory is None else memory_bytes(max_memory), nodes)
@@ -1011,11 +1030,11 @@ def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str =
     t = point[1].astype(np.float64) - point[0]
     normal = np.array([-t[1], t[0]])  # the grid triangles' normal, (x, z)
     flip = float(normal @ m.offset[0]) < 0
-    top = float(h.max())
+    top = float(np.abs(h).max())
     reach = top * float(np.hypot(offset[:, 0], offset[:, 1]).max()) + 1e-3
-    # check 4: surface_volume's raised case (tolerance 0), block by block of rows
+    # check 4: surface_volume (tolerance 0), block by block of rows
     s = np.asarray(m.s, np.float64)
-    vol = _surface_integral(prof, s, y, point, offset, h)
+    vol = _surface_integral(prof, s, y, point, offset, h, raised=not share)
     span = float(y[-1] - y[0])
     chord = chord_excess(prof, s, closed=True)
     vol -= chord * span
@@ -1023,14 +1042,18 @@ def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str =
     slack = 0.01 * sheet + abs(chord) * span + 1e-3 * abs(vol) + 1e-3  # the untiled slack (tessellation, chords, float32)
     end = float(y[0])  # each end: the slope from the first (last) texture row to the profile, and the polygon's caps
     slack += 2 * (prof.length + 2 * np.pi * reach) * end * reach / 2 + 2 * abs(chord) * end
-    ex = Expectation(bodies=1, base=base, height=reach, volume=vol, volume_slack=slack, nominal_volume=vol)
+    nominal = None if share not in (0, 1) else vol
+    ex = Expectation(bodies=1, base=base, height=reach, volume=vol, volume_slack=slack, nominal_volume=nominal)
     return TiledSurfaceMesh(grid, h, flip), ex
 
 
-def _surface_integral(prof: Any, s: np.ndarray, y: np.ndarray, point: np.ndarray, offset: np.ndarray, h: np.ndarray) -> float:
+def _surface_integral(prof: Any, s: np.ndarray, y: np.ndarray, point: np.ndarray, offset: np.ndarray, h: np.ndarray,
+                      raised: bool = True) -> float:
     """The swept volume (mm^3) between the profile's polygon through ``point`` (at arc
-    lengths ``s``) and the raised sheet ``point + h offset`` (float32, as the tiles'
-    vertices) over the texture rows ``y`` (mm), where it lies outside the profile:
+    lengths ``s``) and the sheet ``point + h offset`` (float32, as the tiles'
+    vertices) over the texture rows ``y`` (mm), signed (under the profile:
+    negative), or with ``raised`` only where it lies outside the profile (as the
+    untiled raised surface counts it):
     :func:`texcad.mapping.surface.grid_swept` over blocks of whole rows (a block's
     last row is the next one's first)."""
     from ..mapping.surface import grid_swept
@@ -1055,7 +1078,8 @@ def _surface_integral(prof: Any, s: np.ndarray, y: np.ndarray, point: np.ndarray
         top[..., 2] = hb * offset[:, 1]
         top[..., 2] += point[:, 1]
         new = top.astype(np.float64)
-        up = np.einsum("rck,ck->rc", new - base, nrm)
-        new = np.where((up > 0)[..., None], new, base)
+        if raised:
+            up = np.einsum("rck,ck->rc", new - base, nrm)
+            new = np.where((up > 0)[..., None], new, base)
         vol += grid_swept(base, new, np.broadcast_to(nrm, (n, c, 3)), wrap_cols=True, measure=False).volume
     return vol
