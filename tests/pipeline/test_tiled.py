@@ -216,6 +216,21 @@ def test_texture_limited_in_tiles_equals_the_untiled_limited_plate(tmp_path, mon
     assert np.array_equal(_key(_triangles(tmp_path / "r.stl")), _key(tri)) and not list(tmp_path.glob(".*"))
 
 
+def test_a_tolerance_given_is_warned_about_in_tiles(monkeypatch):
+    """The lean mesh is not made in tiles: a tolerance given says so (the tiles keep
+    every pixel centre, error 0); the default tolerance does not."""
+    import warnings
+
+    _small_budget(monkeypatch)
+    with pytest.warns(texcad.TexcadWarning, match="the lean mesh is not made in tiles"):
+        tx = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, tolerance=0.05,
+                            max_memory="2GB")
+    assert tx.info["fuse"] == "tiled" and tx.info["tolerance"] == 0.0 and tx.max_error == 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", texcad.TexcadWarning)
+        texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, max_memory="2GB")
+
+
 def test_limited_plate_under_an_address_space_limit_is_made_in_tiles(tmp_path):
     """A plate limited for standing upright, whose untiled relief needs more than
     max_memory (and than the process may map: RLIMIT_AS), completes in tiles: limited

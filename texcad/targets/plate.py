@@ -20,7 +20,8 @@ machine's, or ``max_memory``), a plain plate is made in tiles instead
 (:mod:`texcad.targets.tiled`): the relief is the texture's source, read a tile at a
 time, the fused mesh a :class:`~texcad.targets.tiled.TiledMesh` that the gate checks
 (:func:`~texcad.targets.tiled.gate_tiled`) and the export streams, tile by tile. It
-keeps every pixel centre (its error is 0, within any ``tolerance``; ``depth`` is not
+keeps every pixel centre (its error is 0, within any ``tolerance``: the lean mesh is
+not made in tiles, and a ``tolerance`` given is warned about; ``depth`` is not
 used: the texture is the plate's top) and its rim slopes from the outer pixel centres
 to the plate's edge (``info["fuse"] == "tiled"``). With ``build_dir`` the overhang
 limiter runs block by block, each block limited from the block grown by a halo
@@ -216,6 +217,14 @@ class PlateAdapter(Adapter):
             require_memory(need, what, "a plate with its own base is not made in tiles; use pitch >= "
                                        f"{fitting_pitch(options.pitch, need):.3g} mm")
         options.report(0.1, f"{what}: made in tiles")
+        if options.tolerance > 0 and "tolerance" in options.given:
+            import warnings
+
+            from ..errors import TexcadWarning
+
+            warnings.warn(f"{what} is made in tiles, which keep every pixel centre (error 0, within tolerance="
+                          f"{options.tolerance:g} mm): the lean mesh is not made in tiles, so the file is the full grid's "
+                          "size; use a coarser pitch for a smaller file", TexcadWarning, stacklevel=4)
         height: Any = options.height
         if isinstance(texture, Heightmap):  # as the untiled plate: its own pixels, and its own heights unless told
             from ..sources import load_texture
@@ -253,7 +262,7 @@ class PlateAdapter(Adapter):
             g = relief.data.grid
             options.report(0.45, f"{g.count} tile(s) of up to {g.tile} x {g.tile} nodes")
             info = {"face": "plate", "grid": tuple(relief.data.source.shape), "size": pl.size, "thickness": pl.thickness,
-                    "fuse": "tiled", "tiles": g.count, "tile": int(g.tile)}
+                    "fuse": "tiled", "tiles": g.count, "tile": int(g.tile), "tolerance": 0.0}  # every pixel kept: not lean
             told = lambda f, m: options.report(0.92 + 0.07 * f, f"checking the result (texcad's gate): {m}")  # noqa: E731
             return Fused(TiledMesh(g, relief.data.source, pl.thickness, progress=told), placement.base, info)
         r: PlateRelief = relief.data
