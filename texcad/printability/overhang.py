@@ -824,9 +824,9 @@ def limiter_halo(bounds: np.ndarray, h_range: float) -> "tuple[int, int] | None"
 
     In degrees: along the in-plane direction of ``d`` a bound is ``tan(beta_max)``
     per mm with ``beta_max = 180 - (critical + margin) - tilt``, so the halo is about
-    ``h_range / (pitch tan(beta_max))`` pixels (9 rows for a 1 mm texture at 0.125 mm
-    standing upright at 45 degrees; oblique directions split the bound over two edge
-    directions, which at most doubles that).
+    ``h_range / (pitch tan(beta_max))`` pixels (8.7 rows, a halo of 10, for a 1 mm
+    texture at 0.125 mm standing upright at 45 degrees; oblique directions split the
+    bound over two edge directions, which at most doubles that).
     """
     def steps(ks: list) -> "int | None":
         b = bounds[ks]
