@@ -25,7 +25,7 @@ not made in tiles, and a ``tolerance`` given is warned about; ``depth`` is not
 used: the texture is the plate's top) and its rim slopes from the outer pixel centres
 to the plate's edge (``info["fuse"] == "tiled"``). With ``build_dir`` the overhang
 limiter runs block by block, each block limited from the block grown by a halo
-(:func:`texcad.printability.limit_overhangs_tiled`): the same heights as the untiled
+(:func:`texcad.printability.overhang.limit_overhangs_tiled`): the same heights as the untiled
 limiter, bit for bit. A given ``base`` is not tiled: that is refused as before.
 """
 

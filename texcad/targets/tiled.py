@@ -21,7 +21,7 @@ centres down to the plate's edge (half a pixel plus the margin the texture leave
 so the volumes differ by at most ``perimeter x (margin + px / 2) x height / 2``.
 
 With a build direction the texture is limited first, block by block
-(:class:`LimitedSource`, :func:`texcad.printability.limit_overhangs_tiled`: each
+(:class:`LimitedSource`, :func:`texcad.printability.overhang.limit_overhangs_tiled`: each
 block from the block grown by a halo as wide as a limited height can reach), the
 same heights as the untiled limiter, bit for bit.
 
@@ -238,14 +238,14 @@ class _HeightmapSource:
 
 class LimitedSource:
     """A plate's texture after the overhang limiter, made block by block
-    (:func:`texcad.printability.limit_overhangs_tiled`: each block limited from the
+    (:func:`texcad.printability.overhang.limit_overhangs_tiled`: each block limited from the
     block grown by its halo, the same float32 heights as the untiled limiter), its
     limited heights kept in a temporary file (4 bytes a pixel) and read a block at a
     time, as the other sources.
 
     Attributes:
         shape: ``(R, C)`` pixels; pitch: ``(px, py)`` mm (the source's).
-        limit: the :class:`texcad.printability.TiledLimit` (its report, the limited
+        limit: the :class:`texcad.printability.overhang.TiledLimit` (its report, the limited
             integral, the highest limited height).
         nominal: ``(volume, slack)`` mm^3 of the heights before the limiter.
     """
