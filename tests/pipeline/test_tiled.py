@@ -534,7 +534,7 @@ def test_surfaces_not_made_in_tiles_are_refused_naming_a_pitch(monkeypatch):
 def test_cylinder_under_an_address_space_limit_is_made_in_tiles(tmp_path):
     """texcad.texture on a full cylinder whose untiled relief needs more than
     max_memory (and than the process may map: RLIMIT_AS) completes in tiles, gated, its
-    STL and 3MF streamed; the same surface engraved (not tiled) is refused naming a pitch."""
+    STL and 3MF streamed; the same surface with build_dir (not tiled) is refused naming a pitch."""
     out = tmp_path / "roller"
     script = textwrap.dedent(f"""
         import resource, warnings
@@ -548,9 +548,9 @@ def test_cylinder_under_an_address_space_limit_is_made_in_tiles(tmp_path):
         warnings.simplefilter("ignore")  # the texture scaled to whole repeats round the cylinder
         surf = texcad.Surface.cylinder(20.0, 100.0)
         try:
-            texcad.texture(surf, None, "builtin:stones", pitch=0.125, height=0.8, mode="engraved", max_memory=600 << 20)
+            texcad.texture(surf, None, "builtin:stones", pitch=0.125, height=0.8, build_dir=(0, 0, 1), max_memory=600 << 20)
         except texcad.ResourceError as exc:
-            print("engraved:", "is not made in tiles; use pitch >=" in str(exc))
+            print("limited:", "is not made in tiles; use pitch >=" in str(exc))
         tx = texcad.texture(surf, None, "builtin:stones", pitch=0.125, height=0.8, max_memory=600 << 20)
         tx.export({str(out) + ".stl"!r})
         tx.export({str(out) + ".3mf"!r})
@@ -562,7 +562,7 @@ def test_cylinder_under_an_address_space_limit_is_made_in_tiles(tmp_path):
     res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr[-2000:]
     lines = res.stdout.split("\n")
-    assert lines[0] == "engraved: True", res.stdout
+    assert lines[0] == "limited: True", res.stdout
     how, tiles, px, tris, closed, volume_ok, under = lines[1].split()
     assert how == "tiled" and int(tiles) > 1 and int(px) * 1300 > 600 << 20  # the untiled estimate does not fit
     assert closed == volume_ok == under == "True"
