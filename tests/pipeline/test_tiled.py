@@ -90,6 +90,12 @@ def test_refusals(tmp_path):
         textured_plate_tiled(SIZE, THICK, "builtin:nope", out=tmp_path / "a.stl")
     with pytest.raises(texcad.ResourceError, match="max_memory leaves"):
         textured_plate_tiled(SIZE, THICK, "builtin:stones", out=tmp_path / "a.stl", max_memory="10MB")
+    with pytest.raises(texcad.ParameterError, match="build_dir with client="):
+        textured_plate_tiled(SIZE, THICK, "builtin:stones", out=tmp_path / "a.stl", build_dir=(0, 1, 1), client=object())
+    with pytest.raises(texcad.ParameterError, match="the limiter's reach is the whole plate"):
+        from texcad.printability import orientation
+
+        textured_plate_tiled(SIZE, THICK, "builtin:stones", out=tmp_path / "a.stl", build_dir=orientation(133, "-y"))
     assert not list(tmp_path.iterdir())
 
 

@@ -136,3 +136,30 @@ def test_a_block_needs_only_its_window(hm):
     assert max(s[0] for s in sizes) <= max(40, inner + 1 + 2 * hr) and max(s[1] for s in sizes) <= max(40, inner + 1 + 2 * hc)
     assert max(s[0] * s[1] for s in sizes) < hm.shape[0] * hm.shape[1] / 2
     assert hr > 0 and hc == 0
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_random_heightfields_and_directions(seed):
+    """Random fields (some below 0, rough or smooth, either pitch), random directions
+    (one or two, any tilt short of the zero-bound band, any azimuth), random blocks:
+    the tiled limiter gives the untiled heights bit for bit."""
+    from texcad.sources import Heightmap
+
+    rng = np.random.default_rng(seed)
+    r, c = rng.integers(20, 70, size=2)
+    h = rng.random((r, c)) * rng.uniform(0.2, 2.0)
+    if seed % 3 == 0:  # smooth
+        from scipy.ndimage import gaussian_filter
+
+        h = gaussian_filter(h, 2.0) * 4
+    if seed % 4 == 1:
+        h -= 0.3 * h.max()  # partly below the surface
+    hm = Heightmap(h.astype(np.float32), (float(rng.uniform(0.1, 0.5)), float(rng.uniform(0.1, 0.5))))
+    tilts = [a for a in rng.uniform(0, 180, size=4) if not 125 < a < 140][: 1 + seed % 2]
+    dirs = [orientation(float(a), float(rng.uniform(0, 360))) for a in tilts] or [orientation(90, "+y")]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ref, rep = limit_overhangs(hm, dirs)
+    out, res, _ = _tiled(hm, dirs, block=int(rng.integers(32, 80)))
+    assert np.array_equal(out, ref.heights), (tilts, np.nanmax(np.abs(out - ref.heights)))
+    assert res.report.iterations == rep.iterations and res.report.ramped_borders == rep.ramped_borders
