@@ -470,14 +470,19 @@ def test_texture_switches_a_cylinder_to_tiles_with_the_untiled_texture_vertices(
         tx.texture_mesh
 
 
-@pytest.mark.parametrize("mode, mapping", [("engraved", "angle"), ("engraved", "distance"), ("centred", "angle")])
-def test_engraved_and_centred_cylinders_in_tiles(tmp_path, monkeypatch, mode, mapping):
-    """Engraved and centred modes on a tiled cylinder: the tiles' sheet is the untiled
-    one's (t = h - c H along the mapping's offset) to float32 rounding, except that
-    the untiled engraving's cutter reaches at least CUT_FLOOR under the surface
-    (the texture's top there lies up to that much deeper); gated tile by tile with
-    the signed integral; the volume the untiled one's within the ends' difference
-    and the floor; the STL streamed."""
+GRADIENT = ((0.0, 0.0, 0.0), (0.0, 12.0, 0.0))  # full depth at y = 0, none at y = 12 mm
+
+
+@pytest.mark.parametrize("mode, mapping, gradient", [("engraved", "angle", None), ("engraved", "distance", None),
+                                                     ("centred", "angle", None), ("raised", "angle", GRADIENT),
+                                                     ("engraved", "angle", GRADIENT)])
+def test_engraved_and_centred_cylinders_in_tiles(tmp_path, monkeypatch, mode, mapping, gradient):
+    """Engraved and centred modes (and a gradient) on a tiled cylinder: the tiles'
+    sheet is the untiled one's (t = g (h - c H) along the mapping's offset) to float32
+    rounding, except that the untiled engraving's cutter reaches at least CUT_FLOOR
+    under the surface (the texture's top there lies up to that much deeper); gated
+    tile by tile with the signed integral; the volume the untiled one's within the
+    ends' difference and the floor; the STL streamed."""
     import warnings
 
     from texcad.mapping import CUT_FLOOR
@@ -485,14 +490,15 @@ def test_engraved_and_centred_cylinders_in_tiles(tmp_path, monkeypatch, mode, ma
     surf, height = texcad.Surface.cylinder(8.0, 12.0), 0.6
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the texture scaled to whole repeats round the cylinder (both paths)
-        un = texcad.texture(surf, None, "builtin:stones", pitch=0.5, height=height, tolerance=0, mode=mode, mapping=mapping)
+        un = texcad.texture(surf, None, "builtin:stones", pitch=0.5, height=height, tolerance=0, mode=mode, mapping=mapping,
+                            gradient=gradient)
         _small_surface_budget(monkeypatch)
         tx = texcad.texture(surf, None, "builtin:stones", pitch=0.5, height=height, mode=mode, mapping=mapping,
-                            max_memory="2GB")
+                            max_memory="2GB", gradient=gradient)
     assert tx.info["fuse"] == "tiled" and tx.info["mode"] == mode and tx.max_error == 0.0
     g = tx.gate
     assert g.shells.closed and g.shells.bodies == 1 and abs(g.volume_change - g.expected_volume) <= g.volume_slack
-    assert g.farthest_mm <= (1.0 if mode == "engraved" else 0.5) * height + 1e-5
+    assert g.farthest_mm <= (0.5 if mode == "centred" else 1.0) * height + 1e-5
     assert (g.volume_change < 0) == (mode == "engraved")
     assert (tx.stages.relief.nominal_volume is None) == (mode == "centred")
     slab_top, cut = un.stages.relief.data.bodies.sheets
@@ -510,8 +516,8 @@ def test_engraved_and_centred_cylinders_in_tiles(tmp_path, monkeypatch, mode, ma
             deep = down < -CUT_FLOOR - 1e-4  # where the cutter's floor does not reach
             assert apart.max() <= CUT_FLOOR + 2e-5 and apart[deep].max(initial=0.0) <= 2e-5
             assert deep.any()
-        else:  # the slab's top, but for its first and last row (tucked under the cut at the ends)
-            keep = (np.arange(rows.start, rows.stop) > 0) & (np.arange(rows.start, rows.stop) < r - 1)
+        else:  # the slab's top, but for a centred one's first and last row (tucked under the cut at the ends)
+            keep = (np.arange(rows.start, rows.stop) > 0) & (np.arange(rows.start, rows.stop) < r - 1) | (mode == "raised")
             assert np.abs(mine - slab_top[rows][:, cols % c])[keep].max(initial=0.0) <= 2e-5
     py = float(un.stages.relief.mapped.heightmap.pitch[1])
     ends = 2 * surf.profile.length * ((12.0 - r * py) / 2 + py / 2) * height / 2
@@ -526,7 +532,6 @@ def test_surfaces_not_made_in_tiles_are_refused_naming_a_pitch(monkeypatch):
     _small_surface_budget(monkeypatch)
     cyl = texcad.Surface.cylinder(8.0, 12.0)
     cases = [
-        (cyl, {"mode": "engraved", "gradient": ((0, 0, 0), (0, 12, 0))}, "a gradient"),
         (cyl, {"build_dir": (0, 0, 1)}, r"build_dir \(the overhang limiter\)"),
         (texcad.Surface.cylinder(8.0, 12.0, thickness=2.0), {}, "a base that is not its profile's solid"),
         (texcad.Surface.arc(20.0, 90.0, 10.0, 2.0), {}, "an open profile"),

@@ -25,9 +25,9 @@ the fitted texture is held whole (4 bytes a pixel), the fused mesh is a
 streams, tile by tile. Its texture vertices are the untiled ones (every pixel: its
 error is 0, within any ``tolerance``; ``depth`` is not used) and its ends slope from
 the first and last texture row to the profile (``info["fuse"] == "tiled"``); an
-engraved texture's top lies up to the cutter's floor (0.01 mm) higher. Other
-surfaces (open or with corners, a tube, a gradient, ``build_dir``) are refused as
-before, naming a pitch that fits.
+engraved texture's top lies up to the cutter's floor (0.01 mm) higher; a gradient's
+gain is taken at the same points. Other surfaces (open or with corners, a tube,
+``build_dir``) are refused as before, naming a pitch that fits.
 """
 
 from __future__ import annotations
@@ -426,13 +426,13 @@ class SurfaceAdapter(Adapter):
         sp: SurfacePlace = placement.data
         what = f"a {hm.shape[0]} x {hm.shape[1]} px texture on the surface"
         fix = f"use pitch >= {fitting_pitch(min(hm.pitch), need):.3g} mm"
-        why = ("build_dir (the overhang limiter)" if options.directions is not None else
-               "a gradient" if options.gradient is not None else None)
+        why = "build_dir (the overhang limiter)" if options.directions is not None else None
         if why is None:
             options.report(0.1, f"{what}: made in tiles")
             try:
                 mesh, ex = surface_tiles(sp.surface, hm, periodic, mapping=options.mapping.value, transition=options.transition,
-                                         max_memory=options.max_memory, base=placement.base, share=options.mode.share)
+                                         max_memory=options.max_memory, base=placement.base, share=options.mode.share,
+                                         gradient=options.gradient)
             except NotTiled as exc:
                 why = exc.reason
         if why is not None:

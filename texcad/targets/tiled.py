@@ -959,7 +959,7 @@ INTEGRAL_BLOCK = 1 << 18
 
 def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str = "angle", transition: Optional[float] = None,
                   tile: Optional[int] = None, max_memory: Any = None, base: Any = None,
-                  share: float = 0.0) -> tuple[TiledSurfaceMesh, Any]:
+                  share: float = 0.0, gradient: Any = None) -> tuple[TiledSurfaceMesh, Any]:
     """:func:`tiled_surface` from the texture already fitted to the surface (``hm``,
     heights mm, and whether it is ``periodic`` round the profile, as
     :func:`texcad.mapping.fit_texture` returns them); ``base``: the surface's base
@@ -975,7 +975,9 @@ def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str =
     surface, so the untiled texture's top (``t > -CUT_FLOOR``) lies up to that much
     deeper than the tiles'; elsewhere the points agree to float32 rounding (tested).
     The ends slope from the first and last texture row (``t``) to the profile, as in
-    raised mode.
+    raised mode. ``gradient``: ``(a, b)`` mm, the depth's gain ``g`` falling from 1
+    at ``a`` to 0 at ``b`` (:func:`texcad.targets.surface.gradient_gain`), taken at
+    the raised sheet's points as the untiled surface takes it: ``t = g (h - c H)``.
 
     The expectation's volume is the texture's integral as the untiled surface sums it
     (:func:`texcad.targets.surface.surface_volume` at tolerance 0: the swept prisms
@@ -1007,7 +1009,7 @@ def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str =
         raise NotTiled("the profile has corners (extra columns there): tiled_surface takes smooth closed profiles",
                        "a profile with corners")
     r, py = h.shape[0], float(hm.pitch[1])
-    y = (length - r * py) / 2 + (np.arange(r) + 0.5) * py  # as map_texture's rows
+    y = y_rows(length, r, py)
     point = np.asarray(prof.at(m.s).point, dtype=np.float32)
     offset = np.asarray(m.offset, dtype=np.float32)
     area = 0.5 * float(np.sum(point[:, 0].astype(np.float64) * np.roll(point[:, 1], -1) - np.roll(point[:, 0], -1) * point[:, 1]))
@@ -1021,7 +1023,9 @@ def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str =
         raise NotTiled(f"tiled_surface takes a surface whose base is its profile's solid ({abs(area) * length:.0f} mm3); "
                        f"this base is {float(base.volume):.0f} mm3 (a tube?)", "a base that is not its profile's solid")
     full = float(h.max())  # the envelope H of engraved and centred textures, mm
-    if share:
+    if gradient is not None:
+        h = _graded(h, share * full, point, offset, y, gradient)
+    elif share:
         h = h - np.float32(share * full)  # the offsets t = h - c H along v
     c = len(m.s)
     nodes = (r + 2, c + 1)
@@ -1045,6 +1049,33 @@ def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str =
     nominal = None if share not in (0, 1) else vol
     ex = Expectation(bodies=1, base=base, height=reach, volume=vol, volume_slack=slack, nominal_volume=nominal)
     return TiledSurfaceMesh(grid, h, flip), ex
+
+
+def y_rows(length: float, rows: int, py: float) -> np.ndarray:
+    """``(rows,)`` float64 y (mm) of the texture's rows on a surface ``length`` mm long,
+    centred, as :func:`texcad.mapping.map_texture` places them."""
+    return (length - rows * py) / 2 + (np.arange(rows) + 0.5) * py
+
+
+def _graded(h: np.ndarray, low: float, point: np.ndarray, offset: np.ndarray, y: np.ndarray, gradient: Any) -> np.ndarray:
+    """``g (h - low)`` float32 mm, ``g`` the gradient's gain at the raised sheet's points
+    ``point + h offset`` (float32, as the untiled mapped top), in blocks of whole rows."""
+    from .surface import gradient_gain
+
+    r, c = h.shape
+    out = np.empty((r, c), np.float32)
+    rows = max(1, INTEGRAL_BLOCK // max(c, 1))
+    for r0 in range(0, r, rows):  # per block of rows
+        hb = h[r0 : r0 + rows]
+        top = np.empty(hb.shape + (3,), np.float32)
+        top[..., 0] = hb * offset[:, 0]
+        top[..., 0] += point[:, 0]
+        top[..., 1] = y[r0 : r0 + rows, None]
+        top[..., 2] = hb * offset[:, 1]
+        top[..., 2] += point[:, 1]
+        g = gradient_gain(top.reshape(-1, 3).astype(np.float64), gradient).reshape(hb.shape)
+        out[r0 : r0 + rows] = g * (hb.astype(np.float64) - low)
+    return out
 
 
 def _surface_integral(prof: Any, s: np.ndarray, y: np.ndarray, point: np.ndarray, offset: np.ndarray, h: np.ndarray,
