@@ -58,6 +58,10 @@ BYTES_PER_TILE_NODE = 600.0
 SAMPLE_BLOCK = 1024
 #: Bytes the process needs besides the tile (numpy, texcad, the writer's buffers).
 OVERHEAD = 64 << 20
+#: Largest window (a block and its halo, a side, px) the overhang limiter works on in
+#: tiles: its erosion and facet check hold some 300 bytes a pixel, more than a mesh
+#: tile's node, and blocks this large already make the halo's share small.
+LIMIT_BLOCK = 1024
 
 
 @dataclass(frozen=True)
@@ -264,12 +268,11 @@ class LimitedSource:
         def store(rows: slice, cols: slice, h: np.ndarray) -> None:
             m = self._rows(rows, "r+")
             m[:, cols] = h
-            m.flush()
-            del m
+            del m  # written back by the system when it likes (no sync per block: the reads see the pages)
 
         try:
             self.limit = limit_overhangs_tiled(source.heights, self.shape, self.pitch, build_dir, critical_angle,
-                                               block=block, store=store, progress=progress)
+                                               block=min(int(block), LIMIT_BLOCK), store=store, progress=progress)
         except BaseException:
             self.close()
             raise
