@@ -1030,7 +1030,8 @@ def _tiled_pass(plan: LimitPlan, read, blocks: list, dirs, cos_check: float, bad
         out, h0 = ext[:n, :m], h0[:n, :m]
         store(rows, cols, out)
         gone = h0 - out.astype(np.float64)
-        removed, most, touched = removed + float(gone.sum()), max(most, float(gone.max(initial=0.0))), touched + int(np.count_nonzero(gone > 1e-6))
+        removed, most = removed + float(gone.sum()), max(most, float(gone.max(initial=0.0)))
+        touched += int(np.count_nonzero(gone > 1e-6))
         g = ext.astype(np.float64)
         if g.shape[0] > 1 and g.shape[1] > 1:
             P = np.empty(g.shape + (3,))

@@ -19,8 +19,8 @@ the surface, a point at height ``h`` moves by ``t = g (h - c H)`` along its offs
 
 **Tiles.** Where the untiled relief would not fit in the memory available (the
 machine's, or ``max_memory``), a closed smooth surface whose base is its profile's
-solid, raised, engraved or centred, is made in tiles instead (:func:`texcad.targets.tiled.surface_tiles`):
-the fitted texture is held whole (4 bytes a pixel), the fused mesh is a
+solid, raised, engraved or centred, is made in tiles instead
+(:func:`texcad.targets.tiled.surface_tiles`): the fitted texture is held whole (4 bytes a pixel), the fused mesh is a
 :class:`~texcad.targets.tiled.TiledSurfaceMesh` that the gate checks and the export
 streams, tile by tile. Its texture vertices are the untiled ones (every pixel: its
 error is 0, within any ``tolerance``; ``depth`` is not used) and its ends slope from
@@ -33,6 +33,7 @@ gain is taken at the same points. Other surfaces (open or with corners, a tube,
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -427,12 +428,13 @@ class SurfaceAdapter(Adapter):
         what = f"a {hm.shape[0]} x {hm.shape[1]} px texture on the surface"
         fix = f"use pitch >= {fitting_pitch(min(hm.pitch), need):.3g} mm"
         why = "build_dir (the overhang limiter)" if options.directions is not None else None
+        gain = None if options.gradient is None else partial(gradient_gain, gradient=options.gradient)
         if why is None:
             options.report(0.1, f"{what}: made in tiles")
             try:
                 mesh, ex = surface_tiles(sp.surface, hm, periodic, mapping=options.mapping.value, transition=options.transition,
                                          max_memory=options.max_memory, base=placement.base, share=options.mode.share,
-                                         gradient=options.gradient)
+                                         gain=gain)
             except NotTiled as exc:
                 why = exc.reason
         if why is not None:

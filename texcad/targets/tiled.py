@@ -962,7 +962,7 @@ INTEGRAL_BLOCK = 1 << 18
 
 def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str = "angle", transition: Optional[float] = None,
                   tile: Optional[int] = None, max_memory: Any = None, base: Any = None,
-                  share: float = 0.0, gradient: Any = None) -> tuple[TiledSurfaceMesh, Any]:
+                  share: float = 0.0, gain: Any = None) -> tuple[TiledSurfaceMesh, Any]:
     """:func:`tiled_surface` from the texture already fitted to the surface (``hm``,
     heights mm, and whether it is ``periodic`` round the profile, as
     :func:`texcad.mapping.fit_texture` returns them); ``base``: the surface's base
@@ -978,9 +978,10 @@ def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str =
     surface, so the untiled texture's top (``t > -CUT_FLOOR``) lies up to that much
     deeper than the tiles'; elsewhere the points agree to float32 rounding (tested).
     The ends slope from the first and last texture row (``t``) to the profile, as in
-    raised mode. ``gradient``: ``(a, b)`` mm, the depth's gain ``g`` falling from 1
-    at ``a`` to 0 at ``b`` (:func:`texcad.targets.surface.gradient_gain`), taken at
-    the raised sheet's points as the untiled surface takes it: ``t = g (h - c H)``.
+    raised mode. ``gain``: a gradient's gain, ``gain(points)`` -> ``g`` in [0, 1] at
+    ``(N, 3)`` points mm (:func:`texcad.targets.surface.gradient_gain` with the
+    gradient), taken at the raised sheet's points as the untiled surface takes it:
+    ``t = g (h - c H)``.
 
     The expectation's volume is the texture's integral as the untiled surface sums it
     (:func:`texcad.targets.surface.surface_volume` at tolerance 0: the swept prisms
@@ -1026,8 +1027,8 @@ def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str =
         raise NotTiled(f"tiled_surface takes a surface whose base is its profile's solid ({abs(area) * length:.0f} mm3); "
                        f"this base is {float(base.volume):.0f} mm3 (a tube?)", "a base that is not its profile's solid")
     full = float(h.max())  # the envelope H of engraved and centred textures, mm
-    if gradient is not None:
-        h = _graded(h, share * full, point, offset, y, gradient)
+    if gain is not None:
+        h = _graded(h, share * full, point, offset, y, gain)
     elif share:
         h = h - np.float32(share * full)  # the offsets t = h - c H along v
     c = len(m.s)
@@ -1060,11 +1061,9 @@ def y_rows(length: float, rows: int, py: float) -> np.ndarray:
     return (length - rows * py) / 2 + (np.arange(rows) + 0.5) * py
 
 
-def _graded(h: np.ndarray, low: float, point: np.ndarray, offset: np.ndarray, y: np.ndarray, gradient: Any) -> np.ndarray:
-    """``g (h - low)`` float32 mm, ``g`` the gradient's gain at the raised sheet's points
+def _graded(h: np.ndarray, low: float, point: np.ndarray, offset: np.ndarray, y: np.ndarray, gain: Any) -> np.ndarray:
+    """``g (h - low)`` float32 mm, ``g = gain(points)`` at the raised sheet's points
     ``point + h offset`` (float32, as the untiled mapped top), in blocks of whole rows."""
-    from .surface import gradient_gain
-
     r, c = h.shape
     out = np.empty((r, c), np.float32)
     rows = max(1, INTEGRAL_BLOCK // max(c, 1))
@@ -1076,7 +1075,7 @@ def _graded(h: np.ndarray, low: float, point: np.ndarray, offset: np.ndarray, y:
         top[..., 1] = y[r0 : r0 + rows, None]
         top[..., 2] = hb * offset[:, 1]
         top[..., 2] += point[:, 1]
-        g = gradient_gain(top.reshape(-1, 3).astype(np.float64), gradient).reshape(hb.shape)
+        g = np.asarray(gain(top.reshape(-1, 3).astype(np.float64)), np.float64).reshape(hb.shape)
         out[r0 : r0 + rows] = g * (hb.astype(np.float64) - low)
     return out
 
