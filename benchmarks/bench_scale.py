@@ -10,6 +10,9 @@ its own; imports are done before the clock starts):
   max_memory=...)`` and ``.export("plate.stl")``: the one driver, made in tiles when
   the untiled relief does not fit in ``max_memory``, checked by the gate (tile by
   tile), streamed to STL;
+* ``limited`` (at ``--limited-mpx``): the same with ``build_dir`` standing upright
+  (+y up), so the overhang limiter runs too, block by block in tiles; its time
+  against the unlimited tiled plate of the same size and bound;
 * at 1 M px also with ``--baseline-memory`` (small enough that it is made in tiles
   too: the linear baseline for the 100 M px target), and ``tiled``:
   :func:`texcad.pipeline.tiled.textured_plate_tiled` alone (no gate), up to
@@ -24,7 +27,7 @@ cores / workers, and on a busy machine it says how busy the machine was: the CPU
 seconds per job (:attr:`texcad.batch.JobResult.cpu_seconds`) say whether the jobs
 themselves got dearer with more workers.
 
-    python benchmarks/bench_scale.py [--max-mpx 100] [--workers 1 2 4] [--parts 8] [--out docs/benchmarks/scale.md]
+    python benchmarks/bench_scale.py [--max-mpx 100] [--limited-mpx 1 9] [--workers 1 2 4] [--parts 8] [--out docs/benchmarks/scale.md]
 """
 
 from __future__ import annotations
@@ -48,7 +51,7 @@ BATCH_PITCH = 0.1  # mm
 _CHILD = r"""
 import json, resource, sys, time
 from pathlib import Path
-import texcad, texcad.pipeline.tiled, build123d  # imports before the clock
+import texcad, texcad.pipeline.tiled, texcad.printability, build123d  # imports before the clock
 mpx, pitch, out, mode, max_memory = float(sys.argv[1]), float(sys.argv[2]), sys.argv[3], sys.argv[4], sys.argv[5]
 side = round((mpx * 1e6) ** 0.5) * pitch
 def cpu():
@@ -60,13 +63,15 @@ if mode == "tiled":
     r = textured_plate_tiled((side, side), 5.0, "builtin:stones", pitch, height=1.0, out=out, max_memory=max_memory)
     tris, tiles, how = r.triangles, r.tiles, "textured_plate_tiled (no gate)"
 else:
+    limited = mode == "limited"  # standing upright: the overhang limiter, block by block when tiled
+    bd = texcad.printability.orientation(90, "+y") if limited else None
     tx = texcad.texture(texcad.Plate((side, side), 5.0), None, "builtin:stones", pitch=pitch, height=1.0, tolerance=0,
-                        max_memory=max_memory)
+                        max_memory=max_memory, build_dir=bd)
     tx.export(out)
     assert tx.gate.shells.closed
     tiled = tx.info["fuse"] == "tiled"
     tris, tiles = tx.mesh.num_triangles, tx.info.get("tiles", 1)
-    how = f"texcad.texture, {'tiled' if tiled else 'untiled'}, gated"
+    how = f"texcad.texture, {'tiled' if tiled else 'untiled'}, gated" + (", limited upright" if limited else "")
 sec, cpu_sec = time.perf_counter() - t0, cpu() - c0
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 print(json.dumps({"side": side, "seconds": sec, "cpu": cpu_sec, "peak": peak, "triangles": tris, "tiles": tiles, "how": how,
@@ -149,8 +154,9 @@ def table(plates: list[dict], batches: list[dict], command: str) -> str:
             f"| {p['mpx']:g} M | {p['side']:g} | {p['how']} | {p['max_memory']} | {p['tiles']} | {p['triangles']:,} | "
             f"{p['seconds']:.1f}{' (median of %d)' % p['runs'] if p.get('runs', 1) > 1 else ''} | {p['seconds'] / p['mpx']:.2f} | {p['cpu'] / p['mpx']:.2f} | {p['peak'] / 2**30:.2f} GiB | {p['bytes'] / 2**20:,.0f} MiB |"
         )
-    base = [p for p in plates if "error" not in p and p["mpx"] == min(q["mpx"] for q in plates) and p["how"].startswith("texcad.texture, tiled")]
-    big = [p for p in plates if "error" not in p and p["mpx"] > min(q["mpx"] for q in plates) and p["how"].startswith("texcad.texture, tiled")]
+    plain = [p for p in plates if "error" not in p and p["how"] == "texcad.texture, tiled, gated"]
+    base = [p for p in plain if p["mpx"] == min(q["mpx"] for q in plates)]
+    big = [p for p in plain if p["mpx"] > min(q["mpx"] for q in plates)]
     if base and big:
         b = base[0]
         lines += ["", f"Time per M px against the {b['mpx']:g} M px plate made in tiles through texcad.texture "
@@ -158,6 +164,13 @@ def table(plates: list[dict], batches: list[dict], command: str) -> str:
                   + ", ".join(f"{p['mpx']:g} M px {(p['seconds'] / p['mpx']) / (b['seconds'] / b['mpx']):.2f} x in time, "
                               f"{(p['cpu'] / p['mpx']) / (b['cpu'] / b['mpx']):.2f} x in CPU time" for p in big)
                   + ". The machine is shared: CPU time (user + system, this process) is the steadier measure."]
+    pairs = [(q, p) for q in plates if "error" not in q and q["how"].endswith("limited upright")
+             for p in plain if p["mpx"] == q["mpx"] and p["max_memory"] == q["max_memory"]]
+    if pairs:
+        lines += ["", "The overhang limiter in tiles (build_dir standing upright, +y up; each block limited from its halo): "
+                  + ", ".join(f"{q['mpx']:g} M px {q['seconds'] / p['seconds']:.2f} x the unlimited tiled plate's time "
+                              f"({q['cpu'] / p['cpu']:.2f} x its CPU time), peak {q['peak'] / 2**30:.2f} against "
+                              f"{p['peak'] / 2**30:.2f} GiB" for q, p in pairs) + "."]
     lines += ["", "## Batch throughput against local Dask workers", "",
               "| workers | jobs ok | cluster start s | jobs s | jobs per minute | efficiency | CPU s per job |", "|---:|---:|---:|---:|---:|---:|---:|"]
     for b in batches:
@@ -187,6 +200,9 @@ def main() -> None:
     ap.add_argument("--max-memory", default="4GB", help="texcad.texture's bound (max_memory)")
     ap.add_argument("--baseline-memory", default="1GB", help="the 1 M px plate's bound again, small enough to make it in tiles ('' for none)")
     ap.add_argument("--repeat", type=int, default=3, help="runs of each plate of 1 M px or less (the median is shown)")
+    ap.add_argument("--limited-mpx", type=float, nargs="*", default=[1, 9],
+                    help="plates also made limited for standing upright (build_dir), M px; in tiles "
+                         "(the smallest at --baseline-memory)")
     ap.add_argument("--workers", type=int, nargs="*", default=[1, 2, 4])
     ap.add_argument("--parts", type=int, default=8)
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent.parent / "docs" / "benchmarks" / "scale.md")
@@ -201,6 +217,9 @@ def main() -> None:
             runs.append((mpx, "texture", args.baseline_memory))
         if mpx <= args.tiled_max_mpx:
             runs.append((mpx, "tiled", args.max_memory))
+        if mpx in args.limited_mpx:
+            small = mpx == min(args.mpx) and args.baseline_memory
+            runs.append((mpx, "limited", args.baseline_memory if small else args.max_memory))
     for mpx, mode, mm in runs:  # per run, each in its own process; small ones several times (the median)
         rows = [plate_row(mpx, mode, mm) for _ in range(args.repeat if mpx <= 1 else 1)]
         ok = sorted((r for r in rows if "error" not in r), key=lambda r: r["seconds"])

@@ -90,6 +90,12 @@ def test_refusals(tmp_path):
         textured_plate_tiled(SIZE, THICK, "builtin:nope", out=tmp_path / "a.stl")
     with pytest.raises(texcad.ResourceError, match="max_memory leaves"):
         textured_plate_tiled(SIZE, THICK, "builtin:stones", out=tmp_path / "a.stl", max_memory="10MB")
+    with pytest.raises(texcad.ParameterError, match="build_dir with client="):
+        textured_plate_tiled(SIZE, THICK, "builtin:stones", out=tmp_path / "a.stl", build_dir=(0, 1, 1), client=object())
+    with pytest.raises(texcad.ParameterError, match="the limiter's reach is the whole plate"):
+        from texcad.printability import orientation
+
+        textured_plate_tiled(SIZE, THICK, "builtin:stones", out=tmp_path / "a.stl", build_dir=orientation(133, "-y"))
     assert not list(tmp_path.iterdir())
 
 
@@ -171,9 +177,96 @@ def test_texture_switches_to_tiles_and_equals_the_untiled_plate(tmp_path, untile
 
 
 def test_tiles_refused_where_they_are_not_made(monkeypatch):
+    from build123d import Align, Box, Cylinder, Pos
+
+    base = Box(*SIZE, THICK, align=(Align.MIN, Align.MIN, Align.MAX)) - Pos(15, 11, -THICK) * Cylinder(3, 2)
     _small_budget(monkeypatch)
-    with pytest.raises(texcad.ResourceError, match=r"build_dir \(the overhang limiter\) is not made in tiles"):
-        texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, build_dir=(0, 0, 1))
+    with pytest.raises(texcad.ResourceError, match=r"a plate with its own base is not made in tiles; use pitch >="):
+        texcad.texture(texcad.Plate(SIZE, THICK, base=base), None, "builtin:stones", pitch=PITCH)
+
+
+@pytest.mark.parametrize("tilt, toward", [(90, "+y"), (70, 30.0), (120, "-x")])
+def test_texture_limited_in_tiles_equals_the_untiled_limited_plate(tmp_path, monkeypatch, tilt, toward):
+    """build_dir on a plate made in tiles: the limiter runs block by block (each from
+    its halo), and the texture's triangles are the untiled limited plate's, bit for
+    bit, with the same report; the gate passes tile by tile; the whole part
+    overhangs no more than the untiled one (the sloped rim adds no overhang); the
+    STL holds the same triangles as textured_plate_tiled's with the same build_dir."""
+    import texcad.targets.tiled as tiled
+    from texcad.printability import orientation, overhang_area
+
+    d = orientation(tilt, toward)
+    un = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, build_dir=d, tolerance=0)
+    slab = un.texture_mesh
+    _small_budget(monkeypatch)
+    monkeypatch.setattr(tiled, "tile_for_memory", lambda bound, nodes: 13)  # many tiles, and limiter blocks
+    tx = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, build_dir=d,
+                        max_memory="2GB")
+    assert tx.info["fuse"] == "tiled" and tx.info["tiles"] > 9
+    assert tx.limits.removed_volume_mm3 > 1.0 and tx.limits.ramped_borders == un.limits.ramped_borders
+    assert tx.limits.max_removed_mm == un.limits.max_removed_mm and tx.limits.iterations == un.limits.iterations
+    assert np.isclose(tx.limits.removed_volume_mm3, un.limits.removed_volume_mm3, rtol=1e-12)
+    g = tx.gate
+    assert g.shells.closed and abs(g.volume_change - g.expected_volume) <= g.volume_slack
+    assert np.isclose(g.expected_volume, un.gate.expected_volume, rtol=1e-9)  # the limited integral
+    tx.export(tmp_path / "t.stl")
+    tri = _triangles(tmp_path / "t.stl")
+    w, dd = SIZE
+    inner = np.all((tri[:, :, 0] > 0) & (tri[:, :, 0] < w) & (tri[:, :, 1] > 0) & (tri[:, :, 1] < dd), axis=1)
+    assert np.array_equal(_key(tri[inner]), _key(slab.vertices[slab.faces[slab.groups["texture"]]]))
+    whole = tx.mesh.to_mesh()
+    assert whole.is_watertight
+    assert overhang_area(whole, d) <= overhang_area(un.mesh, d) + 1e-6
+    ref = textured_plate_tiled(SIZE, THICK, "builtin:stones", PITCH, height=HEIGHT, out=tmp_path / "r.stl", tile=17,
+                               build_dir=d)
+    assert np.array_equal(_key(_triangles(tmp_path / "r.stl")), _key(tri)) and not list(tmp_path.glob(".*"))
+
+
+def test_a_tolerance_given_is_warned_about_in_tiles(monkeypatch):
+    """The lean mesh is not made in tiles: a tolerance given says so (the tiles keep
+    every pixel centre, error 0); the default tolerance does not."""
+    import warnings
+
+    _small_budget(monkeypatch)
+    with pytest.warns(texcad.TexcadWarning, match="the lean mesh is not made in tiles"):
+        tx = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, tolerance=0.05,
+                            max_memory="2GB")
+    assert tx.info["fuse"] == "tiled" and tx.info["tolerance"] == 0.0 and tx.max_error == 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", texcad.TexcadWarning)
+        texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, max_memory="2GB")
+
+
+def test_limited_plate_under_an_address_space_limit_is_made_in_tiles(tmp_path):
+    """A plate limited for standing upright, whose untiled relief needs more than
+    max_memory (and than the process may map: RLIMIT_AS), completes in tiles: limited
+    block by block, gated, its STL streamed, nothing left to overhang."""
+    out = tmp_path / "big.stl"
+    script = textwrap.dedent(f"""
+        import resource
+        import build123d, scipy.optimize, scipy.spatial  # libraries loaded first: the limit is for the job's arrays
+        import texcad
+        from texcad.printability import orientation
+        texcad.Plate((10, 10), 4)
+        def vm():
+            return int(open("/proc/self/status").read().split("VmSize:")[1].split()[0]) * 1024
+        limit = vm() + (600 << 20)
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+        tx = texcad.texture(texcad.Plate((150, 150), 4), None, "builtin:stones", pitch=0.125, max_memory=600 << 20,
+                            build_dir=orientation(90, "+y"))
+        tx.export({str(out)!r})
+        peak = int(open("/proc/self/status").read().split("VmPeak:")[1].split()[0]) * 1024
+        print(tx.info["fuse"], tx.info["tiles"], tx.info["grid"][0] * tx.info["grid"][1], tx.mesh.num_triangles,
+              tx.gate.shells.closed, abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack,
+              peak <= limit, tx.limits.removed_volume_mm3 > 10, tx.limits.remaining_overhang_mm2 == 0.0,
+              tx.limits.ramped_borders == ("y0",))
+    """)
+    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr[-2000:]
+    how, tiles, px, tris, *flags = res.stdout.split()
+    assert how == "tiled" and int(tiles) > 1 and int(px) == 1200 * 1200
+    assert flags == ["True"] * 6, res.stdout
+    assert out.stat().st_size == 84 + 50 * int(tris)
 
 
 def test_the_tiled_gate_catches_a_broken_seam(tmp_path, monkeypatch):
@@ -377,13 +470,68 @@ def test_texture_switches_a_cylinder_to_tiles_with_the_untiled_texture_vertices(
         tx.texture_mesh
 
 
+GRADIENT = ((0.0, 0.0, 0.0), (0.0, 12.0, 0.0))  # full depth at y = 0, none at y = 12 mm
+
+
+@pytest.mark.parametrize("mode, mapping, gradient", [("engraved", "angle", None), ("engraved", "distance", None),
+                                                     ("centred", "angle", None), ("raised", "angle", GRADIENT),
+                                                     ("engraved", "angle", GRADIENT)])
+def test_engraved_and_centred_cylinders_in_tiles(tmp_path, monkeypatch, mode, mapping, gradient):
+    """Engraved and centred modes (and a gradient) on a tiled cylinder: the tiles'
+    sheet is the untiled one's (t = g (h - c H) along the mapping's offset) to float32
+    rounding, except that the untiled engraving's cutter reaches at least CUT_FLOOR
+    under the surface (the texture's top there lies up to that much deeper); gated
+    tile by tile with the signed integral; the volume the untiled one's within the
+    ends' difference and the floor; the STL streamed."""
+    import warnings
+
+    from texcad.mapping import CUT_FLOOR
+
+    surf, height = texcad.Surface.cylinder(8.0, 12.0), 0.6
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the texture scaled to whole repeats round the cylinder (both paths)
+        un = texcad.texture(surf, None, "builtin:stones", pitch=0.5, height=height, tolerance=0, mode=mode, mapping=mapping,
+                            gradient=gradient)
+        _small_surface_budget(monkeypatch)
+        tx = texcad.texture(surf, None, "builtin:stones", pitch=0.5, height=height, mode=mode, mapping=mapping,
+                            max_memory="2GB", gradient=gradient)
+    assert tx.info["fuse"] == "tiled" and tx.info["mode"] == mode and tx.max_error == 0.0
+    g = tx.gate
+    assert g.shells.closed and g.shells.bodies == 1 and abs(g.volume_change - g.expected_volume) <= g.volume_slack
+    assert g.farthest_mm <= (0.5 if mode == "centred" else 1.0) * height + 1e-5
+    assert (g.volume_change < 0) == (mode == "engraved")
+    assert (tx.stages.relief.nominal_volume is None) == (mode == "centred")
+    slab_top, cut = un.stages.relief.data.bodies.sheets
+    mesh = tx.mesh
+    r, c = mesh.grid.texture_shape
+    across = np.einsum("ck,ck->c", mesh.grid.offset.astype(np.float64), surf.profile.at(un.stages.relief.mapped.s).normal)
+    for t, v, f, ids in mesh.blocks():  # every tile's texture vertices against the untiled sheet
+        if t is None:
+            continue
+        rows, cols, nrs = mesh.grid.texture_block(t)
+        mine = v.reshape(*t.shape, 3)[nrs]
+        if mode == "engraved":
+            apart = np.abs(mine - cut[rows][:, cols % c]).max(axis=2)
+            down = mesh.heights[rows][:, cols % c] * across[cols % c]  # t's component along the profile's normal
+            deep = down < -CUT_FLOOR - 1e-4  # where the cutter's floor does not reach
+            assert apart.max() <= CUT_FLOOR + 2e-5 and apart[deep].max(initial=0.0) <= 2e-5
+            assert deep.any()
+        else:  # the slab's top, but for a centred one's first and last row (tucked under the cut at the ends)
+            keep = (np.arange(rows.start, rows.stop) > 0) & (np.arange(rows.start, rows.stop) < r - 1) | (mode == "raised")
+            assert np.abs(mine - slab_top[rows][:, cols % c])[keep].max(initial=0.0) <= 2e-5
+    py = float(un.stages.relief.mapped.heightmap.pitch[1])
+    ends = 2 * surf.profile.length * ((12.0 - r * py) / 2 + py / 2) * height / 2
+    assert abs(tx.volume - un.mesh.volume) <= ends + CUT_FLOOR * surf.profile.length * 12.0, (tx.volume, un.mesh.volume)
+    tx.export(tmp_path / "cyl.stl")
+    assert (tmp_path / "cyl.stl").stat().st_size == 84 + 50 * mesh.num_triangles
+
+
 def test_surfaces_not_made_in_tiles_are_refused_naming_a_pitch(monkeypatch):
     import warnings
 
     _small_surface_budget(monkeypatch)
     cyl = texcad.Surface.cylinder(8.0, 12.0)
     cases = [
-        (cyl, {"mode": "engraved"}, "the engraved mode"),
         (cyl, {"build_dir": (0, 0, 1)}, r"build_dir \(the overhang limiter\)"),
         (texcad.Surface.cylinder(8.0, 12.0, thickness=2.0), {}, "a base that is not its profile's solid"),
         (texcad.Surface.arc(20.0, 90.0, 10.0, 2.0), {}, "an open profile"),
@@ -397,7 +545,7 @@ def test_surfaces_not_made_in_tiles_are_refused_naming_a_pitch(monkeypatch):
 def test_cylinder_under_an_address_space_limit_is_made_in_tiles(tmp_path):
     """texcad.texture on a full cylinder whose untiled relief needs more than
     max_memory (and than the process may map: RLIMIT_AS) completes in tiles, gated, its
-    STL and 3MF streamed; the same surface engraved (not tiled) is refused naming a pitch."""
+    STL and 3MF streamed; the same surface with build_dir (not tiled) is refused naming a pitch."""
     out = tmp_path / "roller"
     script = textwrap.dedent(f"""
         import resource, warnings
@@ -411,9 +559,9 @@ def test_cylinder_under_an_address_space_limit_is_made_in_tiles(tmp_path):
         warnings.simplefilter("ignore")  # the texture scaled to whole repeats round the cylinder
         surf = texcad.Surface.cylinder(20.0, 100.0)
         try:
-            texcad.texture(surf, None, "builtin:stones", pitch=0.125, height=0.8, mode="engraved", max_memory=600 << 20)
+            texcad.texture(surf, None, "builtin:stones", pitch=0.125, height=0.8, build_dir=(0, 0, 1), max_memory=600 << 20)
         except texcad.ResourceError as exc:
-            print("engraved:", "is not made in tiles; use pitch >=" in str(exc))
+            print("limited:", "is not made in tiles; use pitch >=" in str(exc))
         tx = texcad.texture(surf, None, "builtin:stones", pitch=0.125, height=0.8, max_memory=600 << 20)
         tx.export({str(out) + ".stl"!r})
         tx.export({str(out) + ".3mf"!r})
@@ -425,7 +573,7 @@ def test_cylinder_under_an_address_space_limit_is_made_in_tiles(tmp_path):
     res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr[-2000:]
     lines = res.stdout.split("\n")
-    assert lines[0] == "engraved: True", res.stdout
+    assert lines[0] == "limited: True", res.stdout
     how, tiles, px, tris, closed, volume_ok, under = lines[1].split()
     assert how == "tiled" and int(tiles) > 1 and int(px) * 1300 > 600 << 20  # the untiled estimate does not fit
     assert closed == volume_ok == under == "True"

@@ -97,6 +97,10 @@ __all__ = [
     "SLICER_MARGIN",
     "printable_lean_slab",
     "DEFAULT_LAYER_HEIGHT",
+    "limit_overhangs_tiled",
+    "limiter_halo",
+    "LimitPlan",
+    "TiledLimit",
 ]
 
 #: Default critical overhang angle in degrees (paper, section 2.1.3).
@@ -572,18 +576,53 @@ def _erode(h: np.ndarray, bounds: np.ndarray, max_sweeps: int = 500) -> np.ndarr
     ``h'_i = U_i + min_{j <= i}(h_j - U_j)`` (``U`` = cumulative bound); passes are
     swept until nothing changes (the bounds vary by column).
     """
-    h = h.copy()
+    return _erode_window(h, _erosion_lines(bounds), 0, 0, h.shape[0], max_sweeps)
+
+
+@dataclass(frozen=True)
+class _Lines:
+    """The erosion's cumulative bounds for the whole grid (float64 mm, 1-D: ``O(C)``):
+    along +x and -x (``ux_p``, ``ux_m``, length C; ``ux_m`` indexed from the last
+    column), along the diagonals (``ud_p``, ``ud_m``), and the per-column +y / -y
+    bounds (``by_p``, ``by_m``, length C). A window of the grid slices them, so its
+    running minima use the very numbers the whole grid's do."""
+
+    ux_p: np.ndarray
+    ux_m: np.ndarray
+    ud_p: np.ndarray
+    ud_m: np.ndarray
+    by_p: np.ndarray
+    by_m: np.ndarray
+
+
+def _erosion_lines(bounds: np.ndarray) -> _Lines:
+    """:class:`_Lines` of ``bounds`` ``(6, C-1)`` (see :func:`_erode`)."""
     bx_p, bd_p, by_pc, bx_m, bd_m, by_mc = bounds
     by_p = np.minimum(np.concatenate([by_pc, by_pc[-1:]]), np.concatenate([by_pc[:1], by_pc]))
     by_m = np.minimum(np.concatenate([by_mc, by_mc[-1:]]), np.concatenate([by_mc[:1], by_mc]))
-    R = h.shape[0]
-    ux_p = np.concatenate([[0.0], np.cumsum(bx_p)])
-    ux_m = np.concatenate([[0.0], np.cumsum(bx_m[::-1])])
-    ud_p = np.concatenate([[0.0], np.cumsum(bd_p)])
-    ud_m = np.concatenate([[0.0], np.cumsum(bd_m[::-1])])
-    rows = np.arange(R, dtype=np.float64)[:, None]
-    uy_p = rows * by_p[None, :]
-    uy_m = rows * by_m[None, :]
+    return _Lines(
+        ux_p=np.concatenate([[0.0], np.cumsum(bx_p)]),
+        ux_m=np.concatenate([[0.0], np.cumsum(bx_m[::-1])]),
+        ud_p=np.concatenate([[0.0], np.cumsum(bd_p)]),
+        ud_m=np.concatenate([[0.0], np.cumsum(bd_m[::-1])]),
+        by_p=by_p,
+        by_m=by_m,
+    )
+
+
+def _erode_window(h: np.ndarray, lines: _Lines, r0: int, c0: int, rows: int, max_sweeps: int = 500) -> np.ndarray:
+    """:func:`_erode` on the window ``h`` of a grid of ``rows`` rows whose first
+    pixel is ``(r0, c0)``: the same running minima as on the whole grid, restricted
+    to the window (the cumulative bounds sliced from ``lines``), swept until the
+    window does not change."""
+    h = h.copy()
+    n, m = h.shape
+    C = len(lines.ux_p)
+    cols, back = slice(c0, c0 + m), slice(C - c0 - m, C - c0)
+    ux_p, ux_m = lines.ux_p[cols], lines.ux_m[back]
+    ud_p, ud_m = lines.ud_p[cols], lines.ud_m[back]
+    uy_p = np.arange(r0, r0 + n, dtype=np.float64)[:, None] * lines.by_p[None, cols]
+    uy_m = np.arange(rows - r0 - n, rows - r0, dtype=np.float64)[:, None] * lines.by_m[None, cols]
 
     def line_min(a: np.ndarray, U: np.ndarray, axis: int) -> np.ndarray:
         return U + np.minimum.accumulate(a - U, axis=axis)
@@ -752,6 +791,267 @@ def _limit(hm, build_dir, critical_angle, *, tilt, offset, edges, facets, margin
         iterations=iterations,
     )
     return Heightmap(out, hm.pitch), rep
+
+
+# ---------------------------------------------------------------------------------
+# The limiter tile by tile
+# ---------------------------------------------------------------------------------
+def limiter_halo(bounds: np.ndarray, h_range: float) -> "tuple[int, int] | None":
+    """``(rows, cols)``: how far (pixels) a pixel's limited height can depend on other
+    pixels under the difference ``bounds`` (``(6, C-1)`` mm per edge, as
+    :func:`_erode` takes them) of a heightfield whose heights span ``h_range`` mm;
+    None where that reach is unbounded (a zero bound).
+
+    Why it is finite. The limiter's result is the largest ``h' <= s`` (``s`` the
+    heights after M-I set the ramped borders to at most 0) with ``h'[j] - h'[i] <=
+    u(i -> j)`` along every bounded edge: a system of difference bounds, whose
+    largest solution is ``h'[k] = min_i (s[i] + dist(i, k))``, ``dist`` the shortest
+    path from ``i`` to ``k`` with the edges weighted by their bounds (the greyscale
+    erosion :func:`_erode` computes). Since ``h'[k] <= s[k] <= max s`` and ``s[i] >=
+    min s``, a pixel ``i`` can be the minimiser only if ``dist(i, k) <= max s - min s
+    <= h_range``. An edge of weight ``u`` costs ``u``; every edge that moves a column
+    (``+-x``, ``+-diagonal``) weighs at least ``u_x`` (the smallest such bound; one
+    larger than ``h_range`` never lies on such a path), every edge that moves a row
+    (``+-y``, ``+-diagonal``) at least ``u_y``. So a path that matters moves at most
+    ``h_range / u_x`` columns and ``h_range / u_y`` rows, and ``h'`` on a block of
+    pixels is the limiter run on the block grown by that many columns and rows (its
+    *halo*): a path from outside the halo is longer than the best one by at least
+    one more edge (``u_x`` or ``u_y``, far above float64 rounding), so the window's
+    running minima pick the same values as the whole grid's (with the same
+    cumulative bounds: :class:`_Lines`), bit for bit. The halo holds two pixels more
+    than that: one for the argument's margin, one for the facets of the block's last
+    row and column, which the verification checks.
+
+    In degrees: along the in-plane direction of ``d`` a bound is ``tan(beta_max)``
+    per mm with ``beta_max = 180 - (critical + margin) - tilt``, so the halo is about
+    ``h_range / (pitch tan(beta_max))`` pixels (8.7 rows, a halo of 10, for a 1 mm
+    texture at 0.125 mm standing upright at 45 degrees; oblique directions split the
+    bound over two edge directions, which at most doubles that).
+    """
+    def steps(ks: list) -> "int | None":
+        b = bounds[ks]
+        u = b[b <= h_range]
+        if u.size == 0:
+            return 0
+        umin = float(u.min())
+        return None if umin <= 0.0 else int(np.floor(h_range / umin)) + 2
+
+    cols, rows = steps([0, 1, 3, 4]), steps([1, 2, 4, 5])
+    return None if cols is None or rows is None else (rows, cols)
+
+
+@dataclass(frozen=True)
+class LimitPlan:
+    """The overhang limiter's whole-grid state, with which any block of a flat
+    heightfield is limited alone (:func:`limit_overhangs_tiled`).
+
+    Attributes:
+        shape: ``(R, C)`` pixels of the whole heightfield; pitch: ``(px, py)`` mm.
+        ramped: the borders M-I brings down to 0 mm (as :class:`LimitReport`).
+        halo: ``(rows, cols)`` pixels a block is grown by (:func:`limiter_halo`).
+        lines: the erosion's cumulative bounds for the whole grid (``O(C)`` floats).
+    """
+
+    shape: tuple
+    pitch: tuple
+    ramped: tuple
+    halo: tuple
+    lines: _Lines = field(repr=False)
+
+    def window(self, rows: slice, cols: slice) -> tuple[slice, slice]:
+        """The block ``rows, cols`` grown by the halo, within the grid."""
+        (R, C), (hr, hc) = self.shape, self.halo
+        return slice(max(rows.start - hr, 0), min(rows.stop + hr, R)), slice(max(cols.start - hc, 0), min(cols.stop + hc, C))
+
+    def limit(self, read, rows: slice, cols: slice) -> tuple[np.ndarray, np.ndarray]:
+        """``(h0, h')``: the block's heights as read (float64) and limited (float32), mm;
+        ``read(rows, cols)`` gives the unlimited heights of any block (mm)."""
+        wr, wc = self.window(rows, cols)
+        h0 = np.asarray(read(wr, wc), dtype=np.float64)
+        start = h0.copy()
+        R, C = self.shape
+        for name, edge, sel in (("x0", wc.start == 0, np.s_[:, 0]), ("x1", wc.stop == C, np.s_[:, -1]),
+                                ("y0", wr.start == 0, np.s_[0, :]), ("y1", wr.stop == R, np.s_[-1, :])):
+            if name in self.ramped and edge:  # M-I: as _limit's border mask
+                start[sel] = np.minimum(start[sel], 0.0)
+        out = _erode_window(start, self.lines, wr.start, wc.start, R).astype(np.float32)
+        inner = np.s_[rows.start - wr.start : rows.stop - wr.start, cols.start - wc.start : cols.stop - wc.start]
+        return h0[inner], out[inner]
+
+
+@dataclass(frozen=True)
+class TiledLimit:
+    """What :func:`limit_overhangs_tiled` found.
+
+    Attributes:
+        report: the :class:`LimitReport`, as :func:`limit_overhangs` gives it.
+        plan: the :class:`LimitPlan` the stored blocks were limited with.
+        volume: the limited heights' :func:`texcad.solid.mesh.heightfield_volume`,
+            mm^3, and ``slack`` its slack (mm^3), summed block by block.
+        top: the highest limited height, mm.
+    """
+
+    report: LimitReport
+    plan: LimitPlan
+    volume: float
+    slack: float
+    top: float
+
+
+def _limit_angles(build_dir, critical_angle, margin, layer_height) -> tuple[np.ndarray, float, float]:
+    """``(directions, critical, margin)`` checked, as :func:`_limit` takes them."""
+    dirs = build_directions(build_dir)
+    crit = check_critical_angle(critical_angle)
+    margin = slicer_margin(crit, layer_height) if margin is None else float(margin)
+    if not (np.isfinite(margin) and 0.0 <= margin < 90.0 - crit):
+        raise ParameterError(f"margin must be between 0 and {90 - crit:g} degrees, got {margin!r}")
+    return dirs, crit, margin
+
+
+def _grid_blocks(shape: tuple, block: int) -> list:
+    """The ``(rows, cols)`` slices of ``block`` x ``block`` pixels covering ``shape``, row-major."""
+    R, C = shape
+    return [(slice(r, min(r + block, R)), slice(c, min(c + block, C))) for r in range(0, R, block) for c in range(0, C, block)]
+
+
+def limit_overhangs_tiled(read, shape, pitch, build_dir, critical_angle: float = DEFAULT_CRITICAL_ANGLE, *, block: int,
+                          store, edges: bool = True, margin: float | None = None,
+                          layer_height: float = DEFAULT_LAYER_HEIGHT, progress=None) -> TiledLimit:
+    """:func:`limit_overhangs` on a flat heightfield too large to hold, a block at a
+    time: the same heights, bit for bit (tested), in memory that goes with one block
+    and its halo (:func:`limiter_halo`) plus ``O(C)`` numbers.
+
+    The untiled limiter's steps, each a pass over the blocks: the height range; for
+    an oblique direction, the split of its bound that removes least (summed over the
+    blocks: the same choice unless two splits remove the same volume within float64
+    rounding); then the verification on the triangulated facets, whose tightened
+    columns (a 1-D scale, as in :func:`_limit`) start another pass until none is
+    left (on a flat plate the first pass normally finds none). Each block is limited
+    from the block grown by the halo, with the whole grid's cumulative bounds.
+
+    Args:
+        read: ``read(rows, cols)`` -> the unlimited heights (mm) of any block.
+        shape: ``(R, C)`` pixels; pitch: ``(px, py)`` mm.
+        build_dir, critical_angle, edges, margin, layer_height: as :func:`limit_overhangs`
+            (degrees, mm).
+        block: pixels per side of a block with its halo (memory goes with its
+            square; the blocks are that less twice the halo, at least 32).
+        store: ``store(rows, cols, heights)`` takes each block's limited float32
+            heights (mm); a later pass stores every block again, the last is final.
+        progress: ``progress(fraction, message)`` or None.
+
+    Returns:
+        :class:`TiledLimit`.
+
+    Raises:
+        ParameterError: bad direction or angle, or a bound of 0 (a direction just
+            short of facing the texture down: its reach is the whole grid).
+    """
+    dirs, crit, margin = _limit_angles(build_dir, critical_angle, margin, layer_height)
+    R, C = (int(n) for n in shape)
+    px, py = (float(p) for p in pitch)
+    blocks = _grid_blocks((R, C), int(block))
+    lo = min(float(np.min(read(*b))) for b in blocks)  # per block: the range
+    hi = max(float(np.max(read(*b))) for b in blocks)
+    h_range = hi - min(0.0, lo)
+    psi = np.zeros(C)
+    cos_facet, cos_wall = np.cos(np.radians(crit + margin)), np.cos(np.radians(overhang_angle(crit)))
+    walls = _border_walls(psi, "normal")
+    ramped = tuple(b for b in _BORDERS if edges and bool((-(dirs @ walls[b]) > cos_wall).any()))
+
+    def plan(split: float, scale: np.ndarray):
+        bounds, oblique, bad = _edge_bounds(h_range, psi[1:], dirs, cos_facet, cos_wall, "normal", px, py, split, scale)
+        halo = limiter_halo(bounds, h_range)
+        if halo is None:
+            raise ParameterError(f"a build direction {np.round(dirs, 4).tolist()} leaves the texture facets a slope of 0: "
+                                 "the limiter's reach is the whole plate, which is not made in tiles; tilt it a degree less")
+        return LimitPlan((R, C), (px, py), ramped, halo, _erosion_lines(bounds)), oblique, bad
+
+    scale = np.ones(C - 1)
+    first, oblique, bad = plan(0.5, scale)
+    blocks = _grid_blocks((R, C), max(32, int(block) - 2 * max(first.halo)))  # a block and its halo: about block a side
+    split = _tiled_split(plan, scale, read, blocks, progress) if oblique else 0.5
+    cos_check = np.cos(np.radians(crit + max(0.5 * margin, margin - 0.25)))
+    iterations = 1
+    while True:  # per verification pass (as _limit's loop)
+        p = plan(split, scale)[0]
+        fix, stats = _tiled_pass(p, read, blocks, dirs, cos_check, bad, store, progress)
+        if not fix.size or iterations >= 40:
+            break
+        scale[fix] *= 0.8
+        iterations += 1
+    if bad.any():
+        xs = (np.flatnonzero(bad) + 1.0) * px
+        warnings.warn(f"the surface itself faces down past {crit:g} degrees between x = {xs.min():.1f} and "
+                      f"{xs.max():.1f} mm; the texture there is left as is (it needs support anyway): choose a build "
+                      "direction closer to the surface normal", TexcadWarning, stacklevel=2)
+    removed, most, touched, remaining, weighted, crossing, top = stats
+    rep = LimitReport(removed_volume_mm3=removed * px * py, max_removed_mm=most, touched_fraction=touched / (R * C),
+                      ramped_borders=ramped, critical_angle_deg=crit, margin_deg=margin, directions=dirs,
+                      remaining_overhang_mm2=remaining, surface_overhang=bool(bad.any()), iterations=iterations)
+    return TiledLimit(rep, p, weighted * px * py, px * py * (max(top, 0.0) + crossing), top)
+
+
+def _tiled_split(plan, scale: np.ndarray, read, blocks: list, progress) -> float:
+    """The split of oblique bounds that removes least (as :func:`_limit` chooses it:
+    0.5 first, the first of equal ones kept), the removed heights summed block by block."""
+    from ..util import report
+
+    splits = (0.5, 0.2, 0.35, 0.65, 0.8)
+    plans = [plan(s, scale)[0] for s in splits]
+    removed = [0.0] * len(splits)
+    for k, (rows, cols) in enumerate(blocks):  # per block
+        for i, p in enumerate(plans):  # per split
+            h0, out = p.limit(read, rows, cols)
+            removed[i] += float((h0 - out).sum())
+        report(progress, 0.5 * (k + 1) / len(blocks), f"limiting overhangs: choosing the split, block {k + 1}/{len(blocks)}")
+    best = (removed[0], splits[0])
+    for i in range(1, len(splits)):  # per split
+        best = min(best, (removed[i], splits[i]), key=lambda t: t[0])
+    return best[1]
+
+
+def _tiled_pass(plan: LimitPlan, read, blocks: list, dirs, cos_check: float, bad: np.ndarray, store, progress):
+    """One pass over the blocks: each limited (with its next row and column, for the
+    facets between blocks) and stored, its triangulated facets verified as
+    :func:`_limit` does. Returns ``(columns to tighten, stats)``, the stats being the
+    removed height's sum, largest and count above 1 nm, the area still overhanging
+    (mm^2), the trapezoid-weighted sum of ``max(h', 0)``, the crossing term of
+    :func:`texcad.solid.mesh.heightfield_volume` (mm) and the highest ``h'`` (mm)."""
+    from ..util import report
+
+    (R, C), (px, py) = plan.shape, plan.pitch
+    x = np.concatenate([[0.0], np.cumsum(np.full(C - 1, px))])  # _grid_points' profile on a flat plate
+    fix, removed, most, touched, remaining, weighted, crossing, top = [], 0.0, 0.0, 0, 0.0, 0.0, 0.0, -np.inf
+    for k, (rows, cols) in enumerate(blocks):  # per block
+        er, ec = slice(rows.start, min(rows.stop + 1, R)), slice(cols.start, min(cols.stop + 1, C))
+        h0, ext = plan.limit(read, er, ec)
+        n, m = rows.stop - rows.start, cols.stop - cols.start
+        out, h0 = ext[:n, :m], h0[:n, :m]
+        store(rows, cols, out)
+        gone = h0 - out.astype(np.float64)
+        removed, most = removed + float(gone.sum()), max(most, float(gone.max(initial=0.0)))
+        touched += int(np.count_nonzero(gone > 1e-6))
+        g = ext.astype(np.float64)
+        if g.shape[0] > 1 and g.shape[1] > 1:
+            P = np.empty(g.shape + (3,))
+            P[..., 0] = x[None, ec] + g * -0.0
+            P[..., 1] = ((np.arange(er.start, er.stop) + 0.5) * py)[:, None]
+            P[..., 2] = 0.0 + g * 1.0
+            viol, area = _facet_violations(P, dirs, cos_check)
+            cell_col = (np.arange(len(viol)) // 2) % (g.shape[1] - 1) + cols.start
+            fix.append(np.unique(cell_col[viol & ~bad[cell_col]]))
+            remaining += float(area[viol].sum())
+            corners = [g[:-1, :-1], g[:-1, 1:], g[1:, :-1], g[1:, 1:]]
+            lo, hi = np.minimum.reduce(corners), np.maximum.reduce(corners)
+            crossing += float(np.where((lo < 0) & (hi > 0), hi, 0.0).sum())
+        wr = np.where((np.arange(rows.start, rows.stop) == 0) | (np.arange(rows.start, rows.stop) == R - 1), 0.5, 1.0)
+        wc = np.where((np.arange(cols.start, cols.stop) == 0) | (np.arange(cols.start, cols.stop) == C - 1), 0.5, 1.0)
+        weighted += float(wr @ np.maximum(out.astype(np.float64), 0.0) @ wc)
+        top = max(top, float(out.max()))
+        report(progress, 0.5 + 0.5 * (k + 1) / len(blocks), f"limiting overhangs: block {k + 1}/{len(blocks)}")
+    cols_fix = np.unique(np.concatenate(fix)) if fix else np.zeros(0, np.int64)
+    return cols_fix, (removed, most, touched, remaining, weighted, crossing, top)
 
 
 # ---------------------------------------------------------------------------------

@@ -20,10 +20,13 @@ machine's, or ``max_memory``), a plain plate is made in tiles instead
 (:mod:`texcad.targets.tiled`): the relief is the texture's source, read a tile at a
 time, the fused mesh a :class:`~texcad.targets.tiled.TiledMesh` that the gate checks
 (:func:`~texcad.targets.tiled.gate_tiled`) and the export streams, tile by tile. It
-keeps every pixel centre (its error is 0, within any ``tolerance``; ``depth`` is not
+keeps every pixel centre (its error is 0, within any ``tolerance``: the lean mesh is
+not made in tiles, and a ``tolerance`` given is warned about; ``depth`` is not
 used: the texture is the plate's top) and its rim slopes from the outer pixel centres
-to the plate's edge (``info["fuse"] == "tiled"``). A given ``base`` and ``build_dir``
-are not tiled: those are refused as before.
+to the plate's edge (``info["fuse"] == "tiled"``). With ``build_dir`` the overhang
+limiter runs block by block, each block limited from the block grown by a halo
+(:func:`texcad.printability.overhang.limit_overhangs_tiled`): the same heights as the untiled
+limiter, bit for bit. A given ``base`` is not tiled: that is refused as before.
 """
 
 from __future__ import annotations
@@ -210,11 +213,18 @@ class PlateAdapter(Adapter):
         if need <= available_memory():
             return None
         what = f"a {shape[0]} x {shape[1]} px texture on the plate"
-        if options.directions is not None or not _is_box(placement.base, w, d, pl.thickness):
-            why = "build_dir (the overhang limiter)" if options.directions is not None else "a plate with its own base"
-            require_memory(need, what, f"{why} is not made in tiles; use pitch >= "
+        if not _is_box(placement.base, w, d, pl.thickness):
+            require_memory(need, what, "a plate with its own base is not made in tiles; use pitch >= "
                                        f"{fitting_pitch(options.pitch, need):.3g} mm")
         options.report(0.1, f"{what}: made in tiles")
+        if options.tolerance > 0 and "tolerance" in options.given:
+            import warnings
+
+            from ..errors import TexcadWarning
+
+            warnings.warn(f"{what} is made in tiles, which keep every pixel centre (error 0, within tolerance="
+                          f"{options.tolerance:g} mm): the lean mesh is not made in tiles, so the file is the full grid's "
+                          "size; use a coarser pitch for a smaller file", TexcadWarning, stacklevel=4)
         height: Any = options.height
         if isinstance(texture, Heightmap):  # as the untiled plate: its own pixels, and its own heights unless told
             from ..sources import load_texture
@@ -222,16 +232,27 @@ class PlateAdapter(Adapter):
             texture = texture if "height" not in options.given else load_texture(texture, height=options.height)
             height = None
         source, side = plate_source(texture, (w, d), options.pitch, height, bound=options.max_memory,
-                                    progress=lambda f, m: options.report(0.1 + 0.3 * f, m))
+                                    progress=lambda f, m: options.report(0.1 + 0.2 * f, m))
+        top = float(source.hm.heights.max()) if height is None else float(height)
+        nominal, limits = source.integral()[0], None
+        if options.directions is not None:  # the limiter block by block (each from its halo), the result on disk
+            from .tiled import LimitedSource
+
+            options.report(0.3, f"limiting overhangs to {options.critical_angle:g} deg, in blocks")
+            try:
+                limited = LimitedSource(source, options.directions, options.critical_angle, side,
+                                        progress=lambda f, m: options.report(0.3 + 0.1 * f, m))
+            finally:
+                source.close()  # the unlimited heights are not read again
+            source, limits, top = limited, limited.limit.report, limited.limit.top
         from ..solid.tiles import PlateGrid
 
         grid = PlateGrid((w, d), source.shape, source.pitch, side)
         vol, slack = source.integral()
         (r, c), (px, py) = source.shape, source.pitch
-        top = float(source.hm.heights.max()) if height is None else float(height)
-        rim = 2 * (w + d) * (max(w - c * px, d - r * py) / 2 + max(px, py) / 2) * top / 2  # the sloped rim (tiled.py)
-        return Relief(heightmap=None, limits=None, volume=vol, volume_slack=slack + rim + 1e-3 * abs(vol), nominal_volume=vol,
-                      reach=top + 1e-3, max_error=0.0, data=PlateTiles(grid, source))
+        rim = 2 * (w + d) * (max(w - c * px, d - r * py) / 2 + max(px, py) / 2) * max(top, 0.0) / 2  # the sloped rim (tiled.py)
+        return Relief(heightmap=None, limits=limits, volume=vol, volume_slack=slack + rim + 1e-3 * abs(vol),
+                      nominal_volume=nominal, reach=top + 1e-3, max_error=0.0, data=PlateTiles(grid, source))
 
     def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
         pl: PlatePlacement = placement.data
@@ -241,7 +262,7 @@ class PlateAdapter(Adapter):
             g = relief.data.grid
             options.report(0.45, f"{g.count} tile(s) of up to {g.tile} x {g.tile} nodes")
             info = {"face": "plate", "grid": tuple(relief.data.source.shape), "size": pl.size, "thickness": pl.thickness,
-                    "fuse": "tiled", "tiles": g.count, "tile": int(g.tile)}
+                    "fuse": "tiled", "tiles": g.count, "tile": int(g.tile), "tolerance": 0.0}  # every pixel kept: not lean
             told = lambda f, m: options.report(0.92 + 0.07 * f, f"checking the result (texcad's gate): {m}")  # noqa: E731
             return Fused(TiledMesh(g, relief.data.source, pl.thickness, progress=told), placement.base, info)
         r: PlateRelief = relief.data

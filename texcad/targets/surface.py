@@ -19,19 +19,21 @@ the surface, a point at height ``h`` moves by ``t = g (h - c H)`` along its offs
 
 **Tiles.** Where the untiled relief would not fit in the memory available (the
 machine's, or ``max_memory``), a closed smooth surface whose base is its profile's
-solid, raised, is made in tiles instead (:func:`texcad.targets.tiled.surface_tiles`):
-the fitted texture is held whole (4 bytes a pixel), the fused mesh is a
+solid, raised, engraved or centred, is made in tiles instead
+(:func:`texcad.targets.tiled.surface_tiles`): the fitted texture is held whole (4 bytes a pixel), the fused mesh is a
 :class:`~texcad.targets.tiled.TiledSurfaceMesh` that the gate checks and the export
 streams, tile by tile. Its texture vertices are the untiled ones (every pixel: its
 error is 0, within any ``tolerance``; ``depth`` is not used) and its ends slope from
-the first and last texture row to the profile (``info["fuse"] == "tiled"``). Other
-surfaces (open or with corners, a tube, engraved or centred, a gradient,
+the first and last texture row to the profile (``info["fuse"] == "tiled"``); an
+engraved texture's top lies up to the cutter's floor (0.01 mm) higher; a gradient's
+gain is taken at the same points. Other surfaces (open or with corners, a tube,
 ``build_dir``) are refused as before, naming a pitch that fits.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -425,14 +427,14 @@ class SurfaceAdapter(Adapter):
         sp: SurfacePlace = placement.data
         what = f"a {hm.shape[0]} x {hm.shape[1]} px texture on the surface"
         fix = f"use pitch >= {fitting_pitch(min(hm.pitch), need):.3g} mm"
-        why = ("build_dir (the overhang limiter)" if options.directions is not None else
-               f"the {options.mode.value} mode" if options.mode.share else
-               "a gradient" if options.gradient is not None else None)
+        why = "build_dir (the overhang limiter)" if options.directions is not None else None
+        gain = None if options.gradient is None else partial(gradient_gain, gradient=options.gradient)
         if why is None:
             options.report(0.1, f"{what}: made in tiles")
             try:
                 mesh, ex = surface_tiles(sp.surface, hm, periodic, mapping=options.mapping.value, transition=options.transition,
-                                         max_memory=options.max_memory, base=placement.base)
+                                         max_memory=options.max_memory, base=placement.base, share=options.mode.share,
+                                         gain=gain)
             except NotTiled as exc:
                 why = exc.reason
         if why is not None:

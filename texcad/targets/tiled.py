@@ -20,8 +20,15 @@ centres, fused onto the flat plate; the tiled top slopes from the outer pixel
 centres down to the plate's edge (half a pixel plus the margin the texture leaves),
 so the volumes differ by at most ``perimeter x (margin + px / 2) x height / 2``.
 
-Not yet tiled: the overhang limiter (``build_dir``) and the lean mesh
-(``tolerance`` > 0; the tiled plate keeps every pixel centre) -- both are refused.
+With a build direction the texture is limited first, block by block
+(:class:`LimitedSource`, :func:`texcad.printability.overhang.limit_overhangs_tiled`: each
+block from the block grown by a halo as wide as a limited height can reach), the
+same heights as the untiled limiter, bit for bit.
+
+Not tiled: the lean mesh (``tolerance`` > 0): the tiled plate keeps every pixel
+centre (its error is 0, within any tolerance). A lean tile would have to keep its
+border at the grid so that its neighbours meet it, and the lean error and the
+limiter's facet check redone per tile; the grid is what the tiles make.
 """
 
 from __future__ import annotations
@@ -40,7 +47,7 @@ from ..errors import ParameterError, ResourceError
 from ..sources import Heightmap
 from ..util import Progress, report
 
-__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "tile_for_memory", "BYTES_PER_TILE_NODE"]
+__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "LimitedSource", "tile_for_memory", "BYTES_PER_TILE_NODE"]
 
 #: Peak bytes per node of one tile: the texture function's temporaries (float64),
 #: the float32 vertices, int64 faces and ids, STL records or 3MF text (measured on
@@ -51,6 +58,10 @@ BYTES_PER_TILE_NODE = 600.0
 SAMPLE_BLOCK = 1024
 #: Bytes the process needs besides the tile (numpy, texcad, the writer's buffers).
 OVERHEAD = 64 << 20
+#: Largest window (a block and its halo, a side, px) the overhang limiter works on in
+#: tiles: its erosion and facet check hold some 300 bytes a pixel, more than a mesh
+#: tile's node, and blocks this large already make the halo's share small.
+LIMIT_BLOCK = 1024
 
 
 @dataclass(frozen=True)
@@ -229,6 +240,70 @@ class _HeightmapSource:
         return heightfield_volume(self.hm.heights, self.hm.pitch)
 
 
+class LimitedSource:
+    """A plate's texture after the overhang limiter, made block by block
+    (:func:`texcad.printability.overhang.limit_overhangs_tiled`: each block limited from the
+    block grown by its halo, the same float32 heights as the untiled limiter), its
+    limited heights kept in a temporary file (4 bytes a pixel) and read a block at a
+    time, as the other sources.
+
+    Attributes:
+        shape: ``(R, C)`` pixels; pitch: ``(px, py)`` mm (the source's).
+        limit: the :class:`texcad.printability.overhang.TiledLimit` (its report, the limited
+            integral, the highest limited height).
+        nominal: ``(volume, slack)`` mm^3 of the heights before the limiter.
+    """
+
+    def __init__(self, source: Any, build_dir: Any, critical_angle: float, block: int, *,
+                 cache_dir: "Path | None" = None, progress: Progress = None) -> None:
+        from ..printability.overhang import limit_overhangs_tiled
+
+        self.shape, self.pitch = tuple(source.shape), tuple(source.pitch)
+        self.nominal = source.integral()
+        r, c = self.shape
+        self._file = tempfile.NamedTemporaryFile(prefix=".texcad-", suffix=".limited", dir=cache_dir)
+        self._file.truncate(4 * r * c)
+        self._cache = Path(self._file.name)
+
+        def store(rows: slice, cols: slice, h: np.ndarray) -> None:
+            m = self._rows(rows, "r+")
+            m[:, cols] = h
+            del m  # written back by the system when it likes (no sync per block: the reads see the pages)
+
+        try:
+            self.limit = limit_overhangs_tiled(source.heights, self.shape, self.pitch, build_dir, critical_angle,
+                                               block=min(int(block), LIMIT_BLOCK), store=store, progress=progress)
+        except BaseException:
+            self.close()
+            raise
+
+    def _rows(self, rows: slice, mode: str) -> np.ndarray:
+        c = self.shape[1]
+        return np.memmap(self._cache, dtype=np.float32, mode=mode, offset=4 * c * rows.start, shape=(rows.stop - rows.start, c))
+
+    def heights(self, rows: slice, cols: slice) -> np.ndarray:
+        """The limited heights of a block, float32 mm."""
+        m = self._rows(rows, "r")
+        h = np.array(m[:, cols])
+        del m
+        return h
+
+    def integral(self) -> tuple[float, float]:
+        """``(volume, slack)`` mm^3 of the limited heights (:func:`texcad.solid.mesh.heightfield_volume`)."""
+        return self.limit.volume, self.limit.slack
+
+    def close(self) -> None:
+        """Remove the limited heights' file; the source cannot be read after."""
+        f, self._file = getattr(self, "_file", None), None
+        if f is not None:
+            f.close()
+
+    def __getstate__(self) -> dict:  # to a Dask worker on this machine: the file by name, not the handle
+        state = dict(self.__dict__)
+        state["_file"] = None
+        return state
+
+
 def _rss() -> int:
     """Bytes this process holds now (resident set; 0 where /proc is missing)."""
     try:
@@ -280,6 +355,7 @@ def textured_plate_tiled(
     max_memory: Any = None,
     tolerance: float = 0.0,
     build_dir: Any = None,
+    critical_angle: float = 45.0,
     progress: Progress = None,
     client: Any = None,
 ) -> TiledPlate:
@@ -301,7 +377,10 @@ def textured_plate_tiled(
         max_memory: bound on the process's memory, bytes or text (``"4GB"``); default
             half of what the machine has available.
         tolerance: 0 only (one vertex per pixel centre); the lean mesh is not tiled yet.
-        build_dir: None only; the overhang limiter is not tiled yet.
+        build_dir: a build direction ``(3,)`` (or a set ``(K, 3)``) to limit the
+            texture's overhangs for, as :func:`texcad.printability.limit_overhangs`
+            (block by block from a halo: the same heights; not with ``client``).
+        critical_angle: degrees, with ``build_dir``.
         progress: ``progress(fraction, message)``: tiles done / total.
         client: a ``dask.distributed.Client`` or a scheduler address: the tiles are
             sampled and meshed on its workers (a few in flight per worker, so memory
@@ -312,8 +391,8 @@ def textured_plate_tiled(
         :class:`TiledPlate` (counts, volume, time, peak memory).
 
     Raises:
-        ParameterError: bad size, thickness, height, output format, tolerance > 0
-            or build_dir.
+        ParameterError: bad size, thickness, height, output format, tolerance > 0,
+            or build_dir with client.
         ResourceError: ``max_memory`` leaves no room for a tile.
     """
     from ..options import memory_bytes
@@ -327,8 +406,9 @@ def textured_plate_tiled(
             raise ParameterError(f"{label} must be a positive number of mm, got {v!r}")
     if tolerance:
         raise ParameterError("the tiled plate keeps every pixel centre: tolerance must be 0 (the lean mesh is not tiled yet)")
-    if build_dir is not None:
-        raise ParameterError("the overhang limiter is not tiled yet: use texcad.texture for build_dir, or leave it out")
+    if build_dir is not None and client is not None:
+        raise ParameterError("build_dir with client=: the limited heights are kept in a file here, which the cluster's "
+                             "workers cannot read; leave out client= (the limiter runs here, block by block)")
     if Path(out).suffix.lower() not in (".stl", ".3mf"):
         raise ParameterError(f"out {os.fspath(out)!r}: the tiled plate streams .stl or .3mf")
     bound = None if max_memory is None else memory_bytes(max_memory)
@@ -336,20 +416,28 @@ def textured_plate_tiled(
     if own:
         client = _connect(client)
     try:
-        return _tiled(w, d, float(thickness), texture, pitch, float(height), Path(out), tile, bound, progress, client, t0)
+        return _tiled(w, d, float(thickness), texture, pitch, float(height), Path(out), tile, bound, progress, client, t0,
+                      (build_dir, critical_angle))
     finally:
         if own:
             client.close()
 
 
-def _tiled(w, d, thickness, texture, pitch, height, out, tile, bound, progress, client, t0) -> TiledPlate:
-    """The texture's source and the tile size, then :func:`_write`."""
+def _tiled(w, d, thickness, texture, pitch, height, out, tile, bound, progress, client, t0, limit) -> TiledPlate:
+    """The texture's source (limited for ``limit = (build_dir, critical_angle)`` when a
+    direction is given) and the tile size, then :func:`_write`."""
     pool = None
     if client is not None:
         def pool(fn, args):  # noqa: E306 - map on the cluster, results in order
             return client.gather(client.map(fn, *zip(*args), pure=False))
     source, side = plate_source(texture, (w, d), pitch, height, tile=tile, bound=bound, pool=pool,
                                 cache_dir=None if pool is not None else out.parent, progress=progress)
+    if limit[0] is not None:
+        try:
+            limited = LimitedSource(source, limit[0], limit[1], side, cache_dir=out.parent, progress=progress)
+        finally:
+            source.close()
+        source = limited
     try:
         return _write(_grid_of(source, w, d, side), source, out, thickness, progress, client, t0, side)
     finally:
@@ -738,8 +826,10 @@ class TiledSurfaceMesh(TiledMesh):
 
     Attributes:
         grid: the node grid and tile size.
-        heights: ``(R, C0)`` float32 mm; node column ``j`` reads texture column
-            ``j mod C0`` (a texture repeated round the profile).
+        heights: ``(R, C0)`` float32 mm, the offsets along the mapping's direction
+            (the texture's heights less the mode's share of its height: negative
+            under the surface); node column ``j`` reads texture column ``j mod C0``
+            (a texture repeated round the profile).
         flip: the grid's triangles reversed (so that they face away from the profile).
     """
 
@@ -871,17 +961,34 @@ INTEGRAL_BLOCK = 1 << 18
 
 
 def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str = "angle", transition: Optional[float] = None,
-                  tile: Optional[int] = None, max_memory: Any = None, base: Any = None) -> tuple[TiledSurfaceMesh, Any]:
+                  tile: Optional[int] = None, max_memory: Any = None, base: Any = None,
+                  share: float = 0.0, gain: Any = None) -> tuple[TiledSurfaceMesh, Any]:
     """:func:`tiled_surface` from the texture already fitted to the surface (``hm``,
     heights mm, and whether it is ``periodic`` round the profile, as
     :func:`texcad.mapping.fit_texture` returns them); ``base``: the surface's base
     as a :class:`texcad.Mesh` (default: meshed here). Returns ``(mesh, expectation)``.
 
+    ``share``: the mode's share ``c`` of the full height ``H`` (the texture's highest
+    point) that goes under the surface (:mod:`texcad.mapping.modes`): 0 raised, 1/2
+    centred, 1 engraved. The tiles' texture sheet is ``P + (h - c H) v`` (``P`` the
+    column's profile point, ``v`` the mapping's offset per mm): the sheet the untiled
+    modes put there (their ``t = h - c H``), as one closed surface instead of a slab
+    and a cutter united with and cut from the base. Where it differs: an engraved
+    cutter reaches at least :data:`texcad.mapping.CUT_FLOOR` (0.01 mm) under the
+    surface, so the untiled texture's top (``t > -CUT_FLOOR``) lies up to that much
+    deeper than the tiles'; elsewhere the points agree to float32 rounding (tested).
+    The ends slope from the first and last texture row (``t``) to the profile, as in
+    raised mode. ``gain``: a gradient's gain, ``gain(points)`` -> ``g`` in [0, 1] at
+    ``(N, 3)`` points mm (:func:`texcad.targets.surface.gradient_gain` with the
+    gradient), taken at the raised sheet's points as the untiled surface takes it:
+    ``t = g (h - c H)``.
+
     The expectation's volume is the texture's integral as the untiled surface sums it
-    (:func:`texcad.targets.surface.surface_volume` for a raised texture at tolerance
-    0: the swept prisms between the profile's polygon and the texture sheet, less the
-    chord excess), summed over blocks of rows; its slack is the untiled one's plus the
-    ends' difference (see :func:`tiled_surface`).
+    (:func:`texcad.targets.surface.surface_volume` at tolerance 0: the swept prisms
+    between the profile's polygon and the texture sheet, signed: raised +, engraved
+    -, less the chord excess), summed over blocks of rows; its slack is the untiled
+    one's plus the ends' difference (see :func:`tiled_surface`). Its nominal volume is
+    that integral (None when centred, as untiled: its net is about 0 by design).
 
     Raises:
         ParameterError: an open profile, a profile with corners or a base that is not
@@ -906,7 +1013,7 @@ def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str =
         raise NotTiled("the profile has corners (extra columns there): tiled_surface takes smooth closed profiles",
                        "a profile with corners")
     r, py = h.shape[0], float(hm.pitch[1])
-    y = (length - r * py) / 2 + (np.arange(r) + 0.5) * py  # as map_texture's rows
+    y = y_rows(length, r, py)
     point = np.asarray(prof.at(m.s).point, dtype=np.float32)
     offset = np.asarray(m.offset, dtype=np.float32)
     area = 0.5 * float(np.sum(point[:, 0].astype(np.float64) * np.roll(point[:, 1], -1) - np.roll(point[:, 0], -1) * point[:, 1]))
@@ -919,6 +1026,11 @@ def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str =
     if abs(float(base.volume) - abs(area) * length) > 0.01 * abs(area) * length:
         raise NotTiled(f"tiled_surface takes a surface whose base is its profile's solid ({abs(area) * length:.0f} mm3); "
                        f"this base is {float(base.volume):.0f} mm3 (a tube?)", "a base that is not its profile's solid")
+    full = float(h.max())  # the envelope H of engraved and centred textures, mm
+    if gain is not None:
+        h = _graded(h, share * full, point, offset, y, gain)
+    elif share:
+        h = h - np.float32(share * full)  # the offsets t = h - c H along v
     c = len(m.s)
     nodes = (r + 2, c + 1)
     side = int(tile) if tile else tile_for_memory(None if max_memory is None else memory_bytes(max_memory), nodes)
@@ -926,11 +1038,11 @@ def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str =
     t = point[1].astype(np.float64) - point[0]
     normal = np.array([-t[1], t[0]])  # the grid triangles' normal, (x, z)
     flip = float(normal @ m.offset[0]) < 0
-    top = float(h.max())
+    top = float(np.abs(h).max())
     reach = top * float(np.hypot(offset[:, 0], offset[:, 1]).max()) + 1e-3
-    # check 4: surface_volume's raised case (tolerance 0), block by block of rows
+    # check 4: surface_volume (tolerance 0), block by block of rows
     s = np.asarray(m.s, np.float64)
-    vol = _surface_integral(prof, s, y, point, offset, h)
+    vol = _surface_integral(prof, s, y, point, offset, h, raised=not share)
     span = float(y[-1] - y[0])
     chord = chord_excess(prof, s, closed=True)
     vol -= chord * span
@@ -938,14 +1050,43 @@ def surface_tiles(surface: Any, hm: Heightmap, periodic: bool, *, mapping: str =
     slack = 0.01 * sheet + abs(chord) * span + 1e-3 * abs(vol) + 1e-3  # the untiled slack (tessellation, chords, float32)
     end = float(y[0])  # each end: the slope from the first (last) texture row to the profile, and the polygon's caps
     slack += 2 * (prof.length + 2 * np.pi * reach) * end * reach / 2 + 2 * abs(chord) * end
-    ex = Expectation(bodies=1, base=base, height=reach, volume=vol, volume_slack=slack, nominal_volume=vol)
+    nominal = None if share not in (0, 1) else vol
+    ex = Expectation(bodies=1, base=base, height=reach, volume=vol, volume_slack=slack, nominal_volume=nominal)
     return TiledSurfaceMesh(grid, h, flip), ex
 
 
-def _surface_integral(prof: Any, s: np.ndarray, y: np.ndarray, point: np.ndarray, offset: np.ndarray, h: np.ndarray) -> float:
+def y_rows(length: float, rows: int, py: float) -> np.ndarray:
+    """``(rows,)`` float64 y (mm) of the texture's rows on a surface ``length`` mm long,
+    centred, as :func:`texcad.mapping.map_texture` places them."""
+    return (length - rows * py) / 2 + (np.arange(rows) + 0.5) * py
+
+
+def _graded(h: np.ndarray, low: float, point: np.ndarray, offset: np.ndarray, y: np.ndarray, gain: Any) -> np.ndarray:
+    """``g (h - low)`` float32 mm, ``g = gain(points)`` at the raised sheet's points
+    ``point + h offset`` (float32, as the untiled mapped top), in blocks of whole rows."""
+    r, c = h.shape
+    out = np.empty((r, c), np.float32)
+    rows = max(1, INTEGRAL_BLOCK // max(c, 1))
+    for r0 in range(0, r, rows):  # per block of rows
+        hb = h[r0 : r0 + rows]
+        top = np.empty(hb.shape + (3,), np.float32)
+        top[..., 0] = hb * offset[:, 0]
+        top[..., 0] += point[:, 0]
+        top[..., 1] = y[r0 : r0 + rows, None]
+        top[..., 2] = hb * offset[:, 1]
+        top[..., 2] += point[:, 1]
+        g = np.asarray(gain(top.reshape(-1, 3).astype(np.float64)), np.float64).reshape(hb.shape)
+        out[r0 : r0 + rows] = g * (hb.astype(np.float64) - low)
+    return out
+
+
+def _surface_integral(prof: Any, s: np.ndarray, y: np.ndarray, point: np.ndarray, offset: np.ndarray, h: np.ndarray,
+                      raised: bool = True) -> float:
     """The swept volume (mm^3) between the profile's polygon through ``point`` (at arc
-    lengths ``s``) and the raised sheet ``point + h offset`` (float32, as the tiles'
-    vertices) over the texture rows ``y`` (mm), where it lies outside the profile:
+    lengths ``s``) and the sheet ``point + h offset`` (float32, as the tiles'
+    vertices) over the texture rows ``y`` (mm), signed (under the profile:
+    negative), or with ``raised`` only where it lies outside the profile (as the
+    untiled raised surface counts it):
     :func:`texcad.mapping.surface.grid_swept` over blocks of whole rows (a block's
     last row is the next one's first)."""
     from ..mapping.surface import grid_swept
@@ -970,7 +1111,8 @@ def _surface_integral(prof: Any, s: np.ndarray, y: np.ndarray, point: np.ndarray
         top[..., 2] = hb * offset[:, 1]
         top[..., 2] += point[:, 1]
         new = top.astype(np.float64)
-        up = np.einsum("rck,ck->rc", new - base, nrm)
-        new = np.where((up > 0)[..., None], new, base)
+        if raised:
+            up = np.einsum("rck,ck->rc", new - base, nrm)
+            new = np.where((up > 0)[..., None], new, base)
         vol += grid_swept(base, new, np.broadcast_to(nrm, (n, c, 3)), wrap_cols=True, measure=False).volume
     return vol
