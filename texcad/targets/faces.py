@@ -39,7 +39,8 @@ redone with the relief nudged by 2 um).
 degree-1 B-spline on that parameter space in place of the face
 (:func:`texcad.brep.uv_textured_solid`); a planar face is tiled in its frame
 (:func:`texcad.brep.uvfaces.holed_plane_solid`); faces flattened together (bands,
-LSCM) and chained results have none: GeometryError says so and names STL / 3MF.
+LSCM) are tiled over their meshed cells with walls down to the faces, cut by OCCT's
+general fuse (:func:`texcad.brep.bands.patch_solid`).
 """
 
 from __future__ import annotations
@@ -328,7 +329,8 @@ class FacesAdapter(Adapter):
                 "texcad makes the B-rep of one texturing of a CAD part; write STL or 3MF instead (the mesh holds "
                 "both textures), or texture the faces together in one texcad.texture(part, [faces...]) call for STEP"
             )
-        return _brep(stages.placement.topo, stages.fused.data.patches, no_brep, float(stages.options.rotation), fine)
+        return _brep(stages.placement.topo, stages.fused.data.patches, no_brep, float(stages.options.rotation), fine,
+                     stages.placement.data.mesh)
 
     def fine_frame(self, stages: Stages) -> Any:
         """A lone planar face: its frame and pitch ``(origin, xdir, ydir, pitch)`` mm."""
@@ -436,20 +438,23 @@ def _info(placement: Placement, reliefs: list, options: Options) -> dict:
     return info
 
 
-def _brep(topo: Any, patches: tuple, no_brep: str, rotation: float, fine: Any = None) -> Any:
+def _brep(topo: Any, patches: tuple, no_brep: str, rotation: float, fine: Any = None, pm: Any = None) -> Any:
     """The textured B-rep of the patches on the part ``topo`` (mm; ``rotation``: the
     texture's turn on planar faces, degrees). Curved faces:
-    :func:`texcad.brep.uv_textured_solid`; planar faces: tiles in the face's frame.
+    :func:`texcad.brep.uv_textured_solid`; planar faces: tiles in the face's frame;
+    faces flattened together (``pm`` the part's tessellation): tiles with walls
+    (:func:`texcad.brep.bands.patch_solid`).
 
     Raises:
         GeometryError: a patch has no B-rep this way (``no_brep`` says what to write instead).
     """
     from ..brep import uv_textured_solid
 
-    items, planes = [], []
+    items, planes, groups = [], [], []
     for r in patches:  # one per patch
         if r.face is None:
-            raise GeometryError(f"{no_brep} (faces {r.info['faces']} were flattened together)")
+            groups.append(r)
+            continue
         if r.tables is None:  # a plane: its grid lies in the face's frame
             planes.append(r)
             continue
@@ -461,9 +466,28 @@ def _brep(topo: Any, patches: tuple, no_brep: str, rotation: float, fine: Any = 
         shape = uv_textured_solid(topo, items) if items else topo
         for r in planes:  # one per planar face
             shape = _plane_brep(shape, r, r.info.get("rotation", rotation), fine)
+        for r in groups:  # one per patch of faces flattened together
+            shape = _patch_brep(shape, r, pm, fine)
         return shape
     except GeometryError as e:
         raise GeometryError(f"{no_brep}: {e}") from None
+
+
+def _patch_brep(shape: Any, r: PatchRelief, pm: Any, fine: Any = None) -> Any:
+    """``shape`` with the faces of the patch ``r`` (flattened together) textured in
+    tiles with walls (:func:`texcad.brep.bands.patch_solid`; ``fine``: boxes ``(lo,
+    hi)`` mm where a CAD operation's tool is)."""
+    from ..brep import TESSELLATION
+    from ..brep.bands import patch_solid
+
+    boxes = [f for f in fine or () if len(f) >= 2 and np.ndim(f[0]) == 1]
+    g = r.grid
+    top = r.h_top if r.fused_top is None else r.fused_top
+    out = patch_solid(shape, [pm.faces[i].face for i in r.faces], g.points, g.normals, top, r.cells, wrap=bool(g.wrap_y),
+                      signed=bool(r.signed), chord=TESSELLATION, fine=boxes or None)
+    if out is None:
+        raise GeometryError(f"faces {r.info['faces']} were flattened together and OCCT did not cut their walls")
+    return out
 
 
 def _plane_brep(shape: Any, r: PatchRelief, rotation: float, fine: Any = None) -> Any:
