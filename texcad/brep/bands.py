@@ -157,16 +157,15 @@ def _loops(edges: dict, K: np.ndarray, period: int | None) -> list:
 
 class _Walls:
     """The wall strips along the loops of tile edges (see the module): one face per
-    tile edge, sharing the tile edge, the ruling edges at the tile corners and their
-    vertices."""
+    run of tile edges along a grid line (:func:`_runs`), sharing those edges, and the
+    ruling edges at the runs' ends and their vertices with the next runs. ``top``:
+    ``(R, C, 3)`` the tiles' grid (mm); ``other``: the strips' other side."""
 
-    def __init__(self, G: np.ndarray, N: np.ndarray, top: np.ndarray, other: np.ndarray, x, y, period):
+    def __init__(self, top: np.ndarray, other: np.ndarray, period: int | None):
         from OCP.BRep import BRep_Builder
 
-        self.b, self.G, self.N, self.top, self.other = BRep_Builder(), G, N, top, other
-        self.x, self.y, self.period = x, y, period
+        self.b, self.top, self.other, self.period = BRep_Builder(), top, other, period
         self.rulings: dict = {}
-        self.bottoms: dict = {}
 
     def _vid(self, r: int, c: int) -> tuple:
         return (r, c % self.period) if self.period is not None else (r, c)
@@ -216,8 +215,6 @@ class _Walls:
 
         b = self.b
         rows, cols = self._indices(run)
-        if self.period is not None:
-            cols = np.where(cols > self.period, cols % self.period, cols)
         T, O = self.top[rows, cols], self.other[rows, cols]
         u = np.arange(len(T), dtype=np.float64)
         surf = grid_surface(np.stack([T, O]), u, np.array([0.0, 1.0]))
@@ -391,7 +388,7 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
         loops = _loops(edges, K, period)
     except KeyError:  # a loop that does not close
         return None
-    walls = _Walls(G, N, top, other, x, y, period)
+    walls = _Walls(top, other, period)
     strips = []
     for loop in loops:  # one per boundary loop
         for run in _runs(loop):  # one per straight run of tile edges

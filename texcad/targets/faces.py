@@ -322,15 +322,10 @@ class FacesAdapter(Adapter):
         no_brep = stages.fused.info["no_brep"]
         if not stages.options.brep:
             raise GeometryError("textured with brep=False; texture it again with brep=True for STEP")
-        if stages.placement.previous is not None:
-            kind = stages.fused.info.get("face", "face")
-            raise GeometryError(
-                f"this result textures a {kind} face of an earlier textured result (chained), which has no B-rep: "
-                "texcad makes the B-rep of one texturing of a CAD part; write STL or 3MF instead (the mesh holds "
-                "both textures), or texture the faces together in one texcad.texture(part, [faces...]) call for STEP"
-            )
-        return _brep(stages.placement.topo, stages.fused.data.patches, no_brep, float(stages.options.rotation), fine,
-                     stages.placement.data.mesh)
+        base = stages.placement.topo
+        if stages.placement.previous is not None:  # chained: this texture on the earlier result's B-rep
+            base = chained_base(stages.placement.previous)
+        return _brep(base, stages.fused.data.patches, no_brep, float(stages.options.rotation), fine, stages.placement.data.mesh)
 
     def fine_frame(self, stages: Stages) -> Any:
         """A lone planar face: its frame and pitch ``(origin, xdir, ydir, pitch)`` mm."""
@@ -344,6 +339,20 @@ class FacesAdapter(Adapter):
 #: Most sample triangles the gate's reach check may make of the base (a stopgap: the
 #: gate splits every triangle in four until its longest edge is short, so a long thin
 #: triangle of a tessellated cylinder becomes 4^8 triangles; a sphere on a 40 mm
+
+
+def chained_base(previous: Stages) -> Any:
+    """The B-rep a chained texture is put on: the earlier result's (made by its own
+    adapter, itself chained or not). Its untextured faces are the part's own (the
+    same OCCT faces), so the faces selected on the part are found in it.
+
+    Raises:
+        GeometryError: the earlier result has no B-rep (the message says why).
+    """
+    try:
+        return previous.adapter.brep(previous)
+    except GeometryError as e:
+        raise GeometryError(f"this result textures a face of an earlier textured result (chained), whose B-rep failed: {e}") from None
 
 
 def _warn(reliefs: list) -> None:
@@ -416,7 +425,7 @@ def _info(placement: Placement, reliefs: list, options: Options) -> dict:
         "face": "faces" if len(infos) > 1 else infos[0]["kinds"][0],
         "faces": infos,
         "grid": infos[0]["grid"],
-        "brep": not chained,
+        "brep": True,
         "no_brep": (
             f"{', '.join(kinds)} face(s) textured by the general method (a texture grid on the face's "
             "parameterization, fused as a mesh) have no B-rep; write the mesh: export('part.stl') or export('part.3mf')"
@@ -424,7 +433,8 @@ def _info(placement: Placement, reliefs: list, options: Options) -> dict:
         "distortion": None if dist is None else dist.to_dict(),
         "chained": chained,
         # the lean mesh may enclose up to its error times the textured area more or less than the grid's B-rep
-        "volume_slack": max_error * area,
+        # (chained: and the earlier textures' lean meshes theirs)
+        "volume_slack": max_error * area + (float(placement.previous.fused.info.get("volume_slack", 0.0)) if chained else 0.0),
     }
     if options.build_dir is not None:
         info["build_dir"] = np.asarray(patch_options(options).build_dir).tolist()
