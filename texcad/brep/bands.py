@@ -442,8 +442,9 @@ def _assemble(topo, faces: list, tiles: list, strips: list):
         return None
     walls = []
     for s, e in strips:  # the walls: the piece on the tile's side
-        mine = [p for p in _pieces(gf, s) if _has_edge(p, [e])]
-        if len(mine) != 1:
+        pieces = _pieces(gf, s)
+        mine = [p for p in pieces if _has_edge(p, [e])]
+        if len(pieces) < 2 or len(mine) != 1:  # a wall the faces did not cut
             return None
         walls.append(mine[0])
     pieces = [p for f in faces for p in _pieces(gf, f)]  # the patch's faces, cut along the walls
