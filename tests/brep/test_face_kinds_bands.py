@@ -17,7 +17,7 @@ from texcad.brep.solids import flat_solids
 def _box_band():
     from build123d import Axis, Box, Cylinder, Rot, fillet
 
-    part = fillet(Box(20, 14, 8).edges().filter_by(Axis.Z), 3)
+    part = fillet(Box(16, 12, 6).edges().filter_by(Axis.Z), 3)
     return part, [f for f in part.faces() if abs(f.normal_at().Z) < 0.5], Rot(90, 0, 0) * Cylinder(1.5, 40)
 
 

@@ -85,3 +85,22 @@ def test_a_band_chained_onto_a_textured_top_takes_a_hole():
     assert occt_volume(band.shape) == pytest.approx(band.volume, rel=1e-3)
     _drilled_matches(band, Rot(90, 0, 0) * Cylinder(1.5, 40))  # through the band, both sides
     _drilled_matches(band, Pos(3, 2, 0) * Cylinder(1.5, 30))  # through the textured top
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_chained_onto_a_face_an_earlier_texture_rebuilt():
+    """A box's rounded edge (a quarter cylinder) textured first splits the edges of
+    its neighbours; the top textured next (chained) is found in the first B-rep
+    all the same: one valid solid within 0.1 % of the mesh, and a hole through the
+    top agrees with the mesh cut."""
+    from build123d import Axis, Box, Cylinder, GeomType, Pos, fillet
+
+    part = fillet(Box(20, 16, 8).edges().filter_by(Axis.Z).sort_by(Axis.X)[-1:], 4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        first = texcad.texture(part, part.faces().filter_by(GeomType.CYLINDER)[0], "builtin:stones", height=0.4, pitch=0.5)
+        top = texcad.texture(first, part.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=0.4, pitch=0.5)
+    chk = check_shape(top.shape)
+    assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
+    assert occt_volume(top.shape) == pytest.approx(top.volume, rel=1e-3)
+    _drilled_matches(top, Pos(-4, 0, 0) * Cylinder(1.5, 30))

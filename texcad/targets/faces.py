@@ -316,9 +316,11 @@ class FacesAdapter(Adapter):
         return max(r.max_error for r in stages.fused.data.patches)
 
     def brep(self, stages: Stages, fine: Any = None) -> Any:
-        """Each patch on its own ``(u, v)`` (:func:`texcad.brep.uv_textured_solid`) or
-        a planar face in tiles; ``fine``: rectangles ``(x0, x1, y0, y1)`` mm in a lone
-        planar face's frame (CAD operations)."""
+        """Each patch on its own ``(u, v)`` (:func:`texcad.brep.uv_textured_solid`), a
+        planar face in tiles, or faces flattened together in tiles with walls
+        (:func:`texcad.brep.bands.patch_solid`); chained, on the earlier result's
+        B-rep (:func:`chained_base`). ``fine``: rectangles ``(x0, x1, y0, y1)`` mm in a
+        lone planar face's frame, or boxes ``(lo, hi)`` mm (CAD operations)."""
         no_brep = stages.fused.info["no_brep"]
         if not stages.options.brep:
             raise GeometryError("textured with brep=False; texture it again with brep=True for STEP")
@@ -461,6 +463,8 @@ def _brep(topo: Any, patches: tuple, no_brep: str, rotation: float, fine: Any = 
     from ..brep import uv_textured_solid
 
     items, planes, groups = [], [], []
+    if pm is not None:  # chained: the faces as they lie in the earlier result's B-rep
+        patches = [_found(topo, r, pm) for r in patches]
     for r in patches:  # one per patch
         if r.face is None:
             groups.append(r)
@@ -483,17 +487,33 @@ def _brep(topo: Any, patches: tuple, no_brep: str, rotation: float, fine: Any = 
         raise GeometryError(f"{no_brep}: {e}") from None
 
 
+def _found(shape: Any, r: PatchRelief, pm: Any) -> PatchRelief:
+    """The patch ``r`` with its faces as they lie in ``shape`` (an earlier texture
+    may have rebuilt a neighbour face: :func:`texcad.brep.bands.face_in`).
+
+    Raises:
+        GeometryError: a face is not in ``shape``.
+    """
+    from ..brep.bands import face_in
+
+    for i in r.faces:  # the patch's faces
+        if face_in(shape, pm.faces[i].face) is None:
+            raise GeometryError(f"face {i} ({pm.faces[i].kind}) is not in the earlier result's B-rep (an earlier texture "
+                                "rebuilt it); texture the faces together in one call for STEP")
+    return r if r.face is None else replace(r, face=face_in(shape, r.face))
+
+
 def _patch_brep(shape: Any, r: PatchRelief, pm: Any, fine: Any = None) -> Any:
     """``shape`` with the faces of the patch ``r`` (flattened together) textured in
     tiles with walls (:func:`texcad.brep.bands.patch_solid`; ``fine``: boxes ``(lo,
     hi)`` mm where a CAD operation's tool is)."""
     from ..brep import TESSELLATION
-    from ..brep.bands import patch_solid
+    from ..brep.bands import face_in, patch_solid
 
     boxes = [f for f in fine or () if len(f) >= 2 and np.ndim(f[0]) == 1]
     g = r.grid
     top = r.h_top if r.fused_top is None else r.fused_top
-    out = patch_solid(shape, [pm.faces[i].face for i in r.faces], g.points, g.normals, top, r.cells, wrap=bool(g.wrap_y),
+    out = patch_solid(shape, [face_in(shape, pm.faces[i].face) for i in r.faces], g.points, g.normals, top, r.cells, wrap=bool(g.wrap_y),
                       signed=bool(r.signed), chord=TESSELLATION, fine=boxes or None)
     if out is None:
         raise GeometryError(f"faces {r.info['faces']} were flattened together and OCCT did not cut their walls")
@@ -504,6 +524,7 @@ def _plane_brep(shape: Any, r: PatchRelief, rotation: float, fine: Any = None) -
     """``shape`` with the planar face of the patch ``r`` in tiles; heights 0 outside
     the kept cells and near the outline (the mesh's floor there is not carried over)."""
     from ..brep import plane_frame
+    from ..brep.bands import face_in
     from ..brep.uvfaces import holed_plane_solid
 
     p0, ex, _, n = plane_frame(r.face, rotation)
@@ -513,7 +534,8 @@ def _plane_brep(shape: Any, r: PatchRelief, rotation: float, fine: Any = None) -
                  (slice(1, None), slice(1, None))):  # the 4 corners of each kept cell
         kept[a, b] |= cells
     h = np.where(kept & g.valid, r.h_top, 0.0)
-    out = holed_plane_solid(shape, r.face, h, np.asarray(g.xs, np.float64), np.asarray(g.ys, np.float64),
+    face = face_in(shape, r.face) or r.face  # a neighbour's texture may have rebuilt it (split its edges)
+    out = holed_plane_solid(shape, face, h, np.asarray(g.xs, np.float64), np.asarray(g.ys, np.float64),
                             origin=p0, xdir=ex, normal=n, flatten_outline=True, fine=fine)  # fmt: skip
     if out is None:
         raise GeometryError("the planar face's texture grid reaches its outline; texture it in raised mode for a B-rep")
