@@ -9,9 +9,10 @@ replaces the part of the patch under ``K``, **without a boolean of the texture**
 * **tiles** (:func:`texcad.brep.tiled_grid_faces`, given ``leaves`` covering ``K``)
   through ``P + h N``, the boundary points of ``K`` moved to a *wall height*
   ``w`` mm off the face (raised: ``+w``, engraved and centred: at most ``-w``), with
-  ``w`` = the tessellation's chord error + twice the grid's largest sag + 5 um, so
-  that the tiles' boundary polyline stays off the exact face;
-* **walls**: per tile edge on ``K``'s boundary a degree-1 strip from that edge
+  ``w`` = the tessellation's chord error + twice the largest sag of the grid's
+  edges at that point + 5 um, so that the tiles' boundary polyline stays off the
+  exact face;
+* **walls**: per run of tile edges on ``K``'s boundary a degree-1 strip from them
   along ``N`` to the other side of the face (``-w`` or ``+w``), sharing the tile
   edge and the ruling edges at the tile corners;
 * OCCT's general fuse (``BRepAlgoAPI_BuilderAlgo``) of the patch's faces and the
@@ -94,19 +95,26 @@ def _unpinched(K: np.ndarray, wrap: bool) -> np.ndarray:
     return None
 
 
-def wall_height(G: np.ndarray, N: np.ndarray, K: np.ndarray, chord: float) -> float:
-    """mm a tile boundary must stand off the face: the tessellation's ``chord``
-    error, plus twice the largest sag of a grid edge of the cells ``K`` (``|e| |N_b -
-    N_a| / 8``, the chord of a curve with the normals' turn), plus
-    :data:`WALL_MARGIN`."""
-    sag = 0.0
+def wall_height(G: np.ndarray, N: np.ndarray, K: np.ndarray, chord: float, wrap: bool = False) -> np.ndarray:
+    """``(R, C)`` mm each grid point must stand off the face on a tile boundary: the
+    tessellation's ``chord`` error, plus twice the largest sag of the cells' edges
+    at the point (``|e| |N_b - N_a| / 8``, the chord of a curve with the normals'
+    turn), plus :data:`WALL_MARGIN` (a boundary segment's chord then stays off the
+    exact face: its sag is at most its ends'). ``wrap``: the last column is the
+    first (they get the larger of the two)."""
     rows = np.pad(K, ((0, 0), (1, 1)))
     cols = np.pad(K, ((1, 1), (0, 0)))
+    sag = np.zeros(G.shape[:2])
     for ax, on in ((0, rows[:, :-1] | rows[:, 1:]), (1, cols[:-1] | cols[1:])):  # edges along the columns, the rows
-        e = np.linalg.norm(np.diff(G, axis=ax), axis=-1)
-        dn = np.linalg.norm(np.diff(N, axis=ax), axis=-1)
-        sag = max(sag, float((e * dn)[on].max(initial=0.0)) / 8.0)
-    return float(chord + 2.0 * sag + WALL_MARGIN)
+        e = np.linalg.norm(np.diff(G, axis=ax), axis=-1) * np.linalg.norm(np.diff(N, axis=ax), axis=-1) / 8.0
+        e = np.where(on, e, 0.0)  # the cells' edges only (points off the patch hold no geometry)
+        lo, hi = [slice(None)] * 2, [slice(None)] * 2
+        lo[ax], hi[ax] = slice(None, -1), slice(1, None)
+        sag[tuple(lo)] = np.maximum(sag[tuple(lo)], e)
+        sag[tuple(hi)] = np.maximum(sag[tuple(hi)], e)
+    if wrap:
+        sag[:, 0] = sag[:, -1] = np.maximum(sag[:, 0], sag[:, -1])
+    return chord + 2.0 * sag + WALL_MARGIN
 
 
 def _loops(edges: dict, K: np.ndarray, period: int | None) -> list:
@@ -373,11 +381,11 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
     period = G.shape[1] - 1 if wrap else None
     around = _corners(K, wrap).sum(axis=0)
     edge = (around > 0) & (around < 4)
-    w = wall_height(G, N, K, chord)
+    w = wall_height(G, N, K, chord, wrap)
     h = H if signed else np.maximum(H, 0.0)
     h = np.where(edge, np.minimum(h, -w) if signed else w, h)
     top = G + h[..., None] * N
-    other = G + (w if signed else -w) * N
+    other = G + (w if signed else -w)[..., None] * N
     x, y = np.arange(G.shape[1], dtype=np.float64), np.arange(G.shape[0], dtype=np.float64)
     leaves = _leaves_over(K, tile, _band_fine(top, fine))
     if not leaves:
