@@ -336,7 +336,10 @@ def _general_fuse(groups: list):
     gf = BRepAlgoAPI_BuilderAlgo()
     gf.SetArguments(args)
     gf.SetRunParallel(False)
-    gf.Build()
+    try:
+        gf.Build()
+    except Exception:  # OCCT raises Standard_Failure from inside the intersection
+        return None
     return gf if gf.IsDone() else None
 
 
