@@ -166,9 +166,9 @@ def test_pattern_of_textured_part(part, tmp_path):
 
 
 def test_operations_on_a_part_without_brep_run_on_its_mesh():
-    """Faces flattened together (a band of planes and fillets) have no B-rep: a hole
-    drilled into such a part still gives the exact mesh result, and ``.shape`` of
-    the result says why there is none (never a silently missing STEP)."""
+    """A part textured without a B-rep (``brep=False``): a hole drilled into it still
+    gives the exact mesh result, and ``.shape`` of the result says why there is none
+    (never a silently missing STEP)."""
     import warnings
 
     import trimesh
@@ -180,7 +180,7 @@ def test_operations_on_a_part_without_brep_run_on_its_mesh():
     sides = bp.part.faces().filter_by(lambda f: abs(f.normal_at().Z) < 0.1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        tx = texcad.texture(bp.part, sides, "builtin:stones", height=0.5, pitch=0.3)
+        tx = texcad.texture(bp.part, sides, "builtin:stones", height=0.5, pitch=0.3, brep=False)
     with pytest.raises(GeometryError):
         tx.shape
     drilled = tx - Pos(0, 0, 0) * Cylinder(2, 20)

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import texcad
+from texcad.brep import check_shape
 from texcad.errors import GeometryError, ParameterError
 from texcad.targets import FacesAdapter
 
@@ -209,10 +210,9 @@ def test_zones_touching_along_a_smooth_edge_stay_apart(tmp_path):
     assert abs(v[:, 2].max() - 10 - 0.6) < TOL and abs(v[:, 0].max() - 15 - 0.3) < TOL
     zr = tx.info["zone_reliefs"]
     assert abs(zr[0]["farthest_mm"] - 0.6) < TOL and abs(zr[1]["farthest_mm"] - 0.3) < TOL
-    # faces flattened together (the fillet and the side, LSCM) have no B-rep: STEP says so and names STL / 3MF
-    with pytest.raises(GeometryError, match=r"flattened together.*|write the mesh"):
-        tx.export(tmp_path / "x.step")
-    assert not (tmp_path / "x.step").exists()
+    # faces flattened together (the fillet and the side, LSCM) have a B-rep too (issue 28): the STEP reads back valid
+    tx.export(tmp_path / "x.step")
+    assert check_shape(texcad.io.read_step(tmp_path / "x.step"))["valid"]
 
 
 def test_cadquery_selections_as_zones():

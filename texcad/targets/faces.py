@@ -39,7 +39,8 @@ redone with the relief nudged by 2 um).
 degree-1 B-spline on that parameter space in place of the face
 (:func:`texcad.brep.uv_textured_solid`); a planar face is tiled in its frame
 (:func:`texcad.brep.uvfaces.holed_plane_solid`); faces flattened together (bands,
-LSCM) and chained results have none: GeometryError says so and names STL / 3MF.
+LSCM) are tiled over their meshed cells with walls down to the faces, cut by OCCT's
+general fuse (:func:`texcad.brep.bands.patch_solid`).
 """
 
 from __future__ import annotations
@@ -315,20 +316,18 @@ class FacesAdapter(Adapter):
         return max(r.max_error for r in stages.fused.data.patches)
 
     def brep(self, stages: Stages, fine: Any = None) -> Any:
-        """Each patch on its own ``(u, v)`` (:func:`texcad.brep.uv_textured_solid`) or
-        a planar face in tiles; ``fine``: rectangles ``(x0, x1, y0, y1)`` mm in a lone
-        planar face's frame (CAD operations)."""
+        """Each patch on its own ``(u, v)`` (:func:`texcad.brep.uv_textured_solid`), a
+        planar face in tiles, or faces flattened together in tiles with walls
+        (:func:`texcad.brep.bands.patch_solid`); chained, on the earlier result's
+        B-rep (:func:`chained_base`). ``fine``: rectangles ``(x0, x1, y0, y1)`` mm in a
+        lone planar face's frame, or boxes ``(lo, hi)`` mm (CAD operations)."""
         no_brep = stages.fused.info["no_brep"]
         if not stages.options.brep:
             raise GeometryError("textured with brep=False; texture it again with brep=True for STEP")
-        if stages.placement.previous is not None:
-            kind = stages.fused.info.get("face", "face")
-            raise GeometryError(
-                f"this result textures a {kind} face of an earlier textured result (chained), which has no B-rep: "
-                "texcad makes the B-rep of one texturing of a CAD part; write STL or 3MF instead (the mesh holds "
-                "both textures), or texture the faces together in one texcad.texture(part, [faces...]) call for STEP"
-            )
-        return _brep(stages.placement.topo, stages.fused.data.patches, no_brep, float(stages.options.rotation), fine)
+        base = stages.placement.topo
+        if stages.placement.previous is not None:  # chained: this texture on the earlier result's B-rep
+            base = chained_base(stages.placement.previous)
+        return _brep(base, stages.fused.data.patches, no_brep, float(stages.options.rotation), fine, stages.placement.data.mesh)
 
     def fine_frame(self, stages: Stages) -> Any:
         """A lone planar face: its frame and pitch ``(origin, xdir, ydir, pitch)`` mm."""
@@ -342,6 +341,20 @@ class FacesAdapter(Adapter):
 #: Most sample triangles the gate's reach check may make of the base (a stopgap: the
 #: gate splits every triangle in four until its longest edge is short, so a long thin
 #: triangle of a tessellated cylinder becomes 4^8 triangles; a sphere on a 40 mm
+
+
+def chained_base(previous: Stages) -> Any:
+    """The B-rep a chained texture is put on: the earlier result's (made by its own
+    adapter, itself chained or not). Its untextured faces are the part's own (the
+    same OCCT faces), so the faces selected on the part are found in it.
+
+    Raises:
+        GeometryError: the earlier result has no B-rep (the message says why).
+    """
+    try:
+        return previous.adapter.brep(previous)
+    except GeometryError as e:
+        raise GeometryError(f"this result textures a face of an earlier textured result (chained), whose B-rep failed: {e}") from None
 
 
 def _warn(reliefs: list) -> None:
@@ -414,7 +427,7 @@ def _info(placement: Placement, reliefs: list, options: Options) -> dict:
         "face": "faces" if len(infos) > 1 else infos[0]["kinds"][0],
         "faces": infos,
         "grid": infos[0]["grid"],
-        "brep": not chained,
+        "brep": True,
         "no_brep": (
             f"{', '.join(kinds)} face(s) textured by the general method (a texture grid on the face's "
             "parameterization, fused as a mesh) have no B-rep; write the mesh: export('part.stl') or export('part.3mf')"
@@ -422,7 +435,8 @@ def _info(placement: Placement, reliefs: list, options: Options) -> dict:
         "distortion": None if dist is None else dist.to_dict(),
         "chained": chained,
         # the lean mesh may enclose up to its error times the textured area more or less than the grid's B-rep
-        "volume_slack": max_error * area,
+        # (chained: and the earlier textures' lean meshes theirs)
+        "volume_slack": max_error * area + (float(placement.previous.fused.info.get("volume_slack", 0.0)) if chained else 0.0),
     }
     if options.build_dir is not None:
         info["build_dir"] = np.asarray(patch_options(options).build_dir).tolist()
@@ -436,20 +450,25 @@ def _info(placement: Placement, reliefs: list, options: Options) -> dict:
     return info
 
 
-def _brep(topo: Any, patches: tuple, no_brep: str, rotation: float, fine: Any = None) -> Any:
+def _brep(topo: Any, patches: tuple, no_brep: str, rotation: float, fine: Any = None, pm: Any = None) -> Any:
     """The textured B-rep of the patches on the part ``topo`` (mm; ``rotation``: the
     texture's turn on planar faces, degrees). Curved faces:
-    :func:`texcad.brep.uv_textured_solid`; planar faces: tiles in the face's frame.
+    :func:`texcad.brep.uv_textured_solid`; planar faces: tiles in the face's frame;
+    faces flattened together (``pm`` the part's tessellation): tiles with walls
+    (:func:`texcad.brep.bands.patch_solid`).
 
     Raises:
         GeometryError: a patch has no B-rep this way (``no_brep`` says what to write instead).
     """
     from ..brep import uv_textured_solid
 
-    items, planes = [], []
+    items, planes, groups = [], [], []
+    if pm is not None:  # chained: the faces as they lie in the earlier result's B-rep
+        patches = [_found(topo, r, pm) for r in patches]
     for r in patches:  # one per patch
         if r.face is None:
-            raise GeometryError(f"{no_brep} (faces {r.info['faces']} were flattened together)")
+            groups.append(r)
+            continue
         if r.tables is None:  # a plane: its grid lies in the face's frame
             planes.append(r)
             continue
@@ -461,15 +480,51 @@ def _brep(topo: Any, patches: tuple, no_brep: str, rotation: float, fine: Any = 
         shape = uv_textured_solid(topo, items) if items else topo
         for r in planes:  # one per planar face
             shape = _plane_brep(shape, r, r.info.get("rotation", rotation), fine)
+        for r in groups:  # one per patch of faces flattened together
+            shape = _patch_brep(shape, r, pm, fine)
         return shape
     except GeometryError as e:
         raise GeometryError(f"{no_brep}: {e}") from None
+
+
+def _found(shape: Any, r: PatchRelief, pm: Any) -> PatchRelief:
+    """The patch ``r`` with its faces as they lie in ``shape`` (an earlier texture
+    may have rebuilt a neighbour face: :func:`texcad.brep.bands.face_in`).
+
+    Raises:
+        GeometryError: a face is not in ``shape``.
+    """
+    from ..brep.bands import face_in
+
+    for i in r.faces:  # the patch's faces
+        if face_in(shape, pm.faces[i].face) is None:
+            raise GeometryError(f"face {i} ({pm.faces[i].kind}) is not in the earlier result's B-rep (an earlier texture "
+                                "rebuilt it); texture the faces together in one call for STEP")
+    return r if r.face is None else replace(r, face=face_in(shape, r.face))
+
+
+def _patch_brep(shape: Any, r: PatchRelief, pm: Any, fine: Any = None) -> Any:
+    """``shape`` with the faces of the patch ``r`` (flattened together) textured in
+    tiles with walls (:func:`texcad.brep.bands.patch_solid`; ``fine``: boxes ``(lo,
+    hi)`` mm where a CAD operation's tool is)."""
+    from ..brep import TESSELLATION
+    from ..brep.bands import face_in, patch_solid
+
+    boxes = [f for f in fine or () if len(f) >= 2 and np.ndim(f[0]) == 1]
+    g = r.grid
+    top = r.h_top if r.fused_top is None else r.fused_top
+    out = patch_solid(shape, [face_in(shape, pm.faces[i].face) for i in r.faces], g.points, g.normals, top, r.cells, wrap=bool(g.wrap_y),
+                      signed=bool(r.signed), chord=TESSELLATION, fine=boxes or None)
+    if out is None:
+        raise GeometryError(f"faces {r.info['faces']} were flattened together and OCCT did not cut their walls")
+    return out
 
 
 def _plane_brep(shape: Any, r: PatchRelief, rotation: float, fine: Any = None) -> Any:
     """``shape`` with the planar face of the patch ``r`` in tiles; heights 0 outside
     the kept cells and near the outline (the mesh's floor there is not carried over)."""
     from ..brep import plane_frame
+    from ..brep.bands import face_in
     from ..brep.uvfaces import holed_plane_solid
 
     p0, ex, _, n = plane_frame(r.face, rotation)
@@ -479,7 +534,8 @@ def _plane_brep(shape: Any, r: PatchRelief, rotation: float, fine: Any = None) -
                  (slice(1, None), slice(1, None))):  # the 4 corners of each kept cell
         kept[a, b] |= cells
     h = np.where(kept & g.valid, r.h_top, 0.0)
-    out = holed_plane_solid(shape, r.face, h, np.asarray(g.xs, np.float64), np.asarray(g.ys, np.float64),
+    face = face_in(shape, r.face) or r.face  # a neighbour's texture may have rebuilt it (split its edges)
+    out = holed_plane_solid(shape, face, h, np.asarray(g.xs, np.float64), np.asarray(g.ys, np.float64),
                             origin=p0, xdir=ex, normal=n, flatten_outline=True, fine=fine)  # fmt: skip
     if out is None:
         raise GeometryError("the planar face's texture grid reaches its outline; texture it in raised mode for a B-rep")

@@ -50,7 +50,7 @@ from .mesh import _gradient
 __all__ = [
     "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED", "SMOOTH_ANGLE", "PatchOptions", "PatchParam", "PatchGrid",
     "PatchSurface", "PatchBodies", "PatchRelief", "smooth_patches", "patch_param", "patch_grid", "patch_surface",
-    "limit_patch", "patch_bodies", "patch_relief", "patch_volume",
+    "limit_patch", "patch_bodies", "patch_relief", "patch_volume", "fused_offset",
 ]
 
 #: Local texture scale (either direction, or its inverse) down to which the full height is kept.
@@ -242,6 +242,9 @@ class PatchRelief:
         limit: the overhang limiter's report (dict of figures) or None.
         integral: ``(volume, slack, nominal)`` mm^3, the texture's own integral
             (:func:`patch_volume`; nominal None for a centred texture).
+        fused_top: ``(R, C)`` the offset (mm) of the fused mesh's surface over the
+            cells (:func:`fused_offset`: what the B-rep of faces flattened together
+            follows), or None.
     """
 
     faces: tuple
@@ -258,6 +261,7 @@ class PatchRelief:
     face: Any
     limit: Optional[dict] = None
     integral: tuple = (0.0, 0.0, None)
+    fused_top: Optional[np.ndarray] = None
 
     @property
     def max_error(self) -> float:
@@ -780,6 +784,18 @@ def _slab(top: np.ndarray, bottom: np.ndarray, top_tri: np.ndarray, bottom_tri: 
 # ------------------------------------------------------------------------------------------
 # The texture's own integral (the gate's check 4)
 # ------------------------------------------------------------------------------------------
+def fused_offset(surf: PatchSurface) -> np.ndarray:
+    """``(R, C)`` mm: the offset along the normal of the part's new surface where the
+    bodies are fused (see :func:`patch_volume`): raised ``max(s, 0)``, engraved
+    ``min(s, -f)``, centred the higher of the slab's top and the cut."""
+    s, c, fc = surf.surface, surf.c, surf.floor_c
+    if c == 0:
+        return np.maximum(s, 0.0)
+    if c == 1:
+        return np.minimum(s, -fc)
+    return np.maximum(np.where(surf.band, -surf.sink, s), np.minimum(s, -fc) - fc)
+
+
 def patch_volume(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> tuple:
     """``(volume, slack, nominal)`` mm^3: what the patch's bodies add to the part
     (raised +, engraved -), the difference the gate accepts, and the texture's
@@ -815,13 +831,7 @@ def patch_volume(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> tuple:
     from ..mapping.surface import grid_swept
 
     P, N = g.grid.points, g.grid.normals
-    s, c, fc = surf.surface, surf.c, surf.floor_c
-    if c == 0:
-        t = np.maximum(s, 0.0)
-    elif c == 1:
-        t = np.minimum(s, -fc)
-    else:
-        t = np.maximum(np.where(surf.band, -surf.sink, s), np.minimum(s, -fc) - fc)
+    t, c = fused_offset(surf), surf.c
     wrap = bool(g.grid.wrap_y)
     swept, area, excess = grid_swept(P, P + t[..., None] * N, N, cells=g.cells, wrap_rows=wrap)
     vol = swept - excess
@@ -886,7 +896,7 @@ def patch_relief(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> Pat
     hmap = Heightmap(shown.astype(np.float32), (g.px, g.py))
     return PatchRelief(tuple(int(i) for i in patch), bodies, info, dist, hmap, grid, bool(surf.limited.any()), s_top,
                        surf.c > 0, g.cells, g.par.tables, pm.faces[patch[0]].face if len(patch) == 1 else None, lim,
-                       patch_volume(g, surf, opts))
+                       patch_volume(g, surf, opts), fused_offset(surf))
 
 
 # ------------------------------------------------------------------------------------------
