@@ -393,23 +393,22 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
             ``COMPLEX_TRIANGULATED_FACE``; the tiles keep every pole then.
         tolerance: mm; when > 0 (and not ``tessellate``) the tiles are written with
             fewer poles and fewer decimals, within ``tolerance`` of every grid point
-            (:func:`decimals_for`, :func:`_reduced`): a STEP at the mesh's tolerance.
+            (:func:`decimals_for`, :func:`_reduced`), whole tiles side by side merged
+            into larger ones (:func:`_merged`): a STEP at the mesh's tolerance. At 0
+            every pole is written, with 8 decimals (5e-9 mm; 4 with ``tessellate``).
 
     Returns:
-        The STEP bytes, or None where this does not apply (no tiles; neither
-        ``tessellate`` nor a tolerance: the exact B-rep) or a check fails (write with
-        OCCT's own writer then).
+        The STEP bytes, or None where this does not apply (no tiles) or a check
+        fails (write with OCCT's own writer then).
     """
     from OCP.BRep import BRep_Builder
     from OCP.BRepBuilderAPI import BRepBuilderAPI_Copy
 
-    if not tessellate and tolerance <= 0:  # exact and plain: OCCT's own writer, every number as it is
-        return None
     order0, tiles0 = _tiles_of(topo)
     if not tiles0:
         return None
     copy = BRepBuilderAPI_Copy(topo, False, False).Shape()  # new topology, the same geometry
-    if not tessellate:
+    if not tessellate and tolerance > 0:
         copy = _merged(copy, TILE)
     order, tiles = _tiles_of(copy)
     if tessellate and (len(order) != len(order0) or [t[0] for t in tiles] != [t[0] for t in tiles0]):
@@ -423,7 +422,7 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
     b = BRep_Builder()
     sides = _sides(copy, tiles, grids)
     outer = _outer(sides, grids)
-    inner = 4
+    inner = 4 if tessellate else 8  # 8: 5e-9 mm, below OCCT's own precision (1e-7 mm)
     if tolerance > 0 and not tessellate:
         inner, rounding = decimals_for(tolerance)
         red = _reduced(b, sides, grids, tolerance - rounding, inner)
@@ -512,7 +511,7 @@ SPAN = 8
 EDGE_SHARE = 1.0
 #: Shares of the tolerance a tile's rows and columns are first chosen within (each
 #: direction); the bilinear result is then checked against the whole tolerance.
-INNER_SHARES = (1.0, 0.75, 0.5, 0.25)
+INNER_SHARES = (2.0, 1.5, 1.0, 0.75, 0.5, 0.25)
 
 
 def _keep(p: np.ndarray, t: np.ndarray, tol: float) -> np.ndarray:
@@ -635,18 +634,44 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
                     on_line[ti][line, lo + sel[1:-1]] = False  # (shared with the curve, rounded already)
     out = []
     for ti, (g, u, v) in enumerate(grids):  # one per tile
-        m = moved[ti]
+        m, fit = moved[ti], not frozen[ti].any()
         for frac in INNER_SHARES:  # the interior rows and columns first within these shares of the tolerance
             rows = np.union1d(np.flatnonzero(keep_r[ti]), _keep(m, v, frac * tol))
             cols = np.union1d(np.flatnonzero(keep_c[ti]), _keep(m.transpose(1, 0, 2), u, frac * tol))
-            mv, mu = _hats(v, rows), _hats(u, cols)
-            s = np.einsum("ra,abk,cb->rck", mv, m[np.ix_(rows, cols)], mu)
-            if np.sqrt(((s - g) ** 2).sum(-1)).max() <= tol:
+            poles = _fitted(m, g, u, v, rows, cols, tol, fit and frac > 1.0)
+            if poles is not None:
                 break
         else:
             rows, cols = np.arange(len(v)), np.arange(len(u))
-        out.append((m[np.ix_(rows, cols)], u[cols], v[rows], rows, cols, on_line[ti][np.ix_(rows, cols)]))
+            poles = m
+        out.append((poles, u[cols], v[rows], rows, cols, on_line[ti][np.ix_(rows, cols)]))
     return out
+
+
+def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np.ndarray, cols: np.ndarray, tol: float,
+            fit: bool) -> np.ndarray | None:
+    """Poles ``(len(rows), len(cols), 3)`` mm of a degree-1 surface on the knots
+    ``v[rows]``, ``u[cols]`` within ``tol`` mm of every grid point ``g`` (at its own
+    ``(u, v)``), or None. The poles are the grid points ``m`` there (the tile's
+    border moved onto its edges' polylines); with ``fit``, if those miss, the border
+    stays and the inner poles are the least-squares fit to the grid instead (a
+    bilinear patch through the points lies on one side of a curved relief; the
+    fitted one straddles it, so fewer rows and columns hold): the interior block is
+    a tensor product, so it is ``pinv(Bv) R pinv(Bu)^T``."""
+    mv, mu = _hats(v, rows), _hats(u, cols)
+    p = m[np.ix_(rows, cols)]
+    if np.sqrt(((np.einsum("ra,abk,cb->rck", mv, p, mu) - g) ** 2).sum(-1)).max() <= tol:
+        return p
+    if not fit or len(rows) < 3 or len(cols) < 3:
+        return None
+    ring = p.copy()
+    ring[1:-1, 1:-1] = 0.0
+    rest = g - np.einsum("ra,abk,cb->rck", mv, ring, mu)
+    p = ring
+    p[1:-1, 1:-1] = np.einsum("ar,rck,bc->abk", np.linalg.pinv(mv[:, 1:-1]), rest, np.linalg.pinv(mu[:, 1:-1]))
+    if np.sqrt(((np.einsum("ra,abk,cb->rck", mv, p, mu) - g) ** 2).sum(-1)).max() <= tol:
+        return p
+    return None
 
 
 def _layout(ents: dict):
@@ -781,7 +806,7 @@ def _renumbered(listed: list, repl: dict, alias: dict, surface) -> tuple[bytes, 
     of a stand-in surface (None: not one). Geometry (:data:`_SHARED`) that is the
     same as an earlier entity, once its own references are, is dropped and refers
     to that one."""
-    body = {e: (t, repl.get(e, _compact(p))) for e, t, p in listed}
+    body = {e: (t, repl.get(e, _short(t, _compact(p)))) for e, t, p in listed}
     same: dict = {}  # entity -> the entity it is written as
     seen: dict = {}  # canonical text -> entity
 
@@ -826,6 +851,16 @@ def _compact(params: bytes) -> bytes:
     an entity (after a comma or parenthesis, never in a string: texcad's names are
     single-line). Whitespace between tokens means nothing in STEP."""
     return _WRAP.sub(b"", params)
+
+
+_LONG = re.compile(rb"(\d\.\d{9})\d+")
+
+
+def _short(kind: bytes, params: bytes) -> bytes:
+    """A ``CARTESIAN_POINT``'s coordinates with at most 9 decimals (OCCT writes 17
+    significant digits: 1e-9 mm, or 1e-9 of a parameter, is far inside its 1e-7 mm
+    edge tolerances); other entities as they are."""
+    return _LONG.sub(rb"\1", params) if kind == b"CARTESIAN_POINT" else params
 
 
 def _xyz(m) -> list:
