@@ -56,6 +56,8 @@ def _real(v: float) -> str:
     mant, _, exp = s.partition("E")
     if "." not in mant:
         mant += "."
+    elif mant.endswith(".0"):
+        mant = mant[:-1]  # "1." (STEP's shortest real)
     return mant + ("E" + exp if exp else "")
 
 
@@ -409,7 +411,7 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
         return None
     copy = BRepBuilderAPI_Copy(topo, False, False).Shape()  # new topology, the same geometry
     if not tessellate and tolerance > 0:
-        copy = _merged(copy, TILE)
+        copy = _merged(copy, MERGED)
     order, tiles = _tiles_of(copy)
     if tessellate and (len(order) != len(order0) or [t[0] for t in tiles] != [t[0] for t in tiles0]):
         return None
@@ -505,6 +507,9 @@ def _outer(sides: list, grids: list) -> list:
     return out
 
 
+#: Largest side (grid cells) of a tile :func:`_merged` makes from whole tiles side by
+#: side: texcad's own tiles' (:data:`texcad.brep.TILE`).
+MERGED = TILE
 #: Longest chord (grid cells) :func:`_keep` tries.
 SPAN = 8
 #: Share of the tolerance an edge's polyline may miss its grid points by.
