@@ -664,18 +664,18 @@ def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np
     fitted one straddles it, so fewer rows and columns hold): the interior block is
     a tensor product, so it is ``pinv(Bv) R pinv(Bu)^T``."""
     mv, mu = _hats(v, rows), _hats(u, cols)
+    gk = g.transpose(2, 0, 1)  # (3, R, C): one matrix per coordinate
     p = m[np.ix_(rows, cols)]
-    if np.sqrt(((np.einsum("ra,abk,cb->rck", mv, p, mu) - g) ** 2).sum(-1)).max() <= tol:
+    if np.sqrt(((mv @ p.transpose(2, 0, 1) @ mu.T - gk) ** 2).sum(0)).max() <= tol:
         return p
     if not fit or len(rows) < 3 or len(cols) < 3:
         return None
-    ring = p.copy()
-    ring[1:-1, 1:-1] = 0.0
-    rest = g - np.einsum("ra,abk,cb->rck", mv, ring, mu)
-    p = ring
-    p[1:-1, 1:-1] = np.einsum("ar,rck,bc->abk", np.linalg.pinv(mv[:, 1:-1]), rest, np.linalg.pinv(mu[:, 1:-1]))
-    if np.sqrt(((np.einsum("ra,abk,cb->rck", mv, p, mu) - g) ** 2).sum(-1)).max() <= tol:
-        return p
+    pk = p.transpose(2, 0, 1).copy()
+    pk[:, 1:-1, 1:-1] = 0.0
+    rest = gk - mv @ pk @ mu.T
+    pk[:, 1:-1, 1:-1] = np.linalg.pinv(mv[:, 1:-1]) @ rest @ np.linalg.pinv(mu[:, 1:-1]).T
+    if np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0)).max() <= tol:
+        return pk.transpose(1, 2, 0)
     return None
 
 
