@@ -17,10 +17,19 @@ with numpy:
   both tiles' border poles move onto it), each tile the rows and columns its edges
   and its interior need, checked bilinear on every grid point; and fewer decimals
   (:func:`decimals_for`: 3 at 0.02 mm; 8 on edges shared with the part's own faces,
-  whose pcurves are OCCT's, and on border poles moved onto an edge). Issue 28: the
-  demo plate's STEP about twice its binary STL (``docs/benchmarks/step.md``);
+  whose pcurves are OCCT's, and on border poles moved onto an edge between its
+  points). Issue 28: the STEP against the binary STL in ``docs/benchmarks/step.md``;
+* at a tolerance, tiles no tool trimmed that lie side by side (the fine tiles
+  texcad makes under a tool, past its trace) are merged into tiles of at most
+  :data:`MERGED` cells a side (:func:`_merged`), and a tile's inner poles are
+  least-squares fitted to its grid where that lets it keep fewer rows and columns
+  (:func:`_fitted`);
 * the stand-in's ``B_SPLINE_SURFACE_WITH_KNOTS`` is rewritten with the tile's poles
   and knots;
+* OCCT's entities are written without layout whitespace, the same geometry once
+  (OCCT writes a 2-D context, a direction and a vector for every pcurve), their
+  points with at most 9 decimals, and everything numbered densely from ``#1``
+  (:func:`_renumbered`), the poles last;
 * with ``tessellate`` each tile that carries its triangulation (texcad's mesh: two
   triangles per grid cell) also gets a ``COMPLEX_TRIANGULATED_FACE`` linked to its
   ``ADVANCED_FACE`` (AP242), with its nodes (``COORDINATES_LIST``, the same numbers as
@@ -569,13 +578,7 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
     points move onto it); each tile keeps the rows and columns its edges keep plus
     those its interior needs, checked on every grid point (bilinear, 3-D distance)
     against ``tol``, else all of them. Returns ``(grid, u, v)`` per tile."""
-    from OCP.BRep import BRep_Tool
-    from OCP.Geom import Geom_BSplineCurve
-    from OCP.TColgp import TColgp_Array1OfPnt
-    from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
-    from OCP.TopLoc import TopLoc_Location
     from OCP.TopTools import TopTools_IndexedMapOfShape
-    from OCP.gp import gp_Pnt
 
     done = TopTools_IndexedMapOfShape()
     plans = {}  # edge index -> kept indices along it (None: all)
@@ -605,22 +608,7 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
             key = done.FindIndex(edge)
             if key == 0:
                 key = done.Add(edge)
-                sel, q = None, None
-                if shared and not stay.Contains(edge):
-                    sel = _keep(pts[:, None], t, EDGE_SHARE * tol)
-                    first, last = BRep_Tool.Range_s(edge)
-                    if len(sel) == len(t) or abs(first - t[0]) > 1e-9 or abs(last - t[-1]) > 1e-9:
-                        sel = None  # nothing to drop, or a curve not parametrised as the grid
-                    else:
-                        q = pts[sel].copy()
-                        q[1:-1] = np.round(q[1:-1], decimals)  # as written: the points between them stay on it
-                        poles, knots, mult = TColgp_Array1OfPnt(1, len(sel)), TColStd_Array1OfReal(1, len(sel)), TColStd_Array1OfInteger(1, len(sel))
-                        for n, (x, y, z) in enumerate(q.tolist()):  # one per kept point of the edge
-                            poles.SetValue(n + 1, gp_Pnt(x, y, z))
-                            knots.SetValue(n + 1, float(t[sel[n]]))
-                            mult.SetValue(n + 1, 2 if n in (0, len(sel) - 1) else 1)
-                        b.UpdateEdge(edge, Geom_BSplineCurve(poles, knots, mult, 1), TopLoc_Location(), BRep_Tool.Tolerance_s(edge))
-                plans[key] = sel, q
+                plans[key] = _polyline(b, edge, pts, t, tol, decimals) if shared and not stay.Contains(edge) else (None, None)
             sel, q = plans[key]
             idx = np.arange(lo, hi + 1) if sel is None else lo + sel
             if axis == 1:
@@ -651,6 +639,34 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
             poles = m
         out.append((poles, u[cols], v[rows], rows, cols, on_line[ti][np.ix_(rows, cols)]))
     return out
+
+
+def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int) -> tuple:
+    """The points an edge between two tiles keeps (indices into ``pts``, ``(n, 3)``
+    mm at the parameters ``t``) so that its polyline stays within ``tol`` mm of every
+    point, and those points as written (``decimals``; its ends as they are: other
+    edges meet there); the edge's 3-D curve becomes that polyline. ``(None, None)``
+    when nothing is dropped or the curve is not parametrised as the grid."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom import Geom_BSplineCurve
+    from OCP.TColgp import TColgp_Array1OfPnt
+    from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.gp import gp_Pnt
+
+    sel = _keep(pts[:, None], t, EDGE_SHARE * tol)
+    first, last = BRep_Tool.Range_s(edge)
+    if len(sel) == len(t) or abs(first - t[0]) > 1e-9 or abs(last - t[-1]) > 1e-9:
+        return None, None
+    q = pts[sel].copy()
+    q[1:-1] = np.round(q[1:-1], decimals)  # as written: the points between them stay on it
+    poles, knots, mult = TColgp_Array1OfPnt(1, len(sel)), TColStd_Array1OfReal(1, len(sel)), TColStd_Array1OfInteger(1, len(sel))
+    for n, (x, y, z) in enumerate(q.tolist()):  # one per kept point of the edge
+        poles.SetValue(n + 1, gp_Pnt(x, y, z))
+        knots.SetValue(n + 1, float(t[sel[n]]))
+        mult.SetValue(n + 1, 2 if n in (0, len(sel) - 1) else 1)
+    b.UpdateEdge(edge, Geom_BSplineCurve(poles, knots, mult, 1), TopLoc_Location(), BRep_Tool.Tolerance_s(edge))
+    return sel, q
 
 
 def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np.ndarray, cols: np.ndarray, tol: float,
