@@ -198,6 +198,7 @@ def _sizes_row(name: str, tx, out: Path, tessellated: bool = False) -> dict:
     t: dict = {}
     print(name)
     tx.export(out / f"{name}.stl")
+    _clock("B-rep (built and checked; not part of the write)", lambda: tx.shape, t)
     if tessellated:  # every pole and the tiles' grid meshes (AP242)
         _clock("write STEP", lambda: texcad.io.write_step(tx.shape, out / f"{name}.step", tessellated=True), t)
     else:  # what tx.export writes: the B-rep at the mesh's tolerance
