@@ -58,12 +58,13 @@ def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part"
     texcad's texture tiles (degree-1 B-spline faces through the texture's grid, see
     :func:`texcad.brep.tiled_grid_faces`) are written with numpy
     (:mod:`texcad.io.step_tiles`): every point once, shared by the tiles and edges
-    that meet there. With ``tolerance`` > 0 (what :meth:`texcad.Textured.export`
-    passes: the mesh's tolerance) a tile keeps only the rows and columns of poles,
-    and an edge between tiles only the points, needed to stay within ``tolerance``
-    of every grid point, with 3 decimals inside the tiles at 0.02 mm: a plain AP214
-    B-rep; its size against the binary STL at the same tolerance is in
-    ``docs/benchmarks/step.md``.
+    that meet there, the same geometry once, entities numbered densely. With
+    ``tolerance`` > 0 (what :meth:`texcad.Textured.export` passes: the mesh's
+    tolerance) a tile keeps only the rows and columns of poles, and an edge between
+    tiles only the points, needed to stay within ``tolerance`` of every grid point,
+    with 3 decimals inside the tiles at 0.02 mm, and the fine tiles a tool left whole
+    are merged back into larger tiles: a plain AP214 B-rep; its size against the
+    binary STL at the same tolerance is in ``docs/benchmarks/step.md``.
 
     ``tessellated=True`` adds each tile's triangulation (texcad's grid mesh) as AP242
     tessellated geometry (``COMPLEX_TRIANGULATED_FACE`` next to the B-spline face):
@@ -79,7 +80,7 @@ def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part"
         name: product name shown by CAD programs (ASCII).
         tessellated: write the tiles' triangulations (default False).
         tolerance: mm, how far the written tiles may lie from their grid points
-            (0: the exact B-rep, every number as OCCT holds it).
+            (0: every pole, to 5e-9 mm; the part's other faces as OCCT writes them).
 
     Raises:
         GeometryError: OCCT could not translate or write the shape.

@@ -17,10 +17,19 @@ with numpy:
   both tiles' border poles move onto it), each tile the rows and columns its edges
   and its interior need, checked bilinear on every grid point; and fewer decimals
   (:func:`decimals_for`: 3 at 0.02 mm; 8 on edges shared with the part's own faces,
-  whose pcurves are OCCT's, and on border poles moved onto an edge). Issue 28: the
-  demo plate's STEP about twice its binary STL (``docs/benchmarks/step.md``);
+  whose pcurves are OCCT's, and on border poles moved onto an edge between its
+  points). Issue 28: the STEP against the binary STL in ``docs/benchmarks/step.md``;
+* at a tolerance, tiles no tool trimmed that lie side by side (the fine tiles
+  texcad makes under a tool, past its trace) are merged into tiles of at most
+  :data:`MERGED` cells a side (:func:`_merged`), and a tile's inner poles are
+  least-squares fitted to its grid where that lets it keep fewer rows and columns
+  (:func:`_fitted`);
 * the stand-in's ``B_SPLINE_SURFACE_WITH_KNOTS`` is rewritten with the tile's poles
   and knots;
+* OCCT's entities are written without layout whitespace, the same geometry once
+  (OCCT writes a 2-D context, a direction and a vector for every pcurve), their
+  points with at most 9 decimals, and everything numbered densely from ``#1``
+  (:func:`_renumbered`), the poles last;
 * with ``tessellate`` each tile that carries its triangulation (texcad's mesh: two
   triangles per grid cell) also gets a ``COMPLEX_TRIANGULATED_FACE`` linked to its
   ``ADVANCED_FACE`` (AP242), with its nodes (``COORDINATES_LIST``, the same numbers as
@@ -41,11 +50,12 @@ from typing import Any
 
 import numpy as np
 
-from ..brep import surface_grid, tile_grid
+from ..brep import TILE, surface_grid, tile_grid
 
 __all__ = ["tiled_step_text"]
 
 _ENTITY = re.compile(rb"#(\d+) = ([A-Z0-9_]*)\(([^;]*)\);")
+_ANY_ENTITY = re.compile(rb"#(\d+) ?= ?([A-Z0-9_]*)\(([^;]*)\);")  # OCCT's layout or texcad's
 _REF = re.compile(rb"#(\d+)")
 
 
@@ -55,6 +65,8 @@ def _real(v: float) -> str:
     mant, _, exp = s.partition("E")
     if "." not in mant:
         mant += "."
+    elif mant.endswith(".0"):
+        mant = mant[:-1]  # "1." (STEP's shortest real)
     return mant + ("E" + exp if exp else "")
 
 
@@ -143,6 +155,183 @@ def _stand_in(b, face, surf) -> None:
             b.UpdateEdge(e, c1, c2, face, BRep_Tool.Tolerance_s(e))
 
 
+def _whole(face, u: np.ndarray, v: np.ndarray) -> bool:
+    """Is ``face`` (one wire, no seam) bounded by its parameter rectangle's sides only
+    (a tile no tool trimmed)?"""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepTools import BRepTools
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_WIRE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    wires = TopExp_Explorer(face, TopAbs_WIRE)
+    wires.Next()
+    if wires.More():
+        return False
+    eu, ev = 1e-9 * (1 + abs(u).max()), 1e-9 * (1 + abs(v).max())
+    exp = TopExp_Explorer(face, TopAbs_EDGE)
+    while exp.More():  # one per edge of the tile (a handful)
+        edge = TopoDS.Edge_s(exp.Current())
+        exp.Next()
+        if BRep_Tool.IsClosed_s(edge, face):
+            return False
+        u0, u1, v0, v1 = BRepTools.UVBounds_s(face, edge)
+        on_u = u1 - u0 <= eu and min(abs(u0 - u[0]), abs(u0 - u[-1])) <= eu
+        on_v = v1 - v0 <= ev and min(abs(v0 - v[0]), abs(v0 - v[-1])) <= ev
+        if not (on_u or on_v):
+            return False
+    return True
+
+
+def _neighbours(shape, tiles: list, grids: list) -> tuple[dict, dict]:
+    """For each whole tile (:func:`_whole`), the whole tile past its high-u side
+    (``right``) and past its high-v side (``up``) when that side is one edge they
+    share, in the same parameter space (the same grid: equal knots and border poles)
+    and with the same orientation in the shell."""
+    from OCP.BRepTools import BRepTools
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp, TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_IndexedMapOfShape
+
+    ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
+    index = TopTools_IndexedMapOfShape()
+    for _, face, _ in tiles:  # one per tile
+        index.Add(face)
+    whole = [g is not None and _whole(f, g[1], g[2]) for (_, f, _), g in zip(tiles, grids)]
+    right, up = {}, {}
+    for a, ((_, face, _), g) in enumerate(zip(tiles, grids)):  # one per tile
+        if not whole[a]:
+            continue
+        ga, u, v = g
+        exp = TopExp_Explorer(face, TopAbs_EDGE)
+        while exp.More():  # one per edge of the tile
+            edge = TopoDS.Edge_s(exp.Current())
+            exp.Next()
+            u0, u1, v0, v1 = BRepTools.UVBounds_s(face, edge)
+            high_u = abs(u0 - u[-1]) + abs(u1 - u[-1]) <= 1e-9 * (1 + abs(u).max()) and abs(v0 - v[0]) + abs(v1 - v[-1]) <= 1e-9 * (1 + abs(v).max())
+            high_v = abs(v0 - v[-1]) + abs(v1 - v[-1]) <= 1e-9 * (1 + abs(v).max()) and abs(u0 - u[0]) + abs(u1 - u[-1]) <= 1e-9 * (1 + abs(u).max())
+            faces = ancestors.FindFromKey(edge)
+            if not (high_u or high_v) or faces.Size() != 2:
+                continue
+            b = [index.FindIndex(f) - 1 for f in faces if not f.IsSame(face)]
+            if len(b) != 1 or b[0] < 0 or not whole[b[0]] or tiles[b[0]][1].Orientation() != face.Orientation():
+                continue
+            gb, ub, vb = grids[b[0]]
+            if high_u and ub[0] == u[-1] and np.array_equal(vb, v) and np.array_equal(gb[:, 0], ga[:, -1]):
+                right[a] = b[0]
+            elif high_v and vb[0] == v[-1] and np.array_equal(ub, u) and np.array_equal(gb[0], ga[-1]):
+                up[a] = b[0]
+    return right, up
+
+
+def _chains(nxt: dict, size: dict, cells: int) -> list:
+    """Runs of keys along ``nxt`` (key -> the next one), each at most ``cells`` in
+    total ``size``; every key in ``size`` once."""
+    after = {b for a, b in nxt.items() if a in size}
+    out = []
+    for head in size:  # one per key
+        if head in after:
+            continue
+        run, total, at = [head], size[head], nxt.get(head)
+        while at is not None:  # one per key of the chain
+            if total + size[at] > cells:
+                out.append(run)
+                run, total = [], 0
+            run.append(at)
+            total += size[at]
+            at = nxt.get(at)
+        out.append(run)
+    return out
+
+
+def _groups(shape, tiles: list, grids: list, cells: int) -> list:
+    """Rectangles of whole tiles (tile indices) at most ``cells`` grid cells a side:
+    runs along u, then runs of those along v whose tiles are each other's ``up``."""
+    right, up = _neighbours(shape, tiles, grids)
+    whole = {a for a in right} | set(right.values()) | set(up) | set(up.values())
+    strips = _chains(right, {a: len(grids[a][1]) - 1 for a in sorted(whole)}, cells)
+    head = {s[0]: i for i, s in enumerate(strips)}
+    above = {}
+    for i, s in enumerate(strips):  # one per strip
+        j = head.get(up.get(s[0], -1))
+        if j is not None and strips[j] == [up.get(a) for a in s]:
+            above[i] = j
+    runs = _chains(above, {i: len(grids[s[0]][2]) - 1 for i, s in enumerate(strips)}, cells)
+    return [[a for i in run for a in strips[i]] for run in runs]
+
+
+def _merged(shape, cells: int):
+    """``shape`` with each rectangle of whole tiles (:func:`_groups`; the fine tiles
+    texcad makes under a tool, past its trace) written as one tile of at most
+    ``cells`` grid cells a side: one surface through their poles, bounded by their
+    outer edges (kept, with their vertices; the edges between them go). The
+    rectangles keep the tiles' parameter space, so the edges' pcurves stay as they
+    are. Returns the new shape, or ``shape`` when there is nothing to merge."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRepTools import BRepTools_ReShape
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD
+    from OCP.TopExp import TopExp, TopExp_Explorer
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Wire
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_IndexedMapOfShape
+
+    from ..brep import grid_surface
+
+    _, tiles = _tiles_of(shape)
+    grids = _grids(tiles)
+    groups = [g for g in _groups(shape, tiles, grids, cells) if len(g) > 1]
+    if not groups:
+        return shape
+    b, reshape = BRep_Builder(), BRepTools_ReShape()
+    vertices = TopTools_IndexedMapOfShape()
+    ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
+    for group in groups:  # one per merged rectangle
+        U = np.unique(np.concatenate([grids[a][1] for a in group]))
+        V = np.unique(np.concatenate([grids[a][2] for a in group]))
+        G = np.zeros((len(V), len(U), 3))
+        for a in group:  # one per tile of the rectangle
+            g, u, v = grids[a]
+            G[np.ix_(np.searchsorted(V, v), np.searchsorted(U, u))] = g
+        members = TopTools_IndexedMapOfShape()
+        for a in group:  # one per tile of the rectangle
+            members.Add(tiles[a][1])
+        outline = []  # (edge as in its forward tile, that tile)
+        for a in group:  # one per tile of the rectangle
+            fwd = TopoDS.Face_s(tiles[a][1].Oriented(TopAbs_FORWARD))
+            exp = TopExp_Explorer(fwd, TopAbs_EDGE)
+            while exp.More():  # one per edge of the tile
+                e = TopoDS.Edge_s(exp.Current())
+                exp.Next()
+                if sum(members.Contains(f) for f in ancestors.FindFromKey(e)) < 2:
+                    outline.append((e, fwd))
+        start = {}
+        for k, (e, _) in enumerate(outline):  # one per outer edge
+            start.setdefault(vertices.Add(TopExp.FirstVertex_s(e, True)), []).append(k)
+        chain, at = [0], vertices.Add(TopExp.LastVertex_s(outline[0][0], True))
+        while len(chain) < len(outline) and len(start.get(at, ())) == 1:  # one per outer edge
+            chain.append(start[at][0])
+            at = vertices.Add(TopExp.LastVertex_s(outline[chain[-1]][0], True))
+        if len(set(chain)) != len(outline) or any(len(ks) != 1 for ks in start.values()):
+            continue  # not one simple loop: leave these tiles as they are
+        face, wire = TopoDS_Face(), TopoDS_Wire()
+        first = tiles[group[0]][1]
+        b.MakeFace(face, grid_surface(G, U, V), TopLoc_Location(), BRep_Tool.Tolerance_s(first))
+        b.MakeWire(wire)
+        for k in chain:  # one per outer edge
+            e, tile = outline[k]
+            b.Add(wire, e)
+            b.UpdateEdge(e, BRep_Tool.CurveOnSurface_s(e, tile, 0.0, 0.0), face, BRep_Tool.Tolerance_s(e))
+        wire.Closed(True)
+        b.Add(face, wire)
+        reshape.Replace(first, face.Oriented(first.Orientation()))
+        for a in group[1:]:  # one per other tile of the rectangle
+            reshape.Remove(tiles[a][1])
+    return reshape.Apply(shape)
+
+
 def _grids(tiles: list) -> list:
     """Each tile's ``(grid, u, v)``: remembered by texcad (:func:`texcad.brep.tile_grid`)
     or read from OCCT."""
@@ -215,37 +404,40 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
             ``COMPLEX_TRIANGULATED_FACE``; the tiles keep every pole then.
         tolerance: mm; when > 0 (and not ``tessellate``) the tiles are written with
             fewer poles and fewer decimals, within ``tolerance`` of every grid point
-            (:func:`decimals_for`, :func:`_reduced`): a STEP at the mesh's tolerance.
+            (:func:`decimals_for`, :func:`_reduced`), whole tiles side by side merged
+            into larger ones (:func:`_merged`): a STEP at the mesh's tolerance. At 0
+            every pole is written, with 8 decimals (5e-9 mm; 4 with ``tessellate``).
 
     Returns:
-        The STEP bytes, or None where this does not apply (no tiles; neither
-        ``tessellate`` nor a tolerance: the exact B-rep) or a check fails (write with
-        OCCT's own writer then).
+        The STEP bytes, or None where this does not apply (no tiles) or a check
+        fails (write with OCCT's own writer then).
     """
     from OCP.BRep import BRep_Builder
     from OCP.BRepBuilderAPI import BRepBuilderAPI_Copy
 
-    if not tessellate and tolerance <= 0:  # exact and plain: OCCT's own writer, every number as it is
-        return None
     order0, tiles0 = _tiles_of(topo)
     if not tiles0:
         return None
     copy = BRepBuilderAPI_Copy(topo, False, False).Shape()  # new topology, the same geometry
+    if not tessellate and tolerance > 0:
+        copy = _merged(copy, MERGED)
     order, tiles = _tiles_of(copy)
-    if len(order) != len(order0) or [t[0] for t in tiles] != [t[0] for t in tiles0]:
+    if tessellate and (len(order) != len(order0) or [t[0] for t in tiles] != [t[0] for t in tiles0]):
         return None
     grids = _grids(tiles)
     if any(g is None for g in grids):
         return None
-    meshed = [_carries_grid_mesh(f, g[0].shape[0], g[0].shape[1]) for (_, f, _), g in zip(tiles0, grids)]
+    meshed = [False] * len(tiles)
+    if tessellate:
+        meshed = [_carries_grid_mesh(f, g[0].shape[0], g[0].shape[1]) for (_, f, _), g in zip(tiles0, grids)]
     b = BRep_Builder()
     sides = _sides(copy, tiles, grids)
     outer = _outer(sides, grids)
-    inner = 4
+    inner = 4 if tessellate else 8  # 8: 5e-9 mm, below OCCT's own precision (1e-7 mm)
     if tolerance > 0 and not tessellate:
         inner, rounding = decimals_for(tolerance)
-        red = _reduced(b, sides, grids, tolerance - rounding)
-        # the points moved onto an edge's polyline keep 8 decimals too (so they stay on it)
+        red = _reduced(b, sides, grids, tolerance - rounding, inner)
+        # the points moved onto an edge's polyline between its own points keep 8 decimals too (so they stay on it)
         outer = [o[np.ix_(r, c)] | line for o, (_, _, _, r, c, line) in zip(outer, red)]
         grids = [(g, u, v) for g, u, v, _, _, _ in red]
     try:
@@ -254,7 +446,7 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
     except ValueError:
         return None
     data = occt_write(copy)
-    return _complete(data, len(order), tiles, grids, meshed if tessellate else [False] * len(meshed), outer, inner)
+    return _complete(data, len(order), tiles, grids, meshed, outer, inner)
 
 
 def decimals_for(tolerance: float) -> tuple[int, float]:
@@ -324,13 +516,16 @@ def _outer(sides: list, grids: list) -> list:
     return out
 
 
+#: Largest side (grid cells) of a tile :func:`_merged` makes from whole tiles side by
+#: side: texcad's own tiles' (:data:`texcad.brep.TILE`).
+MERGED = TILE
 #: Longest chord (grid cells) :func:`_keep` tries.
 SPAN = 8
 #: Share of the tolerance an edge's polyline may miss its grid points by.
 EDGE_SHARE = 1.0
 #: Shares of the tolerance a tile's rows and columns are first chosen within (each
 #: direction); the bilinear result is then checked against the whole tolerance.
-INNER_SHARES = (1.0, 0.75, 0.5, 0.25)
+INNER_SHARES = (2.0, 1.5, 1.0, 0.75, 0.5, 0.25)
 
 
 def _keep(p: np.ndarray, t: np.ndarray, tol: float) -> np.ndarray:
@@ -375,7 +570,7 @@ def _hats(t: np.ndarray, kept: np.ndarray) -> np.ndarray:
     return m
 
 
-def _reduced(b, sides: list, grids: list, tol: float) -> list:
+def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list:
     """The tiles' grids with fewer poles, within ``tol`` mm of every pole (issue 28:
     a STEP at the mesh's tolerance). Each edge between two tiles keeps the points
     its polyline needs within ``tol / 2`` (its 3-D curve is replaced by that
@@ -383,13 +578,7 @@ def _reduced(b, sides: list, grids: list, tol: float) -> list:
     points move onto it); each tile keeps the rows and columns its edges keep plus
     those its interior needs, checked on every grid point (bilinear, 3-D distance)
     against ``tol``, else all of them. Returns ``(grid, u, v)`` per tile."""
-    from OCP.BRep import BRep_Tool
-    from OCP.Geom import Geom_BSplineCurve
-    from OCP.TColgp import TColgp_Array1OfPnt
-    from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
-    from OCP.TopLoc import TopLoc_Location
     from OCP.TopTools import TopTools_IndexedMapOfShape
-    from OCP.gp import gp_Pnt
 
     done = TopTools_IndexedMapOfShape()
     plans = {}  # edge index -> kept indices along it (None: all)
@@ -419,46 +608,91 @@ def _reduced(b, sides: list, grids: list, tol: float) -> list:
             key = done.FindIndex(edge)
             if key == 0:
                 key = done.Add(edge)
-                sel = None
-                if shared and not stay.Contains(edge):
-                    sel = _keep(pts[:, None], t, EDGE_SHARE * tol)
-                    first, last = BRep_Tool.Range_s(edge)
-                    if len(sel) == len(t) or abs(first - t[0]) > 1e-9 or abs(last - t[-1]) > 1e-9:
-                        sel = None  # nothing to drop, or a curve not parametrised as the grid
-                    else:
-                        poles, knots, mult = TColgp_Array1OfPnt(1, len(sel)), TColStd_Array1OfReal(1, len(sel)), TColStd_Array1OfInteger(1, len(sel))
-                        for n, (x, y, z) in enumerate(pts[sel].tolist()):  # one per kept point of the edge
-                            poles.SetValue(n + 1, gp_Pnt(x, y, z))
-                            knots.SetValue(n + 1, float(t[sel[n]]))
-                            mult.SetValue(n + 1, 2 if n in (0, len(sel) - 1) else 1)
-                        b.UpdateEdge(edge, Geom_BSplineCurve(poles, knots, mult, 1), TopLoc_Location(), BRep_Tool.Tolerance_s(edge))
-                plans[key] = sel
-            sel = plans[key]
+                plans[key] = _polyline(b, edge, pts, t, tol, decimals) if shared and not stay.Contains(edge) else (None, None)
+            sel, q = plans[key]
             idx = np.arange(lo, hi + 1) if sel is None else lo + sel
             if axis == 1:
                 keep_r[ti][idx] = True
                 if sel is not None:
-                    moved[ti][lo : hi + 1, line] = np.stack([np.interp(t, t[sel], pts[sel, c]) for c in range(3)], axis=-1)
+                    moved[ti][lo : hi + 1, line] = np.stack([np.interp(t, t[sel], q[:, c]) for c in range(3)], axis=-1)
+                    moved[ti][lo + sel, line] = q  # the polyline's own points, bit for bit
                     on_line[ti][lo : hi + 1, line] = True
+                    on_line[ti][lo + sel[1:-1], line] = False  # (shared with the curve, rounded already)
             else:
                 keep_c[ti][idx] = True
                 if sel is not None:
-                    moved[ti][line, lo : hi + 1] = np.stack([np.interp(t, t[sel], pts[sel, c]) for c in range(3)], axis=-1)
+                    moved[ti][line, lo : hi + 1] = np.stack([np.interp(t, t[sel], q[:, c]) for c in range(3)], axis=-1)
+                    moved[ti][line, lo + sel] = q  # the polyline's own points, bit for bit
                     on_line[ti][line, lo : hi + 1] = True
+                    on_line[ti][line, lo + sel[1:-1]] = False  # (shared with the curve, rounded already)
     out = []
     for ti, (g, u, v) in enumerate(grids):  # one per tile
-        m = moved[ti]
+        m, fit = moved[ti], not frozen[ti].any()
         for frac in INNER_SHARES:  # the interior rows and columns first within these shares of the tolerance
             rows = np.union1d(np.flatnonzero(keep_r[ti]), _keep(m, v, frac * tol))
             cols = np.union1d(np.flatnonzero(keep_c[ti]), _keep(m.transpose(1, 0, 2), u, frac * tol))
-            mv, mu = _hats(v, rows), _hats(u, cols)
-            s = np.einsum("ra,abk,cb->rck", mv, m[np.ix_(rows, cols)], mu)
-            if np.sqrt(((s - g) ** 2).sum(-1)).max() <= tol:
+            poles = _fitted(m, g, u, v, rows, cols, tol, fit and frac > 1.0)
+            if poles is not None:
                 break
         else:
             rows, cols = np.arange(len(v)), np.arange(len(u))
-        out.append((m[np.ix_(rows, cols)], u[cols], v[rows], rows, cols, on_line[ti][np.ix_(rows, cols)]))
+            poles = m
+        out.append((poles, u[cols], v[rows], rows, cols, on_line[ti][np.ix_(rows, cols)]))
     return out
+
+
+def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int) -> tuple:
+    """The points an edge between two tiles keeps (indices into ``pts``, ``(n, 3)``
+    mm at the parameters ``t``) so that its polyline stays within ``tol`` mm of every
+    point, and those points as written (``decimals``; its ends as they are: other
+    edges meet there); the edge's 3-D curve becomes that polyline. ``(None, None)``
+    when nothing is dropped or the curve is not parametrised as the grid."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom import Geom_BSplineCurve
+    from OCP.TColgp import TColgp_Array1OfPnt
+    from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.gp import gp_Pnt
+
+    sel = _keep(pts[:, None], t, EDGE_SHARE * tol)
+    first, last = BRep_Tool.Range_s(edge)
+    if len(sel) == len(t) or abs(first - t[0]) > 1e-9 or abs(last - t[-1]) > 1e-9:
+        return None, None
+    q = pts[sel].copy()
+    q[1:-1] = np.round(q[1:-1], decimals)  # as written: the points between them stay on it
+    poles, knots, mult = TColgp_Array1OfPnt(1, len(sel)), TColStd_Array1OfReal(1, len(sel)), TColStd_Array1OfInteger(1, len(sel))
+    for n, (x, y, z) in enumerate(q.tolist()):  # one per kept point of the edge
+        poles.SetValue(n + 1, gp_Pnt(x, y, z))
+        knots.SetValue(n + 1, float(t[sel[n]]))
+        mult.SetValue(n + 1, 2 if n in (0, len(sel) - 1) else 1)
+    b.UpdateEdge(edge, Geom_BSplineCurve(poles, knots, mult, 1), TopLoc_Location(), BRep_Tool.Tolerance_s(edge))
+    return sel, q
+
+
+def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np.ndarray, cols: np.ndarray, tol: float,
+            fit: bool) -> np.ndarray | None:
+    """Poles ``(len(rows), len(cols), 3)`` mm of a degree-1 surface on the knots
+    ``v[rows]``, ``u[cols]`` within ``tol`` mm of every grid point ``g`` (at its own
+    ``(u, v)``), or None. The poles are the grid points ``m`` there (the tile's
+    border moved onto its edges' polylines); with ``fit``, if those miss, the border
+    stays and the inner poles are the least-squares fit to the grid instead (a
+    bilinear patch through the points lies on one side of a curved relief; the
+    fitted one straddles it, so fewer rows and columns hold): the interior block is
+    a tensor product, so it is ``pinv(Bv) R pinv(Bu)^T``."""
+    mv, mu = _hats(v, rows), _hats(u, cols)
+    gk = g.transpose(2, 0, 1)  # (3, R, C): one matrix per coordinate
+    p = m[np.ix_(rows, cols)]
+    if np.sqrt(((mv @ p.transpose(2, 0, 1) @ mu.T - gk) ** 2).sum(0)).max() <= tol:
+        return p
+    if not fit or len(rows) < 3 or len(cols) < 3:
+        return None
+    pk = p.transpose(2, 0, 1).copy()
+    pk[:, 1:-1, 1:-1] = 0.0
+    rest = gk - mv @ pk @ mu.T
+    pk[:, 1:-1, 1:-1] = np.linalg.pinv(mv[:, 1:-1]) @ rest @ np.linalg.pinv(mu[:, 1:-1]).T
+    if np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0)).max() <= tol:
+        return pk.transpose(1, 2, 0)
+    return None
 
 
 def _layout(ents: dict):
@@ -514,7 +748,9 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list,
     two tiles is exactly both tiles' border whatever the decimals. ``outer``: the
     poles on edges shared with the part's own faces, written with 8 decimals (5e-9
     mm, inside the edges' 1e-7 mm: those faces' pcurves are OCCT's); every other
-    pole with ``inner`` decimals (4: 5e-5 mm, far below any mesh tolerance)."""
+    pole with ``inner`` decimals (4: 5e-5 mm, far below any mesh tolerance). The
+    poles come first (``#1`` on), then OCCT's entities, identical geometry written
+    once and numbered densely (:func:`_renumbered`)."""
     ents = {int(m.group(1)): m for m in _ENTITY.finditer(data)}
     face_ids, shell_of, msb, absr_of = _layout(ents)
     if len(face_ids) != n_faces:
@@ -530,7 +766,7 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list,
     order = np.argsort(first, kind="stable")  # the points in the order they first occur
     rank = np.empty(len(order), np.int64)
     rank[order] = np.arange(len(order))
-    swaps, tess, repl = {}, [], {}
+    swaps, tess = {}, []
     off = 0
     for (k, _, _), (g, u, v), mesh in zip(tiles, grids, meshed):  # one per tile
         rows, cols = g.shape[:2]
@@ -544,55 +780,108 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list,
                 return None
             tess.append((face_ids[k], off, rows, cols))
         off += rows * cols
-    next_id = max(ents) + 1
-    ids = next_id + rank[inv]
     n_emit = len(order)
     # OCCT's points that are poles (8 decimals: border poles) refer to the pole instead.
-    pole_id = {t[1:]: next_id + rank[i] for i, t in enumerate(uniq.tolist()) if t[0] == "b"}
+    pole_id = {t[1:]: int(rank[i]) for i, t in enumerate(uniq.tolist()) if t[0] == "b"}
     occt_pts = [e for e, m in ents.items() if m.group(2) == b"CARTESIAN_POINT"]
     occt_tok = _tokens(np.array([_xyz(ents[e]) for e in occt_pts], np.float64).reshape(-1, 3), 8)
-    remap = {e: pole_id[t] for e, t in zip(occt_pts, occt_tok.tolist()) if t in pole_id}
-    repl.update((e, "") for e in remap)
-    inter = [None] * (2 * n_emit)
+    alias = {e: pole_id[t] for e, t in zip(occt_pts, occt_tok.tolist()) if t in pole_id}
     exact = np.zeros(len(uniq), bool)  # a point is written with 8 decimals if any of its uses needs them
     np.logical_or.at(exact, inv, outer)
     emit_tok = tok[first]
     emit_tok[exact & ~outer[first]] = _tokens(pts[first[exact & ~outer[first]]], 8)
-    inter[0::2], inter[1::2] = (next_id + np.arange(n_emit)).tolist(), emit_tok[order].tolist()
-    one = "#%d=CARTESIAN_POINT('',(%s));"  # four to a line (lines of ~200 characters)
-    new = [(((one * 4 + "\n") * (n_emit // 4)) + one * (n_emit % 4) + "\n") % tuple(inter)]
-    repl.update(_surfaces_text(swaps, ids))
-    new_ids, items = _tessellation_text(tess, tok, next_id + n_emit, shell_of, msb, new)
+    repl, extra = {}, []
+    next_id = max(ents) + 1
+    next_id, items = _tessellation_text(tess, tok, next_id, shell_of, msb, extra)
     for rep in sorted({absr_of[solid] for solid, _ in items}):  # one per shape representation
         mine = [t for solid, t in items if absr_of[solid] == rep]
         refs = [int(r) for r in _REF.findall(ents[rep].group(3))]
         ctx, listed = refs[-1], ",".join(f"#{r}" for r in refs[:-1] + mine)
-        repl[rep] = f"#{rep} = ADVANCED_BREP_SHAPE_REPRESENTATION('',({listed}),#{ctx});"
-        new.append(f"#{new_ids} = TESSELLATED_SHAPE_REPRESENTATION('',({','.join(f'#{r}' for r in mine)}),#{ctx});\n")
-        new_ids += 1
-    end = data.rindex(b"ENDSEC;")
-    chunks, at = [], 0
-    for eid in sorted(repl, key=lambda e: ents[e].start()):  # one per rewritten entity
-        chunks += [data[at : ents[eid].start()], repl[eid].encode("ascii")]
-        at = ents[eid].end() + (not repl[eid] and data[ents[eid].end() : ents[eid].end() + 1] == b"\n")
-    if at > end:
-        return None
-    occt = b"".join(chunks + [data[at:end]])
-    head, body = occt.split(b"\nDATA;", 1)
-    body = _compact(body)
-    if remap:  # references to the dropped points, in OCCT's entities (one per reference)
-        body = _REF.sub(lambda m: b"#%d" % remap.get(int(m.group(1)), int(m.group(1))), body)
-    return b"".join([head, b"\nDATA;", body, "".join(new).encode("ascii"), data[end:]])
+        repl[rep] = f"'',({listed}),#{ctx}".encode("ascii")
+        extra.append(f"#{next_id} = TESSELLATED_SHAPE_REPRESENTATION('',({','.join(f'#{r}' for r in mine)}),#{ctx});\n")
+        next_id += 1
+    listed = [(e, m.group(2), m.group(3)) for e, m in ents.items() if e not in alias]
+    listed += [(int(m.group(1)), m.group(2), m.group(3)) for m in _ANY_ENTITY.finditer("".join(extra).encode("ascii"))]
+    pole = rank[inv]  # each pole's point, from the first point id
+    rest, base = _renumbered(listed, repl, alias, lambda sid, base: _surface_text(swaps[sid], base + pole) if sid in swaps else None)
+    inter = [None] * (2 * n_emit)
+    inter[0::2], inter[1::2] = (base + np.arange(n_emit)).tolist(), emit_tok[order].tolist()
+    one = "#%d=CARTESIAN_POINT('',(%s));"  # four to a line (lines of ~200 characters)
+    points = (((one * 4 + "\n") * (n_emit // 4)) + one * (n_emit % 4) + "\n") % tuple(inter)
+    head, end = data[: data.index(b"\nDATA;") + 7], data.rindex(b"ENDSEC;")
+    return b"".join([head, rest, points.encode("ascii"), data[end:]])
 
 
-_WRAP = re.compile(rb"(?<=[,(])\n +")
+#: Entity types written once when two are the same (geometry, no topology): OCCT
+#: writes a 2-D context, a direction and a vector for every pcurve.
+_SHARED = {b"CARTESIAN_POINT", b"DIRECTION", b"VECTOR", b"LINE", b"AXIS2_PLACEMENT_2D", b"AXIS2_PLACEMENT_3D",
+           b"DEFINITIONAL_REPRESENTATION", b"PCURVE", b""}  # b"": complex entities (contexts, units)
 
 
-def _compact(body: bytes) -> bytes:
-    """OCCT's entities without its layout whitespace: ``#1 = X(`` as ``#1=X(`` and no
-    line breaks inside an entity (after a comma or parenthesis, never in a string:
-    texcad's names are single-line). Whitespace between tokens means nothing in STEP."""
-    return _WRAP.sub(b"", body.replace(b" = ", b"="))
+def _renumbered(listed: list, repl: dict, alias: dict, surface) -> tuple[bytes, int]:
+    """OCCT's entities ``(id, type, parameters)`` as compact text (no layout
+    whitespace), numbered 1, 2, ... in their order, and the first id after them
+    (``base``: the points' ids start there). Every reference is renumbered:
+    ``alias`` maps a dropped entity to the point (index from ``base``) that stands for
+    it, ``repl`` gives new parameters for an entity, and ``surface(id, base)`` those
+    of a stand-in surface (None: not one). Geometry (:data:`_SHARED`) that is the
+    same as an earlier entity, once its own references are, is dropped and refers
+    to that one."""
+    body = {e: (t, repl.get(e, _short(t, _compact(p)))) for e, t, p in listed}
+    same: dict = {}  # entity -> the entity it is written as
+    seen: dict = {}  # canonical text -> entity
+
+    def canon(e: int) -> int:  # one per shared entity (memoized; geometry nests a few levels)
+        if e in same or e not in body:
+            return same.get(e, e)
+        t, p = body[e]
+        if t not in _SHARED:
+            same[e] = e
+            return e
+        same[e] = e  # (no cycles in geometry)
+        text = t + b"(" + _REF.sub(lambda m: b"#%d" % _ref(int(m.group(1))), p) + b")"
+        same[e] = seen.setdefault(text, e)
+        return same[e]
+
+    def _ref(r: int) -> int:
+        return -1 - alias[r] if r in alias else canon(r)
+
+    for e in body:  # one per entity
+        canon(e)
+    new_id, n = {}, 1
+    for e in body:  # one per entity written
+        if same[e] == e:
+            new_id[e], n = n, n + 1
+
+    def final(m) -> bytes:
+        r = int(m.group(1))
+        return b"#%d" % (n + alias[r] if r in alias else new_id[same.get(r, r)])
+
+    out = []
+    for e, (t, p) in body.items():  # one per entity
+        if same[e] != e:
+            continue
+        text = surface(e, n) if t == b"B_SPLINE_SURFACE_WITH_KNOTS" else None
+        out.append(b"#%d=%s(%s);\n" % (new_id[e], t, _REF.sub(final, p) if text is None else text))
+    return b"".join(out), n
+_WRAP = re.compile(rb"\n +")
+
+
+def _compact(params: bytes) -> bytes:
+    """OCCT's entity parameters without its layout whitespace: no line breaks inside
+    an entity (after a comma or parenthesis, never in a string: texcad's names are
+    single-line). Whitespace between tokens means nothing in STEP."""
+    return _WRAP.sub(b"", params)
+
+
+_LONG = re.compile(rb"(\d\.\d{9})\d+")
+
+
+def _short(kind: bytes, params: bytes) -> bytes:
+    """A ``CARTESIAN_POINT``'s coordinates with at most 9 decimals (OCCT writes 17
+    significant digits: 1e-9 mm, or 1e-9 of a parameter, is far inside its 1e-7 mm
+    edge tolerances); other entities as they are."""
+    return _LONG.sub(rb"\1", params) if kind == b"CARTESIAN_POINT" else params
 
 
 def _xyz(m) -> list:
@@ -602,19 +891,15 @@ def _xyz(m) -> list:
     return xyz if len(xyz) == 3 else [xyz[0], xyz[1], float("nan")]
 
 
-def _surfaces_text(swaps: dict, ids: np.ndarray) -> dict:
-    """``{surface entity: its B_SPLINE_SURFACE_WITH_KNOTS text}`` with the tiles'
-    pole ids (u-major) and knots."""
-    repl, templates = {}, {}
-    for sid, (o, rows, cols, u, v) in swaps.items():  # one per tile
-        if (cols, rows) not in templates:
-            templates[cols, rows] = _grid_ids_template(cols, rows)
-        poles = templates[cols, rows] % tuple(ids[o : o + rows * cols].tolist())
-        repl[sid] = (
-            f"#{sid} = B_SPLINE_SURFACE_WITH_KNOTS('',1,1,({poles}),\n  .UNSPECIFIED.,.F.,.F.,.F.,({_mults(cols)}),"
-            f"({_mults(rows)}),({_reals(u)}),({_reals(v)}),.UNSPECIFIED.);"
-        )
-    return repl
+def _surface_text(swap: tuple, ids: np.ndarray) -> bytes:
+    """The parameters of a tile's ``B_SPLINE_SURFACE_WITH_KNOTS`` with its pole ids
+    (u-major) and knots; ``swap``: ``(offset, rows, cols, u, v)``."""
+    o, rows, cols, u, v = swap
+    poles = _grid_ids_template(cols, rows) % tuple(ids[o : o + rows * cols].tolist())
+    return (
+        f"'',1,1,({poles}),.UNSPECIFIED.,.F.,.F.,.F.,({_mults(cols)}),"
+        f"({_mults(rows)}),({_reals(u)}),({_reals(v)}),.UNSPECIFIED."
+    ).encode("ascii")
 
 
 def _tessellation_text(tess: list, tok: np.ndarray, next_id: int, shell_of: dict, msb: dict, new: list):
