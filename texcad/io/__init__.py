@@ -8,6 +8,8 @@ from .export import (
     write_3mf,
     export,
     slicer_settings,
+    slicer_layout,
+    SlicerLayout,
 )
 from .read import (
     read_part,
@@ -25,6 +27,8 @@ __all__ = [
     'write_3mf',
     'export',
     'slicer_settings',
+    'slicer_layout',
+    'SlicerLayout',
     'read_part',
     'read_mesh',
     'load_mesh',

@@ -287,7 +287,7 @@ def slice_mesh(
 
     ``file="3mf"`` hands the slicer the 3MF that :func:`texcad.io.export` writes
     instead of an STL: the same mesh, with the per-object settings of
-    :func:`texcad.io.slicer_settings` (PrusaSlicer reads them; CuraEngine reads no
+    :func:`texcad.io.slicer_layout` (PrusaSlicer reads them; CuraEngine reads no
     3MF, so it always gets the STL). ``keep``: copy the G-code there.
 
     Returns:
@@ -296,7 +296,7 @@ def slice_mesh(
     Raises:
         ResourceError: the slicer is not installed, or it ran past ``timeout`` s.
     """
-    from ..io import slicer_settings, write_3mf, write_stl
+    from ..io import slicer_layout, write_3mf, write_stl
     from ..solid import Mesh
 
     if file not in ("stl", "3mf"):
@@ -315,7 +315,9 @@ def slice_mesh(
         gcode = Path(tmp) / "part.gcode"
         if file == "3mf" and slicer == "prusaslicer":
             stl = Path(tmp) / "part.3mf"
-            write_3mf(placed, stl, name="part", settings=slicer_settings(placed))
+            lay = slicer_layout(placed, name="part")  # what export() writes
+            parts = placed if len(lay.parts) == 1 else list(lay.parts)
+            write_3mf(parts, stl, name="part", settings=lay.settings, part_settings=lay.part_settings or None)
         else:
             stl = Path(tmp) / "part.stl"
             write_stl(placed, stl)
