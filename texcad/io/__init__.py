@@ -9,6 +9,7 @@ from .export import (
     export,
     slicer_settings,
     slicer_layout,
+    extra_perimeter_cut,
     SlicerLayout,
 )
 from .read import (
@@ -28,6 +29,7 @@ __all__ = [
     'export',
     'slicer_settings',
     'slicer_layout',
+    'extra_perimeter_cut',
     'SlicerLayout',
     'read_part',
     'read_mesh',
