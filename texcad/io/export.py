@@ -32,6 +32,7 @@ __all__ = [
     "SlicerLayout",
     "BRIDGING_FREE_ANGLE",
     "EXTRA_PERIMETER_SHARE",
+    "CUT_MIN_WORK",
 ]
 
 _STL_DTYPE = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
@@ -385,6 +386,13 @@ def slicer_settings(mesh: Mesh, build_dir=None) -> dict[str, Any]:
 #: texcad turns PrusaSlicer's "extra perimeters" off (:func:`extra_perimeter_cut`): a
 #: third of the 30 % at which PrusaSlicer 2.5 adds one.
 EXTRA_PERIMETER_SHARE = 0.1
+#: Islands times contour vertices, summed over the cross-sections above the cut (every
+#: 0.1 mm), below which texcad does not cut (:func:`extra_perimeter_cut`). The pass
+#: costs PrusaSlicer about 0.1 us of CPU per pair (the demo plate: 1.7e8, 16.8 CPU-s
+#: saved), the cut itself about a second (a second print region and the cut's
+#: triangles; a 40 mm stones plate, 8e6: 4.8 CPU-s cut against 3.9 uncut), so it is
+#: made where the pass would take more than about 5 s.
+CUT_MIN_WORK = 5e7
 _CUT_STEP = 0.1  # mm between the cross-sections extra_perimeter_cut examines
 _CUT_BELOW = 0.3  # mm: the layer under the cut is examined too, for layers up to this high (0.75 x a 0.4 mm nozzle)
 
@@ -409,7 +417,7 @@ class SlicerLayout:
     cut: float | None = None
 
 
-def extra_perimeter_cut(mesh: Mesh, build_dir=None) -> float | None:
+def extra_perimeter_cut(mesh: Mesh, build_dir=None, *, min_work: float = CUT_MIN_WORK) -> float | None:
     """Height (mm above the lowest point along ``build_dir``; None: +z) above which
     PrusaSlicer 2.5's "extra perimeters" pass can add nothing to ``mesh``, or None.
 
@@ -422,9 +430,11 @@ def extra_perimeter_cut(mesh: Mesh, build_dir=None) -> float | None:
     from which every cross-section (every ``0.1`` mm, from ``0.3`` mm below it, for
     layers up to 0.3 mm high) is empty or has no island holding more than
     :data:`EXTRA_PERIMETER_SHARE` of its contour length. None when no such height
-    leaves a cross-section with islands above it.
+    leaves a cross-section with islands above it, or when the pass above it would
+    cost less than the cut: islands times contour vertices summed over the
+    cross-sections above it under ``min_work`` (:data:`CUT_MIN_WORK`).
     """
-    return _cut_height(_upright(mesh, build_dir)[0])
+    return _cut_height(_upright(mesh, build_dir)[0], min_work)
 
 
 def _upright(mesh: Mesh, build_dir):
@@ -441,36 +451,43 @@ def _upright(mesh: Mesh, build_dir):
     return to_manifold(Mesh((mesh.vertices.astype(np.float64) @ R.T).astype(np.float32), mesh.faces)), d
 
 
-def _cut_height(man) -> float | None:
+def _cut_height(man, min_work: float = 0.0) -> float | None:
     """:func:`extra_perimeter_cut` of a manifold printed along +z."""
     lo, hi = man.bounding_box()[2], man.bounding_box()[5]
     heights = lo + np.arange(_CUT_STEP / 2, hi - lo, _CUT_STEP)
-    last = -1  # the highest cross-section where one island holds too much, from the top down
+    last, work = -1, []  # the highest cross-section where one island holds too much, from the top down
     for k in range(len(heights) - 1, -1, -1):  # per cross-section
-        if _largest_share(man.slice(float(heights[k]))) > EXTRA_PERIMETER_SHARE:
+        share, pairs = _largest_share(man.slice(float(heights[k])))
+        if share > EXTRA_PERIMETER_SHARE:
             last = k
             break
+        work.append((heights[k], pairs))
     if last < 0 or last == len(heights) - 1:
         return None
     cut = heights[last] + _CUT_STEP / 2 + _CUT_BELOW - lo  # clear of it, with the layer under the cut
-    return float(round(cut, 3)) if cut < hi - lo - _CUT_STEP else None
+    if cut >= hi - lo - _CUT_STEP or sum(w for z, w in work if z >= lo + cut) < min_work:
+        return None
+    return float(round(cut, 3))
 
 
-def _largest_share(section) -> float:
-    """The largest share of a cross-section's contour length one island holds (0 if empty)."""
-    lengths = []
+def _largest_share(section) -> tuple[float, int]:
+    """(the largest share of a cross-section's contour length one island holds (0 if
+    empty), islands times contour vertices: the extra-perimeter pass's work there)."""
+    lengths, vertices = [], 0
     for island in section.decompose():  # per island
         loops = island.to_polygons()
+        vertices += sum(len(q) for q in loops)
         lengths.append(sum(float(np.linalg.norm(np.diff(np.vstack([q, q[:1]]), axis=0), axis=1).sum()) for q in loops))
     total = sum(lengths)
-    return max(lengths) / total if total > 0 else 0.0
+    return (max(lengths) / total if total > 0 else 0.0), len(lengths) * vertices
 
 
-def slicer_layout(mesh: Mesh, build_dir=None, name: str = "part") -> SlicerLayout:
+def slicer_layout(mesh: Mesh, build_dir=None, name: str = "part", *, min_work: float = CUT_MIN_WORK) -> SlicerLayout:
     """How :func:`export` writes ``mesh`` (printed along ``build_dir``) for slicers:
     the per-object settings of :func:`slicer_settings`, and, when they hold
     ``overhangs = 0`` and :func:`extra_perimeter_cut` finds a height, the mesh cut
-    there into two parts, the upper one with ``extra_perimeters = 0``. PrusaSlicer
+    there into two parts, the upper one with ``extra_perimeters = 0`` (``min_work``:
+    as there). PrusaSlicer
     then skips the extra-perimeter pass in the crowded layers and runs it as before
     below them; the parts are one object, so every slicer prints the same solid."""
     settings = slicer_settings(mesh, build_dir)
@@ -479,7 +496,7 @@ def slicer_layout(mesh: Mesh, build_dir=None, name: str = "part") -> SlicerLayou
     from ..solid import from_manifold, to_manifold
 
     man, d = _upright(mesh, build_dir)
-    cut = _cut_height(man)
+    cut = _cut_height(man, min_work)
     if cut is None:
         return SlicerLayout(((name, mesh),), settings)
     if d[2] < 1.0:  # turned for the cross-sections: cut the part in its own frame
