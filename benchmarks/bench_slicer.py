@@ -309,11 +309,13 @@ def table(args) -> None:
         nm = {"prusaslicer": "PrusaSlicer", "curaengine": "CuraEngine"}[s]
         headers += [f"{nm} support m (bare / textured)", f"{nm} CPU s (bare / textured)"]
     notes = (
-        f"Support on everywhere, threshold 45 degrees (the critical angle), 0.2 mm layers, 0.4 mm nozzle; texture pitch "
+        f"Support on everywhere, threshold 45 degrees (the critical angle), 0.4 mm nozzle, each slicer's default layers "
+        f"(PrusaSlicer 0.3 mm, CuraEngine 0.2 mm in texcad's definition); texture pitch "
         f"{args.pitch:g} mm, limited for the build direction with the slicers' margin: facets at least "
         f"{support_free_angle(45):.2f} degrees from the build plate; texcad check counts faces under {overhang_angle(45):.1f} "
-        "degrees. Bare = the same part untextured, in the same orientation. "
-        "CPU s = user + system time of the slicer process."
+        "degrees. Bare = the same part untextured, in the same orientation, tessellated finer than the texture's "
+        f"pitch ({BARE_TOLERANCE:g} mm, 0.05 rad: at the default 0.01 mm, 0.1 rad a sphere's facets move its own "
+        "overhang boundary). CPU s = user + system time of the slicer process."
     )
     try:
         from _table import write_table
