@@ -495,7 +495,10 @@ def slicer_layout(mesh: Mesh, build_dir=None, name: str = "part", *, min_work: f
         return SlicerLayout(((name, mesh),), settings)
     from ..solid import from_manifold, to_manifold
 
-    man, d = _upright(mesh, build_dir)
+    try:
+        man, d = _upright(mesh, build_dir)
+    except GeometryError:  # not one closed manifold3d solid (e.g. bodies that touch): written whole
+        return SlicerLayout(((name, mesh),), settings)
     cut = _cut_height(man, min_work)
     if cut is None:
         return SlicerLayout(((name, mesh),), settings)
