@@ -59,7 +59,10 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+NOZZLE = 0.4  # mm, both slicers' default
 SUPPORT = {"support-material": True, "support-material-threshold": 45}
+#: mm: how closely the table's bare parts follow their CAD surfaces (``_table_parts``).
+BARE_TOLERANCE = 0.002
 
 
 def load() -> str:
@@ -250,12 +253,16 @@ def _table_parts(pitch: float):
 
     up = np.array([0.0, 0.0, 1.0])
     out = []
+    # The bare parts tessellated finer than the textures' pitch: at the default (0.01 mm,
+    # 0.1 rad) a sphere's facets span 5.7 degrees and move its own overhang boundary
+    # (the lever ball's bare support: 6.94 m at the default, 7.01 m at this).
+    bare = lambda shape: texcad.brep.shape_to_mesh(shape, tolerance=BARE_TOLERANCE, angular_tolerance=0.05)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", texcad.TexcadWarning)
         box = Box(20, 16, 12, align=(Align.MIN, Align.MIN, Align.MIN))
         hm = texcad.builtin("diamond_knurl", size=(16, 12), pitch=pitch, height=1.0)
         tx = texcad.texture(box, box.faces().sort_by(Axis.X)[-1], hm, brep=False, build_dir=up)
-        out.append(("enclosure-like box side, diamond knurl", "+z", texcad.brep.shape_to_mesh(box), tx.mesh, up))
+        out.append(("enclosure-like box side, diamond knurl", "+z", bare(box), tx.mesh, up))
         k, L = 2 * np.pi / 25.0, 30.0
         x = np.linspace(0, L, 49)
         top = Spline(*[(a, 3.0 * np.sin(k * a)) for a in x], tangents=[(1, 3.0 * k), (1, 3.0 * k * np.cos(k * L))])
@@ -263,13 +270,13 @@ def _table_parts(pitch: float):
         d = texcad.orientation(30, "+x")
         hm = texcad.builtin("leather", size=(texcad.Profile.sine(3.0, 25.0, L).length, 20), pitch=pitch, height=1.0, scale=2.0)
         tx = texcad.texture(part, part.faces().sort_by(SortBy.AREA)[-1], hm, mapping="distance", build_dir=d, brep=False)
-        out.append(("paper T3 sine (30 x 20 mm)", "tilt 30 +x", texcad.brep.shape_to_mesh(part), tx.mesh, d))
+        out.append(("paper T3 sine (30 x 20 mm)", "tilt 30 +x", bare(part), tx.mesh, d))
         d = texcad.orientation(90, "+y")
         tp = texcad.pipeline.textured_plate(texcad.builtin("stones", size=(20, 20), pitch=pitch, height=1.0), size=(20, 20), thickness=4, build_dir=d)
         out.append(("flat plate stones (20 x 20 mm)", "upright +y", tp.base_mesh, tp.mesh, d))
         lever = Cylinder(3, 20, align=(Align.CENTER, Align.CENTER, Align.MIN)) + Pos(0, 0, 26) * Sphere(8)
         tx = texcad.texture(lever, lever.faces().filter_by(GeomType.SPHERE), "builtin:dimples", height=0.5, pitch=pitch, build_dir=up, brep=False)
-        out.append(("lever ball, dimples", "+z", texcad.brep.shape_to_mesh(lever), tx.mesh, up))
+        out.append(("lever ball, dimples", "+z", bare(lever), tx.mesh, up))
         with BuildPart() as grip:
             for z, (a, b) in zip((0, 30, 60, 90), ((12, 9), (15, 11), (13, 10), (11, 8))):
                 with BuildSketch(Plane.XY.offset(z)):
@@ -277,7 +284,7 @@ def _table_parts(pitch: float):
             loft()
         tx = texcad.texture(grip.part, grip.part.faces().filter_by(GeomType.BSPLINE), "builtin:leather", height=0.6, pitch=pitch,
                             build_dir=up, brep=False)
-        out.append(("grip, leather", "+z", texcad.brep.shape_to_mesh(grip.part), tx.mesh, up))
+        out.append(("grip, leather", "+z", bare(grip.part), tx.mesh, up))
     return out
 
 
@@ -302,11 +309,13 @@ def table(args) -> None:
         nm = {"prusaslicer": "PrusaSlicer", "curaengine": "CuraEngine"}[s]
         headers += [f"{nm} support m (bare / textured)", f"{nm} CPU s (bare / textured)"]
     notes = (
-        f"Support on everywhere, threshold 45 degrees (the critical angle), 0.2 mm layers, 0.4 mm nozzle; texture pitch "
+        f"Support on everywhere, threshold 45 degrees (the critical angle), 0.4 mm nozzle, each slicer's default layers "
+        f"(PrusaSlicer 0.3 mm, CuraEngine 0.2 mm in texcad's definition); texture pitch "
         f"{args.pitch:g} mm, limited for the build direction with the slicers' margin: facets at least "
         f"{support_free_angle(45):.2f} degrees from the build plate; texcad check counts faces under {overhang_angle(45):.1f} "
-        "degrees. Bare = the same part untextured, in the same orientation. "
-        "CPU s = user + system time of the slicer process."
+        "degrees. Bare = the same part untextured, in the same orientation, tessellated finer than the texture's "
+        f"pitch ({BARE_TOLERANCE:g} mm, 0.05 rad: at the default 0.01 mm, 0.1 rad a sphere's facets move its own "
+        "overhang boundary). CPU s = user + system time of the slicer process."
     )
     try:
         from _table import write_table
@@ -340,24 +349,27 @@ def cost(args) -> None:
 
     import numpy as np
 
-    from texcad.io import slicer_settings
-    from texcad.report.slicer import read_toolpaths, slice_mesh, toolpath_deviation
+    from texcad.io import slicer_layout
+    from texcad.report.slicer import read_toolpaths, toolpath_deviation
 
     parts = list(_table_parts(args.pitch))
     if not args.no_demo:  # last: the slow one (the table is written after every part)
         bare, tex = _demo_part(args.demo_pitch, args.demo_side)
         parts.append((f"demo plate {args.demo_side:g} x {args.demo_side:g} mm, stones at {args.demo_pitch:g} mm", "+z", bare, tex, (0.0, 0.0, 1.0)))
-    headers = ["part", "printed", "triangles", "bare CPU s", "textured STL CPU s", "textured 3MF CPU s", "3MF / bare",
-               "settings in the 3MF", "toolpaths moved by the settings, mm", "toolpaths STL vs 3MF, mm"]
+    headers = ["part", "printed", "triangles", "bare CPU s", "textured STL CPU s", "plain 3MF CPU s", "texcad's 3MF CPU s",
+               "texcad's 3MF / bare", "what texcad's 3MF adds", "toolpaths moved by it, mm (specks left out)", "toolpaths STL vs texcad's 3MF, mm"]
     notes = (
-        "PrusaSlicer 2.5 at its defaults (0.2 mm layers, 0.4 mm nozzle, support off), each part in its print orientation. "
-        "CPU s = user + system time of the slicer process (all threads). The 3MF is what `export()` writes: the same mesh "
-        "with the per-object settings of `texcad.io.slicer_settings`. Toolpaths: the largest distance, over every layer, "
-        "between the extrusion paths of the STL's G-code and the 3MF's (per-layer Hausdorff distance of the paths sampled "
-        "every 0.05 mm; `texcad.report.slicer.toolpath_deviation`). Moved by the settings: the same between the STL at "
-        "the defaults and the STL sliced with the 3MF's settings given on the command line (what the settings change, "
-        "and nothing else). STL vs 3MF adds what loading another file format changes: coordinates rounded "
-        "differently move paths by a few tenths of a mm where a layer grazes a flat facet (the rows with no setting). "
+        "PrusaSlicer 2.5 at its defaults (0.3 mm layers, 0.4 mm nozzle, support off), each part in its print orientation. "
+        "CPU s = user + system time of the slicer process (all threads), the slices of a row run one after the other. "
+        "Plain 3MF: the textured mesh as a one-part 3MF with nothing added. texcad's 3MF: what `export()` writes "
+        "(`texcad.io.slicer_layout`): the per-object settings, and where PrusaSlicer's extra-perimeter pass meets "
+        "layers crowded with small islands, the mesh cut in two parts there, the upper one with extra_perimeters = 0. "
+        "Toolpaths moved: the largest distance, over every layer, between the extrusion paths of the plain 3MF's G-code "
+        "and texcad's (per-layer Hausdorff distance of the paths sampled every 0.05 mm; "
+        "`texcad.report.slicer.toolpath_deviation`); in brackets the same with the specks left out (unbroken "
+        "extrusions under a nozzle width across, `Toolpaths.without_specks(0.4)`: perimeters of islands a tenth of a "
+        "mm wide, which appear or vanish when a coordinate moves by a micrometre). STL vs texcad's 3MF adds what "
+        "the file format's rounding changes. "
         f"Small parts at texture pitch {args.pitch:g} mm; a slice that ran past {args.timeout:g} s of wall time "
         "(2 cores shared with other jobs) is marked so."
     )
@@ -370,26 +382,29 @@ def cost(args) -> None:
         for name, orient, bare, textured, d in parts:
             print(f"  {name}: load {load()}", flush=True)
             g_stl, g_3mf = Path(tmp) / "stl.gcode", Path(tmp) / "3mf.gcode"
+            g_set = Path(tmp) / "plain.gcode"
             b = sliced(bare, args.timeout, build_dir=d)
+            e = sliced(textured, args.timeout, build_dir=d, keep=g_set, file="3mf", layout=False)
             c = sliced(textured, args.timeout, build_dir=d, keep=g_3mf, file="3mf")
             a = sliced(textured, args.timeout, build_dir=d, keep=g_stl)
             from texcad.printability import print_rotation
 
             R = print_rotation(d)
             placed = type(textured)((textured.vertices.astype(np.float64) @ R.T).astype(np.float32), textured.faces)
-            settings = slicer_settings(placed)
-            g_set = Path(tmp) / "set.gcode"
-            flags = {k: (bool(v) if k == "overhangs" else v) for k, v in settings.items()}
-            e = sliced(textured, args.timeout, build_dir=d, keep=g_set, config=flags) if settings else None
-            for label, rep in (("bare", b), ("textured STL", a), ("textured 3MF", c), ("STL + settings", e)):
+            lay = slicer_layout(placed)
+            for label, rep in (("bare", b), ("textured STL", a), ("plain 3MF", e), ("texcad's 3MF", c)):
                 row(f"{name[:30]} {label}", rep)
             cpu = lambda r: f"{r.cpu_seconds:.1f}" if r else f"ran past {args.timeout:g} s"
-            dev = toolpath_deviation(read_toolpaths(g_stl), read_toolpaths(g_3mf)).max() if a and c else float("nan")
-            moved = toolpath_deviation(read_toolpaths(g_stl), read_toolpaths(g_set)).max() if a and e else (0.0 if a and not settings else float("nan"))
-            written = ", ".join(f"{k} = {v}" for k, v in settings.items()) or "none"
-            rows.append([name, orient, f"{textured.num_triangles:,}", cpu(b), cpu(a), cpu(c),
+            paths = {k: read_toolpaths(g) for k, g, r in (("stl", g_stl, a), ("plain", g_set, e), ("3mf", g_3mf, c)) if r}
+            dev = lambda x, y, speck=0.0: (toolpath_deviation(paths[x].without_specks(speck), paths[y].without_specks(speck)).max()
+                                           if x in paths and y in paths else float("nan"))
+            written = ", ".join(f"{k} = {v}" for k, v in lay.settings.items()) or "none"
+            if lay.cut is not None:
+                written += f"; cut at {lay.cut:g} mm, the upper part extra_perimeters = 0"
+            f2 = lambda x: f"{x:.2f}" if np.isfinite(x) else "-"
+            rows.append([name, orient, f"{textured.num_triangles:,}", cpu(b), cpu(a), cpu(e), cpu(c),
                          f"{c.cpu_seconds / b.cpu_seconds:.1f}x" if b and c else "-", written,
-                         f"{moved:.2f}" if np.isfinite(moved) else "-", f"{dev:.2f}" if a and c else "-"])
+                         f"{f2(dev('plain', '3mf'))} ({f2(dev('plain', '3mf', NOZZLE))})", f2(dev("stl", "3mf"))])
             path = write_table("slicer_cost", headers, rows, title="Slicing cost, bare and textured, STL and texcad's 3MF", notes=notes)
     print(f"wrote {path}")
 

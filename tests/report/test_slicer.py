@@ -23,10 +23,10 @@ SUPPORT = slicer.support_config("prusaslicer", 45)
 CRIT = 45.0
 
 
-def supports(mesh, build_dir=(0.0, 0.0, 1.0), threshold=CRIT) -> dict:
-    """Support length (mm) per installed slicer, threshold ``threshold`` degrees."""
+def supports(mesh, build_dir=(0.0, 0.0, 1.0), slicers=None, threshold=CRIT) -> dict:
+    """Support length (mm) per installed slicer (or the ``slicers`` named), threshold ``threshold`` degrees."""
     out = {}
-    for s in HAVE:
+    for s in HAVE if slicers is None else slicers:
         r = slicer.slice_mesh(mesh, slicer=s, build_dir=build_dir, config=slicer.support_config(s, threshold))
         assert r.returncode == 0, r.log
         out[s] = r.support_mm
@@ -161,26 +161,38 @@ def _case(name):
             part, face = _lever()
             d = np.array([0.0, 0.0, 1.0])
             tx = texcad.texture(part, face, "builtin:dimples", height=0.5, pitch=0.25, build_dir=d, brep=False)
-        return texcad.brep.shape_to_mesh(part), tx.mesh, d
+        return texcad.brep.shape_to_mesh(part, tolerance=0.002, angular_tolerance=0.05), tx.mesh, d
 
 
-# Not here yet: the lever's ball (recipes/lever_ball.py), textured by
-# texcad/pipeline/faces.py, which still limits to critical_angle + 1 deg instead of
-# texcad.printability.slicer_margin: PrusaSlicer adds 4.6 m to its bare 9.0 m
-# (benchmarks/bench_slicer.py table); with the rule there it adds none (measured by
-# patching faces.py), CuraEngine 0.1 m on 6.9 m. _case("lever_ball") makes it.
+LEVER_CURA = (
+    "CuraEngine: 7.06 m against 7.02 m bare. The same texture 0.1 mm high gives 6.97 m, and a wider margin "
+    "(facets kept at 52.6 degrees, SLICE_DEVIATION 0.02 mm) 6.97 m: where the dimples rise at exactly the "
+    "support-free angle next to the ball's own overhang, CuraEngine finds specks of overhang and grows each by "
+    "support_offset (0.8 mm); the margin that removes them is not derived from its rule yet"
+)
+
+
 @pytest.mark.parametrize(
-    "name",
+    "name, slicer",
     [
-        "T3-sine-30",
-        "stones-upright",
+        ("T3-sine-30", "prusaslicer"),
+        ("T3-sine-30", "curaengine"),
+        ("stones-upright", "prusaslicer"),
+        ("stones-upright", "curaengine"),
+        ("lever_ball", "prusaslicer"),
+        pytest.param("lever_ball", "curaengine", marks=pytest.mark.xfail(strict=True, reason=LEVER_CURA)),
     ],
 )
-def test_limited_recipe_parts_need_no_more_support_than_bare(name):
+def test_limited_recipe_parts_need_no_more_support_than_bare(name, slicer):
+    """Support at threshold 45 (the critical angle), textured against bare; the bare
+    CAD part tessellated finer than the texture's pitch (0.002 mm), since a coarse
+    tessellation moves a curved part's own overhang boundary (the lever's ball:
+    6.94 m at 0.01 mm, 7.02 m at 0.002 mm in CuraEngine)."""
+    if slicer not in HAVE:
+        pytest.skip(f"{slicer} is not installed")
     bare, textured, d = _case(name)
-    a, b = supports(bare, d), supports(textured, d)
-    for s in HAVE:  # 1 mm of slack: the support's own infill pattern shifts with the outline
-        assert b[s] <= a[s] + 1.0, (s, a[s], b[s])
+    a, b = supports(bare, d, (slicer,)), supports(textured, d, (slicer,))
+    assert b[slicer] <= a[slicer] + 1.0, (slicer, a[slicer], b[slicer])  # 1 mm: the support's own pattern shifts with the outline
 
 
 def test_limiter_margin_is_what_the_slicers_need():

@@ -8,6 +8,9 @@ from .export import (
     write_3mf,
     export,
     slicer_settings,
+    slicer_layout,
+    extra_perimeter_cut,
+    SlicerLayout,
 )
 from .read import (
     read_part,
@@ -25,6 +28,9 @@ __all__ = [
     'write_3mf',
     'export',
     'slicer_settings',
+    'slicer_layout',
+    'extra_perimeter_cut',
+    'SlicerLayout',
     'read_part',
     'read_mesh',
     'load_mesh',

@@ -12,6 +12,7 @@ import itertools
 import os
 import zipfile
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Iterator, Mapping, Sequence
 
@@ -21,7 +22,18 @@ from ..util import atomic_path, threads
 from ..errors import GeometryError, ParameterError
 from ..solid import Mesh
 
-__all__ = ["write_stl", "write_3mf", "export", "slicer_settings", "BRIDGING_FREE_ANGLE"]
+__all__ = [
+    "write_stl",
+    "write_3mf",
+    "export",
+    "slicer_settings",
+    "slicer_layout",
+    "extra_perimeter_cut",
+    "SlicerLayout",
+    "BRIDGING_FREE_ANGLE",
+    "EXTRA_PERIMETER_SHARE",
+    "CUT_MIN_WORK",
+]
 
 _STL_DTYPE = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
 
@@ -212,6 +224,7 @@ def write_3mf(
     name: str = "texcad part",
     build_dir=None,
     settings: Mapping[str, Any] | None = None,
+    part_settings: Sequence[Mapping[str, Any]] | None = None,
 ) -> None:
     """Write a 3MF package (3MF core spec, ``unit="millimeter"``), zip-deflated.
 
@@ -243,6 +256,9 @@ def write_3mf(
             without one). The slicer applies them to this object only, over the
             print profile; the user sees and can remove them in its object list.
             None or empty: none written.
+        part_settings: with several parts, PrusaSlicer per-part settings, one
+            mapping per part (written as the part's metadata in the same file; the
+            slicer gives that part's slices its own print region), or None.
     """
     items = [(name, mesh)] if isinstance(mesh, Mesh) else list(mesh)
     if not items:
@@ -255,7 +271,7 @@ def write_3mf(
         if settings:
             _, _, config = _merged([(name if isinstance(mesh, Mesh) else items[0][0], part)], name, settings)
     else:
-        label, part, config = _merged(items, name, settings)
+        label, part, config = _merged(items, name, settings, part_settings)
     head = (
         b'<?xml version="1.0" encoding="UTF-8"?>\n'
         b'<model unit="millimeter" xml:lang="en-US" '
@@ -287,10 +303,12 @@ def _print_transform(mesh: Mesh, build_dir) -> str:
     return " ".join(f"{x:.9g}" for x in M.ravel())
 
 
-def _merged(items: list[tuple[str, Mesh]], name: str, settings: Mapping[str, Any] | None = None) -> tuple[str, Mesh, bytes]:
+def _merged(
+    items: list[tuple[str, Mesh]], name: str, settings: Mapping[str, Any] | None = None, part_settings=None
+) -> tuple[str, Mesh, bytes]:
     """Parts as one object: (escaped name, the parts' meshes one after the other,
     ``Metadata/Slic3r_PE_model.config`` naming each part's triangle range, with the
-    object's ``settings`` as its metadata)."""
+    object's ``settings`` and each part's ``part_settings`` as their metadata)."""
     v_off = np.cumsum([0] + [len(m.vertices) for _, m in items])
     t_off = np.cumsum([0] + [len(m.faces) for _, m in items])
     merged = Mesh(
@@ -301,18 +319,24 @@ def _merged(items: list[tuple[str, Mesh]], name: str, settings: Mapping[str, Any
         f'  <volume firstid="{int(t_off[i])}" lastid="{int(t_off[i + 1]) - 1}">\n'
         f'   <metadata type="volume" key="name" value="{_xml_escape(n)}"/>\n'
         '   <metadata type="volume" key="volume_type" value="ModelPart"/>\n'
+        f"{_metadata('volume', part_settings[i] if part_settings else None, '   ')}"
         "  </volume>\n"
         for i, (n, _) in enumerate(items)
     )
-    meta = "".join(
-        f'  <metadata type="object" key="{_xml_escape(str(k))}" value="{_xml_escape(_setting(v))}"/>\n'
-        for k, v in sorted((settings or {}).items())
-    )
+    meta = _metadata("object", settings, "  ")
     config = (
         '<?xml version="1.0" encoding="UTF-8"?>\n<config>\n <object id="1" instances_count="1">\n'
         f'  <metadata type="object" key="name" value="{_xml_escape(name)}"/>\n{meta}{vols} </object>\n</config>\n'
     ).encode()
     return _xml_escape(name), merged, config
+
+
+def _metadata(kind: str, settings: Mapping[str, Any] | None, indent: str) -> str:
+    """``<metadata type=kind key=... value=.../>`` lines of ``settings``, sorted by key."""
+    return "".join(
+        f'{indent}<metadata type="{kind}" key="{_xml_escape(str(k))}" value="{_xml_escape(_setting(v))}"/>\n'
+        for k, v in sorted((settings or {}).items())
+    )
 
 
 def _setting(v: Any) -> str:
@@ -356,6 +380,143 @@ def slicer_settings(mesh: Mesh, build_dir=None) -> dict[str, Any]:
     level = v @ d
     on_bed = (level[mesh.faces] <= level.min() + 0.01).all(axis=1)  # within 0.01 mm of the lowest point
     return {} if np.any(down & ~on_bed & (length > 0)) else {"overhangs": 0}
+
+
+#: Largest share of a cross-section's contour length that one island may hold where
+#: texcad turns PrusaSlicer's "extra perimeters" off (:func:`extra_perimeter_cut`): a
+#: third of the 30 % at which PrusaSlicer 2.5 adds one.
+EXTRA_PERIMETER_SHARE = 0.1
+#: Islands times contour vertices, summed over the cross-sections above the cut (every
+#: 0.1 mm), below which texcad does not cut (:func:`extra_perimeter_cut`). The pass
+#: costs PrusaSlicer about 0.1 us of CPU per pair (the demo plate: 1.7e8, 16.8 CPU-s
+#: saved), the cut itself about a second (a second print region and the cut's
+#: triangles; a 40 mm stones plate, 8e6: 4.8 CPU-s cut against 3.9 uncut), so it is
+#: made where the pass would take more than about 5 s.
+CUT_MIN_WORK = 5e7
+_CUT_STEP = 0.1  # mm between the cross-sections extra_perimeter_cut examines
+_CUT_GRID = 0.025  # mm: slicers' planes lie on multiples of this for 0.05-0.35 mm layers
+
+
+@dataclass(frozen=True)
+class SlicerLayout:
+    """How :func:`export` writes a mesh into a 3MF for slicers.
+
+    Attributes:
+        parts: ``((name, Mesh), ...)``: one part (the mesh), or the mesh cut in two
+            at ``cut`` (below, above), the two closed parts of one object that
+            together are the mesh (mm, the part's own frame).
+        settings: PrusaSlicer per-object settings (:func:`slicer_settings`).
+        part_settings: one ``{option: value}`` per part (empty for one part).
+        cut: height of the cut above the part's lowest point along the build
+            direction, mm, or None.
+    """
+
+    parts: tuple
+    settings: dict
+    part_settings: tuple = ()
+    cut: float | None = None
+
+
+def extra_perimeter_cut(mesh: Mesh, build_dir=None, *, min_work: float = CUT_MIN_WORK) -> float | None:
+    """Height (mm above the lowest point along ``build_dir``; None: +z) above which
+    PrusaSlicer 2.5's "extra perimeters" pass can add nothing to ``mesh``, or None.
+
+    That pass (``PrintObject::make_perimeters``) takes every island of a layer in
+    turn and clips the whole layer above with a ring inside the island's perimeters;
+    it adds a perimeter only where the clipped length passes 30 % of the layer
+    above's whole contour length. On a texture with hundreds of islands per layer
+    this costs islands times contour vertices, most of the slicing time of the demo
+    plate, and adds nothing: no island holds that much. The cut is the lowest height
+    from which every cross-section (every ``0.1`` mm) is empty or has no island
+    holding more than :data:`EXTRA_PERIMETER_SHARE` of its contour length, put
+    halfway between two multiples of 0.025 mm, where no usual slicing plane lies.
+    (The last layer under the cut is compared by PrusaSlicer with nothing, since the
+    layer above it belongs to the other part; measured on the demo plate, that moves
+    no path of it by more than 0.4 mm, and starting the cut lower is what keeps the
+    costly layer pairs where the islands begin out of the pass.) None when no such height
+    leaves a cross-section with islands above it, or when the pass above it would
+    cost less than the cut: islands times contour vertices summed over the
+    cross-sections above it under ``min_work`` (:data:`CUT_MIN_WORK`).
+    """
+    return _cut_height(_upright(mesh, build_dir)[0], min_work)
+
+
+def _upright(mesh: Mesh, build_dir):
+    """``(manifold of mesh turned so build_dir is +z, unit build direction)``; the
+    mesh is not turned when it prints along +z already."""
+    from ..solid import to_manifold
+    from ..util import rotation_to_z
+
+    d = np.array([0.0, 0.0, 1.0]) if build_dir is None else np.asarray(build_dir, dtype=np.float64).reshape(-1, 3)[0]
+    d = d / np.linalg.norm(d)
+    if np.allclose(d, (0.0, 0.0, 1.0), atol=1e-12):
+        return to_manifold(mesh), d
+    R = rotation_to_z(d)
+    return to_manifold(Mesh((mesh.vertices.astype(np.float64) @ R.T).astype(np.float32), mesh.faces)), d
+
+
+def _cut_height(man, min_work: float = 0.0) -> float | None:
+    """:func:`extra_perimeter_cut` of a manifold printed along +z."""
+    lo, hi = man.bounding_box()[2], man.bounding_box()[5]
+    heights = lo + np.arange(_CUT_STEP / 2, hi - lo, _CUT_STEP)
+    last, work = -1, []  # the highest cross-section where one island holds too much, from the top down
+    for k in range(len(heights) - 1, -1, -1):  # per cross-section
+        share, pairs = _largest_share(man.slice(float(heights[k])))
+        if share > EXTRA_PERIMETER_SHARE:
+            last = k
+            break
+        work.append((heights[k], pairs))
+    if last < 0 or last == len(heights) - 1:
+        return None
+    cut = heights[last] + _CUT_STEP / 2 - lo  # clear of it
+    # between the slicing planes of the usual layer heights (multiples of 0.025 mm): a
+    # plane on the cut would slice both parts' caps
+    cut = np.ceil(cut / _CUT_GRID) * _CUT_GRID + _CUT_GRID / 2
+    if cut >= hi - lo - _CUT_STEP or sum(w for z, w in work if z >= lo + cut) < min_work:
+        return None
+    return float(round(cut, 4))
+
+
+def _largest_share(section) -> tuple[float, int]:
+    """(the largest share of a cross-section's contour length one island holds (0 if
+    empty), islands times contour vertices: the extra-perimeter pass's work there)."""
+    lengths, vertices = [], 0
+    for island in section.decompose():  # per island
+        loops = island.to_polygons()
+        vertices += sum(len(q) for q in loops)
+        lengths.append(sum(float(np.linalg.norm(np.diff(np.vstack([q, q[:1]]), axis=0), axis=1).sum()) for q in loops))
+    total = sum(lengths)
+    return (max(lengths) / total if total > 0 else 0.0), len(lengths) * vertices
+
+
+def slicer_layout(mesh: Mesh, build_dir=None, name: str = "part", *, min_work: float = CUT_MIN_WORK) -> SlicerLayout:
+    """How :func:`export` writes ``mesh`` (printed along ``build_dir``) for slicers:
+    the per-object settings of :func:`slicer_settings`, and, when they hold
+    ``overhangs = 0`` and :func:`extra_perimeter_cut` finds a height, the mesh cut
+    there into two parts, the upper one with ``extra_perimeters = 0`` (``min_work``:
+    as there). PrusaSlicer
+    then skips the extra-perimeter pass in the crowded layers and runs it as before
+    below them; the parts are one object, so every slicer prints the same solid."""
+    settings = slicer_settings(mesh, build_dir)
+    if settings.get("overhangs") != 0:
+        return SlicerLayout(((name, mesh),), settings)
+    from ..solid import from_manifold, to_manifold
+
+    try:
+        man, d = _upright(mesh, build_dir)
+    except GeometryError:  # not one closed manifold3d solid (e.g. bodies that touch): written whole
+        return SlicerLayout(((name, mesh),), settings)
+    cut = _cut_height(man, min_work)
+    if cut is None:
+        return SlicerLayout(((name, mesh),), settings)
+    if d[2] < 1.0:  # turned for the cross-sections: cut the part in its own frame
+        man = to_manifold(mesh)
+    low = float((mesh.vertices.astype(np.float64) @ d).min())
+    above, below = man.split_by_plane(tuple(d), low + cut)
+    if above.is_empty() or below.is_empty():
+        return SlicerLayout(((name, mesh),), settings)
+    parts = ((name, from_manifold(below)), (f"{name} above {cut:g} mm", from_manifold(above)))
+    return SlicerLayout(parts, settings, ({}, {"extra_perimeters": 0}), cut)
 
 
 def _zip_info(arcname: str) -> zipfile.ZipInfo:
@@ -447,8 +608,13 @@ def export(obj: Any, path: str | os.PathLike, *, separate_texture: bool = False,
     else:
         up = _build_dir_of(obj) if textured else None
         whole = obj.mesh if textured else (meshes if isinstance(meshes, Mesh) else None)
-        settings = slicer_settings(whole, up) if whole is not None else None
-        write_3mf(meshes, p, name=label, build_dir=up, settings=settings)
+        if isinstance(meshes, Mesh):  # one part: cut for the slicers where that pays (slicer_layout)
+            lay = slicer_layout(meshes, up, label)
+            parts = meshes if len(lay.parts) == 1 else list(lay.parts)
+            write_3mf(parts, p, name=label, build_dir=up, settings=lay.settings, part_settings=lay.part_settings or None)
+        else:
+            settings = slicer_settings(whole, up) if whole is not None else None
+            write_3mf(meshes, p, name=label, build_dir=up, settings=settings)
     return p
 
 

@@ -189,12 +189,30 @@ class Toolpaths:
         z: ``(L,)`` float64 heights of the layers that extrude, mm, ascending.
         layer: ``(N,)`` int64 index into ``z`` of each extrusion segment.
         start, end: ``(N, 2)`` float64 x, y of each segment's ends, mm (G-code frame).
+        run: ``(N,)`` int64 index of the unbroken extrusion (no travel between its
+            segments) each segment belongs to, ascending; None if not known.
     """
 
     z: np.ndarray
     layer: np.ndarray
     start: np.ndarray
     end: np.ndarray
+    run: np.ndarray | None = None
+
+    def without_specks(self, size: float) -> "Toolpaths":
+        """These paths without the unbroken extrusions whose extent (bounding-box
+        diagonal, mm) is under ``size`` mm: specks such as a perimeter around a
+        0.1 mm island, which print a dot of one bead whatever their shape. With
+        ``run`` unknown, the paths as they are."""
+        if self.run is None or not len(self.run):
+            return self
+        first = np.flatnonzero(np.r_[True, self.run[1:] != self.run[:-1]])
+        pts = np.concatenate([self.start, self.end], axis=1)  # (N, 4): x0 y0 x1 y1
+        lo = np.minimum(np.minimum.reduceat(pts[:, :2], first), np.minimum.reduceat(pts[:, 2:], first))
+        hi = np.maximum(np.maximum.reduceat(pts[:, :2], first), np.maximum.reduceat(pts[:, 2:], first))
+        big = np.linalg.norm(hi - lo, axis=1) >= size  # per run
+        keep = np.repeat(big, np.diff(np.r_[first, len(self.run)]))
+        return Toolpaths(self.z, self.layer[keep], self.start[keep], self.end[keep], self.run[keep])
 
     @property
     def lengths(self) -> np.ndarray:
@@ -219,13 +237,14 @@ def read_toolpaths(path: str | os.PathLike, *, exclude=SUPPORT_TYPES) -> Toolpat
     part). Layers are told apart by their z (mm, rounded to 1 um)."""
     moves = _moves(_gcode_bytes(path))
     if moves is None:
-        return Toolpaths(np.zeros(0), np.zeros(0, np.int64), np.zeros((0, 2)), np.zeros((0, 2)))
+        return Toolpaths(np.zeros(0), np.zeros(0, np.int64), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0, np.int64))
     xyz, seg, extruding, kind, names = moves
     keep = extruding & ~np.isin(np.array(names, dtype=object), tuple(exclude))[kind]
     keep[0] = False  # a segment needs the move before it
     i = np.flatnonzero(keep)
     z, layer = np.unique(np.round(xyz[i, 2], 3), return_inverse=True)
-    return Toolpaths(z, layer.astype(np.int64), xyz[i - 1, :2].copy(), xyz[i, :2].copy())
+    run = np.cumsum(np.r_[0, np.diff(i) != 1]).astype(np.int64)  # a move that does not extrude breaks a run
+    return Toolpaths(z, layer.astype(np.int64), xyz[i - 1, :2].copy(), xyz[i, :2].copy(), run)
 
 
 def toolpath_deviation(a: Toolpaths, b: Toolpaths, *, step: float = 0.05) -> np.ndarray:
@@ -268,6 +287,7 @@ def slice_mesh(
     timeout: float = 1800.0,
     keep: str | os.PathLike | None = None,
     file: str = "stl",
+    layout: bool = True,
 ) -> SliceReport:
     """Slice ``mesh`` (a :class:`texcad.solid.Mesh`, mm) with PrusaSlicer's or
     CuraEngine's CLI.
@@ -287,8 +307,10 @@ def slice_mesh(
 
     ``file="3mf"`` hands the slicer the 3MF that :func:`texcad.io.export` writes
     instead of an STL: the same mesh, with the per-object settings of
-    :func:`texcad.io.slicer_settings` (PrusaSlicer reads them; CuraEngine reads no
-    3MF, so it always gets the STL). ``keep``: copy the G-code there.
+    :func:`texcad.io.slicer_layout` (PrusaSlicer reads them; CuraEngine reads no
+    3MF, so it always gets the STL); ``layout=False`` writes the mesh as a plain
+    one-part 3MF instead (no settings, no cut: what the layout changes is then the
+    only difference). ``keep``: copy the G-code there.
 
     Returns:
         :class:`SliceReport` (support points mapped back to the mesh's own frame).
@@ -296,7 +318,7 @@ def slice_mesh(
     Raises:
         ResourceError: the slicer is not installed, or it ran past ``timeout`` s.
     """
-    from ..io import slicer_settings, write_3mf, write_stl
+    from ..io import slicer_layout, write_3mf, write_stl
     from ..solid import Mesh
 
     if file not in ("stl", "3mf"):
@@ -315,7 +337,12 @@ def slice_mesh(
         gcode = Path(tmp) / "part.gcode"
         if file == "3mf" and slicer == "prusaslicer":
             stl = Path(tmp) / "part.3mf"
-            write_3mf(placed, stl, name="part", settings=slicer_settings(placed))
+            if layout:
+                lay = slicer_layout(placed, name="part")  # what export() writes
+                parts = placed if len(lay.parts) == 1 else list(lay.parts)
+                write_3mf(parts, stl, name="part", settings=lay.settings, part_settings=lay.part_settings or None)
+            else:
+                write_3mf(placed, stl, name="part")
         else:
             stl = Path(tmp) / "part.stl"
             write_stl(placed, stl)
