@@ -323,6 +323,11 @@ def table(args) -> None:
         write_table = _write_table
     path = write_table("slicer", headers, rows, title="Support and slicing time, bare and textured, in two slicers", notes=notes)
     print(f"wrote {path}")
+    if args.readme:  # the README's printability figures: the same table, its notes in the docs
+        from _table import markdown_table, write_readme_block
+
+        write_readme_block("slicer", markdown_table(headers, rows) + "\n\nSee the notes under "
+                           "[the table in the docs](docs/benchmarks.md).")
 
 
 # -- cost (issue 29): what slicing a textured part costs, STL against texcad's 3MF -----
@@ -499,6 +504,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("what", choices=("table", "cost", "levers", "demo", "support", "perimeters", "recipes"))
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds per slice (default 900)")
+    ap.add_argument("--readme", action="store_true", help="table: also write the README's printability figures (its bench:slicer block)")
     ap.add_argument("--pitch", type=float, default=0.25, help="support: texture pitch in mm (default 0.25)")
     ap.add_argument("--side", type=float, default=40.0, help="perimeters: plate side in mm (default 40)")
     ap.add_argument("--demo-pitch", type=float, default=0.25, help="cost: the demo plate's texture pitch in mm (default 0.25)")
