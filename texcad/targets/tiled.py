@@ -43,7 +43,7 @@ from typing import Any, Optional, Sequence
 
 import numpy as np
 
-from ..errors import ParameterError, ResourceError
+from ..errors import GeometryError, ParameterError, ResourceError
 from ..sources import Heightmap
 from ..util import Progress, report
 
@@ -734,8 +734,7 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
     Raises:
         GeometryError: a check failed (the message names it and the figures).
     """
-    from ..errors import GeometryError
-    from ..report.gate import GateReport, ShellReport
+    from ..report.gate import ShellReport
     from ..solid.grid import grid_faces
     from ..solid.tiles import block_volume
 
@@ -782,15 +781,26 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
     if ex.base is not None and ex.volume is not None:
         change = volume - float(ex.base.volume)
         expected, slack = float(ex.volume), float(ex.volume_slack)
-        if abs(change - expected) > slack:
-            raise GeometryError(
-                f"the {what} failed texcad's gate: its volume changed by {change:+.2f} mm3 where the texture's integral "
-                f"is {expected:+.2f} mm3 (accepted difference {slack:.2f} mm3); please report this"
-            )
-    if farthest > ex.height:
+    return tiles_verdict(what, shells, change, expected, slack, farthest, float(ex.height), "surface")
+
+
+def tiles_verdict(what: str, shells: Any, change: Any, expected: Any, slack: Any, farthest: float, height: float,
+                  near: str) -> GateReport:
+    """Checks 4 and 5 of a tiled result from its summed figures: the volume change
+    against the texture's integral within ``slack`` (mm^3; skipped when ``change`` is
+    None) and the farthest texture vertex (mm) within ``height`` of the ``near``
+    surface. Returns the report, or raises GeometryError with the figures."""
+    from ..report.gate import GateReport
+
+    if change is not None and abs(change - expected) > slack:
+        raise GeometryError(
+            f"the {what} failed texcad's gate: its volume changed by {change:+.2f} mm3 where the texture's integral "
+            f"is {expected:+.2f} mm3 (accepted difference {slack:.2f} mm3); please report this"
+        )
+    if farthest > height:
         raise GeometryError(f"the {what} failed texcad's gate: texture vertices lie up to {farthest:.3f} mm from the "
-                            f"surface (or off it), where the texture reaches {ex.height:.3f} mm; please report this")
-    return GateReport(shells, change, expected, slack, farthest, float(ex.height))
+                            f"{near} (or off it), where the texture reaches {height:.3f} mm; please report this")
+    return GateReport(shells, change, expected, slack, farthest, height)
 
 
 def _tile_vertex_blocks(grid: Any, source: Any, client: Any):

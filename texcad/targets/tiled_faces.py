@@ -57,7 +57,7 @@ import numpy as np
 from ..errors import GeometryError
 from ..solid.tiles import PlateGrid, Tile, block_volume
 from ..util import Progress, report
-from .tiled import TiledMesh, _at
+from .tiled import TiledMesh, _at, tiles_verdict
 
 __all__ = ["FaceGrid", "TiledFaceMesh", "TileCells", "face_tiles", "gate_faces", "tile_halo", "material_over", "open_edges"]
 
@@ -586,7 +586,7 @@ def gate_faces(mesh: TiledFaceMesh, ex: Any) -> Any:
     Raises:
         GeometryError: a check failed (the message names it and the figures).
     """
-    from ..report.gate import GateReport, ShellReport
+    from ..report.gate import ShellReport
 
     what = "textured face (in tiles)"
     grid = mesh.grid
@@ -628,15 +628,7 @@ def gate_faces(mesh: TiledFaceMesh, ex: Any) -> Any:
     change = volume - float(ex.base.volume)
     px, py = grid.pitch
     slack = px * py * float(ex.height) + 1e-3 * abs(integral) + 1e-6 * abs(float(ex.base.volume)) + 1e-3
-    if abs(change - integral) > slack:
-        raise GeometryError(
-            f"the {what} failed texcad's gate: its volume changed by {change:+.2f} mm3 where the texture's integral "
-            f"is {integral:+.2f} mm3 (accepted difference {slack:.2f} mm3); please report this"
-        )
-    if farthest > ex.height:
-        raise GeometryError(f"the {what} failed texcad's gate: texture vertices lie up to {farthest:.3f} mm from the "
-                            f"face (or off it), where the texture reaches {ex.height:.3f} mm; please report this")
-    return GateReport(shells, change, integral, slack, farthest, float(ex.height))
+    return tiles_verdict(what, shells, change, integral, slack, farthest, float(ex.height), "face")
 
 
 @dataclass(frozen=True)
