@@ -58,9 +58,9 @@ def test_plate_step_size(plate, tmp_path):
     text = (tmp_path / "plate.step").read_bytes()
     # OCCT writes a 2-D context per pcurve; written once here
     assert text.count(b"GEOMETRIC_REPRESENTATION_CONTEXT(2)") == 1
-    # no point with more than 9 decimals (OCCT's own: 17 significant digits)
+    # no 3-D point with more than 9 decimals, no 2-D one with more than 10 (OCCT's own: 17 significant digits)
     coords = re.findall(rb"CARTESIAN_POINT\('',\(([^)]*)\)", text)
-    assert coords and not any(re.search(rb"\.\d{10}", c) for c in coords)
+    assert coords and not any(re.search(rb"\.\d{10}" if c.count(b",") == 2 else rb"\.\d{11}", c) for c in coords)
     # every entity referred to exists; the ids are dense, from 1
     ids = [int(i) for i in re.findall(rb"^#(\d+)=", text, re.M)]
     ids += [int(i) for i in re.findall(rb"\);#(\d+)=", text)]  # four points to a line
@@ -78,7 +78,7 @@ def test_drilled_plate_step_size(plate, tmp_path):
 
     drilled = plate - Pos(3, 2, 0) * Cylinder(3, 10)
     ratio, back = _written(drilled, tmp_path, "drilled")
-    assert ratio <= MOST, ratio  # 1.95 measured (4.9 before)
+    assert ratio <= MOST, ratio  # 1.96 measured (4.9 before)
     assert check_shape(back)["faces"] < 0.3 * check_shape(drilled.shape)["faces"]  # 66 of 548
 
 

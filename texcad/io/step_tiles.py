@@ -28,8 +28,8 @@ with numpy:
   and knots;
 * OCCT's entities are written without layout whitespace, the same geometry once
   (OCCT writes a 2-D context, a direction and a vector for every pcurve), their
-  points with at most 9 decimals, and everything numbered densely from ``#1``
-  (:func:`_renumbered`), the poles last;
+  points with at most 9 decimals (10 in 2-D: :func:`_short`), and everything
+  numbered densely from ``#1`` (:func:`_renumbered`), the poles last;
 * with ``tessellate`` each tile that carries its triangulation (texcad's mesh: two
   triangles per grid cell) also gets a ``COMPLEX_TRIANGULATED_FACE`` linked to its
   ``ADVANCED_FACE`` (AP242), with its nodes (``COORDINATES_LIST``, the same numbers as
@@ -440,6 +440,8 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
         # the points moved onto an edge's polyline between its own points keep 8 decimals too (so they stay on it)
         outer = [o[np.ix_(r, c)] | line for o, (_, _, _, r, c, line) in zip(outer, red)]
         grids = [(g, u, v) for g, u, v, _, _, _ in red]
+    if inner < 8:  # poles a few rounding steps from a neighbour keep 8 decimals (else a sliver collapses)
+        outer = [o | _thin(g, THIN * 10.0**-inner) for o, (g, _, _) in zip(outer, grids)]
     try:
         for _, face, surf in tiles:  # one per tile
             _stand_in(b, face, surf)
@@ -526,6 +528,28 @@ EDGE_SHARE = 1.0
 #: Shares of the tolerance a tile's rows and columns are first chosen within (each
 #: direction); the bilinear result is then checked against the whole tolerance.
 INNER_SHARES = (2.0, 1.5, 1.0, 0.75, 0.5, 0.25)
+#: Rounding steps (``10**-decimals`` mm) within which two neighbouring poles keep 8
+#: decimals (:func:`_thin`).
+THIN = 10.0
+
+
+def _thin(g: np.ndarray, width: float) -> np.ndarray:
+    """``(rows, cols)`` True on each pole within ``width`` mm of its neighbour along a
+    row or a column (both of them): the corners of a tiny knot span (the 1e-4 rad
+    column and 5e-4 mm row where a texture's wall meets a half cylinder's flat end
+    and top) or of a wall that ends in a point. Rounded to fewer decimals than their
+    distance, such a span's sides collapse onto one curve (a cell of no area, or
+    sides crossed): OCCT's STEP reader then rebuilds the pcurves around it off the
+    tile's rows (a stray degenerated edge) and its mesher gives the face nothing.
+    At 8 decimals they stay as texcad made them; they are a handful of poles."""
+    on = np.zeros(g.shape[:2], bool)
+    near = np.sqrt(((g[1:] - g[:-1]) ** 2).sum(-1)) < width
+    on[:-1] |= near
+    on[1:] |= near
+    near = np.sqrt(((g[:, 1:] - g[:, :-1]) ** 2).sum(-1)) < width
+    on[:, :-1] |= near
+    on[:, 1:] |= near
+    return on
 
 
 def _keep(p: np.ndarray, t: np.ndarray, tol: float) -> np.ndarray:
@@ -874,14 +898,21 @@ def _compact(params: bytes) -> bytes:
     return _WRAP.sub(b"", params)
 
 
-_LONG = re.compile(rb"(\d\.\d{9})\d+")
+_LONG = re.compile(rb"(\d\.\d{9})\d+")  # 3-D: mm
+_LONG_2D = re.compile(rb"(\d\.\d{10})\d+")  # 2-D: a surface's parameters
 
 
 def _short(kind: bytes, params: bytes) -> bytes:
-    """A ``CARTESIAN_POINT``'s coordinates with at most 9 decimals (OCCT writes 17
-    significant digits: 1e-9 mm, or 1e-9 of a parameter, is far inside its 1e-7 mm
-    edge tolerances); other entities as they are."""
-    return _LONG.sub(rb"\1", params) if kind == b"CARTESIAN_POINT" else params
+    """A ``CARTESIAN_POINT``'s coordinates cut to at most 9 decimals in 3-D (OCCT writes
+    17 significant digits: 1e-9 mm is far inside its 1e-7 mm edge tolerances) and 10
+    in 2-D (a pcurve's points, in the surface's parameters: OCCT's parametric
+    confusion is 1e-9, and a pcurve 1e-9 off its tile's knots next to an edge of no
+    length, where a texture wall ends in a point, has OCCT's reader rebuild that
+    tile's wire and its mesher then gives the tile nothing); other entities as they
+    are."""
+    if kind != b"CARTESIAN_POINT":
+        return params
+    return (_LONG if params[params.rindex(b"(") :].count(b",") >= 2 else _LONG_2D).sub(rb"\1", params)
 
 
 def _xyz(m) -> list:
