@@ -73,13 +73,15 @@ def test_plate_step_size(plate, tmp_path):
 
 def test_drilled_plate_step_size(plate, tmp_path):
     """A hole drilled through with texcad's ops: the B-rep has fine tiles under the
-    tool; the STEP merges those the tool left whole back into tiles."""
+    tool, written as they are (merging them back into larger tiles is off: a merged
+    curved tile re-read as a face OCCT could not mesh), so the STEP is over 2x its STL
+    here; the re-read is still valid and its volume the mesh's."""
     from build123d import Cylinder, Pos
 
     drilled = plate - Pos(3, 2, 0) * Cylinder(3, 10)
     ratio, back = _written(drilled, tmp_path, "drilled")
-    assert ratio <= MOST, ratio  # 1.96 measured (4.9 before)
-    assert check_shape(back)["faces"] < 0.3 * check_shape(drilled.shape)["faces"]  # 66 of 548
+    assert ratio <= 3.5, ratio  # 3.07 measured (4.9 before this writer; 1.96 with the merge)
+    assert check_shape(back)["faces"] == check_shape(drilled.shape)["faces"]
 
 
 def test_cylinder_step_size(tmp_path):
