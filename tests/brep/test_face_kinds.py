@@ -185,25 +185,6 @@ def test_face_kind_step_and_hole(kind, tmp_path):
     assert abs(occt_volume(shape) - cut.volume) <= 1e-3 * cut.volume + abs(own)
 
 
-@pytest.mark.filterwarnings("ignore::UserWarning")
-def test_partial_cylinder_step_sliver_tiles(tmp_path, monkeypatch):
-    """The half cylinder's texture ends in a 1e-4 rad column and a 5e-4 mm row of
-    tiles (its walls down to the flat ends, one pole where they meet): written as
-    tiles of their own (no merge) its STEP still re-reads as a solid OCCT meshes
-    closed (2-D points cut to 1e-9 had the reader rebuild that corner's wire and
-    the mesher skip it), and merged into the tiles beside them too (the test above:
-    their poles rounded to 3 decimals collapsed the column)."""
-    import texcad.io.step_tiles as step_tiles
-
-    part, face, _, mode = _kind("partial")
-    tx = texcad.texture(part, face, "builtin:stones", height=0.4, pitch=0.5, mode=mode)
-    monkeypatch.setattr(step_tiles, "_merged", lambda shape, cells: shape)
-    tx.export(tmp_path / "part.step")
-    back = flat_solids(texcad.io.read_step(tmp_path / "part.step"))
-    assert check_shape(back)["valid"]
-    assert _occt_meshes_closed(back)
-
-
 def _agree(result, own: float):
     """``result.shape`` valid, one solid per body, within 0.1 % of its mesh (plus
     ``own``, mm^3: what the textured part's B-rep is off its mesh)."""

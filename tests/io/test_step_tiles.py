@@ -1,8 +1,8 @@
 """STEP at the mesh's tolerance (issue 28, texcad.io.step_tiles): a textured part's STEP
 against its binary STL at the same tolerance, re-read by OCCT as one valid solid
 whose volume is the mesh's, on a plate, the plate drilled through (fine tiles under
-the tool) and a cylinder; the file's own economy (one 2-D context, short numbers,
-merged tiles) and its reproducibility."""
+the tool) and a cylinder; the file's own economy (one 2-D context, short numbers)
+and its reproducibility."""
 
 import re
 

@@ -62,8 +62,7 @@ def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part"
     ``tolerance`` > 0 (what :meth:`texcad.Textured.export` passes: the mesh's
     tolerance) a tile keeps only the rows and columns of poles, and an edge between
     tiles only the points, needed to stay within ``tolerance`` of every grid point,
-    with 3 decimals inside the tiles at 0.02 mm, and the fine tiles a tool left whole
-    are merged back into larger tiles: a plain AP214 B-rep; its size against the
+    with 3 decimals inside the tiles at 0.02 mm: a plain AP214 B-rep; its size against the
     binary STL at the same tolerance is in ``docs/benchmarks/step.md``.
 
     ``tessellated=True`` adds each tile's triangulation (texcad's grid mesh) as AP242

@@ -47,7 +47,7 @@ from typing import Any
 
 import numpy as np
 
-from ..brep import TILE, surface_grid, tile_grid
+from ..brep import surface_grid, tile_grid
 
 __all__ = ["tiled_step_text"]
 
@@ -180,155 +180,6 @@ def _whole(face, u: np.ndarray, v: np.ndarray) -> bool:
     return True
 
 
-def _neighbours(shape, tiles: list, grids: list) -> tuple[dict, dict]:
-    """For each whole tile (:func:`_whole`), the whole tile past its high-u side
-    (``right``) and past its high-v side (``up``) when that side is one edge they
-    share, in the same parameter space (the same grid: equal knots and border poles)
-    and with the same orientation in the shell."""
-    from OCP.BRepTools import BRepTools
-    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
-    from OCP.TopExp import TopExp, TopExp_Explorer
-    from OCP.TopoDS import TopoDS
-    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_IndexedMapOfShape
-
-    ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
-    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
-    index = TopTools_IndexedMapOfShape()
-    for _, face, _ in tiles:  # one per tile
-        index.Add(face)
-    whole = [g is not None and _whole(f, g[1], g[2]) for (_, f, _), g in zip(tiles, grids)]
-    right, up = {}, {}
-    for a, ((_, face, _), g) in enumerate(zip(tiles, grids)):  # one per tile
-        if not whole[a]:
-            continue
-        ga, u, v = g
-        exp = TopExp_Explorer(face, TopAbs_EDGE)
-        while exp.More():  # one per edge of the tile
-            edge = TopoDS.Edge_s(exp.Current())
-            exp.Next()
-            u0, u1, v0, v1 = BRepTools.UVBounds_s(face, edge)
-            high_u = abs(u0 - u[-1]) + abs(u1 - u[-1]) <= 1e-9 * (1 + abs(u).max()) and abs(v0 - v[0]) + abs(v1 - v[-1]) <= 1e-9 * (1 + abs(v).max())
-            high_v = abs(v0 - v[-1]) + abs(v1 - v[-1]) <= 1e-9 * (1 + abs(v).max()) and abs(u0 - u[0]) + abs(u1 - u[-1]) <= 1e-9 * (1 + abs(u).max())
-            faces = ancestors.FindFromKey(edge)
-            if not (high_u or high_v) or faces.Size() != 2:
-                continue
-            b = [index.FindIndex(f) - 1 for f in faces if not f.IsSame(face)]
-            if len(b) != 1 or b[0] < 0 or not whole[b[0]] or tiles[b[0]][1].Orientation() != face.Orientation():
-                continue
-            gb, ub, vb = grids[b[0]]
-            if high_u and ub[0] == u[-1] and np.array_equal(vb, v) and np.array_equal(gb[:, 0], ga[:, -1]):
-                right[a] = b[0]
-            elif high_v and vb[0] == v[-1] and np.array_equal(ub, u) and np.array_equal(gb[0], ga[-1]):
-                up[a] = b[0]
-    return right, up
-
-
-def _chains(nxt: dict, size: dict, cells: int) -> list:
-    """Runs of keys along ``nxt`` (key -> the next one), each at most ``cells`` in
-    total ``size``; every key in ``size`` once."""
-    after = {b for a, b in nxt.items() if a in size}
-    out = []
-    for head in size:  # one per key
-        if head in after:
-            continue
-        run, total, at = [head], size[head], nxt.get(head)
-        while at is not None:  # one per key of the chain
-            if total + size[at] > cells:
-                out.append(run)
-                run, total = [], 0
-            run.append(at)
-            total += size[at]
-            at = nxt.get(at)
-        out.append(run)
-    return out
-
-
-def _groups(shape, tiles: list, grids: list, cells: int) -> list:
-    """Rectangles of whole tiles (tile indices) at most ``cells`` grid cells a side:
-    runs along u, then runs of those along v whose tiles are each other's ``up``."""
-    right, up = _neighbours(shape, tiles, grids)
-    whole = {a for a in right} | set(right.values()) | set(up) | set(up.values())
-    strips = _chains(right, {a: len(grids[a][1]) - 1 for a in sorted(whole)}, cells)
-    head = {s[0]: i for i, s in enumerate(strips)}
-    above = {}
-    for i, s in enumerate(strips):  # one per strip
-        j = head.get(up.get(s[0], -1))
-        if j is not None and strips[j] == [up.get(a) for a in s]:
-            above[i] = j
-    runs = _chains(above, {i: len(grids[s[0]][2]) - 1 for i, s in enumerate(strips)}, cells)
-    return [[a for i in run for a in strips[i]] for run in runs]
-
-
-def _merged(shape, cells: int):
-    """``shape`` with each rectangle of whole tiles (:func:`_groups`; the fine tiles
-    texcad makes under a tool, past its trace) written as one tile of at most
-    ``cells`` grid cells a side: one surface through their poles, bounded by their
-    outer edges (kept, with their vertices; the edges between them go). The
-    rectangles keep the tiles' parameter space, so the edges' pcurves stay as they
-    are. Returns the new shape, or ``shape`` when there is nothing to merge."""
-    from OCP.BRep import BRep_Builder, BRep_Tool
-    from OCP.BRepTools import BRepTools_ReShape
-    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD
-    from OCP.TopExp import TopExp, TopExp_Explorer
-    from OCP.TopLoc import TopLoc_Location
-    from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Wire
-    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_IndexedMapOfShape
-
-    from ..brep import grid_surface
-
-    _, tiles = _tiles_of(shape)
-    grids = _grids(tiles)
-    groups = [g for g in _groups(shape, tiles, grids, cells) if len(g) > 1]
-    if not groups:
-        return shape
-    b, reshape = BRep_Builder(), BRepTools_ReShape()
-    vertices = TopTools_IndexedMapOfShape()
-    ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
-    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
-    for group in groups:  # one per merged rectangle
-        U = np.unique(np.concatenate([grids[a][1] for a in group]))
-        V = np.unique(np.concatenate([grids[a][2] for a in group]))
-        G = np.zeros((len(V), len(U), 3))
-        for a in group:  # one per tile of the rectangle
-            g, u, v = grids[a]
-            G[np.ix_(np.searchsorted(V, v), np.searchsorted(U, u))] = g
-        members = TopTools_IndexedMapOfShape()
-        for a in group:  # one per tile of the rectangle
-            members.Add(tiles[a][1])
-        outline = []  # (edge as in its forward tile, that tile)
-        for a in group:  # one per tile of the rectangle
-            fwd = TopoDS.Face_s(tiles[a][1].Oriented(TopAbs_FORWARD))
-            exp = TopExp_Explorer(fwd, TopAbs_EDGE)
-            while exp.More():  # one per edge of the tile
-                e = TopoDS.Edge_s(exp.Current())
-                exp.Next()
-                if sum(members.Contains(f) for f in ancestors.FindFromKey(e)) < 2:
-                    outline.append((e, fwd))
-        start = {}
-        for k, (e, _) in enumerate(outline):  # one per outer edge
-            start.setdefault(vertices.Add(TopExp.FirstVertex_s(e, True)), []).append(k)
-        chain, at = [0], vertices.Add(TopExp.LastVertex_s(outline[0][0], True))
-        while len(chain) < len(outline) and len(start.get(at, ())) == 1:  # one per outer edge
-            chain.append(start[at][0])
-            at = vertices.Add(TopExp.LastVertex_s(outline[chain[-1]][0], True))
-        if len(set(chain)) != len(outline) or any(len(ks) != 1 for ks in start.values()):
-            continue  # not one simple loop: leave these tiles as they are
-        face, wire = TopoDS_Face(), TopoDS_Wire()
-        first = tiles[group[0]][1]
-        b.MakeFace(face, grid_surface(G, U, V), TopLoc_Location(), BRep_Tool.Tolerance_s(first))
-        b.MakeWire(wire)
-        for k in chain:  # one per outer edge
-            e, tile = outline[k]
-            b.Add(wire, e)
-            b.UpdateEdge(e, BRep_Tool.CurveOnSurface_s(e, tile, 0.0, 0.0), face, BRep_Tool.Tolerance_s(e))
-        wire.Closed(True)
-        b.Add(face, wire)
-        reshape.Replace(first, face.Oriented(first.Orientation()))
-        for a in group[1:]:  # one per other tile of the rectangle
-            reshape.Remove(tiles[a][1])
-    return reshape.Apply(shape)
-
-
 def _grids(tiles: list) -> list:
     """Each tile's ``(grid, u, v)``: remembered by texcad (:func:`texcad.brep.tile_grid`)
     or read from OCCT."""
@@ -401,8 +252,7 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
             ``COMPLEX_TRIANGULATED_FACE``; the tiles keep every pole then.
         tolerance: mm; when > 0 (and not ``tessellate``) the tiles are written with
             fewer poles and fewer decimals, within ``tolerance`` of every grid point
-            (:func:`decimals_for`, :func:`_reduced`), whole tiles side by side merged
-            into larger ones (:func:`_merged`): a STEP at the mesh's tolerance. At 0
+            (:func:`decimals_for`, :func:`_reduced`): a STEP at the mesh's tolerance. At 0
             every pole is written, with 8 decimals (5e-9 mm; 4 with ``tessellate``).
 
     Returns:
@@ -416,8 +266,6 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
     if not tiles0:
         return None
     copy = BRepBuilderAPI_Copy(topo, False, False).Shape()  # new topology, the same geometry
-    # _merged(copy, MERGED) is not applied: a merged curved tile re-read as a face OCCT's mesher left
-    # empty (tests/brep/test_targets.py, the filleted box's quarter cylinder); kept for planar merges to come
     order, tiles = _tiles_of(copy)
     if tessellate and (len(order) != len(order0) or [t[0] for t in tiles] != [t[0] for t in tiles0]):
         return None
@@ -515,9 +363,6 @@ def _outer(sides: list, grids: list) -> list:
     return out
 
 
-#: Largest side (grid cells) of a tile :func:`_merged` makes from whole tiles side by
-#: side: texcad's own tiles' (:data:`texcad.brep.TILE`).
-MERGED = TILE
 #: Longest chord (grid cells) :func:`_keep` tries.
 SPAN = 8
 #: Share of the tolerance an edge's polyline may miss its grid points by.
