@@ -5,6 +5,7 @@ closed. Chord errors in mm, angles in radians (OCCT's convention).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -151,9 +152,13 @@ def part_tessellation(topo, tolerance: float = TESSELLATION) -> PartMesh:
     and one welded mesh; checked closed (manifold3d) and healed if needed, in order:
     a finer tessellation; the same after dropping every triangulation the file
     carried (``BRepTools::Clean``: a STEP file's own, possibly open, meshes are
-    otherwise kept); a wider weld; and last the faces sewn along their edges
-    (``BRepBuilderAPI_Sewing``, so that neighbours share one edge discretization),
-    the sewn faces' triangles reported for the original faces.
+    otherwise kept); a wider weld; the curved faces split into pieces of at most
+    90 degrees (``ShapeUpgrade_ShapeDivideAngle``: OCCT's mesher leaves some whole
+    periodic faces, e.g. a cone under a knurl's 72 flutes, with their boundary
+    nodes but hardly any triangles); and last the faces sewn along their edges
+    (``BRepBuilderAPI_Sewing``, so that neighbours share one edge discretization).
+    ``faces[k]`` is always the part's own face ``k`` (its pieces' triangles
+    together), so face numbers keep meaning what ``texcad faces`` lists.
 
     Raises:
         GeometryError: no watertight tessellation could be made; the message names
@@ -166,18 +171,20 @@ def part_tessellation(topo, tolerance: float = TESSELLATION) -> PartMesh:
 
     last, pm = None, None
     attempts = ((tolerance, 1e-5, ""), (tolerance / 3, 1e-5, ""), (tolerance / 3, 1e-5, "clean"),
-                (tolerance / 3, 1e-3, "clean"), (tolerance / 3, 1e-3, "sew"))
+                (tolerance / 3, 1e-3, "clean"), (tolerance, 1e-5, "split"), (tolerance / 3, 1e-3, "sew"))
+    own = [TopoDS.Face_s(f) for f in explore(topo, TopAbs_FACE)]
     for tol, weld, how in attempts:  # healing attempts
-        shape, back = topo, None
+        shape, whose = topo, None
         if how == "sew":
-            shape, back = _sewn(topo, max(10 * tol, 1e-3))
+            shape, whose = _sewn(topo, own, max(10 * tol, 1e-3))
+        elif how == "split":
+            shape, whose = _split(topo, own)
         if how:
             BRepTools.Clean_s(shape)
         BRepMesh_IncrementalMesh(shape, tol, False, 0.1, True)
-        faces = [TopoDS.Face_s(f) for f in explore(shape, TopAbs_FACE)]
-        fms = [_face_triangles(f) for f in faces]
-        if back is not None:  # the sewn faces' triangles, for the part's own faces
-            fms = [None if fm is None else FaceMesh(back.get(k, fm.face), fm.points, fm.tris, fm.uv, fm.kind) for k, fm in enumerate(fms)]
+        fms = [_face_triangles(TopoDS.Face_s(f)) for f in explore(shape, TopAbs_FACE)]
+        if whose is not None:  # the pieces' triangles, for the part's own faces
+            fms = _own_faces(fms, whose, own)
         pm = _weld(fms, weld)
         try:
             to_manifold(pm.mesh)
@@ -191,25 +198,63 @@ def part_tessellation(topo, tolerance: float = TESSELLATION) -> PartMesh:
     )
 
 
-def _sewn(topo, tol: float) -> tuple[Any, dict]:
-    """``topo`` sewn along its edges (``tol`` mm), and for each face of the result (by
-    its index in the result's face order) the original face it came from."""
+def _sewn(topo, own: list, tol: float) -> "tuple[Any, list[int]]":
+    """``topo`` sewn along its edges (``tol`` mm), and for each face of the result
+    (in its face order) the index of the part's own face it came from."""
     from OCP.BRepBuilderAPI import BRepBuilderAPI_Sewing
-    from OCP.TopAbs import TopAbs_FACE
-    from OCP.TopoDS import TopoDS
 
     sew = BRepBuilderAPI_Sewing(tol)
     sew.Add(topo)
     sew.Perform()
-    shape = sew.SewedShape()
-    new = [TopoDS.Face_s(f) for f in explore(shape, TopAbs_FACE)]
-    back: dict = {}
-    for old in explore(topo, TopAbs_FACE):  # per original face: the face it became
-        made = sew.ModifiedSubShape(old) if sew.IsModifiedSubShape(old) else old
-        k = next((k for k, f in enumerate(new) if f.IsSame(made)), None)
-        if k is not None:
-            back[k] = TopoDS.Face_s(old)
-    return shape, back
+    made = [sew.ModifiedSubShape(f) if sew.IsModifiedSubShape(f) else f for f in own]
+    return sew.SewedShape(), _whose(sew.SewedShape(), [[m] for m in made])
+
+
+def _split(topo, own: list) -> "tuple[Any, list[int]]":
+    """``topo`` with its curved faces split into pieces of at most 90 degrees
+    (``ShapeUpgrade_ShapeDivideAngle``), and for each face of the result the index
+    of the part's own face it is a piece of."""
+    from OCP.ShapeUpgrade import ShapeUpgrade_ShapeDivideAngle
+    from OCP.TopAbs import TopAbs_FACE
+
+    div = ShapeUpgrade_ShapeDivideAngle(math.pi / 2, topo)
+    div.Perform()
+    ctx = div.GetContext()
+    made = [list(explore(ctx.Apply(f), TopAbs_FACE)) for f in own]  # a face, or its pieces (as rebuilt in the result)
+    return div.Result(), _whose(div.Result(), made)
+
+
+def _whose(shape, made: "list[list]") -> "list[int]":
+    """For each face of ``shape``: the index ``k`` whose ``made[k]`` holds it (-1: none)."""
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    index = TopTools_IndexedMapOfShape()
+    for f in explore(shape, TopAbs_FACE):  # one per face of the result
+        index.Add(f)
+    whose = [-1] * index.Extent()
+    for k, pieces in enumerate(made):  # per own face
+        for p in pieces:
+            i = index.FindIndex(p)
+            if i > 0:
+                whose[i - 1] = k
+    return whose
+
+
+def _own_faces(fms: list, whose: "list[int]", own: list) -> list:
+    """Per own face, one :class:`FaceMesh` of its pieces' triangles (``None`` if no
+    piece was meshed; a face nothing came from then shows as open)."""
+    out = []
+    for k, face in enumerate(own):  # per own face: a few pieces at most
+        mine = [fm for fm, w in zip(fms, whose) if w == k and fm is not None]
+        if not mine:
+            out.append(None)
+            continue
+        offs = np.cumsum([0] + [len(fm.points) for fm in mine[:-1]])
+        out.append(FaceMesh(face, np.concatenate([fm.points for fm in mine]),
+                            np.concatenate([fm.tris + o for fm, o in zip(mine, offs)]),
+                            np.concatenate([fm.uv for fm in mine]), mine[0].kind))
+    return out
 
 
 def _open_faces(pm: "PartMesh | None") -> str:

@@ -1,0 +1,77 @@
+"""The part's tessellation (:func:`texcad.brep.part_tessellation`): closed, and each
+face's triangles where ``texcad faces`` says that face is, whichever healing step
+made it (a face split into pieces, faces sewn)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from build123d import Box, Cone, Cylinder, Pos, fillet
+
+from texcad.brep import explore, part_tessellation, tessellation
+from texcad.errors import GeometryError
+
+
+def _part():
+    """Curved faces of several kinds (cylinder, cone, torus-like fillet) and planes."""
+    body = Cylinder(10, 8) + Pos(0, 0, 6) * Cone(8, 4, 4)
+    body = fillet(body.edges().sort_by()[0:1], 1.0) + Pos(15, 0, 0) * Box(8, 8, 8)
+    return body.solids()[0] if len(body.solids()) == 1 else body
+
+
+def _forced(monkeypatch, step: str):
+    """Make every healing attempt before ``step`` fail its closed check, so the
+    tessellation comes from ``step`` ("split": faces cut into pieces of at most 90
+    degrees; "sew": faces sewn)."""
+    real = tessellation.to_manifold
+    order = {"split": 4, "sew": 5}[step]
+    calls = {"n": 0}
+
+    def failing(mesh):
+        calls["n"] += 1
+        if calls["n"] <= order:
+            raise GeometryError("forced: try the next healing step")
+        return real(mesh)
+
+    monkeypatch.setattr(tessellation, "to_manifold", failing)
+    return calls
+
+
+@pytest.mark.parametrize("step", ["split", "sew"])
+def test_healed_tessellation_keeps_the_part_face_numbers(step, monkeypatch):
+    """Made by a healing step, ``faces[k]`` is still the part's own face ``k`` and
+    the triangles marked ``k`` cover that face: their area is the face's own
+    (OCCT, within the chord error), and the whole is closed."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+    from OCP.TopAbs import TopAbs_FACE
+
+    part = _part()
+    calls = _forced(monkeypatch, step)
+    pm = part_tessellation(part.wrapped)
+    assert calls["n"] == {"split": 5, "sew": 6}[step]  # it was this step that made it
+    own = list(explore(part.wrapped, TopAbs_FACE))
+    assert len(pm.faces) == len(own)
+    v = pm.mesh.vertices.astype(np.float64)[pm.mesh.faces]
+    area = 0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
+    for k, face in enumerate(own):  # a dozen faces
+        assert pm.faces[k].face.IsSame(face)
+        props = GProp_GProps()
+        BRepGProp.SurfaceProperties_s(face, props)
+        mine = float(area[pm.face_of_tri == k].sum())
+        assert mine == pytest.approx(props.Mass(), rel=2e-3), (k, pm.faces[k].kind)
+    f = pm.mesh.faces.astype(np.int64)
+    key = np.sort(np.stack([f.reshape(-1), f[:, [1, 2, 0]].reshape(-1)], 1), axis=1)
+    assert (np.unique(key, axis=0, return_counts=True)[1] == 2).all()  # closed: every edge twice
+
+
+def test_split_pieces_come_back_to_their_face():
+    """Splitting cuts the cylinder and the cone into pieces (more faces than the
+    part's); each piece is mapped to the face it came from."""
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+
+    part = _part()
+    own = [TopoDS.Face_s(f) for f in explore(part.wrapped, TopAbs_FACE)]
+    shape, whose = tessellation._split(part.wrapped, own)
+    assert len(whose) > len(own) and min(whose) == 0 and sorted(set(whose)) == list(range(len(own)))
