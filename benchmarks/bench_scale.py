@@ -13,6 +13,9 @@ its own; imports are done before the clock starts):
 * ``limited`` (at ``--limited-mpx``): the same with ``build_dir`` standing upright
   (+y up), so the overhang limiter runs too, block by block in tiles; its time
   against the unlimited tiled plate of the same size and bound;
+* ``lean`` (at ``--lean-mpx``): the same at texcad's default tolerance (0.02 mm: the
+  lean mesh, made in tiles too when they are needed), the smallest plate both as
+  texcad makes it by default (untiled) and at ``--baseline-memory`` (in tiles);
 * at 1 M px also with ``--baseline-memory`` (small enough that it is made in tiles
   too: the linear baseline for the 100 M px target), and ``tiled``:
   :func:`texcad.pipeline.tiled.textured_plate_tiled` alone (no gate), up to
@@ -27,7 +30,7 @@ cores / workers, and on a busy machine it says how busy the machine was: the CPU
 seconds per job (:attr:`texcad.batch.JobResult.cpu_seconds`) say whether the jobs
 themselves got dearer with more workers.
 
-    python benchmarks/bench_scale.py [--max-mpx 100] [--limited-mpx 1 9] [--workers 1 2 4] [--parts 8] [--out docs/benchmarks/scale.md]
+    python benchmarks/bench_scale.py [--max-mpx 100] [--limited-mpx 1 9] [--lean-mpx 1 100] [--workers 1 2 4] [--parts 8] [--out docs/benchmarks/scale.md]
 """
 
 from __future__ import annotations
@@ -65,13 +68,15 @@ if mode == "tiled":
 else:
     limited = mode == "limited"  # standing upright: the overhang limiter, block by block when tiled
     bd = texcad.printability.orientation(90, "+y") if limited else None
-    tx = texcad.texture(texcad.Plate((side, side), 5.0), None, "builtin:stones", pitch=pitch, height=1.0, tolerance=0,
-                        max_memory=max_memory, build_dir=bd)
+    tol = {} if mode == "lean" else {"tolerance": 0}  # lean: texcad's default tolerance (0.02 mm)
+    tx = texcad.texture(texcad.Plate((side, side), 5.0), None, "builtin:stones", pitch=pitch, height=1.0,
+                        max_memory=max_memory, build_dir=bd, **tol)
     tx.export(out)
     assert tx.gate.shells.closed
     tiled = tx.info["fuse"] == "tiled"
     tris, tiles = tx.mesh.num_triangles, tx.info.get("tiles", 1)
-    how = f"texcad.texture, {'tiled' if tiled else 'untiled'}, gated" + (", limited upright" if limited else "")
+    how = (f"texcad.texture, {'tiled' if tiled else 'untiled'}, gated" + (", limited upright" if limited else "")
+           + (", lean (tolerance 0.02 mm)" if mode == "lean" else ""))
 sec, cpu_sec = time.perf_counter() - t0, cpu() - c0
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 print(json.dumps({"side": side, "seconds": sec, "cpu": cpu_sec, "peak": peak, "triangles": tris, "tiles": tiles, "how": how,
@@ -155,15 +160,11 @@ def table(plates: list[dict], batches: list[dict], command: str) -> str:
             f"{p['seconds']:.1f}{' (median of %d)' % p['runs'] if p.get('runs', 1) > 1 else ''} | {p['seconds'] / p['mpx']:.2f} | {p['cpu'] / p['mpx']:.2f} | {p['peak'] / 2**30:.2f} GiB | {p['bytes'] / 2**20:,.0f} MiB |"
         )
     plain = [p for p in plates if "error" not in p and p["how"] == "texcad.texture, tiled, gated"]
-    base = [p for p in plain if p["mpx"] == min(q["mpx"] for q in plates)]
-    big = [p for p in plain if p["mpx"] > min(q["mpx"] for q in plates)]
-    if base and big:
-        b = base[0]
-        lines += ["", f"Time per M px against the {b['mpx']:g} M px plate made in tiles through texcad.texture "
-                  f"({b['seconds'] / b['mpx']:.2f} s and {b['cpu'] / b['mpx']:.2f} CPU s per M px, the linear baseline): "
-                  + ", ".join(f"{p['mpx']:g} M px {(p['seconds'] / p['mpx']) / (b['seconds'] / b['mpx']):.2f} x in time, "
-                              f"{(p['cpu'] / p['mpx']) / (b['cpu'] / b['mpx']):.2f} x in CPU time" for p in big)
-                  + ". The machine is shared: CPU time (user + system, this process) is the steadier measure."]
+    lines += _scaling(plates, plain, "made in tiles through texcad.texture, one vertex per pixel")
+    lean = [p for p in plates if "error" not in p and p["how"].endswith("lean (tolerance 0.02 mm)")]
+    lines += _scaling(plates, [p for p in lean if "untiled" in p["how"] or p["mpx"] > min(q["mpx"] for q in plates)],
+                      "made by texcad.texture as it is by default (untiled, lean within 0.02 mm)")
+    lines += _scaling(plates, [p for p in lean if "untiled" not in p["how"]], "made lean in tiles")
     pairs = [(q, p) for q in plates if "error" not in q and q["how"].endswith("limited upright")
              for p in plain if p["mpx"] == q["mpx"] and p["max_memory"] == q["max_memory"]]
     if pairs:
@@ -177,6 +178,21 @@ def table(plates: list[dict], batches: list[dict], command: str) -> str:
         eff = "" if b["efficiency"] is None else f"{b['efficiency']:.2f}"
         lines.append(f"| {b['workers']} | {b['ok']}/{b['jobs']} | {b['start']:.1f} | {b['seconds']:.1f} | {60 * b['jobs'] / b['seconds']:.1f} | {eff} | {b['job_cpu']:.2f} |")
     return "\n".join(lines) + "\n"
+
+
+def _scaling(plates: list[dict], rows: list[dict], what: str) -> list[str]:
+    """The scaling sentence: each larger plate's time and CPU time per M px against
+    the smallest of ``rows`` (the linear baseline)."""
+    base = [p for p in rows if p["mpx"] == min(q["mpx"] for q in plates)]
+    big = [p for p in rows if p["mpx"] > min(q["mpx"] for q in plates)]
+    if not (base and big):
+        return []
+    b = base[0]
+    return ["", f"Time per M px against the {b['mpx']:g} M px plate {what} "
+            f"({b['seconds'] / b['mpx']:.2f} s and {b['cpu'] / b['mpx']:.2f} CPU s per M px, the linear baseline): "
+            + ", ".join(f"{p['mpx']:g} M px {(p['seconds'] / p['mpx']) / (b['seconds'] / b['mpx']):.2f} x in time, "
+                        f"{(p['cpu'] / p['mpx']) / (b['cpu'] / b['mpx']):.2f} x in CPU time" for p in big)
+            + ". CPU time (user + system, this process) is the steadier measure on a shared machine."]
 
 
 def readme_block(plates: list[dict], batches: list[dict]) -> str:
@@ -203,6 +219,9 @@ def main() -> None:
     ap.add_argument("--limited-mpx", type=float, nargs="*", default=[1, 9],
                     help="plates also made limited for standing upright (build_dir), M px; in tiles "
                          "(the smallest at --baseline-memory)")
+    ap.add_argument("--lean-mpx", type=float, nargs="*", default=[1, 100],
+                    help="plates also made lean (texcad's default tolerance, 0.02 mm), M px; the smallest also "
+                         "at --baseline-memory (in tiles)")
     ap.add_argument("--workers", type=int, nargs="*", default=[1, 2, 4])
     ap.add_argument("--parts", type=int, default=8)
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent.parent / "docs" / "benchmarks" / "scale.md")
@@ -215,6 +234,10 @@ def main() -> None:
         runs.append((mpx, "texture", args.max_memory))
         if mpx == min(args.mpx) and args.baseline_memory:
             runs.append((mpx, "texture", args.baseline_memory))
+        if mpx in args.lean_mpx:
+            runs.append((mpx, "lean", args.max_memory))
+            if mpx == min(args.mpx) and args.baseline_memory:
+                runs.append((mpx, "lean", args.baseline_memory))
         if mpx <= args.tiled_max_mpx:
             runs.append((mpx, "tiled", args.max_memory))
         if mpx in args.limited_mpx:
