@@ -199,9 +199,6 @@ def test_faces_not_made_in_tiles_are_refused_naming_a_pitch(monkeypatch):
         m.setattr(plane, "texture_bytes", lambda pixels, tolerance: pixels * 1e12)
         with pytest.raises(texcad.ResourceError, match=r"part material over it .* not made in tiles; use pitch >= [0-9.e+]+ mm"):
             texcad.texture(part, _top(part, 2.5), "builtin:stones", **KW)
-        box = Box(40, 30, 5)
-        with pytest.raises(texcad.ResourceError, match=r"build_dir \(the overhang limiter\) is not made in tiles; use pitch"):
-            texcad.texture(box, _top(box, 2.5), "builtin:stones", build_dir=(0, 1, 0), **KW)
 
 
 def test_a_large_planar_face_passes_the_memory_estimate():
@@ -217,7 +214,8 @@ def test_a_large_planar_face_passes_the_memory_estimate():
     with memory_limit(rss + (1 << 30)):  # 1 GiB for the job, whatever this test process already holds
         require_faces_memory(part, top, "builtin:stones", Options.make(pitch=0.1))
         with pytest.raises(texcad.ResourceError, match=r"use a pitch of at least [0-9.]+ mm"):
-            require_faces_memory(part, top, "builtin:stones", Options.make(pitch=0.1, build_dir=(0, 0, 1)))
+            require_faces_memory(part, top, "builtin:stones", Options.make(pitch=0.1, mode="engraved"))
+        require_faces_memory(part, top, "builtin:stones", Options.make(pitch=0.1, build_dir=(0, 1, 1)))  # limited in tiles
 
 
 def test_a_face_that_does_not_fit_untiled_is_made_in_tiles_under_an_address_space_limit(tmp_path):
@@ -268,3 +266,54 @@ def test_texcad_texture_makes_a_step_face_in_tiles(tmp_path, monkeypatch, capsys
     assert "watertight True" in out and "max error    0.0000 mm" in out
     meshes = [texcad.io.read_mesh(p) for p in outs]
     assert all(mm.is_watertight for mm in meshes) and np.isclose(meshes[0].volume, meshes[1].volume, rtol=2e-5)
+
+
+LIMITED = {
+    "box top with a hole, lying on its side": (_holed, lambda p: _top(p, 2.5), (120, "-x"), {}),
+    "tilted side, rotated texture, oblique": (lambda: Rot(10, 20, 30) * Box(40, 30, 5), lambda p: p.faces().sort_by(Axis.X)[-1],
+                                              80.0, dict(rotation=15)),
+    "box top with a mask, upright": (lambda: Box(30, 20, 5), lambda p: _top(p, 2.5), (90, "+y"),
+                                     dict(mask=np.clip(np.mgrid[0:50, 0:80][1] / 79.0, 0, 1))),
+}
+
+
+@pytest.mark.parametrize("case", list(LIMITED))
+def test_tiled_face_limited_for_a_build_direction_equals_the_untiled_one(case, monkeypatch, tmp_path):
+    """build_dir on a face made in tiles: the ramped heights limited block by block
+    are the untiled limited heights, bit for bit (so are the report's figures), the
+    texture's vertices and triangles above the face are the untiled ones, the volume
+    agrees, the gate passes tile by tile and the part overhangs no more than the
+    untiled one."""
+    from texcad.printability import orientation, overhang_area
+
+    make, pick, how, kw = LIMITED[case]
+    part = make()
+    face = pick(part)
+    if isinstance(how, float):  # tilted by that many degrees from the face's normal, obliquely to its edges
+        n = np.array(tuple(face.normal_at()))
+        e = face.edges()[0]
+        u = np.array(tuple(e.end_point() - e.start_point()))
+        u = u / np.linalg.norm(u) + 0.5 * np.cross(n, u / np.linalg.norm(u))
+        u /= np.linalg.norm(u)
+        d = np.cos(np.radians(how)) * n + np.sin(np.radians(how)) * u
+    else:
+        d = orientation(*how)
+    untiled = texcad.texture(part, face, "builtin:stones", build_dir=d, **dict(KW, **kw))
+    tx = _tiled(monkeypatch, part, face, tile=40, build_dir=d, **kw)
+    assert tx.info["fuse"] == "tiled" and tx.info["tiles"] > 2 and tx.info["build_dir"] == untiled.info["build_dir"]
+    lim = tx.stages.relief.data.limited
+    assert max(lim.limit.plan.halo) > 0 and lim.shape == untiled.heightmap.shape
+    h = lim.heights(slice(0, lim.shape[0]), slice(0, lim.shape[1]))
+    assert np.array_equal(h, untiled.heightmap.heights)
+    assert tx.limits.removed_volume_mm3 > 0.01 and tx.limits.removed_volume_mm3 == untiled.limits.removed_volume_mm3
+    assert tx.limits.ramped_borders == untiled.limits.ramped_borders and tx.limits.iterations == untiled.limits.iterations
+    whole = tx.mesh.to_mesh()
+    assert _texture_vertices(tx, whole) == _texture_vertices(tx, untiled.mesh)
+    a, b = _triangles_above(tx, whole, untiled.mesh)
+    assert len(a) > 1000 and np.array_equal(a, b)
+    assert np.isclose(tx.volume, untiled.volume, rtol=1e-6, atol=0) and whole.is_watertight
+    g = tx.gate
+    assert g.shells.manifold and abs(g.volume_change - g.expected_volume) <= g.volume_slack
+    assert overhang_area(whole, d) <= overhang_area(untiled.mesh, d) * (1 + 1e-7) + 1e-6  # the part's own faces: to float rounding
+    tx.export(tmp_path / "t.stl")
+    assert (tmp_path / "t.stl").stat().st_size == 84 + 50 * tx.mesh.num_triangles

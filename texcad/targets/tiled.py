@@ -260,15 +260,16 @@ class LimitedSource:
         shape: ``(R, C)`` pixels; pitch: ``(px, py)`` mm (the source's).
         limit: the :class:`texcad.printability.overhang.TiledLimit` (its report, the limited
             integral, the highest limited height).
-        nominal: ``(volume, slack)`` mm^3 of the heights before the limiter.
+        nominal: ``(volume, slack)`` mm^3 of the heights before the limiter (the
+            source's ``integral()``, or as given).
     """
 
     def __init__(self, source: Any, build_dir: Any, critical_angle: float, block: int, *,
-                 cache_dir: "Path | None" = None, progress: Progress = None) -> None:
+                 cache_dir: "Path | None" = None, progress: Progress = None, nominal: "tuple | None" = None) -> None:
         from ..printability.overhang import limit_overhangs_tiled
 
         self.shape, self.pitch = tuple(source.shape), tuple(source.pitch)
-        self.nominal = source.integral()
+        self.nominal = source.integral() if nominal is None else tuple(nominal)
         r, c = self.shape
         self._file = tempfile.NamedTemporaryFile(prefix=".texcad-", suffix=".limited", dir=cache_dir)
         self._file.truncate(4 * r * c)

@@ -205,20 +205,44 @@ def _ramped(grid: FaceGrid, h: np.ndarray, rows: slice, cols: slice, mask_scale:
     return np.where(mask, np.maximum(h, np.minimum(grid.floor, ramp)), 0.0).astype(np.float32)
 
 
-def tile_heights(grid: FaceGrid, source: Any, t: Tile, mask_scale: Any = None) -> TileHeights:
-    """Tile ``t``'s :class:`TileHeights`: its block grown by the halo, ramped, cut back
-    to the tile (one node around it kept to tell its used and rim nodes)."""
+def ramped_block(grid: FaceGrid, source: Any, rows: slice, cols: slice, mask_scale: Any = None) -> np.ndarray:
+    """The ramped heights (float32 mm, the untiled ``h`` before the overhang limiter)
+    of node rows ``rows`` and columns ``cols`` (within the grid): the block grown by
+    the halo, ramped (M-I, :func:`tile_halo`), cut back."""
     nr, nc = grid.shape
     hh = grid.halo
-    rows = slice(max(t.i0 - hh, 0), min(t.i1 + hh + 1, nr))
-    cols = slice(max(t.j0 - hh, 0), min(t.j1 + hh + 1, nc))
-    h = _ramped(grid, _texture_block(grid, source, rows, cols), rows, cols, mask_scale)
+    wr = slice(max(rows.start - hh, 0), min(rows.stop + hh, nr))
+    wc = slice(max(cols.start - hh, 0), min(cols.stop + hh, nc))
+    h = _ramped(grid, _texture_block(grid, source, wr, wc), wr, wc, mask_scale)
+    return h[rows.start - wr.start : rows.stop - wr.start, cols.start - wc.start : cols.stop - wc.start]
+
+
+class RampedSource:
+    """A face grid's ramped heights as a source (``shape``, ``pitch``,
+    ``heights(rows, cols)`` float32 mm: :func:`ramped_block`), for the overhang
+    limiter in blocks (:class:`texcad.targets.tiled.LimitedSource`)."""
+
+    def __init__(self, grid: FaceGrid, source: Any, mask_scale: Any = None) -> None:
+        self.grid, self.source, self.mask_scale = grid, source, mask_scale
+        self.shape, self.pitch = tuple(grid.shape), tuple(grid.pitch)
+
+    def heights(self, rows: slice, cols: slice) -> np.ndarray:
+        return ramped_block(self.grid, self.source, rows, cols, self.mask_scale)
+
+
+def tile_heights(grid: FaceGrid, source: Any, t: Tile, mask_scale: Any = None, limited: Any = None) -> TileHeights:
+    """Tile ``t``'s :class:`TileHeights`: its block grown by the halo, ramped, cut back
+    to the tile (one node around it kept to tell its used and rim nodes); or, with
+    ``limited`` (the grid's heights after the overhang limiter, ``heights(rows,
+    cols)`` mm), read from there."""
+    nr, nc = grid.shape
+    rows = slice(max(t.i0 - 1, 0), min(t.i1 + 2, nr))
+    cols = slice(max(t.j0 - 1, 0), min(t.j1 + 2, nc))
+    h = ramped_block(grid, source, rows, cols, mask_scale) if limited is None else limited.heights(rows, cols)
     # the tile and one node around it (padded with 0 mm off the grid)
-    a, b = t.i0 - 1 - rows.start, t.i1 + 2 - rows.start
-    c, d = t.j0 - 1 - cols.start, t.j1 + 2 - cols.start
     ring = np.zeros((t.shape[0] + 2, t.shape[1] + 2), np.float32)
-    ring[max(-a, 0) : ring.shape[0] - max(b - h.shape[0], 0), max(-c, 0) : ring.shape[1] - max(d - h.shape[1], 0)] = \
-        h[max(a, 0) : min(b, h.shape[0]), max(c, 0) : min(d, h.shape[1])]
+    a, c = rows.start - (t.i0 - 1), cols.start - (t.j0 - 1)
+    ring[a : a + h.shape[0], c : c + h.shape[1]] = h
     up = ring > 0
     cell = up[:-1, :-1] | up[:-1, 1:] | up[1:, :-1] | up[1:, 1:]  # (r + 1, c + 1): cells around and in the tile
     used = cell[:-1, :-1] | cell[:-1, 1:] | cell[1:, :-1] | cell[1:, 1:]
@@ -284,6 +308,9 @@ class FaceTiles:
         face_tris: ``(M,)`` bool, the base triangles of the textured face.
         mask: the ``mask`` option and its ``mask_size`` mm, or None.
         reach: mm, the largest distance a vertex may have from the face.
+        limited: with ``build_dir``, the grid's ramped heights after the overhang
+            limiter (a :class:`texcad.targets.tiled.LimitedSource` over the node
+            grid: ``heights(rows, cols)`` mm, its report in ``limit.report``), else None.
     """
 
     grid: FaceGrid
@@ -292,6 +319,7 @@ class FaceTiles:
     face_tris: np.ndarray
     mask: Any
     reach: float
+    limited: Any = None
 
 
 class _MaskScale:
@@ -347,7 +375,7 @@ class TiledFaceMesh(TiledMesh):
         rim = []
         total = grid.count
         for k, t in enumerate(grid.tiles()):  # per tile, in order
-            th = tile_heights(grid, self.tiles.source, t, self._scale)
+            th = tile_heights(grid, self.tiles.source, t, self._scale, self.tiles.limited)
             ids = numbering.ids(t, th.used)
             keep = ids.ravel() >= 0
             local = np.full(ids.size, -1, np.int64)
@@ -494,10 +522,16 @@ def _check_ring(xy: np.ndarray, tri: np.ndarray, outline: list, holes: list) -> 
         )
 
 
-def face_tiles(fr: Any, base: Any, face_tris: np.ndarray, source: Any, options: Any, *, side: int, floor: float) -> FaceTiles:
+def face_tiles(fr: Any, base: Any, face_tris: np.ndarray, source: Any, options: Any, *, side: int, floor: float,
+               progress: Progress = None) -> FaceTiles:
     """The :class:`FaceTiles` of a planar face ``fr`` (the plane adapter's frame) with
     the texture's ``source`` (its pixels centred on the face, ``offset`` added), ``side``
-    nodes per tile side and ``floor`` mm the least height inside the ramps."""
+    nodes per tile side and ``floor`` mm the least height inside the ramps. With
+    ``options.directions`` (``build_dir``) the ramped heights are limited block by
+    block (:class:`texcad.targets.tiled.LimitedSource`: each block from the block
+    grown by the limiter's halo, :func:`texcad.printability.overhang.limit_overhangs_tiled`,
+    the directions turned into the face frame as the untiled adapter does): the
+    untiled limited heights, bit for bit; ``progress`` is told of its blocks."""
     from ..brep import sample_segments
 
     px, py = (float(p) for p in source.pitch)
@@ -525,7 +559,14 @@ def face_tiles(fr: Any, base: Any, face_tris: np.ndarray, source: Any, options: 
     if options.mask is not None:
         size = options.mask_size if options.mask_size is not None else tuple(float(t) for t in fr.hi - fr.lo)
         mask = (options.mask, size)
-    return FaceTiles(grid, source, base, face_tris, mask, top + 1e-3)
+    limited = None
+    if options.directions is not None:
+        from .tiled import LimitedSource
+
+        ramped = RampedSource(grid, source, None if mask is None else _MaskScale(*mask))
+        limited = LimitedSource(ramped, np.asarray(options.directions) @ np.asarray(fr.axes).T, options.critical_angle, side,
+                                progress=progress, nominal=source.integral())
+    return FaceTiles(grid, source, base, face_tris, mask, top + 1e-3, limited)
 
 
 def material_over(base_local: Any, face_tris: np.ndarray, top: float, inset: float) -> bool:
