@@ -250,7 +250,10 @@ def lean_plate_tile(grid: PlateGrid, t: Tile, vertices: np.ndarray, tolerance: f
         if accept is not None:
             here = lambda rc, f: accept(v[rc[:, 0], rc[:, 1]].astype(np.float64), f)  # noqa: E731
         share = max_fraction + (a + b) / ((a - 1) * (b - 1))
-        rc, f, error = lean_tile(v[..., 2], tolerance, accept=here, max_fraction=share)
+        if accept is None:
+            rc, f, error = lean_tile(v[..., 2], tolerance, max_fraction=share)
+        else:  # in blocks of TILE px (as the untiled lean slab): a facet that fails makes only its block finer
+            rc, f, error = _checked_lean(v[..., 2], tolerance, here, share)
         sub = node[nrs, ncs]
         faces.append(sub[rc[:, 0], rc[:, 1]][f])
         keep[nrs.start + 1 : nrs.stop - 1, ncs.start + 1 : ncs.stop - 1] = False
@@ -263,6 +266,23 @@ def lean_plate_tile(grid: PlateGrid, t: Tile, vertices: np.ndarray, tolerance: f
     tri[1::2, 0], tri[1::2, 1], tri[1::2, 2] = p, p + c + 1, p + c
     faces.insert(0, tri)
     return LeanTile(keep, np.concatenate(faces).astype(np.int64), float(error))
+
+
+def _checked_lean(z: np.ndarray, tolerance: float, accept, share: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(rc, faces, error)`` of a texture block made lean in blocks of
+    :data:`texcad.solid.lean.TILE` px, each checked by ``accept``
+    (:func:`texcad.solid.lean.tiled_triangulation`); the grid where that keeps more
+    than ``share`` of the grid's triangles."""
+    from .grid import grid_faces
+    from .lean import surface_error, tiled_triangulation
+
+    lean = tiled_triangulation(z, tolerance, accept=accept, max_fraction=share)
+    if lean is None:
+        r, c = z.shape
+        g = np.stack(np.meshgrid(np.arange(r), np.arange(c), indexing="ij"), -1).reshape(-1, 2)
+        return g, grid_faces(r, c).astype(np.int64), 0.0
+    rc, f = lean[0], lean[1].astype(np.int64)
+    return rc, f, surface_error(z, rc, z[rc[:, 0], rc[:, 1]], f)
 
 
 def _fan(a: int, b: int, chain: np.ndarray) -> np.ndarray:
