@@ -10,7 +10,9 @@ there is no gap, and each is numbered once (:class:`Numbering`), so there is no
 duplicate vertex. Each tile's cells become two triangles the way
 :func:`texcad.solid.grid_faces` makes them, so the tiled top is the untiled grid,
 triangle for triangle. :func:`walls` closes the solid: four vertical walls (planar
-fans from a bottom corner) and the bottom rectangle.
+fans from a bottom corner) and the bottom rectangle. A lean tile
+(:func:`lean_plate_tile`) keeps its border nodes and the nodes its triangulation
+needs; :class:`Numbering` then numbers only those.
 
 Plain numpy; memory goes with one tile, plus ``O(R + C)`` numbers for the seams.
 """

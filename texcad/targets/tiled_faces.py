@@ -40,10 +40,14 @@ the triangles that touch the face at the texture's foot and the flat face around
 them are triangulated differently (the untiled union re-triangulates them; the
 surface is the same), so the volumes agree to float rounding (1e-6 relative, tested).
 A tiled face keeps every pixel centre (its error is 0, within any ``tolerance``: the
-lean mesh is not made in tiles). Not tiled (refused, naming a pitch that fits):
-``build_dir`` (the overhang limiter), faces with part material over them within the
-texture's height (material standing on the outline, a boss or a step, is fine) and
-more than :data:`texcad.targets.budget.TILED_PIXELS` pixels.
+lean mesh is made in tiles for plates only). With ``build_dir`` the ramped heights
+(:class:`RampedSource`) are limited block by block, each block from the block grown
+by the limiter's halo (:class:`texcad.targets.tiled.LimitedSource`,
+:func:`texcad.printability.overhang.limit_overhangs_tiled`), into a temporary file (4
+bytes a node) that the tiles read: the untiled limited heights, bit for bit
+(tested). Not tiled (refused, naming a pitch that fits): faces with part material over
+them within the texture's height (material standing on the outline, a boss or a
+step, is fine) and more than :data:`texcad.targets.budget.TILED_PIXELS` pixels.
 """
 
 from __future__ import annotations
@@ -59,7 +63,7 @@ from ..solid.tiles import PlateGrid, Tile, block_volume
 from ..util import Progress, report
 from .tiled import TiledMesh, _at, tiles_verdict
 
-__all__ = ["FaceGrid", "TiledFaceMesh", "TileCells", "face_tiles", "gate_faces", "tile_halo", "material_over", "open_edges"]
+__all__ = ["FaceGrid", "TiledFaceMesh", "TileCells", "face_tiles", "gate_faces", "tile_halo", "material_over", "open_edges", "RampedSource", "ramped_block"]
 
 
 @dataclass(frozen=True)
