@@ -140,7 +140,7 @@ def test_tiles_on_a_dask_cluster_give_the_same_bytes(tmp_path):
                                     tile=10, client=client, tolerance=0.05)
     assert there.tiles == here.tiles > 4 and there.volume == here.volume
     assert (tmp_path / "here.3mf").read_bytes() == (tmp_path / "there.3mf").read_bytes()
-    # lean tiles (made here from the cluster's vertices): the same bytes too
+    # lean tiles (triangulated on the workers): the same bytes too
     textured_plate_tiled(SIZE, THICK, "builtin:stones", PITCH, height=HEIGHT, out=tmp_path / "lean-here.3mf", tile=10,
                          tolerance=0.05)
     assert lean.triangles < here.triangles

@@ -243,6 +243,16 @@ def _tile_vertices(source: Any, grid: Any, t: Any) -> np.ndarray:
     return grid.vertices(t, source.heights(rows, cols))
 
 
+def _lean_tile_block(source: Any, grid: Any, t: Any, tolerance: float = 0.0, check: Any = None) -> tuple:
+    """One lean tile (in a Dask worker or here): its ``(r c, 3)`` float32 vertices and
+    its :class:`texcad.solid.tiles.LeanTile` within ``tolerance`` mm."""
+    from ..solid.lean import MAX_FRACTION
+    from ..solid.tiles import lean_plate_tile
+
+    v = _tile_vertices(source, grid, t)
+    return v, lean_plate_tile(grid, t, v, tolerance, accept=check, max_fraction=MAX_FRACTION)
+
+
 class _HeightmapSource:
     """A heightmap (or an image, loaded whole) read block by block."""
 
@@ -644,13 +654,14 @@ class TiledMesh:
     def _lean_blocks(self, numbering: Any, progress: Progress) -> Any:
         """:meth:`blocks` with lean tiles: each tile's kept nodes only (numbered on, the
         border's numbers shared), its lean triangles; keeps the counts and the error."""
-        from ..solid.lean import MAX_FRACTION
-        from ..solid.tiles import lean_plate_tile, walls
+        from functools import partial
+
+        from ..solid.tiles import walls
 
         grid, total = self.grid, self.grid.count
         error, triangles = 0.0, 0
-        for k, (t, v) in enumerate(_tile_vertex_blocks(grid, self.source, self.client)):  # per tile, in order
-            lt = lean_plate_tile(grid, t, v, self.tolerance, accept=self.check, max_fraction=MAX_FRACTION)
+        make = partial(_lean_tile_block, tolerance=self.tolerance, check=self.check)
+        for k, (t, (v, lt)) in enumerate(_tile_vertex_blocks(grid, self.source, self.client, make)):  # per tile, in order
             keep = lt.keep.ravel()
             ids = numbering.ids(t, lt.keep).ravel()[keep]
             local = np.cumsum(keep) - 1
@@ -945,12 +956,13 @@ def tiles_verdict(what: str, shells: Any, change: Any, expected: Any, slack: Any
     return GateReport(shells, change, expected, slack, farthest, height)
 
 
-def _tile_vertex_blocks(grid: Any, source: Any, client: Any):
-    """``(tile, vertices)`` in :meth:`PlateGrid.tiles` order: made here, or on the
-    cluster's workers with at most two tiles per worker in flight."""
+def _tile_vertex_blocks(grid: Any, source: Any, client: Any, make: Any = _tile_vertices):
+    """``(tile, make(source, grid, tile))`` in :meth:`PlateGrid.tiles` order (default:
+    the tile's vertices; lean tiles: their vertices and triangulation): made here, or
+    on the cluster's workers with at most two tiles per worker in flight."""
     if client is None:
         for t in grid.tiles():  # per tile
-            yield t, _tile_vertices(source, grid, t)
+            yield t, make(source, grid, t)
         return
     from collections import deque
 
@@ -958,7 +970,7 @@ def _tile_vertex_blocks(grid: Any, source: Any, client: Any):
     [src] = client.scatter([source], broadcast=True)
     pending: deque = deque()
     for t in grid.tiles():  # per tile: keep `ahead` in flight, hand them over in order
-        pending.append((t, client.submit(_tile_vertices, src, grid, t, pure=False, retries=1)))
+        pending.append((t, client.submit(make, src, grid, t, pure=False, retries=1)))
         if len(pending) >= ahead:
             t0, fut = pending.popleft()
             yield t0, fut.result()
