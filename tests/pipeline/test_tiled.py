@@ -637,6 +637,13 @@ def test_lean_tiles_keep_the_untiled_error_bound_across_their_borders(tmp_path, 
     grid = textured_plate_tiled(SIZE, THICK, "builtin:stones", LEAN_PITCH, height=HEIGHT, out=tmp_path / "g.stl", tile=tile)
     (rows, cols), (px, py) = hm.shape, hm.pitch
     assert abs(r.volume - grid.volume) <= TOL * rows * cols * px * py
+    # against the texture's integral: the plate, the heights' integral, the rim wedge (documented) and tolerance x area
+    from texcad.solid.mesh import heightfield_volume
+
+    w, d = SIZE
+    rim = 2 * (w + d) * (max(w - hm.size[0], d - hm.size[1]) / 2 + max(px, py) / 2) * HEIGHT / 2
+    change = r.volume - w * d * THICK - heightfield_volume(hm.heights, hm.pitch)[0]
+    assert -TOL * rows * cols * px * py <= change <= rim + TOL * rows * cols * px * py, change
     assert r.triangles <= 1.3 * untiled_lean.mesh.num_triangles and r.triangles < 0.6 * grid.triangles
     # the STL: the same triangles, each corner one of the 3MF's vertices
     s = textured_plate_tiled(SIZE, THICK, "builtin:stones", LEAN_PITCH, height=HEIGHT, out=tmp_path / "t.stl", tile=tile,
