@@ -218,10 +218,13 @@ def test_a_large_planar_face_passes_the_memory_estimate():
         require_faces_memory(part, top, "builtin:stones", Options.make(pitch=0.1, build_dir=(0, 1, 1)))  # limited in tiles
 
 
-def test_a_face_that_does_not_fit_untiled_is_made_in_tiles_under_an_address_space_limit(tmp_path):
+@pytest.mark.parametrize("build_dir", [None, (0.0, 1.0, 0.0)])
+def test_a_face_that_does_not_fit_untiled_is_made_in_tiles_under_an_address_space_limit(tmp_path, build_dir):
     """A 150 mm box top with a hole at 0.125 mm (1.45 M px: about 1.9 GB untiled)
     through texcad.texture under max_memory 600 MB and an address-space limit
-    (RLIMIT_AS) of 600 MB over the process's size: made in tiles, gated, streamed."""
+    (RLIMIT_AS) of 600 MB over the process's size: made in tiles, gated, streamed;
+    limited block by block for a build direction (the part standing upright), nothing
+    left to overhang."""
     out = tmp_path / "big.stl"
     script = textwrap.dedent(f"""
         import resource
@@ -235,17 +238,20 @@ def test_a_face_that_does_not_fit_untiled_is_made_in_tiles_under_an_address_spac
         limit = vm("VmSize:") + (600 << 20)
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
         part = Box(150, 150, 4) - Pos(37.5, 0, 0) * Cylinder(15, 10)
-        tx = texcad.texture(part, part.faces().sort_by(Axis.Z)[-1], "builtin:stones", pitch=0.125, max_memory=600 << 20)
+        tx = texcad.texture(part, part.faces().sort_by(Axis.Z)[-1], "builtin:stones", pitch=0.125, max_memory=600 << 20,
+                            build_dir={build_dir!r})
         tx.export({str(out)!r})
         g = tx.gate
+        lim = tx.limits
         print(tx.info["fuse"], tx.info["tiles"], tx.info["grid"][0] * tx.info["grid"][1], tx.mesh.num_triangles,
-              g.shells.closed, abs(g.volume_change - g.expected_volume) <= g.volume_slack, vm("VmPeak:") <= limit)
+              g.shells.closed, abs(g.volume_change - g.expected_volume) <= g.volume_slack, vm("VmPeak:") <= limit,
+              lim is None or (lim.removed_volume_mm3 > 10 and lim.remaining_overhang_mm2 == 0.0))
     """)
     res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr[-2000:]
-    how, tiles, px, tris, closed, volume_ok, under = res.stdout.split()
+    how, tiles, px, tris, closed, volume_ok, under, limited = res.stdout.split()
     assert how == "tiled" and int(tiles) > 1 and int(px) > 1200 * 1200
-    assert closed == volume_ok == under == "True"
+    assert closed == volume_ok == under == limited == "True"
     assert out.stat().st_size == 84 + 50 * int(tris)
 
 
