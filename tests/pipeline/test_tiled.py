@@ -599,7 +599,7 @@ def untiled_lean():
     return textured_plate("builtin:stones", size=SIZE, thickness=THICK, height=HEIGHT, pitch=LEAN_PITCH, tolerance=TOL)
 
 
-def _texture_error(mesh, hm) -> float:
+def _texture_error(mesh, hm, size=SIZE) -> float:
     """The largest height error (mm) at every pixel centre of ``hm`` of the plate's
     triangles whose corners are all pixel centres (the texture; the rim's cells and
     the walls are not): surface_error also checks that they cover every pixel."""
@@ -607,7 +607,7 @@ def _texture_error(mesh, hm) -> float:
 
     v, f = mesh.vertices.astype(np.float64), mesh.faces.astype(np.int64)
     (r, c), (px, py) = hm.shape, hm.pitch
-    ox, oy = (SIZE[0] - c * px) / 2, (SIZE[1] - r * py) / 2
+    ox, oy = (size[0] - c * px) / 2, (size[1] - r * py) / 2
     col, row = (v[:, 0] - ox) / px - 0.5, (v[:, 1] - oy) / py - 0.5
     ci, ri = np.rint(col).astype(np.int64), np.rint(row).astype(np.int64)
     on = (np.abs(col - ci) < 1e-3) & (np.abs(row - ri) < 1e-3) & (ci >= 0) & (ci < c) & (ri >= 0) & (ri < r) & (v[:, 2] > -1e-6)
@@ -740,3 +740,33 @@ def test_lean_plate_that_does_not_fit_untiled_under_an_address_space_limit(tmp_p
     px, tiles, tris, *flags = res.stdout.split()
     assert int(px) == 1200 * 1200 and int(tiles) > 1 and flags == ["True"] * 3, res.stdout
     assert int(tris) < 0.5 * 2 * 1202 * 1202 and out.stat().st_size == 84 + 50 * int(tris)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_lean_and_grid_tiles_meet_on_random_heightmaps(tmp_path, seed):
+    """Random heightmaps (smooth hills with a noisy patch, so that some tiles stay the
+    grid and others are lean), random tile sizes and tolerances: closed, each vertex
+    once, within the tolerance at every pixel centre across every seam."""
+    rng = np.random.default_rng(seed)
+    r, c = int(rng.integers(40, 90)), int(rng.integers(40, 90))
+    y, x = np.mgrid[0:r, 0:c] / 10.0
+    h = 0.5 + 0.4 * np.sin(x * rng.uniform(0.5, 2)) * np.cos(y * rng.uniform(0.5, 2))
+    a, b = int(rng.integers(0, r // 2)), int(rng.integers(0, c // 2))
+    h[a : a + r // 3, b : b + c // 3] += rng.uniform(0, 0.3, (len(h[a : a + r // 3]), len(h[0, b : b + c // 3])))
+    hm = texcad.Heightmap(h.astype(np.float32), (0.25, 0.25))
+    size = (c * 0.25 + 1.0, r * 0.25 + 0.5)
+    tol, tile = float(rng.uniform(0.01, 0.05)), int(rng.integers(12, 45))
+    res = textured_plate_tiled(size, 3.0, hm, out=tmp_path / "t.stl", tile=tile, tolerance=tol)
+    corners, inv = np.unique(_triangles(tmp_path / "t.stl").reshape(-1, 3), axis=0, return_inverse=True)
+    m = texcad.Mesh(corners, inv.reshape(-1, 3).astype(np.uint32))
+    assert m.is_watertight and len(corners) == res.vertices and res.tiles > 1
+    err = _texture_error(m, hm, size)
+    assert err <= tol and np.isclose(err, res.max_error, rtol=1e-6)
+    from texcad.pipeline.tiled import TiledMesh, plate_source
+    from texcad.solid.tiles import PlateGrid
+
+    src, side = plate_source(hm, size, 0.25, None, tile=tile)
+    mesh = TiledMesh(PlateGrid(size, src.shape, src.pitch, side), src, 3.0, tolerance=tol)
+    grid_tiles = [len(v) == t.shape[0] * t.shape[1] for t, v, _, _ in mesh.blocks() if t is not None]
+    assert 0 < sum(grid_tiles) < len(grid_tiles)  # lean tiles beside grid tiles
+    assert res.triangles < 2 * (r + 1) * (c + 1) + 2 * (r + c) + 10  # leaner than the grid
