@@ -34,7 +34,7 @@ def _tiled(monkeypatch, part, face, tile=40, **kw):
     switch is what is tested) and tiles of ``tile`` nodes."""
     with monkeypatch.context() as m:
         m.setattr(plane, "texture_bytes", lambda pixels, tolerance: 1e18)
-        m.setattr(tiled, "tile_for_memory", lambda bound, nodes: tile)
+        m.setattr(tiled, "tile_for_memory", lambda bound, nodes, **kw: tile)
         return texcad.texture(part, face, "builtin:stones", **dict(KW, **kw))
 
 
@@ -141,7 +141,7 @@ def test_tiled_face_with_a_heightmap_has_the_untiled_texture(monkeypatch):
     untiled = texcad.texture(part, face, hm, tolerance=0)
     with monkeypatch.context() as m:
         m.setattr(plane, "texture_bytes", lambda pixels, tolerance: 1e18)
-        m.setattr(tiled, "tile_for_memory", lambda bound, nodes: 33)
+        m.setattr(tiled, "tile_for_memory", lambda bound, nodes, **kw: 33)
         tx = texcad.texture(part, face, hm, tolerance=0)
     whole = tx.mesh.to_mesh()
     assert whole.is_watertight and tx.info["tiles"] > 4
@@ -256,7 +256,8 @@ def test_a_face_that_does_not_fit_untiled_is_made_in_tiles_under_an_address_spac
 
 
 def test_texcad_texture_makes_a_step_face_in_tiles(tmp_path, monkeypatch, capsys):
-    """The CLI on a STEP part: the face made in tiles, its summary, STL and 3MF written."""
+    """The CLI on a STEP part: the face made in tiles (lean: the CLI gives its default
+    tolerance), its summary, STL and 3MF written."""
     from build123d import export_step
 
     from texcad.cli import main
@@ -266,10 +267,12 @@ def test_texcad_texture_makes_a_step_face_in_tiles(tmp_path, monkeypatch, capsys
     outs = [tmp_path / "p.stl", tmp_path / "p.3mf"]
     with monkeypatch.context() as m:
         m.setattr(plane, "texture_bytes", lambda pixels, tolerance: 1e18)
-        m.setattr(tiled, "tile_for_memory", lambda bound, nodes: 64)
+        m.setattr(tiled, "tile_for_memory", lambda bound, nodes, **kw: 64)
         assert main(["texture", str(step), "--face", "top", "--pitch", "0.25", "-o", str(outs[0]), "-o", str(outs[1])]) == 0
     out = capsys.readouterr().out
-    assert "watertight True" in out and "max error    0.0000 mm" in out
+    # the CLI's default tolerance (0.02 mm) is given: lean tiles, within it
+    err = float(out.split("max error")[1].split()[0])
+    assert "watertight True" in out and 0 < err <= 0.02 and "(tolerance 0.02 mm)" in out
     meshes = [texcad.io.read_mesh(p) for p in outs]
     assert all(mm.is_watertight for mm in meshes) and np.isclose(meshes[0].volume, meshes[1].volume, rtol=2e-5)
 
@@ -323,3 +326,61 @@ def test_tiled_face_limited_for_a_build_direction_equals_the_untiled_one(case, m
     assert overhang_area(whole, d) <= overhang_area(untiled.mesh, d) * (1 + 1e-7) + 1e-6  # the part's own faces: to float rounding
     tx.export(tmp_path / "t.stl")
     assert (tmp_path / "t.stl").stat().st_size == 84 + 50 * tx.mesh.num_triangles
+
+
+@pytest.mark.parametrize("case", ["box top with two holes", "L-shaped bottom face"])
+def test_lean_tiles_on_a_face(case, monkeypatch):
+    """A tolerance given on a face made in tiles: blocks wholly inside the textured
+    region are lean (their borders whole), the rest stays cells. Closed, each vertex
+    once, gated; within the tolerance at every node against the heights of the tiles
+    made without a tolerance (the untiled heights, tested above), tile by tile; fewer
+    triangles than those; the volume within tolerance x area of theirs and of
+    the untiled lean face's."""
+    from texcad.solid.lean import surface_error
+    from texcad.targets.tiled_faces import TileCells, _cell_faces
+
+    tol = 0.02
+    make, pick, kw = CASES[case]
+    part = make()
+    face = pick(part)
+    grid = _tiled(monkeypatch, part, face, tile=40, **kw)
+    tx = _tiled(monkeypatch, part, face, tile=40, **dict(kw, tolerance=tol))
+    untiled = texcad.texture(part, face, "builtin:stones", **dict(KW, **dict(kw, tolerance=tol)))
+    assert tx.info["tolerance"] == tol and 0 < tx.max_error <= tol and grid.max_error == 0.0
+    g = tx.gate
+    assert g.shells.closed and abs(g.volume_change - g.expected_volume) <= g.volume_slack
+    whole = tx.mesh.to_mesh()
+    assert whole.is_watertight and len(np.unique(whole.vertices, axis=0)) == len(whole.vertices) == tx.mesh.num_vertices
+    assert tx.mesh.num_triangles < 0.8 * grid.mesh.num_triangles  # small faces at 0.25 mm: the edge bands stay cells
+    assert abs(tx.volume - grid.volume) <= tol * face.area and abs(tx.volume - untiled.volume) <= 2 * tol * face.area
+    fg, lean = grid.mesh.grid, 0
+    for (t, v, f, _), (t2, v2, f2, _) in zip(tx.mesh.blocks(), grid.mesh.blocks()):  # per tile, the same tiles
+        if t is None or len(v) == len(v2):
+            continue
+        lean += 1
+        exact = TileCells.of(fg, t2, fg.to_local(v2), f2, "x")
+        q = fg.to_local(v)
+        i = np.rint((q[:, 1] - fg.ys(t.i0, t.i0)[0]) / fg.pitch[1]).astype(np.int64)
+        j = np.rint((q[:, 0] - fg.xs(t.j0, t.j0)[0]) / fg.pitch[0]).astype(np.int64)
+        r, c = t.shape
+        z = exact.h.ravel().copy()
+        z[i * c + j] = q[:, 2]
+        rc = np.stack(np.divmod(np.arange(r * c), c), 1)
+        filler = _cell_faces(t, ~exact.cells)  # the cells nothing textures: 0 error
+        assert surface_error(exact.h, rc, z, np.concatenate([(i * c + j)[f], filler])) <= tol + 1e-5
+    assert lean > 1
+    # the gate re-measures each lean tile: a lean vertex 0.05 mm off is caught
+    normal = np.asarray(tx.info["normal"], np.float32)
+
+    class Off(TiledFaceMesh):
+        def blocks(self, progress=None):
+            moved = False
+            for t, v, f, ids in super().blocks(progress):
+                if t is not None and not moved and self.is_lean(t):
+                    v, moved = v.copy(), True
+                    v[len(v) // 2] += np.float32(0.05) * normal
+                yield t, v, f, ids
+
+    ex = tx.stages.adapter.expectation(tx.stages.placement, tx.stages.relief, tx.stages.fused)
+    with pytest.raises(texcad.GeometryError, match="lean tiles lie up to|vertices differ"):
+        Off(tx.stages.relief.data).gate(ex)

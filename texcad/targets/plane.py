@@ -331,7 +331,8 @@ class PlaneAdapter(Adapter):
             require_memory(need, what, f"{why} is not made in tiles; use pitch >= {fitting_pitch(pitch, need):.3g} mm")
         options.report(0.1, f"{what}: made in tiles")
         source, side = plate_source(texture, size, float(options.pitch), options.height, bound=options.max_memory,
-                                    progress=lambda f, m: options.report(0.1 + 0.2 * f, m))
+                                    progress=lambda f, m: options.report(0.1 + 0.2 * f, m),
+                                    tolerance=float(options.tolerance) if "tolerance" in options.given else 0.0)
         vol, slack = source.integral()
         if not vol > 0:
             source.close()
@@ -340,7 +341,7 @@ class PlaneAdapter(Adapter):
                            progress=lambda f, m: options.report(0.3 + 0.1 * f, m))
         limits = None if tiles.limited is None else tiles.limited.limit.report
         return Relief(heightmap=None, limits=limits, volume=vol, volume_slack=slack, nominal_volume=vol,
-                      reach=tiles.reach, max_error=0.0, data=tiles)
+                      reach=tiles.reach, max_error=None if tiles.tolerance > 0 else 0.0, data=tiles)
 
     # -- fuse ---------------------------------------------------------------------------
     def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
@@ -383,7 +384,7 @@ class PlaneAdapter(Adapter):
         info = {
             "face": "plane", "origin": fr.origin.tolist(), "xdir": fr.axes[0].tolist(), "ydir": fr.axes[1].tolist(),
             "normal": fr.axes[2].tolist(), "grid": tuple(g.shape), "obstructed": False, "fuse": "tiled",
-            "tiles": g.count, "tile": int(g.tile), "tolerance": 0.0, "pitch": float(g.pitch[0]),
+            "tiles": g.count, "tile": int(g.tile), "tolerance": relief.data.tolerance, "pitch": float(g.pitch[0]),
         }
         if options.directions is not None:
             info["build_dir"], info["critical_angle"] = options.directions.tolist(), float(options.critical_angle)
@@ -408,6 +409,8 @@ class PlaneAdapter(Adapter):
         return self._world(f.stitched or welded_mesh(to_manifold(f.local) - to_manifold(fr.base_local)), fr)
 
     def max_error(self, stages: Stages) -> float:
+        if not isinstance(stages.relief.data, PlaneRelief):  # made in tiles: the lean tiles' measured error
+            return stages.fused.mesh.max_error
         r: PlaneRelief = stages.relief.data
         s = r.slab
         return mesh_error(r.h_mesh, stages.relief.heightmap.pitch, r.slab_origin, s.vertices, s.faces[s.groups["texture"]])
