@@ -384,3 +384,26 @@ def test_lean_tiles_on_a_face(case, monkeypatch):
     ex = tx.stages.adapter.expectation(tx.stages.placement, tx.stages.relief, tx.stages.fused)
     with pytest.raises(texcad.GeometryError, match="lean tiles lie up to|vertices differ"):
         Off(tx.stages.relief.data).gate(ex)
+
+
+def test_lean_tiles_on_a_limited_face_keep_the_limiters_facets(monkeypatch):
+    """build_dir and a tolerance on a face made in tiles: the lean blocks keep the
+    limiter's facet angle (lean_facets, the untiled lean slab's rule, face frame), so
+    the part overhangs no more than the limited cells; within the tolerance; gated."""
+    from texcad.printability import orientation, overhang_area
+    from texcad.printability.overhang import lean_facets
+
+    part = _holed()
+    face = _top(part, 2.5)
+    d = orientation(120, "-x")
+    grid = _tiled(monkeypatch, part, face, tile=40, build_dir=d)
+    tx = _tiled(monkeypatch, part, face, tile=40, build_dir=d, tolerance=0.02)
+    assert tx.info["tolerance"] == 0.02 and 0 < tx.max_error <= 0.02 and tx.mesh.num_triangles < grid.mesh.num_triangles
+    g = tx.gate
+    assert g.shells.closed and abs(g.volume_change - g.expected_volume) <= g.volume_slack
+    whole = tx.mesh.to_mesh()
+    fr = tx.stages.placement.data
+    local = texcad.Mesh(tx.mesh.grid.to_local(whole.vertices).astype(np.float32), whole.faces)
+    up = (local.vertices[local.faces, 2] > 1e-6).any(axis=1)
+    assert lean_facets(np.asarray(d) @ fr.axes.T, 45.0)(local.vertices, local.faces[up])
+    assert overhang_area(whole, d) <= overhang_area(grid.mesh.to_mesh(), d) * (1 + 1e-7) + 1e-6

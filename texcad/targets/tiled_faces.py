@@ -315,8 +315,10 @@ class FaceTiles:
         limited: with ``build_dir``, the grid's ramped heights after the overhang
             limiter (a :class:`texcad.targets.tiled.LimitedSource` over the node
             grid: ``heights(rows, cols)`` mm, its report in ``limit.report``), else None.
-        tolerance: mm; > 0: tiles wholly inside the textured region (every cell
+        tolerance: mm; > 0: blocks wholly inside the textured region (every cell
             textured, no rim node) are made lean within it (:func:`lean_cells`).
+        check: with ``build_dir`` and a tolerance, the lean facets' check
+            (:func:`texcad.printability.overhang.lean_facets`, face frame), else None.
     """
 
     grid: FaceGrid
@@ -327,6 +329,7 @@ class FaceTiles:
     reach: float
     limited: Any = None
     tolerance: float = 0.0
+    check: Any = None
 
 
 class _MaskScale:
@@ -384,7 +387,7 @@ class TiledFaceMesh(TiledMesh):
         errors = self.__dict__["lean_pass"] = {}  # lean tiles' errors, mm, filled as they come
         for k, t in enumerate(grid.tiles()):  # per tile, in order
             th = tile_heights(grid, self.tiles.source, t, self._scale, self.tiles.limited)
-            lean = lean_cells(t, th, self.tiles.tolerance)
+            lean = lean_cells(t, th, self.tiles.tolerance, self.tiles.check, grid.pitch)
             used = th.used if lean is None else lean.keep
             ids = numbering.ids(t, used)
             keep = ids.ravel() >= 0
@@ -465,7 +468,7 @@ class TiledFaceMesh(TiledMesh):
 LEAN_BLOCK = 8
 
 
-def lean_cells(t: Tile, th: TileHeights, tolerance: float) -> "Any | None":
+def lean_cells(t: Tile, th: TileHeights, tolerance: float, check: Any = None, pitch: tuple = (1.0, 1.0)) -> "Any | None":
     """Tile ``t`` made lean where it can be (:class:`texcad.solid.tiles.LeanTile`: kept
     nodes, row-major local triangles, measured error) within ``tolerance`` mm, or None
     (no tolerance, or nothing lean). A block of the tile (the tile first) wholly
@@ -476,7 +479,9 @@ def lean_cells(t: Tile, th: TileHeights, tolerance: float) -> "Any | None":
     (:func:`texcad.solid.lean.lean_tile`), so what meets it (a neighbouring tile,
     block or cell) meets it on the same nodes and edges; a block whose lean mesh keeps
     more than :data:`texcad.solid.lean.MAX_FRACTION` of its triangles (plus its
-    border's share) stays cells."""
+    border's share) stays cells. ``check(points, faces)`` (points mm in the face frame,
+    ``pitch`` mm apart) may reject a block's lean triangles (a facet that overhangs),
+    which are then tightened, down to the cells."""
     if tolerance <= 0:
         return None
     r, c = th.h.shape
@@ -489,7 +494,7 @@ def lean_cells(t: Tile, th: TileHeights, tolerance: float) -> "Any | None":
         if not th.cells[a0:a1, b0:b1].any():
             continue
         if th.cells[a0:a1, b0:b1].all() and not th.rim[a0 : a1 + 1, b0 : b1 + 1].any():
-            got = _lean_block(th.h[a0 : a1 + 1, b0 : b1 + 1], tolerance)
+            got = _lean_block(th.h[a0 : a1 + 1, b0 : b1 + 1], tolerance, check, pitch)
             if got is not None:
                 rc, f, err = got
                 keep[a0 + 1 : a1, b0 + 1 : b1] = False
@@ -507,15 +512,20 @@ def lean_cells(t: Tile, th: TileHeights, tolerance: float) -> "Any | None":
     return LeanTile(keep, np.concatenate([_cell_faces(t, th.cells & ~done)] + faces), float(error))
 
 
-def _lean_block(h: np.ndarray, tolerance: float) -> "tuple | None":
-    """:func:`texcad.solid.lean.lean_tile` of a block of nodes (at least 3 a side), or
-    None where it keeps the grid (or more than its share of the grid's triangles)."""
+def _lean_block(h: np.ndarray, tolerance: float, check: Any = None, pitch: tuple = (1.0, 1.0)) -> "tuple | None":
+    """:func:`texcad.solid.lean.lean_tile` of a block of nodes (at least 3 a side;
+    ``check`` of its points, ``pitch`` mm apart), or None where it keeps the grid (or
+    more than its share of the grid's triangles)."""
     from ..solid.lean import MAX_FRACTION, lean_tile
 
     r, c = h.shape
     if min(r, c) < 3:
         return None
-    rc, f, err = lean_tile(h, tolerance, max_fraction=MAX_FRACTION + (r + c) / ((r - 1) * (c - 1)))
+    accept = None
+    if check is not None:
+        def accept(rc: np.ndarray, f: np.ndarray) -> bool:  # noqa: E306 - the block's points, face frame
+            return check(np.stack([rc[:, 1] * pitch[0], rc[:, 0] * pitch[1], h[rc[:, 0], rc[:, 1]]], 1).astype(np.float64), f)
+    rc, f, err = lean_tile(h, tolerance, accept=accept, max_fraction=MAX_FRACTION + (r + c) / ((r - 1) * (c - 1)))
     return None if len(rc) == r * c else (rc, f, err)
 
 
@@ -659,7 +669,12 @@ def face_tiles(fr: Any, base: Any, face_tris: np.ndarray, source: Any, options: 
         limited = LimitedSource(ramped, np.asarray(options.directions) @ np.asarray(fr.axes).T, options.critical_angle, side,
                                 progress=progress, nominal=source.integral())
     tolerance = float(options.tolerance) if "tolerance" in options.given else 0.0  # default: every pixel centre, as before
-    return FaceTiles(grid, source, base, face_tris, mask, top + 1e-3, limited, tolerance)
+    check = None
+    if limited is not None and tolerance > 0:  # lean facets keep the limiter's angle (the untiled lean slab's rule)
+        from ..printability.overhang import lean_facets
+
+        check = lean_facets(np.asarray(options.directions) @ np.asarray(fr.axes).T, options.critical_angle)
+    return FaceTiles(grid, source, base, face_tris, mask, top + 1e-3, limited, tolerance, check)
 
 
 def material_over(base_local: Any, face_tris: np.ndarray, top: float, inset: float) -> bool:
