@@ -24,7 +24,8 @@ sewn to the face's own edges (:func:`texcad.brep.textured_plane_solid`).
 **Tiles.** Where the untiled relief would not fit in the memory available (the
 machine's, or ``max_memory``), the face is made in tiles instead
 (:mod:`texcad.targets.tiled_faces`): the same heights and ramps a tile at a time, every
-pixel centre kept (error 0), the face round the texture re-triangulated on its own
+pixel centre kept (error 0; lean blocks inside the texture for a ``tolerance`` given),
+the face round the texture re-triangulated on its own
 outline, the result a :class:`~texcad.targets.tiled_faces.TiledFaceMesh` that the
 gate checks and the export streams tile by tile (``info["fuse"] == "tiled"``).
 With ``build_dir`` the ramped heights are limited block by block (the untiled limited

@@ -39,8 +39,9 @@ and frame transform) and the same triangles wherever all three corners do (teste
 the triangles that touch the face at the texture's foot and the flat face around
 them are triangulated differently (the untiled union re-triangulates them; the
 surface is the same), so the volumes agree to float rounding (1e-6 relative, tested).
-A tiled face keeps every pixel centre (its error is 0, within any ``tolerance``: the
-lean mesh is made in tiles for plates only). With ``build_dir`` the ramped heights
+Without a ``tolerance`` given a tiled face keeps every pixel centre (error 0); with
+one, blocks wholly inside the textured region are lean (:func:`lean_cells`, their
+borders whole; checked by the gate: :func:`lean_tile_check`). With ``build_dir`` the ramped heights
 (:class:`RampedSource`) are limited block by block, each block from the block grown
 by the limiter's halo (:class:`texcad.targets.tiled.LimitedSource`,
 :func:`texcad.printability.overhang.limit_overhangs_tiled`), into a temporary file (4
