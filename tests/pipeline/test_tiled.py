@@ -82,8 +82,8 @@ def test_3mf_vertices_once_and_heightmap_source(tmp_path, untiled):
 
 
 def test_refusals(tmp_path):
-    with pytest.raises(texcad.ParameterError, match="tolerance must be 0"):
-        textured_plate_tiled(SIZE, THICK, "builtin:stones", out=tmp_path / "a.stl", tolerance=0.02)
+    with pytest.raises(texcad.ParameterError, match="tolerance must be a number of mm >= 0"):
+        textured_plate_tiled(SIZE, THICK, "builtin:stones", out=tmp_path / "a.stl", tolerance=-0.02)
     with pytest.raises(texcad.ParameterError, match="streams .stl or .3mf"):
         textured_plate_tiled(SIZE, THICK, "builtin:stones", out=tmp_path / "a.step")
     with pytest.raises(texcad.ParameterError, match="unknown built-in texture"):
@@ -136,8 +136,15 @@ def test_tiles_on_a_dask_cluster_give_the_same_bytes(tmp_path):
                                   silence_logs=50) as cluster, distributed.Client(cluster, set_as_default=False) as client:
         there = textured_plate_tiled(SIZE, THICK, "builtin:stones", PITCH, height=HEIGHT, out=tmp_path / "there.3mf",
                                      tile=10, client=client)
+        lean = textured_plate_tiled(SIZE, THICK, "builtin:stones", PITCH, height=HEIGHT, out=tmp_path / "lean-there.3mf",
+                                    tile=10, client=client, tolerance=0.05)
     assert there.tiles == here.tiles > 4 and there.volume == here.volume
     assert (tmp_path / "here.3mf").read_bytes() == (tmp_path / "there.3mf").read_bytes()
+    # lean tiles (triangulated on the workers): the same bytes too
+    textured_plate_tiled(SIZE, THICK, "builtin:stones", PITCH, height=HEIGHT, out=tmp_path / "lean-here.3mf", tile=10,
+                         tolerance=0.05)
+    assert lean.triangles < here.triangles
+    assert (tmp_path / "lean-here.3mf").read_bytes() == (tmp_path / "lean-there.3mf").read_bytes()
 
 
 def _small_budget(monkeypatch):
@@ -579,3 +586,187 @@ def test_cylinder_under_an_address_space_limit_is_made_in_tiles(tmp_path):
     assert closed == volume_ok == under == "True"
     assert (tmp_path / "roller.stl").stat().st_size == 84 + 50 * int(tris)
     assert (tmp_path / "roller.3mf").stat().st_size > 0 and not list(tmp_path.glob(".*"))
+
+
+# ---------------------------------------------------------------------------------
+# Lean tiles (tolerance > 0)
+# ---------------------------------------------------------------------------------
+LEAN_PITCH, TOL = 0.25, 0.02
+
+
+@pytest.fixture(scope="module")
+def untiled_lean():
+    return textured_plate("builtin:stones", size=SIZE, thickness=THICK, height=HEIGHT, pitch=LEAN_PITCH, tolerance=TOL)
+
+
+def _texture_error(mesh, hm, size=SIZE) -> float:
+    """The largest height error (mm) at every pixel centre of ``hm`` of the plate's
+    triangles whose corners are all pixel centres (the texture; the rim's cells and
+    the walls are not): surface_error also checks that they cover every pixel."""
+    from texcad.solid.lean import surface_error
+
+    v, f = mesh.vertices.astype(np.float64), mesh.faces.astype(np.int64)
+    (r, c), (px, py) = hm.shape, hm.pitch
+    ox, oy = (size[0] - c * px) / 2, (size[1] - r * py) / 2
+    col, row = (v[:, 0] - ox) / px - 0.5, (v[:, 1] - oy) / py - 0.5
+    ci, ri = np.rint(col).astype(np.int64), np.rint(row).astype(np.int64)
+    on = (np.abs(col - ci) < 1e-3) & (np.abs(row - ri) < 1e-3) & (ci >= 0) & (ci < c) & (ri >= 0) & (ri < r) & (v[:, 2] > -1e-6)
+    rc = np.where(on[:, None], np.stack([ri, ci], 1), 0)
+    return surface_error(hm.heights, rc, v[:, 2], f[on[f].all(axis=1)])
+
+
+@pytest.mark.parametrize("tile", [40, 97])
+def test_lean_tiles_keep_the_untiled_error_bound_across_their_borders(tmp_path, untiled_lean, tile):
+    """Lean tiles (tolerance 0.02 mm): within the tolerance of the exact heightfield at
+    every pixel centre, tile borders included; watertight, one body, each vertex once
+    (none doubled at a seam), the volume the grid's within tolerance x area and the
+    3MF's the streamed one; at most 1.3 x the untiled lean mesh's triangles (the
+    tiles' borders and the texture's outer rows are kept whole) and under 0.6 x the
+    grid's."""
+    from texcad.report.gate import shell_report
+
+    hm = untiled_lean.heightmap
+    r = textured_plate_tiled(SIZE, THICK, "builtin:stones", LEAN_PITCH, height=HEIGHT, out=tmp_path / "t.3mf", tile=tile,
+                             tolerance=TOL)
+    assert r.grid == hm.shape and r.tiles > 1 and 0 < r.max_error <= TOL and r.tolerance == TOL
+    m = texcad.io.read_mesh(tmp_path / "t.3mf")
+    sh = shell_report(m)
+    assert m.is_watertight and sh.bodies == 1 and sh.closed
+    assert len(m.vertices) == r.vertices == len(np.unique(m.vertices, axis=0))
+    assert np.isclose(m.volume, r.volume, rtol=1e-5)
+    grid = textured_plate_tiled(SIZE, THICK, "builtin:stones", LEAN_PITCH, height=HEIGHT, out=tmp_path / "g.stl", tile=tile)
+    (rows, cols), (px, py) = hm.shape, hm.pitch
+    assert abs(r.volume - grid.volume) <= TOL * rows * cols * px * py
+    # against the texture's integral: the plate, the heights' integral, the rim wedge (documented) and tolerance x area
+    from texcad.solid.mesh import heightfield_volume
+
+    w, d = SIZE
+    rim = 2 * (w + d) * (max(w - hm.size[0], d - hm.size[1]) / 2 + max(px, py) / 2) * HEIGHT / 2
+    change = r.volume - w * d * THICK - heightfield_volume(hm.heights, hm.pitch)[0]
+    assert -TOL * rows * cols * px * py <= change <= rim + TOL * rows * cols * px * py, change
+    assert r.triangles <= 1.3 * untiled_lean.mesh.num_triangles and r.triangles < 0.6 * grid.triangles
+    # the STL: the same triangles, each corner one of the 3MF's vertices
+    s = textured_plate_tiled(SIZE, THICK, "builtin:stones", LEAN_PITCH, height=HEIGHT, out=tmp_path / "t.stl", tile=tile,
+                             tolerance=TOL)
+    corners, inv = np.unique(_triangles(tmp_path / "t.stl").reshape(-1, 3), axis=0, return_inverse=True)
+    assert s.triangles == r.triangles and len(corners) == r.vertices and s.volume == r.volume
+    # the error at every pixel centre, from the STL's float32 corners (the 3MF's text has 4 decimals)
+    err = _texture_error(texcad.Mesh(corners, inv.reshape(-1, 3).astype(np.uint32)), hm)
+    assert err <= TOL and np.isclose(err, r.max_error, rtol=1e-6)
+
+
+def test_lean_tiles_are_gated_tile_by_tile(monkeypatch):
+    """The gate on lean tiles: passes on good ones; a lean vertex moved off the
+    heightfield (inside a tile) is caught by the per-tile error check; a lean
+    triangle flipped by the closed-and-oriented check."""
+    import dataclasses
+
+    from texcad.pipeline.tiled import TiledMesh
+
+    _small_budget(monkeypatch)
+    tx = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=LEAN_PITCH, height=HEIGHT, max_memory="2GB")
+    src, grid = tx.stages.fused.mesh.source, tx.stages.fused.mesh.grid
+    ex = tx.stages.adapter.expectation(tx.stages.placement, tx.stages.relief, tx.stages.fused)
+    ex = dataclasses.replace(ex, volume_slack=ex.volume_slack + TOL * SIZE[0] * SIZE[1])
+    lean = TiledMesh(grid, src, THICK, tolerance=TOL)
+    g = lean.gate(ex)
+    assert g.shells.closed and lean.max_error <= TOL and lean.num_triangles < 0.6 * tx.mesh.num_triangles
+
+    class Off(TiledMesh):  # a kept vertex inside the first tile 0.05 mm up
+        def blocks(self, progress=None):
+            for k, (t, v, f, ids) in enumerate(super().blocks(progress)):
+                if k == 0:
+                    inner = (v[:, 0] > v[:, 0].min()) & (v[:, 0] < v[:, 0].max()) & (v[:, 1] > v[:, 1].min()) & (v[:, 1] < v[:, 1].max())
+                    v = v.copy()
+                    v[np.flatnonzero(inner)[len(np.flatnonzero(inner)) // 2], 2] += 0.05
+                yield t, v, f, ids
+
+    with pytest.raises(texcad.GeometryError, match="lean tiles lie up to"):
+        Off(grid, src, THICK, tolerance=TOL).gate(ex)
+
+    class Flipped(TiledMesh):  # one lean triangle the wrong way round
+        def blocks(self, progress=None):
+            for k, (t, v, f, ids) in enumerate(super().blocks(progress)):
+                if k == 1:
+                    f = f.copy()
+                    f[len(f) // 2] = f[len(f) // 2, [0, 2, 1]]
+                yield t, v, f, ids
+
+    with pytest.raises(texcad.GeometryError, match="used twice the same way|not a closed oriented solid"):
+        Flipped(grid, src, THICK, tolerance=TOL).gate(ex)
+
+
+def test_lean_tiles_of_a_limited_plate_keep_the_limiters_facets(tmp_path):
+    """build_dir with a tolerance in tiles: every lean facet above the plate keeps the
+    angle the untiled lean slab keeps (lean_facets), so the part overhangs no more
+    than the limited grid tiles; the error bound holds."""
+    from texcad.printability import orientation, overhang_area
+    from texcad.printability.overhang import lean_facets
+
+    d = orientation(70, 30.0)
+    kw = dict(height=HEIGHT, tile=40, build_dir=d)
+    r = textured_plate_tiled(SIZE, THICK, "builtin:stones", LEAN_PITCH, out=tmp_path / "l.3mf", tolerance=TOL, **kw)
+    g = textured_plate_tiled(SIZE, THICK, "builtin:stones", LEAN_PITCH, out=tmp_path / "g.3mf", **kw)
+    lean, grid = texcad.io.read_mesh(tmp_path / "l.3mf"), texcad.io.read_mesh(tmp_path / "g.3mf")
+    assert lean.is_watertight and r.triangles < 0.8 * g.triangles and r.max_error <= TOL
+    assert lean_facets(d, 45.0)(lean.vertices, lean.faces)
+    assert overhang_area(lean, d) <= overhang_area(grid, d) + 1e-6
+    assert not list(tmp_path.glob(".*"))
+
+
+def test_lean_plate_that_does_not_fit_untiled_under_an_address_space_limit(tmp_path):
+    """A lean plate (tolerance 0.02 mm) whose untiled lean mesh needs more than the
+    process may map (RLIMIT_AS, by texcad's own estimate) is made in lean tiles within
+    the limit: under half the grid's triangles, within the tolerance."""
+    out = tmp_path / "big.stl"
+    script = textwrap.dedent(f"""
+        import resource
+        import build123d, scipy.optimize, scipy.spatial  # libraries loaded first: the limit is for the job's arrays
+        import texcad
+        from texcad.pipeline.tiled import textured_plate_tiled
+        from texcad.util import available_memory, texture_bytes
+        texcad.Plate((10, 10), 4)
+        def vm():
+            return int(open("/proc/self/status").read().split("VmSize:")[1].split()[0]) * 1024
+        limit = vm() + (600 << 20)
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+        r = textured_plate_tiled((150, 150), 4, "builtin:stones", 0.125, out={str(out)!r}, max_memory=600 << 20, tolerance=0.02)
+        peak = int(open("/proc/self/status").read().split("VmPeak:")[1].split()[0]) * 1024
+        print(r.grid[0] * r.grid[1], r.tiles, r.triangles, texture_bytes(r.grid[0] * r.grid[1], 0.02) > available_memory(),
+              peak <= limit, r.max_error <= 0.02)
+    """)
+    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr[-2000:]
+    px, tiles, tris, *flags = res.stdout.split()
+    assert int(px) == 1200 * 1200 and int(tiles) > 1 and flags == ["True"] * 3, res.stdout
+    assert int(tris) < 0.5 * 2 * 1202 * 1202 and out.stat().st_size == 84 + 50 * int(tris)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_lean_and_grid_tiles_meet_on_random_heightmaps(tmp_path, seed):
+    """Random heightmaps (smooth hills with a noisy patch, so that some tiles stay the
+    grid and others are lean), random tile sizes and tolerances: closed, each vertex
+    once, within the tolerance at every pixel centre across every seam."""
+    rng = np.random.default_rng(seed)
+    r, c = int(rng.integers(40, 90)), int(rng.integers(40, 90))
+    y, x = np.mgrid[0:r, 0:c] / 10.0
+    h = 0.5 + 0.4 * np.sin(x * rng.uniform(0.5, 2)) * np.cos(y * rng.uniform(0.5, 2))
+    a, b = int(rng.integers(0, r // 2)), int(rng.integers(0, c // 2))
+    h[a : a + r // 3, b : b + c // 3] += rng.uniform(0, 0.3, (len(h[a : a + r // 3]), len(h[0, b : b + c // 3])))
+    hm = texcad.Heightmap(h.astype(np.float32), (0.25, 0.25))
+    size = (c * 0.25 + 1.0, r * 0.25 + 0.5)
+    tol, tile = float(rng.uniform(0.01, 0.05)), int(rng.integers(12, 45))
+    res = textured_plate_tiled(size, 3.0, hm, out=tmp_path / "t.stl", tile=tile, tolerance=tol)
+    corners, inv = np.unique(_triangles(tmp_path / "t.stl").reshape(-1, 3), axis=0, return_inverse=True)
+    m = texcad.Mesh(corners, inv.reshape(-1, 3).astype(np.uint32))
+    assert m.is_watertight and len(corners) == res.vertices and res.tiles > 1
+    err = _texture_error(m, hm, size)
+    assert err <= tol and np.isclose(err, res.max_error, rtol=1e-6)
+    from texcad.pipeline.tiled import TiledMesh, plate_source
+    from texcad.solid.tiles import PlateGrid
+
+    src, side = plate_source(hm, size, 0.25, None, tile=tile)
+    mesh = TiledMesh(PlateGrid(size, src.shape, src.pitch, side), src, 3.0, tolerance=tol)
+    grid_tiles = [len(v) == t.shape[0] * t.shape[1] for t, v, _, _ in mesh.blocks() if t is not None]
+    assert 0 < sum(grid_tiles) < len(grid_tiles)  # lean tiles beside grid tiles
+    assert res.triangles < 2 * (r + 1) * (c + 1) + 2 * (r + c) + 10  # leaner than the grid

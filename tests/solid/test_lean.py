@@ -191,3 +191,51 @@ def test_full_border_keeps_every_border_point():
     border = (rc[:, 0] == 0) | (rc[:, 0] == rows - 1) | (rc[:, 1] == 0) | (rc[:, 1] == cols - 1)
     assert border.sum() == 2 * (rows + cols) - 4
     assert lean.surface_error(hm.heights, rc, hm.heights[rc[:, 0], rc[:, 1]], f) <= 0.05 * (1 + 1e-6)
+
+
+def _open_edges(faces):
+    """Directed edges of ``faces`` whose reverse is not among them."""
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    have = set(map(tuple, e))
+    return {(a, b) for a, b in map(tuple, e) if (b, a) not in have}
+
+
+def test_lean_tiles_meet_on_their_whole_border_within_the_bound():
+    """Two blocks sharing a column, each made lean alone (lean.lean_tile): every
+    point of their borders kept, the shared column the same points and the same unit
+    edges (opposite ways) in both, each within the tolerance at every pixel centre
+    (the measure it returns is the independent brute-force one), far leaner than the
+    grid; the union of both is closed along the seam."""
+    h = texcad.builtin("builtin:stones", size=(30, 20), pitch=0.25).heights
+    tol = 0.02
+    left, right = h[:, :61], h[:, 60:]
+    out = []
+    for block in (left, right):
+        rc, f, err = lean.lean_tile(block, tol)
+        r, c = block.shape
+        border = {(i, j) for i in range(r) for j in range(c) if i in (0, r - 1) or j in (0, c - 1)}
+        assert border <= set(map(tuple, rc))
+        assert 0 < err <= tol and np.isclose(err, _brute_error(block, rc, block[rc[:, 0], rc[:, 1]], f), atol=1e-6)
+        assert len(f) < 0.6 * 2 * (r - 1) * (c - 1)
+        out.append((rc, f))
+    (rl, fl), (rr, fr) = out
+    ko = {tuple(p): k for k, p in enumerate(rl)}
+    kr = {(i, j + 60): len(rl) + k for k, (i, j) in enumerate(rr)}
+    glob = {**ko, **kr}  # the seam column's points: one number
+    names = np.array([glob[tuple(p)] for p in rl] + [glob[(i, j + 60)] for i, j in rr])
+    faces = np.concatenate([names[fl], names[fr + len(rl)]])
+    seam = {(a, b) for a, b in _open_edges(faces)}
+    on_seam = {k for p, k in glob.items() if p[1] == 60}
+    assert not any(a in on_seam and b in on_seam for a, b in seam)  # the seam's edges all paired
+
+
+def test_lean_tile_falls_back_to_the_grid():
+    """A check that rejects every lean triangulation, or a share it cannot keep, gives
+    the pixel grid (error 0)."""
+    h = texcad.builtin("builtin:stones", size=(10, 8), pitch=0.25).heights
+    r, c = h.shape
+    for kw in (dict(accept=lambda rc, f: False), dict(max_fraction=0.01), dict(grid=True)):
+        rc, f, err = lean.lean_tile(h, 0.02, **kw)
+        assert err == 0.0 and len(rc) == r * c and len(f) == 2 * (r - 1) * (c - 1)
+    rc, f, err = lean.lean_tile(h, 0.02, accept=lambda rc, f: 3.0)  # "3 x the bound": tightened twice, then the grid
+    assert err == 0.0 and len(rc) == r * c

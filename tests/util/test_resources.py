@@ -28,8 +28,8 @@ assert available_memory() < 3 * 2**30
 from build123d import Box, Axis
 box = Box(157, 128, 10)
 try:
-    # build_dir: not made in tiles (a plain planar face now is: tests/targets/test_tiled_faces.py)
-    texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=1.0, pitch=0.05, tolerance=0, build_dir=(0, 0, 1))
+    # engraved: not made in tiles (a raised planar face is, limited or not: tests/targets/test_tiled_faces.py)
+    texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=1.0, pitch=0.05, tolerance=0, mode="engraved")
 except texcad.ResourceError as e:
     print("ResourceError:", e)
     sys.exit(3)

@@ -21,6 +21,7 @@ from ..targets.tiled import (  # noqa: F401 - the public names, re-exported
     builtin_grid,
     tile_for_memory,
     BYTES_PER_TILE_NODE,
+    BYTES_PER_LEAN_NODE,
 )
 
-__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "TiledSurfaceMesh", "tiled_surface", "gate_tiled", "plate_source", "builtin_grid", "tile_for_memory", "BYTES_PER_TILE_NODE"]
+__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "TiledSurfaceMesh", "tiled_surface", "gate_tiled", "plate_source", "builtin_grid", "tile_for_memory", "BYTES_PER_TILE_NODE", "BYTES_PER_LEAN_NODE"]

@@ -101,6 +101,8 @@ __all__ = [
     "limiter_halo",
     "LimitPlan",
     "TiledLimit",
+    "LeanFacets",
+    "lean_facets",
 ]
 
 #: Default critical overhang angle in degrees (paper, section 2.1.3).
@@ -1052,6 +1054,43 @@ def _tiled_pass(plan: LimitPlan, read, blocks: list, dirs, cos_check: float, bad
         report(progress, 0.5 + 0.5 * (k + 1) / len(blocks), f"limiting overhangs: block {k + 1}/{len(blocks)}")
     cols_fix = np.unique(np.concatenate(fix)) if fix else np.zeros(0, np.int64)
     return cols_fix, (removed, most, touched, remaining, weighted, crossing, top)
+
+
+@dataclass(frozen=True)
+class LeanFacets:
+    """The check a lean tile of a limited texture must pass (a tiled plate's lean
+    tiles: :class:`texcad.targets.tiled.TiledMesh`): no facet above the base
+    (a corner above 1e-6 mm) faces down past ``limit`` degrees for any of the
+    ``directions``, the rule :func:`printable_lean_slab` applies to its tiles. Called
+    as ``check(points, faces)``: ``(k, 3)`` points mm in the texture frame (z the
+    height over the surface), ``(m, 3)`` triangles; True when none overhangs.
+
+    Attributes:
+        directions: ``(K, 3)`` unit build directions (texture frame).
+        limit: degrees, ``critical_angle + margin - 0.5``.
+    """
+
+    directions: np.ndarray
+    limit: float
+
+    def __call__(self, points: np.ndarray, faces: np.ndarray) -> bool:
+        p = np.asarray(points, dtype=np.float64)
+        f = np.asarray(faces, dtype=np.int64)
+        f = f[p[f, 2].max(axis=1) > 1e-6]  # facets above the base
+        if not len(f):
+            return True
+        top = Mesh(p.astype(np.float32), f.astype(np.uint32))
+        # plate_tolerance < 0: no texture facet rests on the build plate.
+        return not any(overhang_mask(top, d, self.limit, plate_tolerance=-1.0, rule="angle").any() for d in self.directions)
+
+
+def lean_facets(build_dir, critical_angle: float = DEFAULT_CRITICAL_ANGLE, *, margin: float | None = None,
+                layer_height: float = DEFAULT_LAYER_HEIGHT) -> LeanFacets:
+    """The :class:`LeanFacets` check for ``build_dir`` and ``critical_angle`` (degrees;
+    ``margin`` and ``layer_height`` mm as :func:`limit_overhangs`): the limit
+    :func:`printable_lean_slab` keeps, ``critical_angle + margin - 0.5`` (at most 89.9)."""
+    dirs, crit, margin = _limit_angles(build_dir, critical_angle, margin, layer_height)
+    return LeanFacets(dirs, min(crit + margin - 0.5, 89.9))
 
 
 # ---------------------------------------------------------------------------------

@@ -40,6 +40,7 @@ __all__ = [
     "boundary_chains",
     "grid_distance",
     "tiled_triangulation",
+    "lean_tile",
     "TILE",
     "BORDER_GRID",
 ]
@@ -194,8 +195,6 @@ def tiled_triangulation(
     Returns:
         ``(rc, faces)`` as :func:`triangulate` (every tile border point kept), or None.
     """
-    from .grid import grid_faces
-
     h = np.asarray(heights, dtype=np.float32)
     rows, cols = h.shape
     tile = max(2, int(tile))
@@ -211,32 +210,14 @@ def tiled_triangulation(
     total, done, kept = 2 * (rows - 1) * (cols - 1), 0, 0
     for r0, r1 in zip(rcuts[:-1], rcuts[1:]):  # per tile
         for c0, c1 in zip(ccuts[:-1], ccuts[1:]):
-            sub = h[r0 : r1 + 1, c0 : c1 + 1]
-            got, run = None, float(tolerance)
             strip = b > 0 and (r0 < b or c0 < b or r1 > rows - 1 - b or c1 > cols - 1 - b)
-            for _ in range(0 if strip else 3):  # tighter bounds, then the grid
-                lean = triangulate(sub, run, max_fraction=1.0, full_border=True)
-                if lean is None:
-                    break
-                # The fans onto the tile's border can move the surface: measure the field.
-                err = surface_error(sub, lean[0], sub[lean[0][:, 0], lean[0][:, 1]], lean[1])
-                if err > tolerance:
-                    run *= 0.9 * tolerance / err
-                    continue
-                rc = lean[0] + np.array([r0, c0])
-                verdict = True if accept is None else accept(rc, lean[1].astype(np.int64))
-                if verdict is True:
-                    got = (rc, lean[1].astype(np.int64))
-                    break
-                run *= 0.6 if verdict is False else 0.9 / max(float(verdict), 1.0 + 1e-9)
-            if got is None:
-                g = np.stack(np.meshgrid(np.arange(r0, r1 + 1), np.arange(c0, c1 + 1), indexing="ij"), -1).reshape(-1, 2)
-                got = (g, grid_faces(r1 - r0 + 1, c1 - c0 + 1).astype(np.int64))
-            all_rc.append(got[0])
-            all_f.append(got[1] + base)
-            base += len(got[0])
+            here = None if accept is None else (lambda rc, f, o=np.array([r0, c0]): accept(rc + o, f))  # noqa: E731
+            rc, f, _ = lean_tile(h[r0 : r1 + 1, c0 : c1 + 1], tolerance, accept=here, grid=strip)
+            all_rc.append(rc + np.array([r0, c0]))
+            all_f.append(f + base)
+            base += len(rc)
             done += 2 * (r1 - r0) * (c1 - c0)
-            kept += len(got[1])
+            kept += len(f)
             if done >= total / 4 and kept > max_fraction * done:  # noisy: the grid it is
                 return None
     rc = np.concatenate(all_rc)
@@ -247,6 +228,65 @@ def tiled_triangulation(
     faces = inv.reshape(-1)[faces]
     faces = faces[argsort_ints(rowmin(faces))]  # row-major, as triangulate's
     return np.stack([key // cols, key % cols], axis=1), faces.astype(np.uint32)
+
+
+def lean_tile(
+    heights: np.ndarray,
+    tolerance: float,
+    *,
+    accept: "Callable[[np.ndarray, np.ndarray], bool | float] | None" = None,
+    grid: bool = False,
+    max_fraction: "float | None" = None,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """One tile of a lean mesh whose border keeps every grid point, within
+    ``tolerance`` mm of every pixel centre: ``(rc, faces, error)``.
+
+    The tile is triangulated with its four sides at full resolution
+    (:func:`triangulate` with ``full_border``), so a neighbouring tile that does the
+    same meets it on the same points and edges whatever each keeps inside. Its error
+    is measured on the field (:func:`surface_error`: the fans onto the border can move
+    the surface) and must be within ``tolerance``; ``accept(rc, faces)`` may reject
+    it too (True accepts; False or a number ``x`` > 1, the error ``x`` times the
+    bound, rejects). A rejected tile is redone with 0.6 (or ``0.9 / x``) of the
+    bound, twice at most, then made as the pixel grid (error 0, always accepted).
+
+    Args:
+        heights: ``(r, c)`` heights in mm, r, c >= 2.
+        tolerance: mm, > 0.
+        accept: optional check of the tile's triangulation (tile-local ``rc``).
+        grid: make the pixel grid straight away.
+        max_fraction: the pixel grid when the lean tile keeps more than this share
+            of the grid's ``2 (r-1)(c-1)`` triangles (None: no such limit).
+
+    Returns:
+        ``rc`` ``(N, 2)`` int64 tile-local ``(row, col)`` of the kept points (the grid's
+        row-major order for the pixel grid), ``faces`` ``(M, 3)`` int64 indices into
+        ``rc`` (counter-clockwise with columns right and rows up), ``error`` mm (the
+        measured largest height error, 0 for the grid).
+    """
+    from .grid import grid_faces
+
+    sub = np.asarray(heights, dtype=np.float32)
+    got, run = None, float(tolerance)
+    for _ in range(0 if grid else 3):  # tighter bounds, then the grid
+        lean = triangulate(sub, run, max_fraction=1.0, full_border=True)
+        if lean is None:
+            break
+        # The fans onto the tile's border can move the surface: measure the field.
+        err = surface_error(sub, lean[0], sub[lean[0][:, 0], lean[0][:, 1]], lean[1])
+        if err > tolerance:
+            run *= 0.9 * tolerance / err
+            continue
+        verdict = True if accept is None else accept(lean[0], lean[1].astype(np.int64))
+        if verdict is True:
+            got = (lean[0], lean[1].astype(np.int64), err)
+            break
+        run *= 0.6 if verdict is False else 0.9 / max(float(verdict), 1.0 + 1e-9)
+    r, c = sub.shape
+    if got is not None and (max_fraction is None or len(got[1]) <= max_fraction * 2 * (r - 1) * (c - 1)):
+        return got
+    g = np.stack(np.meshgrid(np.arange(r), np.arange(c), indexing="ij"), -1).reshape(-1, 2)
+    return g, grid_faces(r, c).astype(np.int64), 0.0
 
 
 def _fill_border(rc: np.ndarray, faces: np.ndarray, rows: int, cols: int) -> tuple[np.ndarray, np.ndarray]:

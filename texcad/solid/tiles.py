@@ -10,7 +10,9 @@ there is no gap, and each is numbered once (:class:`Numbering`), so there is no
 duplicate vertex. Each tile's cells become two triangles the way
 :func:`texcad.solid.grid_faces` makes them, so the tiled top is the untiled grid,
 triangle for triangle. :func:`walls` closes the solid: four vertical walls (planar
-fans from a bottom corner) and the bottom rectangle.
+fans from a bottom corner) and the bottom rectangle. A lean tile
+(:func:`lean_plate_tile`) keeps its border nodes and the nodes its triangulation
+needs; :class:`Numbering` then numbers only those.
 
 Plain numpy; memory goes with one tile, plus ``O(R + C)`` numbers for the seams.
 """
@@ -25,7 +27,7 @@ import numpy as np
 from ..errors import ParameterError
 from .grid import grid_faces
 
-__all__ = ["PlateGrid", "Tile", "Numbering", "walls", "block_volume", "SurfaceGrid", "WrapNumbering", "caps"]
+__all__ = ["PlateGrid", "Tile", "Numbering", "walls", "block_volume", "SurfaceGrid", "WrapNumbering", "caps", "LeanTile", "lean_plate_tile"]
 
 
 @dataclass(frozen=True)
@@ -166,8 +168,10 @@ class Numbering:
         self.ring = {"bottom": np.full(nc, -1, np.int64), "top": np.full(nc, -1, np.int64),
                      "left": np.full(nr, -1, np.int64), "right": np.full(nr, -1, np.int64)}
 
-    def ids(self, t: Tile) -> np.ndarray:
-        """``(r, c)`` global numbers of tile ``t``'s nodes (call once per tile, in order)."""
+    def ids(self, t: Tile, used: "np.ndarray | None" = None) -> np.ndarray:
+        """``(r, c)`` global numbers of tile ``t``'s nodes (call once per tile, in
+        order); with ``used`` (``(r, c)`` bool, a lean tile's kept nodes, its border
+        all kept) only those are numbered, the others get -1."""
         if t.i0 != self._row:  # a new row of tiles
             if self._row >= 0:
                 self._above, self._below = self._below, self._above
@@ -179,8 +183,15 @@ class Numbering:
             ids[0, :] = self._above[t.j0 : t.j1 + 1]
         if c0:
             ids[:, 0] = self._left
-        k = (r - r0) * (c - c0)
-        ids[r0:, c0:] = np.arange(self.next, self.next + k, dtype=np.int64).reshape(r - r0, c - c0)
+        if used is None:
+            k = (r - r0) * (c - c0)
+            ids[r0:, c0:] = np.arange(self.next, self.next + k, dtype=np.int64).reshape(r - r0, c - c0)
+        else:
+            new = np.asarray(used, bool)[r0:, c0:]
+            k = int(new.sum())
+            block = np.full(new.shape, -1, np.int64)
+            block[new] = np.arange(self.next, self.next + k, dtype=np.int64)
+            ids[r0:, c0:] = block
         self.next += k
         self._left = ids[:, -1].copy()
         self._below[t.j0 : t.j1 + 1] = ids[-1, :]
@@ -194,6 +205,86 @@ class Numbering:
         if t.j1 == nc - 1:
             self.ring["right"][t.i0 : t.i1 + 1] = ids[:, -1]
         return ids
+
+
+@dataclass(frozen=True)
+class LeanTile:
+    """A plate tile's lean triangulation (:func:`lean_plate_tile`).
+
+    Attributes:
+        keep: ``(r, c)`` bool, the tile's nodes that are vertices (its border all).
+        faces: ``(m, 3)`` int64 triangles, row-major node indices of the tile,
+            counter-clockwise seen from +z.
+        error: mm, the largest height error at the tile's pixel centres (measured).
+    """
+
+    keep: np.ndarray
+    faces: np.ndarray
+    error: float
+
+
+def lean_plate_tile(grid: PlateGrid, t: Tile, vertices: np.ndarray, tolerance: float, *, accept=None,
+                    max_fraction: float = 1.0) -> LeanTile:
+    """Tile ``t`` of a plate (its ``(r c, 3)`` float32 ``vertices``, mm) made lean
+    within ``tolerance`` mm (:func:`texcad.solid.lean.lean_tile`): its texture
+    pixels triangulated with their block's four sides at full resolution, so the
+    tile's border rows and columns keep every node (its neighbours meet it on the
+    same points and edges) and so do the texture's outer rows and columns, whose cells
+    to the plate's rim stay the grid's (the rim's spacing is not the pixels').
+    ``accept(points, faces)`` (``(k, 3)`` float64 mm, local triangles) may reject a
+    lean block (e.g. a facet that overhangs), which is then tightened, down to the
+    grid. The grid too where the lean block keeps more than ``max_fraction`` of its
+    grid's triangles plus what its whole border costs (about ``2 (a + b)`` triangles
+    of fans for an ``a x b`` block: the untiled rule,
+    :data:`texcad.solid.lean.MAX_FRACTION`, for a plate cut into tiles)."""
+    from .lean import lean_tile
+
+    r, c = t.shape
+    _, _, nrs, ncs = grid.texture_block(t)
+    a, b = nrs.stop - nrs.start, ncs.stop - ncs.start
+    node = np.arange(r * c).reshape(r, c)
+    cells = np.ones((r - 1, c - 1), bool)
+    keep = np.ones((r, c), bool)
+    faces, error = [], 0.0
+    if a >= 2 and b >= 2:
+        v = vertices.reshape(r, c, 3)[nrs, ncs]
+        here = None
+        if accept is not None:
+            here = lambda rc, f: accept(v[rc[:, 0], rc[:, 1]].astype(np.float64), f)  # noqa: E731
+        share = max_fraction + (a + b) / ((a - 1) * (b - 1))
+        if accept is None:
+            rc, f, error = lean_tile(v[..., 2], tolerance, max_fraction=share)
+        else:  # in blocks of TILE px (as the untiled lean slab): a facet that fails makes only its block finer
+            rc, f, error = _checked_lean(v[..., 2], tolerance, here, share)
+        sub = node[nrs, ncs]
+        faces.append(sub[rc[:, 0], rc[:, 1]][f])
+        keep[nrs.start + 1 : nrs.stop - 1, ncs.start + 1 : ncs.stop - 1] = False
+        keep[rc[:, 0] + nrs.start, rc[:, 1] + ncs.start] = True
+        cells[nrs.start : nrs.stop - 1, ncs.start : ncs.stop - 1] = False
+    ci, cj = np.nonzero(cells)  # the grid's cells round the texture block (to the rim)
+    p = ci * c + cj
+    tri = np.empty((2 * len(p), 3), np.int64)
+    tri[0::2, 0], tri[0::2, 1], tri[0::2, 2] = p, p + 1, p + c + 1
+    tri[1::2, 0], tri[1::2, 1], tri[1::2, 2] = p, p + c + 1, p + c
+    faces.insert(0, tri)
+    return LeanTile(keep, np.concatenate(faces).astype(np.int64), float(error))
+
+
+def _checked_lean(z: np.ndarray, tolerance: float, accept, share: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(rc, faces, error)`` of a texture block made lean in blocks of
+    :data:`texcad.solid.lean.TILE` px, each checked by ``accept``
+    (:func:`texcad.solid.lean.tiled_triangulation`); the grid where that keeps more
+    than ``share`` of the grid's triangles."""
+    from .grid import grid_faces
+    from .lean import surface_error, tiled_triangulation
+
+    lean = tiled_triangulation(z, tolerance, accept=accept, max_fraction=share)
+    if lean is None:
+        r, c = z.shape
+        g = np.stack(np.meshgrid(np.arange(r), np.arange(c), indexing="ij"), -1).reshape(-1, 2)
+        return g, grid_faces(r, c).astype(np.int64), 0.0
+    rc, f = lean[0], lean[1].astype(np.int64)
+    return rc, f, surface_error(z, rc, z[rc[:, 0], rc[:, 1]], f)
 
 
 def _fan(a: int, b: int, chain: np.ndarray) -> np.ndarray:

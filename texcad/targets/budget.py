@@ -59,11 +59,12 @@ def _is_builtin(texture: Any) -> bool:
 
 def _tiles_if_large(texture: Any, options: Any) -> bool:
     """Whether the planar-face adapter makes this job in tiles where the untiled
-    relief does not fit (:mod:`texcad.targets.tiled_faces`): raised, no gradient, no
-    ``build_dir``. A face with material over it is refused later, by the adapter."""
+    relief does not fit (:mod:`texcad.targets.tiled_faces`): raised, no gradient
+    (``build_dir`` too: limited block by block). A face with material over it is
+    refused later, by the adapter."""
     from ..options import Mode
 
-    return options.mode is Mode.RAISED and options.gradient is None and options.directions is None
+    return options.mode is Mode.RAISED and options.gradient is None
 
 
 def require_faces_memory(target: Any, where: Any, texture: Any, options: Any) -> None:
@@ -76,7 +77,7 @@ def require_faces_memory(target: Any, where: Any, texture: Any, options: Any) ->
     Bytes: ``grid_area / p^2`` pixels at :data:`texcad.util.resources.BYTES_PER_PIXEL`
     each, plus ``outline / (p / 2)`` outline samples at
     :data:`texcad.brep.budget.OUTLINE_BYTES`. One planar face that the plane adapter
-    would make in tiles (raised, no ``build_dir``) counts only what the tiles hold
+    would make in tiles (raised, no gradient) counts only what the tiles hold
     whole: the outline, and an image's or Heightmap's pixels (:data:`HELD_BYTES`).
     """
     if "OCP" not in sys.modules or where is None:  # no OCCT loaded: not a CAD part (a mesh never loads it)

@@ -24,11 +24,13 @@ sewn to the face's own edges (:func:`texcad.brep.textured_plane_solid`).
 **Tiles.** Where the untiled relief would not fit in the memory available (the
 machine's, or ``max_memory``), the face is made in tiles instead
 (:mod:`texcad.targets.tiled_faces`): the same heights and ramps a tile at a time, every
-pixel centre kept (error 0), the face round the texture re-triangulated on its own
+pixel centre kept (error 0; lean blocks inside the texture for a ``tolerance`` given),
+the face round the texture re-triangulated on its own
 outline, the result a :class:`~texcad.targets.tiled_faces.TiledFaceMesh` that the
 gate checks and the export streams tile by tile (``info["fuse"] == "tiled"``).
-``build_dir`` and part material over the face within the texture's height are not
-tiled: refused, naming a pitch that fits; a tiled face has no B-rep (STL / 3MF).
+With ``build_dir`` the ramped heights are limited block by block (the untiled limited
+heights, bit for bit). Part material over the face within the texture's height is
+not tiled: refused, naming a pitch that fits; a tiled face has no B-rep (STL / 3MF).
 """
 
 from __future__ import annotations
@@ -300,8 +302,8 @@ class PlaneAdapter(Adapter):
 
     def _tiled(self, placement: Placement, texture: Any, options: Options) -> "Relief | None":
         """The relief in tiles (:mod:`texcad.targets.tiled_faces`) where the untiled one
-        would not fit in the memory available, else None. ``build_dir`` and a face with
-        part material over it are not tiled: refused, naming a pitch that fits."""
+        would not fit in the memory available, else None. A face with part material
+        over it is not tiled: refused, naming a pitch that fits."""
         from ..util import available_memory
         from .tiled import builtin_grid, plate_source
         from .budget import TILED_PIXELS, tiles_fit
@@ -323,8 +325,6 @@ class PlaneAdapter(Adapter):
         why = None
         if not tiles_fit(float(shape[0] + 5) * (shape[1] + 5), texture):
             why = f"a texture of more than {TILED_PIXELS:.0e} px (or whose heights file would not fit in the temporary folder)"
-        elif options.directions is not None:
-            why = "build_dir (the overhang limiter)"
         elif material_over(fr.base_local, face_tris, max(float(options.height), float(getattr(texture, "max_height", 0.0))) + 1e-3,
                            0.5 * pitch):
             why = "a face with part material over it within the texture's height"
@@ -332,14 +332,17 @@ class PlaneAdapter(Adapter):
             require_memory(need, what, f"{why} is not made in tiles; use pitch >= {fitting_pitch(pitch, need):.3g} mm")
         options.report(0.1, f"{what}: made in tiles")
         source, side = plate_source(texture, size, float(options.pitch), options.height, bound=options.max_memory,
-                                    progress=lambda f, m: options.report(0.1 + 0.2 * f, m))
+                                    progress=lambda f, m: options.report(0.1 + 0.2 * f, m),
+                                    tolerance=float(options.tolerance) if "tolerance" in options.given else 0.0)
         vol, slack = source.integral()
         if not vol > 0:
             source.close()
             _require_relief(Heightmap(np.zeros((2, 2), np.float32), source.pitch), texture)
-        tiles = face_tiles(fr, base, face_tris, source, options, side=side, floor=FLOOR)
-        return Relief(heightmap=None, limits=None, volume=vol, volume_slack=slack, nominal_volume=vol,
-                      reach=tiles.reach, max_error=0.0, data=tiles)
+        tiles = face_tiles(fr, base, face_tris, source, options, side=side, floor=FLOOR,
+                           progress=lambda f, m: options.report(0.3 + 0.1 * f, m))
+        limits = None if tiles.limited is None else tiles.limited.limit.report
+        return Relief(heightmap=None, limits=limits, volume=vol, volume_slack=slack, nominal_volume=vol,
+                      reach=tiles.reach, max_error=None if tiles.tolerance > 0 else 0.0, data=tiles)
 
     # -- fuse ---------------------------------------------------------------------------
     def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
@@ -382,8 +385,10 @@ class PlaneAdapter(Adapter):
         info = {
             "face": "plane", "origin": fr.origin.tolist(), "xdir": fr.axes[0].tolist(), "ydir": fr.axes[1].tolist(),
             "normal": fr.axes[2].tolist(), "grid": tuple(g.shape), "obstructed": False, "fuse": "tiled",
-            "tiles": g.count, "tile": int(g.tile), "tolerance": 0.0, "pitch": float(g.pitch[0]),
+            "tiles": g.count, "tile": int(g.tile), "tolerance": relief.data.tolerance, "pitch": float(g.pitch[0]),
         }
+        if options.directions is not None:
+            info["build_dir"], info["critical_angle"] = options.directions.tolist(), float(options.critical_angle)
         return Fused(TiledFaceMesh(relief.data, progress=told), placement.base, info)
 
     @staticmethod
@@ -405,6 +410,8 @@ class PlaneAdapter(Adapter):
         return self._world(f.stitched or welded_mesh(to_manifold(f.local) - to_manifold(fr.base_local)), fr)
 
     def max_error(self, stages: Stages) -> float:
+        if not isinstance(stages.relief.data, PlaneRelief):  # made in tiles: the lean tiles' measured error
+            return stages.fused.mesh.max_error
         r: PlaneRelief = stages.relief.data
         s = r.slab
         return mesh_error(r.h_mesh, stages.relief.heightmap.pitch, r.slab_origin, s.vertices, s.faces[s.groups["texture"]])

@@ -25,10 +25,23 @@ With a build direction the texture is limited first, block by block
 block from the block grown by a halo as wide as a limited height can reach), the
 same heights as the untiled limiter, bit for bit.
 
-Not tiled: the lean mesh (``tolerance`` > 0): the tiled plate keeps every pixel
-centre (its error is 0, within any tolerance). A lean tile would have to keep its
-border at the grid so that its neighbours meet it, and the lean error and the
-limiter's facet check redone per tile; the grid is what the tiles make.
+With ``tolerance`` > 0 the tiles are lean (:meth:`TiledMesh.blocks`,
+:func:`texcad.solid.tiles.lean_plate_tile`): each tile's texture pixels are
+triangulated within the tolerance (greedy insertion, the untiled lean mesh's
+:func:`texcad.solid.lean.triangulate`) with the tile's border rows and columns kept
+whole, so that neighbouring tiles meet on the same vertices and edges (no gap, no
+duplicate vertex) and the bound holds across the border (its points are exact); the
+error is measured at every pixel centre of each tile, and again by the gate against
+the source's heights. Only the kept nodes are numbered (the streamed 3MF holds each
+once). What differs from the untiled lean mesh: the kept border lines (and the
+texture's outer rows and columns, whose cells to the rim stay the grid's) add
+triangles, about ``2 (a + b)`` per ``a x b`` tile (tested: at most 1.3 x the untiled
+lean plate's on a 30 x 22 mm plate at 0.25 mm in tiles of 40 nodes), and the
+untiled rule that falls back to the grid when the lean mesh keeps more than half of
+its triangles is applied per tile. With ``build_dir`` the lean triangles must also
+keep the limiter's facet angle (:func:`texcad.printability.overhang.lean_facets`,
+the untiled lean slab's rule), in blocks of :data:`texcad.solid.lean.TILE` px, a
+block that fails made finer, down to the grid.
 """
 
 from __future__ import annotations
@@ -47,12 +60,17 @@ from ..errors import GeometryError, ParameterError, ResourceError
 from ..sources import Heightmap
 from ..util import Progress, report
 
-__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "LimitedSource", "tile_for_memory", "BYTES_PER_TILE_NODE"]
+__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "LimitedSource", "tile_for_memory", "BYTES_PER_TILE_NODE", "BYTES_PER_LEAN_NODE"]
 
 #: Peak bytes per node of one tile: the texture function's temporaries (float64),
 #: the float32 vertices, int64 faces and ids, STL records or 3MF text (measured on
 #: stones, the heaviest built-in, with room to spare).
 BYTES_PER_TILE_NODE = 600.0
+#: Peak bytes per node a lean tile adds (``tolerance`` > 0): the greedy insertion's
+#: raster and queue (:func:`texcad.solid.lean.triangulate`: 80), the error measure's
+#: (triangle, pixel) pairs (:func:`texcad.solid.lean.surface_error`) and the kept
+#: nodes' numbers (measured on stones, with room to spare).
+BYTES_PER_LEAN_NODE = 400.0
 #: Largest block of pixels a built-in texture is sampled in (a side, px): sampling
 #: temporaries stay small, whatever the tile.
 SAMPLE_BLOCK = 1024
@@ -77,6 +95,8 @@ class TiledPlate:
         volume: enclosed volume, mm^3 (float64, summed tile by tile).
         seconds: wall time.
         peak_rss: the process's peak resident memory when it finished, bytes.
+        tolerance: mm (0: every pixel centre kept); max_error: mm, the largest
+            height error measured at a pixel centre (0 without a tolerance).
     """
 
     path: Path
@@ -91,6 +111,8 @@ class TiledPlate:
     volume: float
     seconds: float
     peak_rss: int
+    tolerance: float = 0.0
+    max_error: float = 0.0
 
 
 class _BuiltinSource:
@@ -221,6 +243,16 @@ def _tile_vertices(source: Any, grid: Any, t: Any) -> np.ndarray:
     return grid.vertices(t, source.heights(rows, cols))
 
 
+def _lean_tile_block(source: Any, grid: Any, t: Any, tolerance: float = 0.0, check: Any = None) -> tuple:
+    """One lean tile (in a Dask worker or here): its ``(r c, 3)`` float32 vertices and
+    its :class:`texcad.solid.tiles.LeanTile` within ``tolerance`` mm."""
+    from ..solid.lean import MAX_FRACTION
+    from ..solid.tiles import lean_plate_tile
+
+    v = _tile_vertices(source, grid, t)
+    return v, lean_plate_tile(grid, t, v, tolerance, accept=check, max_fraction=MAX_FRACTION)
+
+
 class _HeightmapSource:
     """A heightmap (or an image, loaded whole) read block by block."""
 
@@ -251,15 +283,16 @@ class LimitedSource:
         shape: ``(R, C)`` pixels; pitch: ``(px, py)`` mm (the source's).
         limit: the :class:`texcad.printability.overhang.TiledLimit` (its report, the limited
             integral, the highest limited height).
-        nominal: ``(volume, slack)`` mm^3 of the heights before the limiter.
+        nominal: ``(volume, slack)`` mm^3 of the heights before the limiter (the
+            source's ``integral()``, or as given).
     """
 
     def __init__(self, source: Any, build_dir: Any, critical_angle: float, block: int, *,
-                 cache_dir: "Path | None" = None, progress: Progress = None) -> None:
+                 cache_dir: "Path | None" = None, progress: Progress = None, nominal: "tuple | None" = None) -> None:
         from ..printability.overhang import limit_overhangs_tiled
 
         self.shape, self.pitch = tuple(source.shape), tuple(source.pitch)
-        self.nominal = source.integral()
+        self.nominal = source.integral() if nominal is None else tuple(nominal)
         r, c = self.shape
         self._file = tempfile.NamedTemporaryFile(prefix=".texcad-", suffix=".limited", dir=cache_dir)
         self._file.truncate(4 * r * c)
@@ -326,20 +359,22 @@ def _connect(address: str, timeout: float = 5.0):
                             "check the address, or leave out client= to make the tiles here") from None
 
 
-def tile_for_memory(max_memory: Optional[int], nodes: tuple) -> int:
+def tile_for_memory(max_memory: Optional[int], nodes: tuple, *, lean: bool = False) -> int:
     """Nodes per tile side that keep a tile within ``max_memory`` bytes (what the
     process holds now counted; None: half of :func:`texcad.util.available_memory`),
-    at most the grid's own size, at least 64."""
+    at most the grid's own size, at least 64; ``lean``: lean tiles
+    (:data:`BYTES_PER_LEAN_NODE` more a node)."""
     from ..util import available_memory
 
+    per_node = BYTES_PER_TILE_NODE + (BYTES_PER_LEAN_NODE if lean else 0.0)
     have = available_memory() // 2 if max_memory is None else int(max_memory) - _rss()
     budget = have - OVERHEAD
-    if budget < 64 * 64 * BYTES_PER_TILE_NODE:
+    if budget < 64 * 64 * per_node:
         raise ResourceError(
             f"max_memory leaves {max(budget, 0) / 2**20:.0f} MiB for a tile after the {_rss() / 2**20:.0f} MiB "
-            f"this process holds; allow at least {(_rss() + OVERHEAD + 64 * 64 * BYTES_PER_TILE_NODE) / 2**20:.0f} MiB"
+            f"this process holds; allow at least {(_rss() + OVERHEAD + 64 * 64 * per_node) / 2**20:.0f} MiB"
         )
-    side = int((budget / BYTES_PER_TILE_NODE) ** 0.5)
+    side = int((budget / per_node) ** 0.5)
     return max(64, min(side, 4096, max(nodes)))
 
 
@@ -376,10 +411,14 @@ def textured_plate_tiled(
         tile: nodes per tile side (default: from ``max_memory``).
         max_memory: bound on the process's memory, bytes or text (``"4GB"``); default
             half of what the machine has available.
-        tolerance: 0 only (one vertex per pixel centre); the lean mesh is not tiled yet.
+        tolerance: mm; 0 (the default) keeps every pixel centre, more makes each tile
+            lean within it (:class:`TiledMesh`: the tiles' borders kept whole, the
+            error measured at every pixel centre).
         build_dir: a build direction ``(3,)`` (or a set ``(K, 3)``) to limit the
             texture's overhangs for, as :func:`texcad.printability.limit_overhangs`
-            (block by block from a halo: the same heights; not with ``client``).
+            (block by block from a halo: the same heights; not with ``client``); lean
+            tiles then keep the limiter's facet angle as the untiled lean slab does
+            (:func:`texcad.printability.overhang.lean_facets`).
         critical_angle: degrees, with ``build_dir``.
         progress: ``progress(fraction, message)``: tiles done / total.
         client: a ``dask.distributed.Client`` or a scheduler address: the tiles are
@@ -391,7 +430,7 @@ def textured_plate_tiled(
         :class:`TiledPlate` (counts, volume, time, peak memory).
 
     Raises:
-        ParameterError: bad size, thickness, height, output format, tolerance > 0,
+        ParameterError: bad size, thickness, height, output format or tolerance,
             or build_dir with client.
         ResourceError: ``max_memory`` leaves no room for a tile.
     """
@@ -404,8 +443,9 @@ def textured_plate_tiled(
     for label, v in (("plate width", w), ("plate depth", d), ("thickness", thickness), ("height", height), ("pitch", pitch)):
         if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
             raise ParameterError(f"{label} must be a positive number of mm, got {v!r}")
-    if tolerance:
-        raise ParameterError("the tiled plate keeps every pixel centre: tolerance must be 0 (the lean mesh is not tiled yet)")
+    from ..solid.lean import check_tolerance
+
+    tolerance = check_tolerance(tolerance)
     if build_dir is not None and client is not None:
         raise ParameterError("build_dir with client=: the limited heights are kept in a file here, which the cluster's "
                              "workers cannot read; leave out client= (the limiter runs here, block by block)")
@@ -417,21 +457,27 @@ def textured_plate_tiled(
         client = _connect(client)
     try:
         return _tiled(w, d, float(thickness), texture, pitch, float(height), Path(out), tile, bound, progress, client, t0,
-                      (build_dir, critical_angle))
+                      (build_dir, critical_angle), tolerance)
     finally:
         if own:
             client.close()
 
 
-def _tiled(w, d, thickness, texture, pitch, height, out, tile, bound, progress, client, t0, limit) -> TiledPlate:
+def _tiled(w, d, thickness, texture, pitch, height, out, tile, bound, progress, client, t0, limit, tolerance) -> TiledPlate:
     """The texture's source (limited for ``limit = (build_dir, critical_angle)`` when a
-    direction is given) and the tile size, then :func:`_write`."""
+    direction is given) and the tile size, then :func:`_write` (lean tiles within
+    ``tolerance`` mm when > 0)."""
     pool = None
     if client is not None:
         def pool(fn, args):  # noqa: E306 - map on the cluster, results in order
             return client.gather(client.map(fn, *zip(*args), pure=False))
     source, side = plate_source(texture, (w, d), pitch, height, tile=tile, bound=bound, pool=pool,
-                                cache_dir=None if pool is not None else out.parent, progress=progress)
+                                cache_dir=None if pool is not None else out.parent, progress=progress, tolerance=tolerance)
+    check = None
+    if limit[0] is not None and tolerance > 0:
+        from ..printability.overhang import lean_facets
+
+        check = lean_facets(limit[0], limit[1])
     if limit[0] is not None:
         try:
             limited = LimitedSource(source, limit[0], limit[1], side, cache_dir=out.parent, progress=progress)
@@ -439,7 +485,8 @@ def _tiled(w, d, thickness, texture, pitch, height, out, tile, bound, progress, 
             source.close()
         source = limited
     try:
-        return _write(_grid_of(source, w, d, side), source, out, thickness, progress, client, t0, side)
+        mesh = TiledMesh(_grid_of(source, w, d, side), source, thickness, client, tolerance=tolerance, check=check)
+        return _write(mesh, out, progress, t0)
     finally:
         source.close()
 
@@ -463,7 +510,7 @@ def builtin_grid(texture: Any, size: Sequence[float], pitch: float) -> "tuple[in
 
 def plate_source(texture: Any, size: Sequence[float], pitch: float, height: float, *, tile: Optional[int] = None,
                  bound: Optional[int] = None, pool: Any = None, cache_dir: "Path | None" = None,
-                 progress: Progress = None) -> tuple[Any, int]:
+                 progress: Progress = None, tolerance: float = 0.0) -> tuple[Any, int]:
     """``(source, side)``: the texture's heights (mm; ``height`` the largest, None: a
     Heightmap's own) on a plate of ``size`` mm, read a
     block at a time, and the nodes per tile side (``tile``, or from ``bound`` bytes:
@@ -471,17 +518,19 @@ def plate_source(texture: Any, size: Sequence[float], pitch: float, height: floa
     integral) whose unit heights wait in a temporary file in ``cache_dir`` (default:
     the system's temporary folder; 8 bytes a pixel) until ``source.close()`` or the
     source is dropped; with ``pool`` (a map on a cluster) it is sampled again per tile
-    instead. An image or :class:`~texcad.Heightmap` is held whole (as the untiled plate)."""
+    instead. An image or :class:`~texcad.Heightmap` is held whole (as the untiled plate).
+    ``tolerance`` > 0 (mm): the tiles will be lean, whose memory the tile size allows for."""
     w, d = (float(s) for s in size)
     shape = builtin_grid(texture, (w, d), pitch)
+    lean = {"lean": True} if tolerance > 0 else {}
     if shape is None:
         from ..sources import load_texture
 
         hm = texture if isinstance(texture, Heightmap) and height is None else load_texture(texture, size=(w, d), pitch=pitch, height=height)
         source: Any = _HeightmapSource(hm)
-        side = int(tile) if tile else tile_for_memory(bound, (source.shape[0] + 2, source.shape[1] + 2))
+        side = int(tile) if tile else tile_for_memory(bound, (source.shape[0] + 2, source.shape[1] + 2), **lean)
         return source, side
-    side = int(tile) if tile else tile_for_memory(bound, (shape[0] + 2, shape[1] + 2))
+    side = int(tile) if tile else tile_for_memory(bound, (shape[0] + 2, shape[1] + 2), **lean)
     report(progress, 0.0, "finding the texture's range")
     cache = None
     if pool is None:
@@ -504,15 +553,15 @@ def _grid_of(source: Any, w: float, d: float, side: int):
     return PlateGrid((w, d), source.shape, source.pitch, side)
 
 
-def _write(grid: Any, source: Any, out: Path, thickness: float, progress: Progress, client: Any, t0: float, side: int) -> TiledPlate:
+def _write(mesh: "TiledMesh", out: Path, progress: Progress, t0: float) -> TiledPlate:
     """Mesh and stream every tile, then the walls: the :class:`TiledPlate`."""
-    mesh = TiledMesh(grid, source, thickness, client)
     triangles, volume = mesh.write(out, progress)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    grid, source = mesh.grid, mesh.source
     return TiledPlate(
-        path=Path(out), size=tuple(grid.size), thickness=thickness, grid=tuple(source.shape), pitch=tuple(source.pitch),
-        tile=side, tiles=grid.count, triangles=triangles, vertices=mesh.num_vertices, volume=volume,
-        seconds=time.perf_counter() - t0, peak_rss=int(peak),
+        path=Path(out), size=tuple(grid.size), thickness=mesh.thickness, grid=tuple(source.shape), pitch=tuple(source.pitch),
+        tile=int(grid.tile), tiles=grid.count, triangles=triangles, vertices=mesh.num_vertices, volume=volume,
+        seconds=time.perf_counter() - t0, peak_rss=int(peak), tolerance=mesh.tolerance, max_error=mesh.max_error,
     )
 
 
@@ -524,29 +573,65 @@ class TiledMesh:
     streaming writers (:meth:`write`); the whole mesh is made only when asked for
     (:meth:`to_mesh`, :attr:`vertices`, :attr:`faces`: refused where it does not fit).
 
+    With ``tolerance`` > 0 each tile is lean (:func:`texcad.solid.tiles.lean_plate_tile`):
+    its texture pixels triangulated within ``tolerance`` mm of every pixel centre,
+    measured, with the tile's border rows and columns (and the texture's outer ones)
+    kept whole, so that neighbouring tiles meet on the same vertices and edges and the
+    error bound holds across their border; ``check(points, faces)`` may reject a
+    tile's lean triangles (the overhang limiter's facets:
+    :class:`texcad.printability.overhang.LeanFacets`), which are then tightened, down
+    to the grid.
+
     Attributes:
         grid: the plate's node grid and tile size.
         source: the texture's heights, block by block (``heights(rows, cols)`` mm).
         thickness: mm; the plate spans z from ``-thickness`` to 0 under the texture.
         client: a ``dask.distributed.Client`` making the tiles' vertices, or None.
         progress: ``progress(fraction, message)`` told of the gate's tiles, or None.
+        tolerance: mm, 0 for every pixel centre; check: a lean tile's check or None.
     """
 
-    def __init__(self, grid: Any, source: Any, thickness: float, client: Any = None, progress: Progress = None) -> None:
+    tolerance: float = 0.0
+    check: Any = None
+
+    def __init__(self, grid: Any, source: Any, thickness: float, client: Any = None, progress: Progress = None, *,
+                 tolerance: float = 0.0, check: Any = None) -> None:
         self.grid, self.source, self.thickness, self.client = grid, source, float(thickness), client
         self.progress = progress  # told of the gate's tiles
+        self.tolerance, self.check = float(tolerance), check
 
     @property
     def num_vertices(self) -> int:
-        """Vertices counted once: every node and the four bottom corners."""
+        """Vertices counted once: every node and the four bottom corners (lean: the
+        nodes kept, counted in one pass over the tiles the first time)."""
+        if self.tolerance > 0:
+            return self._lean_counts()[0]
         nr, nc = self.grid.nodes
         return nr * nc + 4
 
     @property
     def num_triangles(self) -> int:
-        """Triangles: two per cell of the node grid, one per ring node on the walls, two on the bottom."""
+        """Triangles: two per cell of the node grid, one per ring node on the walls, two on the bottom
+        (lean: counted as :attr:`num_vertices`)."""
+        if self.tolerance > 0:
+            return self._lean_counts()[1]
         nr, nc = self.grid.nodes
         return 2 * (nr - 1) * (nc - 1) + 2 * nr + 2 * nc + 2
+
+    def _lean_counts(self) -> tuple[int, int]:
+        if "counts" not in self.__dict__:
+            for _ in self.blocks():  # per tile: the counts are kept at the end
+                pass
+        return self.__dict__["counts"]
+
+    @property
+    def max_error(self) -> float:
+        """The largest height error at a pixel centre, mm (0 for every pixel centre;
+        lean: the tiles' measured errors, one pass the first time)."""
+        if self.tolerance <= 0:
+            return 0.0
+        self._lean_counts()
+        return self.__dict__["max_error"]
 
     def blocks(self, progress: Progress = None) -> "Any":
         """``(tile, vertices, faces, ids)`` per tile in :meth:`PlateGrid.tiles` order,
@@ -557,11 +642,35 @@ class TiledMesh:
         grid = self.grid
         numbering = Numbering(grid)
         total = grid.count
+        if self.tolerance > 0:
+            yield from self._lean_blocks(numbering, progress)
+            return
         for k, (t, v) in enumerate(_tile_vertex_blocks(grid, self.source, self.client)):  # per tile, in order
             yield t, v, self._faces(t), numbering.ids(t).ravel()
             report(progress, (k + 1) / (total + 1), f"tile {k + 1}/{total}")
         self.__dict__.pop("_faces_by_shape", None)  # not kept between passes
         yield (None, *walls(grid, numbering, self.thickness))
+
+    def _lean_blocks(self, numbering: Any, progress: Progress) -> Any:
+        """:meth:`blocks` with lean tiles: each tile's kept nodes only (numbered on, the
+        border's numbers shared), its lean triangles; keeps the counts and the error."""
+        from functools import partial
+
+        from ..solid.tiles import walls
+
+        grid, total = self.grid, self.grid.count
+        error, triangles = 0.0, 0
+        make = partial(_lean_tile_block, tolerance=self.tolerance, check=self.check)
+        for k, (t, (v, lt)) in enumerate(_tile_vertex_blocks(grid, self.source, self.client, make)):  # per tile, in order
+            keep = lt.keep.ravel()
+            ids = numbering.ids(t, lt.keep).ravel()[keep]
+            local = np.cumsum(keep) - 1
+            error, triangles = max(error, lt.error), triangles + len(lt.faces)
+            yield t, v[keep], local[lt.faces], ids
+            report(progress, (k + 1) / (total + 1), f"tile {k + 1}/{total}")
+        rest = walls(grid, numbering, self.thickness)
+        self.__dict__.update(counts=(numbering.next + 4, triangles + len(rest[1])), max_error=error)
+        yield (None, *rest)
 
     def _stream_blocks(self, progress: Progress = None) -> Any:
         """:meth:`blocks` as the streaming writers take them (each new vertex once)."""
@@ -658,7 +767,34 @@ class TiledMesh:
 
     def share(self, t: Any, v: np.ndarray, f: np.ndarray) -> float:
         """Tile ``t``'s share of the volume, mm^3."""
+        if self.tolerance > 0:
+            from ..solid.tiles import block_volume
+
+            return block_volume(v, f)
         return self.grid.top_volume(t, v)
+
+    def tile_error(self, t: Any, v: np.ndarray, f: np.ndarray) -> float:
+        """The largest height error (mm) of lean tile ``t``'s triangles (``v``, ``f``)
+        at its texture pixel centres, against the source's heights read again
+        (:func:`texcad.solid.lean.surface_error` on the triangles between pixel
+        centres; the cells to the rim keep the grid's). Raises GeometryError when a
+        vertex is not on one of the tile's nodes."""
+        from ..solid.lean import surface_error
+
+        rows, cols, nrs, ncs = self.grid.texture_block(t)
+        if nrs.stop - nrs.start < 2 or ncs.stop - ncs.start < 2:
+            return 0.0
+        xs, ys = self.grid.xs(t.j0, t.j1), self.grid.ys(t.i0, t.i1)
+        j, i = np.searchsorted(xs, v[:, 0]), np.searchsorted(ys, v[:, 1])
+        if (j >= len(xs)).any() or (i >= len(ys)).any() or (xs[np.minimum(j, len(xs) - 1)] != v[:, 0]).any() \
+                or (ys[np.minimum(i, len(ys) - 1)] != v[:, 1]).any():
+            raise GeometryError("the textured plate failed texcad's gate: a lean tile's vertex is off its node grid; "
+                                "please report this")
+        rc = np.stack([i - nrs.start, j - ncs.start], 1)
+        a, b = nrs.stop - nrs.start, ncs.stop - ncs.start
+        inside = (rc[:, 0] >= 0) & (rc[:, 0] < a) & (rc[:, 1] >= 0) & (rc[:, 1] < b)
+        on = inside[f].all(axis=1)
+        return surface_error(self.source.heights(rows, cols), np.where(inside[:, None], rc, 0), v[:, 2], f[on])
 
     def reach(self, t: Any, v: np.ndarray) -> tuple[float, float]:
         """``(farthest, highest)``: tile ``t``'s largest distance from the top face (inf
@@ -713,7 +849,9 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
 
     1. closed and oriented: each tile's triangles follow the grid rule of
        :func:`texcad.solid.grid_faces` (its open edges checked here to be exactly the
-       tile's border loop, on a small grid), so inside a tile every edge is paired;
+       tile's border loop, on a small grid), so inside a tile every edge is paired
+       (a lean tile: its triangles' open edges are found and none may be used twice
+       the same way);
        the tiles' border loops (by global vertex number) and the walls' edges must
        then pair up, each directed edge once and its reverse once; a node shared by
        two tiles is the same float32 point in both (no gap when a reader welds by
@@ -723,7 +861,10 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
        within ``ex.volume_slack``;
     5. every texture vertex lies within ``ex.height`` mm of the surface it was put on
        (the mesh's ``reach``: the plate's top face, z = 0 inside its rectangle; a
-       surface's profile point of its column).
+       surface's profile point of its column);
+    6. lean tiles (``mesh.tolerance`` > 0): each tile's largest height error at its
+       pixel centres (``mesh.tile_error``, the source's heights read again) is
+       within the tolerance.
 
     ``mesh`` is a :class:`TiledMesh` or :class:`TiledSurfaceMesh` (anything with
     ``blocks()``, ``share(tile, v, f)`` and ``reach(tile, v)``).
@@ -743,7 +884,8 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
     if bad or sorted(map(tuple, rule)) != sorted(map(tuple, loop)):
         raise GeometryError(f"the {what} failed texcad's gate: the tile triangles' open edges are not their border; please report this")
     borders, seam_ids, seam_xyz = [], [], []
-    volume, top, farthest, finite = 0.0, -np.inf, 0.0, True
+    volume, top, farthest, finite, error = 0.0, -np.inf, 0.0, True, 0.0
+    lean = getattr(mesh, "tolerance", 0.0) > 0
     for t, v, f, ids in mesh.blocks(getattr(mesh, "progress", None)):  # per tile
         finite &= bool(np.isfinite(v).all())
         if t is None:
@@ -755,7 +897,15 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
         volume += mesh.share(t, v, f)
         far, high = mesh.reach(t, v)
         farthest, top = max(farthest, far), max(top, high)
-        borders.append(_tile_loop(ids.reshape(t.shape)))
+        if lean:
+            loop, twice = _open_edges(ids[f])
+            if twice:
+                raise GeometryError(f"the {what} failed texcad's gate: a lean tile has {twice} edge(s) used twice the same "
+                                    "way or by more than two triangles; please report this")
+            borders.append(loop)
+            error = max(error, mesh.tile_error(t, v, f))
+        else:
+            borders.append(_tile_loop(ids.reshape(t.shape)))
         ring = np.unique(borders[-1])  # the tile's border nodes: where it meets its neighbours
         seam_ids.append(ring)
         seam_xyz.append(_at(ids, v, ring))
@@ -777,6 +927,9 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
     if not shells.manifold:
         raise GeometryError(f"the {what} failed texcad's gate: {shells.problem() or 'its vertices are not finite'}; please report this")
     mesh.__dict__["volume"], mesh.__dict__["top"] = volume, top
+    if lean and error > mesh.tolerance + 1e-6:
+        raise GeometryError(f"the {what} failed texcad's gate: its lean tiles lie up to {error:.4f} mm from the texture's "
+                            f"heights at a pixel centre, beyond tolerance={mesh.tolerance:g} mm; please report this")
     change = expected = slack = None
     if ex.base is not None and ex.volume is not None:
         change = volume - float(ex.base.volume)
@@ -803,12 +956,13 @@ def tiles_verdict(what: str, shells: Any, change: Any, expected: Any, slack: Any
     return GateReport(shells, change, expected, slack, farthest, height)
 
 
-def _tile_vertex_blocks(grid: Any, source: Any, client: Any):
-    """``(tile, vertices)`` in :meth:`PlateGrid.tiles` order: made here, or on the
-    cluster's workers with at most two tiles per worker in flight."""
+def _tile_vertex_blocks(grid: Any, source: Any, client: Any, make: Any = _tile_vertices):
+    """``(tile, make(source, grid, tile))`` in :meth:`PlateGrid.tiles` order (default:
+    the tile's vertices; lean tiles: their vertices and triangulation): made here, or
+    on the cluster's workers with at most two tiles per worker in flight."""
     if client is None:
         for t in grid.tiles():  # per tile
-            yield t, _tile_vertices(source, grid, t)
+            yield t, make(source, grid, t)
         return
     from collections import deque
 
@@ -816,7 +970,7 @@ def _tile_vertex_blocks(grid: Any, source: Any, client: Any):
     [src] = client.scatter([source], broadcast=True)
     pending: deque = deque()
     for t in grid.tiles():  # per tile: keep `ahead` in flight, hand them over in order
-        pending.append((t, client.submit(_tile_vertices, src, grid, t, pure=False, retries=1)))
+        pending.append((t, client.submit(make, src, grid, t, pure=False, retries=1)))
         if len(pending) >= ahead:
             t0, fut = pending.popleft()
             yield t0, fut.result()

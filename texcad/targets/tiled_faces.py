@@ -39,11 +39,16 @@ and frame transform) and the same triangles wherever all three corners do (teste
 the triangles that touch the face at the texture's foot and the flat face around
 them are triangulated differently (the untiled union re-triangulates them; the
 surface is the same), so the volumes agree to float rounding (1e-6 relative, tested).
-A tiled face keeps every pixel centre (its error is 0, within any ``tolerance``: the
-lean mesh is not made in tiles). Not tiled (refused, naming a pitch that fits):
-``build_dir`` (the overhang limiter), faces with part material over them within the
-texture's height (material standing on the outline, a boss or a step, is fine) and
-more than :data:`texcad.targets.budget.TILED_PIXELS` pixels.
+Without a ``tolerance`` given a tiled face keeps every pixel centre (error 0); with
+one, blocks wholly inside the textured region are lean (:func:`lean_cells`, their
+borders whole; checked by the gate: :func:`lean_tile_check`). With ``build_dir`` the ramped heights
+(:class:`RampedSource`) are limited block by block, each block from the block grown
+by the limiter's halo (:class:`texcad.targets.tiled.LimitedSource`,
+:func:`texcad.printability.overhang.limit_overhangs_tiled`), into a temporary file (4
+bytes a node) that the tiles read: the untiled limited heights, bit for bit
+(tested). Not tiled (refused, naming a pitch that fits): faces with part material over
+them within the texture's height (material standing on the outline, a boss or a
+step, is fine) and more than :data:`texcad.targets.budget.TILED_PIXELS` pixels.
 """
 
 from __future__ import annotations
@@ -59,7 +64,7 @@ from ..solid.tiles import PlateGrid, Tile, block_volume
 from ..util import Progress, report
 from .tiled import TiledMesh, _at, tiles_verdict
 
-__all__ = ["FaceGrid", "TiledFaceMesh", "TileCells", "face_tiles", "gate_faces", "tile_halo", "material_over", "open_edges"]
+__all__ = ["FaceGrid", "TiledFaceMesh", "TileCells", "face_tiles", "gate_faces", "tile_halo", "material_over", "open_edges", "RampedSource", "ramped_block", "lean_cells", "lean_tile_check"]
 
 
 @dataclass(frozen=True)
@@ -205,20 +210,44 @@ def _ramped(grid: FaceGrid, h: np.ndarray, rows: slice, cols: slice, mask_scale:
     return np.where(mask, np.maximum(h, np.minimum(grid.floor, ramp)), 0.0).astype(np.float32)
 
 
-def tile_heights(grid: FaceGrid, source: Any, t: Tile, mask_scale: Any = None) -> TileHeights:
-    """Tile ``t``'s :class:`TileHeights`: its block grown by the halo, ramped, cut back
-    to the tile (one node around it kept to tell its used and rim nodes)."""
+def ramped_block(grid: FaceGrid, source: Any, rows: slice, cols: slice, mask_scale: Any = None) -> np.ndarray:
+    """The ramped heights (float32 mm, the untiled ``h`` before the overhang limiter)
+    of node rows ``rows`` and columns ``cols`` (within the grid): the block grown by
+    the halo, ramped (M-I, :func:`tile_halo`), cut back."""
     nr, nc = grid.shape
     hh = grid.halo
-    rows = slice(max(t.i0 - hh, 0), min(t.i1 + hh + 1, nr))
-    cols = slice(max(t.j0 - hh, 0), min(t.j1 + hh + 1, nc))
-    h = _ramped(grid, _texture_block(grid, source, rows, cols), rows, cols, mask_scale)
+    wr = slice(max(rows.start - hh, 0), min(rows.stop + hh, nr))
+    wc = slice(max(cols.start - hh, 0), min(cols.stop + hh, nc))
+    h = _ramped(grid, _texture_block(grid, source, wr, wc), wr, wc, mask_scale)
+    return h[rows.start - wr.start : rows.stop - wr.start, cols.start - wc.start : cols.stop - wc.start]
+
+
+class RampedSource:
+    """A face grid's ramped heights as a source (``shape``, ``pitch``,
+    ``heights(rows, cols)`` float32 mm: :func:`ramped_block`), for the overhang
+    limiter in blocks (:class:`texcad.targets.tiled.LimitedSource`)."""
+
+    def __init__(self, grid: FaceGrid, source: Any, mask_scale: Any = None) -> None:
+        self.grid, self.source, self.mask_scale = grid, source, mask_scale
+        self.shape, self.pitch = tuple(grid.shape), tuple(grid.pitch)
+
+    def heights(self, rows: slice, cols: slice) -> np.ndarray:
+        return ramped_block(self.grid, self.source, rows, cols, self.mask_scale)
+
+
+def tile_heights(grid: FaceGrid, source: Any, t: Tile, mask_scale: Any = None, limited: Any = None) -> TileHeights:
+    """Tile ``t``'s :class:`TileHeights`: its block grown by the halo, ramped, cut back
+    to the tile (one node around it kept to tell its used and rim nodes); or, with
+    ``limited`` (the grid's heights after the overhang limiter, ``heights(rows,
+    cols)`` mm), read from there."""
+    nr, nc = grid.shape
+    rows = slice(max(t.i0 - 1, 0), min(t.i1 + 2, nr))
+    cols = slice(max(t.j0 - 1, 0), min(t.j1 + 2, nc))
+    h = ramped_block(grid, source, rows, cols, mask_scale) if limited is None else limited.heights(rows, cols)
     # the tile and one node around it (padded with 0 mm off the grid)
-    a, b = t.i0 - 1 - rows.start, t.i1 + 2 - rows.start
-    c, d = t.j0 - 1 - cols.start, t.j1 + 2 - cols.start
     ring = np.zeros((t.shape[0] + 2, t.shape[1] + 2), np.float32)
-    ring[max(-a, 0) : ring.shape[0] - max(b - h.shape[0], 0), max(-c, 0) : ring.shape[1] - max(d - h.shape[1], 0)] = \
-        h[max(a, 0) : min(b, h.shape[0]), max(c, 0) : min(d, h.shape[1])]
+    a, c = rows.start - (t.i0 - 1), cols.start - (t.j0 - 1)
+    ring[a : a + h.shape[0], c : c + h.shape[1]] = h
     up = ring > 0
     cell = up[:-1, :-1] | up[:-1, 1:] | up[1:, :-1] | up[1:, 1:]  # (r + 1, c + 1): cells around and in the tile
     used = cell[:-1, :-1] | cell[:-1, 1:] | cell[1:, :-1] | cell[1:, 1:]
@@ -284,6 +313,13 @@ class FaceTiles:
         face_tris: ``(M,)`` bool, the base triangles of the textured face.
         mask: the ``mask`` option and its ``mask_size`` mm, or None.
         reach: mm, the largest distance a vertex may have from the face.
+        limited: with ``build_dir``, the grid's ramped heights after the overhang
+            limiter (a :class:`texcad.targets.tiled.LimitedSource` over the node
+            grid: ``heights(rows, cols)`` mm, its report in ``limit.report``), else None.
+        tolerance: mm; > 0: blocks wholly inside the textured region (every cell
+            textured, no rim node) are made lean within it (:func:`lean_cells`).
+        check: with ``build_dir`` and a tolerance, the lean facets' check
+            (:func:`texcad.printability.overhang.lean_facets`, face frame), else None.
     """
 
     grid: FaceGrid
@@ -292,6 +328,9 @@ class FaceTiles:
     face_tris: np.ndarray
     mask: Any
     reach: float
+    limited: Any = None
+    tolerance: float = 0.0
+    check: Any = None
 
 
 class _MaskScale:
@@ -346,19 +385,46 @@ class TiledFaceMesh(TiledMesh):
         numbering = FaceNumbering(grid)
         rim = []
         total = grid.count
+        errors = self.__dict__["lean_pass"] = {}  # lean tiles' errors, mm, filled as they come
         for k, t in enumerate(grid.tiles()):  # per tile, in order
-            th = tile_heights(grid, self.tiles.source, t, self._scale)
-            ids = numbering.ids(t, th.used)
+            th = tile_heights(grid, self.tiles.source, t, self._scale, self.tiles.limited)
+            lean = lean_cells(t, th, self.tiles.tolerance, self.tiles.check, grid.pitch)
+            used = th.used if lean is None else lean.keep
+            ids = numbering.ids(t, used)
             keep = ids.ravel() >= 0
             local = np.full(ids.size, -1, np.int64)
             local[keep] = np.arange(int(keep.sum()))
-            i, j = np.nonzero(th.used)
+            i, j = np.nonzero(used)
             v = grid.world(grid.local(i + t.i0, j + t.j0, th.h[i, j]))
-            f = local[_cell_faces(t, th.cells)]
+            f = local[_cell_faces(t, th.cells) if lean is None else lean.faces]
+            if lean is not None:
+                errors[(t.i0, t.j0)] = lean.error
             rim.append(_rim_part(grid, t, th, ids))
             yield t, v, f, ids.ravel()[keep]
             report(progress, (k + 1) / (total + 1), f"tile {k + 1}/{total}")
+        self.__dict__["lean"] = errors
         yield (None, *self._rest(rim, numbering.next))
+
+    @property
+    def tolerance(self) -> float:
+        """mm: the lean tiles' bound (0: every pixel centre)."""
+        return float(self.tiles.tolerance)
+
+    @property
+    def max_error(self) -> float:
+        """The largest height error at a node of the lean tiles, mm (0 without; one
+        pass over the tiles the first time)."""
+        if self.tolerance <= 0:
+            return 0.0
+        if "lean" not in self.__dict__:
+            for _ in self.blocks():  # per tile: the lean tiles' errors are kept at the end
+                pass
+        return max(self.__dict__["lean"].values(), default=0.0)
+
+    def is_lean(self, t: Tile) -> bool:
+        """Whether tile ``t`` (of the pass over :meth:`blocks` under way, or the last)
+        is lean."""
+        return (t.i0, t.j0) in self.__dict__.get("lean_pass", {})
 
     def _rest(self, rim: list, first: int) -> tuple:
         """The rest of the part (cached: it is small): :func:`rest_block`."""
@@ -397,6 +463,71 @@ class TiledFaceMesh(TiledMesh):
     def __repr__(self) -> str:
         nr, nc = self.grid.shape
         return f"TiledFaceMesh({nr} x {nc} nodes in {self.grid.count} tiles)"
+
+
+#: Smallest block side (nodes) :func:`lean_cells` splits a tile into.
+LEAN_BLOCK = 8
+
+
+def lean_cells(t: Tile, th: TileHeights, tolerance: float, check: Any = None, pitch: tuple = (1.0, 1.0)) -> "Any | None":
+    """Tile ``t`` made lean where it can be (:class:`texcad.solid.tiles.LeanTile`: kept
+    nodes, row-major local triangles, measured error) within ``tolerance`` mm, or None
+    (no tolerance, or nothing lean). A block of the tile (the tile first) wholly
+    inside the textured region (every cell textured, no rim node: the face round the
+    texture is triangulated on the rim nodes, which stay whole) is made lean whole;
+    another is split in four, down to :data:`LEAN_BLOCK` nodes a side, whose textured
+    cells then stay cells. Each lean block keeps its border whole
+    (:func:`texcad.solid.lean.lean_tile`), so what meets it (a neighbouring tile,
+    block or cell) meets it on the same nodes and edges; a block whose lean mesh keeps
+    more than :data:`texcad.solid.lean.MAX_FRACTION` of its triangles (plus its
+    border's share) stays cells. ``check(points, faces)`` (points mm in the face frame,
+    ``pitch`` mm apart) may reject a block's lean triangles (a facet that overhangs),
+    which are then tightened, down to the cells."""
+    if tolerance <= 0:
+        return None
+    r, c = th.h.shape
+    node = np.arange(r * c).reshape(r, c)
+    keep, done = th.used.copy(), np.zeros(th.cells.shape, bool)
+    faces, error = [], 0.0
+    todo = [(0, r - 1, 0, c - 1)]
+    while todo:  # per block: lean whole, or split in four
+        a0, a1, b0, b1 = todo.pop()
+        if not th.cells[a0:a1, b0:b1].any():
+            continue
+        if th.cells[a0:a1, b0:b1].all() and not th.rim[a0 : a1 + 1, b0 : b1 + 1].any():
+            got = _lean_block(th.h[a0 : a1 + 1, b0 : b1 + 1], tolerance, check, pitch)
+            if got is not None:
+                rc, f, err = got
+                keep[a0 + 1 : a1, b0 + 1 : b1] = False
+                keep[rc[:, 0] + a0, rc[:, 1] + b0] = True
+                faces.append(node[a0 : a1 + 1, b0 : b1 + 1][rc[:, 0], rc[:, 1]][f])
+                done[a0:a1, b0:b1], error = True, max(error, err)
+            continue
+        if min(a1 - a0, b1 - b0) >= 2 * LEAN_BLOCK:
+            am, bm = (a0 + a1) // 2, (b0 + b1) // 2
+            todo += [(a0, am, b0, bm), (a0, am, bm, b1), (am, a1, b0, bm), (am, a1, bm, b1)]
+    if not faces:
+        return None
+    from ..solid.tiles import LeanTile
+
+    return LeanTile(keep, np.concatenate([_cell_faces(t, th.cells & ~done)] + faces), float(error))
+
+
+def _lean_block(h: np.ndarray, tolerance: float, check: Any = None, pitch: tuple = (1.0, 1.0)) -> "tuple | None":
+    """:func:`texcad.solid.lean.lean_tile` of a block of nodes (at least 3 a side;
+    ``check`` of its points, ``pitch`` mm apart), or None where it keeps the grid (or
+    more than its share of the grid's triangles)."""
+    from ..solid.lean import MAX_FRACTION, lean_tile
+
+    r, c = h.shape
+    if min(r, c) < 3:
+        return None
+    accept = None
+    if check is not None:
+        def accept(rc: np.ndarray, f: np.ndarray) -> bool:  # noqa: E306 - the block's points, face frame
+            return check(np.stack([rc[:, 1] * pitch[0], rc[:, 0] * pitch[1], h[rc[:, 0], rc[:, 1]]], 1).astype(np.float64), f)
+    rc, f, err = lean_tile(h, tolerance, accept=accept, max_fraction=MAX_FRACTION + (r + c) / ((r - 1) * (c - 1)))
+    return None if len(rc) == r * c else (rc, f, err)
 
 
 def _rim_part(grid: FaceGrid, t: Tile, th: TileHeights, ids: np.ndarray) -> tuple:
@@ -494,10 +625,16 @@ def _check_ring(xy: np.ndarray, tri: np.ndarray, outline: list, holes: list) -> 
         )
 
 
-def face_tiles(fr: Any, base: Any, face_tris: np.ndarray, source: Any, options: Any, *, side: int, floor: float) -> FaceTiles:
+def face_tiles(fr: Any, base: Any, face_tris: np.ndarray, source: Any, options: Any, *, side: int, floor: float,
+               progress: Progress = None) -> FaceTiles:
     """The :class:`FaceTiles` of a planar face ``fr`` (the plane adapter's frame) with
     the texture's ``source`` (its pixels centred on the face, ``offset`` added), ``side``
-    nodes per tile side and ``floor`` mm the least height inside the ramps."""
+    nodes per tile side and ``floor`` mm the least height inside the ramps. With
+    ``options.directions`` (``build_dir``) the ramped heights are limited block by
+    block (:class:`texcad.targets.tiled.LimitedSource`: each block from the block
+    grown by the limiter's halo, :func:`texcad.printability.overhang.limit_overhangs_tiled`,
+    the directions turned into the face frame as the untiled adapter does): the
+    untiled limited heights, bit for bit; ``progress`` is told of its blocks."""
     from ..brep import sample_segments
 
     px, py = (float(p) for p in source.pitch)
@@ -525,7 +662,20 @@ def face_tiles(fr: Any, base: Any, face_tris: np.ndarray, source: Any, options: 
     if options.mask is not None:
         size = options.mask_size if options.mask_size is not None else tuple(float(t) for t in fr.hi - fr.lo)
         mask = (options.mask, size)
-    return FaceTiles(grid, source, base, face_tris, mask, top + 1e-3)
+    limited = None
+    if options.directions is not None:
+        from .tiled import LimitedSource
+
+        ramped = RampedSource(grid, source, None if mask is None else _MaskScale(*mask))
+        limited = LimitedSource(ramped, np.asarray(options.directions) @ np.asarray(fr.axes).T, options.critical_angle, side,
+                                progress=progress, nominal=source.integral())
+    tolerance = float(options.tolerance) if "tolerance" in options.given else 0.0  # default: every pixel centre, as before
+    check = None
+    if limited is not None and tolerance > 0:  # lean facets keep the limiter's angle (the untiled lean slab's rule)
+        from ..printability.overhang import lean_facets
+
+        check = lean_facets(np.asarray(options.directions) @ np.asarray(fr.axes).T, options.critical_angle)
+    return FaceTiles(grid, source, base, face_tris, mask, top + 1e-3, limited, tolerance, check)
 
 
 def material_over(base_local: Any, face_tris: np.ndarray, top: float, inset: float) -> bool:
@@ -578,7 +728,11 @@ def gate_faces(mesh: TiledFaceMesh, ex: Any) -> Any:
     4. the volume change against the base is the heights' own integral (the trapezoid
        sum over the grid, computed from the tiles' heights, not from the triangles)
        within its slack (``px py`` times the highest point) and float rounding;
-    5. every tile vertex lies within ``ex.height`` mm of the face's plane, over the grid.
+    5. every tile vertex lies within ``ex.height`` mm of the face's plane, over the grid;
+    6. a lean tile (:func:`lean_cells`): its triangles' open edges (none used twice the
+       same way) pair up as above, its heights are read again from the source and its
+       triangles lie within the tolerance of them at every node
+       (:func:`lean_tile_check`); the slack of 4 grows by tolerance x its area.
 
     Returns:
         :class:`texcad.report.gate.GateReport`; sets the mesh's volume, top and counts.
@@ -592,9 +746,10 @@ def gate_faces(mesh: TiledFaceMesh, ex: Any) -> Any:
     grid = mesh.grid
     edges, seam_ids, seam_xyz = [], [], []
     volume, integral, top, farthest, finite = 0.0, 0.0, -np.inf, 0.0, True
-    nv, nt = 0, 0
+    nv, nt, error, lean_area, scale = 0, 0, 0.0, 0.0, 0.0
     for t, v, f, ids in mesh.blocks(mesh.progress):  # per tile
         finite &= bool(np.isfinite(v).all())
+        scale = max(scale, float(np.abs(v).max(initial=0.0)))
         nv, nt = max(nv, int(ids.max(initial=-1)) + 1), nt + len(f)
         q = grid.to_local(v)
         if t is None:  # the rest of the part: its volume in the face frame too (the field (0, 0, z) there)
@@ -606,10 +761,17 @@ def gate_faces(mesh: TiledFaceMesh, ex: Any) -> Any:
             continue
         far, high = mesh.reach(t, v, q)
         farthest, top = max(farthest, far), max(top, high)
-        cells = TileCells.of(grid, t, q, f, what)
-        integral += face_integral(grid, t, cells.h)
-        volume += cells.volume(grid.pitch)
-        open_ = ids[cells.open_edges()]
+        if mesh.is_lean(t):
+            h, open_, err = lean_tile_check(mesh, t, q, f, ids, what)
+            integral += face_integral(grid, t, h)
+            volume += block_volume(q, f)
+            error = max(error, err)
+            lean_area += (t.shape[0] - 1) * (t.shape[1] - 1) * grid.pitch[0] * grid.pitch[1]
+        else:
+            cells = TileCells.of(grid, t, q, f, what)
+            integral += face_integral(grid, t, cells.h)
+            volume += cells.volume(grid.pitch)
+            open_ = ids[cells.open_edges()]
         edges.append(open_)
         ring = np.unique(open_)
         seam_ids.append(ring)
@@ -625,10 +787,56 @@ def gate_faces(mesh: TiledFaceMesh, ex: Any) -> Any:
     if not shells.manifold:
         raise GeometryError(f"the {what} failed texcad's gate: {shells.problem() or 'its vertices are not finite'}; please report this")
     mesh.__dict__.update(volume=volume, top=top, counts=(nv, nt), closed=closed)
+    if error > mesh.tolerance + 1e-6 + 4 * float(np.finfo(np.float32).eps) * scale:  # the part's float32 points
+        raise GeometryError(f"the {what} failed texcad's gate: its lean tiles lie up to {error:.4f} mm from the "
+                            f"texture's heights at a node, beyond tolerance={mesh.tolerance:g} mm; please report this")
     change = volume - float(ex.base.volume)
     px, py = grid.pitch
     slack = px * py * float(ex.height) + 1e-3 * abs(integral) + 1e-6 * abs(float(ex.base.volume)) + 1e-3
+    slack += mesh.tolerance * lean_area
     return tiles_verdict(what, shells, change, integral, slack, farthest, float(ex.height), "face")
+
+
+def lean_tile_check(mesh: TiledFaceMesh, t: Tile, q: np.ndarray, f: np.ndarray, ids: np.ndarray,
+                    what: str) -> tuple[np.ndarray, np.ndarray, float]:
+    """Lean tile ``t`` (its vertices ``q`` in the face frame, mm, local triangles
+    ``f``, global numbers ``ids``) read back: ``(h, open, error)``, the tile's heights
+    read again from the source (``(r, c)`` float32 mm), its triangles' open edges
+    (global numbers) and their largest height error at the nodes they cover, mm
+    (:func:`texcad.solid.lean.surface_error`, the cells no triangle covers filled in
+    at the heights read: error 0 there; a node covered twice or not at all is an
+    error).
+
+    Raises:
+        GeometryError: a vertex off the tile's nodes, two on one node, an edge used
+            twice the same way, or triangles that do not tile the textured cells.
+    """
+    from ..solid.lean import surface_error
+
+    grid = mesh.grid
+    r, c = t.shape
+    px, py = grid.pitch
+    fi, fj = (q[:, 1] - grid.ys(t.i0, t.i0)[0]) / py, (q[:, 0] - grid.xs(t.j0, t.j0)[0]) / px
+    i, j = np.rint(fi).astype(np.int64), np.rint(fj).astype(np.int64)
+    if i.min() < 0 or j.min() < 0 or i.max() >= r or j.max() >= c or max(np.abs(fi - i).max(), np.abs(fj - j).max()) > 0.01:
+        raise GeometryError(f"the {what} failed texcad's gate: a lean tile's vertices are off its node grid; please report this")
+    node = i * c + j
+    if len(np.unique(node)) != len(node):
+        raise GeometryError(f"the {what} failed texcad's gate: two vertices of a lean tile on one node; please report this")
+    open_, twice = open_edges(ids[f])
+    if twice:
+        raise GeometryError(f"the {what} failed texcad's gate: a lean tile has {twice} edge(s) used twice the same way "
+                            "or by more than two triangles; please report this")
+    th = tile_heights(grid, mesh.tiles.source, t, mesh._scale, mesh.tiles.limited)
+    z = th.h.astype(np.float64).ravel()
+    z[node] = q[:, 2]
+    rc = np.stack(np.divmod(np.arange(r * c), c), 1)
+    try:
+        err = surface_error(th.h, rc, z, np.concatenate([node[f], _cell_faces(t, ~th.cells)]))
+    except GeometryError:
+        raise GeometryError(f"the {what} failed texcad's gate: a lean tile's triangles do not cover its textured cells; "
+                            "please report this") from None
+    return th.h, open_, err
 
 
 @dataclass(frozen=True)
