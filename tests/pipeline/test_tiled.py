@@ -157,7 +157,8 @@ def _small_budget(monkeypatch):
 
 def test_texture_switches_to_tiles_and_equals_the_untiled_plate(tmp_path, untiled, monkeypatch):
     _small_budget(monkeypatch)
-    tx = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, max_memory="2GB")
+    tx = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, max_memory="2GB",
+                        tolerance=0)
     assert isinstance(tx, texcad.Textured) and tx.info["fuse"] == "tiled" and tx.heightmap is None and tx.max_error == 0.0
     g = tx.gate
     assert g.shells.manifold and g.shells.bodies == 1 and abs(g.volume_change - g.expected_volume) <= g.volume_slack
@@ -206,9 +207,9 @@ def test_texture_limited_in_tiles_equals_the_untiled_limited_plate(tmp_path, mon
     un = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, build_dir=d, tolerance=0)
     slab = un.texture_mesh
     _small_budget(monkeypatch)
-    monkeypatch.setattr(tiled, "tile_for_memory", lambda bound, nodes: 13)  # many tiles, and limiter blocks
+    monkeypatch.setattr(tiled, "tile_for_memory", lambda bound, nodes, **kw: 13)  # many tiles, and limiter blocks
     tx = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, build_dir=d,
-                        max_memory="2GB")
+                        max_memory="2GB", tolerance=0)
     assert tx.info["fuse"] == "tiled" and tx.info["tiles"] > 9
     assert tx.limits.removed_volume_mm3 > 1.0 and tx.limits.ramped_borders == un.limits.ramped_borders
     assert tx.limits.max_removed_mm == un.limits.max_removed_mm and tx.limits.iterations == un.limits.iterations
@@ -229,19 +230,34 @@ def test_texture_limited_in_tiles_equals_the_untiled_limited_plate(tmp_path, mon
     assert np.array_equal(_key(_triangles(tmp_path / "r.stl")), _key(tri)) and not list(tmp_path.glob(".*"))
 
 
-def test_a_tolerance_given_is_warned_about_in_tiles(monkeypatch):
-    """The lean mesh is not made in tiles: a tolerance given says so (the tiles keep
-    every pixel centre, error 0); the default tolerance does not."""
+def test_texture_makes_lean_tiles_within_its_tolerance(tmp_path, monkeypatch):
+    """texcad.texture on a plate made in tiles: lean tiles within its tolerance (no
+    warning), gated tile by tile, its max_error the tiles' measured one within the
+    tolerance, the same triangles as textured_plate_tiled's at that tolerance and tile
+    size; the default tolerance makes lean tiles too; tolerance=0 keeps every pixel centre."""
     import warnings
 
+    import texcad.targets.tiled as tiled
+
     _small_budget(monkeypatch)
-    with pytest.warns(texcad.TexcadWarning, match="the lean mesh is not made in tiles"):
-        tx = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, tolerance=0.05,
-                            max_memory="2GB")
-    assert tx.info["fuse"] == "tiled" and tx.info["tolerance"] == 0.0 and tx.max_error == 0.0
+    monkeypatch.setattr(tiled, "tile_for_memory", lambda bound, nodes, **kw: 40)
+    plate = texcad.Plate(SIZE, THICK)
     with warnings.catch_warnings():
         warnings.simplefilter("error", texcad.TexcadWarning)
-        texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=PITCH, height=HEIGHT, max_memory="2GB")
+        tx = texcad.texture(plate, None, "builtin:stones", pitch=LEAN_PITCH, height=HEIGHT, tolerance=TOL, max_memory="2GB")
+        grid = texcad.texture(plate, None, "builtin:stones", pitch=LEAN_PITCH, height=HEIGHT, max_memory="2GB", tolerance=0)
+        default = texcad.texture(plate, None, "builtin:stones", pitch=LEAN_PITCH, height=HEIGHT, max_memory="2GB")
+    assert tx.info["fuse"] == "tiled" and tx.info["tolerance"] == TOL and tx.info["tiles"] > 1 and 0 < tx.max_error <= TOL
+    g = tx.gate
+    assert g.shells.closed and abs(g.volume_change - g.expected_volume) <= g.volume_slack
+    assert grid.info["tolerance"] == 0.0 and grid.max_error == 0.0
+    assert default.info["tolerance"] == 0.02 and 0 < default.max_error <= 0.02
+    assert tx.mesh.num_triangles < 0.6 * grid.mesh.num_triangles
+    tx.export(tmp_path / "t.stl")
+    ref = textured_plate_tiled(SIZE, THICK, "builtin:stones", LEAN_PITCH, height=HEIGHT, out=tmp_path / "r.stl", tile=40,
+                               tolerance=TOL)
+    assert np.array_equal(_key(_triangles(tmp_path / "t.stl")), _key(_triangles(tmp_path / "r.stl")))
+    assert ref.max_error == tx.max_error and not list(tmp_path.glob(".*"))
 
 
 def test_limited_plate_under_an_address_space_limit_is_made_in_tiles(tmp_path):
@@ -664,7 +680,8 @@ def test_lean_tiles_are_gated_tile_by_tile(monkeypatch):
     from texcad.pipeline.tiled import TiledMesh
 
     _small_budget(monkeypatch)
-    tx = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=LEAN_PITCH, height=HEIGHT, max_memory="2GB")
+    tx = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", pitch=LEAN_PITCH, height=HEIGHT, max_memory="2GB",
+                        tolerance=0)
     src, grid = tx.stages.fused.mesh.source, tx.stages.fused.mesh.grid
     ex = tx.stages.adapter.expectation(tx.stages.placement, tx.stages.relief, tx.stages.fused)
     ex = dataclasses.replace(ex, volume_slack=ex.volume_slack + TOL * SIZE[0] * SIZE[1])

@@ -23,8 +23,8 @@ sewn to the face's own edges (:func:`texcad.brep.textured_plane_solid`).
 
 **Tiles.** Where the untiled relief would not fit in the memory available (the
 machine's, or ``max_memory``), the face is made in tiles instead
-(:mod:`texcad.targets.tiled_faces`): the same heights and ramps a tile at a time, every
-pixel centre kept (error 0; lean blocks inside the texture for a ``tolerance`` given),
+(:mod:`texcad.targets.tiled_faces`): the same heights and ramps a tile at a time, lean
+blocks inside the texture within ``tolerance`` (every pixel centre kept with 0),
 the face round the texture re-triangulated on its own
 outline, the result a :class:`~texcad.targets.tiled_faces.TiledFaceMesh` that the
 gate checks and the export streams tile by tile (``info["fuse"] == "tiled"``).
@@ -333,7 +333,7 @@ class PlaneAdapter(Adapter):
         options.report(0.1, f"{what}: made in tiles")
         source, side = plate_source(texture, size, float(options.pitch), options.height, bound=options.max_memory,
                                     progress=lambda f, m: options.report(0.1 + 0.2 * f, m),
-                                    tolerance=float(options.tolerance) if "tolerance" in options.given else 0.0)
+                                    tolerance=float(options.tolerance))
         vol, slack = source.integral()
         if not vol > 0:
             source.close()

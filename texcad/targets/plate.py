@@ -19,11 +19,12 @@ mesh without a boolean (:func:`texcad.solid.boolean.fuse_on_plane`, checked;
 machine's, or ``max_memory``), a plain plate is made in tiles instead
 (:mod:`texcad.targets.tiled`): the relief is the texture's source, read a tile at a
 time, the fused mesh a :class:`~texcad.targets.tiled.TiledMesh` that the gate checks
-(:func:`~texcad.targets.tiled.gate_tiled`) and the export streams, tile by tile. It
-keeps every pixel centre (its error is 0, within any ``tolerance``: the lean mesh is
-not made in tiles, and a ``tolerance`` given is warned about; ``depth`` is not
-used: the texture is the plate's top) and its rim slopes from the outer pixel centres
-to the plate's edge (``info["fuse"] == "tiled"``). With ``build_dir`` the overhang
+(:func:`~texcad.targets.tiled.gate_tiled`) and the export streams, tile by tile. With
+a ``tolerance`` > 0 (the default 0.02 mm, as untiled) each tile is lean within it (its border rows and columns kept whole,
+so that the tiles meet exactly; the error measured at every pixel centre and gated
+tile by tile); with 0 it keeps every pixel centre. ``depth`` is not used (the texture
+is the plate's top) and the rim slopes from the outer pixel centres to the plate's
+edge (``info["fuse"] == "tiled"``). With ``build_dir`` the overhang
 limiter runs block by block, each block limited from the block grown by a halo
 (:func:`texcad.printability.overhang.limit_overhangs_tiled`): the same heights as the untiled
 limiter, bit for bit. A given ``base`` is not tiled: that is refused as before.
@@ -217,14 +218,6 @@ class PlateAdapter(Adapter):
             require_memory(need, what, "a plate with its own base is not made in tiles; use pitch >= "
                                        f"{fitting_pitch(options.pitch, need):.3g} mm")
         options.report(0.1, f"{what}: made in tiles")
-        if options.tolerance > 0 and "tolerance" in options.given:
-            import warnings
-
-            from ..errors import TexcadWarning
-
-            warnings.warn(f"{what} is made in tiles, which keep every pixel centre (error 0, within tolerance="
-                          f"{options.tolerance:g} mm): the lean mesh is not made in tiles, so the file is the full grid's "
-                          "size; use a coarser pitch for a smaller file", TexcadWarning, stacklevel=4)
         height: Any = options.height
         if isinstance(texture, Heightmap):  # as the untiled plate: its own pixels, and its own heights unless told
             from ..sources import load_texture
@@ -232,7 +225,7 @@ class PlateAdapter(Adapter):
             texture = texture if "height" not in options.given else load_texture(texture, height=options.height)
             height = None
         source, side = plate_source(texture, (w, d), options.pitch, height, bound=options.max_memory,
-                                    progress=lambda f, m: options.report(0.1 + 0.2 * f, m))
+                                    progress=lambda f, m: options.report(0.1 + 0.2 * f, m), tolerance=_tile_tolerance(options))
         top = float(source.hm.heights.max()) if height is None else float(height)
         nominal, limits = source.integral()[0], None
         if options.directions is not None:  # the limiter block by block (each from its halo), the result on disk
@@ -251,8 +244,11 @@ class PlateAdapter(Adapter):
         vol, slack = source.integral()
         (r, c), (px, py) = source.shape, source.pitch
         rim = 2 * (w + d) * (max(w - c * px, d - r * py) / 2 + max(px, py) / 2) * max(top, 0.0) / 2  # the sloped rim (tiled.py)
-        return Relief(heightmap=None, limits=limits, volume=vol, volume_slack=slack + rim + 1e-3 * abs(vol),
-                      nominal_volume=nominal, reach=top + 1e-3, max_error=0.0, data=PlateTiles(grid, source))
+        tol = _tile_tolerance(options)
+        lean = tol * c * px * r * py  # a lean surface within the tolerance of the heights
+        return Relief(heightmap=None, limits=limits, volume=vol, volume_slack=slack + rim + lean + 1e-3 * abs(vol),
+                      nominal_volume=nominal, reach=top + 1e-3, max_error=None if tol > 0 else 0.0,
+                      data=PlateTiles(grid, source))
 
     def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
         pl: PlatePlacement = placement.data
@@ -261,10 +257,17 @@ class PlateAdapter(Adapter):
 
             g = relief.data.grid
             options.report(0.45, f"{g.count} tile(s) of up to {g.tile} x {g.tile} nodes")
+            tol = _tile_tolerance(options)
             info = {"face": "plate", "grid": tuple(relief.data.source.shape), "size": pl.size, "thickness": pl.thickness,
-                    "fuse": "tiled", "tiles": g.count, "tile": int(g.tile), "tolerance": 0.0}  # every pixel kept: not lean
+                    "fuse": "tiled", "tiles": g.count, "tile": int(g.tile), "tolerance": tol}
             told = lambda f, m: options.report(0.92 + 0.07 * f, f"checking the result (texcad's gate): {m}")  # noqa: E731
-            return Fused(TiledMesh(g, relief.data.source, pl.thickness, progress=told), placement.base, info)
+            check = None
+            if options.directions is not None and tol > 0:  # lean facets keep the limiter's angle
+                from ..printability.overhang import lean_facets
+
+                check = lean_facets(options.directions, options.critical_angle)
+            mesh = TiledMesh(g, relief.data.source, pl.thickness, progress=told, tolerance=tol, check=check)
+            return Fused(mesh, placement.base, info)
         r: PlateRelief = relief.data
         options.report(0.45, f"fusing {r.slab.num_triangles} texture triangles onto the base")
         fused, how = fuse_plate(placement.base, r.slab, relief.heightmap, r.tolerance)
@@ -279,13 +282,22 @@ class PlateAdapter(Adapter):
         return stages.relief.data.slab
 
     def max_error(self, stages: Stages) -> float:
-        """The slab's largest height error at the pixel centres, mm."""
+        """The slab's largest height error at the pixel centres, mm (lean tiles: as
+        measured tile by tile)."""
+        if isinstance(stages.relief.data, PlateTiles):
+            return stages.fused.mesh.max_error
         r: PlateRelief = stages.relief.data
         hm = stages.relief.heightmap
         return mesh_error(hm.heights, hm.pitch, r.origin, r.slab.vertices, r.slab.faces[r.slab.groups["texture"]])
 
     def brep(self, stages: Stages, fine: Any = None) -> Any:
         raise GeometryError("a textured plate has no B-rep (its texture is a mesh); write STL or 3MF instead")
+
+
+def _tile_tolerance(options: Options) -> float:
+    """The tiles' tolerance, mm: the untiled plate's (``options.tolerance``, default
+    0.02 mm), so a plate is as lean in tiles as it is whole; 0 keeps every pixel centre."""
+    return float(options.tolerance)
 
 
 def _is_box(mesh: Mesh, w: float, d: float, t: float) -> bool:

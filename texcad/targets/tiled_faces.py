@@ -39,8 +39,8 @@ and frame transform) and the same triangles wherever all three corners do (teste
 the triangles that touch the face at the texture's foot and the flat face around
 them are triangulated differently (the untiled union re-triangulates them; the
 surface is the same), so the volumes agree to float rounding (1e-6 relative, tested).
-Without a ``tolerance`` given a tiled face keeps every pixel centre (error 0); with
-one, blocks wholly inside the textured region are lean (:func:`lean_cells`, their
+With ``tolerance=0`` a tiled face keeps every pixel centre (error 0); with a
+tolerance (the default 0.02 mm, as untiled), blocks wholly inside the textured region are lean (:func:`lean_cells`, their
 borders whole; checked by the gate: :func:`lean_tile_check`). With ``build_dir`` the ramped heights
 (:class:`RampedSource`) are limited block by block, each block from the block grown
 by the limiter's halo (:class:`texcad.targets.tiled.LimitedSource`,
@@ -669,7 +669,7 @@ def face_tiles(fr: Any, base: Any, face_tris: np.ndarray, source: Any, options: 
         ramped = RampedSource(grid, source, None if mask is None else _MaskScale(*mask))
         limited = LimitedSource(ramped, np.asarray(options.directions) @ np.asarray(fr.axes).T, options.critical_angle, side,
                                 progress=progress, nominal=source.integral())
-    tolerance = float(options.tolerance) if "tolerance" in options.given else 0.0  # default: every pixel centre, as before
+    tolerance = float(options.tolerance)  # as the untiled face: lean within it, 0 keeps every pixel centre
     check = None
     if limited is not None and tolerance > 0:  # lean facets keep the limiter's angle (the untiled lean slab's rule)
         from ..printability.overhang import lean_facets
