@@ -185,11 +185,15 @@ def _surface_normal(sf, uv) -> np.ndarray:
 
 def _over_creases(w: np.ndarray, G: np.ndarray, N: np.ndarray, edge: np.ndarray, creases: tuple) -> np.ndarray:
     """The wall heights ``w`` (mm, ``(R, C)``) raised where a boundary segment crosses
-    a convex crease: the tiles' boundary chord from ``G_a + w_a N_a`` to ``G_b + w_b
-    N_b`` must stay :data:`WALL_MARGIN` mm above both faces' tangent planes at the
-    crease point nearest its middle (the normals ``N`` are smoothed over the crease,
-    so the sag estimate of :func:`wall_height` misses its kink). ``edge``: the
-    boundary grid points."""
+    a crease (the normals ``N`` are smoothed over it, so the sag estimate of
+    :func:`wall_height` misses its kink): the chord from ``G_a + w_a N_a`` to ``G_b +
+    w_b N_b`` must stay :data:`WALL_MARGIN` mm outside the part (over a convex crease
+    it dips: above the roof of the two faces' tangent planes at the crease point
+    nearest its middle) and the chord from ``G_a - w_a N_a`` to ``G_b - w_b N_b`` as
+    far inside (under a concave crease it rises: under the valley of the planes).
+    The tiles' boundary and the walls' other side are these chords (raised: the
+    outer one is the tiles'; engraved and centred: the inner one, or deeper).
+    ``edge``: the boundary grid points."""
     from scipy.spatial import cKDTree
 
     c, n1, n2 = creases
@@ -211,14 +215,16 @@ def _over_creases(w: np.ndarray, G: np.ndarray, N: np.ndarray, edge: np.ndarray,
     on = dist <= length  # the segments across a crease
     a, b, near = (a[0][on], a[1][on]), (b[0][on], b[1][on]), near[on]
     p1, p2, q = n1[near], n2[near], c[near]
-    for _ in range(8):  # rounds: raise both ends until the chord clears the roof
-        Ta, Tb = G[a] + w[a][:, None] * N[a], G[b] + w[b][:, None] * N[b]
-        low = _roof_clearance(Ta - q, Tb - q, p1, p2)
+    slope = np.minimum(np.maximum((N[a] * p1).sum(1), (N[a] * p2).sum(1)),
+                       np.maximum((N[b] * p1).sum(1), (N[b] * p2).sum(1)))  # clearance gained per mm of w
+    for _ in range(8):  # rounds: raise both ends until both chords clear the faces
+        low = np.full(len(q), np.inf)
+        for side in (1.0, -1.0):  # outside (convex creases), inside (concave)
+            A, B = G[a] + side * w[a][:, None] * N[a] - q, G[b] + side * w[b][:, None] * N[b] - q
+            low = np.minimum(low, _roof_clearance(A, B, side * p1, side * p2))
         short = low < WALL_MARGIN
         if not short.any():
             break
-        slope = np.minimum(np.maximum((N[a] * p1).sum(1), (N[a] * p2).sum(1)),
-                           np.maximum((N[b] * p1).sum(1), (N[b] * p2).sum(1)))
         lift = np.where(short, (WALL_MARGIN - low) / np.maximum(slope, 0.3) + WALL_MARGIN, 0.0)
         np.maximum.at(w, a, w[a] + lift)
         np.maximum.at(w, b, w[b] + lift)
