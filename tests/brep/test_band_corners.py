@@ -60,9 +60,11 @@ CASES = {
     "cylinder cap and fillet": _cap,
     "L plate (concave corner)": _l_plate,
 }
-#: OCCT's mesher (0.1 mm, 0.5 rad) leaves a hole in one long kept strip of a fillet
-#: (between the walls and the outline): its triangulation, not the B-rep (valid, and
-#: closed at 0.01 mm).
+#: OCCT's mesher at 0.1 mm and 0.5 rad folds the triangles of a long kept strip of a
+#: fillet (between the walls and the outline: 0.7 rad by 30 mm in the cylinder's uv,
+#: 100 nodes on its boundary, none inside) and leaves a hole; at 0.2 rad it meshes it
+#: closed, and so it does the same STEP with its faces converted to B-splines. Left
+#: open (issue 28).
 MESHER_HOLE = {"box top and two fillets (a mitre)", "L plate (concave corner)"}
 
 
@@ -97,11 +99,8 @@ def test_corner_step_reads_back(case, tmp_path):
     tx.export(tmp_path / "corner.step")
     back = texcad.io.read_step(tmp_path / "corner.step")
     _assert_matches(back, tx.volume, tx.info.get("volume_slack", 0.0))
-    closed = shape_to_mesh(back, tolerance=0.1, angular_tolerance=0.5).is_watertight
-    if case in MESHER_HOLE:
-        assert shape_to_mesh(texcad.io.read_step(tmp_path / "corner.step"), tolerance=0.01, angular_tolerance=0.5).is_watertight
-        return
-    assert closed  # OCCT meshes it closed
+    angle = 0.2 if case in MESHER_HOLE else 0.5  # rad
+    assert shape_to_mesh(back, tolerance=0.1, angular_tolerance=angle).is_watertight  # OCCT meshes it closed
 
 
 @pytest.mark.parametrize("case", list(CASES))
