@@ -128,8 +128,8 @@ def _creases(faces: list, step: float) -> tuple:
     where their normals differ by more than :data:`CREASE_ANGLE`), at most ``step``
     mm apart: ``(points (M, 3) mm, n1 (M, 3), n2 (M, 3))`` with the two faces'
     outward unit normals there."""
-    from OCP.BRepAdaptor import BRepAdaptor_Curve, BRepAdaptor_Curve2d, BRepAdaptor_Surface
-    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_REVERSED
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
     from OCP.TopExp import TopExp
     from OCP.TopoDS import TopoDS
     from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
@@ -140,27 +140,38 @@ def _creases(faces: list, step: float) -> tuple:
     TopExp.MapShapesAndAncestors_s(compound(list(faces)), TopAbs_EDGE, TopAbs_FACE, emap)
     out = []
     for k in range(1, emap.Extent() + 1):  # one per edge of the patch
-        owners = list(emap.FindFromIndex(k))
+        owners = [TopoDS.Face_s(f) for f in emap.FindFromIndex(k)]
         if len(owners) != 2 or owners[0].IsSame(owners[1]):  # the outline, or a seam
             continue
         e = TopoDS.Edge_s(emap.FindKey(k))
         c = BRepAdaptor_Curve(e)
         t0, t1 = c.FirstParameter(), c.LastParameter()
+        got = _edge_normals(e, c, owners, np.linspace(t0, t1, 9))
+        if not len(got[0]):  # smooth all along (a tangent edge)
+            continue
         ends = np.array([c.Value(t).Coord() for t in (t0, t1)])
         n = max(2, int(np.ceil(_curve_length(c, t0, t1, ends) / step)) + 1)
-        ts = np.linspace(t0, t1, n)
-        pts = np.array([c.Value(float(t)).Coord() for t in ts])  # a few per edge
-        nrm = []
-        for f in owners:  # the two faces
-            f = TopoDS.Face_s(f)
-            pc, sf = BRepAdaptor_Curve2d(e, f), BRepAdaptor_Surface(f)
-            sign = -1.0 if f.Orientation() == TopAbs_REVERSED else 1.0
-            nrm.append(np.array([_surface_normal(sf, pc.Value(float(t))) for t in ts]) * sign)
-        keep = (nrm[0] * nrm[1]).sum(axis=1) < np.cos(np.radians(CREASE_ANGLE))
-        out.append((pts[keep], nrm[0][keep], nrm[1][keep]))
+        out.append(_edge_normals(e, c, owners, np.linspace(t0, t1, n)))
     if not out:
         return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3))
     return tuple(np.concatenate(a) for a in zip(*out))
+
+
+def _edge_normals(e, c, owners: list, ts: np.ndarray) -> tuple:
+    """The points of the edge ``e`` (curve adaptor ``c``) at the parameters ``ts``
+    where its two faces ``owners`` meet at a crease, and their outward unit normals
+    there: ``(points, n1, n2)``, each ``(M, 3)``."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve2d, BRepAdaptor_Surface
+    from OCP.TopAbs import TopAbs_REVERSED
+
+    pts = np.array([c.Value(float(t)).Coord() for t in ts])  # a few per edge
+    nrm = []
+    for f in owners:  # the two faces
+        pc, sf = BRepAdaptor_Curve2d(e, f), BRepAdaptor_Surface(f)
+        sign = -1.0 if f.Orientation() == TopAbs_REVERSED else 1.0
+        nrm.append(np.array([_surface_normal(sf, pc.Value(float(t))) for t in ts]) * sign)
+    keep = (nrm[0] * nrm[1]).sum(axis=1) < np.cos(np.radians(CREASE_ANGLE))
+    return pts[keep], nrm[0][keep], nrm[1][keep]
 
 
 def _curve_length(c, t0: float, t1: float, ends: np.ndarray) -> float:
@@ -183,7 +194,12 @@ def _surface_normal(sf, uv) -> np.ndarray:
     return n / max(float(np.linalg.norm(n)), 1e-18)
 
 
-def _over_creases(w: np.ndarray, G: np.ndarray, N: np.ndarray, edge: np.ndarray, creases: tuple) -> np.ndarray:
+def _cell_size(G: np.ndarray, K: np.ndarray) -> float:
+    """mm, the median length of the cells' edges along the grid rows."""
+    return float(np.median(np.linalg.norm(G[:-1, 1:] - G[:-1, :-1], axis=-1)[K]))
+
+
+def _over_creases(w: np.ndarray, G: np.ndarray, N: np.ndarray, edge: np.ndarray, creases: tuple, wrap: bool = False) -> np.ndarray:
     """The wall heights ``w`` (mm, ``(R, C)``) raised where a boundary segment crosses
     a crease (the normals ``N`` are smoothed over it, so the sag estimate of
     :func:`wall_height` misses its kink): the chord from ``G_a + w_a N_a`` to ``G_b +
@@ -193,7 +209,7 @@ def _over_creases(w: np.ndarray, G: np.ndarray, N: np.ndarray, edge: np.ndarray,
     far inside (under a concave crease it rises: under the valley of the planes).
     The tiles' boundary and the walls' other side are these chords (raised: the
     outer one is the tiles'; engraved and centred: the inner one, or deeper).
-    ``edge``: the boundary grid points."""
+    ``edge``: the boundary grid points; ``wrap``: the last column is the first."""
     from scipy.spatial import cKDTree
 
     c, n1, n2 = creases
@@ -228,6 +244,8 @@ def _over_creases(w: np.ndarray, G: np.ndarray, N: np.ndarray, edge: np.ndarray,
         lift = np.where(short, (WALL_MARGIN - low) / np.maximum(slope, 0.3) + WALL_MARGIN, 0.0)
         np.maximum.at(w, a, w[a] + lift)
         np.maximum.at(w, b, w[b] + lift)
+    if wrap:
+        w[:, 0] = w[:, -1] = np.maximum(w[:, 0], w[:, -1])
     return w
 
 
@@ -512,7 +530,7 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
     around = _corners(K, wrap).sum(axis=0)
     edge = (around > 0) & (around < 4)
     w = wall_height(G, N, K, chord, wrap)
-    w = _over_creases(w, G, N, edge, _creases(faces, 0.25 * float(np.median(np.linalg.norm(np.diff(G, axis=1), axis=-1)))))
+    w = _over_creases(w, G, N, edge, _creases(faces, 0.25 * _cell_size(G, K)), wrap)
     h = H if signed else np.maximum(H, 0.0)
     h = np.where(edge, np.minimum(h, -w) if signed else w, h)
     top = G + h[..., None] * N
