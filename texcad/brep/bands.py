@@ -11,7 +11,10 @@ replaces the part of the patch under ``K``, **without a boolean of the texture**
   ``w`` mm off the face (raised: ``+w``, engraved and centred: at most ``-w``), with
   ``w`` = the tessellation's chord error + twice the largest sag of the grid's
   edges at that point + 5 um, so that the tiles' boundary polyline stays off the
-  exact face;
+  exact face; where it crosses a crease between two of the patch's faces (two
+  fillets meeting at a mitre, convex or concave: the grid's normals are smoothed
+  over it), more, until the chords at ``+w`` and ``-w`` clear both faces' tangent
+  planes there (:func:`_over_creases`);
 * **walls**: per run of tile edges on ``K``'s boundary a degree-1 strip from them
   along ``N`` to the other side of the face (``-w`` or ``+w``), sharing the tile
   edge and the ruling edges at the tile corners;
