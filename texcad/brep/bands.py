@@ -11,7 +11,10 @@ replaces the part of the patch under ``K``, **without a boolean of the texture**
   ``w`` mm off the face (raised: ``+w``, engraved and centred: at most ``-w``), with
   ``w`` = the tessellation's chord error + twice the largest sag of the grid's
   edges at that point + 5 um, so that the tiles' boundary polyline stays off the
-  exact face;
+  exact face; where it crosses a crease between two of the patch's faces (two
+  fillets meeting at a mitre, convex or concave: the grid's normals are smoothed
+  over it), more, until the chords at ``+w`` and ``-w`` clear both faces' tangent
+  planes there (:func:`_over_creases`);
 * **walls**: per run of tile edges on ``K``'s boundary a degree-1 strip from them
   along ``N`` to the other side of the face (``-w`` or ``+w``), sharing the tile
   edge and the ruling edges at the tile corners;
@@ -116,6 +119,150 @@ def wall_height(G: np.ndarray, N: np.ndarray, K: np.ndarray, chord: float, wrap:
     if wrap:
         sag[:, 0] = sag[:, -1] = np.maximum(sag[:, 0], sag[:, -1])
     return chord + 2.0 * sag + WALL_MARGIN
+
+
+#: Degrees: an edge between two faces of a patch whose normals differ by more than this
+#: is a crease (a mitre between fillets): the walls that cross it are raised over it.
+CREASE_ANGLE = 1.0
+
+
+def _creases(faces: list, step: float) -> tuple:
+    """Points along the creases between the patch ``faces`` (edges two of them share,
+    where their normals differ by more than :data:`CREASE_ANGLE`), at most ``step``
+    mm apart: ``(points (M, 3) mm, n1 (M, 3), n2 (M, 3))`` with the two faces'
+    outward unit normals there."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    from .occt import compound
+
+    emap = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(compound(list(faces)), TopAbs_EDGE, TopAbs_FACE, emap)
+    out = []
+    for k in range(1, emap.Extent() + 1):  # one per edge of the patch
+        owners = [TopoDS.Face_s(f) for f in emap.FindFromIndex(k)]
+        if len(owners) != 2 or owners[0].IsSame(owners[1]):  # the outline, or a seam
+            continue
+        e = TopoDS.Edge_s(emap.FindKey(k))
+        c = BRepAdaptor_Curve(e)
+        t0, t1 = c.FirstParameter(), c.LastParameter()
+        got = _edge_normals(e, c, owners, np.linspace(t0, t1, 9))
+        if not len(got[0]):  # smooth all along (a tangent edge)
+            continue
+        ends = np.array([c.Value(t).Coord() for t in (t0, t1)])
+        n = max(2, int(np.ceil(_curve_length(c, t0, t1, ends) / step)) + 1)
+        out.append(_edge_normals(e, c, owners, np.linspace(t0, t1, n)))
+    if not out:
+        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3))
+    return tuple(np.concatenate(a) for a in zip(*out))
+
+
+def _edge_normals(e, c, owners: list, ts: np.ndarray) -> tuple:
+    """The points of the edge ``e`` (curve adaptor ``c``) at the parameters ``ts``
+    where its two faces ``owners`` meet at a crease, and their outward unit normals
+    there: ``(points, n1, n2)``, each ``(M, 3)``."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve2d, BRepAdaptor_Surface
+    from OCP.TopAbs import TopAbs_REVERSED
+
+    pts = np.array([c.Value(float(t)).Coord() for t in ts])  # a few per edge
+    nrm = []
+    for f in owners:  # the two faces
+        pc, sf = BRepAdaptor_Curve2d(e, f), BRepAdaptor_Surface(f)
+        sign = -1.0 if f.Orientation() == TopAbs_REVERSED else 1.0
+        nrm.append(np.array([_surface_normal(sf, pc.Value(float(t))) for t in ts]) * sign)
+    keep = (nrm[0] * nrm[1]).sum(axis=1) < np.cos(np.radians(CREASE_ANGLE))
+    return pts[keep], nrm[0][keep], nrm[1][keep]
+
+
+def _curve_length(c, t0: float, t1: float, ends: np.ndarray) -> float:
+    """mm, the length of the curve ``c`` from ``t0`` to ``t1`` (``ends`` its end points)."""
+    from OCP.GCPnts import GCPnts_AbscissaPoint
+
+    try:
+        return float(GCPnts_AbscissaPoint.Length_s(c, t0, t1))
+    except Exception:  # OCCT could not integrate it: the chord
+        return float(np.linalg.norm(ends[1] - ends[0]))
+
+
+def _surface_normal(sf, uv) -> np.ndarray:
+    """The unit normal ``S_u x S_v`` of the surface adaptor ``sf`` at the 2D point ``uv``."""
+    from OCP.gp import gp_Pnt, gp_Vec
+
+    p, du, dv = gp_Pnt(), gp_Vec(), gp_Vec()
+    sf.D1(uv.X(), uv.Y(), p, du, dv)
+    n = np.cross(du.Coord(), dv.Coord())
+    return n / max(float(np.linalg.norm(n)), 1e-18)
+
+
+def _cell_size(G: np.ndarray, K: np.ndarray) -> float:
+    """mm, the median length of the cells' edges along the grid rows."""
+    return float(np.median(np.linalg.norm(G[:-1, 1:] - G[:-1, :-1], axis=-1)[K]))
+
+
+def _over_creases(w: np.ndarray, G: np.ndarray, N: np.ndarray, edge: np.ndarray, creases: tuple, wrap: bool = False) -> np.ndarray:
+    """The wall heights ``w`` (mm, ``(R, C)``) raised where a boundary segment crosses
+    a crease (the normals ``N`` are smoothed over it, so the sag estimate of
+    :func:`wall_height` misses its kink): the chord from ``G_a + w_a N_a`` to ``G_b +
+    w_b N_b`` must stay :data:`WALL_MARGIN` mm outside the part (over a convex crease
+    it dips: above the roof of the two faces' tangent planes at the crease point
+    nearest its middle) and the chord from ``G_a - w_a N_a`` to ``G_b - w_b N_b`` as
+    far inside (under a concave crease it rises: under the valley of the planes).
+    The tiles' boundary and the walls' other side are these chords (raised: the
+    outer one is the tiles'; engraved and centred: the inner one, or deeper).
+    ``edge``: the boundary grid points; ``wrap``: the last column is the first."""
+    from scipy.spatial import cKDTree
+
+    c, n1, n2 = creases
+    if not len(c) or not edge.any():
+        return w
+    w = w.copy()
+    segs = []
+    for ax in (0, 1):  # grid segments along the columns, the rows
+        lo = [slice(None)] * 2
+        hi = [slice(None)] * 2
+        lo[ax], hi[ax] = slice(None, -1), slice(1, None)
+        ia = np.stack(np.nonzero(edge[tuple(lo)] & edge[tuple(hi)]), axis=1)
+        segs.append(np.concatenate([ia, ia + np.eye(2, dtype=int)[ax]], axis=1))
+    s = np.concatenate(segs)
+    a, b = (s[:, 0], s[:, 1]), (s[:, 2], s[:, 3])
+    mid = 0.5 * (G[a] + G[b])
+    length = np.linalg.norm(G[b] - G[a], axis=1)
+    dist, near = cKDTree(c).query(mid)
+    on = dist <= length  # the segments across a crease
+    a, b, near = (a[0][on], a[1][on]), (b[0][on], b[1][on]), near[on]
+    p1, p2, q = n1[near], n2[near], c[near]
+    slope = np.minimum(np.maximum((N[a] * p1).sum(1), (N[a] * p2).sum(1)),
+                       np.maximum((N[b] * p1).sum(1), (N[b] * p2).sum(1)))  # clearance gained per mm of w
+    for _ in range(8):  # rounds: raise both ends until both chords clear the faces
+        low = np.full(len(q), np.inf)
+        for side in (1.0, -1.0):  # outside (convex creases), inside (concave)
+            A, B = G[a] + side * w[a][:, None] * N[a] - q, G[b] + side * w[b][:, None] * N[b] - q
+            low = np.minimum(low, _roof_clearance(A, B, side * p1, side * p2))
+        short = low < WALL_MARGIN
+        if not short.any():
+            break
+        lift = np.where(short, (WALL_MARGIN - low) / np.maximum(slope, 0.3) + WALL_MARGIN, 0.0)
+        np.maximum.at(w, a, w[a] + lift)
+        np.maximum.at(w, b, w[b] + lift)
+    if wrap:
+        w[:, 0] = w[:, -1] = np.maximum(w[:, 0], w[:, -1])
+    return w
+
+
+def _roof_clearance(A: np.ndarray, B: np.ndarray, n1: np.ndarray, n2: np.ndarray) -> np.ndarray:
+    """``(S,)`` the least height over the segments ``A -> B`` (``(S, 3)`` mm, relative
+    to a point of a convex crease) of the roof of the planes with normals ``n1``,
+    ``n2`` through that point: ``min_t max(n1 . P(t), n2 . P(t))`` (convex and
+    piecewise linear in ``t``: its least value is at an end or where the two meet)."""
+    a1, b1 = (A * n1).sum(1), (B * n1).sum(1)
+    a2, b2 = (A * n2).sum(1), (B * n2).sum(1)
+    den = (a1 - b1) - (a2 - b2)
+    t = np.clip(np.divide(a1 - a2, den, out=np.zeros_like(den), where=np.abs(den) > 1e-18), 0.0, 1.0)
+    meet = np.maximum(a1 + t * (b1 - a1), a2 + t * (b2 - a2))
+    return np.minimum(np.minimum(np.maximum(a1, a2), np.maximum(b1, b2)), meet)
 
 
 def _loops(edges: dict, K: np.ndarray, period: int | None) -> list:
@@ -386,6 +533,7 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
     around = _corners(K, wrap).sum(axis=0)
     edge = (around > 0) & (around < 4)
     w = wall_height(G, N, K, chord, wrap)
+    w = _over_creases(w, G, N, edge, _creases(faces, 0.25 * _cell_size(G, K)), wrap)
     h = H if signed else np.maximum(H, 0.0)
     h = np.where(edge, np.minimum(h, -w) if signed else w, h)
     top = G + h[..., None] * N

@@ -1,0 +1,162 @@
+"""Faces flattened together whose outline turns a corner where they meet another
+face at a crease (issue 28): a box whose top edges only are filleted, textured on the
+top and two or four fillets (two fillets meet at a mitre, a convex crease, that runs
+down to the sharp vertical edge), the same with the vertical edges filleted too
+(vertex blends), a cylinder's cap and its edge fillet, and an L plate's top and
+fillets (at the inner corner the fillets meet in a concave crease). Each gets one
+valid closed solid within 0.1 % of the mesh (OCCT's adaptive integration), whose
+STEP reads back the same and meshes closed, and through which a 3 mm hole drilled
+gives a B-rep within 0.1 % of the same cut on the mesh."""
+
+import warnings
+from functools import lru_cache
+
+import numpy as np
+import pytest
+
+import texcad
+from texcad.brep import check_shape, occt_volume, shape_to_mesh
+from texcad.brep.bands import _creases, _over_creases, _roof_clearance
+from texcad.brep.solids import flat_solids
+
+
+def _box(n):
+    from build123d import Box, Cylinder, GeomType, Pos, fillet
+
+    part = fillet(Box(24, 18, 8).edges().group_by()[-1], 2)
+    top = part.faces().sort_by()[-1]
+    cyl = part.faces().filter_by(GeomType.CYLINDER)  # the fillets of the x = -12 and y = -9 edges first
+    return part, [top, *cyl[:n]], Pos(-10, -7, 0) * Cylinder(1.5, 20)  # the hole through the mitre
+
+
+def _blends():
+    from build123d import Axis, Box, Cylinder, GeomType, Pos, fillet
+
+    part = fillet(fillet(Box(24, 18, 8).edges().filter_by(Axis.Z), 3).edges().group_by()[-1], 2)
+    top = part.faces().sort_by()[-1]
+    rims = [f for f in part.faces() if f.geom_type == GeomType.CYLINDER and abs(f.normal_at().Z) > 0.1]
+    return part, [top, *rims], Pos(-10, -7, 0) * Cylinder(1.5, 20)
+
+
+def _cap():
+    from build123d import Axis, Cylinder, GeomType, Pos, fillet
+
+    part = fillet(Cylinder(10, 8).edges().sort_by(Axis.Z)[-1:], 2)
+    return part, [part.faces().sort_by()[-1], *part.faces().filter_by(GeomType.TORUS)], Pos(8.5, 0, 0) * Cylinder(1.5, 20)
+
+
+def _l_plate():
+    from build123d import Cylinder, GeomType, Polyline, Pos, extrude, fillet, make_face
+
+    outline = Polyline((0, 0), (30, 0), (30, 12), (12, 12), (12, 30), (0, 30), close=True)
+    part = fillet(extrude(make_face(outline), 6).edges().group_by()[-1], 2)
+    return part, [part.faces().sort_by()[-1], *part.faces().filter_by(GeomType.CYLINDER)], Pos(10.5, 10.5, 0) * Cylinder(1.5, 20)
+
+
+CASES = {
+    "box top and two fillets (a mitre)": lambda: _box(2),
+    "box top and four fillets": lambda: _box(4),
+    "vertex blends": _blends,
+    "cylinder cap and fillet": _cap,
+    "L plate (concave corner)": _l_plate,
+}
+#: OCCT's mesher at 0.1 mm and 0.5 rad folds the triangles of a long kept strip of a
+#: fillet (between the walls and the outline: 0.7 rad by 30 mm in the cylinder's uv,
+#: 100 nodes on its boundary, none inside) and leaves a hole; at 0.2 rad it meshes it
+#: closed, and so it does the same STEP with its faces converted to B-splines. Left
+#: open (issue 28).
+MESHER_HOLE = {"box top and two fillets (a mitre)", "L plate (concave corner)"}
+
+
+@lru_cache(maxsize=None)
+def _textured(case):
+    part, faces, tool = CASES[case]()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the texture scaled to fit around
+        tx = texcad.texture(part, faces, "builtin:stones", height=0.4, pitch=0.5)
+    return tx, tool
+
+
+def _assert_matches(shape, volume, slack):
+    chk = check_shape(shape)
+    assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
+    assert abs(occt_volume(shape) - volume) <= 1e-3 * volume + slack
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_corner_brep_matches_the_mesh(case):
+    tx, _ = _textured(case)
+    (patch,) = tx.info["faces"]  # one patch: the faces flattened together
+    assert len(patch["faces"]) > 1
+    shape = flat_solids(tx.shape)
+    _assert_matches(shape, tx.volume, tx.info.get("volume_slack", 0.0))
+    assert check_shape(shape)["faces"] > 100  # the texture is in the B-rep: tiles and walls
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_corner_step_reads_back(case, tmp_path):
+    tx, _ = _textured(case)
+    tx.export(tmp_path / "corner.step")
+    back = texcad.io.read_step(tmp_path / "corner.step")
+    _assert_matches(back, tx.volume, tx.info.get("volume_slack", 0.0))
+    angle = 0.2 if case in MESHER_HOLE else 0.5  # rad
+    assert shape_to_mesh(back, tolerance=0.1, angular_tolerance=angle).is_watertight  # OCCT meshes it closed
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_corner_hole(case):
+    tx, tool = _textured(case)
+    offset = tx.info["brep_volume"] - tx.volume
+    holed = tx - tool
+    assert tx.volume - holed.volume > 3.0 * 2 * 2  # the drill took the texture and the wall under it
+    _assert_matches(holed.shape, holed.volume + offset, tx.info.get("volume_slack", 0.0))  # ops checked it against the mesh's cut
+
+
+def test_creases_are_the_mitres_only():
+    from build123d import Box, fillet
+
+    from texcad.brep.occt import to_topods
+
+    part = fillet(Box(24, 18, 8).edges().group_by()[-1], 2)
+    faces = [to_topods(f) for f in part.faces() if f.center().Z > 2]  # the top and its four fillets
+    c, n1, n2 = _creases(faces, 0.25)
+    # the four mitres run from the corners (12, 9, 2) up to (10, 7, 4); the top's tangent edges are no creases
+    assert len(c) > 4 * 8
+    assert np.allclose(np.abs(c[:, 0]) - np.abs(c[:, 1]), 3.0, atol=1e-6)
+    assert c[:, 2].min() == pytest.approx(2.0) and c[:, 2].max() < 4.0
+    # outward normals, turning by up to 90 degrees at the bottom of a mitre
+    assert (n1 * np.sign(c) * [1, 1, 0]).sum(axis=1).min() >= -1e-9 and (n1[:, 2] >= -1e-9).all()
+    assert float((n1 * n2).sum(axis=1).min()) == pytest.approx(0.0, abs=1e-6)
+
+
+def test_roof_clearance_of_a_chord_over_a_ridge():
+    # a ridge along y at the origin, faces falling at 45 degrees: normals (-1, 0, 1) and (1, 0, 1) / sqrt 2
+    n1, n2 = np.array([[-1.0, 0, 1]]) / np.sqrt(2), np.array([[1.0, 0, 1]]) / np.sqrt(2)
+    for h, want in ((0.0, -0.5 / np.sqrt(2)), (0.5, 0.0), (1.0, 0.5 / np.sqrt(2))):  # a chord at z = h - 0.5
+        A, B = np.array([[-0.5, 0, h - 0.5]]), np.array([[0.5, 0, h - 0.5]])
+        assert _roof_clearance(A, B, n1, n2)[0] == pytest.approx(want)
+    # off-centre: the chord's least clearance is where the two planes meet
+    A, B = np.array([[-0.2, 0, 0.1]]), np.array([[0.8, 0, -0.7]])
+    t = np.linspace(0, 1, 10001)[:, None]
+    P = A + t * (B - A)
+    assert _roof_clearance(A, B, n1, n2)[0] == pytest.approx(np.maximum(P @ n1[0], P @ n2[0]).min(), abs=1e-4)
+
+
+def test_walls_over_a_ridge_clear_it():
+    """A row of grid points across a 90 degree ridge (the faces z = -|x|), with the
+    smoothed normal +z at the ridge: the chords stand clear of both faces afterwards,
+    above the ridge and below it."""
+    x = np.array([-0.75, -0.25, 0.25, 0.75])
+    G = np.stack([x, np.zeros(4), -np.abs(x)], axis=1)[None].repeat(2, axis=0)
+    G[1, :, 1] = 0.5
+    N = np.array([[-0.6, 0, 0.8], [-0.3, 0, 0.95], [0.3, 0, 0.95], [0.6, 0, 0.8]])
+    N = (N / np.linalg.norm(N, axis=1, keepdims=True))[None].repeat(2, axis=0)
+    w = np.full((2, 4), 0.02)
+    creases = (np.array([[0.0, 0.0, 0.0], [0.0, 0.5, 0.0]]), np.array([[-1.0, 0, 1]] * 2) / np.sqrt(2), np.array([[1.0, 0, 1]] * 2) / np.sqrt(2))
+    out = _over_creases(w, G, N, np.ones((2, 4), bool), creases)
+    T = G + out[..., None] * N
+    for r in range(2):  # the chord over the ridge (grid points 1 and 2) clears it
+        t = np.linspace(0, 1, 101)[:, None]
+        P = T[r, 1] + t * (T[r, 2] - T[r, 1])
+        assert (P[:, 2] + np.abs(P[:, 0]) > 0.0).all()
+    assert out[0, 0] == pytest.approx(0.02) and out[0, 1] > 0.1  # far from the ridge: as it was
