@@ -49,12 +49,13 @@ fold limiter lowers it by its neighbours too). ``texture_mesh`` and ``layer_mesh
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
-from ..errors import GeometryError, ParameterError, ResourceError
+from ..errors import GeometryError, ParameterError, ResourceError, TexcadWarning
 from ..printability.relief import limit_relief
 from ..solid.subdivide import coarsen, edge_lengths, face_normals, offset_directions, tessellate, vertex_normals
 from ..util import Progress, available_memory, finest_pitch, report, split_rows
@@ -169,8 +170,6 @@ def mesh_plan(layer: Any, v: np.ndarray, f: np.ndarray, tol: float, refined: int
         ResourceError: the coarse mesh or one block does not fit (names a pitch).
         ParameterError: the region holds no face.
     """
-    from .mesh import _select
-
     pitch = float(layer.pitch)
     coarse = refined / COARSE_RATIO * COARSE_BYTES
     if coarse > available_memory():
@@ -179,7 +178,7 @@ def mesh_plan(layer: Any, v: np.ndarray, f: np.ndarray, tol: float, refined: int
                             f"{available_memory() / 2**30:.1f} GiB available; use a pitch of at least "
                             f"{finest_pitch(pitch, coarse):.3g} mm or allow more memory (max_memory)")
     fn, _ = face_normals(v, f)
-    sel = _select(layer, v, f, fn, None, 45.0, tol, loose=True, ids=np.arange(len(f)))
+    sel = layer.faces(v, f, fn, None, 45.0, tol, loose=True, ids=np.arange(len(f)))
     if not sel.any():
         raise ParameterError(f"region 1 ({layer.region}) holds no face of the mesh; choose another region")
     cv, cf, act, parent = coarsen(v, f, sel, pitch, guard=False)
@@ -268,11 +267,8 @@ def fine_block(plan: MeshPlan, block: np.ndarray) -> FineBlock:
 def _strict(plan: MeshPlan, b: FineBlock) -> np.ndarray:
     """The refined faces in the region (as the untiled adapter selects them; the bed
     face's height from the whole mesh)."""
-    from .mesh import _select
-
     vv = np.concatenate([b.v, plan.low[None, :]])  # the lowest point: bed faces as on the whole mesh
-    return _select(plan.layer, vv, b.f, plan.fn[b.near][b.src], None, 45.0, plan.tol, loose=False,
-                   ids=plan.ids[b.near][b.src])
+    return plan.layer.faces(vv, b.f, plan.fn[b.near][b.src], None, 45.0, plan.tol, loose=False, ids=plan.ids[b.near][b.src])
 
 
 def _owned(b: FineBlock) -> np.ndarray:
@@ -390,8 +386,11 @@ class _Numbering:
 class BlockRelief:
     """One block displaced: its emitted vertices ``v`` ``(k, 3)`` float32 mm, faces
     ``f`` (local), global numbers ``ids``, and per emitted vertex its undisplaced
-    position ``v0`` (float64) and displacement ``offset`` ``(k, 3)`` mm; ``mask``:
-    the texture mask's largest value there (None without a mask)."""
+    position ``v0`` (float64) and displacement ``offset`` ``(k, 3)`` mm; ``body``:
+    each face's connected piece; ``mask``: the texture mask's largest value there
+    (None without a mask); ``folded``: faces the fold limiter lowered the texture
+    at; ``moved``: the global numbers of the block's border vertices it lowered and
+    their displacements after it (mm)."""
 
     v: np.ndarray
     f: np.ndarray
@@ -400,41 +399,53 @@ class BlockRelief:
     offset: np.ndarray
     body: np.ndarray
     mask: Any
+    folded: int
+    moved: tuple
 
 
-def _displace(plan: MeshPlan, b: FineBlock, gid: np.ndarray) -> BlockRelief:
-    """The block's vertices moved along their offset directions by the relief
-    (module docstring); GeometryError where a face would fold over."""
-    from .mesh import _nearest, _relief_rows
-
-    unit = vertex_normals(b.v, b.f)
-    dirs = offset_directions(b.v, b.f, unit)
+def _relief(plan: MeshPlan, b: FineBlock, keep: np.ndarray, unit: np.ndarray) -> tuple[np.ndarray, Any]:
+    """Displacement (mm) of the block's vertices (``keep``: its own), 0 off the
+    region, and the mask's largest value (None without one)."""
     m = _strict(plan, b)
     ins = np.zeros(len(b.v), dtype=bool)
     ins[b.f[m].ravel()] = True
-    keep = gid >= 0
     idx = np.flatnonzero(ins & keep)
     layer = plan.layer
-    dist = _nearest(plan.border, layer.border)(b.v[idx])
+    dist = layer.border_distance(plan.border)(b.v[idx])
     if layer.projection.kind != "solid" and len(idx):
         layer.heights(b.v[idx[:1]], unit[idx[:1]])  # the samplers made once, before the threads
-    parts = split_rows(lambda r: _relief_rows(layer, b.v[idx[r]], unit[idx[r]], dist[r]), len(idx))
+    parts = split_rows(lambda r: layer.relief_rows(b.v[idx[r]], unit[idx[r]], dist[r]), len(idx))
     d = np.zeros(len(b.v))
     d[idx] = np.concatenate([p[0] for p in parts]) if parts else 0.0
     masks = [p[3] for p in parts if p[3] is not None and len(p[3])]
+    return d, (max(float(q.max()) for q in masks) if masks else None)
+
+
+def _displace(plan: MeshPlan, b: FineBlock, gid: np.ndarray, pins: tuple) -> BlockRelief:
+    """The block's vertices moved along their offset directions by the relief
+    (module docstring), limited where a face would fold over
+    (:func:`texcad.printability.limit_relief` on the block's own faces); ``pins``
+    ``(ids, d)``: border vertices (sorted global numbers) whose displacement another
+    block's limiter lowered, and to what (mm): they start from that here."""
+    unit = vertex_normals(b.v, b.f)
+    dirs = offset_directions(b.v, b.f, unit)
+    keep = gid >= 0
+    d, mask = _relief(plan, b, keep, unit)
     local = np.full(len(b.v), -1, dtype=np.int64)
     local[keep] = np.arange(int(keep.sum()))
     f = local[b.f[b.own]]
-    _, lim = limit_relief(b.v[keep], f, dirs[keep], d[keep])
-    if lim.folded_faces:
-        raise GeometryError(f"the texture would fold over at {lim.folded_faces} faces (too deep for the curvature there); "
-                            "lowering it there (the fold limiter) needs the whole mesh, which is not made in blocks: use a "
-                            f"smaller height, or a pitch of at least {plan.fits:.3g} mm")
-    off = dirs[keep] * d[keep, None]
-    v32 = (b.v[keep] + off).astype(np.float32)
-    body = plan.body[b.near][b.src][b.own]
-    return BlockRelief(v32, f, gid[keep], b.v[keep], off, body,
-                       max(float(q.max()) for q in masks) if masks else None)
+    ids, v0 = gid[keep], b.v[keep]
+    dk = d[keep]
+    at = np.searchsorted(pins[0], ids)
+    hit = np.flatnonzero(pins[0][np.minimum(at, len(pins[0]) - 1)] == ids) if len(pins[0]) else np.zeros(0, np.int64)
+    dk[hit] = pins[1][at[hit]]
+    lowered, lim = limit_relief(v0, f, dirs[keep], dk)
+    seam = np.unique(open_edges(f)[0])
+    seam = seam[lowered[seam] != dk[seam]]
+    moved = (ids[seam], lowered[seam])
+    off = dirs[keep] * lowered[:, None]
+    v32 = (v0 + off).astype(np.float32)
+    return BlockRelief(v32, f, ids, v0, off, plan.body[b.near][b.src][b.own], mask, int(lim.folded_faces), moved)
 
 
 class TiledMeshBlocks(TiledMesh):
@@ -472,9 +483,10 @@ class TiledMeshBlocks(TiledMesh):
         plan = self.plan
         numbering = _Numbering(plan)
         n = len(plan.blocks)
+        pins = self.__dict__.get("pins", (np.zeros(0, dtype=np.int64), np.zeros(0)))
         for k, blk in enumerate(plan.blocks):  # per block
             b = fine_block(plan, blk)
-            yield _displace(plan, b, numbering.ids(plan, b))
+            yield _displace(plan, b, numbering.ids(plan, b), pins)
             del b
             report(progress, (k + 1) / n, f"block {k + 1}/{n}")
 
@@ -513,7 +525,80 @@ def _face_terms(v: np.ndarray, f: np.ndarray, o: np.ndarray) -> np.ndarray:
             + a[:, 2] * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0]))
 
 
-def gate_mesh_blocks(mesh: TiledMeshBlocks, ex: Any) -> Any:
+@dataclass
+class _Tally:
+    """What one pass over the blocks adds up for the gate (volumes mm^3, lengths mm)."""
+
+    out_vol: np.ndarray
+    in_vol: np.ndarray
+    edges: list
+    seam_ids: list
+    seam_xyz: list
+    moved: list
+    swept: float = 0.0
+    spread: float = 0.0
+    farthest: float = 0.0
+    finite: bool = True
+    nv: int = 0
+    nt: int = 0
+    folded: int = 0
+    masked: Any = None
+
+    def add(self, r: BlockRelief, o: np.ndarray) -> None:
+        """Block ``r``'s shares, volumes about the point ``o``."""
+        nb = len(self.out_vol)
+        self.finite &= bool(np.isfinite(r.v).all())
+        self.nv, self.nt, self.folded = max(self.nv, int(r.ids.max(initial=-1)) + 1), self.nt + len(r.f), self.folded + r.folded
+        self.out_vol += np.bincount(r.body, weights=_face_terms(r.v, r.f, o), minlength=nb) / 6.0
+        before = _face_terms(r.v0, r.f, o)
+        self.in_vol += np.bincount(r.body, weights=before, minlength=nb) / 6.0
+        self.swept += float((_face_terms(r.v0 + r.offset, r.f, o) - before).sum()) / 6.0
+        shift = np.linalg.norm(r.offset, axis=1)
+        self.spread += float((_areas(r.v0, r.f) / 3.0 * shift[r.f].sum(axis=1)).sum())
+        self.farthest = max(self.farthest, float(np.linalg.norm(r.v.astype(np.float64) - r.v0, axis=1).max(initial=0.0)))
+        self.masked = r.mask if self.masked is None else (self.masked if r.mask is None else max(self.masked, r.mask))
+        open_, _ = open_edges(r.ids[r.f])
+        self.edges.append(open_)
+        ring = np.unique(open_)
+        self.seam_ids.append(ring)
+        self.seam_xyz.append(_at(r.ids, r.v, ring))
+        self.moved.append(r.moved)
+
+
+def _tally(mesh: "TiledMeshBlocks") -> _Tally:
+    """One pass over the blocks; where the fold limiter lowered a border vertex, it
+    is pinned at its least displacement (every block starts from that) and the pass
+    made again, until the limiter lowers no border vertex (from the third pass on,
+    a border vertex it lowers is pinned at 0, where the limiter leaves it)."""
+    plan = mesh.plan
+    o = 0.5 * (plan.v.min(axis=0) + plan.v.max(axis=0))
+    nb = int(plan.body.max()) + 1
+    for k in range(12):  # per pass: pins only grow and go down
+        t = _Tally(np.zeros(nb), np.zeros(nb), [], [], [], [])
+        for r in mesh.displaced(mesh.progress):  # per block
+            t.add(r, o)
+        if not sum(len(m[0]) for m in t.moved):
+            mesh.__dict__["passes"] = k + 1
+            return t
+        mesh.__dict__["pins"] = _pinned(mesh.__dict__.get("pins"), t.moved, zero=k >= 2)
+    raise GeometryError(f"the texture folds over across block borders, and pinning them did not settle it; use a smaller "
+                        f"height or a pitch of at least {plan.fits:.3g} mm (made whole)")
+
+
+def _pinned(pins: "tuple | None", moved: list, zero: bool) -> tuple:
+    """``(ids, d)`` sorted: the pins and the newly lowered border vertices, each at
+    its least displacement (mm; the limiter only lowers, keeping the sign); with
+    ``zero`` the newly lowered ones at 0 (the undisplaced surface, where the limiter
+    itself ends: after two passes, so that the passes settle)."""
+    ids = np.concatenate([m[0] for m in moved] + ([pins[0]] if pins else []))
+    d = np.concatenate([m[1] * (0.0 if zero else 1.0) for m in moved] + ([pins[1]] if pins else []))
+    order = np.lexsort((np.abs(d), ids))
+    ids, d = ids[order], d[order]
+    first = np.r_[True, ids[1:] != ids[:-1]]
+    return ids[first], d[first]
+
+
+def gate_mesh_blocks(mesh: "TiledMeshBlocks", ex: Any) -> Any:
     """texcad's gate (checks 1-5, :func:`texcad.report.gate.gate`) on a mesh made in
     blocks, in memory that goes with one block plus the blocks' open edges:
 
@@ -538,49 +623,31 @@ def gate_mesh_blocks(mesh: TiledMeshBlocks, ex: Any) -> Any:
     from ..report.gate import ShellReport
 
     what = "textured mesh (in blocks)"
-    plan = mesh.plan
-    o = 0.5 * (plan.v.min(axis=0) + plan.v.max(axis=0))
-    nb = int(plan.body.max()) + 1
-    out_vol, in_vol = np.zeros(nb), np.zeros(nb)
-    edges, seam_ids, seam_xyz = [], [], []
-    swept, spread, farthest, finite, nv, nt, masked = 0.0, 0.0, 0.0, True, 0, 0, None
-    for r in mesh.displaced(mesh.progress):  # per block
-        finite &= bool(np.isfinite(r.v).all())
-        nv, nt = max(nv, int(r.ids.max(initial=-1)) + 1), nt + len(r.f)
-        out_vol += np.bincount(r.body, weights=_face_terms(r.v, r.f, o), minlength=nb) / 6.0
-        before = _face_terms(r.v0, r.f, o)
-        in_vol += np.bincount(r.body, weights=before, minlength=nb) / 6.0
-        swept += float((_face_terms(r.v0 + r.offset, r.f, o) - before).sum()) / 6.0
-        area = _areas(r.v0, r.f)
-        spread += float((area / 3.0 * np.abs(np.linalg.norm(r.offset, axis=1))[r.f].sum(axis=1)).sum())
-        farthest = max(farthest, float(np.linalg.norm(r.v.astype(np.float64) - r.v0, axis=1).max(initial=0.0)))
-        masked = r.mask if masked is None else (masked if r.mask is None else max(masked, r.mask))
-        g = r.ids[r.f]
-        open_, _ = open_edges(g)
-        edges.append(open_)
-        ring = np.unique(open_)
-        seam_ids.append(ring)
-        seam_xyz.append(_at(r.ids, r.v, ring))
-    if masked is not None and not masked > 0:
+    t = _tally(mesh)
+    if t.masked is not None and not t.masked > 0:
         raise ParameterError("the mask covers none of the region: check mask_size (mm) and the projection's origin")
-    apart = _apart(np.concatenate(seam_ids), np.concatenate(seam_xyz))
+    if t.folded:
+        warnings.warn(f"the texture was lowered where {t.folded} faces would fold over (too deep for the curvature there)",
+                      TexcadWarning, stacklevel=3)
+    apart = _apart(np.concatenate(t.seam_ids), np.concatenate(t.seam_xyz))
     if apart:
         raise GeometryError(f"the {what} failed texcad's gate: {apart} vertices differ between neighbouring blocks "
                             "(a gap at a seam); please report this")
-    open_, bad = open_edges(np.concatenate(edges))
-    closed = finite and not len(open_) and not bad
-    flipped = int(np.sum(np.sign(out_vol) != np.sign(in_vol)))
+    open_, bad = open_edges(np.concatenate(t.edges))
+    closed = t.finite and not len(open_) and not bad
+    nb = len(t.out_vol)
+    flipped = int(np.sum(np.sign(t.out_vol) != np.sign(t.in_vol)))
     shells = ShellReport(closed=closed, open_edges=len(open_), nonmanifold_edges=bad, misoriented_edges=0,
-                         volumes=tuple(sorted(out_vol.tolist(), reverse=True)), nesting=(0,) * nb, inside_out=flipped,
+                         volumes=tuple(sorted(t.out_vol.tolist(), reverse=True)), nesting=(0,) * nb, inside_out=flipped,
                          nested_bodies=0, bodies=nb)
     if not shells.manifold or nb != int(ex.bodies) or flipped:
         raise GeometryError(f"the {what} failed texcad's gate: {shells.problem() or ''} {nb} bodies where the input had "
                             f"{ex.bodies}, {flipped} turned inside out; please report this")
-    volume = float(out_vol.sum())
-    mesh.__dict__.update(volume=volume, counts=(nv, nt), closed=closed, swept=swept)
-    change = volume - float(in_vol.sum())
-    slack = 0.05 * spread + 1e-6 * abs(float(in_vol.sum())) + 1e-6
-    return tiles_verdict(what, shells, change, swept, slack, farthest, float(plan.reach), "surface it was put on")
+    volume = float(t.out_vol.sum())
+    mesh.__dict__.update(volume=volume, counts=(t.nv, t.nt), closed=closed, swept=t.swept)
+    change = volume - float(t.in_vol.sum())
+    slack = 0.05 * t.spread + 1e-6 * abs(float(t.in_vol.sum())) + 1e-6
+    return tiles_verdict(what, shells, change, t.swept, slack, t.farthest, float(mesh.plan.reach), "surface it was put on")
 
 
 def _areas(v: np.ndarray, f: np.ndarray) -> np.ndarray:
