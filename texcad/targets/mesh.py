@@ -241,6 +241,24 @@ class Layer:
             info["mask"] = sample_heights(samples, self.__dict__["_mask"])
         return np.clip(sample_heights(samples, sampler), 0.0, H), info
 
+    def faces(self, v: np.ndarray, f: np.ndarray, fn: np.ndarray, dirs: Any, crit: float, tol: float, *, loose: bool,
+              ids: "np.ndarray | None" = None) -> np.ndarray:
+        """``(M,)`` bool: the faces ``f`` of ``v`` (mm) with unit normals ``fn`` in this
+        layer's region (build directions ``dirs`` or None, critical angle ``crit``
+        degrees, bed face tolerance ``tol`` mm; ``ids``: each face's input face)."""
+        return _select(self, v, f, fn, dirs, crit, tol, loose=loose, ids=ids)
+
+    def relief_rows(self, p: np.ndarray, unit: np.ndarray, dist: np.ndarray) -> tuple:
+        """``(d, b, info, mask)`` at points ``p`` ``(P, 3)`` mm of the region with unit
+        normals and distances (mm) to its border: displacement and lowest displacement
+        (mm), point by point (module docstring, steps 3-5)."""
+        return _relief_rows(self, p, unit, dist)
+
+    def border_distance(self, border: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+        """``dist(points)``: distance (mm) to the nearest of the region's ``border``
+        vertices ``(B, 3)``, inf beyond this layer's border width."""
+        return _nearest(border, self.border)
+
     def with_projection(self, projection: Projection) -> "Layer":
         """This layer with another projection (the texture's sampler kept)."""
         out = replace(self, projection=projection)

@@ -6,7 +6,7 @@ is the untiled pitch grid (``tolerance=0``), made a block at a time:
 
 * **coarse, once.** The region's faces are bisected down to three pitches
   (:func:`texcad.solid.subdivide.coarsen`, as :func:`~texcad.solid.subdivide.refine`
-  does first); that mesh is about a tenth of the refined one. Each of its edges gets
+  does first); that mesh has a sixth to a ninth of the refined triangles. Each of its edges gets
   ``ceil(length / pitch)`` pieces (1 off the region): a number that depends on the
   edge alone, so both faces at an edge cut it at the same points.
 * **blocks.** The coarse faces are ordered along a Morton curve of their centroids
@@ -18,14 +18,22 @@ is the untiled pitch grid (``tolerance=0``), made a block at a time:
   ones, bit for bit, and a vertex on a block border comes out the same float32 point
   from both neighbours.
 * **the relief at each vertex.** The texture sampled at the vertex through the
-  projection fixed once for the whole region (origin from the region's bounding
-  box, radius from a pass over all its vertices), the M-I ramp from the distance to
+  projection fixed once for the whole region (origin from the refined region's
+  bounding box, radius from a pass over all its vertices), the M-I ramp from the distance to
   the region's border vertices (collected in a first pass over the blocks: a curve,
   small), the depth gradient and mode: all point by point, as the untiled adapter.
 * **welded by numbers.** Coarse vertices, the points of each coarse edge and the
   inner points of each coarse face get global numbers the first time a block emits
   them, so a border edge's points are one vertex each (no gap, no duplicate, no
   T-junction) and the streaming writers (:mod:`texcad.io.stream`) write each once.
+* **folds.** The fold limiter (:func:`texcad.printability.limit_relief`, no build
+  direction) runs on each block's own faces. A fold that stays inside a block is
+  limited as on the whole mesh (the limiter's rounds only look at faces next to a
+  change). Where it lowers a border vertex, that vertex is *pinned* at the least
+  displacement any block gave it, every block starts from the pins and the blocks are
+  made again, until no block lowers a border vertex (from the third pass on a newly
+  lowered border vertex is pinned at 0, the undisplaced surface, where the limiter
+  itself ends): both neighbours then move it alike.
 
 :class:`TiledMeshBlocks` is that mesh kept as a recipe: its blocks are made on demand
 for the gate (:func:`gate_mesh_blocks`: each block's open edges pair up across blocks,
@@ -34,17 +42,25 @@ float32 point in both; as many bodies as the input; the volume change against th
 texture's swept volume summed over blocks; every vertex within reach of where it
 was) and for the streaming STL / 3MF writers. Lengths in mm.
 
+**Memory.** The coarse mesh is made whole: about 450 bytes per coarse triangle at the
+peak (a coarse triangle becomes 6 to 9 refined ones), against about 415 bytes per
+refined triangle untiled (an icosphere of radius 60 mm at 0.2 mm, 4.4 M triangles:
+372 MB against 1754 MB peak); blocks are sized to what it leaves.
+
 **Against the untiled mesh** (``tolerance=0``): the same triangles on the same
-vertices; the projection's origin comes from the coarse region's bounding box (the
-untiled one from the refined vertices, which can lie an ulp outside it where a flat
-face is interpolated), so displacements agree to about 1e-12 mm (tested to 1e-6 mm).
-A tiled mesh keeps every pitch-grid point (its error is 0, within any ``tolerance``).
+float32 vertices (tested on a sphere, a box with its bed face, a cylinder with a
+cylindrical projection and two bodies with a normal region), except round border
+vertices pinned for a fold (an engraved texture on a box's edges: 22 of 12816
+vertices differ, the volume by 4e-5 relative). The projection's origin comes from
+the refined region's bounding box and its radius from a pass over its vertices, as
+untiled. A tiled mesh keeps every pitch-grid point (its error is 0, within any
+``tolerance``).
 
 Not tiled (refused, naming a pitch at which the untiled mesh fits): ``build_dir``
 (the overhang limiter moves vertices by their neighbours' displacements, across the
-whole mesh), several layers or zones, and a texture that folds over somewhere (the
-fold limiter lowers it by its neighbours too). ``texture_mesh`` and ``layer_meshes``
-(booleans of the whole mesh) are refused; ``base_mesh`` is the input.
+whole mesh, and checks ridges between faces) and several layers or zones (each
+layer refines the last's mesh). ``texture_mesh`` and ``layer_meshes`` (booleans of
+the whole mesh) are refused; ``base_mesh`` is the input.
 """
 
 from __future__ import annotations
@@ -69,11 +85,14 @@ __all__ = ["MeshPlan", "FineBlock", "TiledMeshBlocks", "mesh_plan", "fine_block"
 #: emitted float32 block; about 450 measured on an icosphere of radius 40 mm at 0.25 mm
 #: in one block): what a block's size is chosen by.
 BLOCK_BYTES = 500.0
-#: Peak bytes per coarse triangle of the bisection (about 580 measured with
-#: tracemalloc on the same sphere; the coarse mesh kept after it is about 140).
-COARSE_BYTES = 650.0
-#: Refined triangles per coarse one (6.4 on that sphere; 3-pitch faces cut at the pitch).
-COARSE_RATIO = 6.0
+#: Peak bytes per coarse triangle of the whole job in blocks (434 measured as peak
+#: resident memory over the interpreter's on an icosphere of radius 60 mm at 0.2 mm:
+#: the bisection's peak, the coarse mesh kept after it, one block).
+COARSE_BYTES = 450.0
+#: :func:`~texcad.solid.subdivide.refined_triangles`'s estimate per coarse triangle:
+#: the least of 6.4 to 12.8 measured on a sphere, box, cylinder and torus at 0.3 and
+#: 0.5 mm (the coarse mesh is estimated from it before it is made).
+COARSE_RATIO = 6.4
 #: Most refined triangles per block (larger blocks are no faster).
 MAX_BLOCK = 250_000
 
