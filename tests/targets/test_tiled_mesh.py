@@ -186,3 +186,24 @@ def test_a_mesh_that_does_not_fit_untiled_is_made_in_blocks_under_an_address_spa
     assert how == "tiled" and int(blocks) > 1 and int(tris) > 1_000_000
     assert closed == volume_ok == under == too_big == "True"
     assert out.stat().st_size == 84 + 50 * int(tris)
+
+
+def test_the_cli_makes_a_mesh_in_blocks(tmp_path, monkeypatch, capsys):
+    """``texcad texture part.stl`` where the untiled mesh does not fit: made in
+    blocks, summarised, its STL and 3MF streamed with the same triangles."""
+    from texcad.cli import main
+
+    part = tmp_path / "ball.stl"
+    trimesh.creation.icosphere(3, 10.0).export(part)
+    with monkeypatch.context() as m:
+        m.setattr(mesh_target, "untiled_bytes", lambda triangles: 1e18)
+        m.setattr(tiled_mesh, "_block_triangles", lambda coarse, pitch: 6000)
+        assert main(["texture", str(part), "-o", str(tmp_path / "t.stl"), "-o", str(tmp_path / "t.3mf"), "--pitch", "0.5",
+                     "--max-memory", "4GB", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    tris = int(out.split("triangles    ")[1].split(",")[0])
+    assert "watertight True" in out and tris > 10_000
+    assert (tmp_path / "t.stl").stat().st_size == 84 + 50 * tris
+    stl, tmf = read_mesh(tmp_path / "t.stl"), read_mesh(tmp_path / "t.3mf")  # the 3MF's vertices in decimals
+    assert len(tmf.faces) == len(stl.faces) == tris and len(tmf.vertices) == len(stl.vertices)
+    assert np.abs(np.sort(tmf.vertices, axis=0) - np.sort(stl.vertices, axis=0)).max() < 1e-4  # 4 decimals
