@@ -130,6 +130,22 @@ def test_options_not_made_in_blocks_are_refused_naming_a_pitch_that_fits():
         assert ok.info.get("fuse") != "tiled" and ok.mesh.is_watertight
 
 
+def test_coarse_faces_of_more_pitches_where_the_untiled_ones_would_not_fit(monkeypatch):
+    """Where even the coarse mesh of 3 pitches would not fit, its faces span more
+    (here 12: the box's input faces are not bisected at all): other triangles than
+    untiled, still closed with each vertex once, and the same relief volume to 0.1 %."""
+    part = _box()
+    flat = texcad.texture(part, "all", "builtin:stones", **KW, pitch=0.3)
+    monkeypatch.setattr(tiled_mesh, "_coarse_factor", lambda refined, faces, pitch: 12.0)
+    tx = _blocks(monkeypatch, part, "all", 20000, **KW, pitch=0.3)
+    whole = tx.mesh.to_mesh()
+    assert tx.info["coarse_pitches"] == 12 and tx.info["coarse_triangles"] < len(flat.mesh.faces) / 50
+    assert whole.is_watertight and len(np.unique(whole.vertices, axis=0)) == len(whole.vertices)
+    assert 0.5 * len(flat.mesh.faces) < len(whole.faces) < 1.5 * len(flat.mesh.faces)
+    assert tx.gate.volume_change == pytest.approx(flat.gate.volume_change, rel=1e-3)
+    assert abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack
+
+
 def test_folds_across_block_borders_are_limited_alike_on_both_sides(monkeypatch):
     """An engraved texture folds along a box's edges, across block borders: each
     block limits its own faces, a border vertex it lowers is pinned for all blocks and

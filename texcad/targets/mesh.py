@@ -775,6 +775,7 @@ class MeshAdapter(Adapter):
             plan = relief.data
             told = lambda f, m: options.report(0.92 + 0.07 * f, f"checking the result (texcad's gate): {m}")  # noqa: E731
             info = dict(placement.data.info, fuse="tiled", blocks=len(plan.blocks), coarse_triangles=int(len(plan.f)),
+                        coarse_pitches=plan.factor,
                         tolerance=0.0, max_error=0.0, kind="mesh", face="mesh", pitch=float(plan.layer.pitch),
                         no_brep="a mesh has no B-rep: it is textured as a mesh")
             return Fused(TiledMeshBlocks(plan, progress=told), placement.base, info, None)

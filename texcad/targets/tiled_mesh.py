@@ -43,11 +43,16 @@ texture's swept volume summed over blocks; every vertex within reach of where it
 was) and for the streaming STL / 3MF writers. Lengths in mm.
 
 **Memory.** The coarse mesh is made whole: about 450 bytes per coarse triangle at the
-peak (a coarse triangle becomes 6 to 9 refined ones), against about 415 bytes per
-refined triangle untiled (an icosphere of radius 60 mm at 0.2 mm, 4.4 M triangles:
-372 MB against 1754 MB peak); blocks are sized to what it leaves.
+peak (a coarse triangle of 3 pitches becomes 6 to 9 refined ones), against about 415
+bytes per refined triangle untiled (an icosphere of radius 60 mm at 0.2 mm, 4.4 M
+triangles: 372 MB against 1754 MB peak); blocks are sized to what it leaves. Where
+that coarse mesh would take more than half the memory available, its faces span more
+pitches (``factor``, up to :data:`MAX_FACTOR`: ``(3 / factor)^2`` as many coarse
+faces, each tessellated into a finer grid), so what stays whole goes with the input
+mesh, not the pitch; the triangles then differ from the untiled ones (the same
+surface and relief volume to 0.1 %, tested).
 
-**Against the untiled mesh** (``tolerance=0``): the same triangles on the same
+**Against the untiled mesh** (``tolerance=0``, coarse faces of 3 pitches): the same triangles on the same
 float32 vertices (tested on a sphere, a box with its bed face, a cylinder with a
 cylindrical projection and two bodies with a normal region), except round border
 vertices pinned for a fold (an engraved texture on a box's edges: 22 of 12816
@@ -65,6 +70,7 @@ the whole mesh) are refused; ``base_mesh`` is the input.
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass, replace
 from typing import Any
@@ -93,6 +99,8 @@ COARSE_BYTES = 450.0
 #: the least of 6.4 to 12.8 measured on a sphere, box, cylinder and torus at 0.3 and
 #: 0.5 mm (the coarse mesh is estimated from it before it is made).
 COARSE_RATIO = 6.4
+#: Most pitches a coarse face may span (where 3, the untiled refinement's, would not fit).
+MAX_FACTOR = 24
 #: Most refined triangles per block (larger blocks are no faster).
 MAX_BLOCK = 250_000
 
@@ -118,8 +126,10 @@ class MeshPlan:
         border: ``(K, 3)`` float64 the refined region's border vertices.
         reach: mm, the farthest a vertex may move (offset directions are at most
             3 times as long as the normal).
-        fits: mm, the pitch at which the untiled job fits (named where the texture
-            would fold over: the fold limiter needs the whole mesh).
+        fits: mm, the pitch at which the untiled job fits (named where folds across
+            block borders do not settle).
+        factor: how many pitches a coarse face spans at most (3: the untiled
+            refinement's; more where that coarse mesh would not fit).
     """
 
     v: np.ndarray
@@ -136,6 +146,7 @@ class MeshPlan:
     border: np.ndarray
     reach: float
     fits: float
+    factor: float = 3.0
 
     @property
     def triangles(self) -> int:
@@ -190,26 +201,40 @@ def mesh_plan(layer: Any, v: np.ndarray, f: np.ndarray, tol: float, refined: int
         ParameterError: the region holds no face.
     """
     pitch = float(layer.pitch)
-    coarse = refined / COARSE_RATIO * COARSE_BYTES
-    if coarse > available_memory():
-        raise ResourceError(f"refining the mesh to about {refined} triangles in blocks at a pitch of {pitch:.3g} mm needs "
-                            f"about {coarse / 2**30:.1f} GiB for its coarse mesh, more than the "
-                            f"{available_memory() / 2**30:.1f} GiB available; use a pitch of at least "
-                            f"{finest_pitch(pitch, coarse):.3g} mm or allow more memory (max_memory)")
+    factor = _coarse_factor(refined, len(f), pitch)
     fn, _ = face_normals(v, f)
     sel = layer.faces(v, f, fn, None, 45.0, tol, loose=True, ids=np.arange(len(f)))
     if not sel.any():
         raise ParameterError(f"region 1 ({layer.region}) holds no face of the mesh; choose another region")
-    cv, cf, act, parent = coarsen(v, f, sel, pitch, guard=False)
-    report(progress, 0.12, f"coarse mesh: {len(cf)} triangles")
+    cv, cf, act, parent = coarsen(v, f, sel, pitch, guard=False, coarse=factor)
+    report(progress, 0.12, f"coarse mesh: {len(cf)} triangles of up to {factor} pitches")
     counts, keys = _edge_counts(cv, cf, act, pitch)
     del act
     lev = counts.max(axis=1)
     body = _bodies(cf, len(cv))
     blocks = _blocks(cv, cf, lev * lev, _block_triangles(len(cf), pitch))
     plan = MeshPlan(cv, cf, fn[parent], parent, counts, keys, body, blocks, layer, tol, cv[np.argmin(cv[:, 2])],
-                    np.zeros((0, 3)), 3.0 * float(layer.height) + 0.01, float(fits))
+                    np.zeros((0, 3)), 3.0 * float(layer.height) + 0.01, float(fits), factor)
     return _first_pass(plan, progress)
+
+
+def _coarse_factor(refined: int, faces: int, pitch: float) -> float:
+    """How many pitches the coarse faces may span: 3, as the untiled refinement
+    (the same triangles), where that coarse mesh takes at most half the memory
+    available; else the least (up to :data:`MAX_FACTOR`) at which it does (its faces
+    ``(3 / factor)^2`` as many). ResourceError naming a pitch where none does."""
+    have = available_memory() / 2
+    need = refined / COARSE_RATIO * COARSE_BYTES
+    if need <= have:
+        return 3.0
+    factor = math.ceil(3.0 * math.sqrt(need / max(have - faces * COARSE_BYTES, 1.0)))
+    if factor > MAX_FACTOR or faces * COARSE_BYTES >= have:
+        least = need * (3.0 / MAX_FACTOR) ** 2
+        raise ResourceError(f"refining the mesh to about {refined} triangles in blocks at a pitch of {pitch:.3g} mm needs "
+                            f"about {2 * (least + faces * COARSE_BYTES) / 2**30:.1f} GiB for its coarse mesh and a block, "
+                            f"more than the {2 * have / 2**30:.1f} GiB available; use a pitch of at least "
+                            f"{finest_pitch(pitch, 2 * least, 2 * faces * COARSE_BYTES):.3g} mm or allow more memory (max_memory)")
+    return float(factor)
 
 
 def _edge_counts(v: np.ndarray, f: np.ndarray, act: np.ndarray, pitch: float) -> tuple[np.ndarray, np.ndarray]:
