@@ -81,11 +81,11 @@ from ..errors import GeometryError, ParameterError, ResourceError, TexcadWarning
 from ..printability.relief import limit_relief
 from ..solid.subdivide import coarsen, edge_lengths, face_normals, offset_directions, tessellate, vertex_normals
 from ..util import Progress, available_memory, finest_pitch, report, split_rows
-
 from .tiled import TiledMesh, _at, tiles_verdict
 from .tiled_faces import open_edges
 
-__all__ = ["MeshPlan", "FineBlock", "TiledMeshBlocks", "mesh_plan", "fine_block", "gate_mesh_blocks", "refuse_untiled", "BLOCK_BYTES", "COARSE_BYTES"]
+__all__ = ["MeshPlan", "FineBlock", "BlockRelief", "TiledMeshBlocks", "mesh_plan", "fine_block", "gate_mesh_blocks",
+           "refuse_untiled", "BLOCK_BYTES", "COARSE_BYTES", "MAX_FACTOR"]
 
 #: Peak bytes per refined triangle of one block (tessellation, normals, relief and the
 #: emitted float32 block; about 450 measured on an icosphere of radius 40 mm at 0.25 mm
@@ -206,7 +206,8 @@ def mesh_plan(layer: Any, v: np.ndarray, f: np.ndarray, tol: float, refined: int
     sel = layer.faces(v, f, fn, None, 45.0, tol, loose=True, ids=np.arange(len(f)))
     if not sel.any():
         raise ParameterError(f"region 1 ({layer.region}) holds no face of the mesh; choose another region")
-    cv, cf, act, parent = coarsen(v, f, sel, pitch, guard=False, coarse=factor)
+    # the cap on the whole mesh's triangles is the STL's here: the mesh is never whole
+    cv, cf, act, parent = coarsen(v, f, sel, pitch, guard=False, coarse=factor, max_faces=2**32 - 1)
     report(progress, 0.12, f"coarse mesh: {len(cf)} triangles of up to {factor} pitches")
     counts, keys = _edge_counts(cv, cf, act, pitch)
     del act
