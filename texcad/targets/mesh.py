@@ -53,7 +53,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..errors import GeometryError, InputError, ParameterError, TexcadWarning
+from ..errors import GeometryError, InputError, ParameterError, ResourceError, TexcadWarning
 from ..mapping.projection import PROJECTIONS, Projection, TileSampler, parse_axis, sample_heights
 from ..mapping.region import Region, resolve_paint, zone_layers
 from ..printability import build_directions, check_critical_angle
@@ -834,6 +834,23 @@ def untiled_bytes(triangles: int) -> float:
     return float(triangles) * TRIANGLE_BYTES
 
 
+def _sampler_fits(layer: Layer) -> None:
+    """Make the layer's texture tile; where it does not fit in memory, ResourceError
+    naming the mesh pitch that makes it fit (a built-in tile is sampled at half the
+    mesh's pitch below 0.2 mm, so its guard's pitch is doubled)."""
+    import re
+
+    try:
+        layer._sampler()
+    except ResourceError as exc:
+        m = re.search(r"use a pitch of at least ([0-9.e+-]+) mm", str(exc))
+        if m is None or float(layer.pitch) >= 0.2:
+            raise
+        tp = min(0.1, float(layer.pitch) / 2)
+        raise ResourceError(f"the texture's tile sampled at {tp:.3g} mm (half the mesh's pitch of {float(layer.pitch):.3g} mm) "
+                            f"does not fit in the memory available; use a pitch of at least {2 * float(m.group(1)):.3g} mm") from exc
+
+
 def _tiled(mp: MeshPlace, options: Options) -> "Relief | None":
     """The relief in blocks (:mod:`texcad.targets.tiled_mesh`) where the untiled
     refinement would not fit in the memory available, else None. ``build_dir`` and
@@ -854,6 +871,8 @@ def _tiled(mp: MeshPlace, options: Options) -> "Relief | None":
     if options.directions is not None:
         refuse_untiled(what, pitch, need, "build_dir (the overhang limiter) is")
     options.report(0.05, f"{what}: made in blocks")
+    if layers[0].projection.kind != "solid":  # the texture's tile first, before the coarse mesh
+        _sampler_fits(layers[0])
     assert_uncrossed(v, f, mp.name, options.union)
     plan = mesh_plan(layers[0], v, f, tol, count, finest_pitch(pitch, need), options.report)
     mp.info.update(triangles=plan.triangles, kind="mesh", face="mesh", tolerance=0.0, max_error=0.0)
