@@ -31,6 +31,13 @@ The job, for each texture *layer* ``(region, texture, options)``:
    reverse once; tested beside the limiter, the topology not depending on the
    displacements) with as many bodies as the input, and finite, else GeometryError.
 
+**Blocks.** Where the refinement would not fit in the memory available (the
+machine's, or ``max_memory``), a one-layer job without ``build_dir`` is made in
+blocks instead (:mod:`texcad.targets.tiled_mesh`): the pitch grid (``tolerance=0``)
+refined, displaced, limited for folds, gated and streamed a block at a time, the
+result a :class:`~texcad.targets.tiled_mesh.TiledMeshBlocks` (``info["fuse"] ==
+"tiled"``); several layers or ``build_dir`` are refused there, naming a pitch that fits.
+
 Sampling and measuring run on every core (:func:`texcad.util.split_rows`, the same
 bytes as on one).
 
