@@ -28,11 +28,14 @@ from ..errors import ParameterError, ResourceError
 from ..util import argsort_ints, require_pitch, rowany, rowdot, rowmax, rownorm
 from ..util.resources import round_up
 
-#: Peak bytes of the whole mesh job per triangle of the refined region, measured on an
-#: icosphere of radius 10 mm at pitch 0.1 and 0.05 mm (about 165 B): the memory estimate.
-TRIANGLE_BYTES = 200.0
+#: Peak bytes of the whole mesh job per triangle of the refined region (as
+#: :func:`refined_triangles` estimates them), measured on an icosphere of radius 10 mm
+#: at pitch 0.1 and 0.05 mm (about 165 B, the adaptive default) and at ``tolerance=0``
+#: (the pitch grid) on icospheres of radius 40 mm at 0.25 mm and 60 mm at 0.2 mm (272
+#: and 242 B of peak resident memory): the memory estimate.
+TRIANGLE_BYTES = 280.0
 
-__all__ = ["refine", "coarsen", "ladder", "tessellate", "rows", "cross", "flip_edges", "vertex_normals", "offset_directions", "face_normals", "edge_lengths"]
+__all__ = ["refine", "coarsen", "refined_triangles", "ladder", "tessellate", "rows", "cross", "flip_edges", "vertex_normals", "offset_directions", "face_normals", "edge_lengths"]
 
 _ROT = np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])
 
@@ -132,21 +135,18 @@ def flip_edges(v: np.ndarray, f: np.ndarray, active: np.ndarray, *, passes: int 
     for _ in range(passes):  # per pass over all edges at once
         _, _, order = _edges(f, slots=True)
         pair = order.reshape(-1, 2)  # closed mesh: every edge has two (face, corner) slots
-        both = active[pair[:, 0] // 3] & active[pair[:, 1] // 3]
-        pair = pair[both]
+        del order
+        pair = pair[active[pair[:, 0] // 3] & active[pair[:, 1] // 3]]
         f1, k1 = pair[:, 0] // 3, pair[:, 0] % 3
         f2, k2 = pair[:, 1] // 3, pair[:, 1] % 3
+        del pair
         a, b = f[f1, k1], f[f1, (k1 + 1) % 3]
         c, d = f[f1, (k1 + 2) % 3], f[f2, (k2 + 2) % 3]
         ok = (f[f2, k2] == b) & (f[f2, (k2 + 1) % 3] == a) & (c != d)
-        va, vb, vc, vd = rows(v, a), rows(v, b), rows(v, c), rows(v, d)
-        # not locally Delaunay: the angles at c and d add up to more than 180 degrees,
-        # i.e. cot c + cot d < 0 (cot = dot / |cross| of the edges from the corner)
-        n1 = cross(vb - va, vc - va)
-        n2 = cross(va - vb, vd - vb)
-        l1, l2 = np.sqrt((n1 * n1).sum(1)), np.sqrt((n2 * n2).sum(1))
-        cot = ((va - vc) * (vb - vc)).sum(1) / np.maximum(l1, 1e-300) + ((vb - vd) * (va - vd)).sum(1) / np.maximum(l2, 1e-300)
-        ok &= (cot < -1e-9) & (l1 > 0) & (l2 > 0) & ((n1 * n2).sum(1) > (1.0 - 1e-12) * l1 * l2)
+        cot = np.empty(len(a))
+        for i in range(0, len(a), _FLIP_CHUNK):  # per chunk of edges (the same values; less memory at once)
+            r = slice(i, i + _FLIP_CHUNK)
+            ok[r] &= _not_delaunay(v, a[r], b[r], c[r], d[r], cot[r])
         s = np.flatnonzero(ok)
         if not len(s):
             break
@@ -159,6 +159,23 @@ def flip_edges(v: np.ndarray, f: np.ndarray, active: np.ndarray, *, passes: int 
         f[f1[s]] = np.stack([a[s], d[s], c[s]], 1)
         f[f2[s]] = np.stack([d[s], b[s], c[s]], 1)
     return f
+
+
+#: Edges whose flip test :func:`flip_edges` makes at once.
+_FLIP_CHUNK = 1 << 18
+
+
+def _not_delaunay(v, a, b, c, d, cot):
+    """Per edge ``a-b`` between the triangles ``(a, b, c)`` and ``(b, a, d)``: not
+    locally Delaunay (the angles at c and d add up to more than 180 degrees, i.e.
+    cot c + cot d < 0, cot = dot / |cross| of the edges from the corner) and the two
+    in one plane; ``cot`` (out) receives the sum."""
+    va, vb, vc, vd = rows(v, a), rows(v, b), rows(v, c), rows(v, d)
+    n1 = cross(vb - va, vc - va)
+    n2 = cross(va - vb, vd - vb)
+    l1, l2 = np.sqrt((n1 * n1).sum(1)), np.sqrt((n2 * n2).sum(1))
+    cot[:] = ((va - vc) * (vb - vc)).sum(1) / np.maximum(l1, 1e-300) + ((vb - vd) * (va - vd)).sum(1) / np.maximum(l2, 1e-300)
+    return (cot < -1e-9) & (l1 > 0) & (l2 > 0) & ((n1 * n2).sum(1) > (1.0 - 1e-12) * l1 * l2)
 
 
 def _bisect(v, f, act, parent, coarse):
@@ -342,11 +359,14 @@ def _zip(c, side, pieces, start, first):
 
 def coarsen(
     vertices: np.ndarray, faces: np.ndarray, active: np.ndarray, max_edge: float, *, max_faces: int = 40_000_000, coarse: float = 3.0,
-    ladders: bool = False,
+    ladders: bool = False, guard: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The first step of :func:`refine`: the ``active`` faces bisected (Rivara, with
     its closure and Lawson flips) until no edge is longer than ``coarse * max_edge``
-    mm, after a memory estimate for the refinement down to ``max_edge``.
+    mm, after a memory estimate for the refinement down to ``max_edge`` (``guard``:
+    refused, naming a pitch that fits, where the refined mesh would not fit in memory;
+    False where the caller refines in blocks, :mod:`texcad.targets.tiled_mesh`; the
+    triangle cap holds either way).
 
     Returns:
         ``(vertices, faces, active, parent)``: float64 ``(N', 3)`` mm, int64
@@ -360,9 +380,9 @@ def coarsen(
     parent = np.arange(len(f), dtype=np.int64)
     if not act.any():
         return v, f, act, parent
-    lens = edge_lengths(v, f[act])
-    est = int(len(f) + 2.5 * (lens.max(axis=1) * lens.min(axis=1)).sum() / max_edge**2)
-    require_pitch(f"refining to about {est} triangles", max_edge, (est - len(f)) * TRIANGLE_BYTES, len(f) * TRIANGLE_BYTES)
+    est = refined_triangles(v, f, act, max_edge)
+    if guard:
+        require_pitch(f"refining to about {est} triangles", max_edge, (est - len(f)) * TRIANGLE_BYTES, len(f) * TRIANGLE_BYTES)
     if est > max_faces:  # beyond the triangle cap: the pitch at which the count is at the cap
         fit = max_edge * ((est - len(f)) / max(max_faces - len(f), 1)) ** 0.5
         raise ResourceError(f"refining to about {est} triangles at a pitch of {max_edge:.3g} mm exceeds the cap of "
@@ -370,6 +390,18 @@ def coarsen(
     if ladders:
         v, f, act, parent = ladder(v, f, act, 0.5 * coarse * max_edge)
     return _bisect(v, f, act, parent, coarse * max_edge)
+
+
+def refined_triangles(vertices: np.ndarray, faces: np.ndarray, active: np.ndarray, max_edge: float) -> int:
+    """About how many triangles :func:`refine` makes of ``(vertices, faces)`` with the
+    ``active`` faces refined to ``max_edge`` mm: the faces, plus 2.5 per
+    ``max_edge^2`` of each active face's longest times shortest edge (mm^2)."""
+    act = np.asarray(active, dtype=bool)
+    f = np.asarray(faces, dtype=np.int64)
+    if not act.any():
+        return int(len(f))
+    lens = edge_lengths(np.asarray(vertices, dtype=np.float64), f[act])
+    return int(len(f) + 2.5 * (lens.max(axis=1) * lens.min(axis=1)).sum() / max_edge**2)
 
 
 def _grid(n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -31,6 +31,13 @@ The job, for each texture *layer* ``(region, texture, options)``:
    reverse once; tested beside the limiter, the topology not depending on the
    displacements) with as many bodies as the input, and finite, else GeometryError.
 
+**Blocks.** Where the refinement would not fit in the memory available (the
+machine's, or ``max_memory``), a one-layer job without ``build_dir`` is made in
+blocks instead (:mod:`texcad.targets.tiled_mesh`): the pitch grid (``tolerance=0``)
+refined, displaced, limited for folds, gated and streamed a block at a time, the
+result a :class:`~texcad.targets.tiled_mesh.TiledMeshBlocks` (``info["fuse"] ==
+"tiled"``); several layers or ``build_dir`` are refused there, naming a pitch that fits.
+
 Sampling and measuring run on every core (:func:`texcad.util.split_rows`, the same
 bytes as on one).
 
@@ -53,7 +60,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..errors import GeometryError, InputError, ParameterError, TexcadWarning
+from ..errors import GeometryError, InputError, ParameterError, ResourceError, TexcadWarning
 from ..mapping.projection import PROJECTIONS, Projection, TileSampler, parse_axis, sample_heights
 from ..mapping.region import Region, resolve_paint, zone_layers
 from ..printability import build_directions, check_critical_angle
@@ -240,6 +247,24 @@ class Layer:
                 self.__dict__["_mask"] = mask_sampler(self.mask, self.mask_size)
             info["mask"] = sample_heights(samples, self.__dict__["_mask"])
         return np.clip(sample_heights(samples, sampler), 0.0, H), info
+
+    def faces(self, v: np.ndarray, f: np.ndarray, fn: np.ndarray, dirs: Any, crit: float, tol: float, *, loose: bool,
+              ids: "np.ndarray | None" = None) -> np.ndarray:
+        """``(M,)`` bool: the faces ``f`` of ``v`` (mm) with unit normals ``fn`` in this
+        layer's region (build directions ``dirs`` or None, critical angle ``crit``
+        degrees, bed face tolerance ``tol`` mm; ``ids``: each face's input face)."""
+        return _select(self, v, f, fn, dirs, crit, tol, loose=loose, ids=ids)
+
+    def relief_rows(self, p: np.ndarray, unit: np.ndarray, dist: np.ndarray) -> tuple:
+        """``(d, b, info, mask)`` at points ``p`` ``(P, 3)`` mm of the region with unit
+        normals and distances (mm) to its border: displacement and lowest displacement
+        (mm), point by point (module docstring, steps 3-5)."""
+        return _relief_rows(self, p, unit, dist)
+
+    def border_distance(self, border: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+        """``dist(points)``: distance (mm) to the nearest of the region's ``border``
+        vertices ``(B, 3)``, inf beyond this layer's border width."""
+        return _nearest(border, self.border)
 
     def with_projection(self, projection: Projection) -> "Layer":
         """This layer with another projection (the texture's sampler kept)."""
@@ -725,6 +750,9 @@ class MeshAdapter(Adapter):
     def relief(self, placement: Placement, texture: Any, options: Options) -> Relief:
         mp: MeshPlace = placement.data
         progress = options.report
+        tiled = _tiled(mp, options)
+        if tiled is not None:
+            return tiled
         # numpy's BLAS on one thread: texcad runs its own two here (the self-intersection test beside, the
         # samplers and kd queries split by rows), and BLAS threads would only spin against them (its
         # products split by rows: the same values on one thread; the same bytes on bench_mesh)
@@ -748,6 +776,16 @@ class MeshAdapter(Adapter):
                       reach=reach, max_error=max_error, data=r)
 
     def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
+        if not isinstance(relief.data, MeshRelief):  # made in blocks (texcad.targets.tiled_mesh)
+            from .tiled_mesh import TiledMeshBlocks
+
+            plan = relief.data
+            told = lambda f, m: options.report(0.92 + 0.07 * f, f"checking the result (texcad's gate): {m}")  # noqa: E731
+            info = dict(placement.data.info, fuse="tiled", blocks=len(plan.blocks), coarse_triangles=int(len(plan.f)),
+                        coarse_pitches=plan.factor,
+                        tolerance=0.0, max_error=0.0, kind="mesh", face="mesh", pitch=float(plan.layer.pitch),
+                        no_brep="a mesh has no B-rep: it is textured as a mesh")
+            return Fused(TiledMeshBlocks(plan, progress=told), placement.base, info, None)
         r: MeshRelief = relief.data
         options.report(0.85, "the displaced mesh")
         out = Mesh((r.v + r.normals * r.d[:, None]).astype(np.float32), r.f.astype(np.uint32),
@@ -758,20 +796,95 @@ class MeshAdapter(Adapter):
         return Fused(out, base, dict(placement.data.info), None)
 
     def expectation(self, placement: Placement, relief: Relief, fused: Fused) -> Expectation:
-        r: MeshRelief = relief.data
         ex = super().expectation(placement, relief, fused)
+        if not isinstance(relief.data, MeshRelief):  # made in blocks: gated block by block
+            return ex
+        r: MeshRelief = relief.data
         return Expectation(**{**ex.__dict__, "selected": (r.v, r.f[r.region])})
 
     def texture_mesh(self, stages: Stages) -> Mesh:
+        _whole(stages)
         return _difference(stages.fused.mesh, stages.fused.base_mesh)
 
     def layer_meshes(self, stages: Stages) -> list:
+        _whole(stages)
         r: MeshRelief = stages.relief.data
         res = []
         for *_, inside in r.parts:  # per layer: its own relief on the base
             mk = Mesh((r.v + r.normals * np.where(inside, r.d, r.b)[:, None]).astype(np.float32), r.f.astype(np.uint32))
             res.append(_difference(mk, stages.fused.base_mesh))
         return res
+
+
+def _whole(stages: Stages) -> None:
+    """GeometryError for a mesh made in blocks: it keeps no texture body."""
+    if not isinstance(stages.relief.data, MeshRelief):
+        raise GeometryError("a mesh textured in blocks keeps no separate texture body (a boolean of the whole mesh, which "
+                            "does not fit in memory); write the part's STL or 3MF, or use a coarser pitch")
+
+
+def refined_count(v: np.ndarray, f: np.ndarray, layers: tuple, dirs: Any, crit: float, tol: float) -> int:
+    """About how many triangles refining every layer's region of ``(v, f)`` to its
+    pitch makes (:func:`texcad.solid.subdivide.refined_triangles`)."""
+    from ..solid.subdivide import refined_triangles
+
+    fn, _ = face_normals(v, f)
+    return len(f) + sum(refined_triangles(v, f, _select(layer, v, f, fn, dirs, crit, tol, loose=True), layer.pitch) - len(f)
+                        for layer in layers)
+
+
+def untiled_bytes(triangles: int) -> float:
+    """Peak bytes of the untiled mesh job for ``triangles`` refined triangles (the
+    estimate :func:`texcad.solid.subdivide.coarsen` refuses by)."""
+    from ..solid.subdivide import TRIANGLE_BYTES
+
+    return float(triangles) * TRIANGLE_BYTES
+
+
+def _sampler_fits(layer: Layer) -> None:
+    """Make the layer's texture tile; where it does not fit in memory, ResourceError
+    naming the mesh pitch that makes it fit (a built-in tile is sampled at half the
+    mesh's pitch below 0.2 mm, so its guard's pitch is doubled)."""
+    import re
+
+    try:
+        layer._sampler()
+    except ResourceError as exc:
+        m = re.search(r"use a pitch of at least ([0-9.e+-]+) mm", str(exc))
+        if m is None or float(layer.pitch) >= 0.2:
+            raise
+        tp = min(0.1, float(layer.pitch) / 2)
+        raise ResourceError(f"the texture's tile sampled at {tp:.3g} mm (half the mesh's pitch of {float(layer.pitch):.3g} mm) "
+                            f"does not fit in the memory available; use a pitch of at least {2 * float(m.group(1)):.3g} mm") from exc
+
+
+def _tiled(mp: MeshPlace, options: Options) -> "Relief | None":
+    """The relief in blocks (:mod:`texcad.targets.tiled_mesh`) where the untiled
+    refinement would not fit in the memory available, else None. ``build_dir`` and
+    several layers are not made in blocks: refused, naming a pitch that fits."""
+    from ..util import available_memory
+    from ..util import finest_pitch
+    from .tiled_mesh import mesh_plan, refuse_untiled
+
+    v, f, layers = mp.vertices, mp.faces, mp.layers
+    tol = 0.01 + 1e-6 * float(np.ptp(v, axis=0).max())
+    count = refined_count(v, f, layers, options.directions, options.critical_angle, tol)
+    need = untiled_bytes(count)
+    if need <= available_memory():
+        return None
+    what, pitch = f"refining {mp.name} to about {count} triangles", min(float(layer.pitch) for layer in layers)
+    if len(layers) > 1:
+        refuse_untiled(what, pitch, need, "several layers (zones or paint) are")
+    if options.directions is not None:
+        refuse_untiled(what, pitch, need, "build_dir (the overhang limiter) is")
+    options.report(0.05, f"{what}: made in blocks")
+    if layers[0].projection.kind != "solid":  # the texture's tile first, before the coarse mesh
+        _sampler_fits(layers[0])
+    assert_uncrossed(v, f, mp.name, options.union)
+    plan = mesh_plan(layers[0], v, f, tol, count, finest_pitch(pitch, need), options.report)
+    mp.info.update(triangles=plan.triangles, kind="mesh", face="mesh", tolerance=0.0, max_error=0.0)
+    return Relief(heightmap=None, limits=None, volume=float("nan"), volume_slack=float("nan"), nominal_volume=None,
+                  reach=plan.reach, max_error=0.0, data=plan)
 
 
 def _displace(layers, v, f, info, dirs, crit, tolerance, progress):

@@ -1,0 +1,228 @@
+"""Mesh targets in blocks (issue 30, :mod:`texcad.targets.tiled_mesh`): the same
+triangles and float32 vertices as the untiled pitch grid, closed across block borders
+with each border vertex once, the volume change against the swept volume; a mesh that
+does not fit untiled made in blocks under an address-space limit; what is not made in
+blocks refused, naming a pitch that fits."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+import warnings
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import trimesh
+
+import texcad
+from texcad.errors import GeometryError, ResourceError
+from texcad.io import read_mesh
+from texcad.targets import mesh as mesh_target
+from texcad.targets import tiled_mesh
+
+KW = dict(height=0.6, tolerance=0, border=1.5)
+
+
+def _box():
+    b = trimesh.creation.box((30.0, 20.0, 10.0))
+    b.apply_translation((0, 0, 5.0))
+    return b
+
+
+def _two():
+    """Two bodies: a box and a sphere apart."""
+    a = trimesh.creation.box((10.0, 10.0, 10.0))
+    b = trimesh.creation.icosphere(2, 5.0)
+    b.apply_translation((20.0, 0, 0))
+    return trimesh.util.concatenate([a, b])
+
+
+def _cylinder():
+    c = trimesh.creation.cylinder(radius=9.0, height=16.0, sections=40)
+    c.apply_translation((0, 0, 8.0))
+    return c
+
+
+CASES = {
+    "sphere triplanar": (lambda: trimesh.creation.icosphere(3, 10.0), "all", dict(pitch=0.5)),
+    "box raised, bed face kept": (_box, "all", dict(pitch=0.5, projection="planar:+x")),
+    "cylinder cylindrical centred": (_cylinder, "all", dict(pitch=0.5, mode="centred", projection="cylindrical")),
+    "two bodies, a normal region": (_two, "normal:+z:60", dict(pitch=0.3)),
+}
+
+
+def _blocks(monkeypatch, target, where, per_block, **kw):
+    """``texcad.texture`` with the untiled estimate made larger than any machine (the
+    switch is what is tested) and blocks of ``per_block`` refined triangles."""
+    with monkeypatch.context() as m:
+        m.setattr(mesh_target, "untiled_bytes", lambda triangles: 1e18)
+        m.setattr(tiled_mesh, "_block_triangles", lambda coarse, pitch: per_block)
+        return texcad.texture(target, where, "builtin:stones", **kw)
+
+
+def _triangles(v, f):
+    """Triangles as sets of their corners' float32 bytes (rotation-free)."""
+    v = np.asarray(v, np.float32)
+    return {tuple(sorted(map(bytes, v[t]))) for t in np.asarray(f)}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_blocks_make_the_untiled_mesh(case, monkeypatch, tmp_path):
+    make, where, kw = CASES[case]
+    part = make()
+    flat = texcad.texture(part, where, "builtin:stones", **KW, **kw)
+    tx = _blocks(monkeypatch, part, where, 3000, **KW, **kw)
+    assert tx.info["fuse"] == "tiled" and tx.info["blocks"] >= 3
+    whole = tx.mesh.to_mesh()
+    # the same triangles on the same float32 points (the blocks' vertex normals and samples are the untiled ones)
+    assert _triangles(whole.vertices, whole.faces) == _triangles(flat.mesh.vertices, flat.mesh.faces)
+    # every vertex once: no border vertex twice, none unused
+    assert len(np.unique(whole.vertices, axis=0)) == len(whole.vertices) == len(flat.mesh.vertices)
+    assert np.array_equal(np.unique(whole.faces), np.arange(len(whole.vertices)))
+    assert whole.is_watertight and tx.gate.shells.closed
+    assert tx.gate.shells.bodies == flat.gate.shells.bodies
+    assert abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack
+    assert whole.volume == pytest.approx(flat.mesh.volume, rel=1e-9)
+    # streamed: the STL's triangles and the 3MF's vertices (each once) and triangles
+    tx.export(tmp_path / "t.stl")
+    tx.export(tmp_path / "t.3mf")
+    assert (tmp_path / "t.stl").stat().st_size == 84 + 50 * len(whole.faces)
+    back = read_mesh(tmp_path / "t.3mf")
+    assert len(back.vertices) == len(whole.vertices) and len(back.faces) == len(whole.faces)
+
+
+def test_the_block_gate_catches_a_gap(monkeypatch):
+    """Block 2's vertices moved by 1 um: its border vertices differ from its
+    neighbours' and the gate says so."""
+    made = tiled_mesh._displace
+
+    def shifted(plan, b, gid, pins):
+        r = made(plan, b, gid, pins)
+        if gid[gid >= 0].min() > 0:  # not the first block
+            return replace(r, v=r.v + np.float32(1e-3))
+        return r
+
+    monkeypatch.setattr(tiled_mesh, "_displace", shifted)
+    with pytest.raises(GeometryError, match="differ between neighbouring blocks"):
+        _blocks(monkeypatch, trimesh.creation.icosphere(3, 10.0), "all", 6000, pitch=0.5, **KW)
+
+
+def test_options_not_made_in_blocks_are_refused_naming_a_pitch_that_fits():
+    """A sphere at 0.25 mm (about 470 MB untiled by the estimate) under max_memory
+    200 MB above what the process holds: build_dir and two zones are refused naming a
+    pitch, and at that pitch the untiled job runs under the same bound (made for the
+    zones; with build_dir the pitch is the same estimate's)."""
+    from texcad.util.resources import _rss
+
+    part = trimesh.creation.icosphere(4, 45.0)
+    for kw, option in ((dict(build_dir=(0, 0, 1)), "build_dir"), (dict(), "several layers")):
+        bound = _rss() + (200 << 20)  # what the last job left held counts too
+        where = "all" if kw else {"normal:+z:60": "builtin:stones", "normal:-z:60": "builtin:pins"}
+        with pytest.raises(ResourceError, match=option) as err:
+            texcad.texture(part, where, "builtin:stones", pitch=0.25, max_memory=bound, **KW, **kw)
+        pitch = float(str(err.value).split("pitch of at least ")[1].split(" mm")[0])
+        assert 0.25 < pitch < 1.0
+        if kw:
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", texcad.TexcadWarning)
+            ok = texcad.texture(part, where, "builtin:stones", pitch=pitch, max_memory=bound, **KW, **kw)
+        assert ok.info.get("fuse") != "tiled" and ok.mesh.is_watertight
+
+
+def test_coarse_faces_of_more_pitches_where_the_untiled_ones_would_not_fit(monkeypatch):
+    """Where even the coarse mesh of 3 pitches would not fit, its faces span more
+    (here 12: the box's input faces are not bisected at all): other triangles than
+    untiled, still closed with each vertex once, and the same relief volume to 0.1 %."""
+    part = _box()
+    flat = texcad.texture(part, "all", "builtin:stones", **KW, pitch=0.3)
+    monkeypatch.setattr(tiled_mesh, "_coarse_factor", lambda refined, faces, pitch: 12.0)
+    tx = _blocks(monkeypatch, part, "all", 20000, **KW, pitch=0.3)
+    whole = tx.mesh.to_mesh()
+    assert tx.info["coarse_pitches"] == 12 and tx.info["coarse_triangles"] < len(flat.mesh.faces) / 50
+    assert whole.is_watertight and len(np.unique(whole.vertices, axis=0)) == len(whole.vertices)
+    assert 0.5 * len(flat.mesh.faces) < len(whole.faces) < 1.5 * len(flat.mesh.faces)
+    assert tx.gate.volume_change == pytest.approx(flat.gate.volume_change, rel=1e-3)
+    assert abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack
+
+
+def test_folds_across_block_borders_are_limited_alike_on_both_sides(monkeypatch):
+    """An engraved texture folds along a box's edges, across block borders: each
+    block limits its own faces, a border vertex it lowers is pinned for all blocks and
+    the blocks made again until they agree. The mesh is closed with each border
+    vertex once, and differs from the untiled one only at a few vertices round the
+    pinned ones (the fold limiter's rounds start there from the pinned depth)."""
+    kw = dict(KW, pitch=0.5, mode="engraved", projection="planar:+x")
+    with pytest.warns(texcad.TexcadWarning, match="fold over"):
+        flat = texcad.texture(_box(), "all", "builtin:stones", **kw)
+    with pytest.warns(texcad.TexcadWarning, match="fold over"):
+        tx = _blocks(monkeypatch, _box(), "all", 6000, **kw)
+    whole = tx.mesh.to_mesh()
+    assert tx.mesh.__dict__["passes"] > 1 and len(tx.mesh.__dict__["pins"][0]) > 0  # the case this test is for
+    assert whole.is_watertight and len(np.unique(whole.vertices, axis=0)) == len(whole.vertices) == len(flat.mesh.vertices)
+    ours = {bytes(x) for x in whole.vertices}
+    differ = len(ours - {bytes(x) for x in np.asarray(flat.mesh.vertices, np.float32)})
+    assert 0 < differ <= 0.01 * len(whole.vertices)
+    assert whole.volume == pytest.approx(flat.mesh.volume, rel=1e-3)
+    assert abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack
+
+
+def test_a_mesh_that_does_not_fit_untiled_is_made_in_blocks_under_an_address_space_limit(tmp_path):
+    """A sphere of radius 40 mm at 0.25 mm (1.3 M triangles; about 550 MB untiled, by
+    the estimate more than the bound; 545 MB measured) through texcad.texture under
+    max_memory 220 MB over what the process holds and an address-space limit
+    (RLIMIT_AS) of 400 MB over its size: made in blocks, gated, streamed to an STL."""
+    out = tmp_path / "big.stl"
+    script = textwrap.dedent(f"""
+        import resource, time
+        import scipy.sparse.csgraph, scipy.spatial, trimesh
+        import texcad
+        from texcad.targets import mesh as mesh_target
+        from texcad.util.resources import _rss
+        texcad.texture(trimesh.creation.icosphere(1, 5.0), "all", "builtin:stones", pitch=1.0, tolerance=0)  # warmed up
+        def vm(key):
+            return int(open("/proc/self/status").read().split(key)[1].split()[0]) * 1024
+        limit = vm("VmSize:") + (400 << 20)
+        bound = _rss() + (220 << 20)
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+        part = trimesh.creation.icosphere(5, 40.0)
+        t0 = time.process_time()
+        tx = texcad.texture(part, "all", "builtin:stones", pitch=0.25, height=0.5, tolerance=0, max_memory=bound)
+        tx.export({str(out)!r})
+        g = tx.gate
+        print(tx.info["fuse"], tx.info["blocks"], tx.mesh.num_triangles, g.shells.closed,
+              abs(g.volume_change - g.expected_volume) <= g.volume_slack, vm("VmPeak:") <= limit,
+              mesh_target.untiled_bytes(tx.mesh.num_triangles) > (220 << 20), time.process_time() - t0)
+    """)
+    env = dict(os.environ, MALLOC_ARENA_MAX="1")  # the limit is for the job's arrays, not glibc's per-thread arenas
+    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600, env=env)
+    assert res.returncode == 0, res.stderr[-2000:]
+    how, blocks, tris, closed, volume_ok, under, too_big, cpu = res.stdout.split()
+    print(f"blocks {blocks}, {tris} triangles, {float(cpu):.1f} CPU s")
+    assert how == "tiled" and int(blocks) > 1 and int(tris) > 1_000_000
+    assert closed == volume_ok == under == too_big == "True"
+    assert out.stat().st_size == 84 + 50 * int(tris)
+
+
+def test_the_cli_makes_a_mesh_in_blocks(tmp_path, monkeypatch, capsys):
+    """``texcad texture part.stl`` where the untiled mesh does not fit: made in
+    blocks, summarised, its STL and 3MF streamed with the same triangles."""
+    from texcad.cli import main
+
+    part = tmp_path / "ball.stl"
+    trimesh.creation.icosphere(3, 10.0).export(part)
+    with monkeypatch.context() as m:
+        m.setattr(mesh_target, "untiled_bytes", lambda triangles: 1e18)
+        m.setattr(tiled_mesh, "_block_triangles", lambda coarse, pitch: 6000)
+        assert main(["texture", str(part), "-o", str(tmp_path / "t.stl"), "-o", str(tmp_path / "t.3mf"), "--pitch", "0.5",
+                     "--max-memory", "4GB", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    tris = int(out.split("triangles    ")[1].split(",")[0])
+    assert "watertight True" in out and tris > 10_000
+    assert (tmp_path / "t.stl").stat().st_size == 84 + 50 * tris
+    stl, tmf = read_mesh(tmp_path / "t.stl"), read_mesh(tmp_path / "t.3mf")  # the 3MF's vertices in decimals
+    assert len(tmf.faces) == len(stl.faces) == tris and len(tmf.vertices) == len(stl.vertices)
+    assert np.abs(np.sort(tmf.vertices, axis=0) - np.sort(stl.vertices, axis=0)).max() < 1e-4  # 4 decimals

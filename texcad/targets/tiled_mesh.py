@@ -1,0 +1,708 @@
+"""A mesh target too large for memory, textured in blocks (issue 30).
+
+The mesh adapter (:mod:`texcad.targets.mesh`) takes this path by itself where its
+untiled refinement would not fit in the memory available (``max_memory``). The result
+is the untiled pitch grid (``tolerance=0``), made a block at a time:
+
+* **coarse, once.** The region's faces are bisected down to three pitches
+  (:func:`texcad.solid.subdivide.coarsen`, as :func:`~texcad.solid.subdivide.refine`
+  does first); that mesh has a sixth to a ninth of the refined triangles. Each of its edges gets
+  ``ceil(length / pitch)`` pieces (1 off the region): a number that depends on the
+  edge alone, so both faces at an edge cut it at the same points.
+* **blocks.** The coarse faces are ordered along a Morton curve of their centroids
+  and cut into runs of about the same number of refined triangles (*blocks*). A
+  block is tessellated (:func:`~texcad.solid.subdivide.tessellate`) together with its
+  *halo*, every coarse face that shares a vertex with it: the refined faces round
+  each of the block's vertices are then all there, in the untiled order (faces sorted
+  by coarse face), so its angle-weighted normal and offset direction are the untiled
+  ones, bit for bit, and a vertex on a block border comes out the same float32 point
+  from both neighbours.
+* **the relief at each vertex.** The texture sampled at the vertex through the
+  projection fixed once for the whole region (origin from the refined region's
+  bounding box, radius from a pass over all its vertices), the M-I ramp from the distance to
+  the region's border vertices (collected in a first pass over the blocks: a curve,
+  small), the depth gradient and mode: all point by point, as the untiled adapter.
+* **welded by numbers.** Coarse vertices, the points of each coarse edge and the
+  inner points of each coarse face get global numbers the first time a block emits
+  them, so a border edge's points are one vertex each (no gap, no duplicate, no
+  T-junction) and the streaming writers (:mod:`texcad.io.stream`) write each once.
+* **folds.** The fold limiter (:func:`texcad.printability.limit_relief`, no build
+  direction) runs on each block's own faces. A fold that stays inside a block is
+  limited as on the whole mesh (the limiter's rounds only look at faces next to a
+  change). Where it lowers a border vertex, that vertex is *pinned* at the least
+  displacement any block gave it, every block starts from the pins and the blocks are
+  made again, until no block lowers a border vertex (from the third pass on a newly
+  lowered border vertex is pinned at 0, the undisplaced surface, where the limiter
+  itself ends): both neighbours then move it alike.
+
+:class:`TiledMeshBlocks` is that mesh kept as a recipe: its blocks are made on demand
+for the gate (:func:`gate_mesh_blocks`: each block's open edges pair up across blocks,
+each directed edge once and its reverse once; a vertex in two blocks is the same
+float32 point in both; as many bodies as the input; the volume change against the
+texture's swept volume summed over blocks; every vertex within reach of where it
+was) and for the streaming STL / 3MF writers. Lengths in mm.
+
+**Memory.** The coarse mesh is made whole: about 450 bytes per coarse triangle at the
+peak (a coarse triangle of 3 pitches becomes 6 to 9 refined ones), against about 415
+bytes per refined triangle untiled (an icosphere of radius 60 mm at 0.2 mm, 4.4 M
+triangles: 372 MB against 1754 MB peak); blocks are sized to what it leaves. Where
+that coarse mesh would take more than half the memory available, its faces span more
+pitches (``factor``, up to :data:`MAX_FACTOR`: ``(3 / factor)^2`` as many coarse
+faces, each tessellated into a finer grid), so what stays whole goes with the input
+mesh, not the pitch; the triangles then differ from the untiled ones (the same
+surface and relief volume to 0.1 %, tested).
+
+**Against the untiled mesh** (``tolerance=0``, coarse faces of 3 pitches): the same triangles on the same
+float32 vertices (tested on a sphere, a box with its bed face, a cylinder with a
+cylindrical projection and two bodies with a normal region), except round border
+vertices pinned for a fold (an engraved texture on a box's edges: 22 of 12816
+vertices differ, the volume by 4e-5 relative). The projection's origin comes from
+the refined region's bounding box and its radius from a pass over its vertices, as
+untiled. A tiled mesh keeps every pitch-grid point (its error is 0, within any
+``tolerance``).
+
+Not tiled (refused, naming a pitch at which the untiled mesh fits): ``build_dir``
+(the overhang limiter moves vertices by their neighbours' displacements, across the
+whole mesh, and checks ridges between faces) and several layers or zones (each
+layer refines the last's mesh). ``texture_mesh`` and ``layer_meshes`` (booleans of
+the whole mesh) are refused; ``base_mesh`` is the input.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from ..errors import GeometryError, ParameterError, ResourceError, TexcadWarning
+from ..printability.relief import limit_relief
+from ..solid.subdivide import coarsen, edge_lengths, face_normals, offset_directions, tessellate, vertex_normals
+from ..util import Progress, available_memory, finest_pitch, report, split_rows
+from .tiled import TiledMesh, _at, tiles_verdict
+from .tiled_faces import open_edges
+
+__all__ = ["MeshPlan", "FineBlock", "BlockRelief", "TiledMeshBlocks", "mesh_plan", "fine_block", "gate_mesh_blocks",
+           "refuse_untiled", "BLOCK_BYTES", "COARSE_BYTES", "MAX_FACTOR"]
+
+#: Peak bytes per refined triangle of one block (tessellation, normals, relief and the
+#: emitted float32 block; about 450 measured on an icosphere of radius 40 mm at 0.25 mm
+#: in one block): what a block's size is chosen by.
+BLOCK_BYTES = 500.0
+#: Peak bytes per coarse triangle of the whole job in blocks (434 measured as peak
+#: resident memory over the interpreter's on an icosphere of radius 60 mm at 0.2 mm:
+#: the bisection's peak, the coarse mesh kept after it, one block).
+COARSE_BYTES = 450.0
+#: :func:`~texcad.solid.subdivide.refined_triangles`'s estimate per coarse triangle:
+#: the least of 6.4 to 12.8 measured on a sphere, box, cylinder and torus at 0.3 and
+#: 0.5 mm (the coarse mesh is estimated from it before it is made).
+COARSE_RATIO = 6.4
+#: Most pitches a coarse face may span (where 3, the untiled refinement's, would not fit).
+MAX_FACTOR = 24
+#: Most refined triangles per block (larger blocks are no faster).
+MAX_BLOCK = 250_000
+
+
+@dataclass(frozen=True)
+class MeshPlan:
+    """The coarse mesh and its blocks, what every block is made from (mm).
+
+    Attributes:
+        v: ``(N, 3)`` float64 coarse vertices, mm.
+        f: ``(M, 3)`` int64 coarse faces (counter-clockwise from outside).
+        fn: ``(M, 3)`` float64 unit normal of each coarse face's input face.
+        ids: ``(M,)`` int64 each coarse face's input face.
+        counts: ``(M, 3)`` int64 pieces of each face's edge ``k`` (corner ``k`` to
+            ``k + 1``): ``ceil(length / pitch)`` where a face at the edge is in the
+            region, else 1.
+        keys: ``(E,)`` int64 sorted edge keys ``min * N + max``.
+        body: ``(M,)`` int64 each coarse face's connected piece (shell).
+        blocks: the coarse faces of each block, sorted int64 arrays.
+        layer: the layer (:class:`texcad.targets.mesh.Layer`) with its projection fixed.
+        tol: mm, the region selection's tolerance; low: ``(3,)`` the lowest vertex
+            (the bed face's height).
+        border: ``(K, 3)`` float64 the refined region's border vertices.
+        reach: mm, the farthest a vertex may move (offset directions are at most
+            3 times as long as the normal).
+        fits: mm, the pitch at which the untiled job fits (named where folds across
+            block borders do not settle).
+        factor: how many pitches a coarse face spans at most (3: the untiled
+            refinement's; more where that coarse mesh would not fit).
+    """
+
+    v: np.ndarray
+    f: np.ndarray
+    fn: np.ndarray
+    ids: np.ndarray
+    counts: np.ndarray
+    keys: np.ndarray
+    body: np.ndarray
+    blocks: tuple
+    layer: Any
+    tol: float
+    low: np.ndarray
+    border: np.ndarray
+    reach: float
+    fits: float
+    factor: float = 3.0
+
+    @property
+    def triangles(self) -> int:
+        """Refined triangles, counted from the grid levels (before the drops at
+        edges cut into fewer pieces than their face: an upper bound)."""
+        lev = self.counts.max(axis=1)
+        return int((lev * lev).sum())
+
+
+@dataclass(frozen=True)
+class FineBlock:
+    """One block refined with its halo (mm).
+
+    Attributes:
+        near: sorted coarse faces (the block and its halo).
+        used: sorted coarse vertices of ``near`` (local vertex ``i < len(used)`` is
+            coarse vertex ``used[i]``).
+        v: ``(P, 3)`` float64 refined vertices; f: ``(T, 3)`` int64 refined faces.
+        src: ``(T,)`` each refined face's index into ``near``; own: ``(T,)`` bool,
+            the refined faces of the block itself.
+        classes: where each new point lies (:func:`~texcad.solid.subdivide.tessellate`).
+    """
+
+    near: np.ndarray
+    used: np.ndarray
+    v: np.ndarray
+    f: np.ndarray
+    src: np.ndarray
+    own: np.ndarray
+    classes: dict
+
+
+def refuse_untiled(what: str, pitch: float, need: float, why: str) -> None:
+    """ResourceError: ``why`` (an option, with its verb) is not made in blocks and the untiled job
+    (``need`` bytes at ``pitch`` mm) does not fit; names the pitch that does."""
+    p = finest_pitch(pitch, need)
+    raise ResourceError(f"{what} at a pitch of {pitch:.3g} mm needs about {need / 2**30:.1f} GiB of memory, more than "
+                        f"the {available_memory() / 2**30:.1f} GiB available, and {why} not made in blocks; "
+                        f"use a pitch of at least {p:.3g} mm")
+
+
+def mesh_plan(layer: Any, v: np.ndarray, f: np.ndarray, tol: float, refined: int, fits: float,
+              progress: Progress = None) -> MeshPlan:
+    """Coarsen the layer's region of ``(v, f)`` and cut it into blocks that fit in the
+    memory available (module docstring); the first pass over the blocks finds the
+    region's border vertices and fixes the projection. ``refined``: about how many
+    triangles the refinement makes; ``fits``: the pitch (mm) at which the untiled job
+    fits (named where something is refused).
+
+    Raises:
+        ResourceError: the coarse mesh or one block does not fit (names a pitch).
+        ParameterError: the region holds no face.
+    """
+    pitch = float(layer.pitch)
+    factor = _coarse_factor(refined, len(f), pitch)
+    fn, _ = face_normals(v, f)
+    sel = layer.faces(v, f, fn, None, 45.0, tol, loose=True, ids=np.arange(len(f)))
+    if not sel.any():
+        raise ParameterError(f"region 1 ({layer.region}) holds no face of the mesh; choose another region")
+    # the cap on the whole mesh's triangles is the STL's here: the mesh is never whole
+    cv, cf, act, parent = coarsen(v, f, sel, pitch, guard=False, coarse=factor, max_faces=2**32 - 1)
+    report(progress, 0.12, f"coarse mesh: {len(cf)} triangles of up to {factor} pitches")
+    counts, keys = _edge_counts(cv, cf, act, pitch)
+    del act
+    lev = counts.max(axis=1)
+    body = _bodies(cf, len(cv))
+    blocks = _blocks(cv, cf, lev * lev, _block_triangles(len(cf), pitch))
+    plan = MeshPlan(cv, cf, fn[parent], parent, counts, keys, body, blocks, layer, tol, cv[np.argmin(cv[:, 2])],
+                    np.zeros((0, 3)), 3.0 * float(layer.height) + 0.01, float(fits), factor)
+    return _first_pass(plan, progress)
+
+
+def _coarse_factor(refined: int, faces: int, pitch: float) -> float:
+    """How many pitches the coarse faces may span: 3, as the untiled refinement
+    (the same triangles), where that coarse mesh takes at most half the memory
+    available; else the least (up to :data:`MAX_FACTOR`) at which it does (its faces
+    ``(3 / factor)^2`` as many). ResourceError naming a pitch where none does."""
+    have = available_memory() / 2
+    need = refined / COARSE_RATIO * COARSE_BYTES
+    if need <= have:
+        return 3.0
+    factor = math.ceil(3.0 * math.sqrt(need / max(have - faces * COARSE_BYTES, 1.0)))
+    if factor > MAX_FACTOR or faces * COARSE_BYTES >= have:
+        least = need * (3.0 / MAX_FACTOR) ** 2
+        raise ResourceError(f"refining the mesh to about {refined} triangles in blocks at a pitch of {pitch:.3g} mm needs "
+                            f"about {2 * (least + faces * COARSE_BYTES) / 2**30:.1f} GiB for its coarse mesh and a block, "
+                            f"more than the {2 * have / 2**30:.1f} GiB available; use a pitch of at least "
+                            f"{finest_pitch(pitch, 2 * least, 2 * faces * COARSE_BYTES):.3g} mm or allow more memory (max_memory)")
+    return float(factor)
+
+
+def _edge_counts(v: np.ndarray, f: np.ndarray, act: np.ndarray, pitch: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pieces of every face's edges (as :func:`texcad.solid.subdivide.refine`: the
+    most any face at the edge asks) and the sorted edge keys."""
+    g = f[:, [1, 2, 0]]
+    nv = np.int64(len(v))
+    key = (np.minimum(f, g) * nv + np.maximum(f, g)).ravel()
+    uk, inv = np.unique(key, return_inverse=True)
+    n = np.where(act[:, None], np.ceil(edge_lengths(v, f) / pitch - 1e-9), 1).astype(np.int64).ravel()
+    per_edge = np.ones(len(uk), dtype=np.int64)
+    np.maximum.at(per_edge, inv, n)
+    return per_edge[inv].reshape(-1, 3), uk
+
+
+def _block_triangles(coarse: int, pitch: float) -> int:
+    """Refined triangles per block that fit in what the coarse mesh (made, and held
+    by this process already) leaves, beside the vertex numbers (16 bytes per coarse
+    triangle); ResourceError naming a pitch where not even a small block fits."""
+    have = available_memory() / 1.25 - 16.0 * coarse
+    n = int(min(MAX_BLOCK, have / BLOCK_BYTES))
+    if n < 20_000:
+        p = finest_pitch(pitch, coarse * COARSE_BYTES, 20_000 * BLOCK_BYTES)
+        raise ResourceError(f"the mesh's coarse refinement ({coarse} triangles at a pitch of {pitch:.3g} mm) leaves no "
+                            f"room for a block in the memory available; use a pitch of at least {p:.3g} mm or allow more "
+                            "memory (max_memory)")
+    return n
+
+
+def _morton(c: np.ndarray) -> np.ndarray:
+    """Morton (Z-order) keys of points ``(M, 3)``: 21 bits per axis."""
+    lo, hi = c.min(axis=0), c.max(axis=0)
+    q = ((c - lo) / np.maximum(hi - lo, 1e-300) * ((1 << 21) - 1)).astype(np.uint64)
+    key = np.zeros(len(c), dtype=np.uint64)
+    for bit in range(21):  # per bit of each coordinate
+        for k in range(3):  # per axis
+            key |= ((q[:, k] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(3 * bit + k)
+    return key
+
+
+def _blocks(v: np.ndarray, f: np.ndarray, tris: np.ndarray, per_block: int) -> tuple:
+    """Coarse faces cut into runs along the Morton curve of their centroids, each of
+    at most ``per_block`` refined triangles (``tris`` per face); sorted per block."""
+    c = (v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]]) / 3.0
+    order = np.argsort(_morton(c), kind="stable")
+    cum = np.cumsum(tris[order])
+    cut = np.searchsorted(cum, np.arange(per_block, int(cum[-1]), per_block), side="right")
+    return tuple(np.sort(b) for b in np.split(order, np.unique(cut)) if len(b))
+
+
+def _bodies(f: np.ndarray, nv: int) -> np.ndarray:
+    """Each face's connected piece (through shared vertices)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]]])
+    g = coo_matrix((np.ones(len(e), dtype=np.int8), (e[:, 0], e[:, 1])), shape=(nv, nv))
+    _, label = connected_components(g, directed=False)
+    return label[f[:, 0]].astype(np.int64)
+
+
+def fine_block(plan: MeshPlan, block: np.ndarray) -> FineBlock:
+    """Block ``block`` (sorted coarse faces) refined with its halo (module docstring)."""
+    mark = np.zeros(len(plan.v), dtype=bool)
+    mark[plan.f[block].ravel()] = True
+    near = np.flatnonzero(mark[plan.f].any(axis=1))  # sorted: the untiled face order
+    used, inv = np.unique(plan.f[near], return_inverse=True)  # sorted: each edge's end order as untiled
+    classes: dict = {}
+    v, f, src = tessellate(plan.v[used], inv.reshape(-1, 3), plan.counts[near], classes=classes)
+    own = np.isin(near, block)[src]
+    return FineBlock(near, used, v, f, src, own, classes)
+
+
+def _strict(plan: MeshPlan, b: FineBlock) -> np.ndarray:
+    """The refined faces in the region (as the untiled adapter selects them; the bed
+    face's height from the whole mesh)."""
+    vv = np.concatenate([b.v, plan.low[None, :]])  # the lowest point: bed faces as on the whole mesh
+    return plan.layer.faces(vv, b.f, plan.fn[b.near][b.src], None, 45.0, plan.tol, loose=False, ids=plan.ids[b.near][b.src])
+
+
+def _owned(b: FineBlock) -> np.ndarray:
+    """Vertices of the block's own faces."""
+    ref = np.zeros(len(b.v), dtype=bool)
+    ref[b.f[b.own].ravel()] = True
+    return ref
+
+
+def _first_pass(plan: MeshPlan, progress: Progress) -> MeshPlan:
+    """The region's border vertices (a vertex of a region face and of a face outside
+    it), its bounding box and, for a cylindrical or spherical projection without a
+    radius, the mean distance from the axis or centre (a second pass)."""
+    border, lo, hi = [], np.full(3, np.inf), np.full(3, -np.inf)
+    for k, blk in enumerate(plan.blocks):  # per block
+        b = fine_block(plan, blk)
+        m = _strict(plan, b)
+        ins, out = np.zeros(len(b.v), dtype=bool), np.zeros(len(b.v), dtype=bool)
+        ins[b.f[m].ravel()] = True
+        out[b.f[~m].ravel()] = True
+        own = _owned(b)
+        border.append(b.v[ins & out & own])
+        if (ins & own).any():
+            lo, hi = np.minimum(lo, b.v[ins & own].min(axis=0)), np.maximum(hi, b.v[ins & own].max(axis=0))
+        report(progress, 0.12 + 0.08 * (k + 1) / len(plan.blocks), f"block {k + 1}/{len(plan.blocks)}: the region's border")
+    if not np.isfinite(lo).all():
+        raise ParameterError(f"region 1 ({plan.layer.region}) holds no face of the mesh; choose another region")
+    layer = plan.layer
+    proj = layer.projection
+    if proj.origin is None:
+        proj = replace(proj, origin=tuple(float(t) for t in 0.5 * (lo + hi)))
+    plan = replace(plan, border=np.concatenate(border), layer=layer.with_projection(proj))
+    if proj.radius is None and proj.kind in ("cylindrical", "spherical"):
+        plan = replace(plan, layer=layer.with_projection(replace(proj, radius=_mean_radius(plan))))
+    return plan
+
+
+def _mean_radius(plan: MeshPlan) -> float:
+    """Mean distance (mm) of the region's refined vertices from the projection's axis
+    (cylindrical) or centre (spherical), each vertex once (its first block)."""
+    from ..mapping.projection import frame, parse_axis
+
+    proj = plan.layer.projection
+    a = parse_axis(proj.axis)
+    eu, ev = frame(a)
+    o = np.asarray(proj.origin, dtype=np.float64)
+    numbering = _Numbering(plan)
+    total, count = 0.0, 0
+    for blk in plan.blocks:  # per block
+        b = fine_block(plan, blk)
+        m = _strict(plan, b)
+        ids = numbering.ids(plan, b)
+        ins = np.zeros(len(b.v), dtype=bool)
+        ins[b.f[m & b.own].ravel()] = True
+        new = ins & (ids >= numbering.start)
+        q = b.v[new] - o
+        x, y = q @ eu, q @ ev
+        rho = np.hypot(x, y) if proj.kind == "cylindrical" else np.sqrt(x * x + y * y + (q @ a) ** 2)
+        total, count = total + float(rho.sum()), count + len(rho)
+    return total / max(count, 1)
+
+
+class _Numbering:
+    """Global vertex numbers, given the first time a block emits a vertex: coarse
+    vertices, each coarse edge's points (a run from its smaller end) and each coarse
+    face's inner points. ``start``: the first number of the block just numbered."""
+
+    def __init__(self, plan: MeshPlan) -> None:
+        self.coarse = np.full(len(plan.v), -1, dtype=np.int64)
+        self.edge = np.full(len(plan.keys), -1, dtype=np.int64)
+        self.next = 0
+        self.start = 0
+
+    def _take(self, n: int) -> np.ndarray:
+        out = self.next + np.arange(n, dtype=np.int64)
+        self.next += n
+        return out
+
+    def ids(self, plan: MeshPlan, b: FineBlock) -> np.ndarray:
+        """``(P,)`` the global number of each vertex of the block's own faces, -1
+        for the halo's other vertices."""
+        self.start = self.next
+        ref = _owned(b)
+        gid = np.full(len(b.v), -1, dtype=np.int64)
+        nl = len(b.used)
+        cv = np.flatnonzero(ref[:nl])
+        g = b.used[cv]
+        fresh = self.coarse[g] < 0
+        self.coarse[g[fresh]] = self._take(int(fresh.sum()))
+        gid[cv] = self.coarse[g]
+        c = b.classes
+        if len(c.get("t", ())):
+            ep = nl + np.arange(len(c["t"]))
+            le = c["edge_point"]
+            nvl = np.int64(max(nl, 1))
+            uk = c["edge_key"]
+            ge = np.searchsorted(plan.keys, b.used[uk // nvl] * np.int64(len(plan.v)) + b.used[uk % nvl])
+            pos = np.rint(c["t"] * c["edge_count"][le]).astype(np.int64)
+            hit = ref[ep]
+            e_hit = np.unique(le[hit])
+            fresh_e = e_hit[self.edge[ge[e_hit]] < 0]
+            runs = c["edge_count"][fresh_e] - 1
+            first = self._take(int(runs.sum()))
+            self.edge[ge[fresh_e]] = first[np.concatenate([[0], np.cumsum(runs)[:-1]]).astype(np.int64)] if len(runs) else first
+            gid[ep[hit]] = self.edge[ge[le[hit]]] + pos[hit] - 1
+            inner = np.arange(nl + len(c["t"]), len(b.v))
+        else:
+            inner = np.arange(nl, len(b.v))
+        hit = inner[ref[inner]]
+        gid[hit] = self._take(len(hit))
+        return gid
+
+
+@dataclass(frozen=True)
+class BlockRelief:
+    """One block displaced: its emitted vertices ``v`` ``(k, 3)`` float32 mm, faces
+    ``f`` (local), global numbers ``ids``, and per emitted vertex its undisplaced
+    position ``v0`` (float64) and displacement ``offset`` ``(k, 3)`` mm; ``body``:
+    each face's connected piece; ``mask``: the texture mask's largest value there
+    (None without a mask); ``folded``: faces the fold limiter lowered the texture
+    at; ``moved``: the global numbers of the block's border vertices it lowered and
+    their displacements after it (mm)."""
+
+    v: np.ndarray
+    f: np.ndarray
+    ids: np.ndarray
+    v0: np.ndarray
+    offset: np.ndarray
+    body: np.ndarray
+    mask: Any
+    folded: int
+    moved: tuple
+
+
+def _relief(plan: MeshPlan, b: FineBlock, keep: np.ndarray, unit: np.ndarray) -> tuple[np.ndarray, Any]:
+    """Displacement (mm) of the block's vertices (``keep``: its own), 0 off the
+    region, and the mask's largest value (None without one)."""
+    m = _strict(plan, b)
+    ins = np.zeros(len(b.v), dtype=bool)
+    ins[b.f[m].ravel()] = True
+    idx = np.flatnonzero(ins & keep)
+    layer = plan.layer
+    dist = layer.border_distance(plan.border)(b.v[idx])
+    if layer.projection.kind != "solid" and len(idx):
+        layer.heights(b.v[idx[:1]], unit[idx[:1]])  # the samplers made once, before the threads
+    parts = split_rows(lambda r: layer.relief_rows(b.v[idx[r]], unit[idx[r]], dist[r]), len(idx))
+    d = np.zeros(len(b.v))
+    d[idx] = np.concatenate([p[0] for p in parts]) if parts else 0.0
+    masks = [p[3] for p in parts if p[3] is not None and len(p[3])]
+    return d, (max(float(q.max()) for q in masks) if masks else None)
+
+
+def _displace(plan: MeshPlan, b: FineBlock, gid: np.ndarray, pins: tuple) -> BlockRelief:
+    """The block's vertices moved along their offset directions by the relief
+    (module docstring), limited where a face would fold over
+    (:func:`texcad.printability.limit_relief` on the block's own faces); ``pins``
+    ``(ids, d)``: border vertices (sorted global numbers) whose displacement another
+    block's limiter lowered, and to what (mm): they start from that here."""
+    unit = vertex_normals(b.v, b.f)
+    dirs = offset_directions(b.v, b.f, unit)
+    keep = gid >= 0
+    d, mask = _relief(plan, b, keep, unit)
+    local = np.full(len(b.v), -1, dtype=np.int64)
+    local[keep] = np.arange(int(keep.sum()))
+    f = local[b.f[b.own]]
+    ids, v0 = gid[keep], b.v[keep]
+    dk = d[keep]
+    at = np.searchsorted(pins[0], ids)
+    hit = np.flatnonzero(pins[0][np.minimum(at, len(pins[0]) - 1)] == ids) if len(pins[0]) else np.zeros(0, np.int64)
+    dk[hit] = pins[1][at[hit]]
+    lowered, lim = limit_relief(v0, f, dirs[keep], dk)
+    seam = np.unique(open_edges(f)[0])
+    seam = seam[lowered[seam] != dk[seam]]
+    moved = (ids[seam], lowered[seam])
+    off = dirs[keep] * lowered[:, None]
+    v32 = (v0 + off).astype(np.float32)
+    return BlockRelief(v32, f, ids, v0, off, plan.body[b.near][b.src][b.own], mask, int(lim.folded_faces), moved)
+
+
+class TiledMeshBlocks(TiledMesh):
+    """A textured mesh kept as the recipe of its blocks (:class:`MeshPlan`, mm).
+    Blocks are made on demand (:meth:`blocks`), gated (:func:`gate_mesh_blocks`) and
+    written (:meth:`write`, streamed) one at a time."""
+
+    def __init__(self, plan: MeshPlan, progress: Progress = None) -> None:
+        self.plan, self.progress, self.client, self.thickness = plan, progress, None, 0.0
+        self.grid = None
+
+    @property
+    def num_vertices(self) -> int:
+        return self._counts()[0]
+
+    @property
+    def num_triangles(self) -> int:
+        return self._counts()[1]
+
+    @property
+    def is_watertight(self) -> bool:
+        """Closed and oriented, as the gate found it block by block (False before it ran)."""
+        return bool(self.__dict__.get("closed", False))
+
+    def _counts(self) -> tuple[int, int]:
+        if "counts" not in self.__dict__:
+            nv, nt = 0, 0
+            for _, v, f, ids in self.blocks():  # per block
+                nv, nt = max(nv, int(ids.max(initial=-1)) + 1), nt + len(f)
+            self.__dict__["counts"] = (nv, nt)
+        return self.__dict__["counts"]
+
+    def displaced(self, progress: Progress = None) -> Any:
+        """:class:`BlockRelief` per block, in order."""
+        plan = self.plan
+        numbering = _Numbering(plan)
+        n = len(plan.blocks)
+        pins = self.__dict__.get("pins", (np.zeros(0, dtype=np.int64), np.zeros(0)))
+        for k, blk in enumerate(plan.blocks):  # per block
+            b = fine_block(plan, blk)
+            yield _displace(plan, b, numbering.ids(plan, b), pins)
+            del b
+            report(progress, (k + 1) / n, f"block {k + 1}/{n}")
+
+    def blocks(self, progress: Progress = None) -> Any:
+        """``(block, vertices, faces, ids)`` per block: float32 mm, local faces,
+        global numbers (each block's new vertices numbered on from the last's)."""
+        for k, r in enumerate(self.displaced(progress)):  # per block
+            yield k, r.v, r.f, r.ids
+
+    def share(self, t: Any, v: np.ndarray, f: np.ndarray) -> float:
+        from ..solid.tiles import block_volume
+
+        return block_volume(v, f)
+
+    def gate(self, ex: Any) -> Any:
+        """texcad's gate on this mesh, block by block (:func:`gate_mesh_blocks`)."""
+        return gate_mesh_blocks(self, ex)
+
+    @property
+    def bounds(self) -> np.ndarray:
+        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+        for _, v, _, _ in self.blocks():  # per block
+            if len(v):
+                lo, hi = np.minimum(lo, v.min(axis=0)), np.maximum(hi, v.max(axis=0))
+        return np.array([lo, hi], dtype=np.float64)
+
+    def __repr__(self) -> str:
+        return f"TiledMeshBlocks({len(self.plan.f)} coarse triangles in {len(self.plan.blocks)} blocks)"
+
+
+def _face_terms(v: np.ndarray, f: np.ndarray, o: np.ndarray) -> np.ndarray:
+    """``a . (b x c)`` per face about ``o`` (six times the tetrahedron's volume), float64."""
+    x = np.asarray(v, dtype=np.float64) - o
+    a, b, c = x[f[:, 0]], x[f[:, 1]], x[f[:, 2]]
+    return (a[:, 0] * (b[:, 1] * c[:, 2] - b[:, 2] * c[:, 1]) + a[:, 1] * (b[:, 2] * c[:, 0] - b[:, 0] * c[:, 2])
+            + a[:, 2] * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0]))
+
+
+@dataclass
+class _Tally:
+    """What one pass over the blocks adds up for the gate (volumes mm^3, lengths mm)."""
+
+    out_vol: np.ndarray
+    in_vol: np.ndarray
+    edges: list
+    seam_ids: list
+    seam_xyz: list
+    moved: list
+    swept: float = 0.0
+    spread: float = 0.0
+    farthest: float = 0.0
+    finite: bool = True
+    nv: int = 0
+    nt: int = 0
+    folded: int = 0
+    masked: Any = None
+
+    def add(self, r: BlockRelief, o: np.ndarray) -> None:
+        """Block ``r``'s shares, volumes about the point ``o``."""
+        nb = len(self.out_vol)
+        self.finite &= bool(np.isfinite(r.v).all())
+        self.nv, self.nt, self.folded = max(self.nv, int(r.ids.max(initial=-1)) + 1), self.nt + len(r.f), self.folded + r.folded
+        self.out_vol += np.bincount(r.body, weights=_face_terms(r.v, r.f, o), minlength=nb) / 6.0
+        before = _face_terms(r.v0, r.f, o)
+        self.in_vol += np.bincount(r.body, weights=before, minlength=nb) / 6.0
+        self.swept += float((_face_terms(r.v0 + r.offset, r.f, o) - before).sum()) / 6.0
+        shift = np.linalg.norm(r.offset, axis=1)
+        self.spread += float((_areas(r.v0, r.f) / 3.0 * shift[r.f].sum(axis=1)).sum())
+        self.farthest = max(self.farthest, float(np.linalg.norm(r.v.astype(np.float64) - r.v0, axis=1).max(initial=0.0)))
+        self.masked = r.mask if self.masked is None else (self.masked if r.mask is None else max(self.masked, r.mask))
+        open_, _ = open_edges(r.ids[r.f])
+        self.edges.append(open_)
+        ring = np.unique(open_)
+        self.seam_ids.append(ring)
+        self.seam_xyz.append(_at(r.ids, r.v, ring))
+        self.moved.append(r.moved)
+
+
+def _tally(mesh: "TiledMeshBlocks") -> _Tally:
+    """One pass over the blocks; where the fold limiter lowered a border vertex, it
+    is pinned at its least displacement (every block starts from that) and the pass
+    made again, until the limiter lowers no border vertex (from the third pass on,
+    a border vertex it lowers is pinned at 0, where the limiter leaves it)."""
+    plan = mesh.plan
+    o = 0.5 * (plan.v.min(axis=0) + plan.v.max(axis=0))
+    nb = int(plan.body.max()) + 1
+    for k in range(12):  # per pass: pins only grow and go down
+        t = _Tally(np.zeros(nb), np.zeros(nb), [], [], [], [])
+        for r in mesh.displaced(mesh.progress):  # per block
+            t.add(r, o)
+        if not sum(len(m[0]) for m in t.moved):
+            mesh.__dict__["passes"] = k + 1
+            return t
+        mesh.__dict__["pins"] = _pinned(mesh.__dict__.get("pins"), t.moved, zero=k >= 2)
+    raise GeometryError(f"the texture folds over across block borders, and pinning them did not settle it; use a smaller "
+                        f"height or a pitch of at least {plan.fits:.3g} mm (made whole)")
+
+
+def _pinned(pins: "tuple | None", moved: list, zero: bool) -> tuple:
+    """``(ids, d)`` sorted: the pins and the newly lowered border vertices, each at
+    its least displacement (mm; the limiter only lowers, keeping the sign); with
+    ``zero`` the newly lowered ones at 0 (the undisplaced surface, where the limiter
+    itself ends: after two passes, so that the passes settle)."""
+    ids = np.concatenate([m[0] for m in moved] + ([pins[0]] if pins else []))
+    d = np.concatenate([m[1] * (0.0 if zero else 1.0) for m in moved] + ([pins[1]] if pins else []))
+    order = np.lexsort((np.abs(d), ids))
+    ids, d = ids[order], d[order]
+    first = np.r_[True, ids[1:] != ids[:-1]]
+    return ids[first], d[first]
+
+
+def gate_mesh_blocks(mesh: "TiledMeshBlocks", ex: Any) -> Any:
+    """texcad's gate (checks 1-5, :func:`texcad.report.gate.gate`) on a mesh made in
+    blocks, in memory that goes with one block plus the blocks' open edges:
+
+    1. closed and oriented: the blocks' open edges (global numbers) pair up, each
+       directed edge once and its reverse once; a vertex in two blocks is the same
+       float32 point in both; every vertex finite;
+    2-3. as many bodies (connected shells) as the input, each with the sign of its
+       input's volume;
+    4. the volume change of the written float32 mesh against the texture's swept
+       volume (the prisms between every face and its displaced copy, float64, summed
+       over blocks) within 5 % of ``sum |d| A`` (as the untiled adapter);
+    5. every vertex moved at most the plan's reach (3 times the height: the longest
+       offset direction) from where it was.
+
+    Returns:
+        :class:`texcad.report.gate.GateReport`; sets the mesh's volume and counts.
+
+    Raises:
+        GeometryError: a check failed (the message names it and the figures).
+        ParameterError: the texture's mask covers none of the region.
+    """
+    from ..report.gate import ShellReport
+
+    what = "textured mesh (in blocks)"
+    t = _tally(mesh)
+    if t.masked is not None and not t.masked > 0:
+        raise ParameterError("the mask covers none of the region: check mask_size (mm) and the projection's origin")
+    if t.folded:
+        warnings.warn(f"the texture was lowered where {t.folded} faces would fold over (too deep for the curvature there)",
+                      TexcadWarning, stacklevel=3)
+    apart = _apart(np.concatenate(t.seam_ids), np.concatenate(t.seam_xyz))
+    if apart:
+        raise GeometryError(f"the {what} failed texcad's gate: {apart} vertices differ between neighbouring blocks "
+                            "(a gap at a seam); please report this")
+    open_, bad = open_edges(np.concatenate(t.edges))
+    closed = t.finite and not len(open_) and not bad
+    nb = len(t.out_vol)
+    flipped = int(np.sum(np.sign(t.out_vol) != np.sign(t.in_vol)))
+    shells = ShellReport(closed=closed, open_edges=len(open_), nonmanifold_edges=bad, misoriented_edges=0,
+                         volumes=tuple(sorted(t.out_vol.tolist(), reverse=True)), nesting=(0,) * nb, inside_out=flipped,
+                         nested_bodies=0, bodies=nb)
+    if not shells.manifold or nb != int(ex.bodies) or flipped:
+        raise GeometryError(f"the {what} failed texcad's gate: {shells.problem() or ''} {nb} bodies where the input had "
+                            f"{ex.bodies}, {flipped} turned inside out; please report this")
+    volume = float(t.out_vol.sum())
+    mesh.__dict__.update(volume=volume, counts=(t.nv, t.nt), closed=closed, swept=t.swept)
+    change = volume - float(t.in_vol.sum())
+    slack = 0.05 * t.spread + 1e-6 * abs(float(t.in_vol.sum())) + 1e-6
+    return tiles_verdict(what, shells, change, t.swept, slack, t.farthest, float(mesh.plan.reach), "surface it was put on")
+
+
+def _areas(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    _, area = face_normals(v, f)
+    return area
+
+
+def _apart(sid: np.ndarray, sxyz: np.ndarray) -> int:
+    """How many vertices in two blocks are not the same float32 point in both."""
+    order = np.argsort(sid, kind="stable")
+    sid, sxyz = sid[order], sxyz[order]
+    same = sid[1:] == sid[:-1]
+    return int(np.sum(np.any(sxyz[1:][same] != sxyz[:-1][same], axis=1)))
