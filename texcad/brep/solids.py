@@ -58,6 +58,7 @@ import numpy as np
 
 from ..util import require_memory
 from ..errors import GeometryError, ParameterError
+from .gprop import polyline_pcurve, run_knots
 from .occt import as_array, explore, solids_of, to_topods
 
 if TYPE_CHECKING:
@@ -1192,6 +1193,7 @@ def tiled_grid_faces(
     breaks: tuple = ((), ()),
     leaves: list | None = None,
     edges_out: dict | None = None,
+    gauss: bool = False,
 ):
     """The degree-1 B-spline surface through an ``(R, C, 3)`` grid (mm), made as a
     patchwork of tiles of at most ``tile`` x ``tile`` cells that **share** their
@@ -1233,7 +1235,10 @@ def tiled_grid_faces(
     ``(r0, r1, c0, c1)`` (grid line indices) to make instead of the whole grid's (any
     set of non-overlapping rectangles; ``boundary`` is then empty); ``edges_out``: a
     dict filled with every edge, ``{(horizontal, line, a, z): (edge, param_line)}``
-    (grid indices; edges oriented towards the higher index).
+    (grid indices; edges oriented towards the higher index). ``gauss``: every edge
+    along ``y`` gets a straight pcurve of at least :data:`texcad.brep.gprop.PAD_SPANS`
+    spans on its tiles, so that OCCT's plain volume integration uses its 61 points
+    along it (for knots placed by :func:`texcad.brep.gprop.run_knots`).
 
     Returns:
         ``(faces, boundary)``: ``faces`` a list of forward ``TopoDS_Face`` (normal
@@ -1274,7 +1279,7 @@ def tiled_grid_faces(
         faces.append(TopoDS.Face_s(it.Value()))
         faces[-1].Free(True)  # read shapes are frozen; the wire is added below
         it.Next()
-    out, boundary, edges = _share_tile_edges(b, g, x, y, leaves, faces, wrap_x, outline)
+    out, boundary, edges = _share_tile_edges(b, g, x, y, leaves, faces, wrap_x, outline, gauss)
     if edges_out is not None:
         edges_out.update(edges)
     return out, (boundary if own else [])
@@ -1356,10 +1361,11 @@ def transformed_shape(shape: Any, matrix: np.ndarray):
 
 
 def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: list, faces: list, wrap_x: bool = False,
-                      outline: Any = None):
+                      outline: Any = None, gauss: bool = False):
     """Give the tile faces (``leaves`` ``(r0, r1, c0, c1)`` of the grid ``g``) shared
     vertices and edges, split at every tile corner on a side, with straight pcurves
-    (the border's edges from ``outline`` if given, see :func:`tiled_grid_faces`);
+    (the border's edges from ``outline`` if given, see :func:`tiled_grid_faces`;
+    ``gauss``: those along ``y`` of :data:`~texcad.brep.gprop.PAD_SPANS` spans);
     returns :func:`tiled_grid_faces`' ``(faces, boundary)`` and every edge (a dict)."""
     from OCP.BRep import BRep_Tool
     from OCP.Geom2d import Geom2d_Line
@@ -1417,6 +1423,9 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
             e = edges[key][0]
             if key in given:  # a given border edge: its own pcurve and tolerance
                 b.UpdateEdge(e, edges[key][1], faces[k], BRep_Tool.Tolerance_s(e))
+            elif gauss and not horizontal:  # OCCT's plain integration along it: 61 points
+                rows = y[a : z + 1]  # its knots at the rows (OCCT's adaptive integration starts from them)
+                b.UpdateEdge(e, polyline_pcurve(np.stack([np.full(len(rows), line[0]), rows], axis=-1), rows), faces[k], TOLERANCE)
             else:
                 b.UpdateEdge(e, Geom2d_Line(gp_Pnt2d(line[0], line[1]), gp_Dir2d(line[2], line[3])), faces[k], TOLERANCE)
             out.append(e)
@@ -1538,7 +1547,9 @@ def tiled_plane_solid(
         ca, cz = np.searchsorted(x[c0 : c1 + 1], [f[0], f[1]]) + np.array([-1, 1])
         ra, rz = np.searchsorted(y[r0 : r1 + 1], [f[2], f[3]]) + np.array([-1, 1])
         idx.append((int(ra), int(rz), int(ca), int(cz), *f[4:]))
-    tiles, boundary = tiled_grid_faces(grid, x[c0 : c1 + 1], y[r0 : r1 + 1], tile=tile, triangulate=triangulate, fine=idx)
+    xs, ys = x[c0 : c1 + 1], y[r0 : r1 + 1]
+    xk, yk = run_knots(xs, _split_bounds(c1 - c0, tile)), run_knots(ys, _split_bounds(r1 - r0, tile))
+    tiles, boundary = tiled_grid_faces(grid, xk, yk, tile=tile, triangulate=triangulate, fine=idx, gauss=True)
     pln = _frame_pln(o, n, ex)
     b = BRep_Builder()
     flat = TopoDS_Face()
@@ -1557,7 +1568,7 @@ def tiled_plane_solid(
     b.MakeWire(hole)
     for e, line in reversed(boundary):  # clockwise: a hole in the planar face
         b.Add(hole, e.Reversed())
-        b.UpdateEdge(TopoDS.Edge_s(e), Geom2d_Line(gp_Pnt2d(line[0], line[1]), gp_Dir2d(line[2], line[3])), flat, TOLERANCE)
+        b.UpdateEdge(TopoDS.Edge_s(e), _mm_pcurve(TopoDS.Edge_s(e), line, (xk, xs), (yk, ys)), flat, TOLERANCE)
     hole.Closed(True)
     b.Add(flat, hole)
     patch = TopoDS_Shell()
@@ -1565,6 +1576,22 @@ def tiled_plane_solid(
     for f in [flat, *tiles]:  # one per tile
         b.Add(patch, f)
     return _replace_by_faces(to_topods(shape), old, patch)
+
+
+def _mm_pcurve(edge, line: tuple, xs: tuple, ys: tuple):
+    """The pcurve on the face frame's plane (mm) of a tile edge along the grid line
+    ``line`` (its pcurve on the tiles, in knots): ``xs``, ``ys`` the ``(knots,
+    mm)`` of the grid's columns and rows; a broken line through the grid points at
+    the knots (the knots are not mm: :func:`texcad.brep.gprop.run_knots`), of
+    :data:`~texcad.brep.gprop.PAD_SPANS` spans or more."""
+    from OCP.BRep import BRep_Tool
+
+    t0, t1 = BRep_Tool.Range_s(edge)
+    (along, mm), (across, mm_across) = (xs, ys) if line[3] == 0.0 else (ys, xs)
+    a, z = np.searchsorted(along, [min(t0, t1), max(t0, t1)])
+    fixed = float(np.interp(line[1] if line[3] == 0.0 else line[0], across, mm_across))
+    pts = np.stack([mm[a : z + 1], np.full(z + 1 - a, fixed)], axis=-1)
+    return polyline_pcurve(pts if line[3] == 0.0 else pts[:, ::-1], along[a : z + 1])
 
 
 def _replace_by_faces(shape, old, patch):
