@@ -289,15 +289,65 @@ def uv_textured_solid(shape: Any, items: list):
     Raises:
         GeometryError: a face's grid does not cover its (u, v) rectangle.
     """
-    topo = to_topods(shape)
-    swaps = []
-    for item in items:  # one per face
-        from OCP.TopoDS import TopoDS
+    from OCP.TopoDS import TopoDS
 
+    from .uvstrips import strip_faces
+
+    topo = to_topods(shape)
+    swaps, splits = [], []
+    for item in items:  # one per face
         face = TopoDS.Face_s(to_topods(item["face"]))
         u, v, top = _poles(face, item)
-        swaps.append((face, [_new_face(face, u, v, top)]))
-    return _replace_faces(topo, swaps)
+        got = strip_faces(face, u, v, top, bool(item["closed_u"]), _tolerance(face, u, v, top))
+        if got is None:  # not the iso-line rectangle: one face
+            swaps.append((face, [_new_face(face, u, v, top)]))
+            continue
+        swaps.append((face, got[0]))
+        splits += got[1]
+    return _edges_cut(_replace_faces(topo, swaps), splits)
+
+
+def _tolerance(face, u, v, top):
+    """``tolerance(edge)``: mm an edge of ``face`` needs on the textured surface
+    (``u``, ``v``, ``top`` as :func:`_poles`): its own, or 1.5 times its largest
+    distance from it."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_FORWARD
+    from OCP.TopoDS import TopoDS
+
+    fwd = TopoDS.Face_s(face.Oriented(TopAbs_FORWARD))
+    seen: list = []
+
+    def tolerance(edge) -> float:
+        got = next((t for e, t in seen if e.IsSame(edge)), None)
+        if got is None:
+            own = BRep_Tool.Tolerance_s(edge)
+            got = own if BRep_Tool.Degenerated_s(edge) else max(own, 1.5 * _edge_deviation(edge, fwd, u, v, top) + TOLERANCE)
+            seen.append((edge, got))
+        return got
+
+    return tolerance
+
+
+def _edges_cut(shape, splits: list):
+    """``shape`` with each edge of ``splits`` ``[(edge, pieces)]`` replaced by its
+    pieces (in order along it) in every face that still has it (``BRepTools_ReShape``:
+    a cone's caps take the pieces of the circle its strips were cut along)."""
+    if not splits:
+        return shape
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepTools import BRepTools_ReShape
+    from OCP.TopAbs import TopAbs_FORWARD
+    from OCP.TopoDS import TopoDS_Wire
+
+    b, reshape = BRep_Builder(), BRepTools_ReShape()
+    for edge, pieces in splits:  # one per cut edge
+        w = TopoDS_Wire()
+        b.MakeWire(w)
+        for p in pieces:  # in order along the edge
+            b.Add(w, p)
+        reshape.Replace(edge.Oriented(TopAbs_FORWARD), w)
+    return reshape.Apply(shape)
 
 
 class _Projector:
