@@ -1022,46 +1022,80 @@ def textured_plane_solid(
 
 # -- CAD work on a face textured on its own (u, v): the operation on the plain part, the texture again --
 def uv_face_pairs(base: Any, textured: Any) -> list | None:
-    """``[(face of base, its textured face in textured), ...]`` for a B-rep made by
-    :func:`uv_textured_solid` from ``base``: every face of ``base`` missing from
-    ``textured`` matched to the one degree-1 B-spline face that replaced it (the same
-    ``(u, v)`` rectangle, the nearest at its middle); None for any other B-rep (tiles,
-    a boolean's result)."""
+    """``[(face of base, face whose edges it had, (grid (Nv, Nu, 3) mm, u, v)), ...]``
+    for a B-rep made by :func:`uv_textured_solid` from ``base``: every face of
+    ``base`` missing from ``textured`` matched to what replaced it - its strips
+    (:func:`texcad.brep.uvstrips.strip_faces`: the whole face's grid on the face's
+    own parameters, and the face itself) or the one degree-1 B-spline face (the same
+    ``(u, v)`` rectangle, the nearest at its middle; itself); faces that only took
+    the pieces of a cut edge (a cone's caps: same surface) need nothing. None for any
+    other B-rep (tiles, a boolean's result)."""
     from OCP.BRep import BRep_Tool
-    from OCP.BRepTools import BRepTools
     from OCP.TopAbs import TopAbs_FACE
     from OCP.TopoDS import TopoDS
 
     from .solids import surface_grid, tile_grid
+    from .uvstrips import strip_origin
 
     old_faces = [TopoDS.Face_s(f) for f in explore(to_topods(base), TopAbs_FACE)]
     new_faces = [TopoDS.Face_s(f) for f in explore(to_topods(textured), TopAbs_FACE)]
     gone = [f for f in old_faces if not any(f.IsSame(g) for g in new_faces)]
     added = [f for f in new_faces if not any(f.IsSame(g) for g in old_faces)]
-    if not gone or len(gone) != len(added):
-        return None
-    grids = []
-    for f in added:  # one per textured face
+    wholes, grids, others = [], [], []
+    for f in added:  # one per new face: a strip, a whole textured face, or a face that took pieces
         surf = BRep_Tool.Surface_s(f)
+        origin = strip_origin(surf)
+        if origin is not None:
+            if not any(origin[0].IsSame(w[0]) for w in wholes):
+                wholes.append(origin)
+            continue
         got = tile_grid(surf) or surface_grid(surf)
         if got is None:
-            return None
-        grids.append(got)
+            others.append(surf)
+        else:
+            grids.append((f, got))
     pairs = []
     for f in gone:  # one per replaced face
-        u0, u1, v0, v1 = BRepTools.UVBounds_s(f)
-        mid = _surface_rows(f, np.array([0.5 * (u0 + u1)]), np.array([0.5 * (v0 + v1)]))[0][0, 0]
-        best, dist = None, np.inf
-        for k, (g, u, v) in enumerate(grids):  # the textured faces on the same rectangle
-            if not np.allclose([u[0], u[-1], v[0], v[-1]], [u0, u1, v0, v1], rtol=0, atol=1e-9 * (abs(u1 - u0) + abs(v1 - v0))):
-                continue
-            d = float(np.linalg.norm(_bilinear(u, v, g.transpose(1, 0, 2), np.array([[0.5 * (u0 + u1), 0.5 * (v0 + v1)]]))[0] - mid))
-            if d < dist:
-                best, dist = k, d
-        if best is None:
+        whole = next((w for w in wholes if w[0].IsSame(f)), None)
+        if whole is not None:
+            pairs.append((f, _kept_edges(whole[0], whole[2]), whole[1:]))
+            continue
+        best = _same_rectangle(f, grids)
+        if best is not None:
+            pairs.append((f, *best))
+        elif not any(BRep_Tool.Surface_s(f) == s for s in others):
             return None
-        pairs.append((f, added[best], grids[best]))
-    return pairs
+    return pairs if pairs else None
+
+
+def _kept_edges(face, u: np.ndarray):
+    """A compound of the edges of ``face`` its textured version keeps (all but a
+    seam along v, which the lifted seam row replaces)."""
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FORWARD
+    from OCP.TopoDS import TopoDS
+
+    from .occt import compound
+
+    fwd = TopoDS.Face_s(face.Oriented(TopAbs_FORWARD))
+    edges = [TopoDS.Edge_s(e) for e in explore(fwd, TopAbs_EDGE)]
+    return compound([e for e in edges if not (_used_twice(fwd, e) and _u_seam(e, fwd, u))])
+
+
+def _same_rectangle(f, grids: list):
+    """``(textured face, grid)`` of ``grids`` ``[(face, (grid, u, v))]`` on ``f``'s
+    ``(u, v)`` rectangle, the nearest at its middle; None if none is."""
+    from OCP.BRepTools import BRepTools
+
+    u0, u1, v0, v1 = BRepTools.UVBounds_s(f)
+    mid = _surface_rows(f, np.array([0.5 * (u0 + u1)]), np.array([0.5 * (v0 + v1)]))[0][0, 0]
+    best, dist = None, np.inf
+    for face, (g, u, v) in grids:  # the textured faces on the same rectangle
+        if not np.allclose([u[0], u[-1], v[0], v[-1]], [u0, u1, v0, v1], rtol=0, atol=1e-9 * (abs(u1 - u0) + abs(v1 - v0))):
+            continue
+        d = float(np.linalg.norm(_bilinear(u, v, g.transpose(1, 0, 2), np.array([[0.5 * (u0 + u1), 0.5 * (v0 + v1)]]))[0] - mid))
+        if d < dist:
+            best, dist = (face, (g, u, v)), d
+    return best
 
 
 def _crossed_cells(face, edges, u: np.ndarray, v: np.ndarray) -> np.ndarray:
