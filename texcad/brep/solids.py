@@ -1754,7 +1754,8 @@ def textured_band_solid(shape: Any, face: Any, top: np.ndarray, *, tile: int = T
         return None
     grid = np.concatenate([g, g[:, :1]], axis=1)
     u, v = np.arange(grid.shape[1], dtype=np.float64), np.arange(grid.shape[0], dtype=np.float64)
-    tiles, rows = tiled_grid_faces(grid, u, v, tile=tile, wrap_x=True, fine=_band_fine(grid, fine))
+    u, v = run_knots(u, _split_bounds(len(u) - 1, tile)), run_knots(v, _split_bounds(len(v) - 1, tile))  # for OCCT's plain Gauss rule
+    tiles, rows = tiled_grid_faces(grid, u, v, tile=tile, wrap_x=True, fine=_band_fine(grid, fine), gauss=True)
     new_faces = strips + list(tiles)
     for (centre, nrm), p, key in zip(planes, pl, ("v0", "v1")):  # the two rings
         sec = [e for e in sections if abs(float((edge_points(e, 0.1 * extent)[0] - centre) @ nrm)) < 1e-6 * extent]

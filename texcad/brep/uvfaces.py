@@ -1063,9 +1063,18 @@ def uv_face_pairs(base: Any, textured: Any) -> list | None:
         best = _same_rectangle(f, grids)
         if best is not None:
             pairs.append((f, *best))
-        elif not any(BRep_Tool.Surface_s(f) == s for s in others):
+        elif not any(_same_surface(BRep_Tool.Surface_s(f), s) for s in others):
             return None
     return pairs if pairs else None
+
+
+def _same_surface(a, b) -> bool:
+    """Do two OCCT surfaces (a face and its copy with the pieces of a cut edge) give
+    the same points at three parameters?"""
+    if a.DynamicType().Name() != b.DynamicType().Name():
+        return False
+    pts = [(0.0, 0.0), (1.0, 0.5), (0.3, 2.0)]
+    return all(a.Value(*q).Distance(b.Value(*q)) < 1e-12 for q in pts)
 
 
 def _kept_edges(face, u: np.ndarray):

@@ -12,7 +12,9 @@ edges along ``v`` (the cuts, and a closed face's lifted seam), which run on the
 strips' knots and are cut where the ``v`` runs end; edges along ``u`` (the face's
 boundary circles, poles, a torus's seam) add nothing, so they are only split at the
 strip corners (their neighbours, such as a cone's caps, get the same pieces). An open
-face's side along ``v`` at its largest ``u`` keeps its own parameter (not placed).
+face's side along ``v`` at its largest ``u`` keeps its own parameter (its knots are
+not placed), so the strip along it is one span wide: what OCCT integrates along it
+is one cell's width.
 
 Faces whose outline is not the iso-line rectangle (any edge not along ``u`` or ``v``)
 get None: the caller keeps one face.
@@ -128,6 +130,8 @@ def strip_faces(face, u: np.ndarray, v: np.ndarray, top: np.ndarray, closed_u: b
     fwd = TopoDS.Face_s(face.Oriented(TopAbs_FORWARD))
     ku, kv = len(u) - 1, len(v) - 1
     ub, vb = _tile_bounds(ku, TILE), _tile_bounds(kv, TILE)
+    if not closed_u and ku > 1:  # an open face: its own side at u1 (not placed) borders a strip one span wide
+        ub = np.concatenate([_tile_bounds(ku - 1, TILE), [ku]])
     uk, vk = run_knots(u, ub), run_knots(v, vb)
     uses = []
     for e in explore(fwd, TopAbs_EDGE):  # one per use of an edge in the face's wires
