@@ -19,10 +19,14 @@ for a piecewise constant integrand: each knot at a partial sum of the Gauss weig
 (:func:`gauss_knots`), every span holding its own nodes whose weights add up to the
 span's length (the Stieltjes interlacing: a span's nodes lie inside it). The bilinear
 integrand's first-order part is then integrated almost exactly too (measured on the
-stones plate: 0.001 % instead of 0.2 %). That needs ``n`` known: every pcurve along
-which the volume is integrated gets at least :data:`PAD_SPANS` spans
+stones plate: 0.001 % instead of 0.2 %). That needs ``n`` known: the pcurves along
+which the volume is integrated get at least :data:`PAD_SPANS` spans
 (:func:`polyline_pcurve`, knots inserted: the same straight or broken line), so OCCT
-uses its :data:`GAUSS_POINTS` points on it, whatever the face's own spans.
+uses its :data:`GAUSS_POINTS` points on them whatever the face's own spans; they keep
+knots at the grid lines (OCCT's adaptive integration starts from a pcurve's knots).
+Tile sides shorter than ``texcad.brep.solids.PLACED`` cells (small tiles under a CAD
+operation's tool) keep straight lines: a small area, and a STEP of many small tiles
+stays small.
 """
 
 from __future__ import annotations
@@ -64,10 +68,10 @@ def run_knots(knots: np.ndarray, bounds: np.ndarray) -> np.ndarray:
     return k
 
 
-def polyline_pcurve(points: np.ndarray, params: np.ndarray):
+def polyline_pcurve(points: np.ndarray, params: np.ndarray, pad: bool = True):
     """The degree-1 ``Geom2d_BSplineCurve`` through ``points`` ``(m + 1, 2)`` at the
-    increasing ``params`` ``(m + 1,)``, each span cut in equal parts (the same curve)
-    until it has at least :data:`PAD_SPANS` spans."""
+    increasing ``params`` ``(m + 1,)``; ``pad``: each span cut in equal parts (the same
+    curve) until it has at least :data:`PAD_SPANS` spans."""
     from OCP.Geom2d import Geom2d_BSplineCurve
     from OCP.gp import gp_Pnt2d
     from OCP.TColgp import TColgp_Array1OfPnt2d
@@ -75,7 +79,7 @@ def polyline_pcurve(points: np.ndarray, params: np.ndarray):
 
     p, t = np.asarray(points, np.float64), np.asarray(params, np.float64)
     m = len(t) - 1
-    parts = max(1, -(-PAD_SPANS // m))
+    parts = max(1, -(-PAD_SPANS // m)) if pad else 1
     s = np.arange(parts) / parts
     tt = np.concatenate([(t[:-1, None] + np.diff(t)[:, None] * s).ravel(), t[-1:]])
     pp = np.concatenate([(p[:-1, None] + np.diff(p, axis=0)[:, None] * s[:, None]).reshape(-1, 2), p[-1:]])

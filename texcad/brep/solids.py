@@ -1102,6 +1102,13 @@ TILE = 24
 FINE = 2
 
 
+#: Cells a tile's side along y has at least to get a pcurve of 16 spans or more (OCCT's
+#: plain volume integration then puts its 61 points on it, as the tile's knots are placed
+#: for: :mod:`texcad.brep.gprop`); shorter sides (small tiles under a CAD operation's
+#: tool) stay lines: a small area, and a compact STEP.
+PLACED = 8
+
+
 def _tile_bounds(n: int, tile: int) -> np.ndarray:
     """Indices ``0 = b_0 < b_1 < ... < b_k = n`` splitting ``n`` cells into ``k =
     ceil(n / tile)`` nearly equal runs."""
@@ -1193,7 +1200,6 @@ def tiled_grid_faces(
     breaks: tuple = ((), ()),
     leaves: list | None = None,
     edges_out: dict | None = None,
-    gauss: bool = False,
 ):
     """The degree-1 B-spline surface through an ``(R, C, 3)`` grid (mm), made as a
     patchwork of tiles of at most ``tile`` x ``tile`` cells that **share** their
@@ -1235,10 +1241,7 @@ def tiled_grid_faces(
     ``(r0, r1, c0, c1)`` (grid line indices) to make instead of the whole grid's (any
     set of non-overlapping rectangles; ``boundary`` is then empty); ``edges_out``: a
     dict filled with every edge, ``{(horizontal, line, a, z): (edge, param_line)}``
-    (grid indices; edges oriented towards the higher index). ``gauss``: every edge
-    along ``y`` gets a straight pcurve of at least :data:`texcad.brep.gprop.PAD_SPANS`
-    spans on its tiles, so that OCCT's plain volume integration uses its 61 points
-    along it (for knots placed by :func:`texcad.brep.gprop.run_knots`).
+    (grid indices; edges oriented towards the higher index).
 
     Returns:
         ``(faces, boundary)``: ``faces`` a list of forward ``TopoDS_Face`` (normal
@@ -1279,7 +1282,7 @@ def tiled_grid_faces(
         faces.append(TopoDS.Face_s(it.Value()))
         faces[-1].Free(True)  # read shapes are frozen; the wire is added below
         it.Next()
-    out, boundary, edges = _share_tile_edges(b, g, x, y, leaves, faces, wrap_x, outline, gauss)
+    out, boundary, edges = _share_tile_edges(b, g, x, y, leaves, faces, wrap_x, outline)
     if edges_out is not None:
         edges_out.update(edges)
     return out, (boundary if own else [])
@@ -1361,12 +1364,13 @@ def transformed_shape(shape: Any, matrix: np.ndarray):
 
 
 def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: list, faces: list, wrap_x: bool = False,
-                      outline: Any = None, gauss: bool = False):
+                      outline: Any = None):
     """Give the tile faces (``leaves`` ``(r0, r1, c0, c1)`` of the grid ``g``) shared
     vertices and edges, split at every tile corner on a side, with straight pcurves
     (the border's edges from ``outline`` if given, see :func:`tiled_grid_faces`;
-    ``gauss``: those along ``y`` of :data:`~texcad.brep.gprop.PAD_SPANS` spans);
-    returns :func:`tiled_grid_faces`' ``(faces, boundary)`` and every edge (a dict)."""
+    those along ``y`` of at least :data:`PLACED` cells broken lines of
+    :data:`~texcad.brep.gprop.PAD_SPANS` spans or more, with knots at the rows, for
+    OCCT's plain volume integration: :mod:`texcad.brep.gprop`); returns :func:`tiled_grid_faces`' ``(faces, boundary)`` and every edge (a dict)."""
     from OCP.BRep import BRep_Tool
     from OCP.Geom2d import Geom2d_Line
     from OCP.gp import gp_Dir2d, gp_Pnt, gp_Pnt2d
@@ -1423,9 +1427,8 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
             e = edges[key][0]
             if key in given:  # a given border edge: its own pcurve and tolerance
                 b.UpdateEdge(e, edges[key][1], faces[k], BRep_Tool.Tolerance_s(e))
-            elif gauss and not horizontal:  # OCCT's plain integration along it: 61 points
-                rows = y[a : z + 1]  # its knots at the rows (OCCT's adaptive integration starts from them)
-                b.UpdateEdge(e, polyline_pcurve(np.stack([np.full(len(rows), line[0]), rows], axis=-1), rows), faces[k], TOLERANCE)
+            elif not horizontal and z - a >= PLACED:  # OCCT's plain rule along it: 61 points, knots at the rows
+                b.UpdateEdge(e, polyline_pcurve(np.stack([np.full(z + 1 - a, line[0]), y[a : z + 1]], axis=-1), y[a : z + 1]), faces[k], TOLERANCE)
             else:
                 b.UpdateEdge(e, Geom2d_Line(gp_Pnt2d(line[0], line[1]), gp_Dir2d(line[2], line[3])), faces[k], TOLERANCE)
             out.append(e)
@@ -1548,8 +1551,8 @@ def tiled_plane_solid(
         ra, rz = np.searchsorted(y[r0 : r1 + 1], [f[2], f[3]]) + np.array([-1, 1])
         idx.append((int(ra), int(rz), int(ca), int(cz), *f[4:]))
     xs, ys = x[c0 : c1 + 1], y[r0 : r1 + 1]
-    xk, yk = run_knots(xs, _split_bounds(c1 - c0, tile)), run_knots(ys, _split_bounds(r1 - r0, tile))
-    tiles, boundary = tiled_grid_faces(grid, xk, yk, tile=tile, triangulate=triangulate, fine=idx, gauss=True)
+    xk, yk = run_knots(xs, _split_bounds(c1 - c0, tile)), run_knots(ys, _split_bounds(r1 - r0, tile))  # for OCCT's plain Gauss rule
+    tiles, boundary = tiled_grid_faces(grid, xk, yk, tile=tile, triangulate=triangulate, fine=idx)
     pln = _frame_pln(o, n, ex)
     b = BRep_Builder()
     flat = TopoDS_Face()
@@ -1583,7 +1586,8 @@ def _mm_pcurve(edge, line: tuple, xs: tuple, ys: tuple):
     ``line`` (its pcurve on the tiles, in knots): ``xs``, ``ys`` the ``(knots,
     mm)`` of the grid's columns and rows; a broken line through the grid points at
     the knots (the knots are not mm: :func:`texcad.brep.gprop.run_knots`), of
-    :data:`~texcad.brep.gprop.PAD_SPANS` spans or more."""
+    :data:`~texcad.brep.gprop.PAD_SPANS` spans or more if at least :data:`PLACED`
+    cells long."""
     from OCP.BRep import BRep_Tool
 
     t0, t1 = BRep_Tool.Range_s(edge)
@@ -1591,7 +1595,7 @@ def _mm_pcurve(edge, line: tuple, xs: tuple, ys: tuple):
     a, z = np.searchsorted(along, [min(t0, t1), max(t0, t1)])
     fixed = float(np.interp(line[1] if line[3] == 0.0 else line[0], across, mm_across))
     pts = np.stack([mm[a : z + 1], np.full(z + 1 - a, fixed)], axis=-1)
-    return polyline_pcurve(pts if line[3] == 0.0 else pts[:, ::-1], along[a : z + 1])
+    return polyline_pcurve(pts if line[3] == 0.0 else pts[:, ::-1], along[a : z + 1], pad=z - a >= PLACED)
 
 
 def _replace_by_faces(shape, old, patch):
@@ -1755,7 +1759,7 @@ def textured_band_solid(shape: Any, face: Any, top: np.ndarray, *, tile: int = T
     grid = np.concatenate([g, g[:, :1]], axis=1)
     u, v = np.arange(grid.shape[1], dtype=np.float64), np.arange(grid.shape[0], dtype=np.float64)
     u, v = run_knots(u, _split_bounds(len(u) - 1, tile)), run_knots(v, _split_bounds(len(v) - 1, tile))  # for OCCT's plain Gauss rule
-    tiles, rows = tiled_grid_faces(grid, u, v, tile=tile, wrap_x=True, fine=_band_fine(grid, fine), gauss=True)
+    tiles, rows = tiled_grid_faces(grid, u, v, tile=tile, wrap_x=True, fine=_band_fine(grid, fine))
     new_faces = strips + list(tiles)
     for (centre, nrm), p, key in zip(planes, pl, ("v0", "v1")):  # the two rings
         sec = [e for e in sections if abs(float((edge_points(e, 0.1 * extent)[0] - centre) @ nrm)) < 1e-6 * extent]
