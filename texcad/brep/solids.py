@@ -1544,13 +1544,12 @@ def tiled_plane_solid(
     mid = np.array([0.5 * (x[c0] + x[c1])]), np.array([0.5 * (y[r0] + y[r1])])
     if not inside(uv, *mid)[0, 0]:
         return None
-    grid = o + x[None, c0 : c1 + 1, None] * ex + y[r0 : r1 + 1, None, None] * ey + h[r0 : r1 + 1, c0 : c1 + 1, None] * n
+    xs, ys = x[c0 : c1 + 1], y[r0 : r1 + 1]
+    grid = o + xs[None, :, None] * ex + ys[:, None, None] * ey + h[r0 : r1 + 1, c0 : c1 + 1, None] * n
     idx = []
     for f in fine or ():  # one per tool: (x0, x1, y0, y1[, cells])
-        ca, cz = np.searchsorted(x[c0 : c1 + 1], [f[0], f[1]]) + np.array([-1, 1])
-        ra, rz = np.searchsorted(y[r0 : r1 + 1], [f[2], f[3]]) + np.array([-1, 1])
+        (ca, cz), (ra, rz) = np.searchsorted(xs, f[:2]) + [-1, 1], np.searchsorted(ys, f[2:4]) + [-1, 1]
         idx.append((int(ra), int(rz), int(ca), int(cz), *f[4:]))
-    xs, ys = x[c0 : c1 + 1], y[r0 : r1 + 1]
     xk, yk = run_knots(xs, _split_bounds(c1 - c0, tile)), run_knots(ys, _split_bounds(r1 - r0, tile))  # for OCCT's plain Gauss rule
     tiles, boundary = tiled_grid_faces(grid, xk, yk, tile=tile, triangulate=triangulate, fine=idx)
     pln = _frame_pln(o, n, ex)

@@ -58,6 +58,7 @@ from .solids import (
     tiled_plane_solid,
 )
 from .occt import explore, to_topods
+from .uvstrips import _grid_face, _used_twice, strip_faces, strip_origin
 
 __all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid", "textured_plane_solid",
            "uv_face_pairs", "uv_retextured_solid"]
@@ -123,26 +124,6 @@ def _poles(face, item: dict):
     return u, v, top
 
 
-def _grid_face(u: np.ndarray, v: np.ndarray, top: np.ndarray):
-    """A natural-bounds degree-1 face through ``top`` (u along columns of the pole
-    grid) carrying the grid's triangulation; returns ``(surface, triangulation)``."""
-    from OCP.BRep import BRep_Builder, BRep_Tool
-    from OCP.BRepTools import BRepTools
-    from OCP.TopLoc import TopLoc_Location
-    from OCP.TopoDS import TopoDS, TopoDS_Iterator, TopoDS_Shape
-
-    grid = np.ascontiguousarray(top.transpose(1, 0, 2))  # (Nv, Nu, 3): rows along v, columns along u
-    comp = TopoDS_Shape()
-    BRepTools.Read_s(comp, io.BytesIO(_tile_text([grid], [u], [v], True).encode("ascii")), BRep_Builder())
-    it = TopoDS_Iterator(comp)
-    if comp.IsNull() or not it.More():
-        raise GeometryError("OCCT could not read the textured face's surface")
-    f = TopoDS.Face_s(it.Value())
-    surf = BRep_Tool.Surface_s(f)
-    _remember_tile(surf, grid, u, v)
-    return surf, BRep_Tool.Triangulation_s(f, TopLoc_Location())
-
-
 def _bilinear(u: np.ndarray, v: np.ndarray, top: np.ndarray, q: np.ndarray) -> np.ndarray:
     """The degree-1 surface through ``top`` at parameters ``q (n, 2)``."""
     i = np.clip(np.searchsorted(u, q[:, 0]) - 1, 0, len(u) - 2)
@@ -203,15 +184,6 @@ def _seam_edge(b, e, fwd, surf, u, v, top):
         uf, ur = ur, uf
     lines = [Geom2d_Line(gp_Pnt2d(float(a), 0.0), gp_Dir2d(0.0, 1.0)) for a in (uf, ur)]
     return ne, lines[0], lines[1], up
-
-
-def _used_twice(face, edge) -> bool:
-    """A seam of ``face``: ``edge`` is in its wires twice (both ways). An edge may
-    carry two pcurves on a periodic surface (``BRep_Tool::IsClosed``) and be used once:
-    a cut exactly along the old seam leaves such an edge on the face's border."""
-    from OCP.TopAbs import TopAbs_EDGE
-
-    return sum(1 for e in explore(face, TopAbs_EDGE) if e.IsSame(edge)) > 1
 
 
 def _new_face(face, u, v, top, keep_seam: bool = False):
@@ -290,8 +262,6 @@ def uv_textured_solid(shape: Any, items: list):
         GeometryError: a face's grid does not cover its (u, v) rectangle.
     """
     from OCP.TopoDS import TopoDS
-
-    from .uvstrips import strip_faces
 
     topo = to_topods(shape)
     swaps, splits = [], []
@@ -1035,7 +1005,6 @@ def uv_face_pairs(base: Any, textured: Any) -> list | None:
     from OCP.TopoDS import TopoDS
 
     from .solids import surface_grid, tile_grid
-    from .uvstrips import strip_origin
 
     old_faces = [TopoDS.Face_s(f) for f in explore(to_topods(base), TopAbs_FACE)]
     new_faces = [TopoDS.Face_s(f) for f in explore(to_topods(textured), TopAbs_FACE)]

@@ -22,13 +22,15 @@ get None: the caller keeps one face.
 
 from __future__ import annotations
 
+import io
 from collections import OrderedDict
 
 import numpy as np
 
+from ..errors import GeometryError
 from .gprop import polyline_pcurve, run_knots
 from .occt import explore
-from .solids import TILE, TOLERANCE, _tile_bounds
+from .solids import TILE, TOLERANCE, _remember_tile, _tile_bounds, _tile_text
 
 __all__ = ["strip_faces", "strip_origin"]
 
@@ -45,6 +47,35 @@ def strip_origin(surface):
     strip's surface was cut from (:func:`strip_faces`), or None."""
     got = _ORIGIN.get(id(surface))
     return None if got is None or got[0] is not surface else got[1:]
+
+
+def _grid_face(u: np.ndarray, v: np.ndarray, top: np.ndarray):
+    """A natural-bounds degree-1 face through ``top`` (u along columns of the pole
+    grid) carrying the grid's triangulation; returns ``(surface, triangulation)``."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRepTools import BRepTools
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS, TopoDS_Iterator, TopoDS_Shape
+
+    grid = np.ascontiguousarray(top.transpose(1, 0, 2))  # (Nv, Nu, 3): rows along v, columns along u
+    comp = TopoDS_Shape()
+    BRepTools.Read_s(comp, io.BytesIO(_tile_text([grid], [u], [v], True).encode("ascii")), BRep_Builder())
+    it = TopoDS_Iterator(comp)
+    if comp.IsNull() or not it.More():
+        raise GeometryError("OCCT could not read the textured face's surface")
+    f = TopoDS.Face_s(it.Value())
+    surf = BRep_Tool.Surface_s(f)
+    _remember_tile(surf, grid, u, v)
+    return surf, BRep_Tool.Triangulation_s(f, TopLoc_Location())
+
+
+def _used_twice(face, edge) -> bool:
+    """A seam of ``face``: ``edge`` is in its wires twice (both ways). An edge may
+    carry two pcurves on a periodic surface (``BRep_Tool::IsClosed``) and be used once:
+    a cut exactly along the old seam leaves such an edge on the face's border."""
+    from OCP.TopAbs import TopAbs_EDGE
+
+    return sum(1 for e in explore(face, TopAbs_EDGE) if e.IsSame(edge)) > 1
 
 
 def _classify(edge, fwd, u: np.ndarray, v: np.ndarray):
@@ -120,12 +151,8 @@ def strip_faces(face, u: np.ndarray, v: np.ndarray, top: np.ndarray, closed_u: b
     :func:`texcad.brep.uvfaces._poles` gives them; ``tolerance(edge)`` the tolerance
     (mm) an edge of the face needs on the new surface."""
     from OCP.BRep import BRep_Builder, BRep_Tool
-    from OCP.BRepAdaptor import BRepAdaptor_Curve
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_FORWARD, TopAbs_REVERSED, TopAbs_VERTEX
-    from OCP.TopExp import TopExp
-    from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Wire
-
-    from .uvfaces import _grid_face, _used_twice
+    from OCP.TopoDS import TopoDS, TopoDS_Face
 
     fwd = TopoDS.Face_s(face.Oriented(TopAbs_FORWARD))
     ku, kv = len(u) - 1, len(v) - 1
@@ -160,28 +187,9 @@ def strip_faces(face, u: np.ndarray, v: np.ndarray, top: np.ndarray, closed_u: b
         for e, _, t0, t1, p0, p1 in sides[side]:
             key = next((k for k in done if k.IsSame(e)), None)
             if key is None:
-                ts = _params(t0, t1, p0, p1, 0, cut_u)
-                tol = tolerance(e)
-                ends = [TopoDS.Vertex_s(x) for x in (TopExp.FirstVertex_s(TopoDS.Edge_s(e.Oriented(TopAbs_FORWARD))),
-                                                   TopExp.LastVertex_s(TopoDS.Edge_s(e.Oriented(TopAbs_FORWARD))))]  # fmt: skip
-                fa, fz = BRep_Tool.Range_s(e)
-                if BRep_Tool.Degenerated_s(e):
-                    mids = [ends[0]] * len(ts)
-                else:
-                    c3 = BRepAdaptor_Curve(e)
-                    mids = [_vertex(b, np.array(c3.Value(float(t)).Coord()), tol) for t in ts.tolist()]  # per strip corner
-                params = [fa, *ts.tolist(), fz]
-                verts = [ends[0], *mids, ends[1]]
-                pieces = [_piece(b, e, verts[i], verts[i + 1], params[i], params[i + 1]) for i in range(len(params) - 1)]
-                for p in pieces:  # their tolerance on the textured surface
-                    b.UpdateEdge(p, tol)
-                    tols[p] = tol
-                for x in mids + ends:
-                    b.UpdateVertex(x, max(tol, BRep_Tool.Tolerance_s(x)))
-                done[e] = (pieces, params, verts)
-                if len(pieces) > 1 and not _used_twice(fwd, e) and not BRep_Tool.Degenerated_s(e):
-                    splits.append((e, pieces))
-                key = e
+                key, done[e] = e, _cut_edge(b, e, _params(t0, t1, p0, p1, 0, cut_u), tolerance(e), tols)
+                if len(done[e][0]) > 1 and not _used_twice(fwd, e) and not BRep_Tool.Degenerated_s(e):
+                    splits.append((e, done[e][0]))
             pieces, params, verts = done[key]
             for i, p in enumerate(pieces):  # each piece on the strip it borders
                 ta, tz = params[i], params[i + 1]
@@ -202,6 +210,34 @@ def strip_faces(face, u: np.ndarray, v: np.ndarray, top: np.ndarray, closed_u: b
             _ORIGIN.popitem(last=False)
     rev = face.Orientation() == TopAbs_REVERSED
     return [TopoDS.Face_s(f.Oriented(TopAbs_REVERSED)) if rev else f for f in out], splits
+
+
+def _cut_edge(b, e, ts: np.ndarray, tol: float, tols: dict) -> tuple:
+    """``(pieces, params, vertices)``: ``e`` cut at its parameters ``ts`` (new vertices
+    there; a pole's degenerate edge keeps its one vertex), each piece and vertex at
+    least ``tol`` mm (``tols`` gets the pieces')."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.TopAbs import TopAbs_FORWARD
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS
+
+    fe = TopoDS.Edge_s(e.Oriented(TopAbs_FORWARD))
+    ends = [TopExp.FirstVertex_s(fe), TopExp.LastVertex_s(fe)]
+    fa, fz = BRep_Tool.Range_s(e)
+    if BRep_Tool.Degenerated_s(e):
+        mids = [ends[0]] * len(ts)
+    else:
+        c3 = BRepAdaptor_Curve(e)
+        mids = [_vertex(b, np.array(c3.Value(float(t)).Coord()), tol) for t in ts.tolist()]  # per strip corner
+    params, verts = [fa, *ts.tolist(), fz], [ends[0], *mids, ends[1]]
+    pieces = [_piece(b, e, verts[i], verts[i + 1], params[i], params[i + 1]) for i in range(len(params) - 1)]
+    for p in pieces:  # their tolerance on the textured surface
+        b.UpdateEdge(p, tol)
+        tols[p] = tol
+    for x in mids + ends:
+        b.UpdateVertex(x, max(tol, BRep_Tool.Tolerance_s(x)))
+    return pieces, params, verts
 
 
 def _corner(pieces: list, at: float, u: np.ndarray):
