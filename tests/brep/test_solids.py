@@ -198,12 +198,13 @@ def _plain_volume(shape) -> float:
     return props.Mass()
 
 
-@pytest.mark.parametrize("tile", [4, 8, 24])
+@pytest.mark.parametrize("tile", [8, 15, 24])
 def test_tiles_are_integrated_right_by_occts_plain_rule(tile):
-    """A 30 x 30 mm plate of random bilinear relief in tiles of 4, 8 and 24 cells:
+    """A 30 x 30 mm plate of random bilinear relief in tiles of 8, 15 and 24 cells:
     OCCT's plain Gauss rule (61 points over a tile) gives the adaptive integrator's
     volume within 2e-5 (the knots at partial sums of its weights; with the knots at
-    the grid's mm it was 0.1-0.5 % off), and the gauss_knots partition the rule."""
+    the grid's mm it was 0.1-0.5 % off; tiles under PLACED cells keep straight sides
+    and are not placed exactly), and the gauss_knots partition the rule."""
     from build123d import Axis, Box
 
     from texcad.brep.gprop import GAUSS_POINTS, gauss_knots

@@ -43,9 +43,10 @@ CAD model generation that the paper did in Rhino/Grasshopper), with OCCT (OCP):
 * :func:`write_step` / :func:`read_step` - AP214 STEP in mm, silent, with a fixed
   header (time stamp, product name) so the same shape gives the same bytes.
 
-OCCT's own volume integration (``GProp``) is inaccurate on B-spline faces with many
-spans (it uses at most 61 Gauss points across the whole face); :func:`volume` uses
-its adaptive variant, which follows the knots.
+OCCT's plain volume integration (``BRepGProp::VolumeProperties(shape, props)``, what
+build123d's ``.volume`` calls) puts at most 61 Gauss points across a whole face; the
+tiles' knots are placed for it (:mod:`texcad.brep.gprop`), so it agrees with the
+adaptive one (:func:`occt_volume`) on texcad's tiles.
 """
 
 from __future__ import annotations
@@ -1837,8 +1838,9 @@ OCCT_EPS = 1e-4
 def occt_volume(shape: Any, eps: float = OCCT_EPS) -> float:
     """Volume in mm^3 by OCCT's own integrator: ``BRepGProp::VolumeProperties(shape,
     props, eps, OnlyClosed=True)``, adaptive Gauss integration to the relative error
-    ``eps`` (OCCT's default, non-adaptive integration is off by tenths of a percent on
-    texture tiles and by percents on one large grid face). Independent of texcad's
+    ``eps`` (OCCT's default, non-adaptive integration agrees on texcad's tiles and
+    strips, whose knots are placed for it, :mod:`texcad.brep.gprop`; not on other
+    B-spline faces of many spans). Independent of texcad's
     own :func:`volume` (exact on untrimmed grid faces, OCCT's plain Gauss integration
     on faces a boolean trimmed)."""
     from OCP.BRepGProp import BRepGProp

@@ -16,6 +16,11 @@ and on a closed face the seam edge is replaced by the lifted seam row (the textu
 runs on across it). The face carries its grid's triangulation (texcad's mesh, two
 triangles per cell), which OCCT's mesher and texcad's STEP writer keep.
 
+A face whose outline is the iso-line rectangle is made of strips of that surface
+(:mod:`texcad.brep.uvstrips`: at most ``TILE`` spans wide, knots placed for OCCT's
+plain volume integration, :mod:`texcad.brep.gprop`), its edges along u cut at the
+strip corners in every face that has them; other faces stay one face.
+
 CAD operations on such a face (:mod:`texcad.pipeline.ops`) are made on the plain part
 and the texture is put again on what is left of the face (:func:`uv_face_pairs`,
 :func:`uv_retextured_solid`): the same poles, the relief taken off where the
