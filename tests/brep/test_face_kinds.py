@@ -38,12 +38,25 @@ def _check(tx):
     flat = flat_solids(tx.shape)
     assert _solid_count(flat) == 1 and check_shape(flat)["valid"]
     slack = tx.info.get("volume_slack", 0.0)
-    assert abs(occt_volume(flat) - tx.volume) <= 1e-3 * tx.volume + slack  # adaptive Gauss, eps 1e-4
-    from build123d import Part
+    adaptive = occt_volume(flat)
+    assert abs(adaptive - tx.volume) <= 1e-3 * tx.volume + slack  # adaptive Gauss, eps 1e-4
+    _plain_volumes_agree(flat, tx.volume, slack=slack)
+    _plain_volumes_agree(flat, adaptive, rel=5e-4)  # the plain rule as right as the adaptive one
 
-    # build123d's .volume is OCCT's plain (non-adaptive) Gauss integration: one Gauss
-    # rule over a whole tile of 24 x 24 bilinear cells, 0.1-0.3 % off; not 0.
-    assert Part(flat).volume == pytest.approx(tx.volume, rel=5e-3)
+
+def _plain_volumes_agree(shape, mesh_volume: float, rel: float = 1e-3, slack: float = 0.0):
+    """OCCT's plain (default, non-adaptive) Gauss integration of ``shape``
+    (``BRepGProp::VolumeProperties(shape, props)``) and build123d's ``.volume`` (the
+    same call) are within ``rel`` of the mesh's volume (mm^3, plus ``slack`` mm^3):
+    texcad's knots are placed for that rule (texcad.brep.gprop)."""
+    from build123d import Part
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    props = GProp_GProps()
+    BRepGProp.VolumeProperties_s(shape, props)
+    assert abs(props.Mass() - mesh_volume) <= rel * mesh_volume + slack
+    assert abs(Part(shape).volume - mesh_volume) <= rel * mesh_volume + slack
 
 
 def test_plane_part_volume():
@@ -164,18 +177,21 @@ KINDS = ["plane", "cylinder", "partial", "cone", "sphere", "torus", "revolved", 
 @pytest.mark.filterwarnings("ignore::UserWarning")
 @pytest.mark.parametrize("kind", KINDS)
 def test_face_kind_step_and_hole(kind, tmp_path):
-    """Every single face kind (stones 0.4 mm at 0.5 mm): the STEP re-read is one valid
-    solid whose OCCT volume (eps 1e-4) is within 0.1 % of the mesh's and which OCCT
-    meshes closed; a 3 mm hole through the texture gives a valid one-solid B-rep within
+    """Every single face kind (stones 0.4 mm at 0.5 mm): the B-rep's and the STEP
+    re-read's volume by OCCT's plain Gauss rule and build123d's ``.volume`` are within
+    0.1 % of the mesh's; the STEP re-read is one valid solid whose OCCT volume (eps
+    1e-4) is within 0.1 % of the mesh's and which OCCT meshes closed; a 3 mm hole through the texture gives a valid one-solid B-rep within
     0.1 % of the same cut on the mesh (plus what the textured B-rep itself is off)."""
     part, face, tool, mode = _kind(kind)
     tx = texcad.texture(part, face, "builtin:stones", height=0.4, pitch=0.5, mode=mode)
+    _plain_volumes_agree(flat_solids(tx.shape), tx.volume)
     tx.export(tmp_path / "part.step")
     back = flat_solids(texcad.io.read_step(tmp_path / "part.step"))
     chk = check_shape(back)
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
     own = occt_volume(back) - tx.volume
     assert abs(own) <= 1e-3 * tx.volume
+    _plain_volumes_agree(back, tx.volume)
     assert _occt_meshes_closed(back)
     cut = tx - tool
     assert cut.volume < tx.volume - 20  # the hole went through the textured wall

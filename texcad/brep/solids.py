@@ -43,9 +43,10 @@ CAD model generation that the paper did in Rhino/Grasshopper), with OCCT (OCP):
 * :func:`write_step` / :func:`read_step` - AP214 STEP in mm, silent, with a fixed
   header (time stamp, product name) so the same shape gives the same bytes.
 
-OCCT's own volume integration (``GProp``) is inaccurate on B-spline faces with many
-spans (it uses at most 61 Gauss points across the whole face); :func:`volume` uses
-its adaptive variant, which follows the knots.
+OCCT's plain volume integration (``BRepGProp::VolumeProperties(shape, props)``, what
+build123d's ``.volume`` calls) puts at most 61 Gauss points across a whole face; the
+tiles' knots are placed for it (:mod:`texcad.brep.gprop`), so it agrees with the
+adaptive one (:func:`occt_volume`) on texcad's tiles.
 """
 
 from __future__ import annotations
@@ -58,6 +59,7 @@ import numpy as np
 
 from ..util import require_memory
 from ..errors import GeometryError, ParameterError
+from .gprop import polyline_pcurve, run_knots
 from .occt import as_array, explore, solids_of, to_topods
 
 if TYPE_CHECKING:
@@ -1101,6 +1103,13 @@ TILE = 24
 FINE = 2
 
 
+#: Cells a tile's side along y has at least to get a pcurve of 16 spans or more (OCCT's
+#: plain volume integration then puts its 61 points on it, as the tile's knots are placed
+#: for: :mod:`texcad.brep.gprop`); shorter sides (small tiles under a CAD operation's
+#: tool) stay lines: a small area, and a compact STEP.
+PLACED = 8
+
+
 def _tile_bounds(n: int, tile: int) -> np.ndarray:
     """Indices ``0 = b_0 < b_1 < ... < b_k = n`` splitting ``n`` cells into ``k =
     ceil(n / tile)`` nearly equal runs."""
@@ -1359,8 +1368,10 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
                       outline: Any = None):
     """Give the tile faces (``leaves`` ``(r0, r1, c0, c1)`` of the grid ``g``) shared
     vertices and edges, split at every tile corner on a side, with straight pcurves
-    (the border's edges from ``outline`` if given, see :func:`tiled_grid_faces`);
-    returns :func:`tiled_grid_faces`' ``(faces, boundary)`` and every edge (a dict)."""
+    (the border's edges from ``outline`` if given, see :func:`tiled_grid_faces`;
+    those along ``y`` of at least :data:`PLACED` cells broken lines of
+    :data:`~texcad.brep.gprop.PAD_SPANS` spans or more, with knots at the rows, for
+    OCCT's plain volume integration: :mod:`texcad.brep.gprop`); returns :func:`tiled_grid_faces`' ``(faces, boundary)`` and every edge (a dict)."""
     from OCP.BRep import BRep_Tool
     from OCP.Geom2d import Geom2d_Line
     from OCP.gp import gp_Dir2d, gp_Pnt, gp_Pnt2d
@@ -1417,6 +1428,8 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
             e = edges[key][0]
             if key in given:  # a given border edge: its own pcurve and tolerance
                 b.UpdateEdge(e, edges[key][1], faces[k], BRep_Tool.Tolerance_s(e))
+            elif not horizontal and z - a >= PLACED:  # OCCT's plain rule along it: 61 points, knots at the rows
+                b.UpdateEdge(e, polyline_pcurve(np.stack([np.full(z + 1 - a, line[0]), y[a : z + 1]], axis=-1), y[a : z + 1]), faces[k], TOLERANCE)
             else:
                 b.UpdateEdge(e, Geom2d_Line(gp_Pnt2d(line[0], line[1]), gp_Dir2d(line[2], line[3])), faces[k], TOLERANCE)
             out.append(e)
@@ -1532,13 +1545,14 @@ def tiled_plane_solid(
     mid = np.array([0.5 * (x[c0] + x[c1])]), np.array([0.5 * (y[r0] + y[r1])])
     if not inside(uv, *mid)[0, 0]:
         return None
-    grid = o + x[None, c0 : c1 + 1, None] * ex + y[r0 : r1 + 1, None, None] * ey + h[r0 : r1 + 1, c0 : c1 + 1, None] * n
+    xs, ys = x[c0 : c1 + 1], y[r0 : r1 + 1]
+    grid = o + xs[None, :, None] * ex + ys[:, None, None] * ey + h[r0 : r1 + 1, c0 : c1 + 1, None] * n
     idx = []
     for f in fine or ():  # one per tool: (x0, x1, y0, y1[, cells])
-        ca, cz = np.searchsorted(x[c0 : c1 + 1], [f[0], f[1]]) + np.array([-1, 1])
-        ra, rz = np.searchsorted(y[r0 : r1 + 1], [f[2], f[3]]) + np.array([-1, 1])
+        (ca, cz), (ra, rz) = np.searchsorted(xs, f[:2]) + [-1, 1], np.searchsorted(ys, f[2:4]) + [-1, 1]
         idx.append((int(ra), int(rz), int(ca), int(cz), *f[4:]))
-    tiles, boundary = tiled_grid_faces(grid, x[c0 : c1 + 1], y[r0 : r1 + 1], tile=tile, triangulate=triangulate, fine=idx)
+    xk, yk = run_knots(xs, _split_bounds(c1 - c0, tile)), run_knots(ys, _split_bounds(r1 - r0, tile))  # for OCCT's plain Gauss rule
+    tiles, boundary = tiled_grid_faces(grid, xk, yk, tile=tile, triangulate=triangulate, fine=idx)
     pln = _frame_pln(o, n, ex)
     b = BRep_Builder()
     flat = TopoDS_Face()
@@ -1557,7 +1571,7 @@ def tiled_plane_solid(
     b.MakeWire(hole)
     for e, line in reversed(boundary):  # clockwise: a hole in the planar face
         b.Add(hole, e.Reversed())
-        b.UpdateEdge(TopoDS.Edge_s(e), Geom2d_Line(gp_Pnt2d(line[0], line[1]), gp_Dir2d(line[2], line[3])), flat, TOLERANCE)
+        b.UpdateEdge(TopoDS.Edge_s(e), _mm_pcurve(TopoDS.Edge_s(e), line, (xk, xs), (yk, ys)), flat, TOLERANCE)
     hole.Closed(True)
     b.Add(flat, hole)
     patch = TopoDS_Shell()
@@ -1565,6 +1579,23 @@ def tiled_plane_solid(
     for f in [flat, *tiles]:  # one per tile
         b.Add(patch, f)
     return _replace_by_faces(to_topods(shape), old, patch)
+
+
+def _mm_pcurve(edge, line: tuple, xs: tuple, ys: tuple):
+    """The pcurve on the face frame's plane (mm) of a tile edge along the grid line
+    ``line`` (its pcurve on the tiles, in knots): ``xs``, ``ys`` the ``(knots,
+    mm)`` of the grid's columns and rows; a broken line through the grid points at
+    the knots (the knots are not mm: :func:`texcad.brep.gprop.run_knots`), of
+    :data:`~texcad.brep.gprop.PAD_SPANS` spans or more if at least :data:`PLACED`
+    cells long."""
+    from OCP.BRep import BRep_Tool
+
+    t0, t1 = BRep_Tool.Range_s(edge)
+    (along, mm), (across, mm_across) = (xs, ys) if line[3] == 0.0 else (ys, xs)
+    a, z = np.searchsorted(along, [min(t0, t1), max(t0, t1)])
+    fixed = float(np.interp(line[1] if line[3] == 0.0 else line[0], across, mm_across))
+    pts = np.stack([mm[a : z + 1], np.full(z + 1 - a, fixed)], axis=-1)
+    return polyline_pcurve(pts if line[3] == 0.0 else pts[:, ::-1], along[a : z + 1], pad=z - a >= PLACED)
 
 
 def _replace_by_faces(shape, old, patch):
@@ -1727,6 +1758,7 @@ def textured_band_solid(shape: Any, face: Any, top: np.ndarray, *, tile: int = T
         return None
     grid = np.concatenate([g, g[:, :1]], axis=1)
     u, v = np.arange(grid.shape[1], dtype=np.float64), np.arange(grid.shape[0], dtype=np.float64)
+    u, v = run_knots(u, _split_bounds(len(u) - 1, tile)), run_knots(v, _split_bounds(len(v) - 1, tile))  # for OCCT's plain Gauss rule
     tiles, rows = tiled_grid_faces(grid, u, v, tile=tile, wrap_x=True, fine=_band_fine(grid, fine))
     new_faces = strips + list(tiles)
     for (centre, nrm), p, key in zip(planes, pl, ("v0", "v1")):  # the two rings
@@ -1806,8 +1838,9 @@ OCCT_EPS = 1e-4
 def occt_volume(shape: Any, eps: float = OCCT_EPS) -> float:
     """Volume in mm^3 by OCCT's own integrator: ``BRepGProp::VolumeProperties(shape,
     props, eps, OnlyClosed=True)``, adaptive Gauss integration to the relative error
-    ``eps`` (OCCT's default, non-adaptive integration is off by tenths of a percent on
-    texture tiles and by percents on one large grid face). Independent of texcad's
+    ``eps`` (OCCT's default, non-adaptive integration agrees on texcad's tiles and
+    strips, whose knots are placed for it, :mod:`texcad.brep.gprop`; not on other
+    B-spline faces of many spans). Independent of texcad's
     own :func:`volume` (exact on untrimmed grid faces, OCCT's plain Gauss integration
     on faces a boolean trimmed)."""
     from OCP.BRepGProp import BRepGProp

@@ -16,6 +16,11 @@ and on a closed face the seam edge is replaced by the lifted seam row (the textu
 runs on across it). The face carries its grid's triangulation (texcad's mesh, two
 triangles per cell), which OCCT's mesher and texcad's STEP writer keep.
 
+A face whose outline is the iso-line rectangle is made of strips of that surface
+(:mod:`texcad.brep.uvstrips`: at most ``TILE`` spans wide, knots placed for OCCT's
+plain volume integration, :mod:`texcad.brep.gprop`), its edges along u cut at the
+strip corners in every face that has them; other faces stay one face.
+
 CAD operations on such a face (:mod:`texcad.pipeline.ops`) are made on the plain part
 and the texture is put again on what is left of the face (:func:`uv_face_pairs`,
 :func:`uv_retextured_solid`): the same poles, the relief taken off where the
@@ -58,6 +63,7 @@ from .solids import (
     tiled_plane_solid,
 )
 from .occt import explore, to_topods
+from .uvstrips import _grid_face, _used_twice, strip_faces, strip_origin
 
 __all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid", "textured_plane_solid",
            "uv_face_pairs", "uv_retextured_solid"]
@@ -123,26 +129,6 @@ def _poles(face, item: dict):
     return u, v, top
 
 
-def _grid_face(u: np.ndarray, v: np.ndarray, top: np.ndarray):
-    """A natural-bounds degree-1 face through ``top`` (u along columns of the pole
-    grid) carrying the grid's triangulation; returns ``(surface, triangulation)``."""
-    from OCP.BRep import BRep_Builder, BRep_Tool
-    from OCP.BRepTools import BRepTools
-    from OCP.TopLoc import TopLoc_Location
-    from OCP.TopoDS import TopoDS, TopoDS_Iterator, TopoDS_Shape
-
-    grid = np.ascontiguousarray(top.transpose(1, 0, 2))  # (Nv, Nu, 3): rows along v, columns along u
-    comp = TopoDS_Shape()
-    BRepTools.Read_s(comp, io.BytesIO(_tile_text([grid], [u], [v], True).encode("ascii")), BRep_Builder())
-    it = TopoDS_Iterator(comp)
-    if comp.IsNull() or not it.More():
-        raise GeometryError("OCCT could not read the textured face's surface")
-    f = TopoDS.Face_s(it.Value())
-    surf = BRep_Tool.Surface_s(f)
-    _remember_tile(surf, grid, u, v)
-    return surf, BRep_Tool.Triangulation_s(f, TopLoc_Location())
-
-
 def _bilinear(u: np.ndarray, v: np.ndarray, top: np.ndarray, q: np.ndarray) -> np.ndarray:
     """The degree-1 surface through ``top`` at parameters ``q (n, 2)``."""
     i = np.clip(np.searchsorted(u, q[:, 0]) - 1, 0, len(u) - 2)
@@ -203,15 +189,6 @@ def _seam_edge(b, e, fwd, surf, u, v, top):
         uf, ur = ur, uf
     lines = [Geom2d_Line(gp_Pnt2d(float(a), 0.0), gp_Dir2d(0.0, 1.0)) for a in (uf, ur)]
     return ne, lines[0], lines[1], up
-
-
-def _used_twice(face, edge) -> bool:
-    """A seam of ``face``: ``edge`` is in its wires twice (both ways). An edge may
-    carry two pcurves on a periodic surface (``BRep_Tool::IsClosed``) and be used once:
-    a cut exactly along the old seam leaves such an edge on the face's border."""
-    from OCP.TopAbs import TopAbs_EDGE
-
-    return sum(1 for e in explore(face, TopAbs_EDGE) if e.IsSame(edge)) > 1
 
 
 def _new_face(face, u, v, top, keep_seam: bool = False):
@@ -289,15 +266,63 @@ def uv_textured_solid(shape: Any, items: list):
     Raises:
         GeometryError: a face's grid does not cover its (u, v) rectangle.
     """
-    topo = to_topods(shape)
-    swaps = []
-    for item in items:  # one per face
-        from OCP.TopoDS import TopoDS
+    from OCP.TopoDS import TopoDS
 
+    topo = to_topods(shape)
+    swaps, splits = [], []
+    for item in items:  # one per face
         face = TopoDS.Face_s(to_topods(item["face"]))
         u, v, top = _poles(face, item)
-        swaps.append((face, [_new_face(face, u, v, top)]))
-    return _replace_faces(topo, swaps)
+        got = strip_faces(face, u, v, top, bool(item["closed_u"]), _tolerance(face, u, v, top))
+        if got is None:  # not the iso-line rectangle: one face
+            swaps.append((face, [_new_face(face, u, v, top)]))
+            continue
+        swaps.append((face, got[0]))
+        splits += got[1]
+    return _edges_cut(_replace_faces(topo, swaps), splits)
+
+
+def _tolerance(face, u, v, top):
+    """``tolerance(edge)``: mm an edge of ``face`` needs on the textured surface
+    (``u``, ``v``, ``top`` as :func:`_poles`): its own, or 1.5 times its largest
+    distance from it."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_FORWARD
+    from OCP.TopoDS import TopoDS
+
+    fwd = TopoDS.Face_s(face.Oriented(TopAbs_FORWARD))
+    seen: list = []
+
+    def tolerance(edge) -> float:
+        got = next((t for e, t in seen if e.IsSame(edge)), None)
+        if got is None:
+            own = BRep_Tool.Tolerance_s(edge)
+            got = own if BRep_Tool.Degenerated_s(edge) else max(own, 1.5 * _edge_deviation(edge, fwd, u, v, top) + TOLERANCE)
+            seen.append((edge, got))
+        return got
+
+    return tolerance
+
+
+def _edges_cut(shape, splits: list):
+    """``shape`` with each edge of ``splits`` ``[(edge, pieces)]`` replaced by its
+    pieces (in order along it) in every face that still has it (``BRepTools_ReShape``:
+    a cone's caps take the pieces of the circle its strips were cut along)."""
+    if not splits:
+        return shape
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepTools import BRepTools_ReShape
+    from OCP.TopAbs import TopAbs_FORWARD
+    from OCP.TopoDS import TopoDS_Wire
+
+    b, reshape = BRep_Builder(), BRepTools_ReShape()
+    for edge, pieces in splits:  # one per cut edge
+        w = TopoDS_Wire()
+        b.MakeWire(w)
+        for p in pieces:  # in order along the edge
+            b.Add(w, p)
+        reshape.Replace(edge.Oriented(TopAbs_FORWARD), w)
+    return reshape.Apply(shape)
 
 
 class _Projector:
@@ -972,13 +997,15 @@ def textured_plane_solid(
 
 # -- CAD work on a face textured on its own (u, v): the operation on the plain part, the texture again --
 def uv_face_pairs(base: Any, textured: Any) -> list | None:
-    """``[(face of base, its textured face in textured), ...]`` for a B-rep made by
-    :func:`uv_textured_solid` from ``base``: every face of ``base`` missing from
-    ``textured`` matched to the one degree-1 B-spline face that replaced it (the same
-    ``(u, v)`` rectangle, the nearest at its middle); None for any other B-rep (tiles,
-    a boolean's result)."""
+    """``[(face of base, face whose edges it had, (grid (Nv, Nu, 3) mm, u, v)), ...]``
+    for a B-rep made by :func:`uv_textured_solid` from ``base``: every face of
+    ``base`` missing from ``textured`` matched to what replaced it - its strips
+    (:func:`texcad.brep.uvstrips.strip_faces`: the whole face's grid on the face's
+    own parameters, and the face itself) or the one degree-1 B-spline face (the same
+    ``(u, v)`` rectangle, the nearest at its middle; itself); faces that only took
+    the pieces of a cut edge (a cone's caps: same surface) need nothing. None for any
+    other B-rep (tiles, a boolean's result)."""
     from OCP.BRep import BRep_Tool
-    from OCP.BRepTools import BRepTools
     from OCP.TopAbs import TopAbs_FACE
     from OCP.TopoDS import TopoDS
 
@@ -988,30 +1015,70 @@ def uv_face_pairs(base: Any, textured: Any) -> list | None:
     new_faces = [TopoDS.Face_s(f) for f in explore(to_topods(textured), TopAbs_FACE)]
     gone = [f for f in old_faces if not any(f.IsSame(g) for g in new_faces)]
     added = [f for f in new_faces if not any(f.IsSame(g) for g in old_faces)]
-    if not gone or len(gone) != len(added):
-        return None
-    grids = []
-    for f in added:  # one per textured face
+    wholes, grids, others = [], [], []
+    for f in added:  # one per new face: a strip, a whole textured face, or a face that took pieces
         surf = BRep_Tool.Surface_s(f)
+        origin = strip_origin(surf)
+        if origin is not None:
+            if not any(origin[0].IsSame(w[0]) for w in wholes):
+                wholes.append(origin)
+            continue
         got = tile_grid(surf) or surface_grid(surf)
         if got is None:
-            return None
-        grids.append(got)
+            others.append(surf)
+        else:
+            grids.append((f, got))
     pairs = []
     for f in gone:  # one per replaced face
-        u0, u1, v0, v1 = BRepTools.UVBounds_s(f)
-        mid = _surface_rows(f, np.array([0.5 * (u0 + u1)]), np.array([0.5 * (v0 + v1)]))[0][0, 0]
-        best, dist = None, np.inf
-        for k, (g, u, v) in enumerate(grids):  # the textured faces on the same rectangle
-            if not np.allclose([u[0], u[-1], v[0], v[-1]], [u0, u1, v0, v1], rtol=0, atol=1e-9 * (abs(u1 - u0) + abs(v1 - v0))):
-                continue
-            d = float(np.linalg.norm(_bilinear(u, v, g.transpose(1, 0, 2), np.array([[0.5 * (u0 + u1), 0.5 * (v0 + v1)]]))[0] - mid))
-            if d < dist:
-                best, dist = k, d
-        if best is None:
+        whole = next((w for w in wholes if w[0].IsSame(f)), None)
+        if whole is not None:
+            pairs.append((f, _kept_edges(whole[0], whole[2]), whole[1:]))
+            continue
+        best = _same_rectangle(f, grids)
+        if best is not None:
+            pairs.append((f, *best))
+        elif not any(_same_surface(BRep_Tool.Surface_s(f), s) for s in others):
             return None
-        pairs.append((f, added[best], grids[best]))
-    return pairs
+    return pairs if pairs else None
+
+
+def _same_surface(a, b) -> bool:
+    """Do two OCCT surfaces (a face and its copy with the pieces of a cut edge) give
+    the same points at three parameters?"""
+    if a.DynamicType().Name() != b.DynamicType().Name():
+        return False
+    pts = [(0.0, 0.0), (1.0, 0.5), (0.3, 2.0)]
+    return all(a.Value(*q).Distance(b.Value(*q)) < 1e-12 for q in pts)
+
+
+def _kept_edges(face, u: np.ndarray):
+    """A compound of the edges of ``face`` its textured version keeps (all but a
+    seam along v, which the lifted seam row replaces)."""
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FORWARD
+    from OCP.TopoDS import TopoDS
+
+    from .occt import compound
+
+    fwd = TopoDS.Face_s(face.Oriented(TopAbs_FORWARD))
+    edges = [TopoDS.Edge_s(e) for e in explore(fwd, TopAbs_EDGE)]
+    return compound([e for e in edges if not (_used_twice(fwd, e) and _u_seam(e, fwd, u))])
+
+
+def _same_rectangle(f, grids: list):
+    """``(textured face, grid)`` of ``grids`` ``[(face, (grid, u, v))]`` on ``f``'s
+    ``(u, v)`` rectangle, the nearest at its middle; None if none is."""
+    from OCP.BRepTools import BRepTools
+
+    u0, u1, v0, v1 = BRepTools.UVBounds_s(f)
+    mid = _surface_rows(f, np.array([0.5 * (u0 + u1)]), np.array([0.5 * (v0 + v1)]))[0][0, 0]
+    best, dist = None, np.inf
+    for face, (g, u, v) in grids:  # the textured faces on the same rectangle
+        if not np.allclose([u[0], u[-1], v[0], v[-1]], [u0, u1, v0, v1], rtol=0, atol=1e-9 * (abs(u1 - u0) + abs(v1 - v0))):
+            continue
+        d = float(np.linalg.norm(_bilinear(u, v, g.transpose(1, 0, 2), np.array([[0.5 * (u0 + u1), 0.5 * (v0 + v1)]]))[0] - mid))
+        if d < dist:
+            best, dist = (face, (g, u, v)), d
+    return best
 
 
 def _crossed_cells(face, edges, u: np.ndarray, v: np.ndarray) -> np.ndarray:
