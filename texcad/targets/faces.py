@@ -521,14 +521,22 @@ def _patch_brep(shape: Any, r: PatchRelief, pm: Any, fine: Any = None) -> Any:
 
 
 def _plane_brep(shape: Any, r: PatchRelief, rotation: float, fine: Any = None) -> Any:
-    """``shape`` with the planar face of the patch ``r`` in tiles; heights 0 outside
-    the kept cells and near the outline (the mesh's floor there is not carried over)."""
+    """``shape`` with the planar face of the patch ``r`` in tiles: engraved and
+    centred, the fused mesh's surface with its floor and the step down to it
+    (:func:`texcad.brep.bands.signed_plane_solid`); else heights 0 outside the kept
+    cells and near the outline."""
     from ..brep import plane_frame
-    from ..brep.bands import face_in
+    from ..brep.bands import face_in, signed_plane_solid
     from ..brep.uvfaces import holed_plane_solid
 
-    p0, ex, _, n = plane_frame(r.face, rotation)
+    p0, ex, ey, n = plane_frame(r.face, rotation)
     g, cells = r.grid, r.cells
+    if r.signed and r.fused_top is not None:
+        out = signed_plane_solid(shape, face_in(shape, r.face) or r.face, g.points, g.normals, r.fused_top, cells,
+                                 frame=(p0, ex, ey, n), fine=fine)
+        if out is None:
+            raise GeometryError("OCCT did not cut the planar face along the walls of its engraved or centred texture")
+        return out
     kept = np.zeros(g.valid.shape, bool)
     for a, b in ((slice(None, -1), slice(None, -1)), (slice(None, -1), slice(1, None)), (slice(1, None), slice(None, -1)),
                  (slice(1, None), slice(1, None))):  # the 4 corners of each kept cell
