@@ -63,7 +63,7 @@ from ..solid.weld import welded
 from .patches import FADE_FULL, PatchOptions, PatchRelief, patch_relief, smooth_patches
 
 __all__ = ["FacesAdapter", "FacesPlacement", "FacesRelief", "FacesFused", "FacesZone", "patch_options", "union_patches",
-           "patches_integral"]
+           "patches_integral", "patches_displaced"]
 
 
 @dataclass(frozen=True)
@@ -279,7 +279,8 @@ class FacesAdapter(Adapter):
         remade them)."""
         volume, slack, nominal = patches_integral(fused.data.patches)
         return Expectation(bodies=placement.bodies, base=placement.base, selected=placement.selected, height=relief.reach,
-                           volume=volume, volume_slack=slack, nominal_volume=nominal)
+                           volume=volume, volume_slack=slack, nominal_volume=nominal,
+                           displaced=patches_displaced(fused.data.patches))
 
     # -- on demand ----------------------------------------------------------------------
     def texture_mesh(self, stages: Stages) -> Mesh:
@@ -378,6 +379,18 @@ def patches_integral(reliefs) -> tuple:
     parts = [r.integral for r in reliefs]
     nominal = None if any(p[2] is None for p in parts) else float(sum(p[2] for p in parts))
     return float(sum(p[0] for p in parts)), float(sum(p[1] for p in parts)), nominal
+
+
+def patches_displaced(reliefs) -> "Displaced | None":
+    """What the patches displace above and below their faces alike, summed
+    (:func:`~texcad.targets.patches.patch_displaced`), when one is centred (the
+    gate's check of a texture whose net volume is about 0), else None."""
+    from ..report.gate import Displaced
+
+    if not any(r.info["mode"] == "centred" for r in reliefs):
+        return None
+    v, a, s, n = (float(sum(r.displaced[k] for r in reliefs)) for k in range(4))
+    return Displaced(v, a, s, n)
 
 
 def union_patches(base_man, reliefs: list):
