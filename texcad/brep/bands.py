@@ -26,6 +26,10 @@ mesh's do), so the B-rep and the mesh enclose the same volume up to the walls'
 steps (``w`` times half a cell along ``K``'s boundary). Every edge is shared: the
 solid is closed by construction, and :func:`patch_solid` returns None where this
 does not apply (a loop the fuse did not cut, an outline piece inside ``K``).
+
+A single planar face textured engraved or centred takes the same way
+(:func:`signed_plane_solid`): its mesh keeps the cut's floor out to the cells'
+outline and steps up to the face there, and so do the tiles and walls.
 """
 
 from __future__ import annotations

@@ -520,12 +520,20 @@ def _fillet_change(before, after, world: np.ndarray) -> list:
     the world (mm): the material it took off (``before - after``, OCCT, exact on the
     plain part) and what it added (a concave edge), tessellated at
     :data:`TOOL_TOLERANCE` and cleared off the part's old faces (:func:`_cleared`)."""
+    from OCP.TopAbs import TopAbs_FACE
+
+    from ..brep import compound
+    from ..brep.occt import explore
+
     out = []
-    new = shape_to_mesh(_apply(after, world), tolerance=TOOL_TOLERANCE)
     for a, b, op in ((before, after, "cut"), (after, before, "fuse")):  # taken off, added
-        piece = occt_boolean(a, b, "cut")
-        if solids_of(piece) and abs(volume(piece)) > 1e-9:
-            out.append((_cleared(shape_to_mesh(_apply(piece, world), tolerance=TOOL_TOLERANCE), new), op))
+        piece, algo = occt_boolean(a, b, "cut", maker=True)
+        if not (solids_of(piece) and abs(volume(piece)) > 1e-9):
+            continue
+        made = [g for f in explore(b, TopAbs_FACE) for g in [f, *_listed(algo.Modified(f))]]  # b's faces, as cut
+        new = [g for g in explore(piece, TopAbs_FACE) if any(g.IsSame(m) for m in made)]  # the fillet's own faces
+        mesh = shape_to_mesh(_apply(piece, world), tolerance=TOOL_TOLERANCE)
+        out.append((_cleared(mesh, shape_to_mesh(_apply(compound(new), world), tolerance=TOOL_TOLERANCE)) if new else mesh, op))
     return out
 
 
@@ -534,16 +542,17 @@ FILLET_CLEAR = 0.05
 
 
 def _cleared(piece: Mesh, new: Mesh) -> Mesh:
-    """A fillet's change ``piece`` with its vertices that lie off the filleted part's
-    surface ``new`` (farther than twice :data:`TOOL_TOLERANCE`: on the part's old
-    faces) moved :data:`FILLET_CLEAR` mm out of the piece along its vertex normals
-    (out of the part for material taken off, into it for material added); its new
-    faces stay. On a curved face the piece's tessellation and the textured mesh's
-    differ by up to their chord errors: cut as they are, the two near-coincident
-    sheets leave slivers that pinch the result (a fillet that runs on along smooth
-    edges to a patch's outline did). What the moved faces sweep lies outside the
-    part (inside it for added material), or in a relief within 0.05 mm of the old
-    face, which the fillet takes off with it."""
+    """A fillet's change ``piece`` with its vertices that are not on its faces of
+    the filleted part (``new``, the same triangulation: within 1e-6 mm), i.e. on the
+    part's old faces, moved :data:`FILLET_CLEAR` mm out of the piece along its
+    vertex normals (out of the part for material taken off, into it for material
+    added); the fillet's own faces and their edges stay. On a curved face the
+    piece's tessellation and the textured mesh's differ by up to their chord errors:
+    cut as they are, the two near-coincident sheets leave slivers that pinch the
+    result (a fillet that OCCT runs on along smooth edges to a patch's outline, or
+    up to a textured face's corner, did). What the moved faces sweep lies outside
+    the part (inside it for added material), or in a relief within 0.05 mm of the
+    old face, which the fillet takes off with it."""
     import igl
 
     v, f = piece.vertices.astype(np.float64), piece.faces.astype(np.int64)
@@ -553,8 +562,8 @@ def _cleared(piece: Mesh, new: Mesh) -> Mesh:
     for k in range(3):  # the three corners
         np.add.at(vn, f[:, k], fn)
     vn /= np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-18)
-    off = np.sqrt(d2) > 2.0 * TOOL_TOLERANCE
-    return Mesh((v + np.where(off[:, None], FILLET_CLEAR * vn, 0.0)).astype(np.float32), piece.faces)
+    old = d2 > 1e-12
+    return Mesh((v + np.where(old[:, None], FILLET_CLEAR * vn, 0.0)).astype(np.float32), piece.faces)
 
 
 def _changed(mesh: Mesh, change: list) -> Mesh:
