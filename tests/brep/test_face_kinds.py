@@ -166,11 +166,7 @@ def _occt_meshes_closed(shape) -> bool:
     return True
 
 
-KINDS = ["plane", "cylinder", "partial", "cone", "sphere", "torus", "revolved", "bspline", "plane_engraved",
-         # the mesh keeps its 20 um floor out to the outline where the B-rep's planar rim stays at the face
-         # (about 1.2 mm of it): 2.4 mm3, 0.15 % of this 20 x 20 x 4 mm box, so its B-rep is refused
-         pytest.param("plane_centred", marks=pytest.mark.xfail(strict=True, raises=texcad.TexcadError,
-                                                                reason="planar rim vs the mesh's 20 um floor")),
+KINDS = ["plane", "cylinder", "partial", "cone", "sphere", "torus", "revolved", "bspline", "plane_engraved", "plane_centred",
          "cylinder_engraved", "cylinder_centred"]
 
 

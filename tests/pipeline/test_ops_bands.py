@@ -104,3 +104,45 @@ def test_chained_onto_a_face_an_earlier_texture_rebuilt():
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
     assert occt_volume(top.shape) == pytest.approx(top.volume, rel=1e-3)
     _drilled_matches(top, Pos(-4, 0, 0) * Cylinder(1.5, 30))
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+@pytest.mark.parametrize("rounded,mode", [("along y", "raised"), ("along y", "centred"), ("top", "raised")])
+def test_fillet_that_runs_on_to_a_flattened_patch(rounded, mode):
+    """A box with its four edges along y (or its four top edges) rounded; the top,
+    a rounded edge and a side textured together (flattened, LSCM). Filleting an
+    untextured upright edge on the far side runs on (OCCT follows smooth edges) all
+    round the end faces, along the patch's outline (or up the corner's seam to the
+    textured top's corner): the mesh (the fillet's change cleared off the part's
+    old faces, which left slivers that pinched it) and the B-rep (where OCCT could
+    not fillet the tiles and walls, the plain part filleted and the patch textured
+    again on what is left of its faces) are right and agree within 0.1 %."""
+    from build123d import Axis, Box, fillet
+
+    from texcad.brep import volume
+
+    box = Box(20, 16, 8)
+    part = fillet(box.edges().filter_by(Axis.Y) if rounded == "along y" else box.edges().group_by(Axis.Z)[-1], 2)
+    faces = [f for f in part.faces() if f.center().Z > 3.9 or f.center().X > 9.0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tx = texcad.texture(part, faces, "builtin:stones", height=0.4, pitch=0.5, mode=mode)
+    assert tx.stages.fused.data.patches[0].info["parameterization"].startswith("conformal")
+    own = occt_volume(tx.shape) - tx.volume
+    edges = [e for e in tx.part.edges() if abs(e.tangent_at(0.5).Z) > 0.99 and e.center().X < -9.5]
+    assert len(edges) == 2
+    result = tx.fillet(edges, 1.0)
+    plain = volume(part.wrapped) - volume(_plain_fillet(part, 1.0))
+    assert result.mesh.is_watertight
+    assert plain > 3.0 and tx.volume - result.volume == pytest.approx(plain, rel=0.02)  # what the plain part lost
+    chk = check_shape(result.shape)
+    assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
+    assert abs(occt_volume(result.shape) - own - result.volume) <= 1e-3 * result.volume
+
+
+def _plain_fillet(part, radius):
+    """The plain part with the same upright edges filleted (OCCT runs the fillet on)."""
+    from build123d import fillet
+
+    edges = [e for e in part.edges() if abs(e.tangent_at(0.5).Z) > 0.99 and e.center().X < -9.5]
+    return fillet(edges, radius).wrapped

@@ -132,7 +132,24 @@ def _history(part: Any) -> dict:
     make = part.brep if frame is not None else None
     uv = uv_face_pairs(part.base_shape, unplaced) if make is None and part.base_shape is not None else None
     return {"make": make, "shape": unplaced, "steps": [], "to_world": np.eye(3, 4), "frame": frame, "base": part.base_shape,
-            "offset": _offset(part, shape), "uv": uv}
+            "offset": _offset(part, shape), "uv": uv, "patches": _patches(part) if make is None and uv is None else None}
+
+
+def _patches(part: Any) -> list | None:
+    """The textures of faces flattened together (the any-faces adapter's patches of
+    several faces, :func:`texcad.brep.bands.patch_solid`), to be put again on the
+    plain part after an operation: ``[{"faces", "points", "normals", "heights",
+    "cells", "wrap", "signed"}, ...]`` (faces of ``part.base_shape``; grids mm), or
+    None when the result holds any other texture or is chained."""
+    st = part.stages
+    if st is None or st.placement.previous is not None:
+        return None
+    reliefs, pm = getattr(st.fused.data, "patches", None), getattr(st.placement.data, "mesh", None)
+    if not reliefs or pm is None or any(r.face is not None for r in reliefs):
+        return None
+    return [{"faces": [pm.faces[i].face for i in r.faces], "points": r.grid.points, "normals": r.grid.normals,
+             "heights": r.h_top if r.fused_top is None else r.fused_top, "cells": r.cells, "wrap": bool(r.grid.wrap_y),
+             "signed": bool(r.signed)} for r in reliefs]
 
 
 def _offset(part: Any, shape) -> float:
@@ -200,15 +217,21 @@ def _uv_replay(hist: dict):
     operations on the plain part, each textured face followed through OCCT's history
     (``Modified``, ``IsDeleted``), and the texture put again on what is left of it
     (:func:`texcad.brep.uvfaces.uv_retextured_solid`: a hole's wall stays plain)."""
-    shape = hist["base"]
-    pieces = [[face] for face, _, _ in hist["uv"]]
-    for step in hist["steps"]:  # one per operation so far
+    shape, pieces = _followed(hist["base"], [[face] for face, _, _ in hist["uv"]], hist["steps"])
+    return uv_retextured_solid(shape, [(p, tex, grid) for p, (_, tex, grid) in zip(pieces, hist["uv"])])
+
+
+def _followed(shape, pieces: list, steps: list) -> tuple:
+    """The operations ``steps`` made on the plain ``shape``, and each list of its
+    faces in ``pieces`` followed through OCCT's history (``Modified``,
+    ``IsDeleted``): ``(shape, pieces)``."""
+    for step in steps:  # one per operation so far
         if step["op"] == "fillet":
             shape, algo = _occt_fillet(shape, step["edges"], step["radius"], maker=True)
         else:
             shape, algo = occt_boolean(shape, step["tool"], step["op"], maker=True)
         followed = []
-        for faces in pieces:  # one per textured face
+        for faces in pieces:  # one per textured face or patch
             now = []
             for f in faces:  # the pieces so far
                 if not algo.IsDeleted(f):
@@ -216,7 +239,57 @@ def _uv_replay(hist: dict):
                     now += mods if mods else [f]
             followed.append(now)
         pieces = followed
-    return uv_retextured_solid(shape, [(p, tex, grid) for p, (_, tex, grid) in zip(pieces, hist["uv"])])
+    return shape, pieces
+
+
+def _patch_replay(hist: dict):
+    """The B-rep of a history whose textures are faces flattened together
+    (:func:`_patches`), as parametric CAD makes it: the operations on the plain
+    part, the patch's faces followed (:func:`_followed`), and the texture put again
+    on what is left of them (:func:`texcad.brep.bands.patch_solid`) over the grid's
+    cells that still lie on them (:func:`_cells_left`)."""
+    from ..brep import TESSELLATION
+    from ..brep.bands import face_in, patch_solid
+
+    shape, pieces = _followed(hist["base"], [p["faces"] for p in hist["patches"]], hist["steps"])
+    for p, faces in zip(hist["patches"], pieces):  # one per patch
+        if not faces:
+            continue
+        cells = _cells_left(p, faces)
+        out = None if not cells.any() else patch_solid(
+            shape, [face_in(shape, f) or f for f in faces], p["points"], p["normals"], p["heights"], cells, wrap=p["wrap"],
+            signed=p["signed"], chord=TESSELLATION)
+        if out is None:
+            raise GeometryError("the faces textured together could not be textured again after the operation")
+        shape = out
+    return shape
+
+
+def _cells_left(patch: dict, faces: list) -> np.ndarray:
+    """The patch's cells whose four corners lie on ``faces`` (within the part's
+    tessellation error and :data:`TOOL_TOLERANCE`); raised, less those next to a cell
+    that does not (8-neighbourhood; around the band's seam too: a raised texture's
+    wall reaches only its wall height under the face)."""
+    import igl
+    from scipy.ndimage import binary_erosion
+
+    from ..brep import TESSELLATION, compound
+
+    m = shape_to_mesh(compound(faces), tolerance=TOOL_TOLERANCE)
+    P = np.asarray(patch["points"], np.float64)
+    d2, _, _ = igl.point_mesh_squared_distance(P.reshape(-1, 3), m.vertices.astype(np.float64), m.faces.astype(np.int64))
+    on = (np.sqrt(d2) <= TESSELLATION + 2 * TOOL_TOLERANCE).reshape(P.shape[:2])
+    K = np.asarray(patch["cells"], bool)
+    nxt = np.roll(on, -1, axis=0) if patch["wrap"] else on[1:]
+    left = K & on[: K.shape[0], :-1] & on[: K.shape[0], 1:] & nxt[:, :-1] & nxt[:, 1:]
+    lost = K & ~left
+    if patch["signed"]:  # the walls reach from the floor (-0.02 mm at least) to above the face: they meet it
+        return left
+    if patch["wrap"]:
+        near = ~binary_erosion(np.concatenate([~lost[-1:], ~lost, ~lost[:1]]), np.ones((3, 3), bool), border_value=1)[1:-1]
+    else:
+        near = ~binary_erosion(~lost, np.ones((3, 3), bool), border_value=1)
+    return left & ~near
 
 
 def _listed(shapes) -> list:
@@ -317,7 +390,15 @@ def _plain_first(hist: dict, world: np.ndarray, mesh: Mesh, op: str, bodies: int
             return _checked(_apply(_uv_replay(hist), world), mesh, op, bodies, info, offset)
         except GeometryError:
             pass  # the operations on the textured B-rep instead
-    return _checked(_apply(_replay(hist), world), mesh, op, bodies, info, offset)
+    if not hist.get("patches"):
+        return _checked(_apply(_replay(hist), world), mesh, op, bodies, info, offset)
+    try:
+        return _checked(_apply(_replay(hist), world), mesh, op, bodies, info, offset)
+    except GeometryError as exc:  # OCCT's operation on the tiles and walls (a fillet along the patch's outline)
+        try:
+            return _checked(_apply(_patch_replay(hist), world), mesh, op, bodies, info, offset)
+        except GeometryError:
+            raise exc from None
 
 
 def _derived(part: Any, *, mesh, texture_mesh, base_mesh, shape, info, hist) -> Any:
@@ -438,13 +519,51 @@ def _fillet_change(before, after, world: np.ndarray) -> list:
     """What a fillet changed on the plain part, ``[(mesh, "cut" | "fuse"), ...]`` in
     the world (mm): the material it took off (``before - after``, OCCT, exact on the
     plain part) and what it added (a concave edge), tessellated at
-    :data:`TOOL_TOLERANCE`."""
+    :data:`TOOL_TOLERANCE` and cleared off the part's old faces (:func:`_cleared`)."""
+    from OCP.TopAbs import TopAbs_FACE
+
+    from ..brep import compound
+    from ..brep.occt import explore
+
     out = []
     for a, b, op in ((before, after, "cut"), (after, before, "fuse")):  # taken off, added
-        piece = occt_boolean(a, b, "cut")
-        if solids_of(piece) and abs(volume(piece)) > 1e-9:
-            out.append((shape_to_mesh(_apply(piece, world), tolerance=TOOL_TOLERANCE), op))
+        piece, algo = occt_boolean(a, b, "cut", maker=True)
+        if not (solids_of(piece) and abs(volume(piece)) > 1e-9):
+            continue
+        made = [g for f in explore(b, TopAbs_FACE) for g in [f, *_listed(algo.Modified(f))]]  # b's faces, as cut
+        new = [g for g in explore(piece, TopAbs_FACE) if any(g.IsSame(m) for m in made)]  # the fillet's own faces
+        mesh = shape_to_mesh(_apply(piece, world), tolerance=TOOL_TOLERANCE)
+        out.append((_cleared(mesh, shape_to_mesh(_apply(compound(new), world), tolerance=TOOL_TOLERANCE)) if new else mesh, op))
     return out
+
+
+#: mm: how far a fillet's change is moved off the part's old faces (:func:`_cleared`).
+FILLET_CLEAR = 0.05
+
+
+def _cleared(piece: Mesh, new: Mesh) -> Mesh:
+    """A fillet's change ``piece`` with its vertices that are not on its faces of
+    the filleted part (``new``, the same triangulation: within 1e-6 mm), i.e. on the
+    part's old faces, moved :data:`FILLET_CLEAR` mm out of the piece along its
+    vertex normals (out of the part for material taken off, into it for material
+    added); the fillet's own faces and their edges stay. On a curved face the
+    piece's tessellation and the textured mesh's differ by up to their chord errors:
+    cut as they are, the two near-coincident sheets leave slivers that pinch the
+    result (a fillet that OCCT runs on along smooth edges to a patch's outline, or
+    up to a textured face's corner, did). What the moved faces sweep lies outside
+    the part (inside it for added material), or in a relief within 0.05 mm of the
+    old face, which the fillet takes off with it."""
+    import igl
+
+    v, f = piece.vertices.astype(np.float64), piece.faces.astype(np.int64)
+    d2, _, _ = igl.point_mesh_squared_distance(v, new.vertices.astype(np.float64), new.faces.astype(np.int64))
+    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])  # area-weighted
+    vn = np.zeros_like(v)
+    for k in range(3):  # the three corners
+        np.add.at(vn, f[:, k], fn)
+    vn /= np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-18)
+    old = d2 > 1e-12
+    return Mesh((v + np.where(old[:, None], FILLET_CLEAR * vn, 0.0)).astype(np.float32), piece.faces)
 
 
 def _changed(mesh: Mesh, change: list) -> Mesh:

@@ -63,7 +63,7 @@ from ..solid.weld import welded
 from .patches import FADE_FULL, PatchOptions, PatchRelief, patch_relief, smooth_patches
 
 __all__ = ["FacesAdapter", "FacesPlacement", "FacesRelief", "FacesFused", "FacesZone", "patch_options", "union_patches",
-           "patches_integral"]
+           "patches_integral", "patches_displaced"]
 
 
 @dataclass(frozen=True)
@@ -279,7 +279,8 @@ class FacesAdapter(Adapter):
         remade them)."""
         volume, slack, nominal = patches_integral(fused.data.patches)
         return Expectation(bodies=placement.bodies, base=placement.base, selected=placement.selected, height=relief.reach,
-                           volume=volume, volume_slack=slack, nominal_volume=nominal)
+                           volume=volume, volume_slack=slack, nominal_volume=nominal,
+                           displaced=patches_displaced(fused.data.patches))
 
     # -- on demand ----------------------------------------------------------------------
     def texture_mesh(self, stages: Stages) -> Mesh:
@@ -378,6 +379,18 @@ def patches_integral(reliefs) -> tuple:
     parts = [r.integral for r in reliefs]
     nominal = None if any(p[2] is None for p in parts) else float(sum(p[2] for p in parts))
     return float(sum(p[0] for p in parts)), float(sum(p[1] for p in parts)), nominal
+
+
+def patches_displaced(reliefs) -> "Displaced | None":
+    """What the patches displace above and below their faces alike, summed
+    (:func:`~texcad.targets.patches.patch_displaced`), when one is centred (the
+    gate's check of a texture whose net volume is about 0), else None."""
+    from ..report.gate import Displaced
+
+    if not any(r.info["mode"] == "centred" for r in reliefs):
+        return None
+    v, a, s, n = (float(sum(r.displaced[k] for r in reliefs)) for k in range(4))
+    return Displaced(v, a, s, n)
 
 
 def union_patches(base_man, reliefs: list):
@@ -521,14 +534,22 @@ def _patch_brep(shape: Any, r: PatchRelief, pm: Any, fine: Any = None) -> Any:
 
 
 def _plane_brep(shape: Any, r: PatchRelief, rotation: float, fine: Any = None) -> Any:
-    """``shape`` with the planar face of the patch ``r`` in tiles; heights 0 outside
-    the kept cells and near the outline (the mesh's floor there is not carried over)."""
+    """``shape`` with the planar face of the patch ``r`` in tiles: engraved and
+    centred, the fused mesh's surface with its floor and the step down to it
+    (:func:`texcad.brep.bands.signed_plane_solid`); else heights 0 outside the kept
+    cells and near the outline."""
     from ..brep import plane_frame
-    from ..brep.bands import face_in
+    from ..brep.bands import face_in, signed_plane_solid
     from ..brep.uvfaces import holed_plane_solid
 
-    p0, ex, _, n = plane_frame(r.face, rotation)
+    p0, ex, ey, n = plane_frame(r.face, rotation)
     g, cells = r.grid, r.cells
+    if r.signed and r.fused_top is not None:
+        out = signed_plane_solid(shape, face_in(shape, r.face) or r.face, g.points, g.normals, r.fused_top, cells,
+                                 frame=(p0, ex, ey, n), fine=fine)
+        if out is None:
+            raise GeometryError("OCCT did not cut the planar face along the walls of its engraved or centred texture")
+        return out
     kept = np.zeros(g.valid.shape, bool)
     for a, b in ((slice(None, -1), slice(None, -1)), (slice(None, -1), slice(1, None)), (slice(1, None), slice(None, -1)),
                  (slice(1, None), slice(1, None))):  # the 4 corners of each kept cell

@@ -50,7 +50,7 @@ from .mesh import _gradient
 __all__ = [
     "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED", "SMOOTH_ANGLE", "PatchOptions", "PatchParam", "PatchGrid",
     "PatchSurface", "PatchBodies", "PatchRelief", "smooth_patches", "patch_param", "patch_grid", "patch_surface",
-    "limit_patch", "patch_bodies", "patch_relief", "patch_volume", "fused_offset",
+    "limit_patch", "patch_bodies", "patch_relief", "patch_volume", "patch_displaced", "fused_offset",
 ]
 
 #: Local texture scale (either direction, or its inverse) down to which the full height is kept.
@@ -245,6 +245,9 @@ class PatchRelief:
         fused_top: ``(R, C)`` the offset (mm) of the fused mesh's surface over the
             cells (:func:`fused_offset`: what the B-rep of faces flattened together
             follows), or None.
+        displaced: ``(volume mm^3, area mm^2, slack mm^3, nominal mm^3)``, what the
+            texture displaces above and below the face alike (:func:`patch_displaced`;
+            the gate's check of a centred texture).
     """
 
     faces: tuple
@@ -262,6 +265,7 @@ class PatchRelief:
     limit: Optional[dict] = None
     integral: tuple = (0.0, 0.0, None)
     fused_top: Optional[np.ndarray] = None
+    displaced: tuple = (0.0, 0.0, 0.0, None)
 
     @property
     def max_error(self) -> float:
@@ -843,6 +847,28 @@ def patch_volume(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> tuple:
     return vol, slack, nominal
 
 
+def patch_displaced(g: PatchGrid, surf: PatchSurface, opts: PatchOptions, error: float) -> tuple:
+    """``(volume, area, slack, nominal)``: what the patch displaces above and below
+    the face alike, ``int |t| dA`` mm^3 over the cells (``t`` = :func:`fused_offset`,
+    linear over the grid's two triangles a cell,
+    :func:`texcad.report.gate.linear_abs_integral`), their area mm^2, the slack
+    (the lean side's measured ``error`` mm times the area, mm^3) and the same
+    integral of the texture as sampled, ``g (H - c H_max)``, before the ramps and
+    limits (mm^3). The gate checks a centred texture's mesh by it: its net volume is
+    about 0 by design."""
+    from ..report.gate import linear_abs_integral
+
+    P = g.grid.points.reshape(-1, 3)
+    tri = _cell_triangles(g.cells, bool(g.grid.wrap_y))
+    p = P[tri]
+    areas = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    area = float(areas.sum())
+    vol = linear_abs_integral(fused_offset(surf).reshape(-1)[tri], areas)
+    nom = np.where(g.grid.valid, (g.H - surf.c * float(opts.height)) * g.gain, 0.0)
+    nominal = linear_abs_integral(np.broadcast_to(nom, g.grid.valid.shape).reshape(-1)[tri], areas)
+    return vol, area, float(error) * area + 1e-3 * vol + 1e-3, nominal
+
+
 # ------------------------------------------------------------------------------------------
 # One patch, all stages
 # ------------------------------------------------------------------------------------------
@@ -896,7 +922,7 @@ def patch_relief(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> Pat
     hmap = Heightmap(shown.astype(np.float32), (g.px, g.py))
     return PatchRelief(tuple(int(i) for i in patch), bodies, info, dist, hmap, grid, bool(surf.limited.any()), s_top,
                        surf.c > 0, g.cells, g.par.tables, pm.faces[patch[0]].face if len(patch) == 1 else None, lim,
-                       patch_volume(g, surf, opts), fused_offset(surf))
+                       patch_volume(g, surf, opts), fused_offset(surf), patch_displaced(g, surf, opts, bodies.error))
 
 
 # ------------------------------------------------------------------------------------------
