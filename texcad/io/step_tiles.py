@@ -495,7 +495,7 @@ def _sides(shape, tiles: list, grids: list) -> list:
             exp.Next()
             faces = ancestors.FindFromKey(edge)
             shared = faces.Size() == 2 and all(mine.Contains(f) for f in faces) and not BRep_Tool.IsClosed_s(edge, face)
-            tiles_of_edge = tuple(mine.FindIndex(f) - 1 for f in faces) if shared else ()
+            plane = None if shared else _plane_beside(faces, face)
             u0, u1, v0, v1 = BRepTools.UVBounds_s(face, edge)  # the pcurve's box (a hole's circle too)
             eu, ev = 1e-9 * (1 + abs(u).max()), 1e-9 * (1 + abs(v).max())
             iu = np.flatnonzero((u >= u0 - eu) & (u <= u1 + eu))
@@ -508,7 +508,7 @@ def _sides(shape, tiles: list, grids: list) -> list:
             if side is None:  # any other edge (a given outline, a hole's trace): the grid lines around it
                 iu = np.arange(max(np.searchsorted(u, u0 - eu, "right") - 1, 0), min(np.searchsorted(u, u1 + eu), len(u) - 1) + 1)
                 iv = np.arange(max(np.searchsorted(v, v0 - ev, "right") - 1, 0), min(np.searchsorted(v, v1 + ev), len(v) - 1) + 1)
-            sides.append((edge, shared, side, (iu, iv), tiles_of_edge))
+            sides.append((edge, shared, side, (iu, iv), plane))
         out.append(sides)
     return out
 
@@ -634,7 +634,7 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
                 stay.Add(edge)
     for ti, tile in enumerate(sides):  # one per tile
         g, u, v = grids[ti]
-        for edge, shared, side, (iu, iv), _ in tile:  # one per edge
+        for edge, shared, side, (iu, iv), plane in tile:  # one per edge
             if side is None:  # not a whole tile side: the rows and columns of the cells it crosses stay
                 keep_r[ti][iv], keep_c[ti][iu] = True, True
                 continue
@@ -644,7 +644,8 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
             key = done.FindIndex(edge)
             if key == 0:
                 key = done.Add(edge)
-                plans[key] = _polyline(b, edge, pts, t, tol, decimals) if shared and not stay.Contains(edge) else (None, None)
+                cut = (shared or plane is not None) and not stay.Contains(edge)
+                plans[key] = _polyline(b, edge, pts, t, tol, decimals if shared else 8, plane) if cut else (None, None)
             sel, q = plans[key]
             idx = np.arange(lo, hi + 1) if sel is None else lo + sel
             if axis == 1:
@@ -705,12 +706,14 @@ def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: 
     return rows, cols, poles
 
 
-def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int) -> tuple:
+def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int, plane=None) -> tuple:
     """The points an edge between two tiles keeps (indices into ``pts``, ``(n, 3)``
     mm at the parameters ``t``) so that its polyline stays within ``tol`` mm of every
     point, and those points as written (``decimals``; its ends as they are: other
     edges meet there); the edge's 3-D curve becomes that polyline. ``(None, None)``
-    when nothing is dropped or the curve is not parametrised as the grid."""
+    when nothing is dropped or the curve is not parametrised as the grid. ``plane``:
+    the part's planar face on the edge's other side (else None: two tiles), whose
+    pcurve of the edge becomes the same polyline in the plane's parameters."""
     from OCP.BRep import BRep_Tool
     from OCP.Geom import Geom_BSplineCurve
     from OCP.TColgp import TColgp_Array1OfPnt
@@ -729,7 +732,41 @@ def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int
         knots.SetValue(n + 1, float(t[sel[n]]))
         mult.SetValue(n + 1, 2 if n in (0, len(sel) - 1) else 1)
     b.UpdateEdge(edge, Geom_BSplineCurve(poles, knots, mult, 1), TopLoc_Location(), BRep_Tool.Tolerance_s(edge))
+    if plane is not None:
+        b.UpdateEdge(edge, _in_plane(plane, q, knots, mult), plane, BRep_Tool.Tolerance_s(edge))
     return sel, q
+
+
+def _in_plane(plane, q: np.ndarray, knots, mult):
+    """The degree-1 2-D curve through the points ``q`` (``(k, 3)`` mm, in the planar
+    face ``plane``) in the plane's parameters, on ``knots`` with ``mult``."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom2d import Geom2d_BSplineCurve
+    from OCP.TColgp import TColgp_Array1OfPnt2d
+    from OCP.gp import gp_Pnt2d
+
+    pos = BRep_Tool.Surface_s(plane).Position()  # with the face's location: the same parameters
+    o, x, y = (np.array(a.Coord()) for a in (pos.Location(), pos.XDirection(), pos.YDirection()))
+    uv = np.stack([(q - o) @ x, (q - o) @ y], axis=-1)
+    poles = TColgp_Array1OfPnt2d(1, len(q))
+    for n, (pu, pv) in enumerate(uv.tolist()):  # one per kept point of the edge
+        poles.SetValue(n + 1, gp_Pnt2d(pu, pv))
+    return Geom2d_BSplineCurve(poles, knots, mult, 1)
+
+
+def _plane_beside(faces, face):
+    """The face other than ``face`` in ``faces`` (an edge's two faces) when it is a
+    plane without a seam on that edge, else None."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom import Geom_Plane
+    from OCP.TopoDS import TopoDS
+
+    if faces.Size() != 2:
+        return None
+    other = [TopoDS.Face_s(f) for f in faces if not f.IsSame(face)]
+    if len(other) != 1 or not isinstance(BRep_Tool.Surface_s(other[0]), Geom_Plane):
+        return None
+    return other[0]
 
 
 def _edge_fit(pts: np.ndarray, t: np.ndarray, tol: float) -> tuple:
