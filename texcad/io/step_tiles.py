@@ -13,14 +13,18 @@ with numpy:
   so tiles, edges and vertices meet exactly whatever the decimals;
 * at a tolerance (:meth:`texcad.Textured.export` passes the mesh's, 0.02 mm by
   default) the tiles keep fewer poles (:func:`_reduced`): each edge between two
-  tiles keeps the points its polyline needs (its 3-D curve becomes that polyline and
-  both tiles' border poles move onto it), each tile the rows and columns its edges
-  and its interior need, checked bilinear on every grid point; and fewer decimals
+  tiles, or between a tile and a planar face of the part, keeps the points its
+  least-squares fitted polyline needs (:func:`_edge_fit`; its 3-D curve, and its
+  pcurve on the plane, become that polyline and the tiles' border poles move onto
+  it), each tile the rows and columns its edges need plus the fewest its interior
+  needs with its inner poles least-squares fitted (:func:`_chosen`,
+  :func:`_fitted`), checked bilinear on every grid point; and fewer decimals
   (:func:`decimals_for`: 3 at 0.02 mm; 8 on edges shared with the part's own faces,
   whose pcurves are OCCT's, and on border poles moved onto an edge between its
   points). Issue 28: the STEP against the binary STL in ``docs/benchmarks/step.md``;
-* at a tolerance, a tile's inner poles are least-squares fitted to its grid where that lets it keep fewer rows and columns
-  (:func:`_fitted`);
+* at a tolerance, tiles no tool trimmed that lie side by side with even knot spans
+  (the fine tiles texcad makes under a tool, past its trace) are merged into tiles
+  of at most :data:`MERGED` cells a side (:func:`_merged`, :func:`_even`);
 * the stand-in's ``B_SPLINE_SURFACE_WITH_KNOTS`` is rewritten with the tile's poles
   and knots;
 * OCCT's entities are written without layout whitespace, the same geometry once
@@ -414,7 +418,8 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
             ``COMPLEX_TRIANGULATED_FACE``; the tiles keep every pole then.
         tolerance: mm; when > 0 (and not ``tessellate``) the tiles are written with
             fewer poles and fewer decimals, within ``tolerance`` of every grid point
-            (:func:`decimals_for`, :func:`_reduced`): a STEP at the mesh's tolerance. At 0
+            (:func:`decimals_for`, :func:`_reduced`), whole tiles side by side merged
+            into larger ones (:func:`_merged`): a STEP at the mesh's tolerance. At 0
             every pole is written, with 8 decimals (5e-9 mm; 4 with ``tessellate``).
 
     Returns:
