@@ -61,7 +61,8 @@ def write_step(shape: Any, path: str | os.PathLike, *, name: str = "texcad part"
     that meet there, the same geometry once, entities numbered densely. With
     ``tolerance`` > 0 (what :meth:`texcad.Textured.export` passes: the mesh's
     tolerance) a tile keeps only the rows and columns of poles, and an edge between
-    tiles only the points, needed to stay within ``tolerance`` of every grid point,
+    tiles (or a tile and a planar face) only the points, needed to stay within
+    ``tolerance`` of every grid point (least-squares fitted),
     with 3 decimals inside the tiles at 0.02 mm: a plain AP214 B-rep; its size against the
     binary STL at the same tolerance is in ``docs/benchmarks/step.md``.
 

@@ -13,14 +13,18 @@ with numpy:
   so tiles, edges and vertices meet exactly whatever the decimals;
 * at a tolerance (:meth:`texcad.Textured.export` passes the mesh's, 0.02 mm by
   default) the tiles keep fewer poles (:func:`_reduced`): each edge between two
-  tiles keeps the points its polyline needs (its 3-D curve becomes that polyline and
-  both tiles' border poles move onto it), each tile the rows and columns its edges
-  and its interior need, checked bilinear on every grid point; and fewer decimals
+  tiles, or between a tile and a planar face of the part, keeps the points its
+  least-squares fitted polyline needs (:func:`_edge_fit`; its 3-D curve, and its
+  pcurve on the plane, become that polyline and the tiles' border poles move onto
+  it), each tile the rows and columns its edges need plus the fewest its interior
+  needs with its inner poles least-squares fitted (:func:`_chosen`,
+  :func:`_fitted`), checked bilinear on every grid point; and fewer decimals
   (:func:`decimals_for`: 3 at 0.02 mm; 8 on edges shared with the part's own faces,
   whose pcurves are OCCT's, and on border poles moved onto an edge between its
   points). Issue 28: the STEP against the binary STL in ``docs/benchmarks/step.md``;
-* at a tolerance, a tile's inner poles are least-squares fitted to its grid where that lets it keep fewer rows and columns
-  (:func:`_fitted`);
+* at a tolerance, tiles no tool trimmed that lie side by side with even knot spans
+  (the fine tiles texcad makes under a tool, past its trace) are merged into tiles
+  of at most :data:`MERGED` cells a side (:func:`_merged`, :func:`_even`);
 * the stand-in's ``B_SPLINE_SURFACE_WITH_KNOTS`` is rewritten with the tile's poles
   and knots;
 * OCCT's entities are written without layout whitespace, the same geometry once
@@ -47,7 +51,7 @@ from typing import Any
 
 import numpy as np
 
-from ..brep import surface_grid, tile_grid
+from ..brep import TILE, surface_grid, tile_grid
 
 __all__ = ["tiled_step_text"]
 
@@ -180,6 +184,168 @@ def _whole(face, u: np.ndarray, v: np.ndarray) -> bool:
     return True
 
 
+def _even(t: np.ndarray) -> bool:
+    """Are the knot spans of ``t`` (a tile's parameters, or two neighbours') within a
+    factor 2 of each other? Not so in the sliver tiles texcad makes where a texture's wall meets a
+    face's boundary (spans 1e-3 of a cell): merged into a tile of full cells, OCCT's
+    STEP reader and mesher gave that tile no triangulation (a filleted box's quarter
+    cylinder, tests/brep/test_targets.py)."""
+    d = np.diff(t)
+    return len(d) > 0 and d.min() > 0.5 * d.max()
+
+
+def _neighbours(shape, tiles: list, grids: list) -> tuple[dict, dict]:
+    """For each whole tile (:func:`_whole`), the whole tile past its high-u side
+    (``right``) and past its high-v side (``up``) when that side is one edge they
+    share, in the same parameter space (the same grid: equal knots and border poles)
+    and with the same orientation in the shell; the two tiles' knot spans even
+    together (:func:`_even`)."""
+    from OCP.BRepTools import BRepTools
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp, TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_IndexedMapOfShape
+
+    ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
+    index = TopTools_IndexedMapOfShape()
+    for _, face, _ in tiles:  # one per tile
+        index.Add(face)
+    whole = [g is not None and _even(g[1]) and _even(g[2]) and _whole(f, g[1], g[2]) for (_, f, _), g in zip(tiles, grids)]
+    right, up = {}, {}
+    for a, ((_, face, _), g) in enumerate(zip(tiles, grids)):  # one per tile
+        if not whole[a]:
+            continue
+        ga, u, v = g
+        exp = TopExp_Explorer(face, TopAbs_EDGE)
+        while exp.More():  # one per edge of the tile
+            edge = TopoDS.Edge_s(exp.Current())
+            exp.Next()
+            u0, u1, v0, v1 = BRepTools.UVBounds_s(face, edge)
+            high_u = abs(u0 - u[-1]) + abs(u1 - u[-1]) <= 1e-9 * (1 + abs(u).max()) and abs(v0 - v[0]) + abs(v1 - v[-1]) <= 1e-9 * (1 + abs(v).max())
+            high_v = abs(v0 - v[-1]) + abs(v1 - v[-1]) <= 1e-9 * (1 + abs(v).max()) and abs(u0 - u[0]) + abs(u1 - u[-1]) <= 1e-9 * (1 + abs(u).max())
+            faces = ancestors.FindFromKey(edge)
+            if not (high_u or high_v) or faces.Size() != 2:
+                continue
+            b = [index.FindIndex(f) - 1 for f in faces if not f.IsSame(face)]
+            if len(b) != 1 or b[0] < 0 or not whole[b[0]] or tiles[b[0]][1].Orientation() != face.Orientation():
+                continue
+            gb, ub, vb = grids[b[0]]
+            if high_u and ub[0] == u[-1] and np.array_equal(vb, v) and np.array_equal(gb[:, 0], ga[:, -1]):
+                if _even(np.r_[u, ub[1:]]):
+                    right[a] = b[0]
+            elif high_v and vb[0] == v[-1] and np.array_equal(ub, u) and np.array_equal(gb[0], ga[-1]):
+                if _even(np.r_[v, vb[1:]]):
+                    up[a] = b[0]
+    return right, up
+
+
+def _chains(nxt: dict, size: dict, cells: int) -> list:
+    """Runs of keys along ``nxt`` (key -> the next one), each at most ``cells`` in
+    total ``size``; every key in ``size`` once."""
+    after = {b for a, b in nxt.items() if a in size}
+    out = []
+    for head in size:  # one per key
+        if head in after:
+            continue
+        run, total, at = [head], size[head], nxt.get(head)
+        while at is not None:  # one per key of the chain
+            if total + size[at] > cells:
+                out.append(run)
+                run, total = [], 0
+            run.append(at)
+            total += size[at]
+            at = nxt.get(at)
+        out.append(run)
+    return out
+
+
+def _groups(shape, tiles: list, grids: list, cells: int) -> list:
+    """Rectangles of whole tiles (tile indices) at most ``cells`` grid cells a side:
+    runs along u, then runs of those along v whose tiles are each other's ``up``."""
+    right, up = _neighbours(shape, tiles, grids)
+    whole = {a for a in right} | set(right.values()) | set(up) | set(up.values())
+    strips = _chains(right, {a: len(grids[a][1]) - 1 for a in sorted(whole)}, cells)
+    head = {s[0]: i for i, s in enumerate(strips)}
+    above = {}
+    for i, s in enumerate(strips):  # one per strip
+        j = head.get(up.get(s[0], -1))
+        if j is not None and strips[j] == [up.get(a) for a in s]:
+            above[i] = j
+    runs = _chains(above, {i: len(grids[s[0]][2]) - 1 for i, s in enumerate(strips)}, cells)
+    return [[a for i in run for a in strips[i]] for run in runs]
+
+
+def _merged(shape, cells: int):
+    """``shape`` with each rectangle of whole tiles (:func:`_groups`; the fine tiles
+    texcad makes under a tool, past its trace) written as one tile of at most
+    ``cells`` grid cells a side: one surface through their poles, bounded by their
+    outer edges (kept, with their vertices; the edges between them go). The
+    rectangles keep the tiles' parameter space, so the edges' pcurves stay as they
+    are. Returns the new shape, or ``shape`` when there is nothing to merge."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRepTools import BRepTools_ReShape
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD
+    from OCP.TopExp import TopExp, TopExp_Explorer
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Wire
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_IndexedMapOfShape
+
+    from ..brep import grid_surface
+
+    _, tiles = _tiles_of(shape)
+    grids = _grids(tiles)
+    groups = [g for g in _groups(shape, tiles, grids, cells) if len(g) > 1]
+    if not groups:
+        return shape
+    b, reshape = BRep_Builder(), BRepTools_ReShape()
+    vertices = TopTools_IndexedMapOfShape()
+    ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
+    for group in groups:  # one per merged rectangle
+        U = np.unique(np.concatenate([grids[a][1] for a in group]))
+        V = np.unique(np.concatenate([grids[a][2] for a in group]))
+        G = np.zeros((len(V), len(U), 3))
+        for a in group:  # one per tile of the rectangle
+            g, u, v = grids[a]
+            G[np.ix_(np.searchsorted(V, v), np.searchsorted(U, u))] = g
+        members = TopTools_IndexedMapOfShape()
+        for a in group:  # one per tile of the rectangle
+            members.Add(tiles[a][1])
+        outline = []  # (edge as in its forward tile, that tile)
+        for a in group:  # one per tile of the rectangle
+            fwd = TopoDS.Face_s(tiles[a][1].Oriented(TopAbs_FORWARD))
+            exp = TopExp_Explorer(fwd, TopAbs_EDGE)
+            while exp.More():  # one per edge of the tile
+                e = TopoDS.Edge_s(exp.Current())
+                exp.Next()
+                if sum(members.Contains(f) for f in ancestors.FindFromKey(e)) < 2:
+                    outline.append((e, fwd))
+        start = {}
+        for k, (e, _) in enumerate(outline):  # one per outer edge
+            start.setdefault(vertices.Add(TopExp.FirstVertex_s(e, True)), []).append(k)
+        chain, at = [0], vertices.Add(TopExp.LastVertex_s(outline[0][0], True))
+        while len(chain) < len(outline) and len(start.get(at, ())) == 1:  # one per outer edge
+            chain.append(start[at][0])
+            at = vertices.Add(TopExp.LastVertex_s(outline[chain[-1]][0], True))
+        if len(set(chain)) != len(outline) or any(len(ks) != 1 for ks in start.values()):
+            continue  # not one simple loop: leave these tiles as they are
+        face, wire = TopoDS_Face(), TopoDS_Wire()
+        first = tiles[group[0]][1]
+        b.MakeFace(face, grid_surface(G, U, V), TopLoc_Location(), BRep_Tool.Tolerance_s(first))
+        b.MakeWire(wire)
+        for k in chain:  # one per outer edge
+            e, tile = outline[k]
+            b.Add(wire, e)
+            b.UpdateEdge(e, BRep_Tool.CurveOnSurface_s(e, tile, 0.0, 0.0), face, BRep_Tool.Tolerance_s(e))
+        wire.Closed(True)
+        b.Add(face, wire)
+        reshape.Replace(first, face.Oriented(first.Orientation()))
+        for a in group[1:]:  # one per other tile of the rectangle
+            reshape.Remove(tiles[a][1])
+    return reshape.Apply(shape)
+
+
 def _grids(tiles: list) -> list:
     """Each tile's ``(grid, u, v)``: remembered by texcad (:func:`texcad.brep.tile_grid`)
     or read from OCCT."""
@@ -252,7 +418,8 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
             ``COMPLEX_TRIANGULATED_FACE``; the tiles keep every pole then.
         tolerance: mm; when > 0 (and not ``tessellate``) the tiles are written with
             fewer poles and fewer decimals, within ``tolerance`` of every grid point
-            (:func:`decimals_for`, :func:`_reduced`): a STEP at the mesh's tolerance. At 0
+            (:func:`decimals_for`, :func:`_reduced`), whole tiles side by side merged
+            into larger ones (:func:`_merged`): a STEP at the mesh's tolerance. At 0
             every pole is written, with 8 decimals (5e-9 mm; 4 with ``tessellate``).
 
     Returns:
@@ -266,6 +433,8 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
     if not tiles0:
         return None
     copy = BRepBuilderAPI_Copy(topo, False, False).Shape()  # new topology, the same geometry
+    if not tessellate and tolerance > 0:
+        copy = _merged(copy, MERGED)
     order, tiles = _tiles_of(copy)
     if tessellate and (len(order) != len(order0) or [t[0] for t in tiles] != [t[0] for t in tiles0]):
         return None
@@ -331,7 +500,7 @@ def _sides(shape, tiles: list, grids: list) -> list:
             exp.Next()
             faces = ancestors.FindFromKey(edge)
             shared = faces.Size() == 2 and all(mine.Contains(f) for f in faces) and not BRep_Tool.IsClosed_s(edge, face)
-            tiles_of_edge = tuple(mine.FindIndex(f) - 1 for f in faces) if shared else ()
+            plane = None if shared else _plane_beside(faces, face)
             u0, u1, v0, v1 = BRepTools.UVBounds_s(face, edge)  # the pcurve's box (a hole's circle too)
             eu, ev = 1e-9 * (1 + abs(u).max()), 1e-9 * (1 + abs(v).max())
             iu = np.flatnonzero((u >= u0 - eu) & (u <= u1 + eu))
@@ -344,7 +513,7 @@ def _sides(shape, tiles: list, grids: list) -> list:
             if side is None:  # any other edge (a given outline, a hole's trace): the grid lines around it
                 iu = np.arange(max(np.searchsorted(u, u0 - eu, "right") - 1, 0), min(np.searchsorted(u, u1 + eu), len(u) - 1) + 1)
                 iv = np.arange(max(np.searchsorted(v, v0 - ev, "right") - 1, 0), min(np.searchsorted(v, v1 + ev), len(v) - 1) + 1)
-            sides.append((edge, shared, side, (iu, iv), tiles_of_edge))
+            sides.append((edge, shared, side, (iu, iv), plane))
         out.append(sides)
     return out
 
@@ -363,13 +532,19 @@ def _outer(sides: list, grids: list) -> list:
     return out
 
 
+#: Largest side (grid cells) of a tile :func:`_merged` makes from whole tiles side by
+#: side: texcad's own tiles' (:data:`texcad.brep.TILE`).
+MERGED = TILE
 #: Longest chord (grid cells) :func:`_keep` tries.
 SPAN = 8
 #: Share of the tolerance an edge's polyline may miss its grid points by.
-EDGE_SHARE = 1.0
+EDGE_SHARE = 0.75
+#: Shares of that an edge's chords are first chosen within (:func:`_edge_fit`); the
+#: last, 1.0, is the chords through the grid points.
+EDGE_SHARES = (2.0, 1.5, 1.0)
 #: Shares of the tolerance a tile's rows and columns are first chosen within (each
 #: direction); the bilinear result is then checked against the whole tolerance.
-INNER_SHARES = (2.0, 1.5, 1.0, 0.75, 0.5, 0.25)
+INNER_SHARES = (4.0, 3.0, 2.5, 2.0, 1.5, 1.0, 0.75, 0.5, 0.25)
 #: Rounding steps (``10**-decimals`` mm) within which two neighbouring poles keep 8
 #: decimals (:func:`_thin`).
 THIN = 10.0
@@ -464,7 +639,7 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
                 stay.Add(edge)
     for ti, tile in enumerate(sides):  # one per tile
         g, u, v = grids[ti]
-        for edge, shared, side, (iu, iv), _ in tile:  # one per edge
+        for edge, shared, side, (iu, iv), plane in tile:  # one per edge
             if side is None:  # not a whole tile side: the rows and columns of the cells it crosses stay
                 keep_r[ti][iv], keep_c[ti][iu] = True, True
                 continue
@@ -474,7 +649,8 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
             key = done.FindIndex(edge)
             if key == 0:
                 key = done.Add(edge)
-                plans[key] = _polyline(b, edge, pts, t, tol, decimals) if shared and not stay.Contains(edge) else (None, None)
+                cut = (shared or plane is not None) and not stay.Contains(edge)
+                plans[key] = _polyline(b, edge, pts, t, tol, decimals if shared else 8, plane) if cut else (None, None)
             sel, q = plans[key]
             idx = np.arange(lo, hi + 1) if sel is None else lo + sel
             if axis == 1:
@@ -494,25 +670,55 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
     out = []
     for ti, (g, u, v) in enumerate(grids):  # one per tile
         m, fit = moved[ti], not frozen[ti].any()
-        for frac in INNER_SHARES:  # the interior rows and columns first within these shares of the tolerance
-            rows = np.union1d(np.flatnonzero(keep_r[ti]), _keep(m, v, frac * tol))
-            cols = np.union1d(np.flatnonzero(keep_c[ti]), _keep(m.transpose(1, 0, 2), u, frac * tol))
-            poles = _fitted(m, g, u, v, rows, cols, tol, fit and frac > 1.0)
-            if poles is not None:
-                break
-        else:
-            rows, cols = np.arange(len(v)), np.arange(len(u))
-            poles = m
+        rows, cols, poles = _chosen(m, g, u, v, keep_r[ti], keep_c[ti], tol, fit)
         out.append((poles, u[cols], v[rows], rows, cols, on_line[ti][np.ix_(rows, cols)]))
     return out
 
 
-def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int) -> tuple:
+def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: np.ndarray, need_c: np.ndarray,
+            tol: float, fit: bool) -> tuple:
+    """The rows and columns of poles a tile keeps and its poles (:func:`_fitted`):
+    ``m`` its grid with the border moved onto its edges' polylines, ``g`` the grid
+    (``(R, C, 3)`` mm at the parameters ``v``, ``u``), ``need_r``/``need_c`` (bool)
+    the rows and columns its edges keep. Candidate rows and columns are those whose
+    chords stay within each share of the tolerance (:data:`INNER_SHARES`, each
+    direction on its own, :func:`_keep`); the pair with the fewest poles that holds
+    within ``tol`` on every grid point is taken, then each interior row and column
+    not needed by an edge is dropped in turn if the tile still holds without it
+    (the fitted poles move into the gap: the least-squares fit spreads a bump over
+    wider spans than chords through the points do). All of them when nothing holds."""
+    need_r, need_c = np.flatnonzero(need_r), np.flatnonzero(need_c)
+    cand_r = {f: np.union1d(need_r, _keep(m, v, f * tol)) for f in INNER_SHARES}
+    cand_c = {f: np.union1d(need_c, _keep(m.transpose(1, 0, 2), u, f * tol)) for f in INNER_SHARES}
+    pairs = sorted(((len(cand_r[a]) * len(cand_c[b]), a, b) for a in INNER_SHARES for b in INNER_SHARES))
+    for _, a, b in pairs:  # a few dozen, cheapest first
+        poles = _fitted(m, g, u, v, cand_r[a], cand_c[b], tol, fit)
+        if poles is not None:
+            rows, cols = cand_r[a], cand_c[b]
+            break
+    else:
+        return np.arange(len(v)), np.arange(len(u)), m
+    for axis in (0, 1, 0, 1):  # rows, columns, and again (dropping one frees the other direction)
+        kept, need = (rows, need_r) if axis == 0 else (cols, need_c)
+        for i in kept[1:-1]:  # one per kept interior row or column (24 at most)
+            if i in need:
+                continue
+            fewer = kept[kept != i] if axis == 0 else rows
+            fewer_c = cols if axis == 0 else kept[kept != i]
+            got = _fitted(m, g, u, v, fewer, fewer_c, tol, fit)
+            if got is not None:
+                rows, cols, poles, kept = fewer, fewer_c, got, fewer if axis == 0 else fewer_c
+    return rows, cols, poles
+
+
+def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int, plane=None) -> tuple:
     """The points an edge between two tiles keeps (indices into ``pts``, ``(n, 3)``
     mm at the parameters ``t``) so that its polyline stays within ``tol`` mm of every
     point, and those points as written (``decimals``; its ends as they are: other
     edges meet there); the edge's 3-D curve becomes that polyline. ``(None, None)``
-    when nothing is dropped or the curve is not parametrised as the grid."""
+    when nothing is dropped or the curve is not parametrised as the grid. ``plane``:
+    the part's planar face on the edge's other side (else None: two tiles), whose
+    pcurve of the edge becomes the same polyline in the plane's parameters."""
     from OCP.BRep import BRep_Tool
     from OCP.Geom import Geom_BSplineCurve
     from OCP.TColgp import TColgp_Array1OfPnt
@@ -520,11 +726,10 @@ def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int
     from OCP.TopLoc import TopLoc_Location
     from OCP.gp import gp_Pnt
 
-    sel = _keep(pts[:, None], t, EDGE_SHARE * tol)
+    sel, q = _edge_fit(pts, t, EDGE_SHARE * tol)
     first, last = BRep_Tool.Range_s(edge)
     if len(sel) == len(t) or abs(first - t[0]) > 1e-9 or abs(last - t[-1]) > 1e-9:
         return None, None
-    q = pts[sel].copy()
     q[1:-1] = np.round(q[1:-1], decimals)  # as written: the points between them stay on it
     poles, knots, mult = TColgp_Array1OfPnt(1, len(sel)), TColStd_Array1OfReal(1, len(sel)), TColStd_Array1OfInteger(1, len(sel))
     for n, (x, y, z) in enumerate(q.tolist()):  # one per kept point of the edge
@@ -532,7 +737,61 @@ def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int
         knots.SetValue(n + 1, float(t[sel[n]]))
         mult.SetValue(n + 1, 2 if n in (0, len(sel) - 1) else 1)
     b.UpdateEdge(edge, Geom_BSplineCurve(poles, knots, mult, 1), TopLoc_Location(), BRep_Tool.Tolerance_s(edge))
+    if plane is not None:
+        b.UpdateEdge(edge, _in_plane(plane, q, knots, mult), plane, BRep_Tool.Tolerance_s(edge))
     return sel, q
+
+
+def _in_plane(plane, q: np.ndarray, knots, mult):
+    """The degree-1 2-D curve through the points ``q`` (``(k, 3)`` mm, in the planar
+    face ``plane``) in the plane's parameters, on ``knots`` with ``mult``."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom2d import Geom2d_BSplineCurve
+    from OCP.TColgp import TColgp_Array1OfPnt2d
+    from OCP.gp import gp_Pnt2d
+
+    pos = BRep_Tool.Surface_s(plane).Position()  # with the face's location: the same parameters
+    o, x, y = (np.array(a.Coord()) for a in (pos.Location(), pos.XDirection(), pos.YDirection()))
+    uv = np.stack([(q - o) @ x, (q - o) @ y], axis=-1)
+    poles = TColgp_Array1OfPnt2d(1, len(q))
+    for n, (pu, pv) in enumerate(uv.tolist()):  # one per kept point of the edge
+        poles.SetValue(n + 1, gp_Pnt2d(pu, pv))
+    return Geom2d_BSplineCurve(poles, knots, mult, 1)
+
+
+def _plane_beside(faces, face):
+    """The face other than ``face`` in ``faces`` (an edge's two faces) when it is a
+    plane without a seam on that edge, else None."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom import Geom_Plane
+    from OCP.TopoDS import TopoDS
+
+    if faces.Size() != 2:
+        return None
+    other = [TopoDS.Face_s(f) for f in faces if not f.IsSame(face)]
+    if len(other) != 1 or not isinstance(BRep_Tool.Surface_s(other[0]), Geom_Plane):
+        return None
+    return other[0]
+
+
+def _edge_fit(pts: np.ndarray, t: np.ndarray, tol: float) -> tuple:
+    """The points an edge's polyline keeps (indices into ``pts``, ``(n, 3)`` mm at the
+    parameters ``t``) and where they go (``(k, 3)`` mm): the fewest whose chords hold
+    within a share of ``tol`` (:data:`EDGE_SHARES`, :func:`_keep`) and whose inner
+    points, least-squares fitted to all of ``pts`` (the ends stay), bring the polyline
+    within ``tol`` of every point; the chord points themselves where no fit holds."""
+    for share in EDGE_SHARES:  # the largest share first: the fewest points
+        sel = _keep(pts[:, None], t, share * tol)
+        if len(sel) < 3:
+            if share <= 1.0:
+                return sel, pts[sel].copy()
+            continue
+        h = _hats(t, sel)
+        q = pts[sel].copy()
+        q[1:-1] = np.linalg.lstsq(h[:, 1:-1], pts - h[:, [0, -1]] @ q[[0, -1]], rcond=None)[0]
+        if np.sqrt(((h @ q - pts) ** 2).sum(-1)).max() <= tol:
+            return sel, q
+    return sel, pts[sel].copy()
 
 
 def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np.ndarray, cols: np.ndarray, tol: float,
