@@ -288,6 +288,9 @@ def _table_parts(pitch: float):
     return out
 
 
+CURA_LINES = 0.8  # mm between CuraEngine's plain support lines in the table's area column
+
+
 def table(args) -> None:
     from texcad.printability import overhang_angle, support_free_angle
     from texcad.report.slicer import SLICERS, find_slicer, support_config
@@ -303,11 +306,17 @@ def table(args) -> None:
                 row(f"{name[:22]} {s[:5]} {label}", rep)
             cells += [f"{a.support_mm / 1000:.2f} / {b.support_mm / 1000:.2f}" if a and b else "timed out",
                       f"{a.cpu_seconds:.1f} / {b.cpu_seconds:.1f}" if a and b else "timed out"]
+            if s == "curaengine":  # plain lines: length x spacing = area (support_config)
+                cfg = support_config(s, 45, lines=CURA_LINES)
+                a, b = sliced(bare, args.timeout, slicer=s, build_dir=d, config=cfg), sliced(textured, args.timeout, slicer=s, build_dir=d, config=cfg)
+                cells.append(f"{a.support_mm / 1000:.2f} / {b.support_mm / 1000:.2f}" if a and b else "timed out")
         rows.append(cells)
     headers = ["part", "printed", "triangles"]
     for s in have:
         nm = {"prusaslicer": "PrusaSlicer", "curaengine": "CuraEngine"}[s]
         headers += [f"{nm} support m (bare / textured)", f"{nm} CPU s (bare / textured)"]
+        if s == "curaengine":
+            headers.append(f"CuraEngine support as lines {CURA_LINES:g} mm apart, m (bare / textured)")
     notes = (
         f"Support on everywhere, threshold 45 degrees (the critical angle), 0.4 mm nozzle, each slicer's default layers "
         f"(PrusaSlicer 0.3 mm, CuraEngine 0.2 mm in texcad's definition); texture pitch "
@@ -315,7 +324,10 @@ def table(args) -> None:
         f"{support_free_angle(45):.2f} degrees from the build plate; texcad check counts faces under {overhang_angle(45):.1f} "
         "degrees. Bare = the same part untextured, in the same orientation, tessellated finer than the texture's "
         f"pitch ({BARE_TOLERANCE:g} mm, 0.05 rad: at the default 0.01 mm, 0.1 rad a sphere's facets move its own "
-        "overhang boundary). CPU s = user + system time of the slicer process."
+        "overhang boundary). CPU s = user + system time of the slicer process. CuraEngine's support is a sparse "
+        "zigzag (lines 13.3 mm apart) whose connectors run along the support area's border, so its length also "
+        "grows with how jagged that border is; as plain lines "
+        f"{CURA_LINES:g} mm apart, not joined (`support_config(..., lines=)`), its length times {CURA_LINES:g} mm is its area."
     )
     try:
         from _table import write_table
@@ -326,8 +338,12 @@ def table(args) -> None:
     if args.readme:  # the README's printability figures: the same table, its notes in the docs
         from _table import markdown_table, write_readme_block
 
-        write_readme_block("slicer", markdown_table(headers, rows) + "\n\nSee the notes under "
-                           "[the table in the docs](docs/benchmarks.md).")
+        # CuraEngine's support as its area (plain lines) in place of its sparse zigzag's length: the README stays short
+        zig = headers.index("CuraEngine support m (bare / textured)") if "curaengine" in have else None
+        keep = [i for i in range(len(headers)) if i != zig]
+        short = {f"CuraEngine support as lines {CURA_LINES:g} mm apart, m (bare / textured)": f"CuraEngine support m, {CURA_LINES:g} mm lines (bare / textured)"}
+        write_readme_block("slicer", markdown_table([short.get(headers[i], headers[i]) for i in keep], [[r[i] for i in keep] for r in rows])
+                           + "\n\nSee the notes under [the table in the docs](docs/benchmarks.md).")
 
 
 # -- cost (issue 29): what slicing a textured part costs, STL against texcad's 3MF -----
@@ -344,6 +360,17 @@ def _demo_part(pitch: float, side: float = 100.0):
     plate = plate_base((side, side), 5.0)
     part = texture(plate, plate.faces().sort_by(Axis.Z)[-1], demo_heightmap(pitch, side), brep=False)
     return shape_to_mesh(plate), part.mesh
+
+
+def _cube(side: float):
+    """A ``side`` mm cube as a 12-triangle mesh."""
+    import numpy as np
+
+    from texcad.solid import Mesh
+
+    v = np.array([[x, y, z] for x in (0, side) for y in (0, side) for z in (0, side)], dtype=np.float32)
+    f = [[0, 1, 2], [1, 3, 2], [4, 6, 5], [5, 6, 7], [0, 4, 1], [1, 4, 5], [2, 3, 6], [3, 7, 6], [0, 2, 4], [2, 6, 4], [1, 5, 3], [3, 5, 7]]
+    return Mesh(v, np.array(f, dtype=np.uint32))
 
 
 def cost(args) -> None:
@@ -383,6 +410,8 @@ def cost(args) -> None:
     except ImportError:
         write_table = _write_table
     rows = []
+    cube = sliced(_cube(10.0), args.timeout)  # PrusaSlicer's own start-up and G-code writing: the floor of every row
+    notes += f" PrusaSlicer's floor, a bare 10 mm cube: {cube.cpu_seconds:.2f} CPU-s." if cube else ""
     with tempfile.TemporaryDirectory() as tmp:
         for name, orient, bare, textured, d in parts:
             print(f"  {name}: load {load()}", flush=True)

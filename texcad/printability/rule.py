@@ -26,15 +26,21 @@ per layer, so the slicer supports it exactly when ``s > a``. The allowances:
 
       a_P = h / tan(alpha + 1 deg)                                          (2)
 
-* CuraEngine 4.13 (``support.cpp``, ``computeBasicAndFullOverhang``): the lower
-  layer is grown by ``max_dist_from_lower_layer = (tan(support_angle) - 0.01) h``
-  with ``support_angle = 90 - alpha``, so
+* CuraEngine 4.13 (``src/support.cpp``, ``computeBasicAndFullOverhang``, lines
+  1272-1283 at tag 4.13.0): the lower layer is grown by
+  ``max_dist_from_lower_layer = (tan(support_angle) - 0.01) h`` with
+  ``support_angle = 90 - alpha``, held in whole micrometres (``coord_t``,
+  truncated: 197 um at 45 degrees and 0.2 mm, not 198), so
 
-      a_C = h * (1 / tan(alpha) - 0.01)                                     (3)
+      a_C = floor(h (1 / tan(alpha) - 0.01) / 1 um) 1 um                    (3)
+
+  Both layers are the layer parts' ``print_outline`` (``sliceDataStorage.cpp``
+  65-77), which with *fill outline gaps* on (Cura's default) is the sliced
+  outline itself (``WallsComputation.cpp`` 58-60, 113-120).
 
 Putting (1) into ``s > a`` the layer height cancels: a planar facet gets support from
 PrusaSlicer below ``alpha + 1`` degrees, from CuraEngine below
-``atan(1 / (cot(alpha) - 0.01))`` (``alpha + 0.29`` at 45). :func:`overhang_angle`
+``atan(h / a_C)`` (``alpha + 0.44`` at 45 and 0.2 mm). :func:`overhang_angle`
 is the larger of the two (46 degrees at ``alpha = 45``): the boundary ``texcad check``
 uses, so that a plate tilted by exactly 45 degrees, which both slicers support at
 threshold 45, counts as an overhang there too.
@@ -42,23 +48,31 @@ threshold 45, counts as an overhang there too.
 The limiter's margin
 --------------------
 A texture is not a plane: its slices are polygons with thousands of short edges,
-which the slicers simplify (CuraEngine: ``meshfix_maximum_deviation``, 0.025 mm by
-default) and close (PrusaSlicer: ``slice_closing_radius``, 0.049 mm), and their
-outlines are rounded to the slicers' integer grids (1 nm in PrusaSlicer, 1 um in
-CuraEngine). Each moves a contour by up to a deviation ``e`` (mm) in either
-direction, so a facet is safe in every layer only when ``s + 2 e <= a``:
+which the slicers clean before they compare them, and their outlines are rounded
+to the slicers' integer grids (1 nm in PrusaSlicer, 1 um in CuraEngine). CuraEngine
+simplifies each sliced outline once, with ``Polygons::simplify``'s defaults
+(``slicer.cpp`` 784, ``utils/polygon.h`` 943): it drops a vertex only next to a
+segment under 10 um and only where that moves the outline by at most 5 um. Its
+coarser ``meshfix_maximum_deviation`` (25 um) applies to the walls and skins, not
+to the outlines the overhang test compares (it would reach them with *fill outline
+gaps* off: the outline then is the outer wall's, opened by half a line width).
+PrusaSlicer closes each slice by ``slice_closing_radius`` (0.049 mm), which only
+adds material. So a contour moves by up to ``e`` = 5 um in either direction, and a
+facet is safe in every layer only when ``s + 2 e <= a``:
 
     phi_free = atan(h / (min(a_P, a_C) - 2 e))                               (4)
 
 :func:`support_free_angle` computes (4); :func:`slicer_margin` is ``phi_free -
-alpha``, the degrees the limiters add to the critical angle (it replaces the old
-fixed degree). ``e`` = :data:`SLICE_DEVIATION` (5 um) by default: a choice, not a
-fit. With it the slicer tests' parts (tests/report/test_slicer.py) get no more
-support than their bare parts in either slicer; it is far below CuraEngine's
-simplification bound (25 um), which moves straight runs of a contour much less than
-its bound. Thinner layers need a wider margin, because the deviation does not shrink
-with ``h``. At ``alpha = 45``, ``h = 0.2``: 46.0 degrees for a plane, 47.5 for a
-limited texture (margin 2.5).
+alpha``, the degrees the limiters add to the critical angle. ``e`` =
+:data:`SLICE_DEVIATION`, CuraEngine's bound. With it the slicer tests' parts
+(tests/report/test_slicer.py) get no more support than their bare parts in either
+slicer. (The lever recipe's ball once seemed to get 40 mm more in CuraEngine:
+7.06 m of its sparse zigzag against 7.02 m bare. Laid as plain lines, whose
+length measures the area, it gets less, 12.43 m against 12.78 m, less on every
+layer: the zigzag's connectors run along the support's border, which the texture
+makes more jagged; ``texcad.report.slicer.support_config``.) Thinner layers need a
+wider margin, because the deviation does not shrink with ``h``. At ``alpha = 45``,
+``h = 0.2``: 46.0 degrees for a plane, 47.5 for a limited texture (margin 2.5).
 
 All angles in degrees, lengths in mm.
 """
@@ -83,8 +97,9 @@ __all__ = [
 #: Layer height in mm the margin is computed for unless told otherwise (PrusaSlicer's
 #: and CuraEngine's default for a 0.4 mm nozzle).
 DEFAULT_LAYER_HEIGHT = 0.2
-#: mm: how far a slicer may move a texture's contour in one layer (outline
-#: simplification, closing, rounding to its grid), the ``e`` of eq. (4).
+#: mm: how far a slicer may move a texture's contour in one layer before comparing it
+#: with the next, the ``e`` of eq. (4): CuraEngine 4.13's simplification of the
+#: sliced outlines (``Polygons::simplify`` defaults, 5 um).
 SLICE_DEVIATION = 0.005
 #: The slicers whose rules are modelled (:func:`allowance`).
 SLICERS = ("prusaslicer", "curaengine")
@@ -123,8 +138,8 @@ def allowance(slicer: str, critical_angle: float, layer_height: float = DEFAULT_
     a, h = _angle(critical_angle), _layer(layer_height)
     if slicer == "prusaslicer":
         return h / np.tan(np.radians(min(a + 1.0, 89.999)))
-    if slicer == "curaengine":
-        return max(h * (1.0 / np.tan(np.radians(a)) - 0.01), 0.0)
+    if slicer == "curaengine":  # coord_t: whole micrometres, truncated
+        return max(np.floor((np.tan(np.radians(90.0 - a)) - 0.01) * round(h * 1000.0)) / 1000.0, 0.0)
     raise ParameterError(f"slicer must be one of {', '.join(SLICERS)}, got {slicer!r}")
 
 

@@ -71,14 +71,30 @@ def find_slicer(slicer: str = "prusaslicer") -> str | None:
     return None
 
 
-def support_config(slicer: str = "prusaslicer", threshold: float = 45.0) -> dict:
+def support_config(slicer: str = "prusaslicer", threshold: float = 45.0, *, lines: float | None = None) -> dict:
     """Settings for support on everywhere with the overhang threshold at ``threshold``
     degrees from the build plate (texcad's critical angle): PrusaSlicer's
     ``support_material_threshold`` is that angle, CuraEngine's ``support_angle`` is
-    measured from the vertical, ``90 - threshold``."""
+    measured from the vertical, ``90 - threshold``.
+
+    ``lines``: CuraEngine's support as plain parallel lines ``lines`` mm apart, not
+    joined along the support area's border (``support_pattern = lines``,
+    ``zig_zaggify_support = false``), so that the support's length times ``lines``
+    is its area. At its sparse zigzag (13.3 mm in :data:`CURA_DEFINITION`) the
+    connectors run along the border (CuraEngine 4.13
+    ``src/infill/ZigzagConnectorProcessor.h``), and a smaller support area with a
+    more jagged border can take a longer path. PrusaSlicer has no such pattern:
+    ``lines`` sets its ``support_material_spacing`` (2.5 mm by default)."""
     if _which(slicer) == "prusaslicer":
-        return {"support-material": True, "support-material-threshold": threshold}
-    return {"support_enable": True, "support_type": "everywhere", "support_angle": 90.0 - float(threshold)}
+        cfg = {"support-material": True, "support-material-threshold": threshold}
+        if lines is not None:
+            cfg["support-material-spacing"] = float(lines)
+        return cfg
+    cfg = {"support_enable": True, "support_type": "everywhere", "support_angle": 90.0 - float(threshold)}
+    if lines is not None:
+        cfg.update(support_pattern="lines", zig_zaggify_support=False, support_line_distance=float(lines),
+                   support_initial_layer_line_distance=float(lines))
+    return cfg
 
 
 @dataclass
