@@ -64,6 +64,9 @@ FLOOR_CURVED = 0.01
 SMOOTH_ANGLE = 12.0
 #: mm: how far outside the face an engraving's cutter starts (beyond the tessellation's chord error).
 CUT_ABOVE = 0.05
+#: mm: near a crease between the patch's faces the cutter's top clears both faces'
+#: tangent planes there by at least this (:func:`_cut_above`).
+CUT_OVER_CREASE = 0.5 * CUT_ABOVE
 #: mm: the lean mesh keeps the face itself (chord error) within this, so the relief
 #: never dips under the part's own tessellation where it lies flat on the face.
 BASE_TOLERANCE = 0.005
@@ -626,12 +629,13 @@ def limit_patch(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> "tuple[
 # ------------------------------------------------------------------------------------------
 # The bodies: slab and cutters, lean where that saves triangles
 # ------------------------------------------------------------------------------------------
-def patch_bodies(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> PatchBodies:
+def patch_bodies(g: PatchGrid, surf: PatchSurface, opts: PatchOptions, faces: tuple = ()) -> PatchBodies:
     """The bodies that put the texture on: a slab to add (raised, centred) and a
     cutter to subtract (engraved, centred). Their textured side is lean
     (:func:`texcad.solid.lean_grid`) within ``tolerance`` mm of the grid where that
     saves triangles; their other side, inside the part or outside it, is always lean
-    (within :data:`BOTTOM_TOLERANCE`), with the same outline."""
+    (within :data:`BOTTOM_TOLERANCE`), with the same outline. ``faces``: the patch's
+    OCCT faces (the cutter's top rises over the creases between them)."""
     grid, cells = g.grid, g.cells
     P, N = grid.points, grid.normals
     s, c, fc = surf.surface, surf.c, surf.floor_c
@@ -653,12 +657,75 @@ def patch_bodies(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> PatchB
         slab = body(s, -surf.depth, True, inside)
     else:
         cut_bottom = np.minimum(s, -fc) - (fc if c < 1 else 0.0)
-        above = np.full(s.shape, CUT_ABOVE)
+        above = _cut_above(grid, faces)
         cutter = body(cut_bottom, above, False, outside)
         low = body(np.minimum(-c * surf.env, -fc) - 2 * fc, above, False, outside)
         if c < 1:
             slab = body(np.where(surf.band, -surf.sink, s), np.minimum(-surf.depth, cut_bottom - 0.05), True, inside)
     return PatchBodies(slab, cutter, low, err, len(tex_tri))
+
+
+def _cut_above(grid: Any, faces: tuple) -> np.ndarray:
+    """mm ``(R, C)``: how far out along the grid's normals the cutter's top lies:
+    :data:`CUT_ABOVE`, more near a crease between the patch ``faces`` (two fillets
+    at a mitre, :func:`texcad.brep.bands.creases`): the normals are smoothed over
+    it, so there the grid's segments (rows, columns, diagonals) at ``CUT_ABOVE`` dip
+    under the ridge; their ends rise until each segment clears the roof of both
+    faces' tangent planes at the crease point nearest its middle by
+    :data:`CUT_OVER_CREASE` mm."""
+    from scipy.spatial import cKDTree
+
+    from ..brep.bands import creases
+
+    P, N = grid.points, grid.normals
+    above = np.full(P.shape[:2], CUT_ABOVE)
+    if len(faces) < 2:
+        return above
+    a, b = _grid_segments(grid.valid, grid.wrap_y)
+    length = np.linalg.norm(P[b] - P[a], axis=1)
+    q, n1, n2 = creases(list(faces), 0.25 * float(np.median(length)) if len(length) else 1.0)
+    if not len(q):
+        return above
+    dist, near = cKDTree(q).query(0.5 * (P[a] + P[b]))
+    on = dist <= length  # the segments across or next to a crease
+    a, b, q, n1, n2 = (a[0][on], a[1][on]), (b[0][on], b[1][on]), q[near[on]], n1[near[on]], n2[near[on]]
+    slope = np.maximum(np.minimum(np.maximum((N[a] * n1).sum(1), (N[a] * n2).sum(1)),
+                                  np.maximum((N[b] * n1).sum(1), (N[b] * n2).sum(1))), 0.3)  # clearance per mm of rise
+    for _ in range(8):  # rounds: raise both ends until every segment clears the roof
+        low = _roof_clearance(P[a] + above[a][:, None] * N[a] - q, P[b] + above[b][:, None] * N[b] - q, n1, n2)
+        short = low < CUT_OVER_CREASE
+        if not short.any():
+            break
+        lift = np.where(short, (CUT_OVER_CREASE - low) / slope + 0.1 * CUT_OVER_CREASE, 0.0)
+        np.maximum.at(above, a, above[a] + lift)
+        np.maximum.at(above, b, above[b] + lift)
+    return above
+
+
+def _grid_segments(valid: np.ndarray, wrap_y: bool) -> tuple:
+    """The grid's segments between valid points along the rows, the columns and both
+    diagonals of the cells: ``(a, b)``, each ``(rows, cols)`` index arrays."""
+    R, C = valid.shape
+    r, c = np.nonzero(valid)
+    ends = []
+    for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):  # per direction
+        r2, c2 = (r + dr) % R if wrap_y else r + dr, c + dc
+        ok = (r2 < R) & (c2 >= 0) & (c2 < C)
+        ok[ok] = valid[r2[ok], c2[ok]]
+        ends.append((r[ok], c[ok], r2[ok], c2[ok]))
+    ra, ca, rb, cb = (np.concatenate(x) for x in zip(*ends))
+    return (ra, ca), (rb, cb)
+
+
+def _roof_clearance(A: np.ndarray, B: np.ndarray, n1: np.ndarray, n2: np.ndarray) -> np.ndarray:
+    """``(S,)`` mm: the least height of the segments ``A -> B`` (``(S, 3)`` mm, from a
+    point of a crease) over the roof of the planes through it with unit normals
+    ``n1``, ``n2``: ``min_t max(n1 . P(t), n2 . P(t))`` (at an end or where they meet)."""
+    a1, b1, a2, b2 = (A * n1).sum(1), (B * n1).sum(1), (A * n2).sum(1), (B * n2).sum(1)
+    den = (a1 - b1) - (a2 - b2)
+    t = np.clip(np.divide(a1 - a2, den, out=np.zeros_like(den), where=np.abs(den) > 1e-18), 0.0, 1.0)
+    meet = np.maximum(a1 + t * (b1 - a1), a2 + t * (b2 - a2))
+    return np.minimum(np.minimum(np.maximum(a1, a2), np.maximum(b1, b2)), meet)
 
 
 def _lean_relief(g: PatchGrid, surf: PatchSurface, tol: float, opts: PatchOptions):
@@ -870,7 +937,7 @@ def patch_relief(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> Pat
     faded = (g.fade < 1.0) & (g.H > 1e-6) & keep & (g.d > g.d_floor)
     dist = measure_distortion(grid, keep & (g.fade > 0))
     dist = type(dist)(dist.x, dist.y, float(faded.sum() / max(keep.sum(), 1)))
-    bodies = patch_bodies(g, surf, opts)
+    bodies = patch_bodies(g, surf, opts, tuple(pm.faces[i].face for i in patch) if opts.mode != "raised" else ())
     s_top = surf.surface
     info = {
         "faces": [int(i) for i in patch],
