@@ -635,7 +635,8 @@ def patch_bodies(g: PatchGrid, surf: PatchSurface, opts: PatchOptions, faces: tu
     (:func:`texcad.solid.lean_grid`) within ``tolerance`` mm of the grid where that
     saves triangles; their other side, inside the part or outside it, is always lean
     (within :data:`BOTTOM_TOLERANCE`), with the same outline. ``faces``: the patch's
-    OCCT faces (the cutter's top rises over the creases between them)."""
+    :class:`texcad.brep.FaceMesh` es (the cutter's top rises over the creases between
+    them and over their facets, :func:`_cut_above`)."""
     grid, cells = g.grid, g.cells
     P, N = grid.points, grid.normals
     s, c, fc = surf.surface, surf.c, surf.floor_c
@@ -667,25 +668,27 @@ def patch_bodies(g: PatchGrid, surf: PatchSurface, opts: PatchOptions, faces: tu
 
 def _cut_above(grid: Any, faces: tuple) -> np.ndarray:
     """mm ``(R, C)``: how far out along the grid's normals the cutter's top lies:
-    :data:`CUT_ABOVE`, more near a crease between the patch ``faces`` (two fillets
-    at a mitre, :func:`texcad.brep.bands.creases`): the normals are smoothed over
-    it, so there the grid's segments (rows, columns, diagonals) at ``CUT_ABOVE`` dip
-    under the ridge; their ends rise until each segment clears the roof of both
-    faces' tangent planes at the crease point nearest its middle by
-    :data:`CUT_OVER_CREASE` mm."""
+    :data:`CUT_ABOVE`, more near a crease between the patch ``faces`` (FaceMeshes;
+    two fillets at a mitre, :func:`texcad.brep.bands.creases`): the normals are
+    smoothed over it, so there the grid's segments (rows, columns, diagonals) at
+    ``CUT_ABOVE`` dip under the ridge; their ends rise until each segment clears the
+    roof of both faces' tangent planes at the crease point nearest its middle by
+    :data:`CUT_OVER_CREASE` mm. Then the same over the faces' own facets
+    (:func:`_over_facets`: long cells on a tight curve, normals smoothed along a
+    facet strip)."""
     from scipy.spatial import cKDTree
 
     from ..brep.bands import creases
 
     P, N = grid.points, grid.normals
     above = np.full(P.shape[:2], CUT_ABOVE)
-    if len(faces) < 2:
-        return above
     a, b = _grid_segments(grid.valid, grid.wrap_y)
-    length = np.linalg.norm(P[b] - P[a], axis=1)
-    q, n1, n2 = creases(list(faces), 0.25 * float(np.median(length)) if len(length) else 1.0)
-    if not len(q):
+    if not len(faces) or not len(a[0]):
         return above
+    length = np.linalg.norm(P[b] - P[a], axis=1)
+    q, n1, n2 = creases([fm.face for fm in faces], 0.25 * float(np.median(length))) if len(faces) > 1 else ((),) * 3
+    if not len(q):
+        return _over_facets(above, P, N, a, b, faces)
     dist, near = cKDTree(q).query(0.5 * (P[a] + P[b]))
     on = dist <= length  # the segments across or next to a crease
     a, b, q, n1, n2 = (a[0][on], a[1][on]), (b[0][on], b[1][on]), q[near[on]], n1[near[on]], n2[near[on]]
@@ -699,7 +702,58 @@ def _cut_above(grid: Any, faces: tuple) -> np.ndarray:
         lift = np.where(short, (CUT_OVER_CREASE - low) / slope + 0.1 * CUT_OVER_CREASE, 0.0)
         np.maximum.at(above, a, above[a] + lift)
         np.maximum.at(above, b, above[b] + lift)
+    return _over_facets(above, P, N, *_grid_segments(grid.valid, grid.wrap_y), faces)
+
+
+def _over_facets(above: np.ndarray, P: np.ndarray, N: np.ndarray, a: tuple, b: tuple, faces: tuple) -> np.ndarray:
+    """``above`` (mm) raised until the grid's segments ``a -> b`` at ``P + above N``
+    clear the faces' facets (the mesh the cutter is subtracted from) by
+    :data:`CUT_OVER_CREASE` mm at their quarter points: the clearance of a point is
+    its largest height over the planes of the 8 facets nearest it that face its
+    way (exact where the part is locally convex, where a chord can dip into it)."""
+    from scipy.spatial import cKDTree
+
+    T = np.concatenate([fm.points[fm.tris] for fm in faces]).astype(np.float64)
+    n = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-18)
+    seg = np.linalg.norm(P[b] - P[a], axis=1)
+    c, owner = _facet_samples(T, float(np.median(seg)))
+    tree, k = cKDTree(c), min(8, len(c))
+    n = n[owner]
+    for _ in range(6):  # rounds: raise both ends until every segment clears the facets
+        A, B = P[a] + above[a][:, None] * N[a], P[b] + above[b][:, None] * N[b]
+        low = np.full(len(A), np.inf)
+        for t in (0.25, 0.5, 0.75):  # a few points per segment
+            X = A + t * (B - A)
+            near = tree.query(X, k=k)[1].reshape(len(X), -1)
+            h = np.einsum("skd,skd->sk", X[:, None] - c[near], n[near])
+            facing = np.einsum("skd,sd->sk", n[near], N[a] + N[b]) > 0.5
+            low = np.minimum(low, np.where(facing, h, -np.inf).max(axis=1))
+        short = np.isfinite(low) & (low < CUT_OVER_CREASE)
+        if not short.any():
+            break
+        lift = (CUT_OVER_CREASE - low[short]) / 0.5 + 0.1 * CUT_OVER_CREASE
+        np.maximum.at(above, (a[0][short], a[1][short]), above[a][short] + lift)
+        np.maximum.at(above, (b[0][short], b[1][short]), above[b][short] + lift)
     return above
+
+
+def _facet_samples(T: np.ndarray, spacing: float) -> tuple:
+    """Points on the triangles ``T`` ``(M, 3, 3)`` (mm) at most about ``spacing`` mm
+    apart (the centroids of pieces split at their longest edge's midpoint until no
+    edge is longer), and the triangle each lies on."""
+    owner = np.arange(len(T))
+    for _ in range(64):  # rounds of halving (a long strip facet needs a few)
+        L = np.linalg.norm(T - np.roll(T, -1, axis=1), axis=2)  # edges 0-1, 1-2, 2-0
+        long = L.max(axis=1) > spacing
+        if not long.any():
+            break
+        e = L[long].argmax(axis=1)
+        Tl = np.take_along_axis(T[long], np.stack([e, (e + 1) % 3, (e + 2) % 3], 1)[..., None], axis=1)
+        m = 0.5 * (Tl[:, 0] + Tl[:, 1])
+        halves = np.concatenate([np.stack([Tl[:, 0], m, Tl[:, 2]], 1), np.stack([m, Tl[:, 1], Tl[:, 2]], 1)])
+        T, owner = np.concatenate([T[~long], halves]), np.concatenate([owner[~long], np.tile(owner[long], 2)])
+    return T.mean(axis=1), owner
 
 
 def _grid_segments(valid: np.ndarray, wrap_y: bool) -> tuple:
@@ -937,7 +991,7 @@ def patch_relief(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> Pat
     faded = (g.fade < 1.0) & (g.H > 1e-6) & keep & (g.d > g.d_floor)
     dist = measure_distortion(grid, keep & (g.fade > 0))
     dist = type(dist)(dist.x, dist.y, float(faded.sum() / max(keep.sum(), 1)))
-    bodies = patch_bodies(g, surf, opts, tuple(pm.faces[i].face for i in patch) if opts.mode != "raised" else ())
+    bodies = patch_bodies(g, surf, opts, tuple(pm.faces[i] for i in patch) if opts.mode != "raised" else ())
     s_top = surf.surface
     info = {
         "faces": [int(i) for i in patch],
