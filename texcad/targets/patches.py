@@ -682,13 +682,13 @@ def _cut_above(grid: Any, faces: tuple) -> np.ndarray:
 
     P, N = grid.points, grid.normals
     above = np.full(P.shape[:2], CUT_ABOVE)
-    a, b = _grid_segments(grid.valid, grid.wrap_y)
+    segs = a, b = _grid_segments(grid.valid, grid.wrap_y)
     if not len(faces) or not len(a[0]):
         return above
     length = np.linalg.norm(P[b] - P[a], axis=1)
     q, n1, n2 = creases([fm.face for fm in faces], 0.25 * float(np.median(length))) if len(faces) > 1 else ((),) * 3
     if not len(q):
-        return _over_facets(above, P, N, a, b, faces)
+        return _over_facets(above, P, N, *segs, faces)
     dist, near = cKDTree(q).query(0.5 * (P[a] + P[b]))
     on = dist <= length  # the segments across or next to a crease
     a, b, q, n1, n2 = (a[0][on], a[1][on]), (b[0][on], b[1][on]), q[near[on]], n1[near[on]], n2[near[on]]
@@ -702,7 +702,7 @@ def _cut_above(grid: Any, faces: tuple) -> np.ndarray:
         lift = np.where(short, (CUT_OVER_CREASE - low) / slope + 0.1 * CUT_OVER_CREASE, 0.0)
         np.maximum.at(above, a, above[a] + lift)
         np.maximum.at(above, b, above[b] + lift)
-    return _over_facets(above, P, N, *_grid_segments(grid.valid, grid.wrap_y), faces)
+    return _over_facets(above, P, N, *segs, faces)
 
 
 def _over_facets(above: np.ndarray, P: np.ndarray, N: np.ndarray, a: tuple, b: tuple, faces: tuple) -> np.ndarray:
