@@ -44,7 +44,7 @@ import numpy as np
 from .occt import explore, to_topods
 from .solids import TILE, TOLERANCE, _band_fine, _replace_faces, grid_surface, tiled_grid_faces
 
-__all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "PATCH_TILE"]
+__all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "PATCH_TILE", "creases"]
 
 #: Tiles of a patch are at most this many cells a side: OCCT's plain Gauss integration
 #: (build123d's ``.volume``) of the B-rep is within 0.08 % of the mesh at 4 cells, up to
@@ -162,6 +162,9 @@ def _creases(faces: list, step: float) -> tuple:
     if not out:
         return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3))
     return tuple(np.concatenate(a) for a in zip(*out))
+
+
+creases = _creases  # public: the engraving cutters of texcad.targets.patches rise over these too
 
 
 def _edge_normals(e, c, owners: list, ts: np.ndarray) -> tuple:

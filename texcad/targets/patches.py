@@ -64,6 +64,9 @@ FLOOR_CURVED = 0.01
 SMOOTH_ANGLE = 12.0
 #: mm: how far outside the face an engraving's cutter starts (beyond the tessellation's chord error).
 CUT_ABOVE = 0.05
+#: mm: near a crease between the patch's faces the cutter's top clears both faces'
+#: tangent planes there by at least this (:func:`_cut_above`).
+CUT_OVER_CREASE = 0.5 * CUT_ABOVE
 #: mm: the lean mesh keeps the face itself (chord error) within this, so the relief
 #: never dips under the part's own tessellation where it lies flat on the face.
 BASE_TOLERANCE = 0.005
@@ -630,12 +633,14 @@ def limit_patch(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> "tuple[
 # ------------------------------------------------------------------------------------------
 # The bodies: slab and cutters, lean where that saves triangles
 # ------------------------------------------------------------------------------------------
-def patch_bodies(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> PatchBodies:
+def patch_bodies(g: PatchGrid, surf: PatchSurface, opts: PatchOptions, faces: tuple = ()) -> PatchBodies:
     """The bodies that put the texture on: a slab to add (raised, centred) and a
     cutter to subtract (engraved, centred). Their textured side is lean
     (:func:`texcad.solid.lean_grid`) within ``tolerance`` mm of the grid where that
     saves triangles; their other side, inside the part or outside it, is always lean
-    (within :data:`BOTTOM_TOLERANCE`), with the same outline."""
+    (within :data:`BOTTOM_TOLERANCE`), with the same outline. ``faces``: the patch's
+    :class:`texcad.brep.FaceMesh` es (the cutter's top rises over the creases between
+    them and over their facets, :func:`_cut_above`)."""
     grid, cells = g.grid, g.cells
     P, N = grid.points, grid.normals
     s, c, fc = surf.surface, surf.c, surf.floor_c
@@ -657,12 +662,128 @@ def patch_bodies(g: PatchGrid, surf: PatchSurface, opts: PatchOptions) -> PatchB
         slab = body(s, -surf.depth, True, inside)
     else:
         cut_bottom = np.minimum(s, -fc) - (fc if c < 1 else 0.0)
-        above = np.full(s.shape, CUT_ABOVE)
+        above = _cut_above(grid, faces)
         cutter = body(cut_bottom, above, False, outside)
         low = body(np.minimum(-c * surf.env, -fc) - 2 * fc, above, False, outside)
         if c < 1:
             slab = body(np.where(surf.band, -surf.sink, s), np.minimum(-surf.depth, cut_bottom - 0.05), True, inside)
     return PatchBodies(slab, cutter, low, err, len(tex_tri))
+
+
+def _cut_above(grid: Any, faces: tuple) -> np.ndarray:
+    """mm ``(R, C)``: how far out along the grid's normals the cutter's top lies:
+    :data:`CUT_ABOVE`, more near a crease between the patch ``faces`` (FaceMeshes;
+    two fillets at a mitre, :func:`texcad.brep.bands.creases`): the normals are
+    smoothed over it, so there the grid's segments (rows, columns, diagonals) at
+    ``CUT_ABOVE`` dip under the ridge; their ends rise until each segment clears the
+    roof of both faces' tangent planes at the crease point nearest its middle by
+    :data:`CUT_OVER_CREASE` mm. Then the same over the faces' own facets
+    (:func:`_over_facets`: long cells on a tight curve, normals smoothed along a
+    facet strip)."""
+    from scipy.spatial import cKDTree
+
+    from ..brep.bands import creases
+
+    P, N = grid.points, grid.normals
+    above = np.full(P.shape[:2], CUT_ABOVE)
+    segs = a, b = _grid_segments(grid.valid, grid.wrap_y)
+    if not len(faces) or not len(a[0]):
+        return above
+    length = np.linalg.norm(P[b] - P[a], axis=1)
+    q, n1, n2 = creases([fm.face for fm in faces], 0.25 * float(np.median(length))) if len(faces) > 1 else ((),) * 3
+    if not len(q):
+        return _over_facets(above, P, N, *segs, faces)
+    dist, near = cKDTree(q).query(0.5 * (P[a] + P[b]))
+    on = dist <= length  # the segments across or next to a crease
+    a, b, q, n1, n2 = (a[0][on], a[1][on]), (b[0][on], b[1][on]), q[near[on]], n1[near[on]], n2[near[on]]
+    slope = np.maximum(np.minimum(np.maximum((N[a] * n1).sum(1), (N[a] * n2).sum(1)),
+                                  np.maximum((N[b] * n1).sum(1), (N[b] * n2).sum(1))), 0.3)  # clearance per mm of rise
+    for _ in range(8):  # rounds: raise both ends until every segment clears the roof
+        low = _roof_clearance(P[a] + above[a][:, None] * N[a] - q, P[b] + above[b][:, None] * N[b] - q, n1, n2)
+        short = low < CUT_OVER_CREASE
+        if not short.any():
+            break
+        lift = np.where(short, (CUT_OVER_CREASE - low) / slope + 0.1 * CUT_OVER_CREASE, 0.0)
+        np.maximum.at(above, a, above[a] + lift)
+        np.maximum.at(above, b, above[b] + lift)
+    return _over_facets(above, P, N, *segs, faces)
+
+
+def _over_facets(above: np.ndarray, P: np.ndarray, N: np.ndarray, a: tuple, b: tuple, faces: tuple) -> np.ndarray:
+    """``above`` (mm) raised until the grid's segments ``a -> b`` at ``P + above N``
+    clear the faces' facets (the mesh the cutter is subtracted from) by
+    :data:`CUT_OVER_CREASE` mm at their quarter points: the clearance of a point is
+    its largest height over the planes of the 8 facets nearest it that face its
+    way (exact where the part is locally convex, where a chord can dip into it)."""
+    from scipy.spatial import cKDTree
+
+    T = np.concatenate([fm.points[fm.tris] for fm in faces]).astype(np.float64)
+    n = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-18)
+    seg = np.linalg.norm(P[b] - P[a], axis=1)
+    c, owner = _facet_samples(T, float(np.median(seg)))
+    tree, k = cKDTree(c), min(8, len(c))
+    n = n[owner]
+    for _ in range(6):  # rounds: raise both ends until every segment clears the facets
+        A, B = P[a] + above[a][:, None] * N[a], P[b] + above[b][:, None] * N[b]
+        low = np.full(len(A), np.inf)
+        for t in (0.25, 0.5, 0.75):  # a few points per segment
+            X = A + t * (B - A)
+            near = tree.query(X, k=k)[1].reshape(len(X), -1)
+            h = np.einsum("skd,skd->sk", X[:, None] - c[near], n[near])
+            facing = np.einsum("skd,sd->sk", n[near], N[a] + N[b]) > 0.5
+            low = np.minimum(low, np.where(facing, h, -np.inf).max(axis=1))
+        short = np.isfinite(low) & (low < CUT_OVER_CREASE)
+        if not short.any():
+            break
+        lift = (CUT_OVER_CREASE - low[short]) / 0.5 + 0.1 * CUT_OVER_CREASE
+        np.maximum.at(above, (a[0][short], a[1][short]), above[a][short] + lift)
+        np.maximum.at(above, (b[0][short], b[1][short]), above[b][short] + lift)
+    return above
+
+
+def _facet_samples(T: np.ndarray, spacing: float) -> tuple:
+    """Points on the triangles ``T`` ``(M, 3, 3)`` (mm) at most about ``spacing`` mm
+    apart (the centroids of pieces split at their longest edge's midpoint until no
+    edge is longer), and the triangle each lies on."""
+    owner = np.arange(len(T))
+    for _ in range(64):  # rounds of halving (a long strip facet needs a few)
+        L = np.linalg.norm(T - np.roll(T, -1, axis=1), axis=2)  # edges 0-1, 1-2, 2-0
+        long = L.max(axis=1) > spacing
+        if not long.any():
+            break
+        e = L[long].argmax(axis=1)
+        Tl = np.take_along_axis(T[long], np.stack([e, (e + 1) % 3, (e + 2) % 3], 1)[..., None], axis=1)
+        m = 0.5 * (Tl[:, 0] + Tl[:, 1])
+        halves = np.concatenate([np.stack([Tl[:, 0], m, Tl[:, 2]], 1), np.stack([m, Tl[:, 1], Tl[:, 2]], 1)])
+        T, owner = np.concatenate([T[~long], halves]), np.concatenate([owner[~long], np.tile(owner[long], 2)])
+    return T.mean(axis=1), owner
+
+
+def _grid_segments(valid: np.ndarray, wrap_y: bool) -> tuple:
+    """The grid's segments between valid points along the rows, the columns and both
+    diagonals of the cells: ``(a, b)``, each ``(rows, cols)`` index arrays."""
+    R, C = valid.shape
+    r, c = np.nonzero(valid)
+    ends = []
+    for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):  # per direction
+        r2, c2 = (r + dr) % R if wrap_y else r + dr, c + dc
+        ok = (r2 < R) & (c2 >= 0) & (c2 < C)
+        ok[ok] = valid[r2[ok], c2[ok]]
+        ends.append((r[ok], c[ok], r2[ok], c2[ok]))
+    ra, ca, rb, cb = (np.concatenate(x) for x in zip(*ends))
+    return (ra, ca), (rb, cb)
+
+
+def _roof_clearance(A: np.ndarray, B: np.ndarray, n1: np.ndarray, n2: np.ndarray) -> np.ndarray:
+    """``(S,)`` mm: the least height of the segments ``A -> B`` (``(S, 3)`` mm, from a
+    point of a crease) over the roof of the planes through it with unit normals
+    ``n1``, ``n2``: ``min_t max(n1 . P(t), n2 . P(t))`` (at an end or where they meet)."""
+    a1, b1, a2, b2 = (A * n1).sum(1), (B * n1).sum(1), (A * n2).sum(1), (B * n2).sum(1)
+    den = (a1 - b1) - (a2 - b2)
+    t = np.clip(np.divide(a1 - a2, den, out=np.zeros_like(den), where=np.abs(den) > 1e-18), 0.0, 1.0)
+    meet = np.maximum(a1 + t * (b1 - a1), a2 + t * (b2 - a2))
+    return np.minimum(np.minimum(np.maximum(a1, a2), np.maximum(b1, b2)), meet)
 
 
 def _lean_relief(g: PatchGrid, surf: PatchSurface, tol: float, opts: PatchOptions):
@@ -896,7 +1017,7 @@ def patch_relief(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> Pat
     faded = (g.fade < 1.0) & (g.H > 1e-6) & keep & (g.d > g.d_floor)
     dist = measure_distortion(grid, keep & (g.fade > 0))
     dist = type(dist)(dist.x, dist.y, float(faded.sum() / max(keep.sum(), 1)))
-    bodies = patch_bodies(g, surf, opts)
+    bodies = patch_bodies(g, surf, opts, tuple(pm.faces[i] for i in patch) if opts.mode != "raised" else ())
     s_top = surf.surface
     info = {
         "faces": [int(i) for i in patch],
