@@ -42,7 +42,8 @@ from typing import Any
 import numpy as np
 
 from .occt import explore, to_topods
-from .solids import TILE, TOLERANCE, _band_fine, _replace_faces, grid_surface, tiled_grid_faces
+from .gprop import polyline_pcurve, run_knots
+from .solids import TILE, TOLERANCE, _band_fine, _replace_faces, _tile_bounds, grid_surface, tiled_grid_faces
 
 __all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "PATCH_TILE"]
 
@@ -321,10 +322,11 @@ class _Walls:
     ruling edges at the runs' ends and their vertices with the next runs. ``top``:
     ``(R, C, 3)`` the tiles' grid (mm); ``other``: the strips' other side."""
 
-    def __init__(self, top: np.ndarray, other: np.ndarray, period: int | None):
+    def __init__(self, top: np.ndarray, other: np.ndarray, period: int | None, knots: tuple):
         from OCP.BRep import BRep_Builder
 
         self.b, self.top, self.other, self.period = BRep_Builder(), top, other, period
+        self.knots = knots  # (x, y): the tiles' knots at the grid columns and rows
         self.rulings: dict = {}
 
     def _vid(self, r: int, c: int) -> tuple:
@@ -362,6 +364,15 @@ class _Walls:
             cols.append(idx if horizontal else np.full(len(idx), line))
         return np.concatenate(rows), np.concatenate(cols)
 
+    def _pcurve(self, key: tuple, start: int, fwd: bool):
+        """The pcurve on a strip of the tile edge ``key`` (parameter: the tiles' knots)
+        that starts at the strip's ``u = start`` (grid index; ``fwd``: the loop runs the
+        edge from ``a`` to ``z``): the broken line through ``(u, 0)`` at the knots."""
+        a, z = key[2], key[3]
+        knots = (self.knots[0] if key[0] else self.knots[1])[a : z + 1]
+        u = start + (np.arange(z + 1 - a) if fwd else np.arange(z - a, -1, -1))
+        return polyline_pcurve(np.stack([u, np.zeros_like(u)], axis=-1).astype(np.float64), knots, pad=False)
+
     def strip(self, run: list):
         """The wall face along a run of tile edges on one grid line (``[(edge
         oriented the loop's way, key, forward), ...]``): ``(face, top points, other
@@ -385,9 +396,9 @@ class _Walls:
             return Geom2d_Line(gp_Pnt2d(*p), gp_Dir2d(*d))
 
         start = 0
-        for e, key, fwd in run:  # the tile edges: their parameter is the tile knot (spacing 1, as u)
+        for e, key, fwd in run:  # the tile edges: their parameter is the tile knot, the strip's u the grid index
             a, z = key[2], key[3]
-            b.UpdateEdge(e, line((start - a, 0.0), (1.0, 0.0)) if fwd else line((start + z, 0.0), (-1.0, 0.0)), face, TOLERANCE)
+            b.UpdateEdge(e, self._pcurve(key, start, fwd), face, TOLERANCE)
             start += z - a
         va, vz = TopoDS_Vertex(), TopoDS_Vertex()
         TopExp.Vertices_s(run[0][0], va, TopoDS_Vertex(), True)
@@ -453,6 +464,36 @@ def _leaves_over(K: np.ndarray, tile: int, fine) -> list | None:
     shifted = [(f[0] - r0, f[1] - r0, f[2] - c0, f[3] - c0, *f[4:]) for f in fine or ()]
     got = _quad_leaves(sub, ~sub, tile, shifted or None)
     return None if got is None else [(a + r0, b + r0, c + c0, d + c0) for a, b, c, d in got]
+
+
+def _runs_over(K: np.ndarray, tile: int) -> tuple:
+    """The grid lines ``(rows, columns)`` where :func:`_leaves_over`'s whole tiles
+    end (before any is halved near the outline or made small under a tool): one run
+    of cells per tile, for :func:`texcad.brep.gprop.run_knots`."""
+    rows, cols = np.nonzero(K.any(axis=1))[0], np.nonzero(K.any(axis=0))[0]
+    return tuple(int(a[0]) + _tile_bounds(int(a[-1]) + 1 - int(a[0]), tile) for a in (rows, cols))
+
+
+def _pad_sides(edges: dict, leaves: list, tiles: list, runs: tuple, x: np.ndarray, y: np.ndarray, period: int | None) -> None:
+    """Give the sides along ``y`` of the whole tiles (a run of :func:`_runs_over` in
+    rows and columns; one edge a side) pcurves of :data:`~texcad.brep.gprop.PAD_SPANS`
+    spans or more on their tile (the same line), so that OCCT's plain volume
+    integration puts its 61 Gauss points along them and across the tile, as its knots
+    are placed for (:mod:`texcad.brep.gprop`). Smaller tiles (near the outline, under
+    a tool) keep straight lines: a small area."""
+    from OCP.BRep import BRep_Builder
+
+    rnext, cnext = (dict(zip(r[:-1].tolist(), r[1:].tolist())) for r in runs)
+    b = BRep_Builder()
+    for k, (r0, r1, c0, c1) in enumerate(leaves):  # one per tile
+        if rnext.get(r0) != r1 or cnext.get(c0) != c1:
+            continue
+        for c in (c0, c1):  # its two sides along y
+            got = edges.get((False, c % period if period is not None else c, r0, r1))
+            if got is None:  # the side is split at a smaller neighbour's corners
+                continue
+            pts = np.stack([np.full(r1 + 1 - r0, x[c]), y[r0 : r1 + 1]], axis=-1)
+            b.UpdateEdge(got[0], polyline_pcurve(pts, y[r0 : r1 + 1]), tiles[k], TOLERANCE)
 
 
 def _outline_edges(topo, faces: list) -> list:
@@ -542,17 +583,20 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
     h = np.where(edge, np.minimum(h, -w) if signed else w, h)
     top = G + h[..., None] * N
     other = G + (w if signed else -w)[..., None] * N
-    x, y = np.arange(G.shape[1], dtype=np.float64), np.arange(G.shape[0], dtype=np.float64)
     leaves = _leaves_over(K, tile, _band_fine(top, fine))
     if not leaves:
         return None
+    runs = _runs_over(K, tile)  # knots placed per tile run for OCCT's plain Gauss rule (texcad.brep.gprop)
+    x = run_knots(np.arange(G.shape[1], dtype=np.float64), runs[1])
+    y = run_knots(np.arange(G.shape[0], dtype=np.float64), runs[0])
     edges: dict = {}
     tiles, _ = tiled_grid_faces(top, x, y, leaves=leaves, wrap_x=wrap, edges_out=edges)
+    _pad_sides(edges, leaves, tiles, runs, x, y, period)
     try:
         loops = _loops(edges, K, period)
     except KeyError:  # a loop that does not close
         return None
-    walls = _Walls(top, other, period)
+    walls = _Walls(top, other, period, (x, y))
     strips = []
     for loop in loops:  # one per boundary loop
         for run in _runs(loop):  # one per straight run of tile edges
