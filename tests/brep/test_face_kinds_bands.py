@@ -86,7 +86,7 @@ def test_band_brep_step_and_hole(case, tmp_path):
     tx.export(tmp_path / "band.step")
     back = texcad.io.read_step(tmp_path / "band.step")
     _assert_matches(back, tx.volume, slack)
-    _assert_plain(back, tx.volume, slack)
+    _assert_plain(flat_solids(back), tx.volume, slack)  # build123d sees no solid in the read compound
     assert shape_to_mesh(back, tolerance=0.1, angular_tolerance=0.5).is_watertight  # OCCT meshes it closed
     offset = tx.info["brep_volume"] - tx.volume
     holed = tx - tool
