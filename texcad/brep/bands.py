@@ -6,8 +6,9 @@ The texture grid (rows and columns of points ``P`` on the part's tessellation, u
 normals ``N``, offsets ``h`` mm) covers the patch's meshed cells ``K``. The B-rep
 replaces the part of the patch under ``K``, **without a boolean of the texture**:
 
-* **tiles** (:func:`texcad.brep.tiled_grid_faces`, given ``leaves`` covering ``K``)
-  through ``P + h N``, the boundary points of ``K`` moved to a *wall height*
+* **tiles** (:func:`texcad.brep.tiled_grid_faces`, given ``leaves`` covering ``K``;
+  knots placed per run of whole tiles and sides along ``y`` padded for OCCT's plain
+  volume integration, :mod:`texcad.brep.gprop`) through ``P + h N``, the boundary points of ``K`` moved to a *wall height*
   ``w`` mm off the face (raised: ``+w``, engraved and centred: at most ``-w``), with
   ``w`` = the tessellation's chord error + twice the largest sag of the grid's
   edges at that point + 5 um, so that the tiles' boundary polyline stays off the
