@@ -93,6 +93,54 @@ def test_corner_brep_matches_the_mesh(case):
     assert check_shape(shape)["faces"] > 100  # the texture is in the B-rep: tiles and walls
 
 
+#: OCCT's plain Gauss rule (build123d's ``.volume``) is off by more than 0.1 % on these
+#: (-0.14 %, +0.11 %) in the part's own fillet pieces kept outside the walls (a torus
+#: piece: +2.05 mm^3 plain against adaptive), not in the tiles. Left open (issue 28).
+PLAIN_OFF = {"box top and four fillets", "cylinder cap and fillet"}
+
+
+def _plain(shape) -> float:
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    props = GProp_GProps()
+    BRepGProp.VolumeProperties_s(shape, props)
+    return props.Mass()
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_corner_tiles_plain_volume(case):
+    """The tiles' knots and pcurves are placed for OCCT's plain Gauss rule
+    (texcad.brep.gprop): summed over the tiles, each tile's plain volume integral is
+    within 2e-5 of the part's volume of its adaptive one (knots at the grid index:
+    6e-5 to 1.4e-4, 0.22 to 0.47 mm^3; placed: 0.009 to 0.037 mm^3); the solid's plain volume
+    and build123d's ``.volume`` are within 0.1 % of the mesh (but :data:`PLAIN_OFF`)."""
+    from build123d import Part
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+
+    from texcad.brep.occt import explore
+    from texcad.brep.solids import tile_grid
+
+    tx, _ = _textured(case)
+    shape = flat_solids(tx.shape)
+    off = 0.0
+    for f in explore(shape, TopAbs_FACE):  # a few hundred faces
+        if tile_grid(BRep_Tool.Surface_s(TopoDS.Face_s(f))) is None:  # not a tile
+            continue
+        fine = GProp_GProps()
+        BRepGProp.VolumeProperties_s(f, fine, 1e-6)
+        off += abs(_plain(f) - fine.Mass())
+    assert off <= 2e-5 * tx.volume
+    if case not in PLAIN_OFF:
+        slack = tx.info.get("volume_slack", 0.0)
+        assert abs(_plain(shape) - tx.volume) <= 1e-3 * tx.volume + slack
+        assert abs(Part(shape).volume - tx.volume) <= 1e-3 * tx.volume + slack
+
+
 @pytest.mark.parametrize("case", list(CASES))
 def test_corner_step_reads_back(case, tmp_path):
     tx, _ = _textured(case)
