@@ -57,6 +57,7 @@ from .solids import (
     _remember_tile,
     _replace_faces,
     _tile_text,
+    check_shape,
     replace_face,
     textured_plane_face,
     tiled_grid_faces,
@@ -263,9 +264,23 @@ def uv_textured_solid(shape: Any, items: list):
             (R,)`` texture mm of the columns and rows, ``u_table``, ``v_table`` the
             ``(parameter, mm)`` tables (``y = Y(u)``, ``x = X(v)``), ``closed_u``.
 
+    Each face becomes strips (:func:`texcad.brep.uvstrips.strip_faces`, for OCCT's
+    plain volume rule) where that gives a valid solid; else (a face whose strips OCCT
+    finds invalid, e.g. a knob's cone among zones) one degree-1 B-spline face, valid,
+    whose plain-rule volume is then less exact (the adaptive one is not).
+
     Raises:
         GeometryError: a face's grid does not cover its (u, v) rectangle.
     """
+    out = _uv_solid(shape, items, strips=True)
+    if check_shape(out)["valid"]:
+        return out
+    return _uv_solid(shape, items, strips=False)
+
+
+def _uv_solid(shape: Any, items: list, *, strips: bool):
+    """:func:`uv_textured_solid` with each face as strips (where its outline allows)
+    or as one face."""
     from OCP.TopoDS import TopoDS
 
     topo = to_topods(shape)
@@ -273,7 +288,7 @@ def uv_textured_solid(shape: Any, items: list):
     for item in items:  # one per face
         face = TopoDS.Face_s(to_topods(item["face"]))
         u, v, top = _poles(face, item)
-        got = strip_faces(face, u, v, top, bool(item["closed_u"]), _tolerance(face, u, v, top))
+        got = strip_faces(face, u, v, top, bool(item["closed_u"]), _tolerance(face, u, v, top)) if strips else None
         if got is None:  # not the iso-line rectangle: one face
             swaps.append((face, [_new_face(face, u, v, top)]))
             continue
