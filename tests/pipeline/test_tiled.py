@@ -260,21 +260,28 @@ def test_texture_makes_lean_tiles_within_its_tolerance(tmp_path, monkeypatch):
     assert ref.max_error == tx.max_error and not list(tmp_path.glob(".*"))
 
 
-def test_limited_plate_under_an_address_space_limit_is_made_in_tiles(tmp_path):
-    """A plate limited for standing upright, whose untiled relief needs more than
-    max_memory (and than the process may map: RLIMIT_AS), completes in tiles: limited
-    block by block, gated, its STL streamed, nothing left to overhang."""
-    out = tmp_path / "big.stl"
-    script = textwrap.dedent(f"""
+def _under_limit(imports: str) -> str:
+    """The start of a child script: texcad and ``imports`` loaded, then an address
+    space limit (RLIMIT_AS) 600 MiB above what the process maps already, as ``limit``."""
+    return textwrap.dedent("""
         import resource
         import build123d, scipy.optimize, scipy.spatial  # libraries loaded first: the limit is for the job's arrays
         import texcad
-        from texcad.printability import orientation
+        {imports}
         texcad.Plate((10, 10), 4)
         def vm():
             return int(open("/proc/self/status").read().split("VmSize:")[1].split()[0]) * 1024
         limit = vm() + (600 << 20)
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    """).replace("{imports}", imports)
+
+
+def test_limited_plate_under_an_address_space_limit_is_made_in_tiles(tmp_path):
+    """A plate limited for standing upright, whose untiled relief needs more than
+    max_memory (and than the process may map: RLIMIT_AS), completes in tiles: limited
+    block by block, gated, its STL streamed, nothing left to overhang."""
+    out = tmp_path / "big.stl"
+    script = _under_limit("from texcad.printability import orientation") + textwrap.dedent(f"""
         tx = texcad.texture(texcad.Plate((150, 150), 4), None, "builtin:stones", pitch=0.125, max_memory=600 << 20,
                             build_dir=orientation(90, "+y"))
         tx.export({str(out)!r})
@@ -736,17 +743,8 @@ def test_lean_plate_that_does_not_fit_untiled_under_an_address_space_limit(tmp_p
     process may map (RLIMIT_AS, by texcad's own estimate) is made in lean tiles within
     the limit: under half the grid's triangles, within the tolerance."""
     out = tmp_path / "big.stl"
-    script = textwrap.dedent(f"""
-        import resource
-        import build123d, scipy.optimize, scipy.spatial  # libraries loaded first: the limit is for the job's arrays
-        import texcad
-        from texcad.pipeline.tiled import textured_plate_tiled
-        from texcad.util import available_memory, texture_bytes
-        texcad.Plate((10, 10), 4)
-        def vm():
-            return int(open("/proc/self/status").read().split("VmSize:")[1].split()[0]) * 1024
-        limit = vm() + (600 << 20)
-        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    script = _under_limit("from texcad.pipeline.tiled import textured_plate_tiled\n"
+                          "from texcad.util import available_memory, texture_bytes") + textwrap.dedent(f"""
         r = textured_plate_tiled((150, 150), 4, "builtin:stones", 0.125, out={str(out)!r}, max_memory=600 << 20, tolerance=0.02)
         peak = int(open("/proc/self/status").read().split("VmPeak:")[1].split()[0]) * 1024
         print(r.grid[0] * r.grid[1], r.tiles, r.triangles, texture_bytes(r.grid[0] * r.grid[1], 0.02) > available_memory(),
