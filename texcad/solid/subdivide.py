@@ -35,7 +35,7 @@ from ..util.resources import round_up
 #: and 242 B of peak resident memory): the memory estimate.
 TRIANGLE_BYTES = 280.0
 
-__all__ = ["refine", "coarsen", "refined_triangles", "ladder", "tessellate", "rows", "cross", "flip_edges", "vertex_normals", "offset_directions", "face_normals", "edge_lengths"]
+__all__ = ["refine", "coarsen", "refined_triangles", "ladder", "tessellate", "rows", "cross", "flip_edges", "vertex_normals", "offset_directions", "face_normals", "edge_lengths", "edge_counts"]
 
 _ROT = np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])
 
@@ -243,15 +243,23 @@ def refine(
     v, f, act, parent = coarsen(vertices, faces, active, max_edge, max_faces=max_faces, coarse=coarse)
     if not act.any():
         return v, f, parent
+    v, f, src = tessellate(v, f, edge_counts(v, f, act, max_edge)[0])
+    return v, f, parent[src]
+
+
+def edge_counts(v: np.ndarray, f: np.ndarray, active: np.ndarray, max_edge: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(M, 3)`` pieces each face's edges are split into, ``ceil(length / max_edge)``
+    (mm) for an edge of an ``active`` face, the most any face at the edge asks (so a
+    shared edge is split alike from both sides, and by its own length alone), and the
+    sorted edge keys ``min * N + max`` of the vertex indices."""
     g = f[:, [1, 2, 0]]
     nv = np.int64(len(v))
     key = (np.minimum(f, g) * nv + np.maximum(f, g)).ravel()
     uk, inv = np.unique(key, return_inverse=True)
-    n = np.where(act[:, None], np.ceil(edge_lengths(v, f) / max_edge - 1e-9), 1).astype(np.int64).ravel()
+    n = np.where(active[:, None], np.ceil(edge_lengths(v, f) / max_edge - 1e-9), 1).astype(np.int64).ravel()
     per_edge = np.ones(len(uk), dtype=np.int64)
     np.maximum.at(per_edge, inv, n)
-    v, f, src = tessellate(v, f, per_edge[inv].reshape(-1, 3))
-    return v, f, parent[src]
+    return per_edge[inv].reshape(-1, 3), uk
 
 def _quads(v, f, act, target):
     """Pairs of active, coplanar (within 1e-5 mm) triangles that share the longest edge

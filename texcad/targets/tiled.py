@@ -60,7 +60,7 @@ from ..errors import GeometryError, ParameterError, ResourceError
 from ..sources import Heightmap
 from ..util import Progress, report
 
-__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "LimitedSource", "tile_for_memory", "BYTES_PER_TILE_NODE", "BYTES_PER_LEAN_NODE"]
+__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "CountedTiles", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "LimitedSource", "tile_for_memory", "BYTES_PER_TILE_NODE", "BYTES_PER_LEAN_NODE"]
 
 #: Peak bytes per node of one tile: the texture function's temporaries (float64),
 #: the float32 vertices, int64 faces and ids, STL records or 3MF text (measured on
@@ -979,6 +979,33 @@ def _tile_vertex_blocks(grid: Any, source: Any, client: Any, make: Any = _tile_v
         t0, fut = pending.popleft()
         yield t0, fut.result()
         fut.release()
+
+
+class CountedTiles(TiledMesh):
+    """A tiled mesh whose counts are known only by going over its blocks once (lean
+    or irregular tiles, mesh blocks): vertices and triangles counted then, and
+    closed as the gate found it."""
+
+    @property
+    def num_vertices(self) -> int:
+        return self._counts()[0]
+
+    @property
+    def num_triangles(self) -> int:
+        return self._counts()[1]
+
+    @property
+    def is_watertight(self) -> bool:
+        """Closed and oriented, as the gate found it block by block (False before it ran)."""
+        return bool(self.__dict__.get("closed", False))
+
+    def _counts(self) -> tuple[int, int]:
+        if "counts" not in self.__dict__:
+            nv, nt = 0, 0
+            for _, v, f, ids in self.blocks():  # per block
+                nv, nt = max(nv, int(ids.max(initial=-1)) + 1), nt + len(f)
+            self.__dict__["counts"] = (nv, nt)
+        return self.__dict__["counts"]
 
 
 class TiledSurfaceMesh(TiledMesh):

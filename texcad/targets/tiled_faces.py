@@ -62,7 +62,7 @@ import numpy as np
 from ..errors import GeometryError
 from ..solid.tiles import PlateGrid, Tile, block_volume
 from ..util import Progress, report
-from .tiled import TiledMesh, _at, tiles_verdict
+from .tiled import CountedTiles, _at, tiles_verdict
 
 __all__ = ["FaceGrid", "TiledFaceMesh", "TileCells", "face_tiles", "gate_faces", "tile_halo", "material_over", "open_edges", "RampedSource", "ramped_block", "lean_cells", "lean_tile_check"]
 
@@ -345,7 +345,7 @@ class _MaskScale:
         return mask_on_grid(self.mask, self.size, xs, ys)
 
 
-class TiledFaceMesh(TiledMesh):
+class TiledFaceMesh(CountedTiles):
     """A part with a textured planar face, kept as the recipe of its tiles (mm): the
     face's :class:`FaceTiles`. Blocks are made on demand (:meth:`blocks`): one per
     tile (its textured cells), then the rest of the part (its tessellation with the
@@ -356,27 +356,6 @@ class TiledFaceMesh(TiledMesh):
         self.tiles, self.progress, self.client, self.thickness = tiles, progress, None, 0.0
         self.grid = tiles.grid
         self._scale = None if tiles.mask is None else _MaskScale(*tiles.mask)
-
-    @property
-    def num_vertices(self) -> int:
-        return self._counts()[0]
-
-    @property
-    def num_triangles(self) -> int:
-        return self._counts()[1]
-
-    @property
-    def is_watertight(self) -> bool:
-        """Closed and oriented, as the gate found it tile by tile (False before it ran)."""
-        return bool(self.__dict__.get("closed", False))
-
-    def _counts(self) -> tuple[int, int]:
-        if "counts" not in self.__dict__:
-            nv, nt = 0, 0
-            for _, v, f, ids in self.blocks():  # per tile
-                nv, nt = max(nv, int(ids.max(initial=-1)) + 1), nt + len(f)
-            self.__dict__["counts"] = (nv, nt)
-        return self.__dict__["counts"]
 
     def blocks(self, progress: Progress = None) -> Any:
         """``(tile, vertices, faces, ids)`` per tile (float32 mm in the part's frame,

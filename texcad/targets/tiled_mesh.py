@@ -79,9 +79,9 @@ import numpy as np
 
 from ..errors import GeometryError, ParameterError, ResourceError, TexcadWarning
 from ..printability.relief import limit_relief
-from ..solid.subdivide import coarsen, edge_lengths, face_normals, offset_directions, tessellate, vertex_normals
+from ..solid.subdivide import coarsen, edge_counts, face_normals, offset_directions, tessellate, vertex_normals
 from ..util import Progress, available_memory, finest_pitch, report, split_rows
-from .tiled import TiledMesh, _at, tiles_verdict
+from .tiled import CountedTiles, _at, tiles_verdict
 from .tiled_faces import open_edges
 
 __all__ = ["MeshPlan", "FineBlock", "BlockRelief", "TiledMeshBlocks", "mesh_plan", "fine_block", "gate_mesh_blocks",
@@ -209,7 +209,7 @@ def mesh_plan(layer: Any, v: np.ndarray, f: np.ndarray, tol: float, refined: int
     # the cap on the whole mesh's triangles is the STL's here: the mesh is never whole
     cv, cf, act, parent = coarsen(v, f, sel, pitch, guard=False, coarse=factor, max_faces=2**32 - 1)
     report(progress, 0.12, f"coarse mesh: {len(cf)} triangles of up to {factor} pitches")
-    counts, keys = _edge_counts(cv, cf, act, pitch)
+    counts, keys = edge_counts(cv, cf, act, pitch)
     del act
     lev = counts.max(axis=1)
     body = _bodies(cf, len(cv))
@@ -236,19 +236,6 @@ def _coarse_factor(refined: int, faces: int, pitch: float) -> float:
                             f"more than the {2 * have / 2**30:.1f} GiB available; use a pitch of at least "
                             f"{finest_pitch(pitch, 2 * least, 2 * faces * COARSE_BYTES):.3g} mm or allow more memory (max_memory)")
     return float(factor)
-
-
-def _edge_counts(v: np.ndarray, f: np.ndarray, act: np.ndarray, pitch: float) -> tuple[np.ndarray, np.ndarray]:
-    """Pieces of every face's edges (as :func:`texcad.solid.subdivide.refine`: the
-    most any face at the edge asks) and the sorted edge keys."""
-    g = f[:, [1, 2, 0]]
-    nv = np.int64(len(v))
-    key = (np.minimum(f, g) * nv + np.maximum(f, g)).ravel()
-    uk, inv = np.unique(key, return_inverse=True)
-    n = np.where(act[:, None], np.ceil(edge_lengths(v, f) / pitch - 1e-9), 1).astype(np.int64).ravel()
-    per_edge = np.ones(len(uk), dtype=np.int64)
-    np.maximum.at(per_edge, inv, n)
-    return per_edge[inv].reshape(-1, 3), uk
 
 
 def _block_triangles(coarse: int, pitch: float) -> int:
@@ -493,7 +480,7 @@ def _displace(plan: MeshPlan, b: FineBlock, gid: np.ndarray, pins: tuple) -> Blo
     return BlockRelief(v32, f, ids, v0, off, plan.body[b.near][b.src][b.own], mask, int(lim.folded_faces), moved)
 
 
-class TiledMeshBlocks(TiledMesh):
+class TiledMeshBlocks(CountedTiles):
     """A textured mesh kept as the recipe of its blocks (:class:`MeshPlan`, mm).
     Blocks are made on demand (:meth:`blocks`), gated (:func:`gate_mesh_blocks`) and
     written (:meth:`write`, streamed) one at a time."""
@@ -501,27 +488,6 @@ class TiledMeshBlocks(TiledMesh):
     def __init__(self, plan: MeshPlan, progress: Progress = None) -> None:
         self.plan, self.progress, self.client, self.thickness = plan, progress, None, 0.0
         self.grid = None
-
-    @property
-    def num_vertices(self) -> int:
-        return self._counts()[0]
-
-    @property
-    def num_triangles(self) -> int:
-        return self._counts()[1]
-
-    @property
-    def is_watertight(self) -> bool:
-        """Closed and oriented, as the gate found it block by block (False before it ran)."""
-        return bool(self.__dict__.get("closed", False))
-
-    def _counts(self) -> tuple[int, int]:
-        if "counts" not in self.__dict__:
-            nv, nt = 0, 0
-            for _, v, f, ids in self.blocks():  # per block
-                nv, nt = max(nv, int(ids.max(initial=-1)) + 1), nt + len(f)
-            self.__dict__["counts"] = (nv, nt)
-        return self.__dict__["counts"]
 
     def displaced(self, progress: Progress = None) -> Any:
         """:class:`BlockRelief` per block, in order."""
