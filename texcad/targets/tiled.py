@@ -999,6 +999,15 @@ class CountedTiles(TiledMesh):
         """Closed and oriented, as the gate found it block by block (False before it ran)."""
         return bool(self.__dict__.get("closed", False))
 
+    @property
+    def bounds(self) -> np.ndarray:
+        """``(2, 3)`` mm, over the blocks."""
+        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+        for _, v, _, _ in self.blocks():  # per block
+            if len(v):
+                lo, hi = np.minimum(lo, v.min(axis=0)), np.maximum(hi, v.max(axis=0))
+        return np.array([lo, hi], dtype=np.float64)
+
     def _counts(self) -> tuple[int, int]:
         if "counts" not in self.__dict__:
             nv, nt = 0, 0

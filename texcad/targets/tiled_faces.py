@@ -431,14 +431,6 @@ class TiledFaceMesh(CountedTiles):
         """texcad's gate on this mesh, tile by tile (:func:`gate_faces`)."""
         return gate_faces(self, ex)
 
-    @property
-    def bounds(self) -> np.ndarray:
-        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-        for _, v, _, _ in self.blocks():  # per tile
-            if len(v):
-                lo, hi = np.minimum(lo, v.min(axis=0)), np.maximum(hi, v.max(axis=0))
-        return np.array([lo, hi], dtype=np.float64)
-
     def __repr__(self) -> str:
         nr, nc = self.grid.shape
         return f"TiledFaceMesh({nr} x {nc} nodes in {self.grid.count} tiles)"

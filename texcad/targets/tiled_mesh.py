@@ -516,14 +516,6 @@ class TiledMeshBlocks(CountedTiles):
         """texcad's gate on this mesh, block by block (:func:`gate_mesh_blocks`)."""
         return gate_mesh_blocks(self, ex)
 
-    @property
-    def bounds(self) -> np.ndarray:
-        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-        for _, v, _, _ in self.blocks():  # per block
-            if len(v):
-                lo, hi = np.minimum(lo, v.min(axis=0)), np.maximum(hi, v.max(axis=0))
-        return np.array([lo, hi], dtype=np.float64)
-
     def __repr__(self) -> str:
         return f"TiledMeshBlocks({len(self.plan.f)} coarse triangles in {len(self.plan.blocks)} blocks)"
 
