@@ -36,6 +36,8 @@ CASES = {  # name: (boxes, expected kinds, shared volume mm3)
     "stacked on one footprint": ((((10, 10, 10), (0, 0, 5)), ((10, 10, 10), (0, 0, 10))), ["overlap"], 500.0),
     "inside, sharing the sides": ((((10, 10, 10), (0, 0, 0)), ((10, 10, 4), (0, 0, 0))), ["overlap"], 400.0),
     "touching": ((((10, 10, 10), (0, 0, 0)), ((6, 6, 10), (0, 0, 10))), ["touch"], 0.0),
+    # a CAD export: the upper body's face 0.5 um above the lower one's (a real beer-tap handle)
+    "stacked 0.5 um apart": ((((10, 10, 10), (0, 0, 0)), ((6, 2, 10), (0, 0, 10.0005))), ["touch"], 0.0),
     "cavity": ((((10, 10, 10), (0, 0, 0)), ((4, 4, 4), (0, 0, 0))), [], 0.0),
     "cavity at the wall": ((((10, 10, 10), (0, 0, 0)), ((4, 4, 4), (0, 0, -3))), ["cavity"], 0.0),
 }
@@ -62,7 +64,7 @@ def test_stacked_bodies_hide_from_self_intersections():
     assert overlapping_bodies(v, f)[0].volume == pytest.approx(500.0)
 
 
-@pytest.mark.parametrize("name", ["crossing", "stacked on one footprint", "touching"])
+@pytest.mark.parametrize("name", ["crossing", "stacked on one footprint", "touching", "stacked 0.5 um apart"])
 def test_union_gives_one_outward_body(name):
     specs, _, shared = CASES[name]
     v, f = _boxes(*specs)
@@ -72,7 +74,7 @@ def test_union_gives_one_outward_body(name):
     assert bodies == 1 and "united 2 bodies into 1" in note
     p = rv[rf]
     vol = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6.0
-    assert vol == pytest.approx(total - shared, rel=1e-6)
+    assert vol == pytest.approx(total - shared, rel=1e-5)  # the gap closed: 12 mm2 x 0.5 um
     assert overlapping_bodies(rv, rf) == []
 
 
@@ -103,6 +105,31 @@ def test_texture_refuses_or_unites_never_inside_out(tmp_path, name):
     assert np.all(signed > 0), signed  # no inside-out shell
     total = sum(float(np.prod(e)) for e, _ in specs) - shared
     assert tx.mesh.volume > total  # raised texture on the united body
+
+
+def test_bodies_a_cad_export_left_apart_are_refused_up_front_and_united(tmp_path):
+    """A texture raised on both faces of a 0.5 um gap would push them into each other:
+    refused before any work, naming --union; with it, one textured body."""
+    specs = CASES["stacked 0.5 um apart"][0]
+    stl = tmp_path / "stack.stl"
+    trimesh.util.concatenate([trimesh.creation.box(e).apply_translation(c) for e, c in specs]).export(stl)
+    with pytest.raises(InputError, match=r"body 1 \(1000.0 mm3\) and body 2 \(120.0 mm3\) touch.*--union"):
+        texcad.texture(str(stl), "all", "builtin:ridges", height=0.5, pitch=2.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", texcad.TexcadWarning)
+        tx = texcad.texture(str(stl), "all", "builtin:ridges", height=0.5, pitch=2.0, union=True)
+    assert tx.info["bodies"] == 1 and tx.mesh.is_watertight and len(split_bodies(tx.mesh.vertices, tx.mesh.faces).volumes) == 1
+    assert np.all(_signed_shell_volumes(tx.mesh) > 0)
+
+
+def test_bodies_closer_than_the_texture_fail_the_gate_saying_why(tmp_path):
+    """Two boxes 0.2 mm apart pass the input check; a 0.5 mm raised texture on their
+    facing faces pushes them into each other, which the gate refuses by name."""
+    stl = tmp_path / "near.stl"
+    boxes = [trimesh.creation.box((10, 10, 10)), trimesh.creation.box((10, 10, 10)).apply_translation((10.2, 0, 0))]
+    trimesh.util.concatenate(boxes).export(stl)
+    with pytest.raises(texcad.GeometryError, match=r"overlap by .*closer than the texture's height.*further apart"):
+        texcad.texture(str(stl), "all", "builtin:ridges", height=0.5, pitch=0.5, border=0.0)
 
 
 def test_union_option_is_checked_and_refused_elsewhere():

@@ -490,8 +490,10 @@ def gate(mesh: Mesh, ex: Expectation, *, what: str = "textured part") -> GateRep
     """
     sr = shell_report(mesh)
     if not sr.manifold:
-        cause = ("two bodies of the input overlap, or a shell of the input faces inwards: "
-                 "unite or separate the bodies first" if sr.closed else "a stage made a broken mesh; please report this")
+        cause = ("two bodies of the input overlap, or lie closer than the texture's height so that it pushed them into "
+                 "each other, or a shell of the input faces inwards: unite the bodies first (union=True, --union), move "
+                 "them further apart than the texture's height, or leave their facing faces out of the region"
+                 if sr.closed else "a stage made a broken mesh; please report this")
         raise GeometryError(f"the {what} failed texcad's gate: {sr.problem()}; {cause}")
     if sr.bodies != ex.bodies:
         raise GeometryError(

@@ -19,7 +19,15 @@ edges and coplanar overlaps, so the test here compares volumes, which sees them 
 3. *pairs*: bodies whose boxes meet (broad phase, vectorized) are united with
    manifold3d; they overlap when ``vol(A) + vol(B) - vol(A + B)`` exceeds a relative
    1e-6 of the smaller, and touch when their gap (``Manifold.min_gap``) is below
-   1e-6 of the part's size.
+   1e-6 of the part's size or :data:`CONTACT_GAP` (1 um), whichever is larger: CAD
+   programs export bodies stacked on one another with their shared face a few tenths
+   of a micrometre apart, and a raised texture then pushes the two faces into each
+   other.
+
+Before the union, a body within :data:`CONTACT_GAP` of another is moved onto it where
+the two are that close (its vertices there snapped to the closest points of the other
+body's surface, libigl's AABB tree), so that manifold3d, which unites bodies that touch
+exactly, makes one body of them.
 
 Volumes in mm3, lengths in mm.
 """
@@ -38,6 +46,8 @@ __all__ = ["Overlap", "BodySplit", "split_bodies", "overlapping_bodies", "union_
 REL_VOLUME = 1e-6
 #: Relative gap (of the part's largest extent) below which two bodies touch.
 REL_GAP = 1e-6
+#: Absolute gap (mm) below which two bodies touch, whatever the part's size.
+CONTACT_GAP = 1e-3
 
 
 @dataclass(frozen=True)
@@ -203,7 +213,7 @@ def overlapping_bodies(vertices: np.ndarray, faces: np.ndarray, *, split: BodySp
         return out
     boxes = np.array([s.bounding_box() for s in split.solids], dtype=np.float64)
     extent = float(np.ptp(v, axis=0).max()) if len(v) else 1.0
-    gap = REL_GAP * extent
+    gap = max(REL_GAP * extent, CONTACT_GAP)
     for a, b in _box_pairs(boxes[:, :3], boxes[:, 3:], gap):  # per pair whose boxes meet
         sa, sb = split.solids[a], split.solids[b]
         shared = split.volumes[a] + split.volumes[b] - (sa + sb).volume()
@@ -246,7 +256,8 @@ def union_bodies(vertices: np.ndarray, faces: np.ndarray, *, split: BodySplit | 
 
     v = np.asarray(vertices, np.float64)
     split = split or split_bodies(v, faces)
-    u = m3d.Manifold.batch_boolean(list(split.solids), m3d.OpType.Add) if len(split.solids) > 1 else split.solids[0]
+    solids = _closed_gaps(split.solids, max(REL_GAP * float(np.ptp(v, axis=0).max()), CONTACT_GAP))
+    u = m3d.Manifold.batch_boolean(solids, m3d.OpType.Add) if len(solids) > 1 else solids[0]
     out = u.to_mesh()
     uv = np.asarray(out.vert_properties, dtype=np.float64)[:, :3]
     uf = np.asarray(out.tri_verts, dtype=np.int64)
@@ -255,3 +266,32 @@ def union_bodies(vertices: np.ndarray, faces: np.ndarray, *, split: BodySplit | 
     note = (f"united {len(split.solids)} bodies into {after} ({shared:.1f} mm3 shared; "
             f"volume {u.volume():.1f} mm3)")
     return uv, uf, note
+
+
+def _closed_gaps(solids: tuple, gap: float) -> list:
+    """The bodies, each one that lies within ``gap`` mm of an earlier one (but does
+    not touch it) snapped onto it there (:func:`_snapped`)."""
+    out = list(solids)
+    if len(out) < 2:
+        return out
+    boxes = np.array([s.bounding_box() for s in out], dtype=np.float64)
+    for a, b in _box_pairs(boxes[:, :3], boxes[:, 3:], gap):
+        if 0.0 < out[a].min_gap(out[b], 2 * gap) <= gap:
+            out[b] = _snapped(out[b], out[a], gap)
+    return out
+
+
+def _snapped(body, onto, gap: float):
+    """``body`` (a Manifold) with its vertices that lie within ``gap`` mm of
+    ``onto``'s surface moved to their closest points on it (libigl's AABB tree)."""
+    import igl
+    import manifold3d as m3d
+
+    mb, mo = body.to_mesh(), onto.to_mesh()
+    vb = np.asarray(mb.vert_properties, np.float64)[:, :3].copy()
+    vo = np.asarray(mo.vert_properties, np.float64)[:, :3]
+    d2, _, closest = igl.point_mesh_squared_distance(vb, vo, np.asarray(mo.tri_verts, np.int64))
+    near = d2 <= gap * gap
+    vb[near] = closest[near]
+    mesh = m3d.Mesh(vert_properties=np.ascontiguousarray(vb, np.float32), tri_verts=np.asarray(mb.tri_verts, np.uint32))
+    return m3d.Manifold(mesh)
