@@ -159,6 +159,29 @@ def test_a_small_crossing_is_resolved_by_a_self_union():
     assert resolve_crossings(fold, bf)[2] is None
 
 
+def test_edges_too_short_after_the_union_are_collapsed(monkeypatch):
+    """A spike leaving the bottom 1 um beside a vertex: with the union's vertices
+    snapped at 1e-8 mm only, its edges of about 1 um are too short to texture
+    (a real flashlight handle's union left 6e-8 mm); manifold3d's edge collapse
+    (repair.COLLAPSE) removes them, keeping the volume, or the mesh is refused."""
+    import texcad.solid.repair as repair
+    from texcad.solid import self_intersections
+
+    v, f = _spiked_box()
+    top = np.argmin(v[:, 2])
+    v[top, :2] += 1e-6  # the spike's tip beside the bottom's grid vertex
+    monkeypatch.setattr(repair, "MERGE", (1e-8,))
+    monkeypatch.setattr(repair, "COLLAPSE", ())
+    with pytest.raises(InputError, match=r"edges of .* mm, too short to texture"):
+        repair.resolve_crossings(v, f)
+    monkeypatch.setattr(repair, "COLLAPSE", (1e-5, 1e-4))
+    rv, rf, rep = repair.resolve_crossings(v, f)
+    e = rf[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    assert np.linalg.norm(rv[e[:, 0]] - rv[e[:, 1]], axis=1).min() >= repair.MIN_EDGE
+    assert len(self_intersections(rv, rf)) == 0 and rep.bodies == 1
+    assert abs(rep.volume[1] - rep.volume[0]) < 0.01
+
+
 def test_a_mesh_with_a_small_crossing_is_textured_with_a_note():
     import texcad
     from texcad.errors import TexcadWarning

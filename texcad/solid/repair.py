@@ -207,6 +207,10 @@ MERGE = (1e-4, 1e-5, 1e-8)
 #: A repaired mesh with an edge shorter than this (mm) is not used: displaced and written
 #: in float32 its ends can meet (the test meshes: 9e-5 mm textures, 2e-6 mm tears).
 MIN_EDGE = 2e-5
+#: Tolerances (mm) of manifold3d's edge collapse (``Manifold.simplify``), tried in order
+#: when the snapped union still has edges under :data:`MIN_EDGE` (a real flashlight
+#: handle's union: 6e-8 mm edges that snapping cannot merge without a non-manifold edge).
+COLLAPSE = (1e-5, 1e-4)
 
 
 def _shell_count(f: np.ndarray) -> int:
@@ -308,6 +312,34 @@ def _snap(v: np.ndarray, f: np.ndarray, d: float) -> np.ndarray:
     return first[lab][f]
 
 
+def _shortest(v: np.ndarray, f: np.ndarray) -> float:
+    """The shortest edge of the triangles ``f`` of ``v``, mm."""
+    e = f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    return float(np.linalg.norm(v[e[:, 0]] - v[e[:, 1]], axis=1).min())
+
+
+def _collapsed(v: np.ndarray, f: np.ndarray, bodies: int, short: float, name: str):
+    """``(v, f, bodies, shortest edge)`` with the union's too-short edges collapsed by
+    manifold3d's ``simplify`` (edges collapsed where that moves the surface by at most
+    :data:`COLLAPSE` mm), the first tolerance that leaves no edge under
+    :data:`MIN_EDGE`, no crossing and the same bodies; or the input as it was."""
+    import manifold3d as m3d
+
+    from .intersect import self_intersections
+
+    solid = m3d.Manifold(m3d.Mesh(vert_properties=np.ascontiguousarray(v, np.float32),
+                                  tri_verts=np.ascontiguousarray(f, np.uint32)))
+    for tol in COLLAPSE:
+        out = solid.simplify(tol).to_mesh()
+        sv = np.asarray(out.vert_properties, np.float64)[:, :3]
+        sf = np.asarray(out.tri_verts, np.int64)
+        if len(sf) and _shortest(sv, sf) >= MIN_EDGE and not len(self_intersections(sv, sf)):
+            rv, rf, nb = repair_closed(sv, sf, merge=1e-8, name=name)
+            if nb == bodies:
+                return rv, rf, nb, _shortest(rv, rf)
+    return v, f, bodies, short
+
+
 def _unrepaired(v: np.ndarray, f: np.ndarray, cross: np.ndarray, name: str, why: str):
     """InputError: the crossings were small but the self-union gave no clean solid."""
     at = v[f[cross[0]]].reshape(-1, 3).mean(axis=0)
@@ -376,9 +408,10 @@ def resolve_crossings(vertices: np.ndarray, faces: np.ndarray, *, name: str = "t
     after = _volume(rv, rf)
     if abs(after - before) > MAX_VOLUME_CHANGE * abs(before) or bodies > shells:  # a large change, or bodies split off
         return v, f, None
-    e = rf[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    short = float(np.linalg.norm(rv[e[:, 0]] - rv[e[:, 1]], axis=1).min())
-    if short < MIN_EDGE:  # edges the displacement cannot keep apart
+    short = _shortest(rv, rf)
+    if short < MIN_EDGE:  # edges the displacement cannot keep apart: collapsed, or refused
+        rv, rf, bodies, short = _collapsed(rv, rf, bodies, short, name)
+    if short < MIN_EDGE:
         _unrepaired(v, f, cross, name, f"it leaves edges of {short:.2g} mm, too short to texture")
     rv, rf, _ = split_pinches(rv, rf)  # the outer surface touches itself at a vertex: one vertex per fan
     return rv, rf, CrossingRepair(int(len(cross)), (int(len(f)), int(len(rf))), (before, after), int(bodies))
