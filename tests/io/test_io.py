@@ -3,6 +3,8 @@ meshes, and files written by other tools (trimesh, lib3mf) in every 3MF unit."""
 
 from __future__ import annotations
 
+import zipfile
+
 import numpy as np
 import pytest
 import trimesh
@@ -98,6 +100,38 @@ def test_lib3mf_files_in_every_unit_are_read_in_mm(tmp_path, unit):
     assert name == "box"
     assert m.volume == pytest.approx(6.0 * s**3, rel=1e-6)
     assert np.allclose(np.ptp(m.vertices, axis=0), np.array([1.0, 2.0, 3.0]) * s, rtol=1e-6)
+
+
+def test_components_in_other_model_parts_are_read(tmp_path):
+    """BambuStudio and OrcaSlicer keep each object's mesh in its own model part
+    (``3D/Objects/object_N.model``) reached through a component with ``p:path``
+    (3MF production extension); lib3mf writes the same. Both components are read,
+    each moved by its transform and the build item's."""
+    w = lib3mf.get_wrapper()
+    model = w.CreateModel()
+    box = trimesh.creation.box((20.0, 20.0, 10.0))
+    obj = model.AddMeshObject()
+    obj.SetName("box")
+    obj.SetGeometry([lib3mf.Position((lib3mf.ctypes.c_float * 3)(*map(float, p))) for p in box.vertices],
+                    [lib3mf.Triangle((lib3mf.ctypes.c_uint32 * 3)(*map(int, t))) for t in box.faces])
+    obj.SetPackagePart(model.FindOrCreatePackagePart("/3D/Objects/object_1.model"))
+    comp = model.AddComponentsObject()
+    comp.AddComponent(obj, w.GetIdentityTransform())
+    comp.AddComponent(obj, w.GetTranslationTransform(30.0, 0.0, 0.0))
+    model.AddBuildItem(comp, w.GetTranslationTransform(100.0, 100.0, 5.0))
+    model.QueryWriter("3mf").WriteToFile(str(tmp_path / "parts.3mf"))
+    with zipfile.ZipFile(tmp_path / "parts.3mf") as z:
+        assert b"<mesh" not in z.read("3D/3dmodel.model") and b"<mesh" in z.read("3D/Objects/object_1.model")
+    meshes = read_part(tmp_path / "parts.3mf")
+    assert [n for n, _ in meshes] == ["box", "box"]
+    lo = [np.asarray(m.vertices).min(axis=0).tolist() for _, m in meshes]
+    assert lo == [[90.0, 90.0, 0.0], [120.0, 90.0, 0.0]]
+    with zipfile.ZipFile(tmp_path / "parts.3mf") as z, zipfile.ZipFile(tmp_path / "cut.3mf", "w") as out:
+        for name in z.namelist():  # the same package without the object's model part
+            if name != "3D/Objects/object_1.model":
+                out.writestr(name, z.read(name))
+    with pytest.raises(InputError, match=r"missing model part '3D/Objects/object_1.model'"):
+        read_part(tmp_path / "cut.3mf")
 
 
 def test_texcad_3mf_reads_in_lib3mf(tmp_path):

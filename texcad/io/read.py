@@ -587,21 +587,16 @@ def _stream_column(src: _Inflating, a: np.ndarray, words: np.ndarray, where: tup
 
 
 def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
+    """The meshes a 3MF's build reaches (:func:`read_part`): the root model streamed
+    (:class:`_Inflating`), other model parts (3MF production extension: components
+    with ``p:path``, as BambuStudio and OrcaSlicer write) read when a component names
+    them."""
     try:
         z = zipfile.ZipFile(path)
     except zipfile.BadZipFile:
         raise InputError(f"{str(path)!r} is not a 3MF (zip) package; export it again") from None
     with z:
-        target = "3D/3dmodel.model"
-        try:
-            rels = z.read("_rels/.rels")
-            m = re.search(rb'Target="/?([^"]+)"[^>]*Type="[^"]*3dmodel"', rels) or re.search(
-                rb'Type="[^"]*3dmodel"[^>]*Target="/?([^"]+)"', rels
-            )
-            if m:
-                target = m.group(1).decode()
-        except KeyError:
-            pass
+        target = _root_part(z)
         try:
             info = z.getinfo(target)
         except KeyError:
@@ -612,16 +607,64 @@ def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
             volumes = _slic3r_volumes(z.read("Metadata/Slic3r_PE_model.config"))
         except KeyError:
             volumes = {}
-    known: dict = {}
-    if src is not None:
-        known = _stream_meshes(src)
-        xml = src.finish(path)
+        known: dict = {}
+        if src is not None:
+            known = _stream_meshes(src)
+            xml = src.finish(path)
+        parts = {target: _model_objects(xml, path, target, known)}
+        build = _spans(xml, b"build", xml.rfind(b"<build"), last=True) if xml.rfind(b"<build") >= 0 else []
+        where = xml[build[0][2] : build[0][3]] if build else xml
+        items = [(_attrs(i).get("objectid"), _transform(_attrs(i).get("transform"))) for i in re.findall(rb"<item\b([^>]*)/?>", where)]
+        if not items:
+            items = [(oid, np.eye(4)) for oid, e in parts[target][0].items() if "mesh" in e]
+        out: list[tuple[str, Mesh]] = []
+
+        def objects(part: str) -> tuple[dict, float]:
+            if part not in parts:
+                try:
+                    parts[part] = _model_objects(z.read(part), path, part, {})
+                except KeyError:
+                    raise InputError(f"{str(path)!r}: a component refers to the missing model part {part!r}; "
+                                     "export it again") from None
+            return parts[part]
+
+        def walk(part: str, oid: str | None, tf: np.ndarray, depth: int) -> None:
+            table, scale = objects(part)
+            if oid not in table or depth > 16:
+                raise InputError(f"3MF build refers to a missing or cyclic object {oid!r}")
+            e = table[oid]
+            if "mesh" in e:
+                out.extend(_placed(e, tf, scale, volumes.get(oid) if depth == 0 and part == target else None))
+            for cid, ctf, cpart in e["components"]:
+                walk(cpart or part, cid, ctf @ tf, depth + 1)
+
+        for oid, tf in items:  # per build item
+            walk(target, oid, tf, 0)
+    if not out:
+        raise InputError(f"{str(path)!r} holds no mesh objects")
+    return out
+
+
+def _root_part(z: zipfile.ZipFile) -> str:
+    """The zip name of a 3MF's root model part (from ``_rels/.rels``)."""
+    try:
+        rels = z.read("_rels/.rels")
+    except KeyError:
+        return "3D/3dmodel.model"
+    m = re.search(rb'Target="/?([^"]+)"[^>]*Type="[^"]*3dmodel"', rels) or re.search(
+        rb'Type="[^"]*3dmodel"[^>]*Target="/?([^"]+)"', rels
+    )
+    return m.group(1).decode() if m else "3D/3dmodel.model"
+
+
+def _model_objects(xml: "bytes | mmap.mmap", path: Path, part: str, known: dict) -> tuple[dict, float]:
+    """``({object id: {"name", "mesh" (optional), "components"}}, mm per unit)`` of
+    one model part; each component ``(object id, 4x4, zip name of its part or None)``."""
     end = bytes(xml[max(0, len(xml) - 4096):]).rstrip()
     if not end.endswith(b"</model>"):
-        raise InputError(f"{str(path)!r}: its 3D model ({target}) ends before </model>: the XML is cut short; export it again")
+        raise InputError(f"{str(path)!r}: its 3D model ({part}) ends before </model>: the XML is cut short; export it again")
     if xml.find(b"<model") < 0:
-        raise InputError(f"{str(path)!r}: its 3D model ({target}) holds no <model> element; export it again")
-    scale = _unit_scale(xml, path)
+        raise InputError(f"{str(path)!r}: its 3D model ({part}) holds no <model> element; export it again")
     objects: dict[str, dict[str, Any]] = {}
     for h0, h1, b0, b1 in _spans(xml, b"object", known=known):  # per object
         a = _attrs(xml[h0:h1])
@@ -633,39 +676,27 @@ def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
         for _, _, m0, m1 in _spans(xml, b"mesh", b0, b1, last=True):  # its mesh, if any
             entry["mesh"] = _mesh_arrays(xml, (m0, m1), oid, known)
             rest = xml[b0 : xml.rfind(b"<mesh", b0, m0)] + xml[m1:b1]  # components lie outside the mesh
-        comps = [(_attrs(c).get("objectid"), _transform(_attrs(c).get("transform"))) for c in re.findall(rb"<component\b([^>]*)/?>", rest)]
-        entry["components"] = comps
+        comps = [_attrs(c) for c in re.findall(rb"<component\b([^>]*)/?>", rest)]
+        entry["components"] = [(c.get("objectid"), _transform(c.get("transform")), c["p:path"].lstrip("/") if c.get("p:path") else None)
+                               for c in comps]  # fmt: skip
         objects[oid] = entry
-    build = _spans(xml, b"build", xml.rfind(b"<build"), last=True) if xml.rfind(b"<build") >= 0 else []
-    where = xml[build[0][2] : build[0][3]] if build else xml
-    items = [(_attrs(i).get("objectid"), _transform(_attrs(i).get("transform"))) for i in re.findall(rb"<item\b([^>]*)/?>", where)]
-    if not items:
-        items = [(oid, np.eye(4)) for oid, e in objects.items() if "mesh" in e]
-    out: list[tuple[str, Mesh]] = []
+    return objects, _unit_scale(xml, path)
 
-    def walk(oid: str | None, tf: np.ndarray, depth: int) -> None:
-        if oid not in objects or depth > 16:
-            raise InputError(f"3MF build refers to a missing or cyclic object {oid!r}")
-        e = objects[oid]
-        if "mesh" in e:
-            v, t = e["mesh"]
-            vv = v if np.array_equal(tf, np.eye(4)) else v @ tf[:3, :3] + tf[3, :3]
-            vv = vv if scale == 1.0 else vv * scale
-            parts = volumes.get(oid) if depth == 0 else None
-            if parts and parts[-1][2] == len(t) - 1 and all(a <= b for _, a, b in parts):
-                for vname, first, last in parts:  # each part with its own vertices
-                    used, tt = np.unique(t[first : last + 1], return_inverse=True)
-                    out.append((vname, Mesh(vv[used].astype(np.float32), tt.reshape(-1, 3).astype(np.uint32))))
-            else:
-                out.append((e["name"], Mesh(vv.astype(np.float32), t.astype(np.uint32))))
-        for cid, ctf in e["components"]:
-            walk(cid, ctf @ tf, depth + 1)
 
-    for oid, tf in items:  # per build item
-        walk(oid, tf, 0)
-    if not out:
-        raise InputError(f"{str(path)!r} holds no mesh objects")
-    return out
+def _placed(e: dict, tf: np.ndarray, scale: float, parts: "list | None") -> list[tuple[str, Mesh]]:
+    """An object's mesh moved by ``tf`` (4x4, row vectors) and scaled to mm: one
+    ``(name, Mesh)``, or one per part of a multi-part object (``parts``: name, first
+    and last triangle)."""
+    v, t = e["mesh"]
+    vv = v if np.array_equal(tf, np.eye(4)) else v @ tf[:3, :3] + tf[3, :3]
+    vv = vv if scale == 1.0 else vv * scale
+    if parts and parts[-1][2] == len(t) - 1 and all(a <= b for _, a, b in parts):
+        out = []
+        for vname, first, last in parts:  # each part with its own vertices
+            used, tt = np.unique(t[first : last + 1], return_inverse=True)
+            out.append((vname, Mesh(vv[used].astype(np.float32), tt.reshape(-1, 3).astype(np.uint32))))
+        return out
+    return [(e["name"], Mesh(vv.astype(np.float32), t.astype(np.uint32)))]
 
 
 def _mesh_arrays(xml: bytes, span: tuple[int, int], oid: str, known: dict) -> tuple[np.ndarray, np.ndarray]:
