@@ -166,6 +166,8 @@ def test_obj_is_read_through_trimesh(tmp_path):
     tm.export(tmp_path / "box.obj")
     m = read_mesh(tmp_path / "box.obj")
     assert m.is_watertight and m.volume == pytest.approx(24.0)
+    (name, part), = read_part(tmp_path / "box.obj")  # what texcad check reads
+    assert name == "box" and part.volume == pytest.approx(24.0)
 
 
 def test_bad_files_and_units(tmp_path):

@@ -29,7 +29,7 @@ def run(args: argparse.Namespace) -> int:
 def add(sub: argparse._SubParsersAction) -> None:
     c = sub.add_parser(
         "check",
-        help="check a part (STL/3MF): watertight, shells, volume, overhang area for a build direction",
+        help="check a part (STL/3MF/OBJ): watertight, shells, volume, overhang area for a build direction",
         description=(
             "Measure a part for printing: watertight, manifold, shells, volume (mm3), bounding box, "
             "triangles, and the overhang area (mm2: faces looking down flatter than the critical angle, "

@@ -738,9 +738,10 @@ def _slic3r_volumes(xml: bytes) -> dict[str, list[tuple[str, int, int]]]:
 
 
 def read_part(path: str | os.PathLike) -> list[tuple[str, Mesh]]:
-    """Read an STL (binary or ASCII) or a 3MF into named meshes (mm).
+    """Read an STL (binary or ASCII), a 3MF or an OBJ into named meshes (mm).
 
-    STL: one mesh named after the file, vertices welded where bit-identical.
+    STL: one mesh named after the file, vertices welded where bit-identical. OBJ:
+    one mesh named after the file (:func:`read_mesh`).
     3MF: every mesh object reached from the build items (components and
     ``transform`` attributes applied), named by its ``name`` attribute; a
     multi-part object (``Metadata/Slic3r_PE_model.config``, as
@@ -757,6 +758,8 @@ def read_part(path: str | os.PathLike) -> list[tuple[str, Mesh]]:
     suffix = p.suffix.lower()
     if suffix == ".stl":
         return [(p.stem, _read_stl(p))]
+    if suffix == ".obj":
+        return [(p.stem, _read_obj(p))]
     if suffix == ".3mf":
         try:
             return _read_3mf(p)
@@ -764,7 +767,7 @@ def read_part(path: str | os.PathLike) -> list[tuple[str, Mesh]]:
             raise
         except (zipfile.BadZipFile, zlib.error, EOFError, OSError, RuntimeError, NotImplementedError, ValueError, IndexError) as exc:
             raise InputError(f"{str(p)!r}: the 3MF package is damaged ({type(exc).__name__}: {exc}); export it again") from None
-    raise InputError(f"cannot check {str(p)!r}: texcad reads .stl and .3mf parts")
+    raise InputError(f"cannot check {str(p)!r}: texcad reads .stl, .3mf and .obj parts")
 
 
 def _obj_error(path: Path, lines: list[str], k: int, what: str) -> InputError:
