@@ -18,7 +18,7 @@ def assembly(tmp_path_factory):
     from build123d import Box, Compound, Pos, export_step
 
     case = Box(30, 20, 10) - Pos(0, 0, 3) * Box(26, 16, 6)  # an open tray, 3920 mm3
-    phone = Pos(0, 0, 2) * Box(25, 15, 4)  # overlaps the tray's floor
+    phone = Pos(0, 0, 2) * Box(25, 15, 4)  # stands on the tray's floor
     button = Pos(15.5, 0, 2) * Box(2, 4, 2)  # overlaps the tray's wall
     p = tmp_path_factory.mktemp("asm") / "asm.step"
     export_step(Compound([case, phone, button]), str(p))
@@ -58,8 +58,8 @@ def test_one_solid_textured_the_others_kept(assembly, tmp_path, capsys):
     assert parts[0][1].volume > 3920.0 + 1.0  # the tray with its texture
     assert parts[1][1].volume == pytest.approx(1500.0, rel=1e-6)  # kept as they were
     assert parts[2][1].volume == pytest.approx(16.0, rel=1e-6)
-    one = texcad.io.read_mesh(stl)
-    assert one.is_watertight and one.volume == pytest.approx(sum(m.volume for _, m in parts), rel=1e-5)
+    one = texcad.io.read_mesh(stl)  # the solids united: the button's 4 mm3 in the tray's wall counted once
+    assert one.is_watertight and one.volume == pytest.approx(sum(m.volume for _, m in parts) - 4.0, abs=0.05)
 
 
 def test_faces_of_several_solids_are_one_line(assembly, tmp_path, capsys):
@@ -126,7 +126,7 @@ def overlapping():
     from build123d import Box, Compound, Pos
 
     case = Box(30, 20, 10) - Pos(0, 0, 3) * Box(26, 16, 6)  # 3920 mm3
-    phone = Pos(0, 0, 2) * Box(25, 15, 4)  # 1500 mm3, overlaps the tray's floor
+    phone = Pos(0, 0, 2) * Box(25, 15, 4)  # 1500 mm3, stands on the tray's floor
     button = Pos(15.5, 0, 2) * Box(2, 4, 2)  # 16 mm3, overlaps the tray's wall
     return Compound([case, phone, button])
 
@@ -136,6 +136,7 @@ def test_api_textures_the_solid_that_owns_the_face_and_keeps_the_others(overlapp
     from build123d import Axis, import_step
 
     import texcad
+    from texcad.solid.overlap import split_bodies
 
     phone_top = overlapping.solids()[1].faces().sort_by(Axis.Z)[-1]
     tx = texcad.texture(overlapping, phone_top, "builtin:ridges", pitch=1.0, height=0.5)
@@ -143,16 +144,21 @@ def test_api_textures_the_solid_that_owns_the_face_and_keeps_the_others(overlapp
     assert tx.gate.shells.bodies == 1 and tx.mesh.is_watertight  # the gate saw the textured solid alone
     assert tx.mesh.volume > 1500.0 + 1.0  # the phone with its texture
     stl, m3f, step = tmp_path / "a.stl", tmp_path / "a.3mf", tmp_path / "a.step"
-    for p in (stl, m3f, step):
+    for p in (m3f, step):
         tx.export(p)
-    parts = texcad.io.read_part(m3f)  # one named part per solid
+    with pytest.warns(texcad.TexcadWarning, match=r"solids meet \(body 1 .* overlap by .*the STL holds their union"):
+        tx.export(stl)
+    parts = texcad.io.read_part(m3f)  # one named part per solid, the others unchanged
     assert [n for n, _ in parts] == ["solid 1 (textured)", "solid 0", "solid 2"]
     assert all(m.is_watertight for _, m in parts)
     assert parts[1][1].volume == pytest.approx(3920.0, rel=1e-6) and parts[2][1].volume == pytest.approx(16.0, rel=1e-6)
-    one = texcad.io.read_mesh(stl)  # one STL of three closed bodies, the others unchanged
-    assert one.is_watertight and one.volume == pytest.approx(sum(m.volume for _, m in parts), rel=1e-5)
-    kept = np.concatenate([tx.other_meshes[0].vertices, tx.other_meshes[1].vertices])
-    assert np.isin(kept.view([("", kept.dtype)] * 3), one.vertices.astype(kept.dtype).view([("", kept.dtype)] * 3)).all()
+    for (_, part), kept in zip(parts[1:], tx.other_meshes):
+        assert np.array_equal(np.asarray(part.vertices, np.float32), np.asarray(kept.vertices, np.float32))
+    # the STL: the overlapping solids united (what a slicer prints), one closed body, gated
+    one = texcad.io.read_mesh(stl)
+    split = split_bodies(one.vertices, one.faces)
+    assert one.is_watertight and len(split.volumes) == 1
+    assert one.volume == pytest.approx(sum(m.volume for _, m in parts) - 4.0, abs=0.05)  # the button's overlap once
     assert [round(s.volume) for s in import_step(str(step)).solids()][1:] == [3920, 16]
     # the same through OCP's compound, and a face of the case (solid 0, which the others overlap)
     tx0 = texcad.texture(overlapping.wrapped, overlapping.solids()[0].faces().sort_by(Axis.Z)[0], "builtin:ridges",

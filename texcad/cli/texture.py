@@ -161,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
                      rotation=args.rotation, build_dir=args.build_dir, critical_angle=args.critical_angle,
                      tolerance=args.tolerance, mode=args.mode, gradient=args.gradient, max_memory=args.max_memory,
                      progress=None if args.quiet else StageReporter())
-    write_outputs(tx, args.out, separate_texture=args.separate_texture)
+        write_outputs(tx, args.out, separate_texture=args.separate_texture)
     _summary(args, tx, selectors, faces, t0)
     return 0
 
@@ -189,7 +189,8 @@ def _summary(args: argparse.Namespace, tx, selectors: list, faces: list, t0: flo
     print(f"triangles    {m.num_triangles}, watertight {m.is_watertight}")
     if tx.max_error is not None:
         print(f"max error    {tx.max_error:.4f} mm at the pixel centres (tolerance {args.tolerance:g} mm)")
-    print(f"volume       {m.volume:.1f} mm3")
+    whole = f" (solid {tx.info['solid']}; all solids {tx.assembly_mesh.volume:.1f} mm3)" if "solid" in tx.info else ""
+    print(f"volume       {m.volume:.1f} mm3{whole}")
     line = limits_line(tx.limits)
     if line:
         print(line)

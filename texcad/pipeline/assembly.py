@@ -12,7 +12,7 @@ from ..brep.assembly import all_bodies, body_names
 from ..targets.assembly import AssemblySplit
 from .result import Textured
 
-__all__ = ["AssemblyTextured", "assembly_result", "write_assembly"]
+__all__ = ["AssemblyTextured", "assembly_result", "write_assembly", "one_mesh"]
 
 
 def write_assembly(textured: Any, index: int, others: Sequence[Any], other_meshes: Sequence[Any], path: Any, *,
@@ -41,7 +41,35 @@ def write_assembly(textured: Any, index: int, others: Sequence[Any], other_meshe
 
         write_step(compound([to_topods(textured.shape)] + [to_topods(s) for s in others]), p, name=name or p.stem)
         return p
-    return export(all_bodies(textured.mesh, other_meshes), p, name=name)
+    return export(one_mesh(all_bodies(textured.mesh, other_meshes)), p, name=name)
+
+
+def one_mesh(mesh: Any):
+    """An assembly's bodies as one mesh an STL can hold: as they are when they lie
+    apart; where they overlap or touch (solids side by side, a solid stacked on a
+    raised texture), their union (manifold3d, :func:`texcad.solid.overlap.union_bodies`),
+    which is what a slicer prints from such a file, told in a TexcadWarning. Either
+    way gated as a closed, oriented, non-overlapping mesh (:func:`texcad.report.gate.gate_shells`).
+    Lengths in mm."""
+    import warnings
+
+    import numpy as np
+
+    from ..errors import TexcadWarning
+    from ..report.gate import gate_shells
+    from ..solid import Mesh
+    from ..solid.overlap import describe_overlaps, overlapping_bodies, split_bodies, union_bodies
+
+    v, f = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
+    split = split_bodies(v, f)
+    found = overlapping_bodies(v, f, split=split)
+    if found:
+        uv, uf, note = union_bodies(v, f, split=split)
+        warnings.warn(f"the assembly's solids meet ({describe_overlaps(found, split)}): the STL holds their union ({note}), "
+                      "as a slicer prints them; the 3MF and STEP keep them apart", TexcadWarning, stacklevel=3)
+        mesh = Mesh(uv.astype(np.float32), uf.astype(np.uint32))
+    gate_shells(mesh, what="assembly's STL")
+    return mesh
 
 
 class AssemblyTextured(Textured):
@@ -73,7 +101,8 @@ class AssemblyTextured(Textured):
 
     @property
     def assembly_mesh(self):
-        """All bodies as one mesh of several closed bodies (what the STL holds)."""
+        """All bodies as one mesh of several closed bodies, as they are (the STL holds
+        :func:`one_mesh` of it: their union where they meet)."""
         return all_bodies(self.mesh, self.other_meshes)
 
     def export(self, path: Any, *, separate_texture: bool = False, name: "str | None" = None):
