@@ -55,6 +55,15 @@ def test_errors_are_one_line_without_traceback(tmp_path):
     assert not (tmp_path / "demo.stl").exists()
 
 
+def test_a_closed_pipe_ends_quietly():
+    """``texcad textures | head -0``: the reader is gone before texcad writes; no
+    traceback, exit 141 (128 + SIGPIPE) as shell tools do."""
+    p = subprocess.Popen([sys.executable, "-m", "texcad", "textures"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    p.stdout.close()  # before the child has imported anything
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=120) == 141 and "Traceback" not in err and "BrokenPipe" not in err, err
+
+
 def test_help_lists_every_command():
     r = subprocess.run([sys.executable, "-m", "texcad", "--help"], capture_output=True, text=True)
     for cmd in ("demo", "textures"):

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import os
 import pkgutil
 import re
 import signal
@@ -96,7 +97,8 @@ def _join_negative_values(argv: Sequence[str]) -> list[str]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit status (2: a texcad error, printed on one line;
-    130: interrupted; 128 + the signal for SIGTERM and SIGHUP)."""
+    130: interrupted; 128 + the signal for SIGTERM and SIGHUP; 141: the output's reader
+    closed the pipe)."""
     parser = build_parser()
     args = parser.parse_args(_join_negative_values(sys.argv[1:] if argv is None else list(argv)))
     func: Callable[[argparse.Namespace], int] = args.func
@@ -112,6 +114,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Terminated as exc:
         print(f"texcad: terminated by signal {exc.signum}; no output was left half-written", file=sys.stderr)
         return 128 + exc.signum
+    except BrokenPipeError:  # the reader went away (texcad check part.stl | head): nothing more to say
+        with contextlib.suppress(OSError, ValueError):  # Python's flush at exit would raise again
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
 
 
 def entry() -> None:
