@@ -228,7 +228,87 @@ def read_step(path: str | os.PathLike):
         raise InputError(f"STEP file {p!r} holds no shape OCCT can translate (no solid, shell or face); "
                          "export the part again as a solid body (STEP AP214 or AP242)")
     _check_shape(shape, p)
-    return shape
+    return closed_shells_as_solids(shape)
+
+
+def closed_shells_as_solids(shape, tolerance: float = 1e-3):
+    """``shape`` with its closed shells made solids when it holds no solid: converters
+    from meshes and some surface modellers write a body as a shell, or as faces that
+    share no edges (a shell per triangle). The faces are sewn first when some shell is
+    open (``BRepBuilderAPI_Sewing``, ``tolerance`` mm); each closed shell becomes a
+    solid (``BRepBuilderAPI_MakeSolid``, turned outward by
+    ``BRepLib::OrientClosedSolid``) that ``BRepCheck`` accepts, and faces on one
+    surface are merged (:func:`_unified`). A shape with a solid, or with no closed
+    shell even after sewing, is returned as it is."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Sewing
+    from OCP.TopAbs import TopAbs_SOLID
+    from OCP.TopExp import TopExp_Explorer
+
+    if TopExp_Explorer(shape, TopAbs_SOLID).More():
+        return shape
+    shells = _shells(shape)
+    if not shells or not all(sh.Closed() for sh in shells):
+        sewing = BRepBuilderAPI_Sewing(tolerance)
+        sewing.Add(shape)
+        sewing.Perform()
+        shells = _shells(sewing.SewedShape())
+    solids = [s for s in map(_solid_of, shells) if s is not None]
+    return _unified(_compound(solids)) if solids else shape
+
+
+def _unified(shape):
+    """``shape`` with the faces that lie on one plane or surface and meet along edges
+    merged (``ShapeUpgrade_UnifySameDomain``): a mesh converted to STEP has a face per
+    triangle, and its top should be one face to pick and texture. Kept as it was if the
+    merged shape is not valid."""
+    from OCP.BRepCheck import BRepCheck_Analyzer
+    from OCP.ShapeUpgrade import ShapeUpgrade_UnifySameDomain
+
+    unify = ShapeUpgrade_UnifySameDomain(shape, True, True, False)
+    unify.Build()
+    out = unify.Shape()
+    return out if not out.IsNull() and BRepCheck_Analyzer(out).IsValid() else shape
+
+
+def _shells(shape) -> list:
+    """The shells of ``shape`` (OCP ``TopoDS_Shell``), with ``Closed()`` set from their
+    free edges (``BRep_Tool::IsClosed``)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_SHELL
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    out = []
+    ex = TopExp_Explorer(shape, TopAbs_SHELL)
+    while ex.More():  # per shell
+        sh = TopoDS.Shell_s(ex.Current())
+        sh.Closed(BRep_Tool.IsClosed_s(sh))
+        out.append(sh)
+        ex.Next()
+    return out
+
+
+def _solid_of(shell):
+    """A closed shell as a valid outward solid, or None."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeSolid
+    from OCP.BRepCheck import BRepCheck_Analyzer
+    from OCP.BRepLib import BRepLib
+
+    if not shell.Closed():
+        return None
+    solid = BRepBuilderAPI_MakeSolid(shell).Solid()
+    return solid if BRepLib.OrientClosedSolid_s(solid) and BRepCheck_Analyzer(solid).IsValid() else None
+
+
+def _compound(shapes: list):
+    from OCP.BRep import BRep_Builder
+    from OCP.TopoDS import TopoDS_Compound
+
+    out, builder = TopoDS_Compound(), BRep_Builder()
+    builder.MakeCompound(out)
+    for sh in shapes:
+        builder.Add(out, sh)
+    return out
 
 
 #: mm; a STEP coordinate farther from the origin is refused (a damaged number: no
@@ -307,11 +387,12 @@ def _first_fault(reader, p: str) -> str | None:
         where = f"a syntax error at line {found.group(1)}: {found.group(2).strip()}" if found else f"a fault: {general[0]}"
         return f"STEP file {p!r} has {where}; {_FIX}"
     ents = _entities(p, faults)
-    shape_faults = [k for k in sorted(faults) if not _METADATA.search(ents.get(k, ("", 0, ""))[2])]
+    shape_faults = [k for k in sorted(faults) if not (_METADATA.search(ents.get(k, ("", 0, "", False))[2])
+                                                       or ents.get(k, ("", 0, "", False))[3])]
     if not shape_faults:  # only styles, colours, product data... at fault: the shape itself reads whole
         return None
     n = shape_faults[0]
-    label, line, _ = ents.get(n, (None, 0, ""))
+    label, line, _, _ = ents.get(n, (None, 0, "", False))
     what = "; ".join(dict.fromkeys(faults[n]))
     missing = [m.group(1) for m in (re.search(rf"Ent\.Id\.{label}\b.*\(Id\.(#\d+)\)", g) for g in general) if m]
     if label and missing:
@@ -387,7 +468,7 @@ _METADATA = re.compile(r"STYLE|COLOUR|PRESENTATION|DRAUGHTING|ANNOTATION|PROPERT
 
 
 def _entities(p: str, numbers) -> dict:
-    """``{n: (label "#N", line, type names)}`` of the ``n``-th entities (from 1) of the
+    """``{n: (label "#N", line, type names, a unit OCCT defaults (:func:`_default_unit`))}`` of the ``n``-th entities (from 1) of the
     DATA section, for the entity numbers ``numbers`` OCCT reported: one pass over the file."""
     want = set(numbers)
     with open(p, "rb") as fh:
@@ -399,11 +480,21 @@ def _entities(p: str, numbers) -> dict:
     last = max(want)
     for k, m in enumerate(re.finditer(rb"#(\d+)\s*=(?=\s*(.{0,400}))", data[start:]), start=1):  # up to the last one asked
         if k in want:
-            kinds = " ".join(re.findall(r"[A-Z_][A-Z_0-9]{2,}(?=\s*\()", m.group(2).decode("latin-1")))
-            out[k] = (f"#{int(m.group(1))}", data.count(b"\n", 0, start + m.start()) + 1, kinds)
+            text = m.group(2).decode("latin-1")
+            kinds = " ".join(re.findall(r"[A-Z_][A-Z_0-9]{2,}(?=\s*\()", text))
+            out[k] = (f"#{int(m.group(1))}", data.count(b"\n", 0, start + m.start()) + 1, kinds, _default_unit(kinds, text))
         if k >= last:
             break
     return out
+
+
+def _default_unit(kinds: str, text: str) -> bool:
+    """Is the entity a unit OCCT's reader falls back to when it cannot load it: a
+    solid angle unit (no B-rep quantity is a solid angle) or a plane angle unit in
+    radians (OCCT's default)? Converters write them with extra parameters
+    (``(NAMED_UNIT(#12)SOLID_ANGLE_UNIT()SI_UNIT($,.STERADIAN.))``) that OCCT's parser
+    faults; a length unit or an angle in degrees stays a fault."""
+    return "SOLID_ANGLE_UNIT" in kinds or ("PLANE_ANGLE_UNIT" in kinds and ".RADIAN." in text and "CONVERSION" not in kinds)
 
 
 def _check_shape(shape, p: str) -> None:
