@@ -488,13 +488,19 @@ def _entities(p: str, numbers) -> dict:
     return out
 
 
+#: An angle unit as STL-to-STEP converters write it: ``NAMED_UNIT`` given its
+#: dimensions (``#N``), which OCCT's parser faults ("Count of Parameters is not 2 for
+#: si_unit"), in radians or steradians, OCCT's defaults. Nothing else passes: the
+#: translator crashed on unit entities with a parameter more or less (tests/io/test_fuzz.py).
+_CONVERTER_UNIT = re.compile(r"\(\s*NAMED_UNIT\(\s*#\d+\s*\)\s*(?:PLANE_ANGLE_UNIT\(\s*\)\s*SI_UNIT\(\s*\$\s*,\s*\.RADIAN\.\s*\)|"
+                             r"SOLID_ANGLE_UNIT\(\s*\)\s*SI_UNIT\(\s*\$\s*,\s*\.STERADIAN\.\s*\))\s*\)\s*;")
+
+
 def _default_unit(kinds: str, text: str) -> bool:
-    """Is the entity a unit OCCT's reader falls back to when it cannot load it: a
-    solid angle unit (no B-rep quantity is a solid angle) or a plane angle unit in
-    radians (OCCT's default)? Converters write them with extra parameters
-    (``(NAMED_UNIT(#12)SOLID_ANGLE_UNIT()SI_UNIT($,.STERADIAN.))``) that OCCT's parser
-    faults; a length unit or an angle in degrees stays a fault."""
-    return "SOLID_ANGLE_UNIT" in kinds or ("PLANE_ANGLE_UNIT" in kinds and ".RADIAN." in text and "CONVERSION" not in kinds)
+    """Is the entity an angle unit exactly as converters write it
+    (:data:`_CONVERTER_UNIT`), which OCCT reads as its default when its parser faults
+    it? A length unit, an angle in degrees or any other form stays a fault."""
+    return "ANGLE_UNIT" in kinds and _CONVERTER_UNIT.match(text) is not None
 
 
 def _check_shape(shape, p: str) -> None:
