@@ -235,3 +235,26 @@ def test_mutated_step_files_give_a_part_or_a_texcad_error(tmp_path, m, step_byte
 @pytest.fixture(scope="module")
 def step_bytes():
     return _step()
+
+
+@pytest.mark.parametrize("damage", ["label", "parameter"])
+def test_a_damaged_pcurve_is_refused_before_occt_translates_it(tmp_path, step_bytes, damage):
+    """Two mutations that OCCT's parser let through and its translator crashed on
+    (hypothesis seeds 31334 and 7374 of the test above): a pcurve's 2D line whose label
+    lost a digit (``#\\xa822 = LINE``), and a pcurve with a parameter more."""
+    import re
+
+    from texcad.io import read_step
+
+    m = list(re.finditer(rb"DEFINITIONAL_REPRESENTATION\('',\(#(\d+)\),(#\d+)\)", step_bytes))[-1]
+    if damage == "label":
+        label = b"#" + m.group(1) + b" ="
+        k = step_bytes.index(label)
+        data = step_bytes[:k + 1] + b"\xa8" + step_bytes[k + 2:]
+        match = rf"refers to #{m.group(1).decode()}, which the file does not define"
+    else:
+        data = step_bytes[:m.start(2)] + b".T.," + step_bytes[m.start(2):]
+        match = "does not have its three parameters"
+    (tmp_path / "part.step").write_bytes(data)
+    with pytest.raises(TexcadError, match=match):
+        read_step(tmp_path / "part.step")
