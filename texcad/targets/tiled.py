@@ -250,7 +250,37 @@ def _lean_tile_block(source: Any, grid: Any, t: Any, tolerance: float = 0.0, che
     from ..solid.tiles import lean_plate_tile
 
     v = _tile_vertices(source, grid, t)
-    return v, lean_plate_tile(grid, t, v, tolerance, accept=check, max_fraction=MAX_FRACTION)
+    return v, lean_plate_tile(grid, t, v, tolerance, accept=check, max_fraction=MAX_FRACTION, measure=False)
+
+
+class _LeanStore:
+    """Lean tiles kept between passes over a :class:`TiledMesh` (the gate's, the
+    writer's): each tile's kept nodes (bits), their float32 vertices and its int32
+    local triangles, appended to an anonymous temporary file (removed when closed or
+    dropped), so a tile is triangulated once and the memory still goes with one tile."""
+
+    def __init__(self) -> None:
+        self.file = tempfile.TemporaryFile()
+        self.index: list = []
+        self.complete = False
+
+    def add(self, keep: np.ndarray, v: np.ndarray, faces: np.ndarray) -> None:
+        parts = (np.packbits(keep.ravel()), np.ascontiguousarray(v, np.float32), np.ascontiguousarray(faces, np.int32))
+        self.index.append((keep.shape, len(v), len(faces)))
+        for a in parts:  # the three arrays, one after the other
+            self.file.write(a.tobytes())
+
+    def tiles(self) -> Any:
+        """``(keep, vertices, faces)`` per tile in the order they were added."""
+        self.file.seek(0)
+        for shape, nv, nf in self.index:  # per tile
+            n = shape[0] * shape[1]
+            keep = np.unpackbits(np.fromfile(self.file, np.uint8, (n + 7) // 8), count=n).astype(bool).reshape(shape)
+            v = np.fromfile(self.file, np.float32, 3 * nv).reshape(nv, 3)
+            yield keep, v, np.fromfile(self.file, np.int32, 3 * nf).reshape(nf, 3).astype(np.int64)
+
+    def close(self) -> None:
+        self.file.close()
 
 
 class _HeightmapSource:
@@ -627,10 +657,13 @@ class TiledMesh:
     @property
     def max_error(self) -> float:
         """The largest height error at a pixel centre, mm (0 for every pixel centre;
-        lean: the tiles' measured errors, one pass the first time)."""
+        lean: measured tile by tile against the source's heights (:meth:`tile_error`)
+        by the gate or the writer, else in one pass the first time)."""
         if self.tolerance <= 0:
             return 0.0
-        self._lean_counts()
+        if "max_error" not in self.__dict__:
+            self.__dict__["max_error"] = max((self.tile_error(t, v, f) for t, v, f, _ in self.blocks() if t is not None),
+                                             default=0.0)
         return self.__dict__["max_error"]
 
     def blocks(self, progress: Progress = None) -> "Any":
@@ -653,24 +686,45 @@ class TiledMesh:
 
     def _lean_blocks(self, numbering: Any, progress: Progress) -> Any:
         """:meth:`blocks` with lean tiles: each tile's kept nodes only (numbered on, the
-        border's numbers shared), its lean triangles; keeps the counts and the error."""
-        from functools import partial
-
+        border's numbers shared), its lean triangles; keeps the counts. The tiles are
+        triangulated in the first pass and kept on disk for the next (:class:`_LeanStore`)."""
         from ..solid.tiles import walls
 
         grid, total = self.grid, self.grid.count
-        error, triangles = 0.0, 0
-        make = partial(_lean_tile_block, tolerance=self.tolerance, check=self.check)
-        for k, (t, (v, lt)) in enumerate(_tile_vertex_blocks(grid, self.source, self.client, make)):  # per tile, in order
-            keep = lt.keep.ravel()
-            ids = numbering.ids(t, lt.keep).ravel()[keep]
-            local = np.cumsum(keep) - 1
-            error, triangles = max(error, lt.error), triangles + len(lt.faces)
-            yield t, v[keep], local[lt.faces], ids
+        triangles = 0
+        store = self.__dict__.get("_store")
+        fresh = store is None or not store.complete
+        if fresh:  # triangulate (a pass left unfinished is started again)
+            if store is not None:
+                store.close()
+            store = self.__dict__["_store"] = _LeanStore()
+        for k, (t, (keep, v, f)) in enumerate(zip(grid.tiles(), self._lean_tiles() if fresh else store.tiles())):  # per tile
+            if fresh:
+                store.add(keep, v, f)
+            ids = numbering.ids(t, keep).ravel()[keep.ravel()]
+            triangles += len(f)
+            yield t, v, f, ids
             report(progress, (k + 1) / (total + 1), f"tile {k + 1}/{total}")
+        store.complete = True
         rest = walls(grid, numbering, self.thickness)
-        self.__dict__.update(counts=(numbering.next + 4, triangles + len(rest[1])), max_error=error)
+        self.__dict__.update(counts=(numbering.next + 4, triangles + len(rest[1])))
         yield (None, *rest)
+
+    def _lean_tiles(self) -> Any:
+        """``(keep, kept vertices, local faces)`` per tile, triangulated (here or on the
+        cluster: :func:`_lean_tile_block`)."""
+        from functools import partial
+
+        make = partial(_lean_tile_block, tolerance=self.tolerance, check=self.check)
+        for _, (v, lt) in _tile_vertex_blocks(self.grid, self.source, self.client, make):  # per tile, in order
+            keep = lt.keep.ravel()
+            local = np.cumsum(keep) - 1
+            yield lt.keep, v[keep], local[lt.faces]
+
+    def __getstate__(self) -> dict:  # no open file in a copy: its tiles are made again
+        state = dict(self.__dict__)
+        state.pop("_store", None)
+        return state
 
     def _stream_blocks(self, progress: Progress = None) -> Any:
         """:meth:`blocks` as the streaming writers take them (each new vertex once)."""
@@ -694,16 +748,21 @@ class TiledMesh:
         from ..solid.tiles import block_volume
 
         known = "volume" in self.__dict__
-        volume = 0.0
+        measure = self.tolerance > 0 and "max_error" not in self.__dict__  # lean, not gated: measured on the way
+        volume, error = 0.0, 0.0
         with open_stream(out, **kwargs) as stream:
             for t, v, f, ids in self._stream_blocks(progress):  # per tile
                 stream.add(v, f, ids)
                 if not known:
                     volume += block_volume(v, f) if t is None else self.share(t, v, f)
+                if measure and t is not None:
+                    error = max(error, self.tile_error(t, v, f))
                 del v, f
         report(progress, 1.0, f"wrote {stream.triangles} triangles")
         if not known:
             self.__dict__["volume"] = volume
+        if measure:
+            self.__dict__["max_error"] = error
         return stream.triangles, self.__dict__["volume"]
 
     @property
@@ -927,6 +986,8 @@ def gate_tiled(mesh: TiledMesh, ex: Any, *, what: str = "textured plate") -> Any
     if not shells.manifold:
         raise GeometryError(f"the {what} failed texcad's gate: {shells.problem() or 'its vertices are not finite'}; please report this")
     mesh.__dict__["volume"], mesh.__dict__["top"] = volume, top
+    if lean:
+        mesh.__dict__["max_error"] = error
     if lean and error > mesh.tolerance + 1e-6:
         raise GeometryError(f"the {what} failed texcad's gate: its lean tiles lie up to {error:.4f} mm from the texture's "
                             f"heights at a pixel centre, beyond tolerance={mesh.tolerance:g} mm; please report this")
