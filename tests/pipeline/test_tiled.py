@@ -678,6 +678,30 @@ def test_lean_tiles_keep_the_untiled_error_bound_across_their_borders(tmp_path, 
     assert err <= TOL and np.isclose(err, r.max_error, rtol=1e-6)
 
 
+def test_lean_tiles_are_triangulated_once_for_every_pass(monkeypatch):
+    """Lean tiles are triangulated in the first pass over the mesh and read back in the
+    next (the gate's, then the writer's): the same blocks, no second greedy insertion;
+    the error is measured against the source's heights and within the tolerance."""
+    from texcad.pipeline.tiled import TiledMesh, plate_source
+    from texcad.solid import lean
+    from texcad.solid.tiles import PlateGrid
+
+    hm = texcad.builtin("builtin:stones", size=(12, 10), pitch=0.25, height=HEIGHT)
+    src, side = plate_source(hm, (13, 11), 0.25, None, tile=20)
+    mesh = TiledMesh(PlateGrid((13, 11), src.shape, src.pitch, side), src, THICK, tolerance=TOL)
+    runs = []
+    real = lean.triangulate
+    monkeypatch.setattr(lean, "triangulate", lambda *a, **k: runs.append(1) or real(*a, **k))
+    first = list(mesh.blocks())
+    n = len(runs)
+    second = list(mesh.blocks())
+    assert mesh.grid.count > 4 and 0 < n <= mesh.grid.count and len(runs) == n
+    assert len(first) == len(second) == mesh.grid.count + 1
+    for (t, v, f, ids), (t2, v2, f2, ids2) in zip(first, second):
+        assert t == t2 and np.array_equal(v, v2) and np.array_equal(f, f2) and np.array_equal(ids, ids2)
+    assert 0 < mesh.max_error <= TOL and len(runs) == n
+
+
 def test_lean_tiles_are_gated_tile_by_tile(monkeypatch):
     """The gate on lean tiles: passes on good ones; a lean vertex moved off the
     heightfield (inside a tile) is caught by the per-tile error check; a lean
