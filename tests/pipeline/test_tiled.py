@@ -500,6 +500,23 @@ def test_texture_switches_a_cylinder_to_tiles_with_the_untiled_texture_vertices(
         tx.texture_mesh
 
 
+def test_a_cylinder_in_tiles_keeps_every_pixel_centre_where_the_untiled_one_is_lean(monkeypatch):
+    """The documented difference of curved surfaces in tiles: at the default tolerance
+    (0.02 mm) the untiled cylinder is lean within it, the tiled one keeps every pixel
+    centre (error 0, every node of every tile a vertex)."""
+    import warnings
+
+    surf = texcad.Surface.cylinder(8.0, 12.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the texture scaled to whole repeats round the cylinder (both paths)
+        lean = texcad.texture(surf, None, "builtin:pins", pitch=0.5, height=0.6)
+        _small_surface_budget(monkeypatch)
+        tx = texcad.texture(surf, None, "builtin:pins", pitch=0.5, height=0.6, max_memory="2GB")
+    assert tx.info["fuse"] == "tiled" and tx.max_error == 0.0 and tx.info["grid"] == lean.info["grid"]
+    assert 0 < lean.max_error <= 0.02
+    assert all(len(v) == t.shape[0] * t.shape[1] for t, v, _, _ in tx.mesh.blocks() if t is not None)
+
+
 GRADIENT = ((0.0, 0.0, 0.0), (0.0, 12.0, 0.0))  # full depth at y = 0, none at y = 12 mm
 
 

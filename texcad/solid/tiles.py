@@ -235,7 +235,7 @@ def lean_plate_tile(grid: PlateGrid, t: Tile, vertices: np.ndarray, tolerance: f
     lean block (e.g. a facet that overhangs), which is then tightened, down to the
     grid. The grid too where the lean block keeps more than ``max_fraction`` of its
     grid's triangles plus what its whole border costs (about ``2 (a + b)`` triangles
-    of fans for an ``a x b`` block: the untiled rule,
+    of the border strip for an ``a x b`` block: the untiled rule,
     :data:`texcad.solid.lean.MAX_FRACTION`, for a plate cut into tiles). ``measure``
     False: the error is left to the caller (NaN for a lean block, e.g. measured by the
     gate tile by tile)."""

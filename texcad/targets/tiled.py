@@ -30,9 +30,13 @@ With ``tolerance`` > 0 the tiles are lean (:meth:`TiledMesh.blocks`,
 triangulated within the tolerance (greedy insertion, the untiled lean mesh's
 :func:`texcad.solid.lean.triangulate`) with the tile's border rows and columns kept
 whole, so that neighbouring tiles meet on the same vertices and edges (no gap, no
-duplicate vertex) and the bound holds across the border (its points are exact); the
-error is measured at every pixel centre of each tile, and again by the gate against
-the source's heights. Only the kept nodes are numbered (the streamed 3MF holds each
+duplicate vertex) and the bound holds across the border (its points are exact). A tile
+is within the tolerance by construction, in one greedy insertion (the inside
+triangulated, joined to the whole border by a strip one pixel wide that adds no
+error), triangulated once and kept in a temporary file for the next pass
+(:class:`_LeanStore`); its error is measured at every pixel centre by the gate (or
+the writer, when not gated) against the source's heights. Lean tiles are at most
+:data:`LEAN_TILE` nodes a side. Only the kept nodes are numbered (the streamed 3MF holds each
 once). What differs from the untiled lean mesh: the kept border lines (and the
 texture's outer rows and columns, whose cells to the rim stay the grid's) add
 triangles, about ``2 (a + b)`` per ``a x b`` tile (tested: at most 1.3 x the untiled
@@ -60,7 +64,7 @@ from ..errors import GeometryError, ParameterError, ResourceError
 from ..sources import Heightmap
 from ..util import Progress, report
 
-__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "CountedTiles", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "LimitedSource", "tile_for_memory", "BYTES_PER_TILE_NODE", "BYTES_PER_LEAN_NODE"]
+__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "CountedTiles", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "LimitedSource", "tile_for_memory", "BYTES_PER_TILE_NODE", "BYTES_PER_LEAN_NODE", "LEAN_TILE"]
 
 #: Peak bytes per node of one tile: the texture function's temporaries (float64),
 #: the float32 vertices, int64 faces and ids, STL records or 3MF text (measured on
