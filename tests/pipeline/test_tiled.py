@@ -697,7 +697,8 @@ def test_lean_tiles_keep_the_untiled_error_bound_across_their_borders(tmp_path, 
 
 def test_lean_tiles_are_triangulated_once_for_every_pass(monkeypatch):
     """Lean tiles are triangulated in the first pass over the mesh and read back in the
-    next (the gate's, then the writer's): the same blocks, no second greedy insertion;
+    next (the gate's, then the writer's; two side by side too): the same blocks, no
+    second greedy insertion;
     the error is measured against the source's heights and within the tolerance."""
     from texcad.pipeline.tiled import TiledMesh, plate_source
     from texcad.solid import lean
@@ -711,11 +712,12 @@ def test_lean_tiles_are_triangulated_once_for_every_pass(monkeypatch):
     monkeypatch.setattr(lean, "triangulate", lambda *a, **k: runs.append(1) or real(*a, **k))
     first = list(mesh.blocks())
     n = len(runs)
-    second = list(mesh.blocks())
+    both = list(zip(mesh.blocks(), mesh.blocks()))  # two passes side by side, read back
     assert mesh.grid.count > 4 and 0 < n <= mesh.grid.count and len(runs) == n
-    assert len(first) == len(second) == mesh.grid.count + 1
-    for (t, v, f, ids), (t2, v2, f2, ids2) in zip(first, second):
-        assert t == t2 and np.array_equal(v, v2) and np.array_equal(f, f2) and np.array_equal(ids, ids2)
+    assert len(first) == len(both) == mesh.grid.count + 1
+    for (t, v, f, ids), pair in zip(first, both):
+        for t2, v2, f2, ids2 in pair:
+            assert t == t2 and np.array_equal(v, v2) and np.array_equal(f, f2) and np.array_equal(ids, ids2)
     assert 0 < mesh.max_error <= TOL and len(runs) == n
 
 

@@ -266,30 +266,33 @@ class _LeanStore:
     """Lean tiles kept between passes over a :class:`TiledMesh` (the gate's, the
     writer's): each tile's kept nodes (bits), their float32 vertices and its int32
     local triangles, appended to an anonymous temporary file (removed when closed or
-    dropped), so a tile is triangulated once and the memory still goes with one tile."""
+    dropped), so a tile is triangulated once and the memory still goes with one tile.
+    Each tile is read back by its offset, so passes may run side by side."""
 
     def __init__(self) -> None:
         self.file = tempfile.TemporaryFile()
         self.index: list = []
+        self.size = 0
         self.complete = False
 
     def add(self, keep: np.ndarray, v: np.ndarray, faces: np.ndarray) -> None:
-        parts = (np.packbits(keep.ravel()), np.ascontiguousarray(v, np.float32), np.ascontiguousarray(faces, np.int32))
-        self.index.append((keep.shape, len(v), len(faces)))
-        for a in parts:  # the three arrays, one after the other
-            self.file.write(a.tobytes())
+        data = b"".join(a.tobytes() for a in (np.packbits(keep.ravel()), np.ascontiguousarray(v, np.float32),
+                                                np.ascontiguousarray(faces, np.int32)))
+        self.file.seek(self.size)
+        self.file.write(data)
+        self.index.append((self.size, keep.shape, len(v), len(faces)))
+        self.size += len(data)
 
     def tiles(self) -> Any:
         """``(keep, vertices, faces)`` per tile in the order they were added."""
-        self.file.seek(0)
-        for shape, nv, nf in self.index:  # per tile
+        self.file.flush()
+        for offset, shape, nv, nf in self.index:  # per tile
             n = shape[0] * shape[1]
-            keep = np.unpackbits(np.fromfile(self.file, np.uint8, (n + 7) // 8), count=n).astype(bool).reshape(shape)
-            v = np.fromfile(self.file, np.float32, 3 * nv).reshape(nv, 3)
-            yield keep, v, np.fromfile(self.file, np.int32, 3 * nf).reshape(nf, 3).astype(np.int64)
-
-    def close(self) -> None:
-        self.file.close()
+            nk = (n + 7) // 8
+            raw = np.array(np.memmap(self.file, dtype=np.uint8, mode="r", offset=offset, shape=(nk + 12 * (nv + nf),)))
+            keep = np.unpackbits(raw[:nk], count=n).astype(bool).reshape(shape)
+            v = raw[nk : nk + 12 * nv].view(np.float32).reshape(nv, 3).copy()
+            yield keep, v, raw[nk + 12 * nv :].view(np.int32).reshape(nf, 3).astype(np.int64)
 
 
 class _HeightmapSource:
@@ -703,9 +706,7 @@ class TiledMesh:
         triangles = 0
         store = self.__dict__.get("_store")
         fresh = store is None or not store.complete
-        if fresh:  # triangulate (a pass left unfinished is started again)
-            if store is not None:
-                store.close()
+        if fresh:  # triangulate (a pass left unfinished is started again; its file goes with it)
             store = self.__dict__["_store"] = _LeanStore()
         for k, (t, (keep, v, f)) in enumerate(zip(grid.tiles(), self._lean_tiles() if fresh else store.tiles())):  # per tile
             if fresh:
