@@ -70,7 +70,12 @@ MAX_FRACTION = 0.5
 
 
 def triangulate(
-    heights: np.ndarray, tolerance: float, *, max_fraction: float = MAX_FRACTION, full_border: bool = False
+    heights: np.ndarray,
+    tolerance: float,
+    *,
+    max_fraction: float = MAX_FRACTION,
+    full_border: bool = False,
+    fans: bool = False,
 ) -> "tuple[np.ndarray, np.ndarray] | None":
     """Triangulate a heightfield so that it stays within ``tolerance`` mm of every
     grid point (greedy insertion, pydelatin).
@@ -86,6 +91,12 @@ def triangulate(
             grid without its outer ring is triangulated within the tolerance and
             joined to the ring by a strip one pixel wide whose triangles add no error
             (:func:`_framed`), so the result is within the tolerance by construction.
+        fans: with ``full_border``, the whole grid triangulated and the triangles
+            along the sides made fans onto every side point instead: their facets
+            keep the slopes of the triangles they split (a strip one pixel wide has
+            steep slivers where the inside's boundary edges are long, which an
+            overhang check may refuse), but a fan can move the surface by up to the
+            tolerance again: measure the result (:func:`surface_error`).
 
     Returns:
         None if the tolerance needs more than ``max_fraction`` of the grid's
@@ -114,13 +125,15 @@ def triangulate(
 
     require_memory(rows * cols * 80.0, f"a lean triangulation of {rows} x {cols} px", "use a larger pitch")
     budget = max(2, int(max_fraction * 2 * (rows - 1) * (cols - 1)))
-    if full_border:
+    if full_border and not fans:
         got = _framed(h, t, budget)
     else:
         got = _greedy(h, t, budget)
     if got is None:
         return None
     rc, faces = got
+    if full_border and fans:
+        rc, faces = _fill_border(rc, faces, rows, cols)
     # Row-major faces (by their first vertex): manifold3d builds its half-edges from a
     # coherent order three times faster (0.6 s instead of 1.8 s CPU, demo plate).
     faces = faces[argsort_ints(np.minimum(np.minimum(faces[:, 0], faces[:, 1]), faces[:, 2]))].astype(np.uint32)
@@ -243,8 +256,9 @@ def tiled_triangulation(
     The grid is cut into tiles of about ``tile`` px that share their border rows and
     columns; each is triangulated with every border point kept (``full_border``), so
     neighbouring tiles meet on the same vertices whatever each keeps inside, and a
-    tile can be redone alone. Each tile is within ``tolerance`` by construction
-    (:func:`lean_tile`), and ``accept(rc, faces)`` (grid points ``(row, col)`` of the
+    tile can be redone alone. Each tile is within ``tolerance`` (:func:`lean_tile`:
+    by construction; with ``accept``, its sides joined by fans, measured and
+    tightened where it misses), and ``accept(rc, faces)`` (grid points ``(row, col)`` of the
     whole grid and the tile's triangles) says whether a tile's triangulation is good
     (e.g. its 3-D error, or that no facet overhangs): True accepts it, False or a
     number ``x`` > 1 (the error came out ``x`` times the tolerance) rejects it, and
@@ -319,7 +333,9 @@ def lean_tile(
     edges whatever each keeps inside. ``accept(rc, faces)`` may reject it (True
     accepts; False or a number ``x`` > 1, e.g. a 3-D error ``x`` times the bound,
     rejects): a rejected tile is redone with 0.6 (or ``0.9 / x``) of the bound, twice
-    at most, then made as the pixel grid (error 0, always accepted).
+    at most, then made as the pixel grid (error 0, always accepted). With ``accept``
+    the sides are joined by fans (``fans``: facets as the inside's, for a check of
+    their angle), the error measured and the tile redone tighter where it misses.
 
     Args:
         heights: ``(r, c)`` heights in mm, r, c >= 2.
@@ -343,20 +359,65 @@ def lean_tile(
     sub = np.asarray(heights, dtype=np.float32)
     r, c = sub.shape
     run = float(tolerance)
-    for _ in range(0 if grid else 3):  # the check's rejections: tighter bounds, then the grid
-        lean = triangulate(sub, run, max_fraction=1.0, full_border=True)
+    for _ in range(0 if grid else 3):  # tighter bounds (a missed error, the check's rejections), then the grid
+        lean = triangulate(sub, run, max_fraction=1.0, full_border=True, fans=accept is not None)
         if lean is None:
             break
         rc, f = lean[0], lean[1].astype(np.int64)
+        err = None
+        if accept is not None:  # fans onto the border (their facets keep the inside's slopes): measured
+            err = surface_error(sub, rc, sub[rc[:, 0], rc[:, 1]], f)
+            if err > tolerance:
+                run *= 0.9 * tolerance / err
+                continue
         verdict = True if accept is None else accept(rc, f)
         if verdict is True:
             if max_fraction is not None and len(f) > max_fraction * 2 * (r - 1) * (c - 1):
                 break
-            err = surface_error(sub, rc, sub[rc[:, 0], rc[:, 1]], f) if measure else float("nan")
+            if err is None:
+                err = surface_error(sub, rc, sub[rc[:, 0], rc[:, 1]], f) if measure else float("nan")
             return rc, f, err
         run *= 0.6 if verdict is False else 0.9 / max(float(verdict), 1.0 + 1e-9)
     g = np.stack(np.meshgrid(np.arange(r), np.arange(c), indexing="ij"), -1).reshape(-1, 2)
     return g, grid_faces(r, c).astype(np.int64), 0.0
+
+
+def _fill_border(rc: np.ndarray, faces: np.ndarray, rows: int, cols: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every grid point on the four sides added to a triangulation ``(rc, faces)``:
+    a triangle whose edge runs along a side over skipped grid points becomes a fan
+    from its opposite vertex onto them (same orientation); repeated for triangles
+    with two such edges (at the corners)."""
+    key = rc[:, 0] * cols + rc[:, 1]
+    kept = np.zeros((rows, cols), dtype=bool)
+    kept.ravel()[key] = True
+    kept[[0, -1], :] = True
+    kept[:, [0, -1]] = True
+    allkey = np.flatnonzero(kept)  # row-major, like triangulate's rc
+    slot = np.cumsum(kept.ravel()) - 1  # grid index -> index into allkey
+    out = np.stack([allkey // cols, allkey % cols], axis=1)
+    f = slot[key][faces]
+    for _ in range(4):  # a triangle has at most two edges along the sides
+        a, b = out[f], out[np.roll(f, -1, axis=1)]  # (M, 3, 2): edge k runs f[k] -> f[k+1]
+        along_r = (a[..., 0] == b[..., 0]) & ((a[..., 0] == 0) | (a[..., 0] == rows - 1))
+        along_c = (a[..., 1] == b[..., 1]) & ((a[..., 1] == 0) | (a[..., 1] == cols - 1))
+        gap = np.where(along_r, np.abs(a[..., 1] - b[..., 1]), np.where(along_c, np.abs(a[..., 0] - b[..., 0]), 0))
+        long = gap > 1
+        if not long.any():
+            return out, f
+        tri = np.flatnonzero(long.any(axis=1))
+        e = np.argmax(long[tri], axis=1)
+        u, v, apex = f[tri, e], f[tri, (e + 1) % 3], f[tri, (e + 2) % 3]
+        n = gap[tri, e]
+        step = np.sign(out[v] - out[u])  # (T, 2): along the side
+        k = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+        start = np.repeat(out[u], n, axis=0) + k[:, None] * np.repeat(step, n, axis=0)
+        p0 = slot[start[:, 0] * cols + start[:, 1]]
+        nxt = start + np.repeat(step, n, axis=0)
+        p1 = slot[nxt[:, 0] * cols + nxt[:, 1]]
+        keep = np.ones(len(f), bool)
+        keep[tri] = False
+        f = np.concatenate([f[keep], np.stack([p0, p1, np.repeat(apex, n)], axis=1)])
+    raise GeometryError("could not fill the lean triangulation's border; use tolerance=0 and please report this")
 
 
 def boundary_chains(rc: np.ndarray, rows: int, cols: int) -> tuple[np.ndarray, ...]:
