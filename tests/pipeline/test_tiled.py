@@ -500,6 +500,23 @@ def test_texture_switches_a_cylinder_to_tiles_with_the_untiled_texture_vertices(
         tx.texture_mesh
 
 
+def test_a_cylinder_in_tiles_keeps_every_pixel_centre_where_the_untiled_one_is_lean(monkeypatch):
+    """The documented difference of curved surfaces in tiles: at the default tolerance
+    (0.02 mm) the untiled cylinder is lean within it, the tiled one keeps every pixel
+    centre (error 0, every node of every tile a vertex)."""
+    import warnings
+
+    surf = texcad.Surface.cylinder(8.0, 12.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the texture scaled to whole repeats round the cylinder (both paths)
+        lean = texcad.texture(surf, None, "builtin:pins", pitch=0.5, height=0.6)
+        _small_surface_budget(monkeypatch)
+        tx = texcad.texture(surf, None, "builtin:pins", pitch=0.5, height=0.6, max_memory="2GB")
+    assert tx.info["fuse"] == "tiled" and tx.max_error == 0.0 and tx.info["grid"] == lean.info["grid"]
+    assert 0 < lean.max_error <= 0.02
+    assert all(len(v) == t.shape[0] * t.shape[1] for t, v, _, _ in tx.mesh.blocks() if t is not None)
+
+
 GRADIENT = ((0.0, 0.0, 0.0), (0.0, 12.0, 0.0))  # full depth at y = 0, none at y = 12 mm
 
 
@@ -676,6 +693,32 @@ def test_lean_tiles_keep_the_untiled_error_bound_across_their_borders(tmp_path, 
     # the error at every pixel centre, from the STL's float32 corners (the 3MF's text has 4 decimals)
     err = _texture_error(texcad.Mesh(corners, inv.reshape(-1, 3).astype(np.uint32)), hm)
     assert err <= TOL and np.isclose(err, r.max_error, rtol=1e-6)
+
+
+def test_lean_tiles_are_triangulated_once_for_every_pass(monkeypatch):
+    """Lean tiles are triangulated in the first pass over the mesh and read back in the
+    next (the gate's, then the writer's; two side by side too): the same blocks, no
+    second greedy insertion;
+    the error is measured against the source's heights and within the tolerance."""
+    from texcad.pipeline.tiled import TiledMesh, plate_source
+    from texcad.solid import lean
+    from texcad.solid.tiles import PlateGrid
+
+    hm = texcad.builtin("builtin:stones", size=(12, 10), pitch=0.25, height=HEIGHT)
+    src, side = plate_source(hm, (13, 11), 0.25, None, tile=20)
+    mesh = TiledMesh(PlateGrid((13, 11), src.shape, src.pitch, side), src, THICK, tolerance=TOL)
+    runs = []
+    real = lean.triangulate
+    monkeypatch.setattr(lean, "triangulate", lambda *a, **k: runs.append(1) or real(*a, **k))
+    first = list(mesh.blocks())
+    n = len(runs)
+    both = list(zip(mesh.blocks(), mesh.blocks()))  # two passes side by side, read back
+    assert mesh.grid.count > 4 and 0 < n <= mesh.grid.count and len(runs) == n
+    assert len(first) == len(both) == mesh.grid.count + 1
+    for (t, v, f, ids), pair in zip(first, both):
+        for t2, v2, f2, ids2 in pair:
+            assert t == t2 and np.array_equal(v, v2) and np.array_equal(f, f2) and np.array_equal(ids, ids2)
+    assert 0 < mesh.max_error <= TOL and len(runs) == n
 
 
 def test_lean_tiles_are_gated_tile_by_tile(monkeypatch):

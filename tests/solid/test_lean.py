@@ -193,6 +193,34 @@ def test_full_border_keeps_every_border_point():
     assert lean.surface_error(hm.heights, rc, hm.heights[rc[:, 0], rc[:, 1]], f) <= 0.05 * (1 + 1e-6)
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_full_border_is_within_the_tolerance_by_construction(seed, monkeypatch):
+    """full_border on random heightmaps (smooth hills, a noisy patch, a step): every
+    border point kept, the brute-force error within the tolerance with no slack, one
+    greedy insertion (no retry), and the triangles that touch the outer ring reach no
+    further than the next line in (the one-pixel strip, which adds no error)."""
+    rng = np.random.default_rng(seed)
+    r, c = int(rng.integers(6, 40)), int(rng.integers(6, 40))
+    y, x = np.mgrid[0:r, 0:c] / 6.0
+    h = 0.5 + 0.4 * np.sin(x * rng.uniform(0.5, 3)) * np.cos(y * rng.uniform(0.5, 3))
+    h[: r // 3, c // 2 :] += rng.uniform(0, 0.2, (r // 3, c - c // 2))
+    h[r // 2 :, : c // 3] += 0.3
+    tol = float(rng.uniform(0.005, 0.05))
+    runs = []
+    real = lean._greedy
+    monkeypatch.setattr(lean, "_greedy", lambda *a: runs.append(1) or real(*a))
+    rc, f = lean.triangulate(h, tol, max_fraction=1.0, full_border=True)
+    assert len(runs) == 1
+    ring = (rc[:, 0] == 0) | (rc[:, 0] == r - 1) | (rc[:, 1] == 0) | (rc[:, 1] == c - 1)
+    assert ring.sum() == 2 * (r + c) - 4
+    assert _brute_error(h, rc, h[rc[:, 0], rc[:, 1]], f) <= tol
+    near = (rc[:, 0] <= 1) | (rc[:, 0] >= r - 2) | (rc[:, 1] <= 1) | (rc[:, 1] >= c - 2)
+    touching = ring[f].any(axis=1)
+    assert touching.any() and near[f[touching]].all()
+    rc2, f2, err = lean.lean_tile(h, tol)
+    assert np.array_equal(rc2, rc) and len(runs) == 2 and 0 <= err <= tol
+
+
 def _open_edges(faces):
     """Directed edges of ``faces`` whose reverse is not among them."""
     e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])

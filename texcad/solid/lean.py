@@ -70,7 +70,12 @@ MAX_FRACTION = 0.5
 
 
 def triangulate(
-    heights: np.ndarray, tolerance: float, *, max_fraction: float = MAX_FRACTION, full_border: bool = False
+    heights: np.ndarray,
+    tolerance: float,
+    *,
+    max_fraction: float = MAX_FRACTION,
+    full_border: bool = False,
+    fans: bool = False,
 ) -> "tuple[np.ndarray, np.ndarray] | None":
     """Triangulate a heightfield so that it stays within ``tolerance`` mm of every
     grid point (greedy insertion, pydelatin).
@@ -81,11 +86,17 @@ def triangulate(
 
         max_fraction: stop when the triangulation reaches this share of the
             pixel grid's ``2 (R-1)(C-1)`` triangles without meeting the tolerance.
-        full_border: keep every grid point on the four sides (the triangles along
-            the sides become fans onto them): the sides are those of the pixel grid,
-            for walls and seams built from the full grid's border. The heights there
-            are exact; inside, a fan can move the surface by up to the tolerance
-            again, so measure the result (:func:`surface_error`, :func:`grid_distance`).
+        full_border: keep every grid point on the four sides: the sides are those of
+            the pixel grid, for walls and seams built from the full grid's border. The
+            grid without its outer ring is triangulated within the tolerance and
+            joined to the ring by a strip one pixel wide whose triangles add no error
+            (:func:`_framed`), so the result is within the tolerance by construction.
+        fans: with ``full_border``, the whole grid triangulated and the triangles
+            along the sides made fans onto every side point instead: their facets
+            keep the slopes of the triangles they split (a strip one pixel wide has
+            steep slivers where the inside's boundary edges are long, which an
+            overhang check may refuse), but a fan can move the surface by up to the
+            tolerance again: measure the result (:func:`surface_error`).
 
     Returns:
         None if the tolerance needs more than ``max_fraction`` of the grid's
@@ -99,8 +110,6 @@ def triangulate(
     Raises:
         ParameterError: bad tolerance or heights.
     """
-    from pydelatin import Delatin
-
     t = check_tolerance(tolerance)
     if t <= 0:
         raise ParameterError("triangulate needs a tolerance > 0 mm; tolerance 0 is the full pixel grid")
@@ -116,21 +125,14 @@ def triangulate(
 
     require_memory(rows * cols * 80.0, f"a lean triangulation of {rows} x {cols} px", "use a larger pitch")
     budget = max(2, int(max_fraction * 2 * (rows - 1) * (cols - 1)))
-    d = Delatin(h, max_error=t, max_triangles=budget)
-    if d.error > t:
+    if full_border and not fans:
+        got = _framed(h, t, budget)
+    else:
+        got = _greedy(h, t, budget)
+    if got is None:
         return None
-    v = d.vertices
-    tri = d.triangles.astype(np.int64)
-    # pydelatin's x is the column and y counts rows from the bottom (y = R - 1 - row).
-    col = np.rint(v[:, 0]).astype(np.int64)
-    row = rows - 1 - np.rint(v[:, 1]).astype(np.int64)
-    order = np.argsort(row * cols + col)  # row-major (the keys are distinct)
-    inv = np.empty_like(order)
-    inv[order] = np.arange(len(order))
-    rc = np.stack([row[order], col[order]], axis=1)
-    # Counter-clockwise in (x, y_up) is clockwise in (col, row): swap two corners.
-    faces = inv[tri[:, [0, 2, 1]]]
-    if full_border:
+    rc, faces = got
+    if full_border and fans:
         rc, faces = _fill_border(rc, faces, rows, cols)
     # Row-major faces (by their first vertex): manifold3d builds its half-edges from a
     # coherent order three times faster (0.6 s instead of 1.8 s CPU, demo plate).
@@ -145,6 +147,89 @@ def triangulate(
     if int(area2.sum()) != 2 * (rows - 1) * (cols - 1):
         raise GeometryError("the lean triangulation does not cover the grid; use tolerance=0 and please report this")
     return rc, faces
+
+
+def _greedy(h: np.ndarray, t: float, budget: int) -> "tuple[np.ndarray, np.ndarray] | None":
+    """Greedy insertion (pydelatin) on float32 heights ``h`` within ``t`` mm: ``(rc,
+    faces)`` int64 (``rc`` row-major, faces counter-clockwise with columns right and
+    rows up), or None past ``budget`` triangles."""
+    from pydelatin import Delatin
+
+    rows, cols = h.shape
+    d = Delatin(h, max_error=t, max_triangles=budget)
+    if d.error > t:
+        return None
+    v = d.vertices
+    tri = d.triangles.astype(np.int64)
+    # pydelatin's x is the column and y counts rows from the bottom (y = R - 1 - row).
+    col = np.rint(v[:, 0]).astype(np.int64)
+    row = rows - 1 - np.rint(v[:, 1]).astype(np.int64)
+    order = np.argsort(row * cols + col)  # row-major (the keys are distinct)
+    inv = np.empty_like(order)
+    inv[order] = np.arange(len(order))
+    # Counter-clockwise in (x, y_up) is clockwise in (col, row): swap two corners.
+    return np.stack([row[order], col[order]], axis=1), inv[tri[:, [0, 2, 1]]]
+
+
+def _framed(h: np.ndarray, t: float, budget: int) -> "tuple[np.ndarray, np.ndarray] | None":
+    """:func:`triangulate` with every point of the four sides kept, exact by
+    construction: the inside (the grid without its outer ring) is triangulated within
+    ``t`` (:func:`_greedy`) and joined to the full outer ring by a strip one pixel
+    wide on each side (:func:`_strip`). A strip triangle has its corners on the
+    outer line and the inside's boundary line, so the pixel centres it covers are
+    outer points (kept, exact) or lie on an edge of the inside's boundary, where the
+    inside's triangles already are within ``t``: the whole grid is within ``t``
+    with no second measure or retry. Grids under 4 px a side: the pixel grid."""
+    from .grid import grid_faces
+
+    rows, cols = h.shape
+    if rows < 4 or cols < 4:
+        g = np.stack(np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij"), -1).reshape(-1, 2)
+        return g, grid_faces(rows, cols).astype(np.int64)
+    core = np.ascontiguousarray(h[1:-1, 1:-1])
+    # hmm measures in float32: the bound lowered by a few ulps of the highest height, so
+    # that the float64 measure (surface_error) is within t too.
+    run = t - 16 * float(np.finfo(np.float32).eps) * max(float(np.abs(core).max()), 1.0)
+    inner = _greedy(core, run, budget) if run > 0 else None
+    if inner is None:
+        return None
+    irc, ifaces = inner
+    irc = irc + 1
+    ring = np.zeros((rows, cols), bool)
+    ring[[0, -1], :] = True
+    ring[:, [0, -1]] = True
+    rkey = np.flatnonzero(ring)
+    key = np.concatenate([irc[:, 0] * cols + irc[:, 1], rkey])  # distinct: the inside has no ring point
+    order = np.argsort(key)
+    slot = np.empty_like(order)
+    slot[order] = np.arange(len(order))
+    rc = np.stack([key[order] // cols, key[order] % cols], axis=1)
+    inside_chains = boundary_chains(irc - 1, rows - 2, cols - 2)
+    outer_chains = boundary_chains(np.stack([rkey // cols, rkey % cols], axis=1), rows, cols)
+    n_in = len(irc)
+    strips = [_strip(slot[n_in + o], slot[i], rc) for o, i in zip(outer_chains, inside_chains)]  # per side
+    return rc, np.concatenate([slot[ifaces], *strips])
+
+
+def _strip(outer: np.ndarray, inner: np.ndarray, rc: np.ndarray) -> np.ndarray:
+    """The triangles between two parallel lines of points one pixel apart, both
+    running counter-clockwise round the grid (``outer`` on the grid's side, ``inner``
+    on the inside's boundary, corner to corner; indices into ``rc``): the two chains
+    zipped in the order of their points along the side (an outer point first on a
+    tie), each step a triangle onto the chain's next point. Any such order tiles the
+    strip (its rungs do not cross); counter-clockwise with columns right, rows up."""
+    d = rc[outer[-1]] - rc[outer[0]]
+    d = np.sign(d)  # the side's direction: (0, 1), (1, 0), (0, -1) or (-1, 0)
+    pos = np.concatenate([rc[outer[1:]] @ d, rc[inner[1:]] @ d])
+    is_in = np.r_[np.zeros(len(outer) - 1, bool), np.ones(len(inner) - 1, bool)]
+    ev = np.lexsort((is_in, pos))  # along the side, an outer point first on a tie
+    kind = is_in[ev]
+    k = np.cumsum(~kind)  # the outer chain's point after each step
+    m = np.cumsum(kind)  # the inner chain's
+    tri = np.where(kind[:, None],
+                   np.stack([outer[k], inner[m], inner[np.maximum(m - 1, 0)]], 1),
+                   np.stack([outer[np.maximum(k - 1, 0)], outer[k], inner[m]], 1))
+    return tri.astype(np.int64)
 
 
 #: Tile size in px of :func:`tiled_triangulation` (its tile borders keep every grid
@@ -171,9 +256,9 @@ def tiled_triangulation(
     The grid is cut into tiles of about ``tile`` px that share their border rows and
     columns; each is triangulated with every border point kept (``full_border``), so
     neighbouring tiles meet on the same vertices whatever each keeps inside, and a
-    tile can be redone alone. Each tile's own error (:func:`surface_error` on the
-    field: the fans onto its border can move the surface) must be within
-    ``tolerance``, and ``accept(rc, faces)`` (grid points ``(row, col)`` of the
+    tile can be redone alone. Each tile is within ``tolerance`` (:func:`lean_tile`:
+    by construction; with ``accept``, its sides joined by fans, measured and
+    tightened where it misses), and ``accept(rc, faces)`` (grid points ``(row, col)`` of the
     whole grid and the tile's triangles) says whether a tile's triangulation is good
     (e.g. its 3-D error, or that no facet overhangs): True accepts it, False or a
     number ``x`` > 1 (the error came out ``x`` times the tolerance) rejects it, and
@@ -212,7 +297,7 @@ def tiled_triangulation(
         for c0, c1 in zip(ccuts[:-1], ccuts[1:]):
             strip = b > 0 and (r0 < b or c0 < b or r1 > rows - 1 - b or c1 > cols - 1 - b)
             here = None if accept is None else (lambda rc, f, o=np.array([r0, c0]): accept(rc + o, f))  # noqa: E731
-            rc, f, _ = lean_tile(h[r0 : r1 + 1, c0 : c1 + 1], tolerance, accept=here, grid=strip)
+            rc, f, _ = lean_tile(h[r0 : r1 + 1, c0 : c1 + 1], tolerance, accept=here, grid=strip, measure=False)
             all_rc.append(rc + np.array([r0, c0]))
             all_f.append(f + base)
             base += len(rc)
@@ -237,18 +322,20 @@ def lean_tile(
     accept: "Callable[[np.ndarray, np.ndarray], bool | float] | None" = None,
     grid: bool = False,
     max_fraction: "float | None" = None,
+    measure: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """One tile of a lean mesh whose border keeps every grid point, within
     ``tolerance`` mm of every pixel centre: ``(rc, faces, error)``.
 
     The tile is triangulated with its four sides at full resolution
-    (:func:`triangulate` with ``full_border``), so a neighbouring tile that does the
-    same meets it on the same points and edges whatever each keeps inside. Its error
-    is measured on the field (:func:`surface_error`: the fans onto the border can move
-    the surface) and must be within ``tolerance``; ``accept(rc, faces)`` may reject
-    it too (True accepts; False or a number ``x`` > 1, the error ``x`` times the
-    bound, rejects). A rejected tile is redone with 0.6 (or ``0.9 / x``) of the
-    bound, twice at most, then made as the pixel grid (error 0, always accepted).
+    (:func:`triangulate` with ``full_border``: within the tolerance by construction,
+    once), so a neighbouring tile that does the same meets it on the same points and
+    edges whatever each keeps inside. ``accept(rc, faces)`` may reject it (True
+    accepts; False or a number ``x`` > 1, e.g. a 3-D error ``x`` times the bound,
+    rejects): a rejected tile is redone with 0.6 (or ``0.9 / x``) of the bound, twice
+    at most, then made as the pixel grid (error 0, always accepted). With ``accept``
+    the sides are joined by fans (``fans``: facets as the inside's, for a check of
+    their angle), the error measured and the tile redone tighter where it misses.
 
     Args:
         heights: ``(r, c)`` heights in mm, r, c >= 2.
@@ -257,6 +344,9 @@ def lean_tile(
         grid: make the pixel grid straight away.
         max_fraction: the pixel grid when the lean tile keeps more than this share
             of the grid's ``2 (r-1)(c-1)`` triangles (None: no such limit).
+        measure: measure the error at every pixel centre (:func:`surface_error`);
+            False: ``error`` is NaN for a lean tile (the caller measures it, e.g.
+            texcad's gate, tile by tile).
 
     Returns:
         ``rc`` ``(N, 2)`` int64 tile-local ``(row, col)`` of the kept points (the grid's
@@ -267,24 +357,27 @@ def lean_tile(
     from .grid import grid_faces
 
     sub = np.asarray(heights, dtype=np.float32)
-    got, run = None, float(tolerance)
-    for _ in range(0 if grid else 3):  # tighter bounds, then the grid
-        lean = triangulate(sub, run, max_fraction=1.0, full_border=True)
+    r, c = sub.shape
+    run = float(tolerance)
+    for _ in range(0 if grid else 3):  # tighter bounds (a missed error, the check's rejections), then the grid
+        lean = triangulate(sub, run, max_fraction=1.0, full_border=True, fans=accept is not None)
         if lean is None:
             break
-        # The fans onto the tile's border can move the surface: measure the field.
-        err = surface_error(sub, lean[0], sub[lean[0][:, 0], lean[0][:, 1]], lean[1])
-        if err > tolerance:
-            run *= 0.9 * tolerance / err
-            continue
-        verdict = True if accept is None else accept(lean[0], lean[1].astype(np.int64))
+        rc, f = lean[0], lean[1].astype(np.int64)
+        err = None
+        if accept is not None:  # fans onto the border (their facets keep the inside's slopes): measured
+            err = surface_error(sub, rc, sub[rc[:, 0], rc[:, 1]], f)
+            if err > tolerance:
+                run *= 0.9 * tolerance / err
+                continue
+        verdict = True if accept is None else accept(rc, f)
         if verdict is True:
-            got = (lean[0], lean[1].astype(np.int64), err)
-            break
+            if max_fraction is not None and len(f) > max_fraction * 2 * (r - 1) * (c - 1):
+                break
+            if err is None:
+                err = surface_error(sub, rc, sub[rc[:, 0], rc[:, 1]], f) if measure else float("nan")
+            return rc, f, err
         run *= 0.6 if verdict is False else 0.9 / max(float(verdict), 1.0 + 1e-9)
-    r, c = sub.shape
-    if got is not None and (max_fraction is None or len(got[1]) <= max_fraction * 2 * (r - 1) * (c - 1)):
-        return got
     g = np.stack(np.meshgrid(np.arange(r), np.arange(c), indexing="ij"), -1).reshape(-1, 2)
     return g, grid_faces(r, c).astype(np.int64), 0.0
 

@@ -224,7 +224,7 @@ class LeanTile:
 
 
 def lean_plate_tile(grid: PlateGrid, t: Tile, vertices: np.ndarray, tolerance: float, *, accept=None,
-                    max_fraction: float = 1.0) -> LeanTile:
+                    max_fraction: float = 1.0, measure: bool = True) -> LeanTile:
     """Tile ``t`` of a plate (its ``(r c, 3)`` float32 ``vertices``, mm) made lean
     within ``tolerance`` mm (:func:`texcad.solid.lean.lean_tile`): its texture
     pixels triangulated with their block's four sides at full resolution, so the
@@ -235,8 +235,10 @@ def lean_plate_tile(grid: PlateGrid, t: Tile, vertices: np.ndarray, tolerance: f
     lean block (e.g. a facet that overhangs), which is then tightened, down to the
     grid. The grid too where the lean block keeps more than ``max_fraction`` of its
     grid's triangles plus what its whole border costs (about ``2 (a + b)`` triangles
-    of fans for an ``a x b`` block: the untiled rule,
-    :data:`texcad.solid.lean.MAX_FRACTION`, for a plate cut into tiles)."""
+    of the border strip for an ``a x b`` block: the untiled rule,
+    :data:`texcad.solid.lean.MAX_FRACTION`, for a plate cut into tiles). ``measure``
+    False: the error is left to the caller (NaN for a lean block, e.g. measured by the
+    gate tile by tile)."""
     from .lean import lean_tile
 
     r, c = t.shape
@@ -253,9 +255,9 @@ def lean_plate_tile(grid: PlateGrid, t: Tile, vertices: np.ndarray, tolerance: f
             here = lambda rc, f: accept(v[rc[:, 0], rc[:, 1]].astype(np.float64), f)  # noqa: E731
         share = max_fraction + (a + b) / ((a - 1) * (b - 1))
         if accept is None:
-            rc, f, error = lean_tile(v[..., 2], tolerance, max_fraction=share)
+            rc, f, error = lean_tile(v[..., 2], tolerance, max_fraction=share, measure=measure)
         else:  # in blocks of TILE px (as the untiled lean slab): a facet that fails makes only its block finer
-            rc, f, error = _checked_lean(v[..., 2], tolerance, here, share)
+            rc, f, error = _checked_lean(v[..., 2], tolerance, here, share, measure)
         sub = node[nrs, ncs]
         faces.append(sub[rc[:, 0], rc[:, 1]][f])
         keep[nrs.start + 1 : nrs.stop - 1, ncs.start + 1 : ncs.stop - 1] = False
@@ -270,7 +272,8 @@ def lean_plate_tile(grid: PlateGrid, t: Tile, vertices: np.ndarray, tolerance: f
     return LeanTile(keep, np.concatenate(faces).astype(np.int64), float(error))
 
 
-def _checked_lean(z: np.ndarray, tolerance: float, accept, share: float) -> tuple[np.ndarray, np.ndarray, float]:
+def _checked_lean(z: np.ndarray, tolerance: float, accept, share: float,
+                  measure: bool = True) -> tuple[np.ndarray, np.ndarray, float]:
     """``(rc, faces, error)`` of a texture block made lean in blocks of
     :data:`texcad.solid.lean.TILE` px, each checked by ``accept``
     (:func:`texcad.solid.lean.tiled_triangulation`); the grid where that keeps more
@@ -284,7 +287,7 @@ def _checked_lean(z: np.ndarray, tolerance: float, accept, share: float) -> tupl
         g = np.stack(np.meshgrid(np.arange(r), np.arange(c), indexing="ij"), -1).reshape(-1, 2)
         return g, grid_faces(r, c).astype(np.int64), 0.0
     rc, f = lean[0], lean[1].astype(np.int64)
-    return rc, f, surface_error(z, rc, z[rc[:, 0], rc[:, 1]], f)
+    return rc, f, surface_error(z, rc, z[rc[:, 0], rc[:, 1]], f) if measure else float("nan")
 
 
 def _fan(a: int, b: int, chain: np.ndarray) -> np.ndarray:
