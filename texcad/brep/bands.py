@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from .occt import explore, to_topods
-from .gprop import polyline_pcurve, run_knots
+from .gprop import polyline_pcurve, run_knots, split_at_knots
 from .solids import TILE, TOLERANCE, _band_fine, _replace_faces, _tile_bounds, grid_surface, tiled_grid_faces
 
 __all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "PATCH_TILE", "creases"]
@@ -717,6 +717,10 @@ def _assemble(topo, faces: list, tiles: list, strips: list):
         walls.append(mine[0])
     pieces = [p for f in faces for p in _pieces(gf, f)]  # the patch's faces, cut along the walls
     kept = _outside(pieces, _outline_edges(topo, faces), walls)
+    split = split_at_knots(kept, walls)  # the section edges cut for OCCT's plain Gauss rule
+    if split is None:
+        return None
+    kept, walls = split
     return _replace_faces(topo, [(faces[0], kept + walls + list(tiles))] + [(f, []) for f in faces[1:]])
 
 
