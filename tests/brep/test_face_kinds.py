@@ -274,3 +274,28 @@ def test_chained_result_has_a_brep():
     assert chained.volume > tx.volume  # the second texture is on the mesh
     _check(chained)
     assert check_shape(chained.shape)["faces"] > check_shape(tx.shape)["faces"]  # and on the B-rep
+
+
+def test_uncovered_face_names_itself():
+    """A face whose (u, v) rectangle the texture grid does not cover (a cone trimmed by
+    flutes: most grid points off the face) gets no B-rep: the error names the face (its
+    kind, centre, (u, v) rectangle), how much is off it, and STL/3MF."""
+    import numpy as np
+    from build123d import Cone, GeomType
+
+    from texcad.brep import uv_textured_solid
+
+    cone = Cone(10, 6, 12)
+    face = cone.faces().filter_by(GeomType.CONE)[0]
+    R, C = 12, 10
+    zeros = np.zeros((R, C))
+    item = {"face": face, "points": np.zeros((R, C, 3)), "normals": np.zeros((R, C, 3)), "heights": zeros,
+            "valid": zeros.astype(bool), "xs": np.linspace(0.0, 1.0, C), "ys": np.linspace(0.0, 1.0, R),
+            "u_table": np.array([[0.0, 2 * np.pi], [0.0, 1.0]]), "v_table": np.array([[0.0, 12.65], [0.0, 1.0]]),
+            "closed_u": True}
+    with pytest.raises(texcad.GeometryError) as err:
+        uv_textured_solid(cone, [item])
+    said = str(err.value)
+    c = face.center()
+    assert "cone face centred at" in said and f"{c.Z:.2f}" in said
+    assert f"of {(R - 2) * (C - 2)} grid points off it" in said and "STL and 3MF" in said

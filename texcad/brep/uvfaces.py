@@ -107,7 +107,7 @@ def _poles(face, item: dict):
     cols = (vc > v0 + ev) & (vc < v1 - ev)
     valid = item["valid"][np.ix_(rows, cols)]
     if rows.sum() < 1 or cols.sum() < 1 or (~valid).sum() > 0.05 * valid.size:
-        raise GeometryError(f"the texture grid does not cover the face's (u, v) rectangle ({int((~valid).sum())} points off it)")
+        raise GeometryError(_uncovered(fwd, (u0, u1, v0, v1), int((~valid).sum()), int(valid.size)))
     h = item["heights"][np.ix_(rows, cols)]  # signed (engraved, centred) or raised (its dip under the face cut off)
     h = np.where(valid, h if item.get("signed") else np.maximum(h, 0.0), 0.0)
     inner = item["points"][np.ix_(rows, cols)] + h[..., None] * item["normals"][np.ix_(rows, cols)]
@@ -128,6 +128,25 @@ def _poles(face, item: dict):
     else:
         top[0], top[-1] = seam[0], seam[1]
     return u, v, top
+
+
+def _uncovered(face, rect: tuple, off: int, total: int) -> str:
+    """Why ``face`` (its ``(u, v)`` bounds ``rect``) gets no B-rep: which face (its
+    surface kind, centre in mm), how much of the grid is off it, and what to do."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    props = GProp_GProps()
+    BRepGProp.SurfaceProperties_s(face, props)
+    kind = str(BRepAdaptor_Surface(face).GetType()).rsplit("_", 1)[-1].lower()
+    c = ", ".join(f"{x:.2f}" for x in props.CentreOfMass().Coord())
+    u0, u1, v0, v1 = rect
+    return (f"no B-rep for the {kind} face centred at ({c}) mm ({props.Mass():.1f} mm2): the texture grid does not "
+            f"cover the face's (u, v) rectangle u {u0:.4g}..{u1:.4g}, v {v0:.4g}..{v1:.4g} ({off} of {total} grid "
+            "points off it: the face is trimmed well inside that rectangle, by flutes, holes or a partial outline); "
+            "its STL and 3MF are unaffected: export those, or texture the face before those cuts and make them "
+            "afterwards on the result (textured - tool), which keeps a B-rep")
 
 
 def _bilinear(u: np.ndarray, v: np.ndarray, top: np.ndarray, q: np.ndarray) -> np.ndarray:
