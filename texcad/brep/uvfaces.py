@@ -284,9 +284,10 @@ def uv_textured_solid(shape: Any, items: list):
             ``(parameter, mm)`` tables (``y = Y(u)``, ``x = X(v)``), ``closed_u``.
 
     Each face becomes strips (:func:`texcad.brep.uvstrips.strip_faces`, for OCCT's
-    plain volume rule) where that gives a valid solid; else (a face whose strips OCCT
-    finds invalid, e.g. a knob's cone among zones) one degree-1 B-spline face, valid,
-    whose plain-rule volume is then less exact (the adaptive one is not).
+    plain volume rule), one face after the other (two faces sharing an edge, such as
+    a knob's grip cone and its chamfer, each take the other's pieces of it), where
+    that gives a valid solid; else one degree-1 B-spline face each, valid, whose
+    plain-rule volume is then less exact (the adaptive one is not).
 
     Raises:
         GeometryError: a face's grid does not cover its (u, v) rectangle.
@@ -302,18 +303,21 @@ def _uv_solid(shape: Any, items: list, *, strips: bool):
     or as one face."""
     from OCP.TopoDS import TopoDS
 
+    from .bands import face_in
+
     topo = to_topods(shape)
-    swaps, splits = [], []
-    for item in items:  # one per face
+    for item in items:  # one per face, in turn: two faces sharing an edge (a knob's grip cone and chamfer) both cut it
         face = TopoDS.Face_s(to_topods(item["face"]))
+        face = face_in(topo, face) if strips else face  # rebuilt if a face before it cut an edge of it
+        if face is None:
+            raise GeometryError("a face to texture on its own (u, v) was lost when its neighbour was cut into strips")
         u, v, top = _poles(face, item)
         got = strip_faces(face, u, v, top, bool(item["closed_u"]), _tolerance(face, u, v, top)) if strips else None
         if got is None:  # not the iso-line rectangle: one face
-            swaps.append((face, [_new_face(face, u, v, top)]))
+            topo = _replace_faces(topo, [(face, [_new_face(face, u, v, top)])])
             continue
-        swaps.append((face, got[0]))
-        splits += got[1]
-    return _edges_cut(_replace_faces(topo, swaps), splits)
+        topo = _edges_cut(_replace_faces(topo, [(face, got[0])]), got[1])
+    return topo
 
 
 def _tolerance(face, u, v, top):
