@@ -63,7 +63,7 @@ from .solids import (
     tiled_grid_faces,
     tiled_plane_solid,
 )
-from .occt import explore, to_topods
+from .occt import explore, face_in, to_topods
 from .uvstrips import _grid_face, _used_twice, strip_faces, strip_origin
 
 __all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid", "textured_plane_solid",
@@ -302,8 +302,6 @@ def _uv_solid(shape: Any, items: list, *, strips: bool):
     """:func:`uv_textured_solid` with each face as strips (where its outline allows)
     or as one face."""
     from OCP.TopoDS import TopoDS
-
-    from .bands import face_in
 
     topo = to_topods(shape)
     for item in items:  # one per face, in turn: two faces sharing an edge (a knob's grip cone and chamfer) both cut it
