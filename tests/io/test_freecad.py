@@ -90,7 +90,8 @@ def test_freecad_opens_texcad_step(tmp_path):
         assert row["objects"] == 1, (name, row)
         assert row["valid"] and row["solids"] == 1, (name, row)
         # Part's Volume, what FreeCAD shows: OCCT's plain Gauss rule, whose knots texcad places (texcad.brep.gprop);
-        # a face textured again after a CAD operation is one face whose outline has the hole: not placed (0.45 %)
+        # the drilled cylinder: texcad's B-rep reads +0.04 % in the plain rule, but the STEP writer merges the small
+        # tiles around the hole into patches whose plain integral is off (-0.45 % re-read; texcad.io.step_tiles)
         most = 5e-3 if name == "drilled cylinder" else 1e-3
         assert abs(row["volume"] - vol) <= most * vol, (name, row["volume"], vol)
         assert row["closed"], (name, row)

@@ -42,8 +42,8 @@ from typing import Any
 
 import numpy as np
 
-from .occt import explore, to_topods
-from .gprop import polyline_pcurve, run_knots
+from .occt import explore, face_in, to_topods
+from .gprop import polyline_pcurve, run_knots, split_at_knots
 from .solids import TILE, TOLERANCE, _band_fine, _replace_faces, _tile_bounds, grid_surface, tiled_grid_faces
 
 __all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "PATCH_TILE", "creases"]
@@ -717,36 +717,8 @@ def _assemble(topo, faces: list, tiles: list, strips: list):
         walls.append(mine[0])
     pieces = [p for f in faces for p in _pieces(gf, f)]  # the patch's faces, cut along the walls
     kept = _outside(pieces, _outline_edges(topo, faces), walls)
+    split = split_at_knots(kept, walls)  # the section edges cut for OCCT's plain Gauss rule
+    if split is None:
+        return None
+    kept, walls = split
     return _replace_faces(topo, [(faces[0], kept + walls + list(tiles))] + [(f, []) for f in faces[1:]])
-
-
-def face_in(shape: Any, face: Any):
-    """``face`` as it lies in ``shape``: itself, or the face that took its place when
-    an earlier texture rebuilt it (its edges split where a neighbour's tiles end): on
-    the same kind of surface, with the same area and centre (within 1e-6 of its
-    size). None if there is none."""
-    from OCP.BRepAdaptor import BRepAdaptor_Surface
-    from OCP.BRepGProp import BRepGProp
-    from OCP.GProp import GProp_GProps
-    from OCP.TopAbs import TopAbs_FACE
-    from OCP.TopoDS import TopoDS
-
-    def props(f):
-        p = GProp_GProps()
-        BRepGProp.SurfaceProperties_s(f, p)
-        return float(p.Mass()), np.array(p.CentreOfMass().Coord()), BRepAdaptor_Surface(TopoDS.Face_s(f)).GetType()
-
-    face = to_topods(face)
-    faces = explore(to_topods(shape), TopAbs_FACE)
-    for f in faces:  # the part's faces
-        if f.IsSame(face):
-            return TopoDS.Face_s(f)
-    area, centre, kind = props(face)
-    size = np.sqrt(area) or 1.0
-    for f in faces:  # the part's faces: the rebuilt one
-        if BRepAdaptor_Surface(TopoDS.Face_s(f)).GetType() != kind:
-            continue
-        a, c, _ = props(f)
-        if abs(a - area) <= 1e-6 * area and float(np.linalg.norm(c - centre)) <= 1e-6 * size:
-            return TopoDS.Face_s(f)
-    return None

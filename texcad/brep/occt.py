@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["to_topods", "explore", "solids_of", "faces_of", "as_array", "compound", "matrix_of"]
+__all__ = ["to_topods", "explore", "solids_of", "faces_of", "as_array", "compound", "matrix_of", "face_in"]
 
 
 def compound(shapes: list):
@@ -112,3 +112,35 @@ def matrix_of(location: Any) -> np.ndarray:
     if m.shape not in ((3, 4), (4, 4)):
         raise ParameterError(f"a placement is a build123d Location or a (3, 4) / (4, 4) matrix, got {m.shape}")
     return m[:3]
+
+
+def face_in(shape: Any, face: Any):
+    """``face`` as it lies in ``shape``: itself, or the face that took its place when
+    an earlier texture rebuilt it (its edges split where a neighbour's tiles end): on
+    the same kind of surface, with the same area and centre (within 1e-6 of its
+    size). None if there is none."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+
+    def props(f):
+        p = GProp_GProps()
+        BRepGProp.SurfaceProperties_s(f, p)
+        return float(p.Mass()), np.array(p.CentreOfMass().Coord()), BRepAdaptor_Surface(TopoDS.Face_s(f)).GetType()
+
+    face = to_topods(face)
+    faces = explore(to_topods(shape), TopAbs_FACE)
+    for f in faces:  # the part's faces
+        if f.IsSame(face):
+            return TopoDS.Face_s(f)
+    area, centre, kind = props(face)
+    size = np.sqrt(area) or 1.0
+    for f in faces:  # the part's faces: the rebuilt one
+        if BRepAdaptor_Surface(TopoDS.Face_s(f)).GetType() != kind:
+            continue
+        a, c, _ = props(f)
+        if abs(a - area) <= 1e-6 * area and float(np.linalg.norm(c - centre)) <= 1e-6 * size:
+            return TopoDS.Face_s(f)
+    return None

@@ -1428,8 +1428,11 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
             e = edges[key][0]
             if key in given:  # a given border edge: its own pcurve and tolerance
                 b.UpdateEdge(e, edges[key][1], faces[k], BRep_Tool.Tolerance_s(e))
-            elif not horizontal and z - a >= PLACED:  # OCCT's plain rule along it: 61 points, knots at the rows
-                b.UpdateEdge(e, polyline_pcurve(np.stack([np.full(z + 1 - a, line[0]), y[a : z + 1]], axis=-1), y[a : z + 1]), faces[k], TOLERANCE)
+            elif not horizontal and (z - a >= PLACED or (hi - lo >= PLACED and z - a > 1)):
+                # OCCT's plain rule along it: 61 points, knots at the rows; a piece of a long side (small tiles beside
+                # it, under a tool): knots at the rows, where OCCT's adaptive rule starts (a line: 0.28 % off)
+                pts = np.stack([np.full(z + 1 - a, line[0]), y[a : z + 1]], axis=-1)
+                b.UpdateEdge(e, polyline_pcurve(pts, y[a : z + 1], pad=z - a >= PLACED), faces[k], TOLERANCE)
             else:
                 b.UpdateEdge(e, Geom2d_Line(gp_Pnt2d(line[0], line[1]), gp_Dir2d(line[2], line[3])), faces[k], TOLERANCE)
             out.append(e)

@@ -63,7 +63,7 @@ from .solids import (
     tiled_grid_faces,
     tiled_plane_solid,
 )
-from .occt import explore, to_topods
+from .occt import explore, face_in, to_topods
 from .uvstrips import _grid_face, _used_twice, strip_faces, strip_origin
 
 __all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid", "textured_plane_solid",
@@ -107,7 +107,7 @@ def _poles(face, item: dict):
     cols = (vc > v0 + ev) & (vc < v1 - ev)
     valid = item["valid"][np.ix_(rows, cols)]
     if rows.sum() < 1 or cols.sum() < 1 or (~valid).sum() > 0.05 * valid.size:
-        raise GeometryError(f"the texture grid does not cover the face's (u, v) rectangle ({int((~valid).sum())} points off it)")
+        raise GeometryError(_uncovered(fwd, (u0, u1, v0, v1), int((~valid).sum()), int(valid.size)))
     h = item["heights"][np.ix_(rows, cols)]  # signed (engraved, centred) or raised (its dip under the face cut off)
     h = np.where(valid, h if item.get("signed") else np.maximum(h, 0.0), 0.0)
     inner = item["points"][np.ix_(rows, cols)] + h[..., None] * item["normals"][np.ix_(rows, cols)]
@@ -128,6 +128,25 @@ def _poles(face, item: dict):
     else:
         top[0], top[-1] = seam[0], seam[1]
     return u, v, top
+
+
+def _uncovered(face, rect: tuple, off: int, total: int) -> str:
+    """Why ``face`` (its ``(u, v)`` bounds ``rect``) gets no B-rep: which face (its
+    surface kind, centre in mm), how much of the grid is off it, and what to do."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    props = GProp_GProps()
+    BRepGProp.SurfaceProperties_s(face, props)
+    kind = str(BRepAdaptor_Surface(face).GetType()).rsplit("_", 1)[-1].lower()
+    c = ", ".join(f"{x:.2f}" for x in props.CentreOfMass().Coord())
+    u0, u1, v0, v1 = rect
+    return (f"no B-rep for the {kind} face centred at ({c}) mm ({props.Mass():.1f} mm2): the texture grid does not "
+            f"cover the face's (u, v) rectangle u {u0:.4g}..{u1:.4g}, v {v0:.4g}..{v1:.4g} ({off} of {total} grid "
+            "points off it: the face is trimmed well inside that rectangle, by flutes, holes or a partial outline); "
+            "its STL and 3MF are unaffected: export those, or texture the face before those cuts and make them "
+            "afterwards on the result (textured - tool), which keeps a B-rep")
 
 
 def _bilinear(u: np.ndarray, v: np.ndarray, top: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -265,9 +284,10 @@ def uv_textured_solid(shape: Any, items: list):
             ``(parameter, mm)`` tables (``y = Y(u)``, ``x = X(v)``), ``closed_u``.
 
     Each face becomes strips (:func:`texcad.brep.uvstrips.strip_faces`, for OCCT's
-    plain volume rule) where that gives a valid solid; else (a face whose strips OCCT
-    finds invalid, e.g. a knob's cone among zones) one degree-1 B-spline face, valid,
-    whose plain-rule volume is then less exact (the adaptive one is not).
+    plain volume rule), one face after the other (two faces sharing an edge, such as
+    a knob's grip cone and its chamfer, each take the other's pieces of it), where
+    that gives a valid solid; else one degree-1 B-spline face each, valid, whose
+    plain-rule volume is then less exact (the adaptive one is not).
 
     Raises:
         GeometryError: a face's grid does not cover its (u, v) rectangle.
@@ -284,17 +304,18 @@ def _uv_solid(shape: Any, items: list, *, strips: bool):
     from OCP.TopoDS import TopoDS
 
     topo = to_topods(shape)
-    swaps, splits = [], []
-    for item in items:  # one per face
+    for item in items:  # one per face, in turn: two faces sharing an edge (a knob's grip cone and chamfer) both cut it
         face = TopoDS.Face_s(to_topods(item["face"]))
+        face = face_in(topo, face) if strips else face  # rebuilt if a face before it cut an edge of it
+        if face is None:
+            raise GeometryError("a face to texture on its own (u, v) was lost when its neighbour was cut into strips")
         u, v, top = _poles(face, item)
         got = strip_faces(face, u, v, top, bool(item["closed_u"]), _tolerance(face, u, v, top)) if strips else None
         if got is None:  # not the iso-line rectangle: one face
-            swaps.append((face, [_new_face(face, u, v, top)]))
+            topo = _replace_faces(topo, [(face, [_new_face(face, u, v, top)])])
             continue
-        swaps.append((face, got[0]))
-        splits += got[1]
-    return _edges_cut(_replace_faces(topo, swaps), splits)
+        topo = _edges_cut(_replace_faces(topo, [(face, got[0])]), got[1])
+    return topo
 
 
 def _tolerance(face, u, v, top):

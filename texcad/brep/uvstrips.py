@@ -188,7 +188,7 @@ def strip_faces(face, u: np.ndarray, v: np.ndarray, top: np.ndarray, closed_u: b
             key = next((k for k in done if k.IsSame(e)), None)
             if key is None:
                 key, done[e] = e, _cut_edge(b, e, _params(t0, t1, p0, p1, 0, cut_u), tolerance(e), tols)
-                if len(done[e][0]) > 1 and not _used_twice(fwd, e) and not BRep_Tool.Degenerated_s(e):
+                if not _used_twice(fwd, e) and not BRep_Tool.Degenerated_s(e):  # uncut, a copy: the neighbour takes it too
                     splits.append((e, done[e][0]))
             pieces, params, verts = done[key]
             for i, p in enumerate(pieces):  # each piece on the strip it borders
