@@ -51,6 +51,7 @@ CASES = {
     "box raised, bed face kept": (_box, "all", dict(pitch=0.5, projection="planar:+x")),
     "cylinder cylindrical centred": (_cylinder, "all", dict(pitch=0.5, mode="centred", projection="cylindrical")),
     "two bodies, a normal region": (_two, "normal:+z:60", dict(pitch=0.3)),
+    "box with build_dir, no overhang at a border": (_box, "all", dict(pitch=0.5, projection="planar:+x", build_dir=(0, 0, 1))),
 }
 
 
@@ -112,25 +113,91 @@ def test_the_block_gate_catches_a_gap(monkeypatch):
 
 def test_options_not_made_in_blocks_are_refused_naming_a_pitch_that_fits():
     """A sphere at 0.25 mm (about 470 MB untiled by the estimate) under max_memory
-    200 MB above what the process holds: build_dir and two zones are refused naming a
-    pitch, and at that pitch the untiled job runs under the same bound (made for the
-    zones; with build_dir the pitch is the same estimate's)."""
+    200 MB above what the process holds: two zones are refused naming a pitch, and at
+    that pitch the untiled job runs under the same bound."""
     from texcad.util.resources import _rss
 
     part = trimesh.creation.icosphere(4, 45.0)
-    for kw, option in ((dict(build_dir=(0, 0, 1)), "build_dir"), (dict(), "several layers")):
-        bound = _rss() + (200 << 20)  # what the last job left held counts too
-        where = "all" if kw else {"normal:+z:60": "builtin:stones", "normal:-z:60": "builtin:pins"}
-        with pytest.raises(ResourceError, match=option) as err:
-            texcad.texture(part, where, "builtin:stones", pitch=0.25, max_memory=bound, **KW, **kw)
-        pitch = float(str(err.value).split("pitch of at least ")[1].split(" mm")[0])
-        assert 0.25 < pitch < 1.0
-        if kw:
-            continue
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", texcad.TexcadWarning)
-            ok = texcad.texture(part, where, "builtin:stones", pitch=pitch, max_memory=bound, **KW, **kw)
-        assert ok.info.get("fuse") != "tiled" and ok.mesh.is_watertight
+    bound = _rss() + (200 << 20)  # what the last job left held counts too
+    where = {"normal:+z:60": "builtin:stones", "normal:-z:60": "builtin:pins"}
+    with pytest.raises(ResourceError, match="several layers") as err:
+        texcad.texture(part, where, "builtin:stones", pitch=0.25, max_memory=bound, **KW)
+    pitch = float(str(err.value).split("pitch of at least ")[1].split(" mm")[0])
+    assert 0.25 < pitch < 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", texcad.TexcadWarning)
+        ok = texcad.texture(part, where, "builtin:stones", pitch=pitch, max_memory=bound, **KW)
+    assert ok.info.get("fuse") != "tiled" and ok.mesh.is_watertight
+
+
+def _on_untiled(flat, tx):
+    """The blocks' displacements (mm, after their limiters) on the untiled mesh's
+    vertices (matched by their undisplaced float64 bytes), and the blocks' border
+    vertices there (bool)."""
+    r = flat.stages.relief.data
+    parts = list(tx.mesh.displaced())
+    v0 = np.concatenate([p.v0 for p in parts])
+    both = np.concatenate([r.v, v0]).view(np.dtype((np.void, 24))).ravel()
+    _, inv = np.unique(both, return_inverse=True)
+    inv = inv.ravel()
+    at = np.full(inv.max() + 1, -1)
+    at[inv[:len(r.v)]] = np.arange(len(r.v))
+    where = at[inv[len(r.v):]]
+    assert (where >= 0).all()
+    d = np.zeros(len(r.v))
+    d[where] = np.concatenate([p.d for p in parts])
+    border = np.zeros(len(r.v), dtype=bool)
+    start = np.cumsum([0] + [len(p.v0) for p in parts])
+    for k, p in enumerate(parts):  # per block: its open edges' ends
+        border[where[start[k] + np.unique(tiled_mesh.open_edges(p.f)[0])]] = True
+    return d, border
+
+
+def test_the_overhang_limiter_in_blocks_leaves_no_overhang_and_differs_only_next_to_borders(monkeypatch):
+    """build_dir on a sphere (its lower half overhangs) in 7 blocks: each block limits
+    its own faces and the faces across its border (closed by a copy, as the limiter
+    tests ridges on a closed surface only), a point next to a border it lowers is
+    pinned for all blocks and the blocks whose pins changed made again until none
+    lowers one. The limiter run again on the blocks' result (the untiled mesh's
+    vertices and offset directions) lowers nothing: no face overhangs or folds and no
+    ridge is too flat, across the borders too. The displacements equal the untiled
+    ones except in clusters the limiter lowered across a border (its rounds start
+    there from the pinned depth): a few percent of the vertices, each within a few
+    pitches of a border, and the relief volume within 0.5 %."""
+    from texcad.printability.relief import limit_relief
+
+    kw = dict(KW, pitch=0.5, build_dir=(0, 0, 1))
+    part = trimesh.creation.icosphere(3, 10.0)
+    flat = texcad.texture(part, "all", "builtin:stones", **kw)
+    tx = _blocks(monkeypatch, part, "all", 3000, **kw)
+    whole = tx.mesh.to_mesh()
+    assert tx.info["blocks"] >= 5 and tx.mesh.__dict__["passes"] > 1 and len(tx.mesh.__dict__["pins"][0]) > 0
+    assert whole.is_watertight and len(np.unique(whole.vertices, axis=0)) == len(whole.vertices) == len(flat.mesh.vertices)
+    r = flat.stages.relief.data
+    d, border = _on_untiled(flat, tx)
+    again, rep = limit_relief(r.v, r.f, r.normals, d, build_dir=(0, 0, 1))
+    assert rep.lowered == rep.overhang_faces == rep.folded_faces == rep.steep_ridges == 0
+    differ = d != r.d
+    assert 0 < differ.sum() <= 0.05 * len(d)
+    from scipy.spatial import cKDTree
+
+    assert cKDTree(r.v[border]).query(r.v[differ])[0].max() <= 6 * kw["pitch"]
+    assert tx.gate.volume_change == pytest.approx(flat.gate.volume_change, rel=5e-3)
+    assert abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack
+
+
+def test_a_block_skipped_in_a_later_pass_is_numbered_as_when_made(monkeypatch):
+    """The blocks not made again in a later pass (their pins unchanged) still take
+    their numbers from their coarse faces alone, the same as made."""
+    part = trimesh.creation.icosphere(3, 10.0)
+    tx = _blocks(monkeypatch, part, "all", 3000, **KW, pitch=0.5, build_dir=(0, 0, 1))
+    plan = tx.mesh.plan
+    made, skipped = tiled_mesh._Numbering(plan), tiled_mesh._Numbering(plan)
+    for blk in plan.blocks:  # per block
+        made.ids(plan, tiled_mesh.fine_block(plan, blk))
+        skipped.skip(plan, blk)
+        assert (made.start, made.next) == (skipped.start, skipped.next)
+    assert np.array_equal(made.coarse, skipped.coarse) and np.array_equal(made.edge, skipped.edge)
 
 
 def test_coarse_faces_of_more_pitches_where_the_untiled_ones_would_not_fit(monkeypatch):

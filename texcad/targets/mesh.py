@@ -32,11 +32,11 @@ The job, for each texture *layer* ``(region, texture, options)``:
    displacements) with as many bodies as the input, and finite, else GeometryError.
 
 **Blocks.** Where the refinement would not fit in the memory available (the
-machine's, or ``max_memory``), a one-layer job without ``build_dir`` is made in
-blocks instead (:mod:`texcad.targets.tiled_mesh`): the pitch grid (``tolerance=0``)
-refined, displaced, limited for folds, gated and streamed a block at a time, the
-result a :class:`~texcad.targets.tiled_mesh.TiledMeshBlocks` (``info["fuse"] ==
-"tiled"``); several layers or ``build_dir`` are refused there, naming a pitch that fits.
+machine's, or ``max_memory``), a one-layer job is made in blocks instead
+(:mod:`texcad.targets.tiled_mesh`): the pitch grid (``tolerance=0``) refined,
+displaced, limited for folds and for ``build_dir``'s overhangs, gated and streamed a
+block at a time, the result a :class:`~texcad.targets.tiled_mesh.TiledMeshBlocks`
+(``info["fuse"] == "tiled"``); several layers are refused there, naming a pitch that fits.
 
 Sampling and measuring run on every core (:func:`texcad.util.split_rows`, the same
 bytes as on one).
@@ -860,8 +860,8 @@ def _sampler_fits(layer: Layer) -> None:
 
 def _tiled(mp: MeshPlace, options: Options) -> "Relief | None":
     """The relief in blocks (:mod:`texcad.targets.tiled_mesh`) where the untiled
-    refinement would not fit in the memory available, else None. ``build_dir`` and
-    several layers are not made in blocks: refused, naming a pitch that fits."""
+    refinement would not fit in the memory available, else None. Several layers are
+    not made in blocks: refused, naming a pitch that fits."""
     from ..util import available_memory
     from ..util import finest_pitch
     from .tiled_mesh import mesh_plan, refuse_untiled
@@ -875,13 +875,12 @@ def _tiled(mp: MeshPlace, options: Options) -> "Relief | None":
     what, pitch = f"refining {mp.name} to about {count} triangles", min(float(layer.pitch) for layer in layers)
     if len(layers) > 1:
         refuse_untiled(what, pitch, need, "several layers (zones or paint) are")
-    if options.directions is not None:
-        refuse_untiled(what, pitch, need, "build_dir (the overhang limiter) is")
     options.report(0.05, f"{what}: made in blocks")
     if layers[0].projection.kind != "solid":  # the texture's tile first, before the coarse mesh
         _sampler_fits(layers[0])
     assert_uncrossed(v, f, mp.name, options.union)
-    plan = mesh_plan(layers[0], v, f, tol, count, finest_pitch(pitch, need), options.report)
+    plan = mesh_plan(layers[0], v, f, tol, count, finest_pitch(pitch, need), options.report, options.directions,
+                     options.critical_angle)
     mp.info.update(triangles=plan.triangles, kind="mesh", face="mesh", tolerance=0.0, max_error=0.0)
     return Relief(heightmap=None, limits=None, volume=float("nan"), volume_slack=float("nan"), nominal_volume=None,
                   reach=plan.reach, max_error=0.0, data=plan)
