@@ -10,7 +10,6 @@ import os
 import subprocess
 import sys
 import textwrap
-import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -18,7 +17,7 @@ import pytest
 import trimesh
 
 import texcad
-from texcad.errors import GeometryError, ResourceError
+from texcad.errors import GeometryError
 from texcad.io import read_mesh
 from texcad.targets import mesh as mesh_target
 from texcad.targets import tiled_mesh
@@ -52,6 +51,10 @@ CASES = {
     "cylinder cylindrical centred": (_cylinder, "all", dict(pitch=0.5, mode="centred", projection="cylindrical")),
     "two bodies, a normal region": (_two, "normal:+z:60", dict(pitch=0.3)),
     "box with build_dir, no overhang at a border": (_box, "all", dict(pitch=0.5, projection="planar:+x", build_dir=(0, 0, 1))),
+    "sphere, two zones apart, each its own pitch and height, build_dir": (
+        lambda: trimesh.creation.icosphere(3, 10.0),
+        [("normal:+z:60", "builtin:stones", {"pitch": 0.4}), ("normal:-z:60", "builtin:pins", {"pitch": 0.6, "height": 0.4})],
+        dict(pitch=0.5, build_dir=(0, 0, 1))),
 }
 
 
@@ -111,23 +114,24 @@ def test_the_block_gate_catches_a_gap(monkeypatch):
         _blocks(monkeypatch, trimesh.creation.icosphere(3, 10.0), "all", 6000, pitch=0.5, **KW)
 
 
-def test_options_not_made_in_blocks_are_refused_naming_a_pitch_that_fits():
-    """A sphere at 0.25 mm (about 470 MB untiled by the estimate) under max_memory
-    200 MB above what the process holds: two zones are refused naming a pitch, and at
-    that pitch the untiled job runs under the same bound."""
-    from texcad.util.resources import _rss
-
-    part = trimesh.creation.icosphere(4, 45.0)
-    bound = _rss() + (200 << 20)  # what the last job left held counts too
-    where = {"normal:+z:60": "builtin:stones", "normal:-z:60": "builtin:pins"}
-    with pytest.raises(ResourceError, match="several layers") as err:
-        texcad.texture(part, where, "builtin:stones", pitch=0.25, max_memory=bound, **KW)
-    pitch = float(str(err.value).split("pitch of at least ")[1].split(" mm")[0])
-    assert 0.25 < pitch < 1.0
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", texcad.TexcadWarning)
-        ok = texcad.texture(part, where, "builtin:stones", pitch=pitch, max_memory=bound, **KW)
-    assert ok.info.get("fuse") != "tiled" and ok.mesh.is_watertight
+def test_layers_that_meet_are_made_in_blocks_with_the_untiled_relief_volume(monkeypatch):
+    """Two layers that meet and overlap (stones on a cylinder's top, pins on all of
+    it, a cylindrical projection fixed from its own region): the regions are bisected
+    layer by layer and each edge cut by the finest pitch of its faces' layers, where
+    the untiled refinement cuts the mesh its first layer refined again: other
+    triangles (and so another mean radius for the projection), closed with each
+    vertex once, the relief volume to 0.5 %."""
+    part = _cylinder()
+    where = [("normal:+z:30", "builtin:stones", {}), ("all", "builtin:pins", {"projection": "cylindrical", "height": 0.3})]
+    flat = texcad.texture(part, where, "builtin:stones", **KW, pitch=0.5)
+    tx = _blocks(monkeypatch, part, where, 3000, **KW, pitch=0.5)
+    whole = tx.mesh.to_mesh()
+    assert tx.info["fuse"] == "tiled" and tx.info["blocks"] >= 3 and len(tx.mesh.plan.layers) == 2
+    assert whole.is_watertight and len(np.unique(whole.vertices, axis=0)) == len(whole.vertices)
+    assert 0.85 * len(flat.mesh.faces) < len(whole.faces) < 1.15 * len(flat.mesh.faces)
+    assert _triangles(whole.vertices, whole.faces) != _triangles(flat.mesh.vertices, flat.mesh.faces)
+    assert tx.gate.volume_change == pytest.approx(flat.gate.volume_change, rel=5e-3)
+    assert abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack
 
 
 def _on_untiled(flat, tx):

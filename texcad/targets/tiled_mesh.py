@@ -80,8 +80,15 @@ the refined region's bounding box and its radius from a pass over its vertices, 
 untiled. A tiled mesh keeps every pitch-grid point (its error is 0, within any
 ``tolerance``).
 
-Not tiled (refused, naming a pitch at which the untiled mesh fits): several layers
-or zones (each layer refines the last's mesh). ``texture_mesh`` and ``layer_meshes`` (booleans of
+**Layers and zones** (a list of layers, or zones): each layer's region is bisected
+in turn on the coarse mesh (as the untiled refinement takes the layers), each edge cut
+by the finest pitch of the layers at it, and each layer's relief (its own region,
+border fade and projection, fixed from its own region's points) summed at every
+vertex before the limiter. Where regions are apart, the untiled triangles (tested:
+two zones of their own pitch and height, with ``build_dir``); where they meet or
+overlap, the untiled refinement cuts the mesh its first layer already refined and the
+blocks do not: other triangles on the same surface (a cylindrical projection's mean
+radius then from other points), the relief volume to 0.5 % (tested). ``texture_mesh`` and ``layer_meshes`` (booleans of
 the whole mesh) are refused; ``base_mesh`` is the input.
 """
 
@@ -103,7 +110,7 @@ from .tiled import CountedTiles, _at, tiles_verdict
 from .tiled_faces import open_edges
 
 __all__ = ["MeshPlan", "FineBlock", "BlockRelief", "TiledMeshBlocks", "mesh_plan", "fine_block", "gate_mesh_blocks",
-           "refuse_untiled", "BLOCK_BYTES", "COARSE_BYTES", "MAX_FACTOR"]
+           "BLOCK_BYTES", "COARSE_BYTES", "MAX_FACTOR"]
 
 #: Peak bytes per refined triangle of one block (tessellation, normals, relief and the
 #: emitted float32 block; about 450 measured on an icosphere of radius 40 mm at 0.25 mm
@@ -133,15 +140,15 @@ class MeshPlan:
         fn: ``(M, 3)`` float64 unit normal of each coarse face's input face.
         ids: ``(M,)`` int64 each coarse face's input face.
         counts: ``(M, 3)`` int64 pieces of each face's edge ``k`` (corner ``k`` to
-            ``k + 1``): ``ceil(length / pitch)`` where a face at the edge is in the
-            region, else 1.
+            ``k + 1``): ``ceil(length / pitch)``, the most any face at the edge asks
+            (its layers' finest pitch; 1 off every region).
         keys: ``(E,)`` int64 sorted edge keys ``min * N + max``.
         body: ``(M,)`` int64 each coarse face's connected piece (shell).
         blocks: the coarse faces of each block, sorted int64 arrays.
-        layer: the layer (:class:`texcad.targets.mesh.Layer`) with its projection fixed.
+        layers: the layers (:class:`texcad.targets.mesh.Layer`), their projections fixed.
         tol: mm, the region selection's tolerance; low: ``(3,)`` the lowest vertex
             (the bed face's height).
-        border: ``(K, 3)`` float64 the refined region's border vertices.
+        borders: per layer ``(K, 3)`` float64 its refined region's border vertices.
         reach: mm, the farthest a vertex may move (offset directions are at most
             3 times as long as the normal).
         fits: mm, the pitch at which the untiled job fits (named where folds across
@@ -160,15 +167,20 @@ class MeshPlan:
     keys: np.ndarray
     body: np.ndarray
     blocks: tuple
-    layer: Any
+    layers: tuple
     tol: float
     low: np.ndarray
-    border: np.ndarray
+    borders: tuple
     reach: float
     fits: float
     factor: float = 3.0
     dirs: Any = None
     crit: float = 45.0
+
+    @property
+    def pitch(self) -> float:
+        """The finest layer's pitch, mm."""
+        return min(float(layer.pitch) for layer in self.layers)
 
     @property
     def triangles(self) -> int:
@@ -201,45 +213,51 @@ class FineBlock:
     classes: dict
 
 
-def refuse_untiled(what: str, pitch: float, need: float, why: str) -> None:
-    """ResourceError: ``why`` (an option, with its verb) is not made in blocks and the untiled job
-    (``need`` bytes at ``pitch`` mm) does not fit; names the pitch that does."""
-    p = finest_pitch(pitch, need)
-    raise ResourceError(f"{what} at a pitch of {pitch:.3g} mm needs about {need / 2**30:.1f} GiB of memory, more than "
-                        f"the {available_memory() / 2**30:.1f} GiB available, and {why} not made in blocks; "
-                        f"use a pitch of at least {p:.3g} mm")
-
-
-def mesh_plan(layer: Any, v: np.ndarray, f: np.ndarray, tol: float, refined: int, fits: float,
+def mesh_plan(layers: tuple, v: np.ndarray, f: np.ndarray, tol: float, refined: int, fits: float,
               progress: Progress = None, dirs: Any = None, crit: float = 45.0) -> MeshPlan:
-    """Coarsen the layer's region of ``(v, f)`` and cut it into blocks that fit in the
-    memory available (module docstring); the first pass over the blocks finds the
-    region's border vertices and fixes the projection. ``refined``: about how many
-    triangles the refinement makes; ``fits``: the pitch (mm) at which the untiled job
-    fits (named where something is refused); ``dirs``: ``(K, 3)`` build directions or
-    None, ``crit``: the critical angle (degrees) of the overhang limiter.
+    """Coarsen the layers' regions of ``(v, f)`` (layer by layer, as the untiled
+    refinement takes them) and cut the mesh into blocks that fit in the memory
+    available (module docstring); the first pass over the blocks finds each region's
+    border vertices and fixes its projection. ``refined``: about how many triangles
+    the refinement makes; ``fits``: the pitch (mm) at which the untiled job fits (named
+    where something is refused); ``dirs``: ``(K, 3)`` build directions or None,
+    ``crit``: the critical angle (degrees) of the overhang limiter.
 
     Raises:
         ResourceError: the coarse mesh or one block does not fit (names a pitch).
-        ParameterError: the region holds no face.
+        ParameterError: a region holds no face.
     """
-    pitch = float(layer.pitch)
+    layers = tuple(layers)
+    pitch = min(float(layer.pitch) for layer in layers)
     factor = _coarse_factor(refined, len(f), pitch)
     fn, _ = face_normals(v, f)
-    sel = layer.faces(v, f, fn, dirs, crit, tol, loose=True, ids=np.arange(len(f)))
-    if not sel.any():
-        raise ParameterError(f"region 1 ({layer.region}) holds no face of the mesh; choose another region")
-    # the cap on the whole mesh's triangles is the STL's here: the mesh is never whole
-    cv, cf, act, parent = coarsen(v, f, sel, pitch, guard=False, coarse=factor, max_faces=2**32 - 1)
+    cv, cf, ids, finest = v, f, np.arange(len(f)), np.full(len(f), np.inf)
+    for k, layer in enumerate(layers):  # per layer: its region bisected down to `factor` of its pitches
+        sel = layer.faces(cv, cf, fn[ids], dirs, crit, tol, loose=True, ids=ids)
+        if not sel.any():
+            raise ParameterError(f"region {k + 1} ({layer.region}) holds no face of the mesh; choose another region")
+        # the cap on the whole mesh's triangles is the STL's here: the mesh is never whole
+        cv, cf, _, parent = coarsen(cv, cf, sel, float(layer.pitch), guard=False, coarse=factor, max_faces=2**32 - 1)
+        ids, finest = ids[parent], np.where(sel[parent], np.minimum(finest[parent], float(layer.pitch)), finest[parent])
     report(progress, 0.12, f"coarse mesh: {len(cf)} triangles of up to {factor} pitches")
-    counts, keys = edge_counts(cv, cf, act, pitch)
-    del act
+    counts, keys = _counts(cv, cf, finest)
     lev = counts.max(axis=1)
     body = _bodies(cf, len(cv))
     blocks = _blocks(cv, cf, lev * lev, _block_triangles(len(cf), pitch))
-    plan = MeshPlan(cv, cf, fn[parent], parent, counts, keys, body, blocks, layer, tol, cv[np.argmin(cv[:, 2])],
-                    np.zeros((0, 3)), 3.0 * float(layer.height) + 0.01, float(fits), factor, dirs, float(crit))
+    reach = 3.0 * sum(float(layer.height) for layer in layers) + 0.01
+    plan = MeshPlan(cv, cf, fn[ids], ids, counts, keys, body, blocks, layers, tol, cv[np.argmin(cv[:, 2])],
+                    (), reach, float(fits), factor, dirs, float(crit))
     return _first_pass(plan, progress)
+
+
+def _counts(v: np.ndarray, f: np.ndarray, finest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~texcad.solid.subdivide.edge_counts` with each face's own pitch
+    ``finest`` (mm, inf off every region): the most any face at an edge asks."""
+    out, keys = None, None
+    for p in np.unique(finest[np.isfinite(finest)]):  # per pitch (one per layer at most)
+        c, keys = edge_counts(v, f, finest == p, float(p))
+        out = c if out is None else np.maximum(out, c)
+    return out, keys
 
 
 def _coarse_factor(refined: int, faces: int, pitch: float) -> float:
@@ -323,12 +341,12 @@ def fine_block(plan: MeshPlan, block: np.ndarray, rings: int = 1) -> FineBlock:
     return FineBlock(near, used, v, f, src, own, classes)
 
 
-def _strict(plan: MeshPlan, b: FineBlock) -> np.ndarray:
-    """The refined faces in the region (as the untiled adapter selects them; the bed
-    face's height from the whole mesh)."""
+def _strict(plan: MeshPlan, b: FineBlock, k: int = 0) -> np.ndarray:
+    """The refined faces in layer ``k``'s region (as the untiled adapter selects
+    them; the bed face's height from the whole mesh)."""
     vv = np.concatenate([b.v, plan.low[None, :]])  # the lowest point: bed faces as on the whole mesh
-    return plan.layer.faces(vv, b.f, plan.fn[b.near][b.src], plan.dirs, plan.crit, plan.tol, loose=False,
-                            ids=plan.ids[b.near][b.src])
+    return plan.layers[k].faces(vv, b.f, plan.fn[b.near][b.src], plan.dirs, plan.crit, plan.tol, loose=False,
+                                ids=plan.ids[b.near][b.src])
 
 
 def _owned(b: FineBlock) -> np.ndarray:
@@ -339,39 +357,48 @@ def _owned(b: FineBlock) -> np.ndarray:
 
 
 def _first_pass(plan: MeshPlan, progress: Progress) -> MeshPlan:
-    """The region's border vertices (a vertex of a region face and of a face outside
-    it), its bounding box and, for a cylindrical or spherical projection without a
-    radius, the mean distance from the axis or centre (a second pass)."""
-    border, lo, hi = [], np.full(3, np.inf), np.full(3, -np.inf)
+    """Each region's border vertices (a vertex of a face of the region and of a face
+    outside it), its bounding box and, for a cylindrical or spherical projection
+    without a radius, the mean distance from the axis or centre (a second pass)."""
+    n = len(plan.layers)
+    border, lo, hi = [[] for _ in range(n)], np.full((n, 3), np.inf), np.full((n, 3), -np.inf)
     for k, blk in enumerate(plan.blocks):  # per block
         b = fine_block(plan, blk)
-        m = _strict(plan, b)
-        ins, out = np.zeros(len(b.v), dtype=bool), np.zeros(len(b.v), dtype=bool)
-        ins[b.f[m].ravel()] = True
-        out[b.f[~m].ravel()] = True
         own = _owned(b)
-        border.append(b.v[ins & out & own])
-        if (ins & own).any():
-            lo, hi = np.minimum(lo, b.v[ins & own].min(axis=0)), np.maximum(hi, b.v[ins & own].max(axis=0))
-        report(progress, 0.12 + 0.08 * (k + 1) / len(plan.blocks), f"block {k + 1}/{len(plan.blocks)}: the region's border")
-    if not np.isfinite(lo).all():
-        raise ParameterError(f"region 1 ({plan.layer.region}) holds no face of the mesh; choose another region")
-    layer = plan.layer
-    proj = layer.projection
-    if proj.origin is None:
-        proj = replace(proj, origin=tuple(float(t) for t in 0.5 * (lo + hi)))
-    plan = replace(plan, border=np.concatenate(border), layer=layer.with_projection(proj))
-    if proj.radius is None and proj.kind in ("cylindrical", "spherical"):
-        plan = replace(plan, layer=layer.with_projection(replace(proj, radius=_mean_radius(plan))))
+        for i in range(n):  # per layer
+            m = _strict(plan, b, i)
+            ins, out = np.zeros(len(b.v), dtype=bool), np.zeros(len(b.v), dtype=bool)
+            ins[b.f[m].ravel()] = True
+            out[b.f[~m].ravel()] = True
+            border[i].append(b.v[ins & out & own])
+            if (ins & own).any():
+                lo[i], hi[i] = np.minimum(lo[i], b.v[ins & own].min(axis=0)), np.maximum(hi[i], b.v[ins & own].max(axis=0))
+        report(progress, 0.12 + 0.08 * (k + 1) / len(plan.blocks), f"block {k + 1}/{len(plan.blocks)}: the regions' borders")
+    layers = []
+    for i, layer in enumerate(plan.layers):  # per layer
+        if not np.isfinite(lo[i]).all():
+            raise ParameterError(f"region {i + 1} ({layer.region}) holds no face of the mesh; choose another region")
+        proj = layer.projection
+        if proj.origin is None:
+            proj = replace(proj, origin=tuple(float(t) for t in 0.5 * (lo[i] + hi[i])))
+        layers.append(layer.with_projection(proj))
+    plan = replace(plan, borders=tuple(np.concatenate(x) for x in border), layers=tuple(layers))
+    for i, layer in enumerate(plan.layers):  # per layer: a radius from its points where none is given
+        proj = layer.projection
+        if proj.radius is None and proj.kind in ("cylindrical", "spherical"):
+            radius = _mean_radius(plan, i)
+            plan = replace(plan, layers=plan.layers[:i] + (layer.with_projection(replace(proj, radius=radius)),)
+                           + plan.layers[i + 1:])
     return plan
 
 
-def _mean_radius(plan: MeshPlan) -> float:
-    """Mean distance (mm) of the region's refined vertices from the projection's axis
-    (cylindrical) or centre (spherical), each vertex once (its first block)."""
+def _mean_radius(plan: MeshPlan, i: int) -> float:
+    """Mean distance (mm) of layer ``i``'s region's refined vertices from its
+    projection's axis (cylindrical) or centre (spherical), each vertex once (its
+    first block)."""
     from ..mapping.projection import frame, parse_axis
 
-    proj = plan.layer.projection
+    proj = plan.layers[i].projection
     a = parse_axis(proj.axis)
     eu, ev = frame(a)
     o = np.asarray(proj.origin, dtype=np.float64)
@@ -379,7 +406,7 @@ def _mean_radius(plan: MeshPlan) -> float:
     total, count = 0.0, 0
     for blk in plan.blocks:  # per block
         b = fine_block(plan, blk)
-        m = _strict(plan, b)
+        m = _strict(plan, b, i)
         ids = numbering.ids(plan, b)
         ins = np.zeros(len(b.v), dtype=bool)
         ins[b.f[m & b.own].ravel()] = True
@@ -495,7 +522,7 @@ class BlockRelief:
     ``f`` (local), global numbers ``ids``, and per emitted vertex its undisplaced
     position ``v0`` (float64), displacement ``offset`` ``(k, 3)`` mm and its length
     along the offset direction ``d`` (mm, after the limiter); ``body``:
-    each face's connected piece; ``mask``: the texture mask's largest value there
+    each face's connected piece; ``mask``: per layer its mask's largest value there
     (None without a mask); ``folded``: faces the fold limiter lowered the texture
     at; ``moved``: the points (:func:`_keys`) next to the block's border it lowered
     and their displacements after it (mm); ``watch``: the points (sorted
@@ -515,22 +542,25 @@ class BlockRelief:
     watch: np.ndarray
 
 
-def _relief(plan: MeshPlan, b: FineBlock, keep: np.ndarray, unit: np.ndarray) -> tuple[np.ndarray, Any]:
-    """Displacement (mm) of the block's vertices (``keep``: its own), 0 off the
-    region, and the mask's largest value (None without one)."""
-    m = _strict(plan, b)
-    ins = np.zeros(len(b.v), dtype=bool)
-    ins[b.f[m].ravel()] = True
-    idx = np.flatnonzero(ins & keep)
-    layer = plan.layer
-    dist = layer.border_distance(plan.border)(b.v[idx])
-    if layer.projection.kind != "solid" and len(idx):
-        layer.heights(b.v[idx[:1]], unit[idx[:1]])  # the samplers made once, before the threads
-    parts = split_rows(lambda r: layer.relief_rows(b.v[idx[r]], unit[idx[r]], dist[r]), len(idx))
+def _relief(plan: MeshPlan, b: FineBlock, keep: np.ndarray, unit: np.ndarray) -> tuple[np.ndarray, tuple]:
+    """Displacement (mm) of the block's vertices ``keep``, the layers' summed (each 0
+    off its region), and per layer its mask's largest value there (None without one)."""
     d = np.zeros(len(b.v))
-    d[idx] = np.concatenate([p[0] for p in parts]) if parts else 0.0
-    masks = [p[3] for p in parts if p[3] is not None and len(p[3])]
-    return d, (max(float(q.max()) for q in masks) if masks else None)
+    masks = []
+    for k, layer in enumerate(plan.layers):  # per layer
+        m = _strict(plan, b, k)
+        ins = np.zeros(len(b.v), dtype=bool)
+        ins[b.f[m].ravel()] = True
+        idx = np.flatnonzero(ins & keep)
+        dist = layer.border_distance(plan.borders[k])(b.v[idx])
+        if layer.projection.kind != "solid" and len(idx):
+            layer.heights(b.v[idx[:1]], unit[idx[:1]])  # the samplers made once, before the threads
+        parts = split_rows(lambda r: layer.relief_rows(b.v[idx[r]], unit[idx[r]], dist[r]), len(idx))
+        if parts:
+            d[idx] += np.concatenate([p[0] for p in parts])
+        seen = [p[3] for p in parts if p[3] is not None and len(p[3])]
+        masks.append(max(float(q.max()) for q in seen) if seen else None)
+    return d, tuple(masks)
 
 
 def _displace(plan: MeshPlan, b: FineBlock, gid: np.ndarray, pins: tuple) -> BlockRelief:
@@ -738,7 +768,7 @@ class _Tally:
             t.in_vol += s.in_vol
             t.nv, t.nt, t.folded = max(t.nv, s.nv), t.nt + s.nt, t.folded + s.folded
             t.swept, t.spread, t.farthest = t.swept + s.swept, t.spread + s.spread, max(t.farthest, s.farthest)
-            t.masked = s.masked if t.masked is None else (t.masked if s.masked is None else max(t.masked, s.masked))
+            t.masked = _most(t.masked, s.masked)
             t.edges += s.edges
             t.seam_ids += s.seam_ids
             t.seam_xyz += s.seam_xyz
@@ -757,7 +787,7 @@ class _Tally:
         shift = np.linalg.norm(r.offset, axis=1)
         self.spread += float((_areas(r.v0, r.f) / 3.0 * shift[r.f].sum(axis=1)).sum())
         self.farthest = max(self.farthest, float(np.linalg.norm(r.v.astype(np.float64) - r.v0, axis=1).max(initial=0.0)))
-        self.masked = r.mask if self.masked is None else (self.masked if r.mask is None else max(self.masked, r.mask))
+        self.masked = _most(self.masked, r.mask)
         open_, _ = open_edges(r.ids[r.f])
         self.edges.append(open_)
         ring = np.unique(open_)
@@ -768,6 +798,13 @@ class _Tally:
 
 #: Most passes over the blocks before the limiters' border points are given up on.
 MAX_PASSES = 30
+
+
+def _most(a: "tuple | None", b: "tuple | None") -> "tuple | None":
+    """Per layer the larger of two masks' largest values (None: no value yet)."""
+    if a is None or b is None:
+        return b if a is None else a
+    return tuple(y if x is None else (x if y is None else max(x, y)) for x, y in zip(a, b))
 
 
 def _tally(mesh: "TiledMeshBlocks") -> _Tally:
@@ -875,7 +912,7 @@ def gate_mesh_blocks(mesh: "TiledMeshBlocks", ex: Any) -> Any:
 
     what = "textured mesh (in blocks)"
     t = _tally(mesh)
-    if t.masked is not None and not t.masked > 0:
+    if t.masked is not None and any(m is not None and not m > 0 for m in t.masked):
         raise ParameterError("the mask covers none of the region: check mask_size (mm) and the projection's origin")
     if t.folded:
         warnings.warn(f"the texture was lowered where {t.folded} faces would fold over (too deep for the curvature there)",
