@@ -63,7 +63,7 @@ def _blocks(monkeypatch, target, where, per_block, **kw):
     switch is what is tested) and blocks of ``per_block`` refined triangles."""
     with monkeypatch.context() as m:
         m.setattr(mesh_target, "untiled_bytes", lambda triangles: 1e18)
-        m.setattr(tiled_mesh, "_block_triangles", lambda coarse, pitch: per_block)
+        m.setattr(tiled_mesh, "_block_triangles", lambda coarse, pitch, *per: per_block)
         return texcad.texture(target, where, "builtin:stones", **kw)
 
 
@@ -287,7 +287,7 @@ def test_the_cli_makes_a_mesh_in_blocks(tmp_path, monkeypatch, capsys):
     trimesh.creation.icosphere(3, 10.0).export(part)
     with monkeypatch.context() as m:
         m.setattr(mesh_target, "untiled_bytes", lambda triangles: 1e18)
-        m.setattr(tiled_mesh, "_block_triangles", lambda coarse, pitch: 6000)
+        m.setattr(tiled_mesh, "_block_triangles", lambda coarse, pitch, *per: 6000)
         assert main(["texture", str(part), "-o", str(tmp_path / "t.stl"), "-o", str(tmp_path / "t.3mf"), "--pitch", "0.5",
                      "--max-memory", "4GB", "--quiet"]) == 0
     out = capsys.readouterr().out

@@ -62,7 +62,13 @@ that coarse mesh would take more than half the memory available, its faces span 
 pitches (``factor``, up to :data:`MAX_FACTOR`: ``(3 / factor)^2`` as many coarse
 faces, each tessellated into a finer grid), so what stays whole goes with the input
 mesh, not the pitch; the triangles then differ from the untiled ones (the same
-surface and relief volume to 0.1 %, tested).
+surface and relief volume to 0.1 %, tested; with ``build_dir`` the limiter's result
+on those other triangles differs more). With ``build_dir`` a block takes about three
+times the memory per triangle (:data:`LIMITED_BYTES`: two rings of halo, the
+limiter's faces doubled, its edge table), so its blocks are a third as large, and
+the blocks whose pins change are made again (the passes above): the overhang
+limiter costs more CPU in blocks than untiled, the more the more overhang crosses
+block borders.
 
 **Against the untiled mesh** (``tolerance=0``, coarse faces of 3 pitches): the same triangles on the same
 float32 vertices (tested on a sphere, a box with its bed face, with and without
@@ -110,12 +116,18 @@ from .tiled import CountedTiles, _at, tiles_verdict
 from .tiled_faces import open_edges
 
 __all__ = ["MeshPlan", "FineBlock", "BlockRelief", "TiledMeshBlocks", "mesh_plan", "fine_block", "gate_mesh_blocks",
-           "BLOCK_BYTES", "COARSE_BYTES", "MAX_FACTOR"]
+           "BLOCK_BYTES", "LIMITED_BYTES", "COARSE_BYTES", "MAX_FACTOR"]
 
 #: Peak bytes per refined triangle of one block (tessellation, normals, relief and the
 #: emitted float32 block; about 450 measured on an icosphere of radius 40 mm at 0.25 mm
 #: in one block): what a block's size is chosen by.
 BLOCK_BYTES = 500.0
+#: The same with ``build_dir``: two rings of halo, and the overhang limiter on the
+#: block's faces and those across its border, doubled (:func:`_closed`), with its
+#: edge table for the ridges (1460 measured as the growth of peak resident memory from
+#: blocks of 60 000 to 180 000 triangles, an icosphere of radius 40 mm at 0.35 mm; 310
+#: without ``build_dir`` in the same runs).
+LIMITED_BYTES = 1600.0
 #: Peak bytes per coarse triangle of the whole job in blocks (434 measured as peak
 #: resident memory over the interpreter's on an icosphere of radius 60 mm at 0.2 mm:
 #: the bisection's peak, the coarse mesh kept after it, one block).
@@ -243,7 +255,7 @@ def mesh_plan(layers: tuple, v: np.ndarray, f: np.ndarray, tol: float, refined: 
     counts, keys = _counts(cv, cf, finest)
     lev = counts.max(axis=1)
     body = _bodies(cf, len(cv))
-    blocks = _blocks(cv, cf, lev * lev, _block_triangles(len(cf), pitch))
+    blocks = _blocks(cv, cf, lev * lev, _block_triangles(len(cf), pitch, BLOCK_BYTES if dirs is None else LIMITED_BYTES))
     reach = 3.0 * sum(float(layer.height) for layer in layers) + 0.01
     plan = MeshPlan(cv, cf, fn[ids], ids, counts, keys, body, blocks, layers, tol, cv[np.argmin(cv[:, 2])],
                     (), reach, float(fits), factor, dirs, float(crit))
@@ -279,14 +291,15 @@ def _coarse_factor(refined: int, faces: int, pitch: float) -> float:
     return float(factor)
 
 
-def _block_triangles(coarse: int, pitch: float) -> int:
+def _block_triangles(coarse: int, pitch: float, per: float = BLOCK_BYTES) -> int:
     """Refined triangles per block that fit in what the coarse mesh (made, and held
     by this process already) leaves, beside the vertex numbers (16 bytes per coarse
-    triangle); ResourceError naming a pitch where not even a small block fits."""
+    triangle), at ``per`` bytes a triangle (:data:`BLOCK_BYTES`, :data:`LIMITED_BYTES`);
+    ResourceError naming a pitch where not even a small block fits."""
     have = available_memory() / 1.25 - 16.0 * coarse
-    n = int(min(MAX_BLOCK, have / BLOCK_BYTES))
+    n = int(min(MAX_BLOCK, have / per))
     if n < 20_000:
-        p = finest_pitch(pitch, coarse * COARSE_BYTES, 20_000 * BLOCK_BYTES)
+        p = finest_pitch(pitch, coarse * COARSE_BYTES, 20_000 * per)
         raise ResourceError(f"the mesh's coarse refinement ({coarse} triangles at a pitch of {pitch:.3g} mm) leaves no "
                             f"room for a block in the memory available; use a pitch of at least {p:.3g} mm or allow more "
                             "memory (max_memory)")
