@@ -278,6 +278,45 @@ def test_a_mesh_that_does_not_fit_untiled_is_made_in_blocks_under_an_address_spa
     assert out.stat().st_size == 84 + 50 * int(tris)
 
 
+@pytest.mark.slow
+def test_build_dir_in_blocks_under_an_address_space_limit(tmp_path):
+    """build_dir on a sphere of radius 25 mm at 0.3 mm (296 K triangles; by the
+    estimate more than the bound untiled) under max_memory 70 MB over what the
+    process holds and an address-space limit of 400 MB over its size: blocks sized by
+    LIMITED_BYTES, limited across their borders, gated, streamed to an STL, the peak
+    resident memory over the process within the bound."""
+    out = tmp_path / "limited.stl"
+    script = textwrap.dedent(f"""
+        import resource
+        import scipy.sparse.csgraph, scipy.spatial, trimesh
+        import texcad
+        from texcad.targets import mesh as mesh_target
+        from texcad.util.resources import _rss
+        texcad.texture(trimesh.creation.icosphere(1, 5.0), "all", "builtin:stones", pitch=1.0, tolerance=0)  # warmed up
+        def vm(key):
+            return int(open("/proc/self/status").read().split(key)[1].split()[0]) * 1024
+        limit = vm("VmSize:") + (400 << 20)
+        held = _rss()
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+        part = trimesh.creation.icosphere(5, 25.0)
+        tx = texcad.texture(part, "all", "builtin:stones", pitch=0.3, height=0.5, tolerance=0, max_memory=held + (70 << 20),
+                            build_dir=(0, 0, 1))
+        tx.export({str(out)!r})
+        g = tx.gate
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 - held
+        print(tx.info["fuse"], tx.info["blocks"], tx.mesh.num_triangles, tx.mesh.__dict__["passes"], g.shells.closed,
+              abs(g.volume_change - g.expected_volume) <= g.volume_slack, vm("VmPeak:") <= limit, peak <= (70 << 20),
+              mesh_target.untiled_bytes(tx.mesh.num_triangles) > (70 << 20))
+    """)
+    env = dict(os.environ, MALLOC_ARENA_MAX="1")
+    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=900, env=env)
+    assert res.returncode == 0, res.stderr[-2000:]
+    how, blocks, tris, passes, closed, volume_ok, under, bounded, too_big = res.stdout.split()
+    assert how == "tiled" and int(blocks) > 4 and int(tris) > 250_000 and int(passes) > 1
+    assert closed == volume_ok == under == bounded == too_big == "True"
+    assert out.stat().st_size == 84 + 50 * int(tris)
+
+
 def test_the_cli_makes_a_mesh_in_blocks(tmp_path, monkeypatch, capsys):
     """``texcad texture part.stl`` where the untiled mesh does not fit: made in
     blocks, summarised, its STL and 3MF streamed with the same triangles."""
