@@ -134,6 +134,36 @@ def test_layers_that_meet_are_made_in_blocks_with_the_untiled_relief_volume(monk
     assert abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack
 
 
+def test_painted_zones_in_blocks(monkeypatch, tmp_path):
+    """Two painted zones that touch on a box's side (a PrusaSlicer project), each its
+    own texture and height, with build_dir: made in blocks, closed with each vertex
+    once, the zones named as untiled, the relief volume to 0.5 %."""
+    from texcad.io.paint import paint_by_points, write_painted_3mf
+
+    box = trimesh.creation.box((40.0, 30.0, 20.0))
+    box.apply_translation((0, 0, 10.0))
+    v, f = np.asarray(box.vertices), np.asarray(box.faces)
+
+    def zones(p):  # 1 for -14 < x < 0, 2 for 0 < x < 14 on the +y face, 4 < z < 16 mm
+        on = (p[:, 1] > 14.99) & (p[:, 2] > 4) & (p[:, 2] < 16)
+        return np.where(on & (p[:, 0] > -14) & (p[:, 0] < 0), 1, np.where(on & (p[:, 0] > 0) & (p[:, 0] < 14), 2, 0))
+
+    path = tmp_path / "box.3mf"
+    write_painted_3mf(path, [("box", v, f, {"color": paint_by_points(v[f], zones, 5)}, np.eye(3, 4))], dialect="prusa")
+    where = {"paint:1": ("builtin:stones", {"height": 0.4}), "paint:2": ("builtin:diamond_knurl", {"height": 0.8})}
+    kw = dict(pitch=0.5, border=1.0, tolerance=0, build_dir=(0, 0, 1))
+    flat = texcad.texture(path, where, **kw)
+    with monkeypatch.context() as m:
+        m.setattr(mesh_target, "untiled_bytes", lambda triangles: 1e18)
+        m.setattr(tiled_mesh, "_block_triangles", lambda coarse, pitch, *per: 3000)
+        tx = texcad.texture(path, where, **kw)
+    whole = tx.mesh.to_mesh()
+    assert tx.info["fuse"] == "tiled" and tx.info["blocks"] >= 2 and tx.info["zones"] == flat.info["zones"]
+    assert whole.is_watertight and len(np.unique(whole.vertices, axis=0)) == len(whole.vertices)
+    assert tx.gate.volume_change == pytest.approx(flat.gate.volume_change, rel=5e-3)
+    assert abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack
+
+
 def _on_untiled(flat, tx):
     """The blocks' displacements (mm, after their limiters) on the untiled mesh's
     vertices (matched by their undisplaced float64 bytes), and the blocks' border

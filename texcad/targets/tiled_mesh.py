@@ -86,7 +86,7 @@ the refined region's bounding box and its radius from a pass over its vertices, 
 untiled. A tiled mesh keeps every pitch-grid point (its error is 0, within any
 ``tolerance``).
 
-**Layers and zones** (a list of layers, or zones): each layer's region is bisected
+**Layers and zones** (a list of layers, zones, painted zones): each layer's region is bisected
 in turn on the coarse mesh (as the untiled refinement takes the layers), each edge cut
 by the finest pitch of the layers at it, and each layer's relief (its own region,
 border fade and projection, fixed from its own region's points) summed at every
