@@ -42,7 +42,7 @@ is the untiled pitch grid (``tolerance=0``), made a block at a time:
   same pass too); the blocks whose pinned points changed since they were made are
   made again (the others keep their share of the gate's tally, and only take their
   vertex numbers from their coarse faces), until no block lowers such a point (from
-  the third pass on a newly lowered one is pinned at 0, the undisplaced surface,
+  the second pass on a newly lowered one is pinned at 0, the undisplaced surface,
   where the limiter itself ends; at most :data:`MAX_PASSES`): both neighbours then
   move it alike, and every face, fold and ridge was tested by a block that had all
   its points' final displacements.
@@ -825,7 +825,7 @@ def _tally(mesh: "TiledMeshBlocks") -> _Tally:
     border (:func:`_zone`), that point is pinned at its least displacement (every
     block made after starts from that, in this pass too), and the blocks whose
     watched points' pins changed since they were made are made again, until no
-    limiter lowers such a point (from the third pass on, a point it lowers is pinned
+    limiter lowers such a point (from the second pass on, a point it lowers is pinned
     at 0, where the limiter leaves it). A block made again with the pins it was made
     with gives the same result, so the others keep their shares of the tally."""
     plan = mesh.plan
@@ -844,7 +844,7 @@ def _tally(mesh: "TiledMeshBlocks") -> _Tally:
             shares[j] = (t, r.watch, clock.now)
             if len(r.moved[0]):
                 moved += len(r.moved[0])
-                mesh.__dict__["pins"] = clock.pin(mesh.__dict__.get("pins"), r.moved, zero=k >= 2)
+                mesh.__dict__["pins"] = clock.pin(mesh.__dict__.get("pins"), r.moved, zero=k >= 1)
         if not moved:
             mesh.__dict__["passes"] = k + 1
             return _Tally.merged([sh[0] for sh in shares])
@@ -887,10 +887,11 @@ class _Clock:
 
 
 def _pinned(pins: "tuple | None", moved: list, zero: bool) -> tuple:
-    """``(ids, d)`` sorted: the pins and the newly lowered border vertices, each at
+    """``(keys, d)`` sorted: the pins and the newly lowered points, each at
     its least displacement (mm; the limiter only lowers, keeping the sign); with
     ``zero`` the newly lowered ones at 0 (the undisplaced surface, where the limiter
-    itself ends: after two passes, so that the passes settle)."""
+    itself ends: after the first pass, so that the passes settle: a limiter that lowers
+    a pinned point again would shrink it pass after pass)."""
     ids = np.concatenate([m[0] for m in moved] + ([pins[0]] if pins else []))
     d = np.concatenate([m[1] * (0.0 if zero else 1.0) for m in moved] + ([pins[1]] if pins else []))
     order = np.lexsort((np.abs(d), ids))
