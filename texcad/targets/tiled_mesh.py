@@ -297,7 +297,10 @@ def _block_triangles(coarse: int, pitch: float, per: float = BLOCK_BYTES) -> int
     """Refined triangles per block that fit in what the coarse mesh (made, and held
     by this process already) leaves, beside the vertex numbers (16 bytes per coarse
     triangle), at ``per`` bytes a triangle (:data:`BLOCK_BYTES`, :data:`LIMITED_BYTES`);
-    ResourceError naming a pitch where not even a small block fits."""
+    ResourceError naming a pitch where not even a small block fits. Rounded down to
+    ``2^k`` or ``1.5 2^k``: the blocks, and so the bytes where a fold or an overhang
+    crosses their borders, do not change with the few kilobytes the process holds
+    more or less from one run to the next."""
     have = available_memory() / 1.25 - 16.0 * coarse
     n = int(min(MAX_BLOCK, have / per))
     if n < 20_000:
@@ -305,7 +308,10 @@ def _block_triangles(coarse: int, pitch: float, per: float = BLOCK_BYTES) -> int
         raise ResourceError(f"the mesh's coarse refinement ({coarse} triangles at a pitch of {pitch:.3g} mm) leaves no "
                             f"room for a block in the memory available; use a pitch of at least {p:.3g} mm or allow more "
                             "memory (max_memory)")
-    return n
+    if n >= MAX_BLOCK:
+        return n
+    k = 1 << (n.bit_length() - 1)
+    return max(20_000, k + k // 2 if n >= k + k // 2 else k)
 
 
 def _morton(c: np.ndarray) -> np.ndarray:
