@@ -314,9 +314,10 @@ def test_build_dir_in_blocks_under_an_address_space_limit(tmp_path):
     estimate more than the bound untiled) under max_memory 70 MB over what the
     process holds and an address-space limit of 400 MB over its size: blocks sized by
     LIMITED_BYTES, limited across their borders, gated, streamed to an STL, the peak
-    resident memory over the process within 1.25 times the bound (43-50 MB measured
-    run alone; 78 MB when run after this file's other tests, in a fresh process all
-    the same: not understood yet)."""
+    resident memory over the process within 1.25 times the bound: run alone, 17
+    blocks of coarse faces of 3 pitches peak at 40 MB; run after this file's other
+    tests (in a fresh process all the same, not understood yet) the memory available
+    gives coarse faces of 4 pitches and 12 blocks, peaking at 77 MB."""
     out = tmp_path / "limited.stl"
     script = textwrap.dedent(f"""
         import resource
