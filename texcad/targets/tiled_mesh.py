@@ -80,8 +80,9 @@ lower half overhangs, in 7 blocks, at most 5 % of the vertices, each within 6
 pitches of a border, the relief volume to 0.5 %). What matters is limited alike: the
 limiter run again on the blocks' result lowers nothing (no face overhangs or folds,
 no ridge too flat, across borders too; tested). The more overhang crosses borders,
-the more the result differs (another result the limiter leaves as it is, not the
-untiled one). The projection's origin comes from
+the more the result differs, and the farther from the borders where the overhang is
+one connected band (another result the limiter leaves as it is, keeping more of the
+relief than the untiled one, whose rounds shrink a long band more). The projection's origin comes from
 the refined region's bounding box and its radius from a pass over its vertices, as
 untiled. A tiled mesh keeps every pitch-grid point (its error is 0, within any
 ``tolerance``).
