@@ -32,11 +32,13 @@ The job, for each texture *layer* ``(region, texture, options)``:
    displacements) with as many bodies as the input, and finite, else GeometryError.
 
 **Blocks.** Where the refinement would not fit in the memory available (the
-machine's, or ``max_memory``), a one-layer job without ``build_dir`` is made in
-blocks instead (:mod:`texcad.targets.tiled_mesh`): the pitch grid (``tolerance=0``)
-refined, displaced, limited for folds, gated and streamed a block at a time, the
-result a :class:`~texcad.targets.tiled_mesh.TiledMeshBlocks` (``info["fuse"] ==
-"tiled"``); several layers or ``build_dir`` are refused there, naming a pitch that fits.
+machine's, or ``max_memory``), a one-layer job is made in blocks instead
+(:mod:`texcad.targets.tiled_mesh`): the pitch grid (``tolerance=0``) refined,
+displaced, limited for folds and for ``build_dir``'s overhangs, gated and streamed a
+block at a time, the result a :class:`~texcad.targets.tiled_mesh.TiledMeshBlocks`
+(``info["fuse"] == "tiled"``), several layers and zones too (their regions' faces
+bisected layer by layer, each edge cut by its layers' finest pitch: other triangles
+than the untiled layer-by-layer refinement where regions meet).
 
 Sampling and measuring run on every core (:func:`texcad.util.split_rows`, the same
 bytes as on one).
@@ -783,7 +785,7 @@ class MeshAdapter(Adapter):
             told = lambda f, m: options.report(0.92 + 0.07 * f, f"checking the result (texcad's gate): {m}")  # noqa: E731
             info = dict(placement.data.info, fuse="tiled", blocks=len(plan.blocks), coarse_triangles=int(len(plan.f)),
                         coarse_pitches=plan.factor,
-                        tolerance=0.0, max_error=0.0, kind="mesh", face="mesh", pitch=float(plan.layer.pitch),
+                        tolerance=0.0, max_error=0.0, kind="mesh", face="mesh", pitch=plan.pitch,
                         no_brep="a mesh has no B-rep: it is textured as a mesh")
             return Fused(TiledMeshBlocks(plan, progress=told), placement.base, info, None)
         r: MeshRelief = relief.data
@@ -860,11 +862,10 @@ def _sampler_fits(layer: Layer) -> None:
 
 def _tiled(mp: MeshPlace, options: Options) -> "Relief | None":
     """The relief in blocks (:mod:`texcad.targets.tiled_mesh`) where the untiled
-    refinement would not fit in the memory available, else None. ``build_dir`` and
-    several layers are not made in blocks: refused, naming a pitch that fits."""
+    refinement would not fit in the memory available, else None."""
     from ..util import available_memory
     from ..util import finest_pitch
-    from .tiled_mesh import mesh_plan, refuse_untiled
+    from .tiled_mesh import mesh_plan
 
     v, f, layers = mp.vertices, mp.faces, mp.layers
     tol = 0.01 + 1e-6 * float(np.ptp(v, axis=0).max())
@@ -873,15 +874,13 @@ def _tiled(mp: MeshPlace, options: Options) -> "Relief | None":
     if need <= available_memory():
         return None
     what, pitch = f"refining {mp.name} to about {count} triangles", min(float(layer.pitch) for layer in layers)
-    if len(layers) > 1:
-        refuse_untiled(what, pitch, need, "several layers (zones or paint) are")
-    if options.directions is not None:
-        refuse_untiled(what, pitch, need, "build_dir (the overhang limiter) is")
     options.report(0.05, f"{what}: made in blocks")
-    if layers[0].projection.kind != "solid":  # the texture's tile first, before the coarse mesh
-        _sampler_fits(layers[0])
+    for layer in layers:  # the textures' tiles first, before the coarse mesh
+        if layer.projection.kind != "solid":
+            _sampler_fits(layer)
     assert_uncrossed(v, f, mp.name, options.union)
-    plan = mesh_plan(layers[0], v, f, tol, count, finest_pitch(pitch, need), options.report)
+    plan = mesh_plan(layers, v, f, tol, count, finest_pitch(pitch, need), options.report, options.directions,
+                     options.critical_angle)
     mp.info.update(triangles=plan.triangles, kind="mesh", face="mesh", tolerance=0.0, max_error=0.0)
     return Relief(heightmap=None, limits=None, volume=float("nan"), volume_slack=float("nan"), nominal_volume=None,
                   reach=plan.reach, max_error=0.0, data=plan)

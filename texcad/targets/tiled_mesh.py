@@ -26,14 +26,26 @@ is the untiled pitch grid (``tolerance=0``), made a block at a time:
   inner points of each coarse face get global numbers the first time a block emits
   them, so a border edge's points are one vertex each (no gap, no duplicate, no
   T-junction) and the streaming writers (:mod:`texcad.io.stream`) write each once.
-* **folds.** The fold limiter (:func:`texcad.printability.limit_relief`, no build
-  direction) runs on each block's own faces. A fold that stays inside a block is
-  limited as on the whole mesh (the limiter's rounds only look at faces next to a
-  change). Where it lowers a border vertex, that vertex is *pinned* at the least
-  displacement any block gave it, every block starts from the pins and the blocks are
-  made again, until no block lowers a border vertex (from the third pass on a newly
-  lowered border vertex is pinned at 0, the undisplaced surface, where the limiter
-  itself ends): both neighbours then move it alike.
+* **folds and overhangs.** The limiter (:func:`texcad.printability.limit_relief`)
+  runs block by block. Without a build direction (folds only) on the block's own
+  faces. With ``build_dir`` also on every face at a point of its border (from the
+  halo, two rings of coarse faces deep there so that their points' normals are the
+  untiled ones), since the limiter's ridge test needs the faces on both sides of an
+  edge; and as the limiter tests ridges on a closed surface only, those faces are
+  closed by a copy of them on copies of their inner points (a face and its copy test
+  alike; an open edge lies in a face and its copy, one plane: no ridge). Overhangs,
+  folds or ridges that stay inside a block are limited as on the whole mesh (the
+  limiter's rounds only look at faces next to a change). Where a block lowers a
+  point next to its border (its border points, and with ``build_dir`` the points of
+  the faces at them, on both sides), that point is *pinned* at the least
+  displacement any block gave it and the blocks made after start from it (in the
+  same pass too); the blocks whose pinned points changed since they were made are
+  made again (the others keep their share of the gate's tally, and only take their
+  vertex numbers from their coarse faces), until no block lowers such a point (from
+  the second pass on a newly lowered one is pinned at 0, the undisplaced surface,
+  where the limiter itself ends; at most :data:`MAX_PASSES`): both neighbours then
+  move it alike, and every face, fold and ridge was tested by a block that had all
+  its points' final displacements.
 
 :class:`TiledMeshBlocks` is that mesh kept as a recipe: its blocks are made on demand
 for the gate (:func:`gate_mesh_blocks`: each block's open edges pair up across blocks,
@@ -50,21 +62,40 @@ that coarse mesh would take more than half the memory available, its faces span 
 pitches (``factor``, up to :data:`MAX_FACTOR`: ``(3 / factor)^2`` as many coarse
 faces, each tessellated into a finer grid), so what stays whole goes with the input
 mesh, not the pitch; the triangles then differ from the untiled ones (the same
-surface and relief volume to 0.1 %, tested).
+surface and relief volume to 0.1 %, tested; with ``build_dir`` the limiter's result
+on those other triangles differs more). With ``build_dir`` a block takes about three
+times the memory per triangle (:data:`LIMITED_BYTES`: two rings of halo, the
+limiter's faces doubled, its edge table), so its blocks are a third as large, and
+the blocks whose pins change are made again (the passes above): the overhang
+limiter costs more CPU in blocks than untiled, the more the more overhang crosses
+block borders.
 
 **Against the untiled mesh** (``tolerance=0``, coarse faces of 3 pitches): the same triangles on the same
-float32 vertices (tested on a sphere, a box with its bed face, a cylinder with a
-cylindrical projection and two bodies with a normal region), except round border
-vertices pinned for a fold (an engraved texture on a box's edges: 22 of 12816
-vertices differ, the volume by 4e-5 relative). The projection's origin comes from
+float32 vertices (tested on a sphere, a box with its bed face, with and without
+``build_dir``, a cylinder with a cylindrical projection and two bodies with a normal
+region), except round points pinned for a fold or an overhang, where the limiter's
+rounds start from the pinned depth (tested: an engraved texture on a box's edges,
+at most 1 % of the vertices, the volume to 1e-3; ``build_dir`` on a sphere whose
+lower half overhangs, in 7 blocks, at most 5 % of the vertices, each within 6
+pitches of a border, the relief volume to 0.5 %). What matters is limited alike: the
+limiter run again on the blocks' result lowers nothing (no face overhangs or folds,
+no ridge too flat, across borders too; tested). The more overhang crosses borders,
+the more the result differs, and the farther from the borders where the overhang is
+one connected band (another result the limiter leaves as it is, keeping more of the
+relief than the untiled one, whose rounds shrink a long band more). The projection's origin comes from
 the refined region's bounding box and its radius from a pass over its vertices, as
 untiled. A tiled mesh keeps every pitch-grid point (its error is 0, within any
 ``tolerance``).
 
-Not tiled (refused, naming a pitch at which the untiled mesh fits): ``build_dir``
-(the overhang limiter moves vertices by their neighbours' displacements, across the
-whole mesh, and checks ridges between faces) and several layers or zones (each
-layer refines the last's mesh). ``texture_mesh`` and ``layer_meshes`` (booleans of
+**Layers and zones** (a list of layers, zones, painted zones): each layer's region is bisected
+in turn on the coarse mesh (as the untiled refinement takes the layers), each edge cut
+by the finest pitch of the layers at it, and each layer's relief (its own region,
+border fade and projection, fixed from its own region's points) summed at every
+vertex before the limiter. Where regions are apart, the untiled triangles (tested:
+two zones of their own pitch and height, with ``build_dir``); where they meet or
+overlap, the untiled refinement cuts the mesh its first layer already refined and the
+blocks do not: other triangles on the same surface (a cylindrical projection's mean
+radius then from other points), the relief volume to 0.5 % (tested). ``texture_mesh`` and ``layer_meshes`` (booleans of
 the whole mesh) are refused; ``base_mesh`` is the input.
 """
 
@@ -79,18 +110,27 @@ import numpy as np
 
 from ..errors import GeometryError, ParameterError, ResourceError, TexcadWarning
 from ..printability.relief import limit_relief
+from ..solid import edge_slot_pairs
 from ..solid.subdivide import coarsen, edge_counts, face_normals, offset_directions, tessellate, vertex_normals
 from ..util import Progress, available_memory, finest_pitch, report, split_rows
 from .tiled import CountedTiles, _at, tiles_verdict
 from .tiled_faces import open_edges
 
 __all__ = ["MeshPlan", "FineBlock", "BlockRelief", "TiledMeshBlocks", "mesh_plan", "fine_block", "gate_mesh_blocks",
-           "refuse_untiled", "BLOCK_BYTES", "COARSE_BYTES", "MAX_FACTOR"]
+           "BLOCK_BYTES", "LIMITED_BYTES", "COARSE_BYTES", "MAX_FACTOR"]
 
 #: Peak bytes per refined triangle of one block (tessellation, normals, relief and the
 #: emitted float32 block; about 450 measured on an icosphere of radius 40 mm at 0.25 mm
 #: in one block): what a block's size is chosen by.
 BLOCK_BYTES = 500.0
+#: The same with ``build_dir``: two rings of halo, and the overhang limiter on the
+#: block's faces and those across its border, doubled (:func:`_closed`), with its
+#: edge table for the ridges (1460 measured as the growth of peak resident memory from
+#: blocks of 60 000 to 180 000 triangles, an icosphere of radius 40 mm at 0.35 mm; 310
+#: without ``build_dir`` in the same runs), with a margin: at 1600 one run of the
+#: address-space test peaked 77 MB over the process under a 70 MB bound (other block
+#: borders, other faces across them), at 2000 two peaked 43 and 44 MB.
+LIMITED_BYTES = 2000.0
 #: Peak bytes per coarse triangle of the whole job in blocks (434 measured as peak
 #: resident memory over the interpreter's on an icosphere of radius 60 mm at 0.2 mm:
 #: the bisection's peak, the coarse mesh kept after it, one block).
@@ -115,21 +155,23 @@ class MeshPlan:
         fn: ``(M, 3)`` float64 unit normal of each coarse face's input face.
         ids: ``(M,)`` int64 each coarse face's input face.
         counts: ``(M, 3)`` int64 pieces of each face's edge ``k`` (corner ``k`` to
-            ``k + 1``): ``ceil(length / pitch)`` where a face at the edge is in the
-            region, else 1.
+            ``k + 1``): ``ceil(length / pitch)``, the most any face at the edge asks
+            (its layers' finest pitch; 1 off every region).
         keys: ``(E,)`` int64 sorted edge keys ``min * N + max``.
         body: ``(M,)`` int64 each coarse face's connected piece (shell).
         blocks: the coarse faces of each block, sorted int64 arrays.
-        layer: the layer (:class:`texcad.targets.mesh.Layer`) with its projection fixed.
+        layers: the layers (:class:`texcad.targets.mesh.Layer`), their projections fixed.
         tol: mm, the region selection's tolerance; low: ``(3,)`` the lowest vertex
             (the bed face's height).
-        border: ``(K, 3)`` float64 the refined region's border vertices.
+        borders: per layer ``(K, 3)`` float64 its refined region's border vertices.
         reach: mm, the farthest a vertex may move (offset directions are at most
             3 times as long as the normal).
         fits: mm, the pitch at which the untiled job fits (named where folds across
             block borders do not settle).
         factor: how many pitches a coarse face spans at most (3: the untiled
             refinement's; more where that coarse mesh would not fit).
+        dirs: ``(K, 3)`` float64 unit build directions, or None (folds only);
+            crit: the critical angle, degrees (the overhang limiter's).
     """
 
     v: np.ndarray
@@ -140,13 +182,20 @@ class MeshPlan:
     keys: np.ndarray
     body: np.ndarray
     blocks: tuple
-    layer: Any
+    layers: tuple
     tol: float
     low: np.ndarray
-    border: np.ndarray
+    borders: tuple
     reach: float
     fits: float
     factor: float = 3.0
+    dirs: Any = None
+    crit: float = 45.0
+
+    @property
+    def pitch(self) -> float:
+        """The finest layer's pitch, mm."""
+        return min(float(layer.pitch) for layer in self.layers)
 
     @property
     def triangles(self) -> int:
@@ -179,44 +228,51 @@ class FineBlock:
     classes: dict
 
 
-def refuse_untiled(what: str, pitch: float, need: float, why: str) -> None:
-    """ResourceError: ``why`` (an option, with its verb) is not made in blocks and the untiled job
-    (``need`` bytes at ``pitch`` mm) does not fit; names the pitch that does."""
-    p = finest_pitch(pitch, need)
-    raise ResourceError(f"{what} at a pitch of {pitch:.3g} mm needs about {need / 2**30:.1f} GiB of memory, more than "
-                        f"the {available_memory() / 2**30:.1f} GiB available, and {why} not made in blocks; "
-                        f"use a pitch of at least {p:.3g} mm")
-
-
-def mesh_plan(layer: Any, v: np.ndarray, f: np.ndarray, tol: float, refined: int, fits: float,
-              progress: Progress = None) -> MeshPlan:
-    """Coarsen the layer's region of ``(v, f)`` and cut it into blocks that fit in the
-    memory available (module docstring); the first pass over the blocks finds the
-    region's border vertices and fixes the projection. ``refined``: about how many
-    triangles the refinement makes; ``fits``: the pitch (mm) at which the untiled job
-    fits (named where something is refused).
+def mesh_plan(layers: tuple, v: np.ndarray, f: np.ndarray, tol: float, refined: int, fits: float,
+              progress: Progress = None, dirs: Any = None, crit: float = 45.0) -> MeshPlan:
+    """Coarsen the layers' regions of ``(v, f)`` (layer by layer, as the untiled
+    refinement takes them) and cut the mesh into blocks that fit in the memory
+    available (module docstring); the first pass over the blocks finds each region's
+    border vertices and fixes its projection. ``refined``: about how many triangles
+    the refinement makes; ``fits``: the pitch (mm) at which the untiled job fits (named
+    where something is refused); ``dirs``: ``(K, 3)`` build directions or None,
+    ``crit``: the critical angle (degrees) of the overhang limiter.
 
     Raises:
         ResourceError: the coarse mesh or one block does not fit (names a pitch).
-        ParameterError: the region holds no face.
+        ParameterError: a region holds no face.
     """
-    pitch = float(layer.pitch)
+    layers = tuple(layers)
+    pitch = min(float(layer.pitch) for layer in layers)
     factor = _coarse_factor(refined, len(f), pitch)
     fn, _ = face_normals(v, f)
-    sel = layer.faces(v, f, fn, None, 45.0, tol, loose=True, ids=np.arange(len(f)))
-    if not sel.any():
-        raise ParameterError(f"region 1 ({layer.region}) holds no face of the mesh; choose another region")
-    # the cap on the whole mesh's triangles is the STL's here: the mesh is never whole
-    cv, cf, act, parent = coarsen(v, f, sel, pitch, guard=False, coarse=factor, max_faces=2**32 - 1)
+    cv, cf, ids, finest = v, f, np.arange(len(f)), np.full(len(f), np.inf)
+    for k, layer in enumerate(layers):  # per layer: its region bisected down to `factor` of its pitches
+        sel = layer.faces(cv, cf, fn[ids], dirs, crit, tol, loose=True, ids=ids)
+        if not sel.any():
+            raise ParameterError(f"region {k + 1} ({layer.region}) holds no face of the mesh; choose another region")
+        # the cap on the whole mesh's triangles is the STL's here: the mesh is never whole
+        cv, cf, _, parent = coarsen(cv, cf, sel, float(layer.pitch), guard=False, coarse=factor, max_faces=2**32 - 1)
+        ids, finest = ids[parent], np.where(sel[parent], np.minimum(finest[parent], float(layer.pitch)), finest[parent])
     report(progress, 0.12, f"coarse mesh: {len(cf)} triangles of up to {factor} pitches")
-    counts, keys = edge_counts(cv, cf, act, pitch)
-    del act
+    counts, keys = _counts(cv, cf, finest)
     lev = counts.max(axis=1)
     body = _bodies(cf, len(cv))
-    blocks = _blocks(cv, cf, lev * lev, _block_triangles(len(cf), pitch))
-    plan = MeshPlan(cv, cf, fn[parent], parent, counts, keys, body, blocks, layer, tol, cv[np.argmin(cv[:, 2])],
-                    np.zeros((0, 3)), 3.0 * float(layer.height) + 0.01, float(fits), factor)
+    blocks = _blocks(cv, cf, lev * lev, _block_triangles(len(cf), pitch, BLOCK_BYTES if dirs is None else LIMITED_BYTES))
+    reach = 3.0 * sum(float(layer.height) for layer in layers) + 0.01
+    plan = MeshPlan(cv, cf, fn[ids], ids, counts, keys, body, blocks, layers, tol, cv[np.argmin(cv[:, 2])],
+                    (), reach, float(fits), factor, dirs, float(crit))
     return _first_pass(plan, progress)
+
+
+def _counts(v: np.ndarray, f: np.ndarray, finest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~texcad.solid.subdivide.edge_counts` with each face's own pitch
+    ``finest`` (mm, inf off every region): the most any face at an edge asks."""
+    out, keys = None, None
+    for p in np.unique(finest[np.isfinite(finest)]):  # per pitch (one per layer at most)
+        c, keys = edge_counts(v, f, finest == p, float(p))
+        out = c if out is None else np.maximum(out, c)
+    return out, keys
 
 
 def _coarse_factor(refined: int, faces: int, pitch: float) -> float:
@@ -238,18 +294,25 @@ def _coarse_factor(refined: int, faces: int, pitch: float) -> float:
     return float(factor)
 
 
-def _block_triangles(coarse: int, pitch: float) -> int:
+def _block_triangles(coarse: int, pitch: float, per: float = BLOCK_BYTES) -> int:
     """Refined triangles per block that fit in what the coarse mesh (made, and held
     by this process already) leaves, beside the vertex numbers (16 bytes per coarse
-    triangle); ResourceError naming a pitch where not even a small block fits."""
+    triangle), at ``per`` bytes a triangle (:data:`BLOCK_BYTES`, :data:`LIMITED_BYTES`);
+    ResourceError naming a pitch where not even a small block fits. Rounded down to
+    ``2^k`` or ``1.5 2^k``: the blocks, and so the bytes where a fold or an overhang
+    crosses their borders, do not change with the few kilobytes the process holds
+    more or less from one run to the next."""
     have = available_memory() / 1.25 - 16.0 * coarse
-    n = int(min(MAX_BLOCK, have / BLOCK_BYTES))
+    n = int(min(MAX_BLOCK, have / per))
     if n < 20_000:
-        p = finest_pitch(pitch, coarse * COARSE_BYTES, 20_000 * BLOCK_BYTES)
+        p = finest_pitch(pitch, coarse * COARSE_BYTES, 20_000 * per)
         raise ResourceError(f"the mesh's coarse refinement ({coarse} triangles at a pitch of {pitch:.3g} mm) leaves no "
                             f"room for a block in the memory available; use a pitch of at least {p:.3g} mm or allow more "
                             "memory (max_memory)")
-    return n
+    if n >= MAX_BLOCK:
+        return n
+    k = 1 << (n.bit_length() - 1)
+    return max(20_000, k + k // 2 if n >= k + k // 2 else k)
 
 
 def _morton(c: np.ndarray) -> np.ndarray:
@@ -284,11 +347,15 @@ def _bodies(f: np.ndarray, nv: int) -> np.ndarray:
     return label[f[:, 0]].astype(np.int64)
 
 
-def fine_block(plan: MeshPlan, block: np.ndarray) -> FineBlock:
-    """Block ``block`` (sorted coarse faces) refined with its halo (module docstring)."""
-    mark = np.zeros(len(plan.v), dtype=bool)
-    mark[plan.f[block].ravel()] = True
-    near = np.flatnonzero(mark[plan.f].any(axis=1))  # sorted: the untiled face order
+def fine_block(plan: MeshPlan, block: np.ndarray, rings: int = 1) -> FineBlock:
+    """Block ``block`` (sorted coarse faces) refined with its halo (module docstring):
+    ``rings`` rings of coarse faces round it (2 for the overhang limiter, whose
+    faces across the block's border need their own vertices' normals)."""
+    near = block
+    for _ in range(rings):  # per ring of coarse faces
+        mark = np.zeros(len(plan.v), dtype=bool)
+        mark[plan.f[near].ravel()] = True
+        near = np.flatnonzero(mark[plan.f].any(axis=1))  # sorted: the untiled face order
     used, inv = np.unique(plan.f[near], return_inverse=True)  # sorted: each edge's end order as untiled
     classes: dict = {}
     v, f, src = tessellate(plan.v[used], inv.reshape(-1, 3), plan.counts[near], classes=classes)
@@ -296,11 +363,12 @@ def fine_block(plan: MeshPlan, block: np.ndarray) -> FineBlock:
     return FineBlock(near, used, v, f, src, own, classes)
 
 
-def _strict(plan: MeshPlan, b: FineBlock) -> np.ndarray:
-    """The refined faces in the region (as the untiled adapter selects them; the bed
-    face's height from the whole mesh)."""
+def _strict(plan: MeshPlan, b: FineBlock, k: int = 0) -> np.ndarray:
+    """The refined faces in layer ``k``'s region (as the untiled adapter selects
+    them; the bed face's height from the whole mesh)."""
     vv = np.concatenate([b.v, plan.low[None, :]])  # the lowest point: bed faces as on the whole mesh
-    return plan.layer.faces(vv, b.f, plan.fn[b.near][b.src], None, 45.0, plan.tol, loose=False, ids=plan.ids[b.near][b.src])
+    return plan.layers[k].faces(vv, b.f, plan.fn[b.near][b.src], plan.dirs, plan.crit, plan.tol, loose=False,
+                                ids=plan.ids[b.near][b.src])
 
 
 def _owned(b: FineBlock) -> np.ndarray:
@@ -311,39 +379,48 @@ def _owned(b: FineBlock) -> np.ndarray:
 
 
 def _first_pass(plan: MeshPlan, progress: Progress) -> MeshPlan:
-    """The region's border vertices (a vertex of a region face and of a face outside
-    it), its bounding box and, for a cylindrical or spherical projection without a
-    radius, the mean distance from the axis or centre (a second pass)."""
-    border, lo, hi = [], np.full(3, np.inf), np.full(3, -np.inf)
+    """Each region's border vertices (a vertex of a face of the region and of a face
+    outside it), its bounding box and, for a cylindrical or spherical projection
+    without a radius, the mean distance from the axis or centre (a second pass)."""
+    n = len(plan.layers)
+    border, lo, hi = [[] for _ in range(n)], np.full((n, 3), np.inf), np.full((n, 3), -np.inf)
     for k, blk in enumerate(plan.blocks):  # per block
         b = fine_block(plan, blk)
-        m = _strict(plan, b)
-        ins, out = np.zeros(len(b.v), dtype=bool), np.zeros(len(b.v), dtype=bool)
-        ins[b.f[m].ravel()] = True
-        out[b.f[~m].ravel()] = True
         own = _owned(b)
-        border.append(b.v[ins & out & own])
-        if (ins & own).any():
-            lo, hi = np.minimum(lo, b.v[ins & own].min(axis=0)), np.maximum(hi, b.v[ins & own].max(axis=0))
-        report(progress, 0.12 + 0.08 * (k + 1) / len(plan.blocks), f"block {k + 1}/{len(plan.blocks)}: the region's border")
-    if not np.isfinite(lo).all():
-        raise ParameterError(f"region 1 ({plan.layer.region}) holds no face of the mesh; choose another region")
-    layer = plan.layer
-    proj = layer.projection
-    if proj.origin is None:
-        proj = replace(proj, origin=tuple(float(t) for t in 0.5 * (lo + hi)))
-    plan = replace(plan, border=np.concatenate(border), layer=layer.with_projection(proj))
-    if proj.radius is None and proj.kind in ("cylindrical", "spherical"):
-        plan = replace(plan, layer=layer.with_projection(replace(proj, radius=_mean_radius(plan))))
+        for i in range(n):  # per layer
+            m = _strict(plan, b, i)
+            ins, out = np.zeros(len(b.v), dtype=bool), np.zeros(len(b.v), dtype=bool)
+            ins[b.f[m].ravel()] = True
+            out[b.f[~m].ravel()] = True
+            border[i].append(b.v[ins & out & own])
+            if (ins & own).any():
+                lo[i], hi[i] = np.minimum(lo[i], b.v[ins & own].min(axis=0)), np.maximum(hi[i], b.v[ins & own].max(axis=0))
+        report(progress, 0.12 + 0.08 * (k + 1) / len(plan.blocks), f"block {k + 1}/{len(plan.blocks)}: the regions' borders")
+    layers = []
+    for i, layer in enumerate(plan.layers):  # per layer
+        if not np.isfinite(lo[i]).all():
+            raise ParameterError(f"region {i + 1} ({layer.region}) holds no face of the mesh; choose another region")
+        proj = layer.projection
+        if proj.origin is None:
+            proj = replace(proj, origin=tuple(float(t) for t in 0.5 * (lo[i] + hi[i])))
+        layers.append(layer.with_projection(proj))
+    plan = replace(plan, borders=tuple(np.concatenate(x) for x in border), layers=tuple(layers))
+    for i, layer in enumerate(plan.layers):  # per layer: a radius from its points where none is given
+        proj = layer.projection
+        if proj.radius is None and proj.kind in ("cylindrical", "spherical"):
+            radius = _mean_radius(plan, i)
+            plan = replace(plan, layers=plan.layers[:i] + (layer.with_projection(replace(proj, radius=radius)),)
+                           + plan.layers[i + 1:])
     return plan
 
 
-def _mean_radius(plan: MeshPlan) -> float:
-    """Mean distance (mm) of the region's refined vertices from the projection's axis
-    (cylindrical) or centre (spherical), each vertex once (its first block)."""
+def _mean_radius(plan: MeshPlan, i: int) -> float:
+    """Mean distance (mm) of layer ``i``'s region's refined vertices from its
+    projection's axis (cylindrical) or centre (spherical), each vertex once (its
+    first block)."""
     from ..mapping.projection import frame, parse_axis
 
-    proj = plan.layer.projection
+    proj = plan.layers[i].projection
     a = parse_axis(proj.axis)
     eu, ev = frame(a)
     o = np.asarray(proj.origin, dtype=np.float64)
@@ -351,7 +428,7 @@ def _mean_radius(plan: MeshPlan) -> float:
     total, count = 0.0, 0
     for blk in plan.blocks:  # per block
         b = fine_block(plan, blk)
-        m = _strict(plan, b)
+        m = _strict(plan, b, i)
         ids = numbering.ids(plan, b)
         ins = np.zeros(len(b.v), dtype=bool)
         ins[b.f[m & b.own].ravel()] = True
@@ -379,6 +456,27 @@ class _Numbering:
         self.next += n
         return out
 
+    def skip(self, plan: MeshPlan, block: np.ndarray) -> None:
+        """The numbers block ``block`` takes (as :meth:`ids` gives them), from its
+        coarse faces alone: its coarse vertices, the points of its edges cut into 2 or
+        more (in the order of their keys) and ``(N - 1)(N - 2) / 2`` inner points of
+        each face of grid level ``N``."""
+        self.start = self.next
+        g = np.unique(plan.f[block])
+        fresh = g[self.coarse[g] < 0]
+        self.coarse[fresh] = self._take(len(fresh))
+        f, cnt = plan.f[block], plan.counts[block]
+        e = f[:, [1, 2, 0]]
+        cut = cnt > 1
+        ge = np.searchsorted(plan.keys, (np.minimum(f, e) * np.int64(len(plan.v)) + np.maximum(f, e))[cut])
+        ge, first = np.unique(ge, return_index=True)
+        runs = cnt[cut][first] - 1
+        new = self.edge[ge] < 0
+        ids = self._take(int(runs[new].sum()))
+        self.edge[ge[new]] = ids[np.concatenate([[0], np.cumsum(runs[new])[:-1]]).astype(np.int64)] if new.any() else ids
+        lev = cnt.max(axis=1)
+        self._take(int(((lev - 1) * (lev - 2) // 2).sum()))
+
     def ids(self, plan: MeshPlan, b: FineBlock) -> np.ndarray:
         """``(P,)`` the global number of each vertex of the block's own faces, -1
         for the halo's other vertices."""
@@ -395,10 +493,7 @@ class _Numbering:
         if len(c.get("t", ())):
             ep = nl + np.arange(len(c["t"]))
             le = c["edge_point"]
-            nvl = np.int64(max(nl, 1))
-            uk = c["edge_key"]
-            ge = np.searchsorted(plan.keys, b.used[uk // nvl] * np.int64(len(plan.v)) + b.used[uk % nvl])
-            pos = np.rint(c["t"] * c["edge_count"][le]).astype(np.int64)
+            ge, pos = _edge_points(plan, b)
             hit = ref[ep]
             e_hit = np.unique(le[hit])
             fresh_e = e_hit[self.edge[ge[e_hit]] < 0]
@@ -414,15 +509,47 @@ class _Numbering:
         return gid
 
 
+def _edge_points(plan: MeshPlan, b: FineBlock) -> tuple[np.ndarray, np.ndarray]:
+    """The block's cut edges as numbers into ``plan.keys`` and each edge point's
+    place on its edge (1 .. count - 1 from the edge's smaller coarse vertex)."""
+    c = b.classes
+    nvl = np.int64(max(len(b.used), 1))
+    uk = c["edge_key"]
+    ge = np.searchsorted(plan.keys, b.used[uk // nvl] * np.int64(len(plan.v)) + b.used[uk % nvl])
+    return ge, np.rint(c["t"] * c["edge_count"][c["edge_point"]]).astype(np.int64)
+
+
+def _keys(plan: MeshPlan, b: FineBlock) -> np.ndarray:
+    """``(P,)`` int64: a number for each vertex of the fine block (halo too) that every
+    block gives that point alike: its coarse vertex, its coarse edge and place on it,
+    or its coarse face and grid point (what pins are kept by)."""
+    c, nl, nv = b.classes, len(b.used), len(plan.v)
+    n = int(plan.counts.max(initial=1)) + 1
+    out = np.empty(len(b.v), dtype=np.int64)
+    out[:nl] = b.used
+    ne = len(c.get("t", ()))
+    if ne:
+        ge, pos = _edge_points(plan, b)
+        out[nl:nl + ne] = nv + ge[c["edge_point"]] * n + pos
+    face, w = b.near[c["inner_face"]], c["inner_w"]
+    lev = plan.counts[face].max(axis=1)
+    i, j = np.rint(w[:, 1] * lev).astype(np.int64), np.rint(w[:, 2] * lev).astype(np.int64)
+    out[nl + ne:] = nv + len(plan.keys) * n + (face * n + i) * n + j
+    return out
+
+
 @dataclass(frozen=True)
 class BlockRelief:
     """One block displaced: its emitted vertices ``v`` ``(k, 3)`` float32 mm, faces
     ``f`` (local), global numbers ``ids``, and per emitted vertex its undisplaced
-    position ``v0`` (float64) and displacement ``offset`` ``(k, 3)`` mm; ``body``:
-    each face's connected piece; ``mask``: the texture mask's largest value there
+    position ``v0`` (float64), displacement ``offset`` ``(k, 3)`` mm and its length
+    along the offset direction ``d`` (mm, after the limiter); ``body``:
+    each face's connected piece; ``mask``: per layer its mask's largest value there
     (None without a mask); ``folded``: faces the fold limiter lowered the texture
-    at; ``moved``: the global numbers of the block's border vertices it lowered and
-    their displacements after it (mm)."""
+    at; ``moved``: the points (:func:`_keys`) next to the block's border it lowered
+    and their displacements after it (mm); ``watch``: the points (sorted
+    :func:`_keys`) whose pins the block's result depends on (the limiter's points
+    next to its border or off its own faces)."""
 
     v: np.ndarray
     f: np.ndarray
@@ -433,51 +560,151 @@ class BlockRelief:
     mask: Any
     folded: int
     moved: tuple
+    d: np.ndarray
+    watch: np.ndarray
 
 
-def _relief(plan: MeshPlan, b: FineBlock, keep: np.ndarray, unit: np.ndarray) -> tuple[np.ndarray, Any]:
-    """Displacement (mm) of the block's vertices (``keep``: its own), 0 off the
-    region, and the mask's largest value (None without one)."""
-    m = _strict(plan, b)
-    ins = np.zeros(len(b.v), dtype=bool)
-    ins[b.f[m].ravel()] = True
-    idx = np.flatnonzero(ins & keep)
-    layer = plan.layer
-    dist = layer.border_distance(plan.border)(b.v[idx])
-    if layer.projection.kind != "solid" and len(idx):
-        layer.heights(b.v[idx[:1]], unit[idx[:1]])  # the samplers made once, before the threads
-    parts = split_rows(lambda r: layer.relief_rows(b.v[idx[r]], unit[idx[r]], dist[r]), len(idx))
+def _relief(plan: MeshPlan, b: FineBlock, keep: np.ndarray, unit: np.ndarray) -> tuple[np.ndarray, tuple]:
+    """Displacement (mm) of the block's vertices ``keep``, the layers' summed (each 0
+    off its region), and per layer its mask's largest value there (None without one)."""
     d = np.zeros(len(b.v))
-    d[idx] = np.concatenate([p[0] for p in parts]) if parts else 0.0
-    masks = [p[3] for p in parts if p[3] is not None and len(p[3])]
-    return d, (max(float(q.max()) for q in masks) if masks else None)
+    masks = []
+    for k, layer in enumerate(plan.layers):  # per layer
+        m = _strict(plan, b, k)
+        ins = np.zeros(len(b.v), dtype=bool)
+        ins[b.f[m].ravel()] = True
+        idx = np.flatnonzero(ins & keep)
+        dist = layer.border_distance(plan.borders[k])(b.v[idx])
+        if layer.projection.kind != "solid" and len(idx):
+            layer.heights(b.v[idx[:1]], unit[idx[:1]])  # the samplers made once, before the threads
+        parts = split_rows(lambda r: layer.relief_rows(b.v[idx[r]], unit[idx[r]], dist[r]), len(idx))
+        if parts:
+            d[idx] += np.concatenate([p[0] for p in parts])
+        seen = [p[3] for p in parts if p[3] is not None and len(p[3])]
+        masks.append(max(float(q.max()) for q in seen) if seen else None)
+    return d, tuple(masks)
 
 
 def _displace(plan: MeshPlan, b: FineBlock, gid: np.ndarray, pins: tuple) -> BlockRelief:
     """The block's vertices moved along their offset directions by the relief
-    (module docstring), limited where a face would fold over
-    (:func:`texcad.printability.limit_relief` on the block's own faces); ``pins``
-    ``(ids, d)``: border vertices (sorted global numbers) whose displacement another
-    block's limiter lowered, and to what (mm): they start from that here."""
+    (module docstring), limited (:func:`_limit`) on the faces :func:`_zone` names;
+    ``pins`` ``(keys, d)``: points (sorted :func:`_keys`) whose displacement a block's
+    limiter lowered, and to what (mm): they start from that here."""
     unit = vertex_normals(b.v, b.f)
     dirs = offset_directions(b.v, b.f, unit)
+    faces, seam = _zone(plan, b)
+    used = np.zeros(len(b.v), dtype=bool)
+    used[b.f[faces].ravel()] = True
+    d, mask = _relief(plan, b, used, unit)
+    keys = _keys(plan, b)
+    if len(pins[0]):
+        at = np.minimum(np.searchsorted(pins[0], keys), len(pins[0]) - 1)
+        hit = used & (pins[0][at] == keys)
+        d[hit] = pins[1][at[hit]]
+    low, folded = _limit(plan, b, faces, dirs, d, used)
+    changed = seam & (low != d)
     keep = gid >= 0
-    d, mask = _relief(plan, b, keep, unit)
     local = np.full(len(b.v), -1, dtype=np.int64)
     local[keep] = np.arange(int(keep.sum()))
     f = local[b.f[b.own]]
-    ids, v0 = gid[keep], b.v[keep]
-    dk = d[keep]
-    at = np.searchsorted(pins[0], ids)
-    hit = np.flatnonzero(pins[0][np.minimum(at, len(pins[0]) - 1)] == ids) if len(pins[0]) else np.zeros(0, np.int64)
-    dk[hit] = pins[1][at[hit]]
-    lowered, lim = limit_relief(v0, f, dirs[keep], dk)
-    seam = np.unique(open_edges(f)[0])
-    seam = seam[lowered[seam] != dk[seam]]
-    moved = (ids[seam], lowered[seam])
-    off = dirs[keep] * lowered[:, None]
+    v0 = b.v[keep]
+    off = dirs[keep] * low[keep][:, None]
     v32 = (v0 + off).astype(np.float32)
-    return BlockRelief(v32, f, ids, v0, off, plan.body[b.near][b.src][b.own], mask, int(lim.folded_faces), moved)
+    return BlockRelief(v32, f, gid[keep], v0, off, plan.body[b.near][b.src][b.own], mask, folded,
+                       (keys[changed], low[changed]), low[keep], np.sort(keys[used & (seam | ~keep)]))
+
+
+def _zone(plan: MeshPlan, b: FineBlock) -> tuple[np.ndarray, np.ndarray]:
+    """``(faces, seam)``: the refined faces the block's limiter runs on and the
+    points whose lowering every block must hear of (bools over ``b.f``, ``b.v``).
+    Folds only: the block's own faces (a face's test needs its corners alone) and its
+    border points. With build directions the ridges between a border face and the
+    one across also count: the own faces and every face at a border point, and the
+    points of all those faces; and where an edge inside those faces joins two points
+    of their border (so that :func:`_closed` would put it in four faces), the faces
+    at its ends too (the halo's, limited here only to close the surface)."""
+    own = np.zeros(len(b.v), dtype=bool)
+    own[b.f[b.own].ravel()] = True
+    halo = np.zeros(len(b.v), dtype=bool)
+    halo[b.f[~b.own].ravel()] = True
+    border = own & halo
+    if plan.dirs is None:
+        return b.own, border
+    touch = border[b.f].any(axis=1)
+    seam = np.zeros(len(b.v), dtype=bool)
+    seam[b.f[touch].ravel()] = True
+    faces = b.own | touch
+    for _ in range(4):  # per ring added where the closed copy would pinch (rare: a few points)
+        pinch = _pinches(b.f[faces], len(b.v))
+        if not pinch.any():
+            break
+        faces |= pinch[b.f].any(axis=1)
+    return faces, seam
+
+
+def _pinches(f: np.ndarray, nv: int) -> np.ndarray:
+    """``(nv,)`` bool: the ends of the edges of ``f`` in two of its faces whose ends
+    are both on its open edges."""
+    o, _ = open_edges(f)
+    rim = np.zeros(nv, dtype=bool)
+    rim[o.ravel()] = True
+    a, b = f.ravel(), f[:, [1, 2, 0]].ravel()
+    key = np.minimum(a, b) * np.int64(nv) + np.maximum(a, b)
+    inner = rim[a] & rim[b] & ~np.isin(key, np.minimum(o[:, 0], o[:, 1]) * np.int64(nv) + np.maximum(o[:, 0], o[:, 1]))
+    out = np.zeros(nv, dtype=bool)
+    out[a[inner]] = out[b[inner]] = True
+    return out
+
+
+def _limit(plan: MeshPlan, b: FineBlock, faces: np.ndarray, dirs: np.ndarray, d: np.ndarray,
+           used: np.ndarray) -> tuple[np.ndarray, int]:
+    """``(d', folded)``: the displacements (mm) after
+    :func:`texcad.printability.limit_relief` on ``faces`` of the block (its points
+    ``used``; ``d`` elsewhere), and how many of the block's own faces folded over
+    before. Without build directions on those faces as they are; with, on them made
+    closed (:func:`_closed`), as the limiter tests ridges on a closed surface only."""
+    idx = np.flatnonzero(used)
+    local = np.full(len(b.v), -1, dtype=np.int64)
+    local[idx] = np.arange(len(idx))
+    f, v0, n, dd = local[b.f[faces]], b.v[idx], dirs[idx], d[idx]
+    low = d.copy()
+    if plan.dirs is None:
+        low[idx], lim = limit_relief(v0, f, n, dd)
+        return low, int(lim.folded_faces)
+    ff, copy = _closed(f, len(idx))
+    low[idx] = limit_relief(np.concatenate([v0, v0[copy]]), ff, np.concatenate([n, n[copy]]),
+                            np.concatenate([dd, dd[copy]]), build_dir=plan.dirs, critical_angle=plan.crit)[0][:len(idx)]
+    return low, _folded(v0, local[b.f[b.own]], n, dd)
+
+
+def _closed(f: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(faces, copy)``: the open surface ``f`` (``nv`` points) and a copy of its faces
+    on copies of its points (``nv + k`` is point ``copy[k]``), the points on its open
+    edges shared: a closed surface on which every face and its copy test alike
+    (the same corners, the same displacements), each edge inside in two faces of one
+    side and each open edge in a face and its copy (no ridge: the two are one plane).
+    GeometryError where an inner edge joins two open-edge points (it would be in four
+    faces)."""
+    rim = np.zeros(nv, dtype=bool)
+    rim[open_edges(f)[0].ravel()] = True
+    copy = np.flatnonzero(~rim)
+    to = np.arange(nv)
+    to[copy] = nv + np.arange(len(copy))
+    ff = np.concatenate([f, to[f]])
+    if edge_slot_pairs(ff) is None:
+        raise GeometryError("a block's faces for the overhang limiter could not be closed (an edge inside joins two "
+                            "points of their border); please report this")
+    return ff, copy
+
+
+def _folded(v0: np.ndarray, f: np.ndarray, n: np.ndarray, d: np.ndarray) -> int:
+    """Faces ``f`` that fold over (their normal turned by 90 degrees or more) when the
+    points ``v0`` (mm) move by ``d`` along ``n``, on float32 positions (the count
+    the limiter reports, for the warning)."""
+    p = (v0 + n * d[:, None]).astype(np.float32).astype(np.float64)
+    a, _ = face_normals(p, f)
+    a0, _ = face_normals(v0, f)
+    return int(np.sum((a * a0).sum(axis=1) <= 0.0))
 
 
 class TiledMeshBlocks(CountedTiles):
@@ -489,15 +716,21 @@ class TiledMeshBlocks(CountedTiles):
         self.plan, self.progress, self.client, self.thickness = plan, progress, None, 0.0
         self.grid = None
 
-    def displaced(self, progress: Progress = None) -> Any:
-        """:class:`BlockRelief` per block, in order."""
+    def displaced(self, progress: Progress = None, redo: Any = None) -> Any:
+        """:class:`BlockRelief` per block, in order; with ``redo`` (block number ->
+        bool) None for the blocks it says need not be made again (only numbered)."""
         plan = self.plan
         numbering = _Numbering(plan)
         n = len(plan.blocks)
-        pins = self.__dict__.get("pins", (np.zeros(0, dtype=np.int64), np.zeros(0)))
-        for k, blk in enumerate(plan.blocks):  # per block
-            b = fine_block(plan, blk)
-            yield _displace(plan, b, numbering.ids(plan, b), pins)
+        none = (np.zeros(0, dtype=np.int64), np.zeros(0))
+        rings = 1 if plan.dirs is None else 2
+        for k, blk in enumerate(plan.blocks):  # per block; the pins as they stand (a pass may add some)
+            if redo is not None and not redo(k):
+                numbering.skip(plan, blk)
+                yield None
+                continue
+            b = fine_block(plan, blk, rings)
+            yield _displace(plan, b, numbering.ids(plan, b), self.__dict__.get("pins", none))
             del b
             report(progress, (k + 1) / n, f"block {k + 1}/{n}")
 
@@ -547,6 +780,23 @@ class _Tally:
     folded: int = 0
     masked: Any = None
 
+    @staticmethod
+    def merged(shares: list) -> "_Tally":
+        """The blocks' tallies added up, in block order."""
+        t = _Tally(np.zeros_like(shares[0].out_vol), np.zeros_like(shares[0].in_vol), [], [], [], [])
+        for s in shares:  # per block
+            t.finite &= s.finite
+            t.out_vol += s.out_vol
+            t.in_vol += s.in_vol
+            t.nv, t.nt, t.folded = max(t.nv, s.nv), t.nt + s.nt, t.folded + s.folded
+            t.swept, t.spread, t.farthest = t.swept + s.swept, t.spread + s.spread, max(t.farthest, s.farthest)
+            t.masked = _most(t.masked, s.masked)
+            t.edges += s.edges
+            t.seam_ids += s.seam_ids
+            t.seam_xyz += s.seam_xyz
+            t.moved += s.moved
+        return t
+
     def add(self, r: BlockRelief, o: np.ndarray) -> None:
         """Block ``r``'s shares, volumes about the point ``o``."""
         nb = len(self.out_vol)
@@ -559,7 +809,7 @@ class _Tally:
         shift = np.linalg.norm(r.offset, axis=1)
         self.spread += float((_areas(r.v0, r.f) / 3.0 * shift[r.f].sum(axis=1)).sum())
         self.farthest = max(self.farthest, float(np.linalg.norm(r.v.astype(np.float64) - r.v0, axis=1).max(initial=0.0)))
-        self.masked = r.mask if self.masked is None else (self.masked if r.mask is None else max(self.masked, r.mask))
+        self.masked = _most(self.masked, r.mask)
         open_, _ = open_edges(r.ids[r.f])
         self.edges.append(open_)
         ring = np.unique(open_)
@@ -568,31 +818,89 @@ class _Tally:
         self.moved.append(r.moved)
 
 
+#: Most passes over the blocks before the limiters' border points are given up on.
+MAX_PASSES = 30
+
+
+def _most(a: "tuple | None", b: "tuple | None") -> "tuple | None":
+    """Per layer the larger of two masks' largest values (None: no value yet)."""
+    if a is None or b is None:
+        return b if a is None else a
+    return tuple(y if x is None else (x if y is None else max(x, y)) for x, y in zip(a, b))
+
+
 def _tally(mesh: "TiledMeshBlocks") -> _Tally:
-    """One pass over the blocks; where the fold limiter lowered a border vertex, it
-    is pinned at its least displacement (every block starts from that) and the pass
-    made again, until the limiter lowers no border vertex (from the third pass on,
-    a border vertex it lowers is pinned at 0, where the limiter leaves it)."""
+    """Passes over the blocks; where a block's limiter lowered a point next to its
+    border (:func:`_zone`), that point is pinned at its least displacement (every
+    block made after starts from that, in this pass too), and the blocks whose
+    watched points' pins changed since they were made are made again, until no
+    limiter lowers such a point (from the second pass on, a point it lowers is pinned
+    at 0, where the limiter leaves it). A block made again with the pins it was made
+    with gives the same result, so the others keep their shares of the tally."""
     plan = mesh.plan
     o = 0.5 * (plan.v.min(axis=0) + plan.v.max(axis=0))
     nb = int(plan.body.max()) + 1
-    for k in range(12):  # per pass: pins only grow and go down
-        t = _Tally(np.zeros(nb), np.zeros(nb), [], [], [], [])
-        for r in mesh.displaced(mesh.progress):  # per block
+    shares: list = [None] * len(plan.blocks)  # per block: (its tally, the points it watches, the clock when made)
+    clock = _Clock()
+    redo = lambda k: shares[k] is None or clock.changed(shares[k][1], shares[k][2])  # noqa: E731
+    for k in range(MAX_PASSES):  # per pass: pins only grow and go down
+        moved = 0
+        for j, r in enumerate(mesh.displaced(mesh.progress, redo)):  # per block: its pins count at once
+            if r is None:
+                continue
+            t = _Tally(np.zeros(nb), np.zeros(nb), [], [], [], [])
             t.add(r, o)
-        if not sum(len(m[0]) for m in t.moved):
+            shares[j] = (t, r.watch, clock.now)
+            if len(r.moved[0]):
+                moved += len(r.moved[0])
+                mesh.__dict__["pins"] = clock.pin(mesh.__dict__.get("pins"), r.moved, zero=k >= 1)
+        if not moved:
             mesh.__dict__["passes"] = k + 1
-            return t
-        mesh.__dict__["pins"] = _pinned(mesh.__dict__.get("pins"), t.moved, zero=k >= 2)
-    raise GeometryError(f"the texture folds over across block borders, and pinning them did not settle it; use a smaller "
-                        f"height or a pitch of at least {plan.fits:.3g} mm (made whole)")
+            return _Tally.merged([sh[0] for sh in shares])
+    raise GeometryError(f"the texture folds over or overhangs across block borders, and pinning them did not settle it; "
+                        f"use a smaller height or a pitch of at least {plan.fits:.3g} mm (made whole)")
+
+
+class _Clock:
+    """When each pin last changed (a count of the pins' changes), to tell which blocks
+    must be made again."""
+
+    def __init__(self) -> None:
+        self.now = 0
+        self.keys = np.zeros(0, dtype=np.int64)
+        self.when = np.zeros(0, dtype=np.int64)
+
+    def pin(self, pins: "tuple | None", moved: tuple, zero: bool) -> tuple:
+        """:func:`_pinned`, noting the pins that are new or lower now."""
+        new = _pinned(pins, [moved], zero)
+        old = pins if pins is not None else (np.zeros(0, dtype=np.int64), np.zeros(0))
+        at = np.minimum(np.searchsorted(old[0], new[0]), max(len(old[0]) - 1, 0))
+        same = (old[0][at] == new[0]) & (old[1][at] == new[1]) if len(old[0]) else np.zeros(len(new[0]), dtype=bool)
+        self.now += 1
+        prev = np.zeros(len(new[0]), dtype=np.int64)
+        seen = np.minimum(np.searchsorted(self.keys, new[0]), max(len(self.keys) - 1, 0))
+        if len(self.keys):
+            hit = self.keys[seen] == new[0]
+            prev[hit] = self.when[seen[hit]]
+        self.keys, self.when = new[0], np.where(same, prev, self.now)
+        return new
+
+    def changed(self, watch: np.ndarray, since: int) -> bool:
+        """Whether a pin on any of the points ``watch`` (sorted keys) changed after
+        ``since``."""
+        if not len(self.keys) or not len(watch):
+            return False
+        at = np.minimum(np.searchsorted(self.keys, watch), len(self.keys) - 1)
+        hit = self.keys[at] == watch
+        return bool(np.any(self.when[at[hit]] > since))
 
 
 def _pinned(pins: "tuple | None", moved: list, zero: bool) -> tuple:
-    """``(ids, d)`` sorted: the pins and the newly lowered border vertices, each at
+    """``(keys, d)`` sorted: the pins and the newly lowered points, each at
     its least displacement (mm; the limiter only lowers, keeping the sign); with
     ``zero`` the newly lowered ones at 0 (the undisplaced surface, where the limiter
-    itself ends: after two passes, so that the passes settle)."""
+    itself ends: after the first pass, so that the passes settle: a limiter that lowers
+    a pinned point again would shrink it pass after pass)."""
     ids = np.concatenate([m[0] for m in moved] + ([pins[0]] if pins else []))
     d = np.concatenate([m[1] * (0.0 if zero else 1.0) for m in moved] + ([pins[1]] if pins else []))
     order = np.lexsort((np.abs(d), ids))
@@ -627,7 +935,7 @@ def gate_mesh_blocks(mesh: "TiledMeshBlocks", ex: Any) -> Any:
 
     what = "textured mesh (in blocks)"
     t = _tally(mesh)
-    if t.masked is not None and not t.masked > 0:
+    if t.masked is not None and any(m is not None and not m > 0 for m in t.masked):
         raise ParameterError("the mask covers none of the region: check mask_size (mm) and the projection's origin")
     if t.folded:
         warnings.warn(f"the texture was lowered where {t.folded} faces would fold over (too deep for the curvature there)",
