@@ -446,6 +446,7 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
         meshed = [_carries_grid_mesh(f, g[0].shape[0], g[0].shape[1]) for (_, f, _), g in zip(tiles0, grids)]
     b = BRep_Builder()
     sides = _sides(copy, tiles, grids)
+    _line_pcurves(b, tiles, sides, grids)
     outer = _outer(sides, grids)
     inner = 4 if tessellate else 8  # 8: 5e-9 mm, below OCCT's own precision (1e-7 mm)
     if tolerance > 0 and not tessellate:
@@ -463,6 +464,35 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
         return None
     data = occt_write(copy)
     return _complete(data, len(order), tiles, grids, meshed, outer, inner)
+
+
+def _line_pcurves(b, tiles: list, sides: list, grids: list) -> None:
+    """Give each edge along a whole tile side (:func:`_sides`) a straight pcurve on
+    that tile (a ``LINE``: its iso-parameter line) where the edge is parametrised as
+    the tile's grid (its range the side's knots, its start the side's first grid
+    point); texcad's tiles carry some of them as 2-D B-splines through every knot
+    (a ``CARTESIAN_POINT`` and a knot per grid point in the STEP: 7 % of a plate's
+    file). On a degree-1 tile the two are the same curve."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.gp import gp_Dir2d, gp_Pnt2d
+
+    for (_, face, _), tile, (g, u, v) in zip(tiles, sides, grids):  # one per tile
+        for edge, _, side, _, _ in tile:  # one per edge
+            if side is None or BRep_Tool.IsClosed_s(edge, face):
+                continue
+            axis, line, lo, hi = side
+            t = (v if axis == 1 else u)[lo : hi + 1]
+            first, last = BRep_Tool.Range_s(edge)
+            curve = BRep_Tool.Curve_s(edge, 0.0, 0.0)
+            start = g[lo, line] if axis == 1 else g[line, lo]
+            if curve is None or abs(first - t[0]) > 1e-9 or abs(last - t[-1]) > 1e-9:
+                continue
+            if np.abs(np.array(curve.Value(first).Coord()) - start).max() > 1e-7 * (1 + np.abs(start).max()):
+                continue
+            at = gp_Pnt2d(u[line], 0.0) if axis == 1 else gp_Pnt2d(0.0, v[line])
+            pc = Geom2d_Line(at, gp_Dir2d(0.0, 1.0) if axis == 1 else gp_Dir2d(1.0, 0.0))
+            b.UpdateEdge(edge, pc, face, BRep_Tool.Tolerance_s(edge))
 
 
 def decimals_for(tolerance: float) -> tuple[int, float]:
@@ -569,14 +599,34 @@ def _thin(g: np.ndarray, width: float) -> np.ndarray:
     return on
 
 
-def _keep(p: np.ndarray, t: np.ndarray, tol: float) -> np.ndarray:
+def _keep(p: np.ndarray, t: np.ndarray, tol: float, misses: np.ndarray | None = None) -> np.ndarray:
     """Indices along axis 0 of ``p`` (``(n, m, 3)`` mm: ``m`` polylines sampled at
     the parameters ``t``) to keep so that the polylines through the kept points stay
     within ``tol`` mm (3-D distance) of every point; first and last always kept.
-    Greedy: from each kept point, the farthest one whose chord holds all between."""
+    Greedy: from each kept point, the farthest one whose chord holds all between.
+    ``misses``: :func:`_misses` of ``p`` and ``t`` (computed here when None; pass it
+    to try several tolerances on the same points)."""
+    n = len(t)
+    if misses is None:
+        misses = _misses(p, t)
+    if misses is None:
+        return np.arange(n)
+    ok = misses <= tol  # (i, s): the chord from i to i + 1 + s holds its points
+    kept, at = [0], 0
+    while at < n - 1:  # one per kept point
+        at = int(min(at + 1 + np.flatnonzero(ok[at])[-1], n - 1)) if ok[at].any() else at + 1
+        kept.append(at)
+    return np.asarray(kept)
+
+
+def _misses(p: np.ndarray, t: np.ndarray) -> np.ndarray | None:
+    """``(n, s)``: the largest distance (mm) from the chord between point ``i`` and
+    point ``i + 1 + s`` (chords up to :data:`SPAN` long) to the points it skips, over
+    the ``m`` polylines of ``p`` (``(n, m, 3)`` mm at the parameters ``t``); None
+    when there are too few points or too many to compare (then every point stays)."""
     n = len(t)
     if n <= 2 or n**3 * p.shape[1] > 4_000_000:  # a tile's 25 x 25 points: 0.4 M
-        return np.arange(n)
+        return None
     w_ = min(n - 1, SPAN)
     i = np.arange(n)[:, None, None]
     j = np.minimum(i + np.arange(1, w_ + 1)[None, None, :], n - 1)  # (i, 1, s): chords up to SPAN long
@@ -585,13 +635,7 @@ def _keep(p: np.ndarray, t: np.ndarray, tol: float) -> np.ndarray:
     w = np.clip((t[k] - t[i]) / np.where(span > 0, span, 1.0), 0.0, 1.0)[..., None, None]  # (i, q, s, 1, 1)
     chord = p[i] * (1 - w) + p[j] * w  # (i, q, s, m, 3)
     d = np.sqrt(((chord - p[k]) ** 2).sum(-1)).max(-1)  # (i, q, s)
-    d = np.where(k < j, d, 0.0).max(1)  # (i, s): the chord from i, s + 1 points on, its largest miss
-    ok = d <= tol  # (i, s): the chord from i to i + 1 + s holds its points
-    kept, at = [0], 0
-    while at < n - 1:  # one per kept point
-        at = int(min(at + 1 + np.flatnonzero(ok[at])[-1], n - 1)) if ok[at].any() else at + 1
-        kept.append(at)
-    return np.asarray(kept)
+    return np.where(k < j, d, 0.0).max(1)  # (i, s): the chord from i, s + 1 points on, its largest miss
 
 
 def _side_index(side: tuple) -> tuple:
@@ -688,8 +732,9 @@ def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: 
     (the fitted poles move into the gap: the least-squares fit spreads a bump over
     wider spans than chords through the points do). All of them when nothing holds."""
     need_r, need_c = np.flatnonzero(need_r), np.flatnonzero(need_c)
-    cand_r = {f: np.union1d(need_r, _keep(m, v, f * tol)) for f in INNER_SHARES}
-    cand_c = {f: np.union1d(need_c, _keep(m.transpose(1, 0, 2), u, f * tol)) for f in INNER_SHARES}
+    along_v, along_u = _misses(m, v), _misses(m.transpose(1, 0, 2), u)
+    cand_r = {f: np.union1d(need_r, _keep(m, v, f * tol, along_v)) for f in INNER_SHARES}
+    cand_c = {f: np.union1d(need_c, _keep(m.transpose(1, 0, 2), u, f * tol, along_u)) for f in INNER_SHARES}
     pairs = sorted(((len(cand_r[a]) * len(cand_c[b]), a, b) for a in INNER_SHARES for b in INNER_SHARES))
     for _, a, b in pairs:  # a few dozen, cheapest first
         poles = _fitted(m, g, u, v, cand_r[a], cand_c[b], tol, fit)
@@ -780,8 +825,9 @@ def _edge_fit(pts: np.ndarray, t: np.ndarray, tol: float) -> tuple:
     within a share of ``tol`` (:data:`EDGE_SHARES`, :func:`_keep`) and whose inner
     points, least-squares fitted to all of ``pts`` (the ends stay), bring the polyline
     within ``tol`` of every point; the chord points themselves where no fit holds."""
+    misses = _misses(pts[:, None], t)
     for share in EDGE_SHARES:  # the largest share first: the fewest points
-        sel = _keep(pts[:, None], t, share * tol)
+        sel = _keep(pts[:, None], t, share * tol, misses)
         if len(sel) < 3:
             if share <= 1.0:
                 return sel, pts[sel].copy()
