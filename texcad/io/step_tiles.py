@@ -638,6 +638,14 @@ def _misses(p: np.ndarray, t: np.ndarray) -> np.ndarray | None:
     return np.where(k < j, d, 0.0).max(1)  # (i, s): the chord from i, s + 1 points on, its largest miss
 
 
+def _even_t(t: np.ndarray) -> np.ndarray:
+    """Even parameters (the indices) for the parameters ``t`` of a grid's rows or
+    columns: the points' distance to a degree-1 fit's image is at most their
+    distance to it at these parameters, and the grid's points are (nearly) evenly
+    spaced along its rows and columns."""
+    return np.arange(len(t), dtype=np.float64)
+
+
 def _side_index(side: tuple) -> tuple:
     """``(rows, cols)`` index arrays of a tile side ``(axis, line, lo, hi)``."""
     return (np.arange(side[2], side[3] + 1), np.array([side[1]])) if side[0] == 1 else (np.array([side[1]]), np.arange(side[2], side[3] + 1))
@@ -671,6 +679,7 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
     keep_r = [np.zeros(g.shape[0], bool) for g, _, _ in grids]
     keep_c = [np.zeros(g.shape[1], bool) for g, _, _ in grids]
     on_line = [np.zeros(g.shape[:2], bool) for g, _, _ in grids]  # moved onto an edge's polyline
+    on_edge = [np.zeros(g.shape[:2], bool) for g, _, _ in grids]  # on a side whose edge became a polyline
     frozen = [np.zeros(g.shape[:2], bool) for g, _, _ in grids]  # around edges that are not whole tile sides
     for ti, tile in enumerate(sides):  # one per tile
         for _, _, side, (iu, iv), _ in tile:  # one per edge
@@ -703,6 +712,7 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
                     moved[ti][lo : hi + 1, line] = np.stack([np.interp(t, t[sel], q[:, c]) for c in range(3)], axis=-1)
                     moved[ti][lo + sel, line] = q  # the polyline's own points, bit for bit
                     on_line[ti][lo : hi + 1, line] = True
+                    on_edge[ti][lo : hi + 1, line] = True
                     on_line[ti][lo + sel[1:-1], line] = False  # (shared with the curve, rounded already)
             else:
                 keep_c[ti][idx] = True
@@ -710,17 +720,22 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
                     moved[ti][line, lo : hi + 1] = np.stack([np.interp(t, t[sel], q[:, c]) for c in range(3)], axis=-1)
                     moved[ti][line, lo + sel] = q  # the polyline's own points, bit for bit
                     on_line[ti][line, lo : hi + 1] = True
+                    on_edge[ti][line, lo : hi + 1] = True
                     on_line[ti][line, lo + sel[1:-1]] = False  # (shared with the curve, rounded already)
     out = []
     for ti, (g, u, v) in enumerate(grids):  # one per tile
         m, fit = moved[ti], not frozen[ti].any()
-        rows, cols, poles = _chosen(m, g, u, v, keep_r[ti], keep_c[ti], tol, fit)
+        # fitted and checked at even parameters (the grid's indices): a degree-1 surface's
+        # image is its poles', whatever its knots, so each grid point is within tol of the
+        # tile written on the grid's own knots (texcad's are placed for OCCT's Gauss rule,
+        # uneven: checked at them, a dropped row's tangential shift alone could miss tol)
+        rows, cols, poles = _chosen(m, g, _even_t(u), _even_t(v), keep_r[ti], keep_c[ti], tol, fit, on_edge[ti])
         out.append((poles, u[cols], v[rows], rows, cols, on_line[ti][np.ix_(rows, cols)]))
     return out
 
 
 def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: np.ndarray, need_c: np.ndarray,
-            tol: float, fit: bool) -> tuple:
+            tol: float, fit: bool, skip: np.ndarray | None = None) -> tuple:
     """The rows and columns of poles a tile keeps and its poles (:func:`_fitted`):
     ``m`` its grid with the border moved onto its edges' polylines, ``g`` the grid
     (``(R, C, 3)`` mm at the parameters ``v``, ``u``), ``need_r``/``need_c`` (bool)
@@ -737,7 +752,7 @@ def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: 
     cand_c = {f: np.union1d(need_c, _keep(m.transpose(1, 0, 2), u, f * tol, along_u)) for f in INNER_SHARES}
     pairs = sorted(((len(cand_r[a]) * len(cand_c[b]), a, b) for a in INNER_SHARES for b in INNER_SHARES))
     for _, a, b in pairs:  # a few dozen, cheapest first
-        poles = _fitted(m, g, u, v, cand_r[a], cand_c[b], tol, fit)
+        poles = _fitted(m, g, u, v, cand_r[a], cand_c[b], tol, fit, skip)
         if poles is not None:
             rows, cols = cand_r[a], cand_c[b]
             break
@@ -750,7 +765,7 @@ def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: 
                 continue
             fewer = kept[kept != i] if axis == 0 else rows
             fewer_c = cols if axis == 0 else kept[kept != i]
-            got = _fitted(m, g, u, v, fewer, fewer_c, tol, fit)
+            got = _fitted(m, g, u, v, fewer, fewer_c, tol, fit, skip)
             if got is not None:
                 rows, cols, poles, kept = fewer, fewer_c, got, fewer if axis == 0 else fewer_c
     return rows, cols, poles
@@ -771,7 +786,7 @@ def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int
     from OCP.TopLoc import TopLoc_Location
     from OCP.gp import gp_Pnt
 
-    sel, q = _edge_fit(pts, t, EDGE_SHARE * tol)
+    sel, q = _edge_fit(pts, _even_t(t), EDGE_SHARE * tol)  # at even parameters: see _reduced
     first, last = BRep_Tool.Range_s(edge)
     if len(sel) == len(t) or abs(first - t[0]) > 1e-9 or abs(last - t[-1]) > 1e-9:
         return None, None
@@ -841,7 +856,7 @@ def _edge_fit(pts: np.ndarray, t: np.ndarray, tol: float) -> tuple:
 
 
 def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np.ndarray, cols: np.ndarray, tol: float,
-            fit: bool) -> np.ndarray | None:
+            fit: bool, skip: np.ndarray | None = None) -> np.ndarray | None:
     """Poles ``(len(rows), len(cols), 3)`` mm of a degree-1 surface on the knots
     ``v[rows]``, ``u[cols]`` within ``tol`` mm of every grid point ``g`` (at its own
     ``(u, v)``), or None. The poles are the grid points ``m`` there (the tile's
@@ -853,7 +868,8 @@ def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np
     mv, mu = _hats(v, rows), _hats(u, cols)
     gk = g.transpose(2, 0, 1)  # (3, R, C): one matrix per coordinate
     p = m[np.ix_(rows, cols)]
-    if np.sqrt(((mv @ p.transpose(2, 0, 1) @ mu.T - gk) ** 2).sum(0)).max() <= tol:
+    keep = slice(None) if skip is None else ~skip
+    if np.sqrt(((mv @ p.transpose(2, 0, 1) @ mu.T - gk) ** 2).sum(0))[keep].max(initial=0.0) <= tol:
         return p
     if not fit or len(rows) < 3 or len(cols) < 3:
         return None
@@ -861,7 +877,7 @@ def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np
     pk[:, 1:-1, 1:-1] = 0.0
     rest = gk - mv @ pk @ mu.T
     pk[:, 1:-1, 1:-1] = np.linalg.pinv(mv[:, 1:-1]) @ rest @ np.linalg.pinv(mu[:, 1:-1]).T
-    if np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0)).max() <= tol:
+    if np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0))[keep].max(initial=0.0) <= tol:
         return pk.transpose(1, 2, 0)
     return None
 
