@@ -191,7 +191,7 @@ def _even(t: np.ndarray) -> bool:
     STEP reader and mesher gave that tile no triangulation (a filleted box's quarter
     cylinder, tests/brep/test_targets.py)."""
     d = np.diff(t)
-    return len(d) > 0 and d.min() > 0.5 * d.max()
+    return len(d) > 0 and d.min() > EVEN * d.max()
 
 
 def _neighbours(shape, tiles: list, grids: list) -> tuple[dict, dict]:
@@ -565,6 +565,9 @@ def _outer(sides: list, grids: list) -> list:
 #: Largest side (grid cells) of a tile :func:`_merged` makes from whole tiles side by
 #: side: texcad's own tiles' (:data:`texcad.brep.TILE`).
 MERGED = TILE
+#: Smallest knot span against the largest of tiles :func:`_merged` merges
+#: (:func:`_even`).
+EVEN = 0.05
 #: Longest chord (grid cells) :func:`_keep` tries.
 SPAN = 8
 #: Share of the tolerance an edge's polyline may miss its grid points by.
