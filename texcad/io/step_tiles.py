@@ -754,23 +754,29 @@ def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: 
     cand_r = {f: np.union1d(need_r, _keep(m, v, f * tol, along_v)) for f in INNER_SHARES}
     cand_c = {f: np.union1d(need_c, _keep(m.transpose(1, 0, 2), u, f * tol, along_u)) for f in INNER_SHARES}
     pairs = sorted(((len(cand_r[a]) * len(cand_c[b]), a, b) for a in INNER_SHARES for b in INNER_SHARES))
+    cache: dict = {}  # the bases of the rows' and columns' knots tried (each direction keeps its own while the other changes)
     for _, a, b in pairs:  # a few dozen, cheapest first
-        poles = _fitted(m, g, u, v, cand_r[a], cand_c[b], tol, fit, skip)
+        poles = _fitted(m, g, u, v, cand_r[a], cand_c[b], tol, fit, skip, cache)
         if poles is not None:
             rows, cols = cand_r[a], cand_c[b]
             break
     else:
         return np.arange(len(v)), np.arange(len(u)), m
-    for axis in (0, 1, 0, 1):  # rows, columns, and again (dropping one frees the other direction)
+    dropped = [True, True]
+    for k, axis in enumerate((0, 1, 0, 1)):  # rows, columns, and again (dropping one frees the other direction)
+        if k >= 2 and not dropped[1 - axis]:  # the other direction is as it was when this one was tried
+            break
+        dropped[axis] = False
         kept, need = (rows, need_r) if axis == 0 else (cols, need_c)
         for i in kept[1:-1]:  # one per kept interior row or column (24 at most)
             if i in need:
                 continue
             fewer = kept[kept != i] if axis == 0 else rows
             fewer_c = cols if axis == 0 else kept[kept != i]
-            got = _fitted(m, g, u, v, fewer, fewer_c, tol, fit, skip)
+            got = _fitted(m, g, u, v, fewer, fewer_c, tol, fit, skip, cache)
             if got is not None:
                 rows, cols, poles, kept = fewer, fewer_c, got, fewer if axis == 0 else fewer_c
+                dropped[axis] = True
     return rows, cols, poles
 
 
@@ -859,7 +865,7 @@ def _edge_fit(pts: np.ndarray, t: np.ndarray, tol: float) -> tuple:
 
 
 def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np.ndarray, cols: np.ndarray, tol: float,
-            fit: bool, skip: np.ndarray | None = None) -> np.ndarray | None:
+            fit: bool, skip: np.ndarray | None = None, cache: dict | None = None) -> np.ndarray | None:
     """Poles ``(len(rows), len(cols), 3)`` mm of a degree-1 surface on the knots
     ``v[rows]``, ``u[cols]`` within ``tol`` mm of every grid point ``g`` (at its own
     ``(u, v)``), or None. The poles are the grid points ``m`` there (the tile's
@@ -868,7 +874,7 @@ def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np
     bilinear patch through the points lies on one side of a curved relief; the
     fitted one straddles it, so fewer rows and columns hold): the interior block is
     a tensor product, so it is ``pinv(Bv) R pinv(Bu)^T``."""
-    mv, mu = _hats(v, rows), _hats(u, cols)
+    (mv, iv), (mu, iu) = _basis(v, rows, cache), _basis(u, cols, cache)
     gk = g.transpose(2, 0, 1)  # (3, R, C): one matrix per coordinate
     p = m[np.ix_(rows, cols)]
     keep = slice(None) if skip is None else ~skip
@@ -879,10 +885,23 @@ def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np
     pk = p.transpose(2, 0, 1).copy()
     pk[:, 1:-1, 1:-1] = 0.0
     rest = gk - mv @ pk @ mu.T
-    pk[:, 1:-1, 1:-1] = np.linalg.pinv(mv[:, 1:-1]) @ rest @ np.linalg.pinv(mu[:, 1:-1]).T
+    pk[:, 1:-1, 1:-1] = iv @ rest @ iu.T
     if np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0))[keep].max(initial=0.0) <= tol:
         return pk.transpose(1, 2, 0)
     return None
+
+
+def _basis(t: np.ndarray, kept: np.ndarray, cache: dict | None) -> tuple:
+    """:func:`_hats` of ``t`` on the knots ``t[kept]`` and the pseudo-inverse of its
+    inner columns (None with fewer than 3 knots), from ``cache`` when there."""
+    key = (len(t), kept.tobytes())
+    got = None if cache is None else cache.get(key)
+    if got is None:
+        h = _hats(t, kept)
+        got = (h, np.linalg.pinv(h[:, 1:-1]) if len(kept) >= 3 else None)
+        if cache is not None:
+            cache[key] = got
+    return got
 
 
 def _layout(ents: dict):
