@@ -119,6 +119,64 @@ def test_numpy_step_matches_occts_own(tmp_path, monkeypatch):
     assert _distance(sa.vertices, sb) < 6e-5 and _distance(sb.vertices, sa) < 6e-5
 
 
+def _grid_miss(s, g: np.ndarray, u: np.ndarray, v: np.ndarray, tol: float) -> float:
+    """Largest distance (mm) from the grid points ``g`` (at the knots ``u``, ``v``) to
+    the degree-1 surface ``s`` written on a subset of those knots (exact above
+    ``tol / 2``, else an upper bound)."""
+    from OCP.ShapeAnalysis import ShapeAnalysis_Surface
+    from OCP.gp import gp_Pnt, gp_Pnt2d
+
+    ku = np.array([s.UKnot(i + 1) for i in range(s.NbUKnots())])
+    kv = np.array([s.VKnot(i + 1) for i in range(s.NbVKnots())])
+    at_u = np.interp(np.arange(len(u)), np.searchsorted(u, ku - 1e-9), ku)
+    at_v = np.interp(np.arange(len(v)), np.searchsorted(v, kv - 1e-9), kv)
+    ev = np.array([[s.Value(x, y).Coord() for x in at_u] for y in at_v])  # per grid point (a test: 9 k)
+    miss = np.sqrt(((ev - g) ** 2).sum(-1))
+    sas = ShapeAnalysis_Surface(s)
+    for r, c in np.argwhere(miss > 0.5 * tol):  # the farther ones projected (most on the tiles' borders)
+        p = gp_Pnt(*g[r, c])
+        sas.NextValueOfUV(gp_Pnt2d(at_u[c], at_v[r]), p, 1e-9)
+        miss[r, c] = min(miss[r, c], sas.Gap())
+    return float(miss.max())
+
+
+def test_fine_plate_step_holds_every_grid_point(tmp_path):
+    """At 0.125 mm the tiles drop a quarter of their poles only when fitted at even
+    parameters (texcad's knots are uneven, placed for OCCT's Gauss
+    rule); whatever the knots, every grid point stays within the tolerance of the
+    written tile, OCCT's volume within 0.1 % of the mesh, and the STEP under twice
+    the binary STL (issue 28)."""
+    from build123d import Axis, Box
+    from OCP.BRep import BRep_Tool
+
+    from texcad.brep import faces_of, tile_grid, to_topods
+
+    box = Box(20, 20, 4)
+    tx = texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=2.0, pitch=0.125)
+    tol = tx.info["tolerance"]
+    tx.export(tmp_path / "fine.step")
+    tx.export(tmp_path / "fine.stl")
+    # 1.89 (1.85 at 30 mm; the demo plate: docs/benchmarks/step.md)
+    assert (tmp_path / "fine.step").stat().st_size <= 2.0 * (tmp_path / "fine.stl").stat().st_size
+    back = texcad.io.read_step(tmp_path / "fine.step")
+    assert check_shape(back)["valid"]
+    assert occt_volume(back) == pytest.approx(tx.volume, rel=1e-3)
+    grids = {}
+    for f in faces_of(to_topods(tx.shape)):  # one per face
+        got = tile_grid(BRep_Tool.Surface_s(f))
+        if got is not None:
+            grids[(round(got[1][0], 6), round(got[2][0], 6))] = got
+    worst, poles, points = 0.0, 0, 0
+    for f in faces_of(back):  # one per face
+        s = BRep_Tool.Surface_s(f)
+        if hasattr(s, "UDegree") and s.UDegree() == 1:
+            g, u, v = grids[(round(s.UKnot(1), 6), round(s.VKnot(1), 6))]
+            worst = max(worst, _grid_miss(s, g, u, v, tol))
+            poles, points = poles + s.NbUPoles() * s.NbVPoles(), points + len(u) * len(v)
+    assert worst <= tol, worst
+    assert poles < 0.85 * points  # 0.75 (at the tiles' own knots: 0.93)
+
+
 def test_step_size_and_reread(tmp_path):
     """The STEP at the mesh's tolerance (the default export): well under twice the
     binary STL, the same bytes twice, re-read as one valid solid within 0.1 % of the mesh
@@ -145,13 +203,15 @@ def test_step_size_and_reread(tmp_path):
     assert a.read_bytes() == b.read_bytes()
     tx.export(tmp_path / "a.stl")
     ratio = a.stat().st_size / (tmp_path / "a.stl").stat().st_size
-    assert ratio < 1.6, ratio  # issue 28 asks for 2 (1.15 here; 1.85 on a 30 mm plate at 0.125 mm)
+    assert ratio < 1.3, ratio  # issue 28 asks for 2 (1.21 here; 1.85 on a 30 mm plate at 0.125 mm)
     back = texcad.io.read_step(a)
     chk = check_shape(back)
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
     assert occt_volume(back) == pytest.approx(tx.volume, rel=1e-3)
     assert max(BRep_Tool.Tolerance_s(TopoDS.Edge_s(e)) for e in explore(back, TopAbs_EDGE)) < 1e-6
-    # every grid point of the original tiles against the written surfaces at its (u, v)
+    # every grid point of the original tiles against the written surfaces: at the point the
+    # writer checked (its index between the kept rows and columns, which texcad's uneven
+    # knots map elsewhere: the image is the poles'), else its projection onto the surface
     grids = {}
     for f in faces_of(to_topods(tx.shape)):  # one per face
         got = tile_grid(BRep_Tool.Surface_s(f))
@@ -164,8 +224,7 @@ def test_step_size_and_reread(tmp_path):
             continue
         g, u, v = grids[(round(s.UKnot(1), 6), round(s.VKnot(1), 6))]
         assert s.NbUPoles() * s.NbVPoles() <= len(u) * len(v)
-        ev = np.array([[s.Value(x, y).Coord() for x in u] for y in v])  # per grid point (a test: 9 k)
-        worst, seen = max(worst, float(np.sqrt(((ev - g) ** 2).sum(-1)).max())), seen + 1
+        worst, seen = max(worst, _grid_miss(s, g, u, v, tol)), seen + 1
     assert seen == len(grids) and worst <= tol + 1e-9, worst
     assert decimals_for(tol)[0] == 3 and decimals_for(0.0)[0] == 4
     # The strips OCCT's reader expands are grid_faces' triangles (orientation kept).

@@ -191,7 +191,7 @@ def _even(t: np.ndarray) -> bool:
     STEP reader and mesher gave that tile no triangulation (a filleted box's quarter
     cylinder, tests/brep/test_targets.py)."""
     d = np.diff(t)
-    return len(d) > 0 and d.min() > 0.5 * d.max()
+    return len(d) > 0 and d.min() > EVEN * d.max()
 
 
 def _neighbours(shape, tiles: list, grids: list) -> tuple[dict, dict]:
@@ -446,6 +446,7 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
         meshed = [_carries_grid_mesh(f, g[0].shape[0], g[0].shape[1]) for (_, f, _), g in zip(tiles0, grids)]
     b = BRep_Builder()
     sides = _sides(copy, tiles, grids)
+    written = grids
     outer = _outer(sides, grids)
     inner = 4 if tessellate else 8  # 8: 5e-9 mm, below OCCT's own precision (1e-7 mm)
     if tolerance > 0 and not tessellate:
@@ -453,7 +454,9 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
         red = _reduced(b, sides, grids, tolerance - rounding, inner)
         # the points moved onto an edge's polyline between its own points keep 8 decimals too (so they stay on it)
         outer = [o[np.ix_(r, c)] | line for o, (_, _, _, r, c, line) in zip(outer, red)]
-        grids = [(g, u, v) for g, u, v, _, _, _ in red]
+        written = [(g, u, v) for g, u, v, _, _, _ in red]
+    _line_pcurves(b, tiles, sides, grids, [len(v) - 1 for _, _, v in written])
+    grids = written
     if inner < 8:  # poles a few rounding steps from a neighbour keep 8 decimals (else a sliver collapses)
         outer = [o | _thin(g, THIN * 10.0**-inner) for o, (g, _, _) in zip(outer, grids)]
     try:
@@ -463,6 +466,81 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
         return None
     data = occt_write(copy)
     return _complete(data, len(order), tiles, grids, meshed, outer, inner)
+
+
+def _line_pcurves(b, tiles: list, sides: list, grids: list, v_spans: list) -> None:
+    """Shorten the pcurve of each edge along a whole tile side (:func:`_sides`) on
+    that tile where the edge is parametrised as the tile's grid (its range the side's
+    knots, its start the side's first grid point) and the pcurve is that
+    iso-parameter line as a 2-D B-spline with a knot per grid line: texcad pads those
+    to at least 16 spans so that OCCT's plain volume rule puts its 61 Gauss points
+    along them (:mod:`texcad.brep.gprop`), a ``CARTESIAN_POINT`` and a knot per grid
+    line in the STEP (7 % of a plate's file). Written as a ``LINE`` where the tile as
+    written has 16 spans in v or more (OCCT's rule then takes its 61 points from the
+    surface: ``2 (1 + 1) 16``), else as the same line with the same Gauss order in 11
+    poles (:func:`_gauss_line`); ``v_spans``: per tile. Other pcurves stay."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom2d import Geom2d_BSplineCurve, Geom2d_Line
+    from OCP.gp import gp_Dir2d, gp_Pnt2d
+
+    for (_, face, _), tile, (g, u, v), spans in zip(tiles, sides, grids, v_spans):  # one per tile
+        for edge, _, side, _, _ in tile:  # one per edge
+            if side is None or BRep_Tool.IsClosed_s(edge, face):
+                continue
+            axis, line, lo, hi = side
+            t = (v if axis == 1 else u)[lo : hi + 1]
+            first, last = BRep_Tool.Range_s(edge)
+            curve = BRep_Tool.Curve_s(edge, 0.0, 0.0)
+            pc = BRep_Tool.CurveOnSurface_s(edge, face, 0.0, 0.0)
+            start = g[lo, line] if axis == 1 else g[line, lo]
+            if curve is None or not isinstance(pc, Geom2d_BSplineCurve) or abs(first - t[0]) > 1e-9 or abs(last - t[-1]) > 1e-9:
+                continue
+            if 2 * (pc.Degree() + 1) * (pc.NbKnots() - 1) < GAUSS_ORDER:
+                continue
+            if np.abs(np.array(curve.Value(first).Coord()) - start).max() > 1e-7 * (1 + np.abs(start).max()):
+                continue
+            at = np.linspace(first, last, 7)
+            iso = np.stack([np.full(7, u[line]), at] if axis == 1 else [at, np.full(7, v[line])], axis=-1)
+            if np.abs(np.array([pc.Value(a).Coord() for a in at.tolist()]) - iso).max() > 1e-9 * (1 + np.abs(iso).max()):
+                continue  # not the straight iso-line
+            if 2 * 2 * spans >= GAUSS_ORDER:
+                at = gp_Pnt2d(u[line], 0.0) if axis == 1 else gp_Pnt2d(0.0, v[line])
+                new = Geom2d_Line(at, gp_Dir2d(0.0, 1.0) if axis == 1 else gp_Dir2d(1.0, 0.0))
+            else:
+                new = _gauss_line(iso[0], iso[-1], first, last)
+            b.UpdateEdge(edge, new, face, BRep_Tool.Tolerance_s(edge))
+
+
+#: OCCT's largest Gauss rule (``math::GaussPointsMax``), what texcad's padded pcurves
+#: get from its plain volume integration (:mod:`texcad.brep.gprop`).
+GAUSS_ORDER = 61
+
+
+def _gauss_line(a: np.ndarray, b: np.ndarray, first: float, last: float):
+    """The straight 2-D line from ``a`` at ``first`` to ``b`` at ``last`` (linear in
+    its parameter) as a degree-3 B-spline of 8 even spans, poles at the Greville
+    abscissae: OCCT's plain volume rule integrates along it with ``2 (3 + 1) 8 = 64``
+    points, capped at :data:`GAUSS_ORDER`, as along texcad's padded pcurves, from 11
+    poles."""
+    from OCP.Geom2d import Geom2d_BSplineCurve
+    from OCP.TColgp import TColgp_Array1OfPnt2d
+    from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
+    from OCP.gp import gp_Pnt2d
+
+    deg, spans = 3, 8
+    k = first + (last - first) * np.arange(spans + 1) / spans
+    k[-1] = last
+    full = np.r_[[first] * deg, k, [last] * deg]
+    grev = np.array([full[i + 1 : i + 1 + deg].mean() for i in range(spans + deg)])  # per pole (11)
+    w = (grev - first) / (last - first)
+    poles, knots, mults = TColgp_Array1OfPnt2d(1, len(w)), TColStd_Array1OfReal(1, spans + 1), TColStd_Array1OfInteger(1, spans + 1)
+    for i, f in enumerate(w.tolist()):  # per pole (11)
+        x, y = (a + (b - a) * f).tolist()
+        poles.SetValue(i + 1, gp_Pnt2d(x, y))
+    for i, kv in enumerate(k.tolist()):  # per knot (9)
+        knots.SetValue(i + 1, kv)
+        mults.SetValue(i + 1, deg + 1 if i in (0, spans) else 1)
+    return Geom2d_BSplineCurve(poles, knots, mults, deg)
 
 
 def decimals_for(tolerance: float) -> tuple[int, float]:
@@ -535,6 +613,9 @@ def _outer(sides: list, grids: list) -> list:
 #: Largest side (grid cells) of a tile :func:`_merged` makes from whole tiles side by
 #: side: texcad's own tiles' (:data:`texcad.brep.TILE`).
 MERGED = TILE
+#: Smallest knot span against the largest of tiles :func:`_merged` merges
+#: (:func:`_even`).
+EVEN = 0.05
 #: Longest chord (grid cells) :func:`_keep` tries.
 SPAN = 8
 #: Share of the tolerance an edge's polyline may miss its grid points by.
@@ -569,14 +650,34 @@ def _thin(g: np.ndarray, width: float) -> np.ndarray:
     return on
 
 
-def _keep(p: np.ndarray, t: np.ndarray, tol: float) -> np.ndarray:
+def _keep(p: np.ndarray, t: np.ndarray, tol: float, misses: np.ndarray | None = None) -> np.ndarray:
     """Indices along axis 0 of ``p`` (``(n, m, 3)`` mm: ``m`` polylines sampled at
     the parameters ``t``) to keep so that the polylines through the kept points stay
     within ``tol`` mm (3-D distance) of every point; first and last always kept.
-    Greedy: from each kept point, the farthest one whose chord holds all between."""
+    Greedy: from each kept point, the farthest one whose chord holds all between.
+    ``misses``: :func:`_misses` of ``p`` and ``t`` (computed here when None; pass it
+    to try several tolerances on the same points)."""
+    n = len(t)
+    if misses is None:
+        misses = _misses(p, t)
+    if misses is None:
+        return np.arange(n)
+    ok = misses <= tol  # (i, s): the chord from i to i + 1 + s holds its points
+    kept, at = [0], 0
+    while at < n - 1:  # one per kept point
+        at = int(min(at + 1 + np.flatnonzero(ok[at])[-1], n - 1)) if ok[at].any() else at + 1
+        kept.append(at)
+    return np.asarray(kept)
+
+
+def _misses(p: np.ndarray, t: np.ndarray) -> np.ndarray | None:
+    """``(n, s)``: the largest distance (mm) from the chord between point ``i`` and
+    point ``i + 1 + s`` (chords up to :data:`SPAN` long) to the points it skips, over
+    the ``m`` polylines of ``p`` (``(n, m, 3)`` mm at the parameters ``t``); None
+    when there are too few points or too many to compare (then every point stays)."""
     n = len(t)
     if n <= 2 or n**3 * p.shape[1] > 4_000_000:  # a tile's 25 x 25 points: 0.4 M
-        return np.arange(n)
+        return None
     w_ = min(n - 1, SPAN)
     i = np.arange(n)[:, None, None]
     j = np.minimum(i + np.arange(1, w_ + 1)[None, None, :], n - 1)  # (i, 1, s): chords up to SPAN long
@@ -585,13 +686,15 @@ def _keep(p: np.ndarray, t: np.ndarray, tol: float) -> np.ndarray:
     w = np.clip((t[k] - t[i]) / np.where(span > 0, span, 1.0), 0.0, 1.0)[..., None, None]  # (i, q, s, 1, 1)
     chord = p[i] * (1 - w) + p[j] * w  # (i, q, s, m, 3)
     d = np.sqrt(((chord - p[k]) ** 2).sum(-1)).max(-1)  # (i, q, s)
-    d = np.where(k < j, d, 0.0).max(1)  # (i, s): the chord from i, s + 1 points on, its largest miss
-    ok = d <= tol  # (i, s): the chord from i to i + 1 + s holds its points
-    kept, at = [0], 0
-    while at < n - 1:  # one per kept point
-        at = int(min(at + 1 + np.flatnonzero(ok[at])[-1], n - 1)) if ok[at].any() else at + 1
-        kept.append(at)
-    return np.asarray(kept)
+    return np.where(k < j, d, 0.0).max(1)  # (i, s): the chord from i, s + 1 points on, its largest miss
+
+
+def _even_t(t: np.ndarray) -> np.ndarray:
+    """Even parameters (the indices) for the parameters ``t`` of a grid's rows or
+    columns: the points' distance to a degree-1 fit's image is at most their
+    distance to it at these parameters, and the grid's points are (nearly) evenly
+    spaced along its rows and columns."""
+    return np.arange(len(t), dtype=np.float64)
 
 
 def _side_index(side: tuple) -> tuple:
@@ -627,6 +730,7 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
     keep_r = [np.zeros(g.shape[0], bool) for g, _, _ in grids]
     keep_c = [np.zeros(g.shape[1], bool) for g, _, _ in grids]
     on_line = [np.zeros(g.shape[:2], bool) for g, _, _ in grids]  # moved onto an edge's polyline
+    on_edge = [np.zeros(g.shape[:2], bool) for g, _, _ in grids]  # on a side whose edge became a polyline
     frozen = [np.zeros(g.shape[:2], bool) for g, _, _ in grids]  # around edges that are not whole tile sides
     for ti, tile in enumerate(sides):  # one per tile
         for _, _, side, (iu, iv), _ in tile:  # one per edge
@@ -659,6 +763,7 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
                     moved[ti][lo : hi + 1, line] = np.stack([np.interp(t, t[sel], q[:, c]) for c in range(3)], axis=-1)
                     moved[ti][lo + sel, line] = q  # the polyline's own points, bit for bit
                     on_line[ti][lo : hi + 1, line] = True
+                    on_edge[ti][lo : hi + 1, line] = True
                     on_line[ti][lo + sel[1:-1], line] = False  # (shared with the curve, rounded already)
             else:
                 keep_c[ti][idx] = True
@@ -666,17 +771,22 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
                     moved[ti][line, lo : hi + 1] = np.stack([np.interp(t, t[sel], q[:, c]) for c in range(3)], axis=-1)
                     moved[ti][line, lo + sel] = q  # the polyline's own points, bit for bit
                     on_line[ti][line, lo : hi + 1] = True
+                    on_edge[ti][line, lo : hi + 1] = True
                     on_line[ti][line, lo + sel[1:-1]] = False  # (shared with the curve, rounded already)
     out = []
     for ti, (g, u, v) in enumerate(grids):  # one per tile
         m, fit = moved[ti], not frozen[ti].any()
-        rows, cols, poles = _chosen(m, g, u, v, keep_r[ti], keep_c[ti], tol, fit)
+        # fitted and checked at even parameters (the grid's indices): a degree-1 surface's
+        # image is its poles', whatever its knots, so each grid point is within tol of the
+        # tile written on the grid's own knots (texcad's are placed for OCCT's Gauss rule,
+        # uneven: checked at them, a dropped row's tangential shift alone could miss tol)
+        rows, cols, poles = _chosen(m, g, _even_t(u), _even_t(v), keep_r[ti], keep_c[ti], tol, fit, on_edge[ti])
         out.append((poles, u[cols], v[rows], rows, cols, on_line[ti][np.ix_(rows, cols)]))
     return out
 
 
 def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: np.ndarray, need_c: np.ndarray,
-            tol: float, fit: bool) -> tuple:
+            tol: float, fit: bool, skip: np.ndarray | None = None) -> tuple:
     """The rows and columns of poles a tile keeps and its poles (:func:`_fitted`):
     ``m`` its grid with the border moved onto its edges' polylines, ``g`` the grid
     (``(R, C, 3)`` mm at the parameters ``v``, ``u``), ``need_r``/``need_c`` (bool)
@@ -688,26 +798,33 @@ def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: 
     (the fitted poles move into the gap: the least-squares fit spreads a bump over
     wider spans than chords through the points do). All of them when nothing holds."""
     need_r, need_c = np.flatnonzero(need_r), np.flatnonzero(need_c)
-    cand_r = {f: np.union1d(need_r, _keep(m, v, f * tol)) for f in INNER_SHARES}
-    cand_c = {f: np.union1d(need_c, _keep(m.transpose(1, 0, 2), u, f * tol)) for f in INNER_SHARES}
+    along_v, along_u = _misses(m, v), _misses(m.transpose(1, 0, 2), u)
+    cand_r = {f: np.union1d(need_r, _keep(m, v, f * tol, along_v)) for f in INNER_SHARES}
+    cand_c = {f: np.union1d(need_c, _keep(m.transpose(1, 0, 2), u, f * tol, along_u)) for f in INNER_SHARES}
     pairs = sorted(((len(cand_r[a]) * len(cand_c[b]), a, b) for a in INNER_SHARES for b in INNER_SHARES))
+    cache: dict = {}  # the bases of the rows' and columns' knots tried (each direction keeps its own while the other changes)
     for _, a, b in pairs:  # a few dozen, cheapest first
-        poles = _fitted(m, g, u, v, cand_r[a], cand_c[b], tol, fit)
+        poles = _fitted(m, g, u, v, cand_r[a], cand_c[b], tol, fit, skip, cache)
         if poles is not None:
             rows, cols = cand_r[a], cand_c[b]
             break
     else:
         return np.arange(len(v)), np.arange(len(u)), m
-    for axis in (0, 1, 0, 1):  # rows, columns, and again (dropping one frees the other direction)
+    dropped = [True, True]
+    for k, axis in enumerate((0, 1, 0, 1)):  # rows, columns, and again (dropping one frees the other direction)
+        if k >= 2 and not dropped[1 - axis]:  # the other direction is as it was when this one was tried
+            break
+        dropped[axis] = False
         kept, need = (rows, need_r) if axis == 0 else (cols, need_c)
         for i in kept[1:-1]:  # one per kept interior row or column (24 at most)
             if i in need:
                 continue
             fewer = kept[kept != i] if axis == 0 else rows
             fewer_c = cols if axis == 0 else kept[kept != i]
-            got = _fitted(m, g, u, v, fewer, fewer_c, tol, fit)
+            got = _fitted(m, g, u, v, fewer, fewer_c, tol, fit, skip, cache)
             if got is not None:
                 rows, cols, poles, kept = fewer, fewer_c, got, fewer if axis == 0 else fewer_c
+                dropped[axis] = True
     return rows, cols, poles
 
 
@@ -726,7 +843,9 @@ def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int
     from OCP.TopLoc import TopLoc_Location
     from OCP.gp import gp_Pnt
 
-    sel, q = _edge_fit(pts, t, EDGE_SHARE * tol)
+    # between two tiles at even parameters (see _reduced); beside a plane at its own (OCCT's
+    # plain volume rule on the plane missed a plate's volume by 0.06 % more otherwise)
+    sel, q = _edge_fit(pts, _even_t(t) if plane is None else t, EDGE_SHARE * tol)
     first, last = BRep_Tool.Range_s(edge)
     if len(sel) == len(t) or abs(first - t[0]) > 1e-9 or abs(last - t[-1]) > 1e-9:
         return None, None
@@ -780,8 +899,9 @@ def _edge_fit(pts: np.ndarray, t: np.ndarray, tol: float) -> tuple:
     within a share of ``tol`` (:data:`EDGE_SHARES`, :func:`_keep`) and whose inner
     points, least-squares fitted to all of ``pts`` (the ends stay), bring the polyline
     within ``tol`` of every point; the chord points themselves where no fit holds."""
+    misses = _misses(pts[:, None], t)
     for share in EDGE_SHARES:  # the largest share first: the fewest points
-        sel = _keep(pts[:, None], t, share * tol)
+        sel = _keep(pts[:, None], t, share * tol, misses)
         if len(sel) < 3:
             if share <= 1.0:
                 return sel, pts[sel].copy()
@@ -795,7 +915,7 @@ def _edge_fit(pts: np.ndarray, t: np.ndarray, tol: float) -> tuple:
 
 
 def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np.ndarray, cols: np.ndarray, tol: float,
-            fit: bool) -> np.ndarray | None:
+            fit: bool, skip: np.ndarray | None = None, cache: dict | None = None) -> np.ndarray | None:
     """Poles ``(len(rows), len(cols), 3)`` mm of a degree-1 surface on the knots
     ``v[rows]``, ``u[cols]`` within ``tol`` mm of every grid point ``g`` (at its own
     ``(u, v)``), or None. The poles are the grid points ``m`` there (the tile's
@@ -804,20 +924,34 @@ def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np
     bilinear patch through the points lies on one side of a curved relief; the
     fitted one straddles it, so fewer rows and columns hold): the interior block is
     a tensor product, so it is ``pinv(Bv) R pinv(Bu)^T``."""
-    mv, mu = _hats(v, rows), _hats(u, cols)
+    (mv, iv), (mu, iu) = _basis(v, rows, cache), _basis(u, cols, cache)
     gk = g.transpose(2, 0, 1)  # (3, R, C): one matrix per coordinate
     p = m[np.ix_(rows, cols)]
-    if np.sqrt(((mv @ p.transpose(2, 0, 1) @ mu.T - gk) ** 2).sum(0)).max() <= tol:
+    keep = slice(None) if skip is None else ~skip
+    if np.sqrt(((mv @ p.transpose(2, 0, 1) @ mu.T - gk) ** 2).sum(0))[keep].max(initial=0.0) <= tol:
         return p
     if not fit or len(rows) < 3 or len(cols) < 3:
         return None
     pk = p.transpose(2, 0, 1).copy()
     pk[:, 1:-1, 1:-1] = 0.0
     rest = gk - mv @ pk @ mu.T
-    pk[:, 1:-1, 1:-1] = np.linalg.pinv(mv[:, 1:-1]) @ rest @ np.linalg.pinv(mu[:, 1:-1]).T
-    if np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0)).max() <= tol:
+    pk[:, 1:-1, 1:-1] = iv @ rest @ iu.T
+    if np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0))[keep].max(initial=0.0) <= tol:
         return pk.transpose(1, 2, 0)
     return None
+
+
+def _basis(t: np.ndarray, kept: np.ndarray, cache: dict | None) -> tuple:
+    """:func:`_hats` of ``t`` on the knots ``t[kept]`` and the pseudo-inverse of its
+    inner columns (None with fewer than 3 knots), from ``cache`` when there."""
+    key = (len(t), kept.tobytes())
+    got = None if cache is None else cache.get(key)
+    if got is None:
+        h = _hats(t, kept)
+        got = (h, np.linalg.pinv(h[:, 1:-1]) if len(kept) >= 3 else None)
+        if cache is not None:
+            cache[key] = got
+    return got
 
 
 def _layout(ents: dict):
