@@ -237,11 +237,12 @@ def step_bytes():
     return _step()
 
 
-@pytest.mark.parametrize("damage", ["label", "parameter"])
+@pytest.mark.parametrize("damage", ["label", "parameter", "reference"])
 def test_a_damaged_pcurve_is_refused_before_occt_translates_it(tmp_path, step_bytes, damage):
-    """Two mutations that OCCT's parser let through and its translator crashed on
-    (hypothesis seeds 31334 and 7374 of the test above): a pcurve's 2D line whose label
-    lost a digit (``#\\xa822 = LINE``), and a pcurve with a parameter more."""
+    """Three mutations that OCCT's parser let through and its translator crashed on
+    (hypothesis seeds 31334, 7374 and 13947 of the test above): a pcurve's 2D line
+    whose label lost a digit (``#\\xa822 = LINE``), a pcurve with a parameter more,
+    and one whose curve is ``#-3``."""
     import re
 
     from texcad.io import read_step
@@ -252,9 +253,12 @@ def test_a_damaged_pcurve_is_refused_before_occt_translates_it(tmp_path, step_by
         k = step_bytes.index(label)
         data = step_bytes[:k + 1] + b"\xa8" + step_bytes[k + 2:]
         match = rf"refers to #{m.group(1).decode()}, which the file does not define"
-    else:
+    elif damage == "parameter":
         data = step_bytes[:m.start(2)] + b".T.," + step_bytes[m.start(2):]
-        match = "does not have its three parameters"
+        match = "is not a name, a list of curves"
+    else:
+        data = step_bytes[:m.start(1) - 1] + b"#-3" + step_bytes[m.end(1):]
+        match = "is not a name, a list of curves"
     (tmp_path / "part.step").write_bytes(data)
     with pytest.raises(TexcadError, match=match):
         read_step(tmp_path / "part.step")

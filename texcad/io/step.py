@@ -409,7 +409,8 @@ _POINT = re.compile(rb"#([0-9]+)\s*=\s*(CARTESIAN_POINT|DIRECTION)" + _NAME + rb
 _PCURVE = re.compile(rb"DEFINITIONAL_REPRESENTATION" + _NAME + rb"\(([^()]*)\)")
 _KIND = re.compile(rb"#([0-9]+)\s*=\s*([A-Z_0-9]+)")
 _DEFINED = re.compile(rb"#([0-9]+)\s*=")
-_PCURVE_WHOLE = re.compile(rb"DEFINITIONAL_REPRESENTATION\s*\(\s*'(?:[^']|'')*'\s*,\s*\([^()]*\)\s*,\s*#[0-9]+\s*\)")
+_PCURVE_WHOLE = re.compile(rb"DEFINITIONAL_REPRESENTATION\s*\(\s*'(?:[^']|'')*'\s*,\s*\(\s*#[0-9]+(?:\s*,\s*#[0-9]+)*\s*\)"
+                           rb"\s*,\s*#[0-9]+\s*\)")
 _CURVES = {b"LINE", b"CIRCLE", b"ELLIPSE", b"PARABOLA", b"HYPERBOLA", b"POLYLINE", b""}  # b"": a complex entity
 _NOT_CURVES = {b"EDGE_CURVE", b"SURFACE_CURVE", b"SEAM_CURVE", b"INTERSECTION_CURVE"}  # topology, 3D
 _USER_3D = re.compile(rb"(VERTEX_POINT|AXIS2_PLACEMENT_3D)" + _NAME + rb"(#[0-9]+)(?:\s*,\s*(#[0-9]+|\$)\s*,\s*(#[0-9]+|\$))?")
@@ -439,10 +440,10 @@ def _text_fault(p: str) -> str | None:
             return f"STEP file {p!r}: the number {m.group().decode('ascii')!r} at line {line} is {what}; {_FIX}"
     whole = {m.start() for m in _PCURVE_WHOLE.finditer(data)}
     for m in re.finditer(rb"DEFINITIONAL_REPRESENTATION\s*\(", data):  # per pcurve: name, items, context, no more
-        if m.start() not in whole:  # OCCT's parser let a parameter more through; its translator crashed on it
+        if m.start() not in whole:  # a parameter more, a curve '#-3': OCCT's parser let them through, its translator crashed
             line = data.count(b"\n", 0, m.start()) + 1
-            return (f"STEP file {p!r}: DEFINITIONAL_REPRESENTATION at line {line} does not have its three parameters "
-                    f"(a name, its curves, a context #N); {_FIX}")
+            return (f"STEP file {p!r}: DEFINITIONAL_REPRESENTATION at line {line} is not a name, a list of curves "
+                    f"(#N, ...) and a context (#N); {_FIX}")
     pcurves = [(m.start(), ref) for m in _PCURVE.finditer(data) for ref in re.findall(rb"#([0-9]+)", m.group(1))]
     if pcurves:  # OCCT crashed on a pcurve made of a direction or an edge instead of a 2D curve, or of nothing
         kinds = dict(_KIND.findall(data))
