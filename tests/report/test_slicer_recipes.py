@@ -1,0 +1,78 @@
+"""Every recipe, sliced as printed (issue 29): each states its print orientation and
+passes it as ``build_dir``, and each part it makes, at a coarse pitch, gets no
+support beyond what the same part untextured gets, in PrusaSlicer and in CuraEngine,
+support on at threshold = the critical angle (45 degrees).
+
+"Beyond" is located, not a total: the textured part's support paths farther than
+1.5 mm across or 1 mm in height from all of the bare part's
+(texcad.report.slicer.extra_support). Where both need support the totals differ
+anyway (PrusaSlicer rests a column standing beside a textured wall on the texture's
+upward facets). The recipes are run by benchmarks/bench_slicer.py's
+``recipe_parts``, the same parts its table slices. Each slicer is skipped where it is
+not installed."""
+
+import sys
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from texcad.report import slicer
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+import bench_slicer  # noqa: E402
+
+HAVE = [s for s in slicer.SLICERS if slicer.find_slicer(s) is not None]
+pytestmark = pytest.mark.skipif(not HAVE, reason="neither prusa-slicer nor CuraEngine is installed")
+
+#: The paper's samples sliced here (all nine are in the benchmark's table): one per
+#: mapping and tilt kind, the rest marked slow.
+PAPER_FAST = ("T1-curved", "T3-sine")
+
+
+@lru_cache(maxsize=2)
+def parts(script: str, samples: tuple = ()) -> list:
+    return bench_slicer.recipe_parts(script, bench_slicer.COARSE_PITCH[script], samples)
+
+
+def _cases():
+    for script in bench_slicer.RECIPES:
+        if script == "paper_samples":
+            for tex, kind in ((t, k) for t in ("T1", "T2", "T3") for k in ("flat", "curved", "sine")):
+                name = f"{tex}-{kind}"
+                marks = () if name in PAPER_FAST else (pytest.mark.slow,)
+                yield pytest.param(script, (name,), id=f"paper-{name}", marks=marks)
+        else:
+            yield pytest.param(script, (), id=script)
+
+
+def test_every_recipe_is_listed():
+    """The table and these tests cover every recipe that makes a part."""
+    scripts = {p.stem for p in (Path(__file__).resolve().parents[2] / "recipes").glob("*.py")} - {"gallery"}
+    assert scripts == set(bench_slicer.RECIPES)
+
+
+@pytest.mark.parametrize("script, samples", list(_cases()))
+@pytest.mark.parametrize("slicer_name", slicer.SLICERS)
+def test_recipe_parts_need_no_support_beyond_bare(script, samples, slicer_name):
+    if slicer_name not in HAVE:
+        pytest.skip(f"{slicer_name} is not installed")
+    made = parts(script, samples)
+    assert made, f"{script} made no textured part"
+    for name, bare, textured, d in made:
+        assert d is not None, f"{name}: no build_dir given"
+        a, b, extra = bench_slicer.compare(bare, textured, d, slicer_name, 600.0)
+        assert a is not None and b is not None and a.returncode == 0 and b.returncode == 0, name
+        assert extra == 0.0, (name, slicer_name, a.support_mm, b.support_mm, extra)
+
+
+def test_extra_support_finds_support_the_bare_part_does_not_need():
+    """The measure can fail: support paths of a report beside an empty one all count;
+    of the same paths moved 2 mm across, the one left 2 mm from both counts."""
+    seg = np.array([[[0.0, 0.0, 1.0], [10.0, 0.0, 1.0]], [[0.0, 1.0, 1.3], [10.0, 1.0, 1.3]]])
+    rep = lambda p: slicer.SliceReport(seconds=0.0, peak_mb=0.0, support_paths=p)
+    assert slicer.extra_support(rep(seg), rep(np.zeros((0, 2, 3)))) == pytest.approx(20.0)
+    assert slicer.extra_support(rep(seg), rep(seg + [0.0, 1.0, 0.0])) == 0.0
+    assert slicer.extra_support(rep(seg + [0.0, 2.0, 0.0]), rep(seg)) == pytest.approx(10.0)  # y = 3 is 2 mm from y = 1
+    assert slicer.extra_support(rep(seg + [0.0, 0.0, 2.0]), rep(seg)) == pytest.approx(20.0)  # 2 mm higher
