@@ -53,6 +53,21 @@ def test_every_recipe_is_listed():
     assert scripts == set(bench_slicer.RECIPES)
 
 
+def test_every_recipe_states_its_print_orientation():
+    """Each recipe names its print orientation once, ``BUILD_DIR = (...)  # print
+    orientation: ...``, and passes it to texcad.texture (the paper's samples: one per
+    row of Table 2, ``texcad.orientation(tilt, toward)``)."""
+    import re
+
+    for script in bench_slicer.RECIPES:
+        src = (Path(__file__).resolve().parents[2] / "recipes" / f"{script}.py").read_text()
+        if script == "paper_samples":
+            assert "build_dir=d" in src and "texcad.orientation(tilt, toward)" in src
+            continue
+        assert re.search(r"^BUILD_DIR = \([-0-9., ]+\)  # print orientation: \S", src, re.M), script
+        assert re.search(r"build_dir=BUILD_DIR\b", src), script
+
+
 @pytest.mark.parametrize("script, samples", list(_cases()))
 @pytest.mark.parametrize("slicer_name", slicer.SLICERS)
 def test_recipe_parts_need_no_support_beyond_bare(script, samples, slicer_name):
