@@ -300,6 +300,29 @@ COARSE_PITCH = {"enclosure": 0.5, "flat_plate": 1.0, "grip": 0.5, "handle_flange
                 "zones_knob": 0.5}
 
 
+def slotted_handle(pitch: float, folder) -> list:
+    """``[(name, bare mesh, textured mesh, build direction)]`` of a handle as a mesh:
+    a cylinder 20 mm across and 100 mm tall with a 6 x 8 mm slot through it near the
+    top (its ceiling at 98 mm overhangs), written as an STL into ``folder`` and
+    knurled 0.5 mm deep in a cylindrical projection, limited for +z: support the bare
+    part needs, next to a textured wall."""
+    import warnings
+
+    from build123d import Align, Box, Cylinder, Pos, export_stl
+
+    import texcad
+
+    shape = Cylinder(10, 100, align=(Align.CENTER, Align.CENTER, Align.MIN)) - Pos(0, 0, 94) * Box(30, 6, 8)
+    stl = Path(folder) / "slotted_handle.stl"
+    export_stl(shape, str(stl), tolerance=0.01, angular_tolerance=0.1)
+    up = (0.0, 0.0, 1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", texcad.TexcadWarning)
+        part = texcad.texture(stl, [("not-bottom", "builtin:diamond_knurl", {"height": 0.5, "projection": "cylindrical:+z"})],
+                              pitch=pitch, build_dir=up)
+    return [("slotted handle (mesh), knurl", texcad.load_mesh(stl), part.mesh, _printed(part))]
+
+
 def _bare(part, tolerance: float = BARE_TOLERANCE):
     """A textured result's part untextured: its CAD shape tessellated finer than the
     texture's pitch, or (mesh targets) its base mesh (every texture at its lowest)."""
@@ -380,12 +403,15 @@ def _direction(d) -> str:
 def compare(bare, textured, d, slicer: str, timeout: float):
     """``(bare report, textured report, extra support mm)`` of one part in one slicer,
     support on at threshold 45 (CuraEngine's as plain lines :data:`CURA_LINES` apart,
-    so that its length measures its area); None for a slice that ran past ``timeout``."""
+    so that its length measures its area). The bare part goes in as an STL; the
+    textured part as what texcad writes for that slicer: PrusaSlicer gets texcad's
+    3MF (its per-object settings and layout, ``texcad.io.slicer_layout``),
+    CuraEngine, which reads no 3MF, the STL. None for a slice that ran past ``timeout``."""
     from texcad.report.slicer import extra_support, support_config
 
     cfg = support_config(slicer, 45, lines=CURA_LINES if slicer == "curaengine" else None)
     a = sliced(bare, timeout, slicer=slicer, build_dir=d, config=cfg)
-    b = sliced(textured, timeout, slicer=slicer, build_dir=d, config=cfg)
+    b = sliced(textured, timeout, slicer=slicer, build_dir=d, config=cfg, file="3mf")
     return a, b, (extra_support(b, a) if a and b else float("nan"))
 
 
@@ -434,7 +460,8 @@ def _write_slicer_table(headers, rows, args):
     notes = (
         "Every recipe run as a script at the coarse pitch shown (the paper's nine samples by the recipe's own "
         "functions), each part it makes sliced as printed (the build direction it passes to `texcad.texture`) "
-        "and beside it the same part untextured (its CAD shape tessellated to "
+        "as texcad writes it for that slicer (PrusaSlicer: texcad's 3MF, with its per-object settings; CuraEngine, "
+        "which reads no 3MF: the STL), and beside it the same part untextured as an STL (its CAD shape tessellated to "
         f"{BARE_TOLERANCE:g} mm and 0.05 rad; a mesh part's base). Support on everywhere, threshold 45 degrees "
         "(the critical angle), 0.4 mm nozzle, each slicer's default layers (PrusaSlicer 0.3 mm, CuraEngine 0.2 mm "
         "in texcad's definition); CuraEngine's support laid as plain lines "
