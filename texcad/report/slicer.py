@@ -439,9 +439,12 @@ def support_near(points: np.ndarray, mesh, faces: np.ndarray, build_dir=(0.0, 0.
 
 
 #: mm across (in the bed's plane) within which support counts as the same support:
-#: PrusaSlicer's margin around a contact area (``SUPPORT_MATERIAL_MARGIN``,
-#: ``SupportMaterial.cpp``), more than a texture's height moves an overhang's edge.
-SUPPORT_MARGIN = 1.5
+#: one cell of the grid PrusaSlicer 2.5 snaps support areas to (``SupportGridPattern``
+#: in ``SupportMaterial.cpp``: the bounding box aligned to multiples of the support
+#: spacing, 2.5 mm + a line's spacing, about 2.9 mm, in the bed's frame). PrusaSlicer
+#: centres each part's bounding box on the bed, so a texture that widens the box on
+#: one side moves the part against that grid and the support's edge by up to a cell.
+SUPPORT_MARGIN = 3.0
 
 
 def extra_support(textured: SliceReport, bare: SliceReport, *, across: float = SUPPORT_MARGIN, along: float = 1.0,
@@ -450,10 +453,11 @@ def extra_support(textured: SliceReport, bare: SliceReport, *, across: float = S
     mm (in the bed's plane) or ``along`` mm (in height) from every support path of
     ``bare``: support the part needs only because of its texture, where the bare
     part, sliced in the same orientation, needs none. Where both need support the
-    paths differ anyway (the pattern follows the outline, and PrusaSlicer rests a
-    column standing beside a textured wall on the texture's upward facets, which
-    adds layers and interfaces to it); those differences are not counted. Paths
-    are sampled every ``step`` mm; each sample carries its piece's length."""
+    paths differ anyway (the pattern follows the outline; PrusaSlicer snaps support
+    to its grid, :data:`SUPPORT_MARGIN`, and rests a column standing beside a
+    textured wall on the texture's upward facets, which adds layers and interfaces
+    to it); those differences are not counted. Paths are sampled every ``step`` mm;
+    each sample carries its piece's length."""
     from scipy.spatial import cKDTree
 
     p, w = _samples(textured.support_paths, step)
