@@ -4,7 +4,7 @@ support beyond what the same part untextured gets, in PrusaSlicer and in CuraEng
 support on at threshold = the critical angle (45 degrees).
 
 "Beyond" is located, not a total: the textured part's support paths farther than
-3 mm across (a cell of PrusaSlicer's support grid) or 1 mm in height from all of the bare part's
+4.2 mm across (a cell's diagonal of PrusaSlicer's support grid) or 1 mm in height from all of the bare part's
 (texcad.report.slicer.extra_support). Where both need support the totals differ
 anyway (PrusaSlicer rests a column standing beside a textured wall on the texture's
 upward facets). The recipes are run by benchmarks/bench_slicer.py's
@@ -94,10 +94,10 @@ def test_a_column_beside_a_textured_wall_is_the_bare_parts_support(tmp_path):
 
 def test_extra_support_finds_support_the_bare_part_does_not_need():
     """The measure can fail: support paths of a report beside an empty one all count;
-    of the same paths moved 3.5 mm across, the one left 3.5 mm from both counts."""
+    of the same paths moved 4.5 mm across, the one left 4.5 mm from both counts."""
     seg = np.array([[[0.0, 0.0, 1.0], [10.0, 0.0, 1.0]], [[0.0, 1.0, 1.3], [10.0, 1.0, 1.3]]])
     rep = lambda p: slicer.SliceReport(seconds=0.0, peak_mb=0.0, support_paths=p)
     assert slicer.extra_support(rep(seg), rep(np.zeros((0, 2, 3)))) == pytest.approx(20.0)
     assert slicer.extra_support(rep(seg), rep(seg + [0.0, 1.0, 0.0])) == 0.0
-    assert slicer.extra_support(rep(seg + [0.0, 3.5, 0.0]), rep(seg)) == pytest.approx(10.0)  # y = 4.5 is 3.5 mm from y = 1
+    assert slicer.extra_support(rep(seg + [0.0, 4.5, 0.0]), rep(seg)) == pytest.approx(10.0)  # y = 5.5 is 4.5 mm from y = 1
     assert slicer.extra_support(rep(seg + [0.0, 0.0, 2.0]), rep(seg)) == pytest.approx(20.0)  # 2 mm higher

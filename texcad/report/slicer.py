@@ -39,6 +39,7 @@ __all__ = [
     "support_near",
     "extra_support",
     "SUPPORT_MARGIN",
+    "SUPPORT_GRID",
     "Toolpaths",
     "read_toolpaths",
     "toolpath_deviation",
@@ -438,13 +439,16 @@ def support_near(points: np.ndarray, mesh, faces: np.ndarray, build_dir=(0.0, 0.
     return int(np.count_nonzero(under))
 
 
+#: mm: the cell of the grid PrusaSlicer 2.5 snaps support areas to
+#: (``SupportGridPattern`` in ``SupportMaterial.cpp``: the bounding box aligned to
+#: multiples of the support spacing, 2.5 mm + a line's spacing, in the bed's frame).
+SUPPORT_GRID = 2.9
 #: mm across (in the bed's plane) within which support counts as the same support:
-#: one cell of the grid PrusaSlicer 2.5 snaps support areas to (``SupportGridPattern``
-#: in ``SupportMaterial.cpp``: the bounding box aligned to multiples of the support
-#: spacing, 2.5 mm + a line's spacing, about 2.9 mm, in the bed's frame). PrusaSlicer
-#: centres each part's bounding box on the bed, so a texture that widens the box on
-#: one side moves the part against that grid and the support's edge by up to a cell.
-SUPPORT_MARGIN = 3.0
+#: a :data:`SUPPORT_GRID` cell's diagonal. PrusaSlicer centres each part's bounding
+#: box on the bed, so a texture that widens the box on one side moves the part
+#: against that grid, and the support's edge by up to a cell each way (at a corner
+#: of the first layer, whose support is widened, by the diagonal).
+SUPPORT_MARGIN = 4.2
 
 
 def extra_support(textured: SliceReport, bare: SliceReport, *, across: float = SUPPORT_MARGIN, along: float = 1.0,
