@@ -288,62 +288,225 @@ def _table_parts(pitch: float):
     return out
 
 
+# -- the recipes' parts (issue 29): every recipe and the paper's nine samples -----------
+#: The recipes that make parts to print (recipes/*.py but the gallery); paper_samples
+#: gives nine (:func:`recipe_parts`).
+RECIPES = ("enclosure", "flat_plate", "grip", "handle_flange", "heat_sink", "knob", "lever_ball", "mesh_part",
+           "paint_grip", "paper_samples", "sledgehammer", "zones_knob")
+#: mm: the coarse pitch each recipe is sliced at (the recipe tests' pitch: about a
+#: second per slice; the knob's and zones knob's faces keep no texture at 1 mm).
+COARSE_PITCH = {"enclosure": 0.5, "flat_plate": 2.0, "grip": 0.5, "handle_flange": 1.0, "heat_sink": 0.5, "knob": 0.5,
+                "lever_ball": 0.5, "mesh_part": 1.0, "paint_grip": 0.8, "paper_samples": 2.0, "sledgehammer": 1.0,
+                "zones_knob": 0.5}
+
+
+def slotted_handle(pitch: float, folder) -> list:
+    """``[(name, bare mesh, textured mesh, build direction)]`` of a handle as a mesh:
+    a cylinder 20 mm across and 100 mm tall with a 6 x 8 mm slot through it near the
+    top (its ceiling at 98 mm overhangs), written as an STL into ``folder`` and
+    knurled 0.5 mm deep in a cylindrical projection, limited for +z: support the bare
+    part needs, next to a textured wall."""
+    import warnings
+
+    from build123d import Align, Box, Cylinder, Pos, export_stl
+
+    import texcad
+
+    shape = Cylinder(10, 100, align=(Align.CENTER, Align.CENTER, Align.MIN)) - Pos(0, 0, 94) * Box(30, 6, 8)
+    stl = Path(folder) / "slotted_handle.stl"
+    export_stl(shape, str(stl), tolerance=0.01, angular_tolerance=0.1)
+    up = (0.0, 0.0, 1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", texcad.TexcadWarning)
+        part = texcad.texture(stl, [("not-bottom", "builtin:diamond_knurl", {"height": 0.5, "projection": "cylindrical:+z"})],
+                              pitch=pitch, build_dir=up)
+    return [("slotted handle (mesh), knurl", texcad.load_mesh(stl), part.mesh, _printed(part))]
+
+
+#: mm: how closely the recipes' bare parts follow their CAD surfaces (with 0.05 rad:
+#: the angle is what moves a curved part's own overhang boundary).
+RECIPE_BARE_TOLERANCE = 0.01
+
+
+def _bare(part, tolerance: float = RECIPE_BARE_TOLERANCE):
+    """A textured result's part untextured: its CAD shape tessellated finer than the
+    texture's pitch, or (mesh targets) its base mesh (every texture at its lowest)."""
+    from texcad.brep import shape_to_mesh
+
+    shape = part.base_shape
+    return part.base_mesh if shape is None else shape_to_mesh(shape, tolerance=tolerance, angular_tolerance=0.05)
+
+
+def _printed(part):
+    """The build direction a textured result was limited for (``info["build_dir"]``
+    or its limiter's ``directions``; the first of a set), or None."""
+    import numpy as np
+
+    d = (part.info or {}).get("build_dir")
+    if d is None:
+        d = getattr(part.limits, "directions", None)
+    return None if d is None or np.size(d) < 3 else np.asarray(d, dtype=np.float64).reshape(-1, 3)[0]
+
+
+def recipe_parts(script: str, pitch: float, samples=None):
+    """``[(name, bare mesh, textured mesh, build direction or None)]`` of what
+    ``recipes/<script>.py`` makes at ``pitch`` mm: the recipe run as a script (its
+    outputs into a scratch folder), every textured result it leaves in its globals;
+    for ``paper_samples`` the rows of Table 2 (``samples``: their names, default all
+    nine) textured by the recipe's own functions, as meshes."""
+    import runpy
+    import tempfile
+    import warnings
+
+    import texcad
+    from texcad.pipeline import Textured
+
+    path = Path(__file__).resolve().parents[1] / "recipes" / f"{script}.py"
+    with tempfile.TemporaryDirectory() as out, warnings.catch_warnings():
+        warnings.simplefilter("ignore", texcad.TexcadWarning)
+        old = {k: os.environ.get(k) for k in ("TEXCAD_OUT", "TEXCAD_PITCH")}
+        os.environ.update(TEXCAD_OUT=out, TEXCAD_PITCH=str(pitch))
+        try:
+            if script != "paper_samples":
+                g = runpy.run_path(str(path), run_name="__main__")
+                return [(script if k == "part" else f"{script} {k}", _bare(v), v.mesh, _printed(v))
+                        for k, v in g.items() if isinstance(v, Textured)]
+            g = runpy.run_path(str(path), run_name="paper_samples")  # its functions, not its main
+            out_parts = []
+            for tex, kind, tilt in g["selected"](list(samples or [])):
+                build, mapping, toward = g["SAMPLES"][kind]
+                shape, face, width = build()
+                d = texcad.orientation(tilt, toward)
+                v = texcad.texture(shape, face, g["synthesized"](tex, width), mapping=mapping, build_dir=d, brep=False)
+                out_parts.append((f"paper {tex}-{kind}", _bare(v), v.mesh, _printed(v)))
+            return out_parts
+        finally:
+            for k, val in old.items():
+                if val is None:
+                    os.environ.pop(k, None)
+                else:
+                    os.environ[k] = val
+
+
 CURA_LINES = 0.8  # mm between CuraEngine's plain support lines in the table's area column
 
 
+_NAMES = {"prusaslicer": "PrusaSlicer", "curaengine": "CuraEngine"}
+
+
+def _direction(d) -> str:
+    """A build direction as a short label: ``+z``, ``-y``, or its three components."""
+    import numpy as np
+
+    d = np.asarray(d, dtype=np.float64)
+    k = int(np.argmax(np.abs(d)))
+    if abs(abs(d[k]) - 1.0) < 1e-9:
+        return f"{'+-'[int(d[k] < 0)]}{'xyz'[k]}"
+    return "(" + ", ".join(f"{v:.2f}" for v in d) + ")"
+
+
+def compare(bare, textured, d, slicer: str, timeout: float):
+    """``(bare report, textured report, extra support mm)`` of one part in one slicer,
+    support on at threshold 45 (CuraEngine's as plain lines :data:`CURA_LINES` apart,
+    so that its length measures its area). The bare part goes in as an STL; the
+    textured part as what texcad writes for that slicer: PrusaSlicer gets texcad's
+    3MF (its per-object settings and layout, ``texcad.io.slicer_layout``),
+    CuraEngine, which reads no 3MF, the STL. None for a slice that ran past ``timeout``."""
+    from texcad.report.slicer import extra_support, support_config
+
+    cfg = support_config(slicer, 45, lines=CURA_LINES if slicer == "curaengine" else None)
+    a = sliced(bare, timeout, slicer=slicer, build_dir=d, config=cfg)
+    b = sliced(textured, timeout, slicer=slicer, build_dir=d, config=cfg, file="3mf")
+    return a, b, (extra_support(b, a) if a and b else float("nan"))
+
+
 def table(args) -> None:
-    from texcad.printability import overhang_angle, support_free_angle
-    from texcad.report.slicer import SLICERS, find_slicer, support_config
+    """Every recipe's part and the paper's nine samples at their coarse pitch, bare and
+    textured, in both slicers: support m, support beyond the bare part's (m) and CPU s."""
+    from texcad.report.slicer import SLICERS, find_slicer
+
+    import tempfile
 
     have = [s for s in SLICERS if find_slicer(s)]
-    rows = []
-    for name, orient, bare, textured, d in _table_parts(args.pitch):
-        cells = [name, orient, f"{textured.num_triangles:,}"]
-        for s in have:
-            cfg = support_config(s, 45)
-            a, b = sliced(bare, args.timeout, slicer=s, build_dir=d, config=cfg), sliced(textured, args.timeout, slicer=s, build_dir=d, config=cfg)
-            for label, rep in (("bare", a), ("textured", b)):
-                row(f"{name[:22]} {s[:5]} {label}", rep)
-            cells += [f"{a.support_mm / 1000:.2f} / {b.support_mm / 1000:.2f}" if a and b else "timed out",
-                      f"{a.cpu_seconds:.1f} / {b.cpu_seconds:.1f}" if a and b else "timed out"]
-            if s == "curaengine":  # plain lines: length x spacing = area (support_config)
-                cfg = support_config(s, 45, lines=CURA_LINES)
-                a, b = sliced(bare, args.timeout, slicer=s, build_dir=d, config=cfg), sliced(textured, args.timeout, slicer=s, build_dir=d, config=cfg)
-                cells.append(f"{a.support_mm / 1000:.2f} / {b.support_mm / 1000:.2f}" if a and b else "timed out")
-        rows.append(cells)
-    headers = ["part", "printed", "triangles"]
+    only = set(args.only.split(",")) if args.only else None
+    rows, summary = [], {s: [] for s in have}
+    tmp = tempfile.mkdtemp()
+    headers = ["part", "printed", "pitch mm", "triangles"]
     for s in have:
-        nm = {"prusaslicer": "PrusaSlicer", "curaengine": "CuraEngine"}[s]
-        headers += [f"{nm} support m (bare / textured)", f"{nm} CPU s (bare / textured)"]
-        if s == "curaengine":
-            headers.append(f"CuraEngine support as lines {CURA_LINES:g} mm apart, m (bare / textured)")
-    notes = (
-        f"Support on everywhere, threshold 45 degrees (the critical angle), 0.4 mm nozzle, each slicer's default layers "
-        f"(PrusaSlicer 0.3 mm, CuraEngine 0.2 mm in texcad's definition); texture pitch "
-        f"{args.pitch:g} mm, limited for the build direction with the slicers' margin: facets at least "
-        f"{support_free_angle(45):.2f} degrees from the build plate; texcad check counts faces under {overhang_angle(45):.1f} "
-        "degrees. Bare = the same part untextured, in the same orientation, tessellated finer than the texture's "
-        f"pitch ({BARE_TOLERANCE:g} mm, 0.05 rad: at the default 0.01 mm, 0.1 rad a sphere's facets move its own "
-        "overhang boundary). CPU s = user + system time of the slicer process. CuraEngine's support is a sparse "
-        "zigzag (lines 13.3 mm apart) whose connectors run along the support area's border, so its length also "
-        "grows with how jagged that border is; as plain lines "
-        f"{CURA_LINES:g} mm apart, not joined (`support_config(..., lines=)`), its length times {CURA_LINES:g} mm is its area."
-    )
+        headers += [f"{_NAMES[s]} support m (bare / textured)", f"{_NAMES[s]} beyond bare m",
+                    f"{_NAMES[s]} CPU s (bare / textured)"]
+    makers = [(script, COARSE_PITCH[script], lambda sc, p: recipe_parts(sc, p)) for script in RECIPES]
+    makers.append(("slotted_handle", 1.0, lambda sc, p: slotted_handle(p, tmp)))
+    for script, pitch, make in makers:
+        if only and script not in only:
+            continue
+        pitch = pitch if args.recipe_pitch is None else args.recipe_pitch
+        for name, bare, textured, d in make(script, pitch):
+            print(f"  {name}: load {load()}", flush=True)
+            cells = [name, "not given" if d is None else _direction(d), f"{pitch:g}", f"{textured.num_triangles:,}"]
+            for s in have:
+                a, b, extra = compare(bare, textured, (0.0, 0.0, 1.0) if d is None else d, s, args.timeout)
+                for label, rep in (("bare", a), ("textured", b)):
+                    row(f"{name[:22]} {s[:5]} {label}", rep)
+                if a is None or b is None:
+                    cells += ["ran past the timeout", "-", "-"]
+                    continue
+                summary[s].append((a.support_mm, b.support_mm, extra, b.cpu_seconds / max(a.cpu_seconds, 0.01)))
+                cells += [f"{a.support_mm / 1000:.2f} / {b.support_mm / 1000:.2f}", f"{extra / 1000:.3f}",
+                          f"{a.cpu_seconds:.1f} / {b.cpu_seconds:.1f}"]
+            rows.append(cells)
+            _write_slicer_table(headers, rows, args)
+    if args.readme:
+        _write_readme_summary(summary, len(rows))
+
+
+def _write_slicer_table(headers, rows, args):
+    from texcad.printability import overhang_angle, support_free_angle
+
     try:
         from _table import write_table
     except ImportError:  # the docs helper's table writer is not here yet: the same layout
         write_table = _write_table
-    path = write_table("slicer", headers, rows, title="Support and slicing time, bare and textured, in two slicers", notes=notes)
-    print(f"wrote {path}")
-    if args.readme:  # the README's printability figures: the same table, its notes in the docs
-        from _table import markdown_table, write_readme_block
+    notes = (
+        "Every recipe run as a script at the coarse pitch shown (the paper's nine samples by the recipe's own "
+        "functions), each part it makes sliced as printed (the build direction it passes to `texcad.texture`) "
+        "as texcad writes it for that slicer (PrusaSlicer: texcad's 3MF, with its per-object settings; CuraEngine, "
+        "which reads no 3MF: the STL), and beside it the same part untextured as an STL (its CAD shape tessellated to "
+        f"{RECIPE_BARE_TOLERANCE:g} mm and 0.05 rad; a mesh part's base). Support on everywhere, threshold 45 degrees "
+        "(the critical angle), 0.4 mm nozzle, each slicer's default layers (PrusaSlicer 0.3 mm, CuraEngine 0.2 mm "
+        "in texcad's definition); CuraEngine's support laid as plain lines "
+        f"{CURA_LINES:g} mm apart (`support_config(..., lines=)`), so that its length times {CURA_LINES:g} mm is "
+        "its area. The textures are limited with the slicers' margin: facets at least "
+        f"{support_free_angle(45):.2f} degrees from the build plate; texcad check counts faces under "
+        f"{overhang_angle(45):.1f} degrees. Beyond bare: the textured part's support paths farther than 4.2 mm "
+        "across (a cell's diagonal of PrusaSlicer's support grid) or 1 mm in height from all of the bare part's (`texcad.report.slicer.extra_support`): support "
+        "the texture alone needs. Where both need support the lengths differ anyway: the pattern follows the "
+        "outline; PrusaSlicer snaps support areas to a grid fixed to the bed (cells of about 2.9 mm) while it "
+        "centres each part's bounding box on the bed, so a texture anywhere on the part can move its support's "
+        "edge by a cell (the diagonal at a corner of the first layer, whose support is widened); and it rests a column that stands beside a textured wall on the texture's upward "
+        "facets, which adds bottom contacts, interfaces and thinner layers to it. CPU s = user + system "
+        "time of the slicer process."
+    )
+    return write_table("slicer", headers, rows, title="Support and slicing time of every recipe, bare and textured, in two slicers",
+                       notes=notes)
 
-        # CuraEngine's support as its area (plain lines) in place of its sparse zigzag's length: the README stays short
-        zig = headers.index("CuraEngine support m (bare / textured)") if "curaengine" in have else None
-        keep = [i for i in range(len(headers)) if i != zig]
-        short = {f"CuraEngine support as lines {CURA_LINES:g} mm apart, m (bare / textured)": f"CuraEngine support m, {CURA_LINES:g} mm lines (bare / textured)"}
-        write_readme_block("slicer", markdown_table([short.get(headers[i], headers[i]) for i in keep], [[r[i] for i in keep] for r in rows])
-                           + "\n\nSee the notes under [the table in the docs](docs/benchmarks.md).")
+
+def _write_readme_summary(summary: dict, parts: int) -> None:
+    """The README's printability figures: one row per slicer over every part."""
+    from _table import markdown_table, write_readme_block
+
+    rows = []
+    for s, got in summary.items():
+        if not got:
+            continue
+        bare, tex, extra = (sum(x[k] for x in got) / 1000 for k in range(3))
+        ratio = sorted(x[3] for x in got)
+        clean = sum(1 for x in got if x[2] == 0.0)
+        rows.append([_NAMES[s], f"{clean} of {len(got)}", f"{bare:.1f} / {tex:.1f}", f"{extra:.3f}",
+                     f"{ratio[len(ratio) // 2]:.1f}x ({ratio[-1]:.0f}x)"])
+    headers = ["slicer", "parts with no support beyond bare", "support m, all parts (bare / textured)",
+               "beyond bare m", "CPU textured / bare, median (largest)"]
+    write_readme_block("slicer", markdown_table(headers, rows) + "\n\nPer part: [the table in the docs](docs/benchmarks.md).")
 
 
 # -- cost (issue 29): what slicing a textured part costs, STL against texcad's 3MF -----
@@ -534,7 +697,9 @@ def main() -> None:
     ap.add_argument("what", choices=("table", "cost", "levers", "demo", "support", "perimeters", "recipes"))
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds per slice (default 900)")
     ap.add_argument("--readme", action="store_true", help="table: also write the README's printability figures (its bench:slicer block)")
-    ap.add_argument("--pitch", type=float, default=0.25, help="support: texture pitch in mm (default 0.25)")
+    ap.add_argument("--pitch", type=float, default=0.25, help="support, cost: texture pitch in mm (default 0.25)")
+    ap.add_argument("--recipe-pitch", type=float, default=None,
+                    help="table: one pitch in mm for every recipe (default: each recipe's COARSE_PITCH)")
     ap.add_argument("--side", type=float, default=40.0, help="perimeters: plate side in mm (default 40)")
     ap.add_argument("--demo-pitch", type=float, default=0.25, help="cost: the demo plate's texture pitch in mm (default 0.25)")
     ap.add_argument("--demo-side", type=float, default=100.0, help="cost: the demo plate's side in mm (default 100)")
@@ -543,7 +708,7 @@ def main() -> None:
     ap.add_argument("--fast", action="store_true", help="recipes: 'detect bridging perimeters' off (support is unchanged)")
     ap.add_argument("--compare", action="store_true",
                     help="recipes: each part made twice, on the grid (tolerance 0) and lean (the default), sliced side by side")
-    ap.add_argument("--only", default="", help="recipes: comma-separated paper sample names and recipe scripts")
+    ap.add_argument("--only", default="", help="recipes, table: comma-separated paper sample names and recipe scripts")
     ap.add_argument("--tolerances", type=lambda t: [float(x) for x in t.split(",")], default=[0.0, 0.02, 0.05, 0.1],
                     help="perimeters: tolerances in mm (default 0,0.02,0.05,0.1)")
     ap.add_argument("--resolution", type=float, default=0.05, help="perimeters: PrusaSlicer resolution row, mm (default 0.05)")

@@ -22,6 +22,7 @@ import texcad
 
 PITCH = float(os.environ.get("TEXCAD_PITCH", "0.125"))  # mm per pixel
 OUT = Path(os.environ.get("TEXCAD_OUT", "out"))
+BUILD_DIR = (0, 0, 1)  # print orientation: upright, standing on its bottom
 OUT.mkdir(parents=True, exist_ok=True)
 
 # The enclosure (mm): 70 x 45 x 30 with 8 mm corner fillets, hollowed to 2.5 mm walls.
@@ -39,7 +40,7 @@ def outside(face) -> bool:
 sides = [f for f in shell.faces().filter_by(Axis.Z, reverse=True) if outside(f)]
 
 t0 = time.perf_counter()
-part = texcad.texture(shell, sides, "builtin:hexagons", height=0.6, pitch=PITCH, build_dir=(0, 0, 1))
+part = texcad.texture(shell, sides, "builtin:hexagons", height=0.6, pitch=PITCH, build_dir=BUILD_DIR)
 t1 = time.perf_counter()
 part.export(OUT / "enclosure.stl")
 part.export(OUT / "enclosure.3mf", separate_texture=True)

@@ -23,6 +23,7 @@ import texcad
 
 PITCH = float(os.environ.get("TEXCAD_PITCH", "0.125"))  # mm per pixel
 OUT = Path(os.environ.get("TEXCAD_OUT", "out"))
+BUILD_DIR = (0, 0, 1)  # print orientation: standing on the shaft's foot
 OUT.mkdir(parents=True, exist_ok=True)
 
 # The lever (mm): a 6 mm shaft 40 mm long with a 16 mm ball on its end.
@@ -32,7 +33,7 @@ ball = lever.faces().filter_by(GeomType.SPHERE)
 t0 = time.perf_counter()
 with warnings.catch_warnings(record=True) as caught:
     warnings.simplefilter("always", texcad.TexcadWarning)
-    part = texcad.texture(lever, ball, "builtin:dimples", height=0.5, pitch=PITCH, build_dir=(0, 0, 1))
+    part = texcad.texture(lever, ball, "builtin:dimples", height=0.5, pitch=PITCH, build_dir=BUILD_DIR)
 t1 = time.perf_counter()
 part.export(OUT / "lever_ball.stl")
 part.export(OUT / "lever_ball.3mf", separate_texture=True)

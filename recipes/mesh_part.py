@@ -30,6 +30,7 @@ import texcad
 
 PITCH = float(os.environ.get("TEXCAD_PITCH", "0.25"))  # mm, longest edge after subdivision
 OUT = Path(os.environ.get("TEXCAD_OUT", "out"))
+BUILD_DIR = (0, 0, 1)  # print orientation: standing on its bottom
 OUT.mkdir(parents=True, exist_ok=True)
 
 # The stand-in for a user's file: a 50 x 35 x 25 mm block, rounded vertical edges
@@ -49,12 +50,12 @@ part = texcad.texture(
     ],
     pitch=PITCH,
     border=2.0,
-    build_dir=(0, 0, 1),
+    build_dir=BUILD_DIR,
 )
 t1 = time.perf_counter()
 part.export(OUT / "mesh_part.stl")
 part.export(OUT / "mesh_part.3mf", separate_texture=True)
-report = texcad.check(OUT / "mesh_part.3mf", build_dir=(0, 0, 1))
+report = texcad.check(OUT / "mesh_part.3mf", build_dir=(0, 0, 1))  # the 3MF stands the part as printed
 t2 = time.perf_counter()
 part.render(OUT / "mesh_part.png", width=900, view=(-1.0, 1.6, -1.0))
 

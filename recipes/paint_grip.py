@@ -37,6 +37,7 @@ from texcad.io.paint import paint_by_points, read_project, write_painted_3mf
 
 PITCH = float(os.environ.get("TEXCAD_PITCH", "0.3"))  # mm, longest edge after subdivision
 OUT = Path(os.environ.get("TEXCAD_OUT", "out"))
+BUILD_DIR = (0, 0, 1)  # print orientation: standing on its rounded end
 OUT.mkdir(parents=True, exist_ok=True)
 
 # The grip: a capsule 32 mm across and 110 mm tall, a surface of revolution (48
@@ -74,7 +75,7 @@ part = texcad.texture(
     projection="cylindrical:+z",
     pitch=PITCH,
     border=1.5,
-    build_dir=(0, 0, 1),
+    build_dir=BUILD_DIR,
 )
 t1 = time.perf_counter()
 part.export(OUT / "paint_grip.3mf", separate_texture=True)

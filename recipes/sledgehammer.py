@@ -31,6 +31,7 @@ import texcad
 
 PITCH = float(os.environ.get("TEXCAD_PITCH", "0.25"))  # mm per pixel
 OUT = Path(os.environ.get("TEXCAD_OUT", "out"))
+BUILD_DIR = (0, 1, 0)  # print orientation: standing on its butt, the handle's axis up
 OUT.mkdir(parents=True, exist_ok=True)
 
 R, GRIP, HEIGHT = 16.0, 120.0, 1.0  # handle radius, grip length, texture height (mm)
@@ -57,9 +58,9 @@ grown = texcad.synthesize(sample, (rows, n), patch=patch, overlap=patch * 5 // 9
 grip = texcad.Heightmap(grown.heights, (p, PITCH))
 
 # -- the part: the grip face textured in one piece, printable upright (+y).
-part = texcad.texture(handle, grip_face, grip, mapping="angle", periodic_x=True, build_dir=(0, 1, 0))
+part = texcad.texture(handle, grip_face, grip, mapping="angle", periodic_x=True, build_dir=BUILD_DIR)
 t1 = time.perf_counter()
-report = texcad.check(part, build_dir=(0, 1, 0))
+report = texcad.check(part, build_dir=BUILD_DIR)
 part.export(OUT / "sledgehammer.stl")
 part.export(OUT / "sledgehammer.3mf", separate_texture=True)
 t2 = time.perf_counter()

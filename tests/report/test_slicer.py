@@ -262,3 +262,23 @@ def test_3mf_puts_the_part_on_the_bed_as_it_prints(tmp_path):
         info = subprocess.run([slicer.find_slicer(), "--info", str(tmp_path / name)], capture_output=True, text=True, timeout=120).stdout
         got = {k.strip(): float(v) for k, v in (ln.split("=") for ln in info.splitlines() if ln.startswith(("size_z", "min_z")))}
         assert got["size_z"] == pytest.approx(size_z, abs=0.01) and got["min_z"] == pytest.approx(0.0, abs=1e-6), got
+
+
+@prusa
+def test_3mf_of_a_textured_mesh_stands_as_it_prints(tmp_path):
+    """A mesh textured for build direction +y (its limiter's directions): the 3MF
+    turns it so, 30 mm tall on the bed (the block's y extent) where it lies 12 mm
+    tall as modelled."""
+    import subprocess
+
+    from build123d import Box, export_stl
+
+    stl = tmp_path / "block.stl"
+    export_stl(Box(20, 30, 12), str(stl))
+    part = texcad.texture(stl, [("normal:+x:10", "builtin:stones", {"height": 0.5, "projection": "planar:+x"})],
+                          pitch=1.0, build_dir=(0, 1, 0))
+    assert np.allclose(part.limits.directions, [[0.0, 1.0, 0.0]])
+    part.export(tmp_path / "block.3mf")
+    info = subprocess.run([slicer.find_slicer(), "--info", str(tmp_path / "block.3mf")], capture_output=True, text=True, timeout=120).stdout
+    got = {k.strip(): float(v) for k, v in (ln.split("=") for ln in info.splitlines() if ln.startswith(("size_z", "min_z")))}
+    assert got["size_z"] == pytest.approx(30.0, abs=0.01) and got["min_z"] == pytest.approx(0.0, abs=1e-6), got

@@ -54,7 +54,7 @@ from __future__ import annotations
 import itertools
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import nullcontext
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
@@ -81,6 +81,9 @@ class ReliefLimit:
             ``A_i`` a third of the area of the faces around vertex ``i``).
         steep_ridges: convex edges that rose less steeply than the critical angle
             after the facets were limited (``limit_relief(ridges=True)``).
+        directions: ``(K, 3)`` float64 unit build directions the relief was limited
+            for, or None (fold check only): what :func:`texcad.io.export` stands
+            the part on the bed by.
     """
 
     lowered: int
@@ -89,6 +92,7 @@ class ReliefLimit:
     folded_faces: int
     removed_mm3: float
     steep_ridges: int = 0
+    directions: "np.ndarray | None" = field(default=None, repr=False, compare=False)
 
 
 # The first test's blocks and the incidence on two threads (numpy releases the GIL in
@@ -594,5 +598,6 @@ def limit_relief(
         folded_faces=first[1],
         removed_mm3=float((np.abs(d0 - out) * area).sum()),
         steep_ridges=steep,
+        directions=dirs,
     )
     return out, rep

@@ -26,6 +26,7 @@ from .slicer import (
     slice_mesh,
     read_gcode,
     support_near,
+    extra_support,
     SUPPORT_TYPES,
 )
 
@@ -46,5 +47,6 @@ __all__ = [
     'slice_mesh',
     'read_gcode',
     'support_near',
+    'extra_support',
     'SUPPORT_TYPES',
 ]

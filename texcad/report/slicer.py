@@ -37,6 +37,9 @@ __all__ = [
     "slice_mesh",
     "read_gcode",
     "support_near",
+    "extra_support",
+    "SUPPORT_MARGIN",
+    "SUPPORT_GRID",
     "Toolpaths",
     "read_toolpaths",
     "toolpath_deviation",
@@ -110,6 +113,11 @@ class SliceReport:
         support_mm: total support path length (both support types), mm.
         support_points: ``(K, 3)`` float64 end points of the support extrusions in
             the part's own frame (mm), for mapping support back to the part.
+        support_paths: ``(S, 2, 3)`` float64 ends of every support extrusion segment
+            in the print frame (mm): the part's own coordinates turned so that the
+            build direction is +z, unmoved, so that two slices of the same part in
+            the same orientation (bare and textured) compare point by point
+            (:func:`extra_support`).
         layers: number of layer changes.
         slicer: ``"prusaslicer"`` or ``"curaengine"``.
         gcode_mb: size of the G-code, MB.
@@ -123,6 +131,7 @@ class SliceReport:
     lengths: dict = field(default_factory=dict)
     support_mm: float = 0.0
     support_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)), repr=False)
+    support_paths: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 3)), repr=False)
     layers: int = 0
     gcode_mb: float = 0.0
     returncode: int = 0
@@ -147,10 +156,16 @@ def read_gcode(path: str | os.PathLike) -> tuple[dict, np.ndarray, int]:
         ``(lengths, support_points, layers)``: ``{type: mm}``, ``(K, 3)`` G-code
         coordinates (mm) of the support extrusions' end points, layer count.
     """
-    data = _gcode_bytes(path)
+    lengths, pts, _, layers = _read(_gcode_bytes(path))
+    return lengths, pts, layers
+
+
+def _read(data: bytes) -> tuple[dict, np.ndarray, np.ndarray, int]:
+    """``(lengths, support end points (K, 3), support segments (S, 2, 3), layers)``
+    of a G-code's bytes (:func:`read_gcode`), in the G-code's frame, mm."""
     moves = _moves(data)
     if moves is None:
-        return {}, np.zeros((0, 3)), 0
+        return {}, np.zeros((0, 3)), np.zeros((0, 2, 3)), 0
     xyz, seg, extruding, kind, names = moves
     lengths: dict[str, float] = {}
     sums = np.bincount(kind[extruding], weights=seg[extruding], minlength=len(names))
@@ -160,7 +175,11 @@ def read_gcode(path: str | os.PathLike) -> tuple[dict, np.ndarray, int]:
     is_support = np.isin(np.array(names, dtype=object), SUPPORT_TYPES)
     sup = extruding & is_support[kind]
     layers = data.count(b";LAYER_CHANGE") or data.count(b";LAYER:")
-    return lengths, xyz[sup], layers
+    i = np.flatnonzero(sup)
+    i = i[i > 0]  # a segment needs the move before it
+    segments = np.stack([xyz[i - 1], xyz[i]], axis=1)
+    segments[:, 0, 2] = segments[:, 1, 2]  # the extrusion runs at its own height
+    return lengths, xyz[sup], segments, layers
 
 
 def _gcode_bytes(path) -> bytes:
@@ -391,7 +410,8 @@ def slice_mesh(
         cpu_s = sum(float(c.group(1)) for c in cpu) if all(cpu) else float("nan")
         rep = SliceReport(seconds=secs, peak_mb=peak, cpu_seconds=cpu_s, returncode=proc.returncode, log=err[-2000:], slicer=slicer)
         if proc.returncode == 0 and gcode.exists() and gcode.stat().st_size:
-            rep.lengths, pts, rep.layers = read_gcode(gcode)
+            rep.lengths, pts, paths, rep.layers = _read(_gcode_bytes(gcode))
+            rep.support_paths = paths - shift  # the print frame: build_dir is +z, the part where it lies
             rep.gcode_mb = gcode.stat().st_size / 1e6
             rep.support_mm = float(sum(rep.lengths.get(t, 0.0) for t in SUPPORT_TYPES))
             rep.support_points = (pts - shift) @ R  # back to the mesh's frame
@@ -417,3 +437,51 @@ def support_near(points: np.ndarray, mesh, faces: np.ndarray, build_dir=(0.0, 0.
     above = c[pairs["i"], 2] > p[pairs["j"], 2]
     under[pairs["j"][above]] = True
     return int(np.count_nonzero(under))
+
+
+#: mm: the cell of the grid PrusaSlicer 2.5 snaps support areas to
+#: (``SupportGridPattern`` in ``SupportMaterial.cpp``: the bounding box aligned to
+#: multiples of the support spacing, 2.5 mm + a line's spacing, in the bed's frame).
+SUPPORT_GRID = 2.9
+#: mm across (in the bed's plane) within which support counts as the same support:
+#: a :data:`SUPPORT_GRID` cell's diagonal. PrusaSlicer centres each part's bounding
+#: box on the bed, so a texture that widens the box on one side moves the part
+#: against that grid, and the support's edge by up to a cell each way (at a corner
+#: of the first layer, whose support is widened, by the diagonal).
+SUPPORT_MARGIN = 4.2
+
+
+def extra_support(textured: SliceReport, bare: SliceReport, *, across: float = SUPPORT_MARGIN, along: float = 1.0,
+                  step: float = 0.2) -> float:
+    """Length in mm of ``textured``'s support paths that lie farther than ``across``
+    mm (in the bed's plane) or ``along`` mm (in height) from every support path of
+    ``bare``: support the part needs only because of its texture, where the bare
+    part, sliced in the same orientation, needs none. Where both need support the
+    paths differ anyway (the pattern follows the outline; PrusaSlicer snaps support
+    to its grid, :data:`SUPPORT_MARGIN`, and rests a column standing beside a
+    textured wall on the texture's upward facets, which adds layers and interfaces
+    to it); those differences are not counted. Paths are sampled every ``step`` mm;
+    each sample carries its piece's length."""
+    from scipy.spatial import cKDTree
+
+    p, w = _samples(textured.support_paths, step)
+    if not len(p):
+        return 0.0
+    q, _ = _samples(bare.support_paths, step)
+    if not len(q):
+        return float(w.sum())
+    scale = np.array([1.0, 1.0, across / along])  # an ellipsoid: across x across x along
+    d, _ = cKDTree(q * scale).query(p * scale, distance_upper_bound=across * 1.0001)
+    return float(w[~np.isfinite(d)].sum())
+
+
+def _samples(paths: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Midpoints of pieces at most ``step`` mm long along segments ``(S, 2, 3)``, and
+    each piece's length: ``((P, 3), (P,))``."""
+    seg = paths[:, 1] - paths[:, 0]
+    length = np.linalg.norm(seg, axis=1)
+    n = np.maximum(1, np.ceil(length / step).astype(np.int64))
+    owner = np.repeat(np.arange(len(n)), n)
+    k = np.arange(len(owner)) - np.repeat(np.cumsum(n) - n, n)
+    t = (k + 0.5) / n[owner]
+    return paths[owner, 0] + seg[owner] * t[:, None], length[owner] / n[owner]
