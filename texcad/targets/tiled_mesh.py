@@ -306,9 +306,11 @@ def _block_triangles(coarse: int, pitch: float, per: float = BLOCK_BYTES) -> int
     n = int(min(MAX_BLOCK, have / per))
     if n < 20_000:
         p = finest_pitch(pitch, coarse * COARSE_BYTES, 20_000 * per)
+        need = 1.25 * (16.0 * coarse + 20_000 * per) / 2**20
+        how = f"use a pitch of at least {p:.3g} mm or allow" if p < float("inf") else "allow at least"
         raise ResourceError(f"the mesh's coarse refinement ({coarse} triangles at a pitch of {pitch:.3g} mm) leaves no "
-                            f"room for a block in the memory available; use a pitch of at least {p:.3g} mm or allow more "
-                            "memory (max_memory)")
+                            f"room for a block in the memory available; {how} {need:.0f} MB more memory (max_memory) "
+                            "than the process holds")
     if n >= MAX_BLOCK:
         return n
     k = 1 << (n.bit_length() - 1)
