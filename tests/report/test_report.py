@@ -156,10 +156,12 @@ def test_unreadable_files_exit_2_with_one_line(tmp_path):
         (bad, "neither a binary nor an ASCII STL"),
         (tmp_path / "missing.3mf", "does not exist"),
         (tmp_path / "x.3mf", "not a 3MF"),
-        (tmp_path / "part.obj", "reads .stl and .3mf"),
+        (tmp_path / "part.obj", "an OBJ needs 'v' and 'f' lines"),
+        (tmp_path / "part.ply", "reads .stl, .3mf and .obj"),
     ]
     (tmp_path / "x.3mf").write_bytes(b"PK? no zip")
     (tmp_path / "part.obj").write_text("v 0 0 0\n")
+    (tmp_path / "part.ply").write_text("ply\n")
     for path, msg in cases:
         r = subprocess.run([sys.executable, "-m", "texcad", "check", str(path)], capture_output=True, text=True)
         assert r.returncode == 2, (path, r.stderr)
