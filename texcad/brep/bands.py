@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from .occt import explore, face_in, to_topods
+from .occt import explore, face_in, general_fuse, to_topods
 from .gprop import polyline_pcurve, run_knots, split_at_knots
 from .solids import TILE, TOLERANCE, _band_fine, _replace_faces, _tile_bounds, grid_surface, tiled_grid_faces
 
@@ -534,28 +534,6 @@ def _outline_edges(topo, faces: list) -> list:
     return out
 
 
-def _general_fuse(groups: list):
-    """OCCT's general fuse of the ``groups`` of faces (each group one argument, a
-    compound: its faces share edges and are not intersected with each other, only
-    with the other groups'), or None."""
-    from OCP.BRepAlgoAPI import BRepAlgoAPI_BuilderAlgo
-    from OCP.TopTools import TopTools_ListOfShape
-
-    from .occt import compound
-
-    args = TopTools_ListOfShape()
-    for g in groups:  # the patch's faces, the walls
-        args.Append(compound(g))
-    gf = BRepAlgoAPI_BuilderAlgo()
-    gf.SetArguments(args)
-    gf.SetRunParallel(False)
-    try:
-        gf.Build()
-    except Exception:  # OCCT raises Standard_Failure from inside the intersection
-        return None
-    return gf if gf.IsDone() else None
-
-
 def _pieces(gf, shape) -> list:
     """What the general fuse made of ``shape`` (itself if it was not split)."""
     mod = gf.Modified(shape)
@@ -705,7 +683,7 @@ def _assemble(topo, faces: list, tiles: list, strips: list):
     """The general fuse of the patch's faces and the walls; the pieces kept (module
     docstring) and the tiles in place of the patch's faces; None if a wall or a face
     was not cut as expected."""
-    gf = _general_fuse([list(faces), [s for s, _ in strips]])
+    gf = general_fuse([list(faces), [s for s, _ in strips]])
     if gf is None:
         return None
     walls = []

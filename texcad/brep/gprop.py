@@ -156,25 +156,13 @@ def split_at_knots(faces: list, others: list) -> tuple | None:
     at its interior knots (module docstring), by OCCT's general fuse with vertices
     there (the edges' other faces among ``others`` get the same pieces; each face
     keeps its orientation); unchanged if there are none, None if the fuse fails."""
-    from OCP.BRepAlgoAPI import BRepAlgoAPI_BuilderAlgo
-    from OCP.TopTools import TopTools_ListOfShape
-
-    from .occt import compound
+    from .occt import general_fuse
 
     points = _knot_points(faces)
     if not points:
         return faces, others
-    args = TopTools_ListOfShape()
-    args.Append(compound(list(faces) + list(others)))
-    args.Append(compound(points))
-    gf = BRepAlgoAPI_BuilderAlgo()
-    gf.SetArguments(args)
-    gf.SetRunParallel(False)
-    try:
-        gf.Build()
-    except Exception:  # OCCT raises Standard_Failure from inside the fuse
-        return None
-    if not gf.IsDone():
+    gf = general_fuse([list(faces) + list(others), points])
+    if gf is None:
         return None
 
     def image(f):

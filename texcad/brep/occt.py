@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["to_topods", "explore", "solids_of", "faces_of", "as_array", "compound", "matrix_of", "face_in"]
+__all__ = ["to_topods", "explore", "solids_of", "faces_of", "as_array", "compound", "matrix_of", "face_in", "general_fuse"]
 
 
 def compound(shapes: list):
@@ -144,3 +144,24 @@ def face_in(shape: Any, face: Any):
         if abs(a - area) <= 1e-6 * area and float(np.linalg.norm(c - centre)) <= 1e-6 * size:
             return TopoDS.Face_s(f)
     return None
+
+
+def general_fuse(groups: list):
+    """OCCT's general fuse (``BRepAlgoAPI_BuilderAlgo``, not run in parallel) of the
+    ``groups`` of shapes, each group one argument (a compound: its shapes are not
+    intersected with each other, only with the other groups'): the builder, whose
+    ``Modified`` gives each input's pieces, or None if the fuse failed."""
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_BuilderAlgo
+    from OCP.TopTools import TopTools_ListOfShape
+
+    args = TopTools_ListOfShape()
+    for g in groups:  # one argument per group
+        args.Append(compound(list(g)))
+    gf = BRepAlgoAPI_BuilderAlgo()
+    gf.SetArguments(args)
+    gf.SetRunParallel(False)
+    try:
+        gf.Build()
+    except Exception:  # OCCT raises Standard_Failure from inside the fuse
+        return None
+    return gf if gf.IsDone() else None
