@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import GeometryError, InputError
-from ..brep import to_topods
+from ..brep import compound, to_topods
 from ..util import atomic_path
 from .step_tiles import tiled_step_text
 
@@ -253,7 +253,7 @@ def closed_shells_as_solids(shape, tolerance: float = 1e-3):
         sewing.Perform()
         shells = _shells(sewing.SewedShape())
     solids = [s for s in map(_solid_of, shells) if s is not None]
-    return _unified(_compound(solids)) if solids else shape
+    return _unified(compound(solids)) if solids else shape
 
 
 def _unified(shape):
@@ -298,17 +298,6 @@ def _solid_of(shell):
         return None
     solid = BRepBuilderAPI_MakeSolid(shell).Solid()
     return solid if BRepLib.OrientClosedSolid_s(solid) and BRepCheck_Analyzer(solid).IsValid() else None
-
-
-def _compound(shapes: list):
-    from OCP.BRep import BRep_Builder
-    from OCP.TopoDS import TopoDS_Compound
-
-    out, builder = TopoDS_Compound(), BRep_Builder()
-    builder.MakeCompound(out)
-    for sh in shapes:
-        builder.Add(out, sh)
-    return out
 
 
 #: mm; a STEP coordinate farther from the origin is refused (a damaged number: no
@@ -387,8 +376,8 @@ def _first_fault(reader, p: str) -> str | None:
         where = f"a syntax error at line {found.group(1)}: {found.group(2).strip()}" if found else f"a fault: {general[0]}"
         return f"STEP file {p!r} has {where}; {_FIX}"
     ents = _entities(p, faults)
-    shape_faults = [k for k in sorted(faults) if not (_METADATA.search(ents.get(k, ("", 0, "", False))[2])
-                                                       or ents.get(k, ("", 0, "", False))[3])]
+    harmless = {k for k, (_, _, kinds, default_unit) in ents.items() if default_unit or _METADATA.search(kinds)}
+    shape_faults = [k for k in sorted(faults) if k not in harmless]
     if not shape_faults:  # only styles, colours, product data... at fault: the shape itself reads whole
         return None
     n = shape_faults[0]

@@ -212,8 +212,7 @@ def overlapping_bodies(vertices: np.ndarray, faces: np.ndarray, *, split: BodySp
     if nb < 2:
         return out
     boxes = np.array([s.bounding_box() for s in split.solids], dtype=np.float64)
-    extent = float(np.ptp(v, axis=0).max()) if len(v) else 1.0
-    gap = max(REL_GAP * extent, CONTACT_GAP)
+    gap = _touch_gap(v)
     for a, b in _box_pairs(boxes[:, :3], boxes[:, 3:], gap):  # per pair whose boxes meet
         sa, sb = split.solids[a], split.solids[b]
         shared = split.volumes[a] + split.volumes[b] - (sa + sb).volume()
@@ -256,7 +255,7 @@ def union_bodies(vertices: np.ndarray, faces: np.ndarray, *, split: BodySplit | 
 
     v = np.asarray(vertices, np.float64)
     split = split or split_bodies(v, faces)
-    solids = _closed_gaps(split.solids, max(REL_GAP * float(np.ptp(v, axis=0).max()), CONTACT_GAP))
+    solids = _closed_gaps(split.solids, _touch_gap(v))
     u = m3d.Manifold.batch_boolean(solids, m3d.OpType.Add) if len(solids) > 1 else solids[0]
     out = u.to_mesh()
     uv = np.asarray(out.vert_properties, dtype=np.float64)[:, :3]
@@ -266,6 +265,12 @@ def union_bodies(vertices: np.ndarray, faces: np.ndarray, *, split: BodySplit | 
     note = (f"united {len(split.solids)} bodies into {after} ({shared:.1f} mm3 shared; "
             f"volume {u.volume():.1f} mm3)")
     return uv, uf, note
+
+
+def _touch_gap(v: np.ndarray) -> float:
+    """mm: bodies of the mesh ``v`` closer than this touch (module docstring, step 3)."""
+    extent = float(np.ptp(v, axis=0).max()) if len(v) else 1.0
+    return max(REL_GAP * extent, CONTACT_GAP)
 
 
 def _closed_gaps(solids: tuple, gap: float) -> list:

@@ -314,8 +314,9 @@ def _snap(v: np.ndarray, f: np.ndarray, d: float) -> np.ndarray:
 
 def _shortest(v: np.ndarray, f: np.ndarray) -> float:
     """The shortest edge of the triangles ``f`` of ``v``, mm."""
-    e = f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    return float(np.linalg.norm(v[e[:, 0]] - v[e[:, 1]], axis=1).min())
+    from .subdivide import edge_lengths
+
+    return float(edge_lengths(v, f).min())
 
 
 def _collapsed(v: np.ndarray, f: np.ndarray, bodies: int, short: float, name: str):
@@ -323,16 +324,14 @@ def _collapsed(v: np.ndarray, f: np.ndarray, bodies: int, short: float, name: st
     manifold3d's ``simplify`` (edges collapsed where that moves the surface by at most
     :data:`COLLAPSE` mm), the first tolerance that leaves no edge under
     :data:`MIN_EDGE`, no crossing and the same bodies; or the input as it was."""
-    import manifold3d as m3d
-
+    from .boolean import from_manifold
     from .intersect import self_intersections
+    from .overlap import _manifold
 
-    solid = m3d.Manifold(m3d.Mesh(vert_properties=np.ascontiguousarray(v, np.float32),
-                                  tri_verts=np.ascontiguousarray(f, np.uint32)))
+    solid = _manifold(v, f)
     for tol in COLLAPSE:
-        out = solid.simplify(tol).to_mesh()
-        sv = np.asarray(out.vert_properties, np.float64)[:, :3]
-        sf = np.asarray(out.tri_verts, np.int64)
+        out = from_manifold(solid.simplify(tol))
+        sv, sf = np.asarray(out.vertices, np.float64), np.asarray(out.faces, np.int64)
         if len(sf) and _shortest(sv, sf) >= MIN_EDGE and not len(self_intersections(sv, sf)):
             rv, rf, nb = repair_closed(sv, sf, merge=1e-8, name=name)
             if nb == bodies:
