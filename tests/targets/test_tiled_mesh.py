@@ -271,23 +271,31 @@ def test_folds_across_block_borders_are_limited_alike_on_both_sides(monkeypatch)
     assert abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack
 
 
+#: The start of the child scripts run under an address-space limit: imports, a warm-up,
+#: ``vm(key)`` (bytes of a /proc/self/status line), ``limit`` (400 MB over the process's
+#: size) and ``held`` (what it holds).
+_LIMITED = textwrap.dedent("""
+    import resource, time
+    import scipy.sparse.csgraph, scipy.spatial, trimesh
+    import texcad
+    from texcad.targets import mesh as mesh_target
+    from texcad.util.resources import _rss
+    texcad.texture(trimesh.creation.icosphere(1, 5.0), "all", "builtin:stones", pitch=1.0, tolerance=0)  # warmed up
+    def vm(key):
+        return int(open("/proc/self/status").read().split(key)[1].split()[0]) * 1024
+    limit = vm("VmSize:") + (400 << 20)
+    held = _rss()
+""")
+
+
 def test_a_mesh_that_does_not_fit_untiled_is_made_in_blocks_under_an_address_space_limit(tmp_path):
     """A sphere of radius 40 mm at 0.25 mm (1.3 M triangles; about 550 MB untiled, by
     the estimate more than the bound; 545 MB measured) through texcad.texture under
     max_memory 220 MB over what the process holds and an address-space limit
     (RLIMIT_AS) of 400 MB over its size: made in blocks, gated, streamed to an STL."""
     out = tmp_path / "big.stl"
-    script = textwrap.dedent(f"""
-        import resource, time
-        import scipy.sparse.csgraph, scipy.spatial, trimesh
-        import texcad
-        from texcad.targets import mesh as mesh_target
-        from texcad.util.resources import _rss
-        texcad.texture(trimesh.creation.icosphere(1, 5.0), "all", "builtin:stones", pitch=1.0, tolerance=0)  # warmed up
-        def vm(key):
-            return int(open("/proc/self/status").read().split(key)[1].split()[0]) * 1024
-        limit = vm("VmSize:") + (400 << 20)
-        bound = _rss() + (220 << 20)
+    script = _LIMITED + textwrap.dedent(f"""
+        bound = held + (220 << 20)
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
         part = trimesh.creation.icosphere(5, 40.0)
         t0 = time.process_time()
@@ -322,17 +330,7 @@ def test_build_dir_in_blocks_under_an_address_space_limit(tmp_path):
     tests (in a fresh process all the same, not understood yet) the memory available
     gives coarse faces of 4 pitches and 12 blocks, peaking at 77 MB."""
     out = tmp_path / "limited.stl"
-    script = textwrap.dedent(f"""
-        import resource
-        import scipy.sparse.csgraph, scipy.spatial, trimesh
-        import texcad
-        from texcad.targets import mesh as mesh_target
-        from texcad.util.resources import _rss
-        texcad.texture(trimesh.creation.icosphere(1, 5.0), "all", "builtin:stones", pitch=1.0, tolerance=0)  # warmed up
-        def vm(key):
-            return int(open("/proc/self/status").read().split(key)[1].split()[0]) * 1024
-        limit = vm("VmSize:") + (400 << 20)
-        held = _rss()
+    script = _LIMITED + textwrap.dedent(f"""
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
         part = trimesh.creation.icosphere(5, 25.0)
         tx = texcad.texture(part, "all", "builtin:stones", pitch=0.3, height=0.5, tolerance=0, max_memory=held + (70 << 20),
