@@ -30,7 +30,7 @@ cores / workers, and on a busy machine it says how busy the machine was: the CPU
 seconds per job (:attr:`texcad.batch.JobResult.cpu_seconds`) say whether the jobs
 themselves got dearer with more workers.
 
-    python benchmarks/bench_scale.py [--max-mpx 100] [--limited-mpx 1 9] [--lean-mpx 1 100] [--workers 1 2 4] [--parts 8] [--out docs/benchmarks/scale.md]
+    python benchmarks/bench_scale.py [--only plates|batch] [--max-mpx 100] [--limited-mpx 1 9] [--lean-mpx 1 100] [--workers 1 2 4] [--parts 8] [--out docs/benchmarks/scale.md]
 """
 
 from __future__ import annotations
@@ -130,7 +130,8 @@ def batch_rows(workers: list[int], parts: int) -> list[dict]:
     return rows
 
 
-def table(plates: list[dict], batches: list[dict], command: str) -> str:
+def machine() -> str:
+    """This machine and its load now, one line."""
     uname = platform.uname()
     cpu = ""
     try:
@@ -138,16 +139,22 @@ def table(plates: list[dict], batches: list[dict], command: str) -> str:
     except (OSError, StopIteration):
         pass
     mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
-    load = os.getloadavg()[0]
+    return (f"{uname.system} {uname.machine}, {os.cpu_count()} cores ({cpu}), {mem:.0f} GiB; "
+            f"load average {os.getloadavg()[0]:.1f} at the end (shared machine)")
+
+
+def provenance(run: dict) -> list[str]:
+    """A section's machine, date and command (each section is measured on its own)."""
+    return [f"- machine: {run['machine']}", f"- date: {run['date']}", f"- command: `{run['command']}`", ""]
+
+
+def table(plates: list[dict], batches: list[dict], runs: dict) -> str:
     lines = [
         "# Scale: large plates and batches",
         "",
-        f"- machine: {uname.system} {uname.machine}, {os.cpu_count()} cores ({cpu}), {mem:.0f} GiB; load average {load:.1f} at the end (shared machine)",
-        f"- date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC",
-        f"- command: `{command}`",
-        "",
         "## Plate of stones at 0.1 mm: time and peak memory against pixels",
         "",
+        *provenance(runs["plates"]),
         "| pixels | plate mm | how | max_memory | tiles | triangles | seconds | s per M px | CPU s per M px | peak memory | STL |",
         "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
@@ -172,7 +179,7 @@ def table(plates: list[dict], batches: list[dict], command: str) -> str:
                   + ", ".join(f"{q['mpx']:g} M px {q['seconds'] / p['seconds']:.2f} x the unlimited tiled plate's time "
                               f"({q['cpu'] / p['cpu']:.2f} x its CPU time), peak {q['peak'] / 2**30:.2f} against "
                               f"{p['peak'] / 2**30:.2f} GiB" for q, p in pairs) + "."]
-    lines += ["", "## Batch throughput against local Dask workers", "",
+    lines += ["", "## Batch throughput against local Dask workers", "", *provenance(runs["batch"]),
               "| workers | jobs ok | cluster start s | jobs s | jobs per minute | efficiency | CPU s per job |", "|---:|---:|---:|---:|---:|---:|---:|"]
     for b in batches:
         eff = "" if b["efficiency"] is None else f"{b['efficiency']:.2f}"
@@ -213,6 +220,54 @@ def readme_block(plates: list[dict], batches: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def plate_runs(args) -> list[tuple]:
+    """``(M px, mode, max_memory)`` of every plate row the arguments ask for."""
+    runs = []
+    for mpx in (m for m in args.mpx if m <= args.max_mpx):  # per size
+        small = mpx == min(args.mpx) and args.baseline_memory
+        runs.append((mpx, "texture", args.max_memory))
+        runs += [(mpx, "texture", args.baseline_memory)] if small else []
+        if mpx in args.lean_mpx:
+            runs.append((mpx, "lean", args.max_memory))
+            runs += [(mpx, "lean", args.baseline_memory)] if small else []
+        if mpx <= args.tiled_max_mpx:
+            runs.append((mpx, "tiled", args.max_memory))
+        if mpx in args.limited_mpx:
+            runs.append((mpx, "limited", args.baseline_memory if small else args.max_memory))
+    return runs
+
+
+def plate_rows(args) -> list[dict]:
+    """Each plate row, each run in its own process; small ones several times (the median)."""
+    plates = []
+    for mpx, mode, mm in plate_runs(args):
+        rows = [plate_row(mpx, mode, mm) for _ in range(args.repeat if mpx <= 1 else 1)]
+        ok = sorted((r for r in rows if "error" not in r), key=lambda r: r["seconds"])
+        row = ok[len(ok) // 2] if ok else rows[0]
+        if len(ok) > 1:
+            row = {**row, "peak": max(r["peak"] for r in ok), "runs": len(ok)}
+        print(row, flush=True)
+        plates.append(row)
+    return plates
+
+
+def measured(args, command: str) -> dict:
+    """The sections ``--only`` asks for, measured now; the others as the rows file
+    (``--rows``) has them from their own run."""
+    old = json.loads(args.rows.read_text()) if args.rows.exists() else {}
+    out = {}
+    for section, measure in (("plates", plate_rows), ("batch", lambda a: batch_rows(sorted(set(a.workers)), a.parts))):
+        if args.only in (None, section):
+            rows = measure(args)
+            stamp = f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC"
+            out[section] = {"rows": rows, "machine": machine(), "date": stamp, "command": command}
+        elif section in old:
+            out[section] = old[section]
+        else:
+            raise SystemExit(f"--only {args.only}: {args.rows} has no {section} rows; run without --only first")
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--mpx", type=float, nargs="+", default=list(PIXELS), help="plate sizes, M px (1, 9, 36, 100)")
@@ -231,35 +286,16 @@ def main() -> None:
     ap.add_argument("--parts", type=int, default=8)
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent.parent / "docs" / "benchmarks" / "scale.md")
     ap.add_argument("--readme", action="store_true", help="also write the README's scale figures (its bench:scale block)")
+    ap.add_argument("--only", choices=("plates", "batch"), default=None,
+                    help="measure one section; the other is kept from --rows (each section shows its own run)")
+    ap.add_argument("--rows", type=Path, default=Path(__file__).resolve().parent.parent / "docs" / "benchmarks" / "scale.json",
+                    help="the measured rows, written by every run (what --only keeps)")
     args = ap.parse_args()
     command = "python benchmarks/bench_scale.py " + " ".join(sys.argv[1:])
-    plates = []
-    runs = []
-    for mpx in (m for m in args.mpx if m <= args.max_mpx):  # per size
-        runs.append((mpx, "texture", args.max_memory))
-        if mpx == min(args.mpx) and args.baseline_memory:
-            runs.append((mpx, "texture", args.baseline_memory))
-        if mpx in args.lean_mpx:
-            runs.append((mpx, "lean", args.max_memory))
-            if mpx == min(args.mpx) and args.baseline_memory:
-                runs.append((mpx, "lean", args.baseline_memory))
-        if mpx <= args.tiled_max_mpx:
-            runs.append((mpx, "tiled", args.max_memory))
-        if mpx in args.limited_mpx:
-            small = mpx == min(args.mpx) and args.baseline_memory
-            runs.append((mpx, "limited", args.baseline_memory if small else args.max_memory))
-    for mpx, mode, mm in runs:  # per run, each in its own process; small ones several times (the median)
-        rows = [plate_row(mpx, mode, mm) for _ in range(args.repeat if mpx <= 1 else 1)]
-        ok = sorted((r for r in rows if "error" not in r), key=lambda r: r["seconds"])
-        row = ok[len(ok) // 2] if ok else rows[0]
-        if len(ok) > 1:
-            row = {**row, "peak": max(r["peak"] for r in ok), "runs": len(ok)}
-        print(row, flush=True)
-        plates.append(row)
-    batches = batch_rows(sorted(set(args.workers)), args.parts) if args.workers else []
-    for b in batches:
-        print(b, flush=True)
-    text = table(plates, batches, command)
+    runs = measured(args, command)
+    args.rows.write_text(json.dumps(runs, indent=1) + "\n")
+    plates, batches = runs["plates"]["rows"], runs["batch"]["rows"]
+    text = table(plates, batches, runs)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text)
     print(text)
@@ -267,7 +303,8 @@ def main() -> None:
         sys.path.insert(0, str(Path(__file__).resolve().parent))
         from _table import write_readme_block
 
-        write_readme_block("scale", readme_block(plates, batches), cmd=command)
+        cmds = sorted({runs["plates"]["command"], runs["batch"]["command"]})
+        write_readme_block("scale", readme_block(plates, batches), cmd="; ".join(cmds))
 
 
 if __name__ == "__main__":
