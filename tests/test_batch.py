@@ -77,7 +77,7 @@ def test_bad_jobs_refused_before_running(parts, tmp_path):
         ({**good, "outputs": [str(tmp_path / "a.obj")]}, "output"),
         ({k: v for k, v in good.items() if k != "outputs"}, "'outputs' is missing"),
         ({**good, "texture": str(tmp_path / "none.png")}, "texture"),
-        ({**good, "where": "upside"}, "job 1: where 'upside'"),
+        ({**good, "where": "upside"}, "job 1: where: face selector 'upside'"),
         ({**good, "options": [1, 2]}, "options must be a mapping"),
         ({**good, "texture": "builtin:ribs"}, "job 1: texture: unknown built-in texture 'ribs'"),
     ]

@@ -201,22 +201,13 @@ def _check_texture(label: str, key: str, tex: str) -> str:
 
 
 def _check_selector(label: str, which: str) -> None:
-    """A ``--face`` selector's form: a direction word, a face index, ``normal:x,y,z``
-    or a face type (``TYPE``, ``TYPE:i``, ``TYPE:all``)."""
-    from .cli.texture import DIRECTIONS
+    """A ``--face`` selector's form (:func:`texcad.brep.selectors.check_selector`)."""
+    from .brep.selectors import check_selector
 
-    head, _, tail = which.partition(":")
-    if which.isdigit() or which in DIRECTIONS or head == "normal":
-        return
-    from build123d import GeomType
-
-    kinds = {"extrusion", "bspline", "b-spline", "bezier"} | {g.name.lower() for g in GeomType}
-    if head in kinds and (not tail or tail == "all" or tail.isdigit()):
-        return
-    raise ParameterError(
-        f"{label}: where {which!r}: use one of {', '.join(DIRECTIONS)}, a face type (cylinder, cone, bspline...), "
-        "TYPE:i, TYPE:all, normal:x,y,z or a face index"
-    )
+    try:
+        check_selector(which)
+    except ParameterError as exc:
+        raise ParameterError(f"{label}: where: {exc}") from None
 
 
 def _one_job(k: int, job: Any) -> Job:
@@ -334,13 +325,13 @@ def run_job(job: Job) -> JobResult:
             else:
                 from build123d import Compound
 
-                from .cli.texture import pick_faces  # the --face selectors, one definition
+                from .brep.selectors import faces_named  # the --face selectors, one definition
                 from .io import read_step
 
                 part = Compound(read_step(job.part))
                 faces: list = []
                 for which in job.where:  # per selector
-                    faces += [f for f in pick_faces(part, which) if not any(f.is_same(g) for g in faces)]
+                    faces += [f for f in faces_named(part, which) if not any(f.is_same(g) for g in faces)]
                 tx = texture(part, faces[0] if len(faces) == 1 else faces, job.texture, **job.options)
             for o in job.outputs:  # atomic: Textured.export writes a temporary file and renames it
                 Path(o).parent.mkdir(parents=True, exist_ok=True)

@@ -29,7 +29,7 @@ def test_solid_selector_and_owner(assembly):
     from build123d import Compound
 
     from texcad.brep.assembly import owner_solid, solid_selector, split_assembly
-    from texcad.cli.texture import pick_faces
+    from texcad.brep.selectors import named as pick_faces
     from texcad.io import read_step
 
     assert solid_selector("solid:2/top") == (2, "top") and solid_selector("top") == (None, "top")

@@ -36,7 +36,7 @@ def _rows(out: str) -> dict[int, str]:
 def test_faces_lists_every_face_with_selectors(part_step, capsys):
     from build123d import Compound
 
-    from texcad.cli.texture import pick_faces
+    from texcad.brep.selectors import named as pick_faces
     from texcad.io import read_step
 
     assert main(["faces", str(part_step)]) == 0

@@ -63,9 +63,9 @@ def _solid_of(part: Any, faces: list) -> list[int]:
 
 
 def _selectors(part: Any, faces: list) -> list[list[str]]:
-    """Per face, the ``--face`` selectors (:func:`texcad.cli.texture.pick_faces`)
+    """Per face, the ``--face`` selectors (:func:`texcad.brep.selectors.named`)
     that pick it (alone, or among others for ``normal:``)."""
-    from .texture import DIRECTIONS, pick_faces
+    from ..brep.selectors import DIRECTIONS, named as pick_faces
 
     sel: list[list[str]] = [[] for _ in faces]
 

@@ -30,72 +30,6 @@ from ._args import add_orientation, add_tolerance, limits_line, positive_float, 
 from ._outputs import check_outputs, write_outputs
 from ._texture_mesh import MESH_SUFFIXES, add_mesh_arguments, run_mesh
 
-#: ``--face`` words: the planar face whose outward normal points that way (largest
-#: if several), or the largest cylindrical / extruded face.
-DIRECTIONS = {"top": (0, 0, 1), "bottom": (0, 0, -1), "front": (0, -1, 0), "back": (0, 1, 0), "left": (-1, 0, 0), "right": (1, 0, 0)}
-
-
-def _kind(word: str):
-    from build123d import GeomType
-
-    aliases = {"extrusion": "EXTRUSION", "bspline": "BSPLINE", "b-spline": "BSPLINE", "bezier": "BEZIER"}
-    name = aliases.get(word, word.upper())
-    return GeomType[name] if name in GeomType.__members__ else None
-
-
-def pick_faces(shape, which: str) -> list:
-    """The faces of a build123d shape named by ``which`` (module docstring)."""
-    from build123d import GeomType, Vector
-
-    from ..errors import ParameterError
-    from ..util import parse_vector
-
-    faces = shape.faces()
-    if which.isdigit():
-        i = int(which)
-        if i >= len(faces):
-            raise ParameterError(f"--face {i}: the part has only {len(faces)} faces (0..{len(faces) - 1})")
-        return [faces[i]]
-    head, _, tail = which.partition(":")
-    if head == "normal":
-        d = Vector(*parse_vector(tail))
-        d = d.normalized()
-        hit = [f for f in faces if f.normal_at(f.center()).dot(d) > 0.985]
-        if not hit:
-            raise ParameterError(f"--face {which}: no face looks that way (within 10 degrees)")
-        return hit
-    kind = _kind(head)
-    if kind is not None:
-        if head == "extrusion" and not tail:
-            cands = [f for f in faces if f.geom_type in (GeomType.CYLINDER, GeomType.EXTRUSION, GeomType.BSPLINE)]
-        else:
-            cands = [f for f in faces if f.geom_type == kind]
-        if not cands:
-            raise ParameterError(f"--face {which}: the part has no {head} face; use top, bottom, ... or a face index")
-        if not tail:
-            return [max(cands, key=lambda f: f.area)]
-        if tail == "all":
-            return cands
-        if not tail.isdigit() or int(tail) >= len(cands):
-            raise ParameterError(f"--face {which}: the part has {len(cands)} {head} face(s): use {head}:0..{len(cands) - 1} or {head}:all")
-        return [cands[int(tail)]]
-    if which not in DIRECTIONS:
-        raise ParameterError(
-            f"--face {which!r}: use one of {', '.join(DIRECTIONS)}, a face type (cone, sphere, bspline...), "
-            "TYPE:i, TYPE:all, normal:x,y,z or a face index"
-        )
-    d = DIRECTIONS[which]
-    planar = [f for f in faces.filter_by(GeomType.PLANE) if f.normal_at().dot(Vector(*d)) > 0.999]
-    if not planar:
-        raise ParameterError(f"--face {which}: no planar face looks {which}; use a face index (0..{len(faces) - 1})")
-    return [sorted(planar, key=lambda f: f.area, reverse=True)[0]]
-
-
-def pick_face(shape, which: str):
-    """The first face :func:`pick_faces` names (kept for callers of one face)."""
-    return pick_faces(shape, which)[0]
-
-
 def _gradient(text: str) -> tuple:
     """``X0,Y0,Z0,X1,Y1,Z1`` in mm: two different points."""
     try:
@@ -108,20 +42,14 @@ def _gradient(text: str) -> tuple:
 
 
 def _faces(part, selectors: list) -> list:
-    """The faces the ``--face`` selectors name, each once (``solid:K/SELECTOR``: on
-    solid K alone). In an assembly the solid that owns them is textured and the
-    others are kept (texcad's driver: :mod:`texcad.targets.assembly`)."""
-    from ..brep.assembly import solid_selector
-    from ..errors import ParameterError
+    """The faces the ``--face`` selectors name (:func:`texcad.brep.selectors.faces_named`),
+    each once. In an assembly the solid that owns them is textured and the others are
+    kept (texcad's driver: :mod:`texcad.targets.assembly`)."""
+    from ..brep.selectors import faces_named
 
-    solids = part.solids()
-    faces = []
-    for which in selectors:  # per --face: on the whole part, or on solid K (solid:K/top)
-        k, sel = solid_selector(which)
-        if k is not None and k >= len(solids):
-            raise ParameterError(f"--face {which}: the part has {len(solids)} solid(s), 0..{len(solids) - 1}")
-        scope = part if k is None else solids[k]
-        faces += [f for f in pick_faces(scope, sel) if not any(f.is_same(g) for g in faces)]
+    faces: list = []
+    for which in selectors:  # per --face
+        faces += [f for f in faces_named(part, which) if not any(f.is_same(g) for g in faces)]
     return faces
 
 

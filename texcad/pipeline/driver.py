@@ -25,6 +25,7 @@ from ..solid import Mesh
 from ..targets import ADAPTERS, Decline
 from ..targets.assembly import assembly_split
 from ..targets.budget import require_faces_memory
+from ..targets.cad import named_where
 from ..util import memory_limit
 from .assembly import assembly_result
 from .result import Textured
@@ -55,6 +56,7 @@ def run(target: Any, where: Any, texture: Any, options: Options) -> Textured:
             geometry that cannot be made or fails the gate (GeometryError), or more
             memory than allowed (ResourceError).
     """
+    where = named_where(target, where)  # "top", "cylinder:all": the command line's face selectors
     split = assembly_split(target, where)  # several solids: the one that owns the faces alone, the others kept
     if split is not None:
         return assembly_result(run(split.solid, where, texture, options), split)

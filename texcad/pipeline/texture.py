@@ -53,7 +53,9 @@ def texture(
             :class:`~texcad.Plate`; or a mesh (a path
             ending in .stl / .3mf / .obj, a :class:`texcad.Mesh`, a ``trimesh.Trimesh``).
         where: CAD parts: the face(s), chosen with selectors, e.g.
-            ``part.faces().sort_by(Axis.Z)[-1]`` or ``wp.faces(">Z")``, or zones: a
+            ``part.faces().sort_by(Axis.Z)[-1]`` or ``wp.faces(">Z")``, or named as
+            on the command line (``"top"``, ``"cylinder:all"``, ``"front+back"``,
+            ``"solid:1/top"``: :mod:`texcad.brep.selectors`), or zones: a
             list of ``(faces, texture, {options})`` (or a mapping ``{face: texture}``),
             each zone its own texture and its own ``height``, ``pitch``, ``mode``,
             ``depth``, ``edge_angle``, ``rotation``, ``tolerance``, ``gradient`` over

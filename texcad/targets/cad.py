@@ -16,7 +16,7 @@ from ..brep import PartMesh, explore, part_tessellation, solids_of, to_topods
 from ..contracts import Stages
 from ..errors import GeometryError, ParameterError
 
-__all__ = ["selected_faces", "CadPart", "CadZone", "ZONE_OPTIONS", "cad_part", "cad_zones", "face_list", "is_cad_target", "is_zones",
+__all__ = ["named_where", "selected_faces", "CadPart", "CadZone", "ZONE_OPTIONS", "cad_part", "cad_zones", "face_list", "is_cad_target", "is_zones",
            "zone_options"]
 
 #: The options a zone of a CAD part may set for itself (the rest are the call's: one
@@ -152,6 +152,46 @@ def is_cad_target(target: Any) -> bool:
     except (ParameterError, TypeError, AttributeError):
         return False
     return True
+
+
+def named_where(target: Any, where: Any) -> Any:
+    """``where`` with each face selector given as text (``"top"``, ``"cylinder:all"``,
+    ``"solid:1/top+right"``: :mod:`texcad.brep.selectors`, the command line's
+    vocabulary) replaced by the faces it names on the CAD ``target``; zones' faces
+    too. Anything else (faces, a mesh's region) is returned as it is.
+
+    Raises:
+        ParameterError: a selector that names no face of the part.
+    """
+    scope = _named_scope(target) if isinstance(where, (str, list, tuple)) else None
+    if scope is None:
+        return where
+    from ..brep.selectors import faces_named
+
+    def faces(w: Any) -> Any:
+        return faces_named(scope, w) if isinstance(w, str) else w
+
+    if isinstance(where, str):
+        return faces(where)
+    if is_zones(where):
+        return [(faces(z[0]), *z[1:]) for z in where]
+    return [f for w in where for f in (faces(w) if isinstance(w, str) else [w])]
+
+
+def _named_scope(target: Any) -> Any:
+    """The build123d shape whose faces selectors name: the part (an earlier CAD
+    result's part), or None for a target that is not a CAD part."""
+    from .mesh import is_mesh_target
+
+    if is_mesh_target(target) or not is_cad_target(target):  # a mesh never loads OCCT
+        return None
+    stages = getattr(target, "stages", None)
+    topo = stages.placement.topo if isinstance(stages, Stages) else to_topods(target)
+    if topo is None:  # a textured mesh: its where is a region
+        return None
+    from build123d import Shape
+
+    return Shape.cast(topo)
 
 
 def selected_faces(where: Any) -> list:
