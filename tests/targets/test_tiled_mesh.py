@@ -103,8 +103,8 @@ def test_the_block_gate_catches_a_gap(monkeypatch):
     neighbours' and the gate says so."""
     made = tiled_mesh._displace
 
-    def shifted(plan, b, gid, pins):
-        r = made(plan, b, gid, pins)
+    def shifted(plan, b, gid, *rest):
+        r = made(plan, b, gid, *rest)
         if gid[gid >= 0].min() > 0:  # not the first block
             return replace(r, v=r.v + np.float32(1e-3))
         return r
@@ -189,10 +189,10 @@ def _on_untiled(flat, tx):
 
 def test_the_overhang_limiter_in_blocks_leaves_no_overhang_and_differs_only_next_to_borders(monkeypatch):
     """build_dir on a sphere (its lower half overhangs) in 7 blocks: each block limits
-    its own faces and the faces across its border (closed by a copy, as the limiter
-    tests ridges on a closed surface only), a point next to a border it lowers is
-    pinned for all blocks and the blocks whose pins changed made again until none
-    lowers one. The limiter run again on the blocks' result (the untiled mesh's
+    its own faces and the faces across its border (an open surface: ridges tested at
+    its edges of two faces), a point next to a border it lowers is pinned for all
+    blocks and the blocks whose pins changed made again (from where their limiters
+    left them) until none lowers one. The limiter run again on the blocks' result (the untiled mesh's
     vertices and offset directions) lowers nothing: no face overhangs or folds and no
     ridge is too flat, across the borders too. The displacements equal the untiled
     ones except in clusters the limiter lowered across a border (its rounds start
@@ -218,6 +218,33 @@ def test_the_overhang_limiter_in_blocks_leaves_no_overhang_and_differs_only_next
     assert cKDTree(r.v[border]).query(r.v[differ])[0].max() <= 6 * kw["pitch"]
     assert tx.gate.volume_change == pytest.approx(flat.gate.volume_change, rel=5e-3)
     assert abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack
+
+
+def test_the_limiter_on_an_open_block_is_the_limiter_on_it_closed_by_a_copy():
+    """A block's faces are an open surface: the limiter tests the ridges at its
+    edges of two faces and none at its border, and so lowers exactly what it lowers
+    on that surface closed by a copy of it (every face and its copy test alike, a
+    border edge lies in a face and its copy: one plane, no ridge), as the blocks did
+    before at twice the cost (and where no edge inside joins two border points: the copy
+    would put it in four faces). On the lower half of a sphere (overhanging) with
+    random displacements: steep ridges found, the same displacements to the bit."""
+    from texcad.printability.relief import limit_relief
+
+    s = trimesh.creation.icosphere(4, 10.0)
+    used, f = np.unique(s.faces[s.triangles_center[:, 2] < 0.0], return_inverse=True)
+    f = f.reshape(-1, 3)
+    v, n = np.asarray(s.vertices)[used], np.asarray(s.vertex_normals)[used]
+    d = np.random.default_rng(3).uniform(0.0, 0.8, len(v))
+    rim = np.zeros(len(v), dtype=bool)
+    rim[tiled_mesh.open_edges(f)[0].ravel()] = True
+    copy = np.flatnonzero(~rim)
+    to = np.arange(len(v))
+    to[copy] = len(v) + np.arange(len(copy))
+    opened, rep = limit_relief(v, f, n, d, build_dir=(0, 0, 1))
+    closed, _ = limit_relief(np.concatenate([v, v[copy]]), np.concatenate([f, to[f]]), np.concatenate([n, n[copy]]),
+                             np.concatenate([d, d[copy]]), build_dir=(0, 0, 1))
+    assert rep.steep_ridges > 0 and rep.lowered > 0
+    assert np.array_equal(opened, closed[:len(v)])
 
 
 def test_a_block_skipped_in_a_later_pass_is_numbered_as_when_made(monkeypatch):

@@ -31,9 +31,9 @@ is the untiled pitch grid (``tolerance=0``), made a block at a time:
   faces. With ``build_dir`` also on every face at a point of its border (from the
   halo, two rings of coarse faces deep there so that their points' normals are the
   untiled ones), since the limiter's ridge test needs the faces on both sides of an
-  edge; and as the limiter tests ridges on a closed surface only, those faces are
-  closed by a copy of them on copies of their inner points (a face and its copy test
-  alike; an open edge lies in a face and its copy, one plane: no ridge). Overhangs,
+  edge. Those faces are an open surface: the limiter tests the ridges at its edges
+  of two faces and none at its border (what it did on them closed by a copy, at
+  half the cost; tested). Overhangs,
   folds or ridges that stay inside a block are limited as on the whole mesh (the
   limiter's rounds only look at faces next to a change). Where a block lowers a
   point next to its border (its border points, and with ``build_dir`` the points of
@@ -45,7 +45,11 @@ is the untiled pitch grid (``tolerance=0``), made a block at a time:
   the second pass on a newly lowered one is pinned at 0, the undisplaced surface,
   where the limiter itself ends; at most :data:`MAX_PASSES`): both neighbours then
   move it alike, and every face, fold and ridge was tested by a block that had all
-  its points' final displacements.
+  its points' final displacements. A block made again starts from the points its
+  limiter lowered when it was last made (kept between passes, :data:`KEPT_BYTES`),
+  so it only limits what its changed pins changed; its limiter's result passes the
+  limiter's own tests, so made again with the same pins (for the writers) it gives
+  the same result.
 
 :class:`TiledMeshBlocks` is that mesh kept as a recipe: its blocks are made on demand
 for the gate (:func:`gate_mesh_blocks`: each block's open edges pair up across blocks,
@@ -63,12 +67,12 @@ pitches (``factor``, up to :data:`MAX_FACTOR`: ``(3 / factor)^2`` as many coarse
 faces, each tessellated into a finer grid), so what stays whole goes with the input
 mesh, not the pitch; the triangles then differ from the untiled ones (the same
 surface and relief volume to 0.1 %, tested; with ``build_dir`` the limiter's result
-on those other triangles differs more). With ``build_dir`` a block takes about three
-times the memory per triangle (:data:`LIMITED_BYTES`: two rings of halo, the
-limiter's faces doubled, its edge table), so its blocks are a third as large, and
-the blocks whose pins change are made again (the passes above): the overhang
-limiter costs more CPU in blocks than untiled, the more the more overhang crosses
-block borders.
+on those other triangles differs more). With ``build_dir`` a block takes about twice
+the memory per triangle (:data:`LIMITED_BYTES`: two rings of halo, the limiter's
+edge table), so its blocks are half as large, and the blocks whose pins change are
+made again (the passes above), from where they were: the more overhang crosses
+block borders, the more passes. Where ``max_memory`` is given the plan goes with it
+alone, not with what the machine has free (:func:`texcad.util.available_memory`).
 
 **Against the untiled mesh** (``tolerance=0``, coarse faces of 3 pitches): the same triangles on the same
 float32 vertices (tested on a sphere, a box with its bed face, with and without
@@ -110,7 +114,6 @@ import numpy as np
 
 from ..errors import GeometryError, ParameterError, ResourceError, TexcadWarning
 from ..printability.relief import limit_relief
-from ..solid import edge_slot_pairs
 from ..solid.subdivide import coarsen, edge_counts, face_normals, offset_directions, tessellate, vertex_normals
 from ..util import Progress, available_memory, finest_pitch, report, split_rows
 from .tiled import CountedTiles, _at, tiles_verdict
@@ -124,13 +127,15 @@ __all__ = ["MeshPlan", "FineBlock", "BlockRelief", "TiledMeshBlocks", "mesh_plan
 #: in one block): what a block's size is chosen by.
 BLOCK_BYTES = 500.0
 #: The same with ``build_dir``: two rings of halo, and the overhang limiter on the
-#: block's faces and those across its border, doubled (:func:`_closed`), with its
-#: edge table for the ridges (1460 measured as the growth of peak resident memory from
-#: blocks of 60 000 to 180 000 triangles, an icosphere of radius 40 mm at 0.35 mm; 310
-#: without ``build_dir`` in the same runs), with a margin: at 1600 one run of the
-#: address-space test peaked 77 MB over the process under a 70 MB bound (other block
-#: borders, other faces across them), at 2000 two peaked 43 and 44 MB.
-LIMITED_BYTES = 2000.0
+#: block's faces and those across its border, with its edge table for the ridges
+#: (818 measured as the growth of the peak resident memory, VmHWM, from blocks of
+#: 60 000 to 180 000 triangles, an icosphere of radius 40 mm at 0.35 mm; 290 without
+#: ``build_dir`` in the same runs), with a margin.
+LIMITED_BYTES = 1000.0
+#: Bytes per refined triangle of the whole job that the blocks' lowered points keep
+#: between passes (:attr:`BlockRelief.kept`: a key and a displacement, 16 bytes, a
+#: point; about half a point a triangle where the limiter lowers all of them).
+KEPT_BYTES = 8.0
 #: Peak bytes per coarse triangle of the whole job in blocks (434 measured as peak
 #: resident memory over the interpreter's on an icosphere of radius 60 mm at 0.2 mm:
 #: the bisection's peak, the coarse mesh kept after it, one block).
@@ -258,7 +263,8 @@ def mesh_plan(layers: tuple, v: np.ndarray, f: np.ndarray, tol: float, refined: 
     counts, keys = _counts(cv, cf, finest)
     lev = counts.max(axis=1)
     body = _bodies(cf, len(cv))
-    blocks = _blocks(cv, cf, lev * lev, _block_triangles(len(cf), pitch, BLOCK_BYTES if dirs is None else LIMITED_BYTES))
+    blocks = _blocks(cv, cf, lev * lev, _block_triangles(len(cf), pitch, BLOCK_BYTES if dirs is None else LIMITED_BYTES,
+                                                       int((lev * lev).sum())))
     reach = 3.0 * sum(float(layer.height) for layer in layers) + 0.01
     plan = MeshPlan(cv, cf, fn[ids], ids, counts, keys, body, blocks, layers, tol, cv[np.argmin(cv[:, 2])],
                     (), reach, float(fits), factor, dirs, float(crit))
@@ -294,19 +300,22 @@ def _coarse_factor(refined: int, faces: int, pitch: float) -> float:
     return float(factor)
 
 
-def _block_triangles(coarse: int, pitch: float, per: float = BLOCK_BYTES) -> int:
+def _block_triangles(coarse: int, pitch: float, per: float = BLOCK_BYTES, refined: int = 0) -> int:
     """Refined triangles per block that fit in what the coarse mesh (made, and held
     by this process already) leaves, beside the vertex numbers (16 bytes per coarse
-    triangle), at ``per`` bytes a triangle (:data:`BLOCK_BYTES`, :data:`LIMITED_BYTES`);
-    ResourceError naming a pitch where not even a small block fits. Rounded down to
-    ``2^k`` or ``1.5 2^k``: the blocks, and so the bytes where a fold or an overhang
-    crosses their borders, do not change with the few kilobytes the process holds
-    more or less from one run to the next."""
-    have = available_memory() / 1.25 - 16.0 * coarse
+    triangle) and the lowered points the blocks keep (:data:`KEPT_BYTES` per
+    ``refined`` triangle of the job), at ``per`` bytes a triangle
+    (:data:`BLOCK_BYTES`, :data:`LIMITED_BYTES`); ResourceError naming a pitch
+    where not even a small block fits. Rounded down to ``2^k`` or ``1.5 2^k``: the
+    blocks, and so the bytes where a fold or an overhang crosses their borders, do
+    not change with the few kilobytes the process holds more or less from one run
+    to the next."""
+    held = 16.0 * coarse + KEPT_BYTES * refined
+    have = available_memory() / 1.25 - held
     n = int(min(MAX_BLOCK, have / per))
     if n < 20_000:
-        p = finest_pitch(pitch, coarse * COARSE_BYTES, 20_000 * per)
-        need = 1.25 * (16.0 * coarse + 20_000 * per) / 2**20
+        p = finest_pitch(pitch, coarse * COARSE_BYTES + KEPT_BYTES * refined, 20_000 * per)
+        need = 1.25 * (held + 20_000 * per) / 2**20
         how = f"use a pitch of at least {p:.3g} mm or allow" if p < float("inf") else "allow at least"
         raise ResourceError(f"the mesh's coarse refinement ({coarse} triangles at a pitch of {pitch:.3g} mm) leaves no "
                             f"room for a block in the memory available; {how} {need:.0f} MB more memory (max_memory) "
@@ -551,7 +560,9 @@ class BlockRelief:
     at; ``moved``: the points (:func:`_keys`) next to the block's border it lowered
     and their displacements after it (mm); ``watch``: the points (sorted
     :func:`_keys`) whose pins the block's result depends on (the limiter's points
-    next to its border or off its own faces)."""
+    next to its border or off its own faces); ``kept``: ``(keys, d)`` the limiter's
+    points it lowered (sorted :func:`_keys`) and their displacements after it (mm),
+    what the block starts from when it is made again."""
 
     v: np.ndarray
     f: np.ndarray
@@ -564,6 +575,7 @@ class BlockRelief:
     moved: tuple
     d: np.ndarray
     watch: np.ndarray
+    kept: tuple
 
 
 def _relief(plan: MeshPlan, b: FineBlock, keep: np.ndarray, unit: np.ndarray) -> tuple[np.ndarray, tuple]:
@@ -587,11 +599,15 @@ def _relief(plan: MeshPlan, b: FineBlock, keep: np.ndarray, unit: np.ndarray) ->
     return d, tuple(masks)
 
 
-def _displace(plan: MeshPlan, b: FineBlock, gid: np.ndarray, pins: tuple) -> BlockRelief:
+def _displace(plan: MeshPlan, b: FineBlock, gid: np.ndarray, pins: tuple, kept: "tuple | None" = None) -> BlockRelief:
     """The block's vertices moved along their offset directions by the relief
     (module docstring), limited (:func:`_limit`) on the faces :func:`_zone` names;
     ``pins`` ``(keys, d)``: points (sorted :func:`_keys`) whose displacement a block's
-    limiter lowered, and to what (mm): they start from that here."""
+    limiter lowered, and to what (mm): they start from that here; ``kept``: the
+    block's own lowered points when it was last made (:attr:`BlockRelief.kept`): the
+    limiter starts from them where they are lower, so a block made again only
+    limits what its changed pins changed (and, the limiter's result passing its own
+    tests, made again with the same pins it gives the same result)."""
     unit = vertex_normals(b.v, b.f)
     dirs = offset_directions(b.v, b.f, unit)
     faces, seam = _zone(plan, b)
@@ -599,12 +615,17 @@ def _displace(plan: MeshPlan, b: FineBlock, gid: np.ndarray, pins: tuple) -> Blo
     used[b.f[faces].ravel()] = True
     d, mask = _relief(plan, b, used, unit)
     keys = _keys(plan, b)
-    if len(pins[0]):
-        at = np.minimum(np.searchsorted(pins[0], keys), len(pins[0]) - 1)
-        hit = used & (pins[0][at] == keys)
-        d[hit] = pins[1][at[hit]]
-    low, folded = _limit(plan, b, faces, dirs, d, used)
+    hit, at = _lookup(pins, keys, used)
+    d[hit] = pins[1][at[hit]]
+    start = d.copy()
+    if kept is not None:
+        hit, at = _lookup(kept, keys, used)
+        start[hit] = np.where(np.abs(kept[1][at[hit]]) < np.abs(d[hit]), kept[1][at[hit]], d[hit])
+    low = _limit(plan, b, faces, dirs, start, used)
+    folded = _folded(b.v, b.f[b.own], dirs, np.where(used, d, 0.0))
     changed = seam & (low != d)
+    lowered = used & (low != d)
+    order = np.argsort(keys[lowered])
     keep = gid >= 0
     local = np.full(len(b.v), -1, dtype=np.int64)
     local[keep] = np.arange(int(keep.sum()))
@@ -613,7 +634,17 @@ def _displace(plan: MeshPlan, b: FineBlock, gid: np.ndarray, pins: tuple) -> Blo
     off = dirs[keep] * low[keep][:, None]
     v32 = (v0 + off).astype(np.float32)
     return BlockRelief(v32, f, gid[keep], v0, off, plan.body[b.near][b.src][b.own], mask, folded,
-                       (keys[changed], low[changed]), low[keep], np.sort(keys[used & (seam | ~keep)]))
+                       (keys[changed], low[changed]), low[keep], np.sort(keys[used & (seam | ~keep)]),
+                       (keys[lowered][order], low[lowered][order]))
+
+
+def _lookup(table: tuple, keys: np.ndarray, where: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(hit, at)``: which of ``keys`` (among ``where``) are in ``table``'s sorted
+    keys ``table[0]``, and at which place."""
+    if not len(table[0]):
+        return np.zeros(len(keys), dtype=bool), np.zeros(len(keys), dtype=np.int64)
+    at = np.minimum(np.searchsorted(table[0], keys), len(table[0]) - 1)
+    return where & (table[0][at] == keys), at
 
 
 def _zone(plan: MeshPlan, b: FineBlock) -> tuple[np.ndarray, np.ndarray]:
@@ -622,9 +653,7 @@ def _zone(plan: MeshPlan, b: FineBlock) -> tuple[np.ndarray, np.ndarray]:
     Folds only: the block's own faces (a face's test needs its corners alone) and its
     border points. With build directions the ridges between a border face and the
     one across also count: the own faces and every face at a border point, and the
-    points of all those faces; and where an edge inside those faces joins two points
-    of their border (so that :func:`_closed` would put it in four faces), the faces
-    at its ends too (the halo's, limited here only to close the surface)."""
+    points of all those faces."""
     own = np.zeros(len(b.v), dtype=bool)
     own[b.f[b.own].ravel()] = True
     halo = np.zeros(len(b.v), dtype=bool)
@@ -635,68 +664,23 @@ def _zone(plan: MeshPlan, b: FineBlock) -> tuple[np.ndarray, np.ndarray]:
     touch = border[b.f].any(axis=1)
     seam = np.zeros(len(b.v), dtype=bool)
     seam[b.f[touch].ravel()] = True
-    faces = b.own | touch
-    for _ in range(4):  # per ring added where the closed copy would pinch (rare: a few points)
-        pinch = _pinches(b.f[faces], len(b.v))
-        if not pinch.any():
-            break
-        faces |= pinch[b.f].any(axis=1)
-    return faces, seam
-
-
-def _pinches(f: np.ndarray, nv: int) -> np.ndarray:
-    """``(nv,)`` bool: the ends of the edges of ``f`` in two of its faces whose ends
-    are both on its open edges."""
-    o, _ = open_edges(f)
-    rim = np.zeros(nv, dtype=bool)
-    rim[o.ravel()] = True
-    a, b = f.ravel(), f[:, [1, 2, 0]].ravel()
-    key = np.minimum(a, b) * np.int64(nv) + np.maximum(a, b)
-    inner = rim[a] & rim[b] & ~np.isin(key, np.minimum(o[:, 0], o[:, 1]) * np.int64(nv) + np.maximum(o[:, 0], o[:, 1]))
-    out = np.zeros(nv, dtype=bool)
-    out[a[inner]] = out[b[inner]] = True
-    return out
+    return b.own | touch, seam
 
 
 def _limit(plan: MeshPlan, b: FineBlock, faces: np.ndarray, dirs: np.ndarray, d: np.ndarray,
-           used: np.ndarray) -> tuple[np.ndarray, int]:
-    """``(d', folded)``: the displacements (mm) after
-    :func:`texcad.printability.limit_relief` on ``faces`` of the block (its points
-    ``used``; ``d`` elsewhere), and how many of the block's own faces folded over
-    before. Without build directions on those faces as they are; with, on them made
-    closed (:func:`_closed`), as the limiter tests ridges on a closed surface only."""
+           used: np.ndarray) -> np.ndarray:
+    """The displacements (mm) after :func:`texcad.printability.limit_relief` on
+    ``faces`` of the block (its points ``used``; ``d`` elsewhere). The faces are an
+    open surface: the limiter tests the ridges at the edges of two of them, not at
+    their border (where the faces across are another block's, or the halo's beyond
+    the faces at the border points)."""
     idx = np.flatnonzero(used)
     local = np.full(len(b.v), -1, dtype=np.int64)
     local[idx] = np.arange(len(idx))
-    f, v0, n, dd = local[b.f[faces]], b.v[idx], dirs[idx], d[idx]
     low = d.copy()
-    if plan.dirs is None:
-        low[idx], lim = limit_relief(v0, f, n, dd)
-        return low, int(lim.folded_faces)
-    ff, copy = _closed(f, len(idx))
-    low[idx] = limit_relief(np.concatenate([v0, v0[copy]]), ff, np.concatenate([n, n[copy]]),
-                            np.concatenate([dd, dd[copy]]), build_dir=plan.dirs, critical_angle=plan.crit)[0][:len(idx)]
-    return low, _folded(v0, local[b.f[b.own]], n, dd)
-
-
-def _closed(f: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(faces, copy)``: the open surface ``f`` (``nv`` points) and a copy of its faces
-    on copies of its points (``nv + k`` is point ``copy[k]``), the points on its open
-    edges shared: a closed surface on which every face and its copy test alike
-    (the same corners, the same displacements), each edge inside in two faces of one
-    side and each open edge in a face and its copy (no ridge: the two are one plane).
-    GeometryError where an inner edge joins two open-edge points (it would be in four
-    faces)."""
-    rim = np.zeros(nv, dtype=bool)
-    rim[open_edges(f)[0].ravel()] = True
-    copy = np.flatnonzero(~rim)
-    to = np.arange(nv)
-    to[copy] = nv + np.arange(len(copy))
-    ff = np.concatenate([f, to[f]])
-    if edge_slot_pairs(ff) is None:
-        raise GeometryError("a block's faces for the overhang limiter could not be closed (an edge inside joins two "
-                            "points of their border); please report this")
-    return ff, copy
+    low[idx] = limit_relief(b.v[idx], local[b.f[faces]], dirs[idx], d[idx], build_dir=plan.dirs,
+                            critical_angle=plan.crit)[0]
+    return low
 
 
 def _folded(v0: np.ndarray, f: np.ndarray, n: np.ndarray, d: np.ndarray) -> int:
@@ -726,13 +710,16 @@ class TiledMeshBlocks(CountedTiles):
         n = len(plan.blocks)
         none = (np.zeros(0, dtype=np.int64), np.zeros(0))
         rings = 1 if plan.dirs is None else 2
+        kept = self.__dict__.setdefault("kept", {})  # per block: its lowered points when last made
         for k, blk in enumerate(plan.blocks):  # per block; the pins as they stand (a pass may add some)
             if redo is not None and not redo(k):
                 numbering.skip(plan, blk)
                 yield None
                 continue
             b = fine_block(plan, blk, rings)
-            yield _displace(plan, b, numbering.ids(plan, b), self.__dict__.get("pins", none))
+            r = _displace(plan, b, numbering.ids(plan, b), self.__dict__.get("pins", none), kept.get(k))
+            kept[k] = r.kept
+            yield r
             del b
             report(progress, (k + 1) / n, f"block {k + 1}/{n}")
 
