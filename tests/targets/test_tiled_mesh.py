@@ -389,7 +389,7 @@ def test_blocks_go_with_max_memory_not_with_what_the_machine_has_free(monkeypatc
     part = trimesh.creation.icosphere(3, 20.0)
     plans = []
     for k, free in enumerate((1 << 40, 16 << 20)):  # per machine
-        bound = _rss() + (80 << 20)  # what the process holds counts: about 28 000 triangles a block (24 576 then)
+        bound = _rss() + (76 << 20)  # what the process holds counts: about 55 000 triangles a block (49 152 then)
         with monkeypatch.context() as m:
             m.setattr(mesh_target, "untiled_bytes", lambda triangles: 1e18)
             m.setattr(resources, "_meminfo_available", lambda: free)
