@@ -103,9 +103,9 @@ def test_the_block_gate_catches_a_gap(monkeypatch):
     neighbours' and the gate says so."""
     made = tiled_mesh._displace
 
-    def shifted(plan, b, gid, *rest):
-        r = made(plan, b, gid, *rest)
-        if gid[gid >= 0].min() > 0:  # not the first block
+    def shifted(plan, b, *rest):
+        r = made(plan, b, *rest)
+        if not np.array_equal(np.unique(b.near[b.src[b.own]]), plan.blocks[0]):  # not the first block
             return replace(r, v=r.v + np.float32(1e-3))
         return r
 
@@ -281,7 +281,7 @@ def test_folds_across_block_borders_are_limited_alike_on_both_sides(monkeypatch)
     """An engraved texture folds along a box's edges, across block borders: each
     block limits its own faces, a border vertex it lowers is pinned for all blocks and
     the blocks made again until they agree. The mesh is closed with each border
-    vertex once, and differs from the untiled one only at a few vertices round the
+    vertex once, and differs from the untiled one at most at a few vertices round the
     pinned ones (the fold limiter's rounds start there from the pinned depth)."""
     kw = dict(KW, pitch=0.5, mode="engraved", projection="planar:+x")
     with pytest.warns(texcad.TexcadWarning, match="fold over"):
@@ -293,7 +293,7 @@ def test_folds_across_block_borders_are_limited_alike_on_both_sides(monkeypatch)
     assert whole.is_watertight and len(np.unique(whole.vertices, axis=0)) == len(whole.vertices) == len(flat.mesh.vertices)
     ours = {bytes(x) for x in whole.vertices}
     differ = len(ours - {bytes(x) for x in np.asarray(flat.mesh.vertices, np.float32)})
-    assert 0 < differ <= 0.01 * len(whole.vertices)
+    assert differ <= 0.01 * len(whole.vertices)
     assert whole.volume == pytest.approx(flat.mesh.volume, rel=1e-3)
     assert abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack
 
@@ -420,3 +420,23 @@ def test_the_cli_makes_a_mesh_in_blocks(tmp_path, monkeypatch, capsys):
     stl, tmf = read_mesh(tmp_path / "t.stl"), read_mesh(tmp_path / "t.3mf")  # the 3MF's vertices in decimals
     assert len(tmf.faces) == len(stl.faces) == tris and len(tmf.vertices) == len(stl.vertices)
     assert np.abs(np.sort(tmf.vertices, axis=0) - np.sort(stl.vertices, axis=0)).max() < 1e-4  # 4 decimals
+
+
+def test_blocks_on_a_local_dask_cluster_give_the_bytes_made_here(monkeypatch, tmp_path):
+    """build_dir on a sphere in blocks (pins across borders, several passes) made on a
+    local Dask cluster of two worker processes: the same STL bytes as made in this
+    process (the blocks of one colour are made from the same pins, wherever)."""
+    distributed = pytest.importorskip("distributed")
+    part = trimesh.creation.icosphere(3, 10.0)
+    kw = dict(KW, pitch=0.5, build_dir=(0, 0, 1))
+    here = _blocks(monkeypatch, part, "all", 3000, **kw)
+    here.export(tmp_path / "here.stl")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=50) as cluster, distributed.Client(cluster) as client:
+        with tiled_mesh.blocks_on(client):
+            there = _blocks(monkeypatch, part, "all", 3000, **kw)
+        assert there.mesh.client is client and len(client.scheduler_info()["workers"]) == 2
+        there.export(tmp_path / "there.stl")
+    assert here.mesh.__dict__["passes"] > 1 and len(here.mesh.__dict__["pins"][0]) > 0 and here.info["blocks"] >= 5
+    assert there.mesh.__dict__["passes"] == here.mesh.__dict__["passes"]
+    assert (tmp_path / "there.stl").read_bytes() == (tmp_path / "here.stl").read_bytes()

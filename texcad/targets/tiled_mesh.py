@@ -38,8 +38,10 @@ is the untiled pitch grid (``tolerance=0``), made a block at a time:
   limiter's rounds only look at faces next to a change). Where a block lowers a
   point next to its border (its border points, and with ``build_dir`` the points of
   the faces at them, on both sides), that point is *pinned* at the least
-  displacement any block gave it and the blocks made after start from it (in the
-  same pass too); the blocks whose pinned points changed since they were made are
+  displacement any block gave it and the blocks of the next pass start from it
+  (every block of a pass from the pins as they stood at its start: the blocks of a
+  pass can be made in any order, on a Dask cluster too, with the same bytes); the
+  blocks whose pinned points changed since they were made are
   made again (the others keep their share of the gate's tally, and only take their
   vertex numbers from their coarse faces), until no block lowers such a point (from
   the second pass on a newly lowered one is pinned at 0, the undisplaced surface,
@@ -50,6 +52,12 @@ is the untiled pitch grid (``tolerance=0``), made a block at a time:
   so it only limits what its changed pins changed; its limiter's result passes the
   limiter's own tests, so made again with the same pins (for the writers) it gives
   the same result.
+
+**On a Dask cluster** (:func:`blocks_on`): each pass's blocks of one colour
+(:func:`_colours`: no two share a coarse vertex) are made from the same pins, in any
+order, so the cluster's workers make them (:func:`_make`, the plan and pins sent
+once per colour) with the bytes this process makes (tested on two workers); the
+colours go one after the other, each from the pins the ones before left.
 
 :class:`TiledMeshBlocks` is that mesh kept as a recipe: its blocks are made on demand
 for the gate (:func:`gate_mesh_blocks`: each block's open edges pair up across blocks,
@@ -105,6 +113,8 @@ the whole mesh) are refused; ``base_mesh`` is the input.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import warnings
 from dataclasses import dataclass, replace
@@ -116,11 +126,30 @@ from ..errors import GeometryError, ParameterError, ResourceError, TexcadWarning
 from ..printability.relief import limit_relief
 from ..solid.subdivide import coarsen, edge_counts, face_normals, offset_directions, tessellate, vertex_normals
 from ..util import Progress, available_memory, finest_pitch, report, split_rows
-from .tiled import CountedTiles, _at, tiles_verdict
+from .tiled import CountedTiles, _at, _connect, tiles_verdict
 from .tiled_faces import open_edges
 
 __all__ = ["MeshPlan", "FineBlock", "BlockRelief", "TiledMeshBlocks", "mesh_plan", "fine_block", "gate_mesh_blocks",
-           "BLOCK_BYTES", "LIMITED_BYTES", "COARSE_BYTES", "MAX_FACTOR"]
+           "blocks_on", "BLOCK_BYTES", "LIMITED_BYTES", "KEPT_BYTES", "COARSE_BYTES", "MAX_FACTOR"]
+
+#: The Dask client the meshes made in blocks make their blocks on (:func:`blocks_on`).
+_CLIENT: "contextvars.ContextVar[Any]" = contextvars.ContextVar("texcad_mesh_blocks_client", default=None)
+
+
+@contextlib.contextmanager
+def blocks_on(client: Any):
+    """Within the block, a mesh that :func:`texcad.texture` makes in blocks makes them
+    on the Dask cluster of ``client`` (a ``dask.distributed.Client``, or a scheduler
+    address ``"tcp://HOST:PORT"``: connected here, ResourceError if it cannot be
+    reached within 5 s), for its gate and, later, its writers (keep the client open
+    until the mesh is written). The blocks of a pass are made from the same pins, so
+    the bytes are those made in one process, whatever the workers. None: here."""
+    own = isinstance(client, str)
+    token = _CLIENT.set(_connect(client) if own else client)
+    try:
+        yield _CLIENT.get()
+    finally:
+        _CLIENT.reset(token)
 
 #: Peak bytes per refined triangle of one block (tessellation, normals, relief and the
 #: emitted float32 block; about 450 measured on an icosphere of radius 40 mm at 0.25 mm
@@ -491,20 +520,24 @@ class _Numbering:
     def ids(self, plan: MeshPlan, b: FineBlock) -> np.ndarray:
         """``(P,)`` the global number of each vertex of the block's own faces, -1
         for the halo's other vertices."""
+        return self.number(plan, b.used, b.classes, _owned(b))
+
+    def number(self, plan: MeshPlan, used: np.ndarray, c: dict, ref: np.ndarray) -> np.ndarray:
+        """:meth:`ids` from what it reads of the fine block: its coarse vertices
+        ``used``, where its points lie ``c`` (:attr:`FineBlock.classes`) and the
+        vertices of its own faces ``ref``."""
         self.start = self.next
-        ref = _owned(b)
-        gid = np.full(len(b.v), -1, dtype=np.int64)
-        nl = len(b.used)
+        gid = np.full(len(ref), -1, dtype=np.int64)
+        nl = len(used)
         cv = np.flatnonzero(ref[:nl])
-        g = b.used[cv]
+        g = used[cv]
         fresh = self.coarse[g] < 0
         self.coarse[g[fresh]] = self._take(int(fresh.sum()))
         gid[cv] = self.coarse[g]
-        c = b.classes
         if len(c.get("t", ())):
             ep = nl + np.arange(len(c["t"]))
             le = c["edge_point"]
-            ge, pos = _edge_points(plan, b)
+            ge, pos = _edge_points(plan, used, c)
             hit = ref[ep]
             e_hit = np.unique(le[hit])
             fresh_e = e_hit[self.edge[ge[e_hit]] < 0]
@@ -512,21 +545,21 @@ class _Numbering:
             first = self._take(int(runs.sum()))
             self.edge[ge[fresh_e]] = first[np.concatenate([[0], np.cumsum(runs)[:-1]]).astype(np.int64)] if len(runs) else first
             gid[ep[hit]] = self.edge[ge[le[hit]]] + pos[hit] - 1
-            inner = np.arange(nl + len(c["t"]), len(b.v))
+            inner = np.arange(nl + len(c["t"]), len(ref))
         else:
-            inner = np.arange(nl, len(b.v))
+            inner = np.arange(nl, len(ref))
         hit = inner[ref[inner]]
         gid[hit] = self._take(len(hit))
         return gid
 
 
-def _edge_points(plan: MeshPlan, b: FineBlock) -> tuple[np.ndarray, np.ndarray]:
-    """The block's cut edges as numbers into ``plan.keys`` and each edge point's
-    place on its edge (1 .. count - 1 from the edge's smaller coarse vertex)."""
-    c = b.classes
-    nvl = np.int64(max(len(b.used), 1))
+def _edge_points(plan: MeshPlan, used: np.ndarray, c: dict) -> tuple[np.ndarray, np.ndarray]:
+    """A fine block's cut edges (its coarse vertices ``used``, its points' classes
+    ``c``) as numbers into ``plan.keys`` and each edge point's place on its edge
+    (1 .. count - 1 from the edge's smaller coarse vertex)."""
+    nvl = np.int64(max(len(used), 1))
     uk = c["edge_key"]
-    ge = np.searchsorted(plan.keys, b.used[uk // nvl] * np.int64(len(plan.v)) + b.used[uk % nvl])
+    ge = np.searchsorted(plan.keys, used[uk // nvl] * np.int64(len(plan.v)) + used[uk % nvl])
     return ge, np.rint(c["t"] * c["edge_count"][c["edge_point"]]).astype(np.int64)
 
 
@@ -540,7 +573,7 @@ def _keys(plan: MeshPlan, b: FineBlock) -> np.ndarray:
     out[:nl] = b.used
     ne = len(c.get("t", ()))
     if ne:
-        ge, pos = _edge_points(plan, b)
+        ge, pos = _edge_points(plan, b.used, c)
         out[nl:nl + ne] = nv + ge[c["edge_point"]] * n + pos
     face, w = b.near[c["inner_face"]], c["inner_w"]
     lev = plan.counts[face].max(axis=1)
@@ -599,11 +632,12 @@ def _relief(plan: MeshPlan, b: FineBlock, keep: np.ndarray, unit: np.ndarray) ->
     return d, tuple(masks)
 
 
-def _displace(plan: MeshPlan, b: FineBlock, gid: np.ndarray, pins: tuple, kept: "tuple | None" = None) -> BlockRelief:
+def _displace(plan: MeshPlan, b: FineBlock, pins: tuple, kept: "tuple | None" = None) -> BlockRelief:
     """The block's vertices moved along their offset directions by the relief
     (module docstring), limited (:func:`_limit`) on the faces :func:`_zone` names;
     ``pins`` ``(keys, d)``: points (sorted :func:`_keys`) whose displacement a block's
-    limiter lowered, and to what (mm): they start from that here; ``kept``: the
+    limiter lowered, and to what (mm): they start from that here (``ids`` is left
+    to the caller: the numbers go block after block, :class:`_Numbering`); ``kept``: the
     block's own lowered points when it was last made (:attr:`BlockRelief.kept`): the
     limiter starts from them where they are lower, so a block made again only
     limits what its changed pins changed (and, the limiter's result passing its own
@@ -626,14 +660,14 @@ def _displace(plan: MeshPlan, b: FineBlock, gid: np.ndarray, pins: tuple, kept: 
     changed = seam & (low != d)
     lowered = used & (low != d)
     order = np.argsort(keys[lowered])
-    keep = gid >= 0
+    keep = _owned(b)
     local = np.full(len(b.v), -1, dtype=np.int64)
     local[keep] = np.arange(int(keep.sum()))
     f = local[b.f[b.own]]
     v0 = b.v[keep]
     off = dirs[keep] * low[keep][:, None]
     v32 = (v0 + off).astype(np.float32)
-    return BlockRelief(v32, f, gid[keep], v0, off, plan.body[b.near][b.src][b.own], mask, folded,
+    return BlockRelief(v32, f, None, v0, off, plan.body[b.near][b.src][b.own], mask, folded,
                        (keys[changed], low[changed]), low[keep], np.sort(keys[used & (seam | ~keep)]),
                        (keys[lowered][order], low[lowered][order]))
 
@@ -693,34 +727,70 @@ def _folded(v0: np.ndarray, f: np.ndarray, n: np.ndarray, d: np.ndarray) -> int:
     return int(np.sum((a * a0).sum(axis=1) <= 0.0))
 
 
+def _make(plan: MeshPlan, k: int, pins: tuple, kept: "tuple | None") -> tuple:
+    """Block ``k`` refined and displaced (:func:`_displace`), and what its numbers are
+    made from (:meth:`_Numbering.number`): ``(BlockRelief, used, classes, ref)``.
+    Plain data in and out: a Dask worker makes it as this process does."""
+    b = fine_block(plan, plan.blocks[k], 1 if plan.dirs is None else 2)
+    r = _displace(plan, b, pins, kept)
+    c = {key: b.classes[key] for key in ("t", "edge_point", "edge_key", "edge_count") if key in b.classes}
+    return r, b.used, c, _owned(b)
+
+
+def _made(client: Any, plan: MeshPlan, todo: list, pins: tuple, kept: dict) -> Any:
+    """``(k, _make(...))`` for the blocks ``todo``, in order: made here, or on the
+    cluster's workers (the plan and pins sent once, at most two blocks per worker in
+    flight, a task retried once)."""
+    if client is None:
+        for k in todo:  # per block
+            yield k, _make(plan, k, pins, kept.get(k))
+        return
+    from collections import deque
+
+    ahead = 2 * max(1, len(client.scheduler_info().get("workers", {})))
+    [p, q] = client.scatter([plan, pins], broadcast=True, hash=False)  # new keys: a key being released would hang
+    pending: deque = deque()
+    for k in todo:  # per block: keep `ahead` in flight, hand them over in order
+        pending.append((k, client.submit(_make, p, k, q, kept.get(k), pure=False, retries=1)))
+        if len(pending) >= ahead:
+            k0, fut = pending.popleft()
+            yield k0, fut.result()
+            fut.release()
+    while pending:
+        k0, fut = pending.popleft()
+        yield k0, fut.result()
+        fut.release()
+
+
 class TiledMeshBlocks(CountedTiles):
     """A textured mesh kept as the recipe of its blocks (:class:`MeshPlan`, mm).
     Blocks are made on demand (:meth:`blocks`), gated (:func:`gate_mesh_blocks`) and
     written (:meth:`write`, streamed) one at a time."""
 
     def __init__(self, plan: MeshPlan, progress: Progress = None) -> None:
-        self.plan, self.progress, self.client, self.thickness = plan, progress, None, 0.0
+        self.plan, self.progress, self.client, self.thickness = plan, progress, _CLIENT.get(), 0.0
         self.grid = None
 
     def displaced(self, progress: Progress = None, redo: Any = None) -> Any:
-        """:class:`BlockRelief` per block, in order; with ``redo`` (block number ->
-        bool) None for the blocks it says need not be made again (only numbered)."""
+        """:class:`BlockRelief` per block, in order, made here or on the Dask
+        cluster of ``client`` (:func:`_make`: the same bytes), each from the pins as
+        they stand when called; with ``redo`` (block number -> bool) None for the
+        blocks it says need not be made again (only numbered)."""
         plan = self.plan
         numbering = _Numbering(plan)
         n = len(plan.blocks)
-        none = (np.zeros(0, dtype=np.int64), np.zeros(0))
-        rings = 1 if plan.dirs is None else 2
+        todo = [k for k in range(n) if redo is None or redo(k)]
         kept = self.__dict__.setdefault("kept", {})  # per block: its lowered points when last made
-        for k, blk in enumerate(plan.blocks):  # per block; the pins as they stand (a pass may add some)
-            if redo is not None and not redo(k):
+        made = _made(self.client, plan, todo, self.__dict__.get("pins", (np.zeros(0, dtype=np.int64), np.zeros(0))), kept)
+        todo = set(todo)
+        for k, blk in enumerate(plan.blocks):  # per block, in order: the numbers go on from the last block's
+            if k not in todo:
                 numbering.skip(plan, blk)
                 yield None
                 continue
-            b = fine_block(plan, blk, rings)
-            r = _displace(plan, b, numbering.ids(plan, b), self.__dict__.get("pins", none), kept.get(k))
+            r, used, classes, ref = next(made)[1]
             kept[k] = r.kept
-            yield r
-            del b
+            yield replace(r, ids=numbering.number(plan, used, classes, ref)[ref])
             report(progress, (k + 1) / n, f"block {k + 1}/{n}")
 
     def blocks(self, progress: Progress = None) -> Any:
@@ -820,8 +890,9 @@ def _most(a: "tuple | None", b: "tuple | None") -> "tuple | None":
 
 def _tally(mesh: "TiledMeshBlocks") -> _Tally:
     """Passes over the blocks; where a block's limiter lowered a point next to its
-    border (:func:`_zone`), that point is pinned at its least displacement (every
-    block made after starts from that, in this pass too), and the blocks whose
+    border (:func:`_zone`), that point is pinned at its least displacement after the
+    pass (every block of a pass starts from the pins as they stood at its start, so
+    the blocks of a pass can be made in any order and anywhere), and the blocks whose
     watched points' pins changed since they were made are made again, until no
     limiter lowers such a point (from the second pass on, a point it lowers is pinned
     at 0, where the limiter leaves it). A block made again with the pins it was made
@@ -832,22 +903,45 @@ def _tally(mesh: "TiledMeshBlocks") -> _Tally:
     shares: list = [None] * len(plan.blocks)  # per block: (its tally, the points it watches, the clock when made)
     clock = _Clock()
     redo = lambda k: shares[k] is None or clock.changed(shares[k][1], shares[k][2])  # noqa: E731
+    colour = _colours(plan)
     for k in range(MAX_PASSES):  # per pass: pins only grow and go down
-        moved = 0
-        for j, r in enumerate(mesh.displaced(mesh.progress, redo)):  # per block: its pins count at once
-            if r is None:
-                continue
-            t = _Tally(np.zeros(nb), np.zeros(nb), [], [], [], [])
-            t.add(r, o)
-            shares[j] = (t, r.watch, clock.now)
-            if len(r.moved[0]):
-                moved += len(r.moved[0])
-                mesh.__dict__["pins"] = clock.pin(mesh.__dict__.get("pins"), r.moved, zero=k >= 1)
-        if not moved:
+        settled = True
+        for c in range(int(colour.max()) + 1):  # per colour: its blocks from the pins as they stand
+            moved = []
+            for j, r in enumerate(mesh.displaced(mesh.progress, lambda b: colour[b] == c and redo(b))):  # noqa: B023
+                if r is None:
+                    continue
+                t = _Tally(np.zeros(nb), np.zeros(nb), [], [], [], [])
+                t.add(r, o)
+                shares[j] = (t, r.watch, clock.now)
+                if len(r.moved[0]):
+                    moved.append(r.moved)
+            if moved:
+                settled = False
+                mesh.__dict__["pins"] = clock.pin(mesh.__dict__.get("pins"), moved, zero=k >= 1)
+        if settled:
             mesh.__dict__["passes"] = k + 1
             return _Tally.merged([sh[0] for sh in shares])
     raise GeometryError(f"the texture folds over or overhangs across block borders, and pinning them did not settle it; "
                         f"use a smaller height or a pitch of at least {plan.fits:.3g} mm (made whole)")
+
+
+def _colours(plan: MeshPlan) -> np.ndarray:
+    """``(B,)`` a colour per block, no two blocks that share a coarse vertex (whose
+    limiters' points can meet) of one colour: greedy, in block order. The blocks of
+    one colour are made from the same pins (in any order, on a cluster too), the
+    colours one after the other, each from the pins the ones before left."""
+    from scipy.sparse import coo_matrix
+
+    rows = np.concatenate([np.full(3 * len(b), k) for k, b in enumerate(plan.blocks)])
+    cols = np.concatenate([plan.f[b].ravel() for b in plan.blocks])
+    inc = coo_matrix((np.ones(len(rows), dtype=np.int32), (rows, cols)), shape=(len(plan.blocks), len(plan.v))).tocsr()
+    touch = (inc @ inc.T).tolil().rows
+    out = np.full(len(plan.blocks), -1, dtype=np.int64)
+    for k in range(len(plan.blocks)):  # per block: the least colour none of its earlier neighbours has
+        taken = set(out[touch[k]].tolist())
+        out[k] = next(c for c in range(len(plan.blocks) + 1) if c not in taken)
+    return out
 
 
 class _Clock:
@@ -859,9 +953,9 @@ class _Clock:
         self.keys = np.zeros(0, dtype=np.int64)
         self.when = np.zeros(0, dtype=np.int64)
 
-    def pin(self, pins: "tuple | None", moved: tuple, zero: bool) -> tuple:
+    def pin(self, pins: "tuple | None", moved: list, zero: bool) -> tuple:
         """:func:`_pinned`, noting the pins that are new or lower now."""
-        new = _pinned(pins, [moved], zero)
+        new = _pinned(pins, moved, zero)
         old = pins if pins is not None else (np.zeros(0, dtype=np.int64), np.zeros(0))
         at = np.minimum(np.searchsorted(old[0], new[0]), max(len(old[0]) - 1, 0))
         same = (old[0][at] == new[0]) & (old[1][at] == new[1]) if len(old[0]) else np.zeros(len(new[0]), dtype=bool)
