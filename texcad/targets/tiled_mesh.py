@@ -496,11 +496,11 @@ class _Numbering:
         self.next += n
         return out
 
-    def skip(self, plan: MeshPlan, block: np.ndarray) -> None:
+    def skip(self, plan: MeshPlan, block: np.ndarray) -> int:
         """The numbers block ``block`` takes (as :meth:`ids` gives them), from its
         coarse faces alone: its coarse vertices, the points of its edges cut into 2 or
         more (in the order of their keys) and ``(N - 1)(N - 2) / 2`` inner points of
-        each face of grid level ``N``."""
+        each face of grid level ``N``. Returns the first of its inner points'."""
         self.start = self.next
         g = np.unique(plan.f[block])
         fresh = g[self.coarse[g] < 0]
@@ -515,7 +515,17 @@ class _Numbering:
         ids = self._take(int(runs[new].sum()))
         self.edge[ge[new]] = ids[np.concatenate([[0], np.cumsum(runs[new])[:-1]]).astype(np.int64)] if new.any() else ids
         lev = cnt.max(axis=1)
+        first = self.next
         self._take(int(((lev - 1) * (lev - 2) // 2).sum()))
+        return first
+
+    @staticmethod
+    def whole(plan: MeshPlan) -> "tuple[_Numbering, np.ndarray]":
+        """Every block numbered (:meth:`skip`) and the first number of each block's
+        inner points: :meth:`number` from there gives a block its numbers in any
+        order (every coarse vertex and edge has its number already)."""
+        out = _Numbering(plan)
+        return out, np.array([out.skip(plan, blk) for blk in plan.blocks], dtype=np.int64)
 
     def ids(self, plan: MeshPlan, b: FineBlock) -> np.ndarray:
         """``(P,)`` the global number of each vertex of the block's own faces, -1
@@ -777,19 +787,21 @@ class TiledMeshBlocks(CountedTiles):
         they stand when called; with ``redo`` (block number -> bool) None for the
         blocks it says need not be made again (only numbered)."""
         plan = self.plan
-        numbering = _Numbering(plan)
+        if "numbers" not in self.__dict__:
+            self.__dict__["numbers"] = _Numbering.whole(plan)
+        numbering, firsts = self.__dict__["numbers"]
         n = len(plan.blocks)
         todo = [k for k in range(n) if redo is None or redo(k)]
         kept = self.__dict__.setdefault("kept", {})  # per block: its lowered points when last made
         made = _made(self.client, plan, todo, self.__dict__.get("pins", (np.zeros(0, dtype=np.int64), np.zeros(0))), kept)
         todo = set(todo)
-        for k, blk in enumerate(plan.blocks):  # per block, in order: the numbers go on from the last block's
+        for k in range(n):  # per block, in order
             if k not in todo:
-                numbering.skip(plan, blk)
                 yield None
                 continue
             r, used, classes, ref = next(made)[1]
             kept[k] = r.kept
+            numbering.next = int(firsts[k])
             yield replace(r, ids=numbering.number(plan, used, classes, ref)[ref])
             report(progress, (k + 1) / n, f"block {k + 1}/{n}")
 
