@@ -103,9 +103,9 @@ def test_the_block_gate_catches_a_gap(monkeypatch):
     neighbours' and the gate says so."""
     made = tiled_mesh._displace
 
-    def shifted(plan, b, gid, pins):
-        r = made(plan, b, gid, pins)
-        if gid[gid >= 0].min() > 0:  # not the first block
+    def shifted(plan, b, *rest):
+        r = made(plan, b, *rest)
+        if not np.array_equal(np.unique(b.near[b.src[b.own]]), plan.blocks[0]):  # not the first block
             return replace(r, v=r.v + np.float32(1e-3))
         return r
 
@@ -189,10 +189,10 @@ def _on_untiled(flat, tx):
 
 def test_the_overhang_limiter_in_blocks_leaves_no_overhang_and_differs_only_next_to_borders(monkeypatch):
     """build_dir on a sphere (its lower half overhangs) in 7 blocks: each block limits
-    its own faces and the faces across its border (closed by a copy, as the limiter
-    tests ridges on a closed surface only), a point next to a border it lowers is
-    pinned for all blocks and the blocks whose pins changed made again until none
-    lowers one. The limiter run again on the blocks' result (the untiled mesh's
+    its own faces and the faces across its border (an open surface: ridges tested at
+    its edges of two faces), a point next to a border it lowers is pinned for all
+    blocks and the blocks whose pins changed made again (from where their limiters
+    left them) until none lowers one. The limiter run again on the blocks' result (the untiled mesh's
     vertices and offset directions) lowers nothing: no face overhangs or folds and no
     ridge is too flat, across the borders too. The displacements equal the untiled
     ones except in clusters the limiter lowered across a border (its rounds start
@@ -218,6 +218,33 @@ def test_the_overhang_limiter_in_blocks_leaves_no_overhang_and_differs_only_next
     assert cKDTree(r.v[border]).query(r.v[differ])[0].max() <= 6 * kw["pitch"]
     assert tx.gate.volume_change == pytest.approx(flat.gate.volume_change, rel=5e-3)
     assert abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack
+
+
+def test_the_limiter_on_an_open_block_is_the_limiter_on_it_closed_by_a_copy():
+    """A block's faces are an open surface: the limiter tests the ridges at its
+    edges of two faces and none at its border, and so lowers exactly what it lowers
+    on that surface closed by a copy of it (every face and its copy test alike, a
+    border edge lies in a face and its copy: one plane, no ridge), as the blocks did
+    before at twice the cost (and where no edge inside joins two border points: the copy
+    would put it in four faces). On the lower half of a sphere (overhanging) with
+    random displacements: steep ridges found, the same displacements to the bit."""
+    from texcad.printability.relief import limit_relief
+
+    s = trimesh.creation.icosphere(4, 10.0)
+    used, f = np.unique(s.faces[s.triangles_center[:, 2] < 0.0], return_inverse=True)
+    f = f.reshape(-1, 3)
+    v, n = np.asarray(s.vertices)[used], np.asarray(s.vertex_normals)[used]
+    d = np.random.default_rng(3).uniform(0.0, 0.8, len(v))
+    rim = np.zeros(len(v), dtype=bool)
+    rim[tiled_mesh.open_edges(f)[0].ravel()] = True
+    copy = np.flatnonzero(~rim)
+    to = np.arange(len(v))
+    to[copy] = len(v) + np.arange(len(copy))
+    opened, rep = limit_relief(v, f, n, d, build_dir=(0, 0, 1))
+    closed, _ = limit_relief(np.concatenate([v, v[copy]]), np.concatenate([f, to[f]]), np.concatenate([n, n[copy]]),
+                             np.concatenate([d, d[copy]]), build_dir=(0, 0, 1))
+    assert rep.steep_ridges > 0 and rep.lowered > 0
+    assert np.array_equal(opened, closed[:len(v)])
 
 
 def test_a_block_skipped_in_a_later_pass_is_numbered_as_when_made(monkeypatch):
@@ -254,7 +281,7 @@ def test_folds_across_block_borders_are_limited_alike_on_both_sides(monkeypatch)
     """An engraved texture folds along a box's edges, across block borders: each
     block limits its own faces, a border vertex it lowers is pinned for all blocks and
     the blocks made again until they agree. The mesh is closed with each border
-    vertex once, and differs from the untiled one only at a few vertices round the
+    vertex once, and differs from the untiled one at most at a few vertices round the
     pinned ones (the fold limiter's rounds start there from the pinned depth)."""
     kw = dict(KW, pitch=0.5, mode="engraved", projection="planar:+x")
     with pytest.warns(texcad.TexcadWarning, match="fold over"):
@@ -266,7 +293,7 @@ def test_folds_across_block_borders_are_limited_alike_on_both_sides(monkeypatch)
     assert whole.is_watertight and len(np.unique(whole.vertices, axis=0)) == len(whole.vertices) == len(flat.mesh.vertices)
     ours = {bytes(x) for x in whole.vertices}
     differ = len(ours - {bytes(x) for x in np.asarray(flat.mesh.vertices, np.float32)})
-    assert 0 < differ <= 0.01 * len(whole.vertices)
+    assert differ <= 0.01 * len(whole.vertices)
     assert whole.volume == pytest.approx(flat.mesh.volume, rel=1e-3)
     assert abs(tx.gate.volume_change - tx.gate.expected_volume) <= tx.gate.volume_slack
 
@@ -317,27 +344,28 @@ def test_a_mesh_that_does_not_fit_untiled_is_made_in_blocks_under_an_address_spa
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="the bound does not hold in every run: in two full-suite runs (pytest -n 2) it "
-                   "planned 12 blocks of coarse faces of 4 pitches and peaked at 445 and 1886 MB over a 70 MB bound; run "
-                   "alone or in its file it peaks at 36-47 MB; cause not found (issue 30, closing note)")
 def test_build_dir_in_blocks_under_an_address_space_limit(tmp_path):
     """build_dir on a sphere of radius 25 mm at 0.3 mm (296 K triangles; by the
     estimate more than the bound untiled) under max_memory 70 MB over what the
-    process holds and an address-space limit of 400 MB over its size: blocks sized by
-    LIMITED_BYTES, limited across their borders, gated, streamed to an STL, the peak
-    resident memory over the process within 1.25 times the bound: run alone, 17
-    blocks of coarse faces of 3 pitches peak at 40 MB; run after this file's other
-    tests (in a fresh process all the same, not understood yet) the memory available
-    gives coarse faces of 4 pitches and 12 blocks, peaking at 77 MB."""
+    process holds and an address-space limit of 400 MB over its size, on a machine
+    that has (the child is told) only 16 MB free: the blocks are sized from the bound
+    (LIMITED_BYTES a triangle), not from what the machine has free, limited across
+    their borders, gated, streamed to an STL, the peak resident memory over the
+    process within 1.25 times the bound. The peak is the child's own high-water mark
+    (VmHWM): its ru_maxrss starts at its parent's (Linux keeps the replaced memory
+    map's high-water mark across exec), the pytest worker's hundreds of MB in a
+    full run."""
     out = tmp_path / "limited.stl"
     script = _LIMITED + textwrap.dedent(f"""
+        from texcad.util import resources
+        resources._meminfo_available = resources._cgroup_left = lambda: 16 << 20  # a loaded machine
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
         part = trimesh.creation.icosphere(5, 25.0)
         tx = texcad.texture(part, "all", "builtin:stones", pitch=0.3, height=0.5, tolerance=0, max_memory=held + (70 << 20),
                             build_dir=(0, 0, 1))
         tx.export({str(out)!r})
         g = tx.gate
-        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 - held
+        peak = vm("VmHWM:") - held
         print(tx.info["fuse"], tx.info["blocks"], tx.mesh.num_triangles, tx.mesh.__dict__["passes"], g.shells.closed,
               abs(g.volume_change - g.expected_volume) <= g.volume_slack, vm("VmPeak:") <= limit, peak <= 1.25 * (70 << 20),
               mesh_target.untiled_bytes(tx.mesh.num_triangles) > (70 << 20), peak >> 20)
@@ -349,6 +377,28 @@ def test_build_dir_in_blocks_under_an_address_space_limit(tmp_path):
     assert how == "tiled" and int(blocks) > 4 and int(tris) > 250_000 and int(passes) > 1, res.stdout
     assert closed == volume_ok == under == bounded == too_big == "True", res.stdout
     assert out.stat().st_size == 84 + 50 * int(tris)
+
+
+def test_blocks_go_with_max_memory_not_with_what_the_machine_has_free(monkeypatch, tmp_path):
+    """Under max_memory the blocks (and so, with build_dir, the bytes where an
+    overhang crosses their borders) are sized from the bound: the same STL with a
+    terabyte free and with 16 MB free (the machine loaded by other processes)."""
+    from texcad.util import resources
+    from texcad.util.resources import _rss
+
+    part = trimesh.creation.icosphere(3, 20.0)
+    plans = []
+    for k, free in enumerate((1 << 40, 16 << 20)):  # per machine
+        bound = _rss() + (76 << 20)  # what the process holds counts: about 55 000 triangles a block (49 152 then)
+        with monkeypatch.context() as m:
+            m.setattr(mesh_target, "untiled_bytes", lambda triangles: 1e18)
+            m.setattr(resources, "_meminfo_available", lambda: free)
+            m.setattr(resources, "_cgroup_left", lambda: free)
+            tx = texcad.texture(part, "all", "builtin:stones", **KW, pitch=0.5, build_dir=(0, 0, 1), max_memory=bound)
+        tx.export(tmp_path / f"{k}.stl")
+        plans.append((tx.info["fuse"], tx.info["blocks"], tx.info["coarse_pitches"], (tmp_path / f"{k}.stl").read_bytes()))
+        del tx
+    assert plans[0][0] == "tiled" and plans[0][1] >= 2 and plans[0] == plans[1]
 
 
 def test_the_cli_makes_a_mesh_in_blocks(tmp_path, monkeypatch, capsys):
@@ -370,3 +420,23 @@ def test_the_cli_makes_a_mesh_in_blocks(tmp_path, monkeypatch, capsys):
     stl, tmf = read_mesh(tmp_path / "t.stl"), read_mesh(tmp_path / "t.3mf")  # the 3MF's vertices in decimals
     assert len(tmf.faces) == len(stl.faces) == tris and len(tmf.vertices) == len(stl.vertices)
     assert np.abs(np.sort(tmf.vertices, axis=0) - np.sort(stl.vertices, axis=0)).max() < 1e-4  # 4 decimals
+
+
+def test_blocks_on_a_local_dask_cluster_give_the_bytes_made_here(monkeypatch, tmp_path):
+    """build_dir on a sphere in blocks (pins across borders, several passes) made on a
+    local Dask cluster of two worker processes: the same STL bytes as made in this
+    process (the blocks of one colour are made from the same pins, wherever)."""
+    distributed = pytest.importorskip("distributed")
+    part = trimesh.creation.icosphere(3, 10.0)
+    kw = dict(KW, pitch=0.5, build_dir=(0, 0, 1))
+    here = _blocks(monkeypatch, part, "all", 3000, **kw)
+    here.export(tmp_path / "here.stl")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=50) as cluster, distributed.Client(cluster) as client:
+        with tiled_mesh.blocks_on(client):
+            there = _blocks(monkeypatch, part, "all", 3000, **kw)
+        assert there.mesh.client is client and len(client.scheduler_info()["workers"]) == 2
+        there.export(tmp_path / "there.stl")
+    assert here.mesh.__dict__["passes"] > 1 and len(here.mesh.__dict__["pins"][0]) > 0 and here.info["blocks"] >= 5
+    assert there.mesh.__dict__["passes"] == here.mesh.__dict__["passes"]
+    assert (tmp_path / "there.stl").read_bytes() == (tmp_path / "here.stl").read_bytes()

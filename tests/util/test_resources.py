@@ -48,6 +48,21 @@ def test_available_memory_is_positive():
     assert available_memory() > 2**20
 
 
+def test_a_bound_is_what_the_job_has_whatever_the_machine_has_free(monkeypatch):
+    """Under max_memory the job has what the bound leaves over what the process
+    holds, however little the machine (or its container) has free just then: the
+    plans made from it go with the bound alone. Without a bound the machine's free
+    memory counts."""
+    from texcad.util import memory_limit
+    from texcad.util import resources
+
+    monkeypatch.setattr(resources, "_meminfo_available", lambda: 1 << 20)
+    monkeypatch.setattr(resources, "_cgroup_left", lambda: 1 << 20)
+    assert available_memory() <= 1 << 20
+    with memory_limit(resources._rss() + (100 << 20)):
+        assert 90 << 20 < available_memory() <= 100 << 20
+
+
 # --- every path estimates before it allocates and names a pitch that fits (issue 27) ---
 
 def _named(exc: BaseException, what: str = "pitch") -> float:

@@ -59,9 +59,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..solid import edge_slot_pairs
 from ..solid.subdivide import cross, rows
-from ..util import beside, threads
+from ..util import argsort_ints, beside, threads
 from .overhang import build_directions, check_critical_angle
 from .rule import slicer_margin
 
@@ -380,9 +379,9 @@ def _rounds(ctx, out, rounds, shrink, first, faces_of):
 
 
 class _Edges(NamedTuple):
-    """Each undirected edge of a closed mesh once: ends ``a``, ``b``, its two faces
+    """Each undirected edge of two faces once: ends ``a``, ``b``, its two faces
     ``f1``, ``f2`` and ``c2`` the corner of ``f2`` off the edge ``(E,)``; ``eid``
-    ``(M, 3)`` each face's edges."""
+    ``(M, 3)`` each face's edges (-1: an edge of that face alone)."""
 
     a: np.ndarray
     b: np.ndarray
@@ -392,15 +391,30 @@ class _Edges(NamedTuple):
     eid: np.ndarray
 
 
+def _slot_pairs(f: np.ndarray) -> "np.ndarray | None":
+    """``(E, 2)``: the two *slots* ``3 face + k`` of each edge of two faces ``f``
+    ``(M, 3)``, in the order of their keys (of a closed mesh, every edge:
+    :func:`texcad.solid.edge_slot_pairs`); the edges of one face (an open surface's
+    border: no ridge) left out; None where an edge is in three faces or more."""
+    a, b = f.reshape(-1), f[:, [1, 2, 0]].reshape(-1)
+    key = np.minimum(a, b) * np.int64(int(f.max(initial=0)) + 1) + np.maximum(a, b)
+    order = argsort_ints(key)
+    same = key[order][1:] == key[order][:-1]
+    if np.any(same[1:] & same[:-1]):
+        return None
+    at = np.flatnonzero(same)
+    return np.stack([order[at], order[at + 1]], axis=1)
+
+
 def _edge_table(f: np.ndarray) -> "_Edges | None":
-    """:class:`_Edges` of the faces ``f`` ``(3, M)``; None unless every edge is shared
-    by exactly two faces."""
+    """:class:`_Edges` of the faces ``f`` ``(3, M)``; None where an edge is in three
+    faces or more."""
     m = f.shape[1]
-    pair = edge_slot_pairs(f.T)
+    pair = _slot_pairs(f.T)
     if pair is None:
         return None
     a, b, c = f.T.ravel(), f[[1, 2, 0]].T.ravel(), f[[2, 0, 1]].T.ravel()  # slot 3 face + k: corner k -> k + 1
-    eid = np.empty(3 * m, dtype=np.int64)
+    eid = np.full(3 * m, -1, dtype=np.int64)
     eid[pair.ravel()] = np.repeat(np.arange(len(pair)), 2)
     return _Edges(a[pair[:, 0]], b[pair[:, 0]], pair[:, 0] // 3, pair[:, 1] // 3, c[pair[:, 1]], eid.reshape(m, 3))
 
@@ -501,7 +515,7 @@ def _ridges(ctx: _Ctx, out: np.ndarray, faces_of, rounds: int, shrink: float, ta
     displaced end, and from round ``rounds`` on one is set to 0 each round, so the
     loop ends with none left. Returns the steep ridges found first."""
     n = len(out)
-    if tab is None:  # not every edge shared by two faces
+    if tab is None:  # an edge in three faces or more
         return 0
     sel = np.arange(len(tab.a))
     found = None
@@ -518,7 +532,8 @@ def _ridges(ctx: _Ctx, out: np.ndarray, faces_of, rounds: int, shrink: float, ta
         over, fold = np.zeros(ctx.f.shape[1], dtype=bool), np.zeros(ctx.f.shape[1], dtype=bool)
         over[idx], fold[idx] = _offending(ctx, t, out[t])
         _rounds(ctx, out, rounds, shrink, (over, fold), faces_of)
-        sel = _distinct(tab.eid[faces_of(np.flatnonzero(out != before))].ravel(), len(tab.a))
+        near = tab.eid[faces_of(np.flatnonzero(out != before))].ravel()
+        sel = _distinct(near[near >= 0], len(tab.a))
     return found or 0
 
 
@@ -554,7 +569,8 @@ def limit_relief(
         ridges: also lower the relief where a convex edge rises less steeply than
             the critical angle in a direction its faces overhang (a slicer's layer
             test sees such an edge's corner outrun the layer below; with build
-            directions only).
+            directions only). The edges of two faces are tested: on an open
+            surface (a block of a larger mesh) its border edges are not.
 
     Returns:
         ``(d', report)`` with ``|d'_i| <= |d_i|`` and the same signs.

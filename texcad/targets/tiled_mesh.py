@@ -31,21 +31,33 @@ is the untiled pitch grid (``tolerance=0``), made a block at a time:
   faces. With ``build_dir`` also on every face at a point of its border (from the
   halo, two rings of coarse faces deep there so that their points' normals are the
   untiled ones), since the limiter's ridge test needs the faces on both sides of an
-  edge; and as the limiter tests ridges on a closed surface only, those faces are
-  closed by a copy of them on copies of their inner points (a face and its copy test
-  alike; an open edge lies in a face and its copy, one plane: no ridge). Overhangs,
+  edge. Those faces are an open surface: the limiter tests the ridges at its edges
+  of two faces and none at its border (what it did on them closed by a copy, at
+  half the cost; tested). Overhangs,
   folds or ridges that stay inside a block are limited as on the whole mesh (the
   limiter's rounds only look at faces next to a change). Where a block lowers a
   point next to its border (its border points, and with ``build_dir`` the points of
   the faces at them, on both sides), that point is *pinned* at the least
-  displacement any block gave it and the blocks made after start from it (in the
-  same pass too); the blocks whose pinned points changed since they were made are
+  displacement any block gave it and the blocks of the next pass start from it
+  (every block of a pass from the pins as they stood at its start: the blocks of a
+  pass can be made in any order, on a Dask cluster too, with the same bytes); the
+  blocks whose pinned points changed since they were made are
   made again (the others keep their share of the gate's tally, and only take their
   vertex numbers from their coarse faces), until no block lowers such a point (from
   the second pass on a newly lowered one is pinned at 0, the undisplaced surface,
   where the limiter itself ends; at most :data:`MAX_PASSES`): both neighbours then
   move it alike, and every face, fold and ridge was tested by a block that had all
-  its points' final displacements.
+  its points' final displacements. A block made again starts from the points its
+  limiter lowered when it was last made (kept between passes, :data:`KEPT_BYTES`),
+  so it only limits what its changed pins changed; its limiter's result passes the
+  limiter's own tests, so made again with the same pins (for the writers) it gives
+  the same result.
+
+**On a Dask cluster** (:func:`blocks_on`): each pass's blocks of one colour
+(:func:`_colours`: no two share a coarse vertex) are made from the same pins, in any
+order, so the cluster's workers make them (:func:`_make`, the plan and pins sent
+once per colour) with the bytes this process makes (tested on two workers); the
+colours go one after the other, each from the pins the ones before left.
 
 :class:`TiledMeshBlocks` is that mesh kept as a recipe: its blocks are made on demand
 for the gate (:func:`gate_mesh_blocks`: each block's open edges pair up across blocks,
@@ -63,12 +75,12 @@ pitches (``factor``, up to :data:`MAX_FACTOR`: ``(3 / factor)^2`` as many coarse
 faces, each tessellated into a finer grid), so what stays whole goes with the input
 mesh, not the pitch; the triangles then differ from the untiled ones (the same
 surface and relief volume to 0.1 %, tested; with ``build_dir`` the limiter's result
-on those other triangles differs more). With ``build_dir`` a block takes about three
-times the memory per triangle (:data:`LIMITED_BYTES`: two rings of halo, the
-limiter's faces doubled, its edge table), so its blocks are a third as large, and
-the blocks whose pins change are made again (the passes above): the overhang
-limiter costs more CPU in blocks than untiled, the more the more overhang crosses
-block borders.
+on those other triangles differs more). With ``build_dir`` a block takes about twice
+the memory per triangle (:data:`LIMITED_BYTES`: two rings of halo, the limiter's
+edge table), so its blocks are half as large, and the blocks whose pins change are
+made again (the passes above), from where they were: the more overhang crosses
+block borders, the more passes. Where ``max_memory`` is given the plan goes with it
+alone, not with what the machine has free (:func:`texcad.util.available_memory`).
 
 **Against the untiled mesh** (``tolerance=0``, coarse faces of 3 pitches): the same triangles on the same
 float32 vertices (tested on a sphere, a box with its bed face, with and without
@@ -101,6 +113,8 @@ the whole mesh) are refused; ``base_mesh`` is the input.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import warnings
 from dataclasses import dataclass, replace
@@ -110,27 +124,47 @@ import numpy as np
 
 from ..errors import GeometryError, ParameterError, ResourceError, TexcadWarning
 from ..printability.relief import limit_relief
-from ..solid import edge_slot_pairs
 from ..solid.subdivide import coarsen, edge_counts, face_normals, offset_directions, tessellate, vertex_normals
 from ..util import Progress, available_memory, finest_pitch, report, split_rows
-from .tiled import CountedTiles, _at, tiles_verdict
+from .tiled import CountedTiles, _at, _connect, tiles_verdict
 from .tiled_faces import open_edges
 
 __all__ = ["MeshPlan", "FineBlock", "BlockRelief", "TiledMeshBlocks", "mesh_plan", "fine_block", "gate_mesh_blocks",
-           "BLOCK_BYTES", "LIMITED_BYTES", "COARSE_BYTES", "MAX_FACTOR"]
+           "blocks_on", "BLOCK_BYTES", "LIMITED_BYTES", "KEPT_BYTES", "COARSE_BYTES", "MAX_FACTOR"]
+
+#: The Dask client the meshes made in blocks make their blocks on (:func:`blocks_on`).
+_CLIENT: "contextvars.ContextVar[Any]" = contextvars.ContextVar("texcad_mesh_blocks_client", default=None)
+
+
+@contextlib.contextmanager
+def blocks_on(client: Any):
+    """Within the block, a mesh that :func:`texcad.texture` makes in blocks makes them
+    on the Dask cluster of ``client`` (a ``dask.distributed.Client``, or a scheduler
+    address ``"tcp://HOST:PORT"``: connected here, ResourceError if it cannot be
+    reached within 5 s), for its gate and, later, its writers (keep the client open
+    until the mesh is written). The blocks of a pass are made from the same pins, so
+    the bytes are those made in one process, whatever the workers. None: here."""
+    own = isinstance(client, str)
+    token = _CLIENT.set(_connect(client) if own else client)
+    try:
+        yield _CLIENT.get()
+    finally:
+        _CLIENT.reset(token)
 
 #: Peak bytes per refined triangle of one block (tessellation, normals, relief and the
 #: emitted float32 block; about 450 measured on an icosphere of radius 40 mm at 0.25 mm
 #: in one block): what a block's size is chosen by.
 BLOCK_BYTES = 500.0
 #: The same with ``build_dir``: two rings of halo, and the overhang limiter on the
-#: block's faces and those across its border, doubled (:func:`_closed`), with its
-#: edge table for the ridges (1460 measured as the growth of peak resident memory from
-#: blocks of 60 000 to 180 000 triangles, an icosphere of radius 40 mm at 0.35 mm; 310
-#: without ``build_dir`` in the same runs), with a margin: at 1600 one run of the
-#: address-space test peaked 77 MB over the process under a 70 MB bound (other block
-#: borders, other faces across them), at 2000 two peaked 43 and 44 MB.
-LIMITED_BYTES = 2000.0
+#: block's faces and those across its border, with its edge table for the ridges
+#: (818 measured as the growth of the peak resident memory, VmHWM, from blocks of
+#: 60 000 to 180 000 triangles, an icosphere of radius 40 mm at 0.35 mm; 290 without
+#: ``build_dir`` in the same runs), with a margin.
+LIMITED_BYTES = 1000.0
+#: Bytes per refined triangle of the whole job that the blocks' lowered points keep
+#: between passes (:attr:`BlockRelief.kept`: a key and a displacement, 16 bytes, a
+#: point; about half a point a triangle where the limiter lowers all of them).
+KEPT_BYTES = 8.0
 #: Peak bytes per coarse triangle of the whole job in blocks (434 measured as peak
 #: resident memory over the interpreter's on an icosphere of radius 60 mm at 0.2 mm:
 #: the bisection's peak, the coarse mesh kept after it, one block).
@@ -258,7 +292,8 @@ def mesh_plan(layers: tuple, v: np.ndarray, f: np.ndarray, tol: float, refined: 
     counts, keys = _counts(cv, cf, finest)
     lev = counts.max(axis=1)
     body = _bodies(cf, len(cv))
-    blocks = _blocks(cv, cf, lev * lev, _block_triangles(len(cf), pitch, BLOCK_BYTES if dirs is None else LIMITED_BYTES))
+    blocks = _blocks(cv, cf, lev * lev, _block_triangles(len(cf), pitch, BLOCK_BYTES if dirs is None else LIMITED_BYTES,
+                                                       int((lev * lev).sum())))
     reach = 3.0 * sum(float(layer.height) for layer in layers) + 0.01
     plan = MeshPlan(cv, cf, fn[ids], ids, counts, keys, body, blocks, layers, tol, cv[np.argmin(cv[:, 2])],
                     (), reach, float(fits), factor, dirs, float(crit))
@@ -294,19 +329,22 @@ def _coarse_factor(refined: int, faces: int, pitch: float) -> float:
     return float(factor)
 
 
-def _block_triangles(coarse: int, pitch: float, per: float = BLOCK_BYTES) -> int:
+def _block_triangles(coarse: int, pitch: float, per: float = BLOCK_BYTES, refined: int = 0) -> int:
     """Refined triangles per block that fit in what the coarse mesh (made, and held
     by this process already) leaves, beside the vertex numbers (16 bytes per coarse
-    triangle), at ``per`` bytes a triangle (:data:`BLOCK_BYTES`, :data:`LIMITED_BYTES`);
-    ResourceError naming a pitch where not even a small block fits. Rounded down to
-    ``2^k`` or ``1.5 2^k``: the blocks, and so the bytes where a fold or an overhang
-    crosses their borders, do not change with the few kilobytes the process holds
-    more or less from one run to the next."""
-    have = available_memory() / 1.25 - 16.0 * coarse
+    triangle) and the lowered points the blocks keep (:data:`KEPT_BYTES` per
+    ``refined`` triangle of the job), at ``per`` bytes a triangle
+    (:data:`BLOCK_BYTES`, :data:`LIMITED_BYTES`); ResourceError naming a pitch
+    where not even a small block fits. Rounded down to ``2^k`` or ``1.5 2^k``: the
+    blocks, and so the bytes where a fold or an overhang crosses their borders, do
+    not change with the few kilobytes the process holds more or less from one run
+    to the next."""
+    held = 16.0 * coarse + KEPT_BYTES * refined
+    have = available_memory() / 1.25 - held
     n = int(min(MAX_BLOCK, have / per))
     if n < 20_000:
-        p = finest_pitch(pitch, coarse * COARSE_BYTES, 20_000 * per)
-        need = 1.25 * (16.0 * coarse + 20_000 * per) / 2**20
+        p = finest_pitch(pitch, coarse * COARSE_BYTES + KEPT_BYTES * refined, 20_000 * per)
+        need = 1.25 * (held + 20_000 * per) / 2**20
         how = f"use a pitch of at least {p:.3g} mm or allow" if p < float("inf") else "allow at least"
         raise ResourceError(f"the mesh's coarse refinement ({coarse} triangles at a pitch of {pitch:.3g} mm) leaves no "
                             f"room for a block in the memory available; {how} {need:.0f} MB more memory (max_memory) "
@@ -458,11 +496,11 @@ class _Numbering:
         self.next += n
         return out
 
-    def skip(self, plan: MeshPlan, block: np.ndarray) -> None:
+    def skip(self, plan: MeshPlan, block: np.ndarray) -> int:
         """The numbers block ``block`` takes (as :meth:`ids` gives them), from its
         coarse faces alone: its coarse vertices, the points of its edges cut into 2 or
         more (in the order of their keys) and ``(N - 1)(N - 2) / 2`` inner points of
-        each face of grid level ``N``."""
+        each face of grid level ``N``. Returns the first of its inner points'."""
         self.start = self.next
         g = np.unique(plan.f[block])
         fresh = g[self.coarse[g] < 0]
@@ -477,25 +515,39 @@ class _Numbering:
         ids = self._take(int(runs[new].sum()))
         self.edge[ge[new]] = ids[np.concatenate([[0], np.cumsum(runs[new])[:-1]]).astype(np.int64)] if new.any() else ids
         lev = cnt.max(axis=1)
+        first = self.next
         self._take(int(((lev - 1) * (lev - 2) // 2).sum()))
+        return first
+
+    @staticmethod
+    def whole(plan: MeshPlan) -> "tuple[_Numbering, np.ndarray]":
+        """Every block numbered (:meth:`skip`) and the first number of each block's
+        inner points: :meth:`number` from there gives a block its numbers in any
+        order (every coarse vertex and edge has its number already)."""
+        out = _Numbering(plan)
+        return out, np.array([out.skip(plan, blk) for blk in plan.blocks], dtype=np.int64)
 
     def ids(self, plan: MeshPlan, b: FineBlock) -> np.ndarray:
         """``(P,)`` the global number of each vertex of the block's own faces, -1
         for the halo's other vertices."""
+        return self.number(plan, b.used, b.classes, _owned(b))
+
+    def number(self, plan: MeshPlan, used: np.ndarray, c: dict, ref: np.ndarray) -> np.ndarray:
+        """:meth:`ids` from what it reads of the fine block: its coarse vertices
+        ``used``, where its points lie ``c`` (:attr:`FineBlock.classes`) and the
+        vertices of its own faces ``ref``."""
         self.start = self.next
-        ref = _owned(b)
-        gid = np.full(len(b.v), -1, dtype=np.int64)
-        nl = len(b.used)
+        gid = np.full(len(ref), -1, dtype=np.int64)
+        nl = len(used)
         cv = np.flatnonzero(ref[:nl])
-        g = b.used[cv]
+        g = used[cv]
         fresh = self.coarse[g] < 0
         self.coarse[g[fresh]] = self._take(int(fresh.sum()))
         gid[cv] = self.coarse[g]
-        c = b.classes
         if len(c.get("t", ())):
             ep = nl + np.arange(len(c["t"]))
             le = c["edge_point"]
-            ge, pos = _edge_points(plan, b)
+            ge, pos = _edge_points(plan, used, c)
             hit = ref[ep]
             e_hit = np.unique(le[hit])
             fresh_e = e_hit[self.edge[ge[e_hit]] < 0]
@@ -503,21 +555,21 @@ class _Numbering:
             first = self._take(int(runs.sum()))
             self.edge[ge[fresh_e]] = first[np.concatenate([[0], np.cumsum(runs)[:-1]]).astype(np.int64)] if len(runs) else first
             gid[ep[hit]] = self.edge[ge[le[hit]]] + pos[hit] - 1
-            inner = np.arange(nl + len(c["t"]), len(b.v))
+            inner = np.arange(nl + len(c["t"]), len(ref))
         else:
-            inner = np.arange(nl, len(b.v))
+            inner = np.arange(nl, len(ref))
         hit = inner[ref[inner]]
         gid[hit] = self._take(len(hit))
         return gid
 
 
-def _edge_points(plan: MeshPlan, b: FineBlock) -> tuple[np.ndarray, np.ndarray]:
-    """The block's cut edges as numbers into ``plan.keys`` and each edge point's
-    place on its edge (1 .. count - 1 from the edge's smaller coarse vertex)."""
-    c = b.classes
-    nvl = np.int64(max(len(b.used), 1))
+def _edge_points(plan: MeshPlan, used: np.ndarray, c: dict) -> tuple[np.ndarray, np.ndarray]:
+    """A fine block's cut edges (its coarse vertices ``used``, its points' classes
+    ``c``) as numbers into ``plan.keys`` and each edge point's place on its edge
+    (1 .. count - 1 from the edge's smaller coarse vertex)."""
+    nvl = np.int64(max(len(used), 1))
     uk = c["edge_key"]
-    ge = np.searchsorted(plan.keys, b.used[uk // nvl] * np.int64(len(plan.v)) + b.used[uk % nvl])
+    ge = np.searchsorted(plan.keys, used[uk // nvl] * np.int64(len(plan.v)) + used[uk % nvl])
     return ge, np.rint(c["t"] * c["edge_count"][c["edge_point"]]).astype(np.int64)
 
 
@@ -531,7 +583,7 @@ def _keys(plan: MeshPlan, b: FineBlock) -> np.ndarray:
     out[:nl] = b.used
     ne = len(c.get("t", ()))
     if ne:
-        ge, pos = _edge_points(plan, b)
+        ge, pos = _edge_points(plan, b.used, c)
         out[nl:nl + ne] = nv + ge[c["edge_point"]] * n + pos
     face, w = b.near[c["inner_face"]], c["inner_w"]
     lev = plan.counts[face].max(axis=1)
@@ -551,7 +603,9 @@ class BlockRelief:
     at; ``moved``: the points (:func:`_keys`) next to the block's border it lowered
     and their displacements after it (mm); ``watch``: the points (sorted
     :func:`_keys`) whose pins the block's result depends on (the limiter's points
-    next to its border or off its own faces)."""
+    next to its border or off its own faces); ``kept``: ``(keys, d)`` the limiter's
+    points it lowered (sorted :func:`_keys`) and their displacements after it (mm),
+    what the block starts from when it is made again."""
 
     v: np.ndarray
     f: np.ndarray
@@ -564,6 +618,7 @@ class BlockRelief:
     moved: tuple
     d: np.ndarray
     watch: np.ndarray
+    kept: tuple
 
 
 def _relief(plan: MeshPlan, b: FineBlock, keep: np.ndarray, unit: np.ndarray) -> tuple[np.ndarray, tuple]:
@@ -587,11 +642,16 @@ def _relief(plan: MeshPlan, b: FineBlock, keep: np.ndarray, unit: np.ndarray) ->
     return d, tuple(masks)
 
 
-def _displace(plan: MeshPlan, b: FineBlock, gid: np.ndarray, pins: tuple) -> BlockRelief:
+def _displace(plan: MeshPlan, b: FineBlock, pins: tuple, kept: "tuple | None" = None) -> BlockRelief:
     """The block's vertices moved along their offset directions by the relief
     (module docstring), limited (:func:`_limit`) on the faces :func:`_zone` names;
     ``pins`` ``(keys, d)``: points (sorted :func:`_keys`) whose displacement a block's
-    limiter lowered, and to what (mm): they start from that here."""
+    limiter lowered, and to what (mm): they start from that here (``ids`` is left
+    to the caller: the numbers go block after block, :class:`_Numbering`); ``kept``: the
+    block's own lowered points when it was last made (:attr:`BlockRelief.kept`): the
+    limiter starts from them where they are lower, so a block made again only
+    limits what its changed pins changed (and, the limiter's result passing its own
+    tests, made again with the same pins it gives the same result)."""
     unit = vertex_normals(b.v, b.f)
     dirs = offset_directions(b.v, b.f, unit)
     faces, seam = _zone(plan, b)
@@ -599,21 +659,36 @@ def _displace(plan: MeshPlan, b: FineBlock, gid: np.ndarray, pins: tuple) -> Blo
     used[b.f[faces].ravel()] = True
     d, mask = _relief(plan, b, used, unit)
     keys = _keys(plan, b)
-    if len(pins[0]):
-        at = np.minimum(np.searchsorted(pins[0], keys), len(pins[0]) - 1)
-        hit = used & (pins[0][at] == keys)
-        d[hit] = pins[1][at[hit]]
-    low, folded = _limit(plan, b, faces, dirs, d, used)
+    hit, at = _lookup(pins, keys, used)
+    d[hit] = pins[1][at[hit]]
+    start = d.copy()
+    if kept is not None:
+        hit, at = _lookup(kept, keys, used)
+        start[hit] = np.where(np.abs(kept[1][at[hit]]) < np.abs(d[hit]), kept[1][at[hit]], d[hit])
+    low = _limit(plan, b, faces, dirs, start, used)
+    folded = _folded(b.v, b.f[b.own], dirs, np.where(used, d, 0.0))
     changed = seam & (low != d)
-    keep = gid >= 0
+    lowered = used & (low != d)
+    order = np.argsort(keys[lowered])
+    keep = _owned(b)
     local = np.full(len(b.v), -1, dtype=np.int64)
     local[keep] = np.arange(int(keep.sum()))
     f = local[b.f[b.own]]
     v0 = b.v[keep]
     off = dirs[keep] * low[keep][:, None]
     v32 = (v0 + off).astype(np.float32)
-    return BlockRelief(v32, f, gid[keep], v0, off, plan.body[b.near][b.src][b.own], mask, folded,
-                       (keys[changed], low[changed]), low[keep], np.sort(keys[used & (seam | ~keep)]))
+    return BlockRelief(v32, f, None, v0, off, plan.body[b.near][b.src][b.own], mask, folded,
+                       (keys[changed], low[changed]), low[keep], np.sort(keys[used & (seam | ~keep)]),
+                       (keys[lowered][order], low[lowered][order]))
+
+
+def _lookup(table: tuple, keys: np.ndarray, where: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(hit, at)``: which of ``keys`` (among ``where``) are in ``table``'s sorted
+    keys ``table[0]``, and at which place."""
+    if not len(table[0]):
+        return np.zeros(len(keys), dtype=bool), np.zeros(len(keys), dtype=np.int64)
+    at = np.minimum(np.searchsorted(table[0], keys), len(table[0]) - 1)
+    return where & (table[0][at] == keys), at
 
 
 def _zone(plan: MeshPlan, b: FineBlock) -> tuple[np.ndarray, np.ndarray]:
@@ -622,9 +697,7 @@ def _zone(plan: MeshPlan, b: FineBlock) -> tuple[np.ndarray, np.ndarray]:
     Folds only: the block's own faces (a face's test needs its corners alone) and its
     border points. With build directions the ridges between a border face and the
     one across also count: the own faces and every face at a border point, and the
-    points of all those faces; and where an edge inside those faces joins two points
-    of their border (so that :func:`_closed` would put it in four faces), the faces
-    at its ends too (the halo's, limited here only to close the surface)."""
+    points of all those faces."""
     own = np.zeros(len(b.v), dtype=bool)
     own[b.f[b.own].ravel()] = True
     halo = np.zeros(len(b.v), dtype=bool)
@@ -635,68 +708,23 @@ def _zone(plan: MeshPlan, b: FineBlock) -> tuple[np.ndarray, np.ndarray]:
     touch = border[b.f].any(axis=1)
     seam = np.zeros(len(b.v), dtype=bool)
     seam[b.f[touch].ravel()] = True
-    faces = b.own | touch
-    for _ in range(4):  # per ring added where the closed copy would pinch (rare: a few points)
-        pinch = _pinches(b.f[faces], len(b.v))
-        if not pinch.any():
-            break
-        faces |= pinch[b.f].any(axis=1)
-    return faces, seam
-
-
-def _pinches(f: np.ndarray, nv: int) -> np.ndarray:
-    """``(nv,)`` bool: the ends of the edges of ``f`` in two of its faces whose ends
-    are both on its open edges."""
-    o, _ = open_edges(f)
-    rim = np.zeros(nv, dtype=bool)
-    rim[o.ravel()] = True
-    a, b = f.ravel(), f[:, [1, 2, 0]].ravel()
-    key = np.minimum(a, b) * np.int64(nv) + np.maximum(a, b)
-    inner = rim[a] & rim[b] & ~np.isin(key, np.minimum(o[:, 0], o[:, 1]) * np.int64(nv) + np.maximum(o[:, 0], o[:, 1]))
-    out = np.zeros(nv, dtype=bool)
-    out[a[inner]] = out[b[inner]] = True
-    return out
+    return b.own | touch, seam
 
 
 def _limit(plan: MeshPlan, b: FineBlock, faces: np.ndarray, dirs: np.ndarray, d: np.ndarray,
-           used: np.ndarray) -> tuple[np.ndarray, int]:
-    """``(d', folded)``: the displacements (mm) after
-    :func:`texcad.printability.limit_relief` on ``faces`` of the block (its points
-    ``used``; ``d`` elsewhere), and how many of the block's own faces folded over
-    before. Without build directions on those faces as they are; with, on them made
-    closed (:func:`_closed`), as the limiter tests ridges on a closed surface only."""
+           used: np.ndarray) -> np.ndarray:
+    """The displacements (mm) after :func:`texcad.printability.limit_relief` on
+    ``faces`` of the block (its points ``used``; ``d`` elsewhere). The faces are an
+    open surface: the limiter tests the ridges at the edges of two of them, not at
+    their border (where the faces across are another block's, or the halo's beyond
+    the faces at the border points)."""
     idx = np.flatnonzero(used)
     local = np.full(len(b.v), -1, dtype=np.int64)
     local[idx] = np.arange(len(idx))
-    f, v0, n, dd = local[b.f[faces]], b.v[idx], dirs[idx], d[idx]
     low = d.copy()
-    if plan.dirs is None:
-        low[idx], lim = limit_relief(v0, f, n, dd)
-        return low, int(lim.folded_faces)
-    ff, copy = _closed(f, len(idx))
-    low[idx] = limit_relief(np.concatenate([v0, v0[copy]]), ff, np.concatenate([n, n[copy]]),
-                            np.concatenate([dd, dd[copy]]), build_dir=plan.dirs, critical_angle=plan.crit)[0][:len(idx)]
-    return low, _folded(v0, local[b.f[b.own]], n, dd)
-
-
-def _closed(f: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(faces, copy)``: the open surface ``f`` (``nv`` points) and a copy of its faces
-    on copies of its points (``nv + k`` is point ``copy[k]``), the points on its open
-    edges shared: a closed surface on which every face and its copy test alike
-    (the same corners, the same displacements), each edge inside in two faces of one
-    side and each open edge in a face and its copy (no ridge: the two are one plane).
-    GeometryError where an inner edge joins two open-edge points (it would be in four
-    faces)."""
-    rim = np.zeros(nv, dtype=bool)
-    rim[open_edges(f)[0].ravel()] = True
-    copy = np.flatnonzero(~rim)
-    to = np.arange(nv)
-    to[copy] = nv + np.arange(len(copy))
-    ff = np.concatenate([f, to[f]])
-    if edge_slot_pairs(ff) is None:
-        raise GeometryError("a block's faces for the overhang limiter could not be closed (an edge inside joins two "
-                            "points of their border); please report this")
-    return ff, copy
+    low[idx] = limit_relief(b.v[idx], local[b.f[faces]], dirs[idx], d[idx], build_dir=plan.dirs,
+                            critical_angle=plan.crit)[0]
+    return low
 
 
 def _folded(v0: np.ndarray, f: np.ndarray, n: np.ndarray, d: np.ndarray) -> int:
@@ -709,31 +737,72 @@ def _folded(v0: np.ndarray, f: np.ndarray, n: np.ndarray, d: np.ndarray) -> int:
     return int(np.sum((a * a0).sum(axis=1) <= 0.0))
 
 
+def _make(plan: MeshPlan, k: int, pins: tuple, kept: "tuple | None") -> tuple:
+    """Block ``k`` refined and displaced (:func:`_displace`), and what its numbers are
+    made from (:meth:`_Numbering.number`): ``(BlockRelief, used, classes, ref)``.
+    Plain data in and out: a Dask worker makes it as this process does."""
+    b = fine_block(plan, plan.blocks[k], 1 if plan.dirs is None else 2)
+    r = _displace(plan, b, pins, kept)
+    c = {key: b.classes[key] for key in ("t", "edge_point", "edge_key", "edge_count") if key in b.classes}
+    return r, b.used, c, _owned(b)
+
+
+def _made(client: Any, plan: MeshPlan, todo: list, pins: tuple, kept: dict) -> Any:
+    """``(k, _make(...))`` for the blocks ``todo``, in order: made here, or on the
+    cluster's workers (the plan and pins sent once, at most two blocks per worker in
+    flight, a task retried once)."""
+    if client is None:
+        for k in todo:  # per block
+            yield k, _make(plan, k, pins, kept.get(k))
+        return
+    from collections import deque
+
+    ahead = 2 * max(1, len(client.scheduler_info().get("workers", {})))
+    [p, q] = client.scatter([plan, pins], broadcast=True, hash=False)  # new keys: a key being released would hang
+    pending: deque = deque()
+    for k in todo:  # per block: keep `ahead` in flight, hand them over in order
+        pending.append((k, client.submit(_make, p, k, q, kept.get(k), pure=False, retries=1)))
+        if len(pending) >= ahead:
+            k0, fut = pending.popleft()
+            yield k0, fut.result()
+            fut.release()
+    while pending:
+        k0, fut = pending.popleft()
+        yield k0, fut.result()
+        fut.release()
+
+
 class TiledMeshBlocks(CountedTiles):
     """A textured mesh kept as the recipe of its blocks (:class:`MeshPlan`, mm).
     Blocks are made on demand (:meth:`blocks`), gated (:func:`gate_mesh_blocks`) and
     written (:meth:`write`, streamed) one at a time."""
 
     def __init__(self, plan: MeshPlan, progress: Progress = None) -> None:
-        self.plan, self.progress, self.client, self.thickness = plan, progress, None, 0.0
+        self.plan, self.progress, self.client, self.thickness = plan, progress, _CLIENT.get(), 0.0
         self.grid = None
 
     def displaced(self, progress: Progress = None, redo: Any = None) -> Any:
-        """:class:`BlockRelief` per block, in order; with ``redo`` (block number ->
-        bool) None for the blocks it says need not be made again (only numbered)."""
+        """:class:`BlockRelief` per block, in order, made here or on the Dask
+        cluster of ``client`` (:func:`_make`: the same bytes), each from the pins as
+        they stand when called; with ``redo`` (block number -> bool) None for the
+        blocks it says need not be made again (only numbered)."""
         plan = self.plan
-        numbering = _Numbering(plan)
+        if "numbers" not in self.__dict__:
+            self.__dict__["numbers"] = _Numbering.whole(plan)
+        numbering, firsts = self.__dict__["numbers"]
         n = len(plan.blocks)
-        none = (np.zeros(0, dtype=np.int64), np.zeros(0))
-        rings = 1 if plan.dirs is None else 2
-        for k, blk in enumerate(plan.blocks):  # per block; the pins as they stand (a pass may add some)
-            if redo is not None and not redo(k):
-                numbering.skip(plan, blk)
+        todo = [k for k in range(n) if redo is None or redo(k)]
+        kept = self.__dict__.setdefault("kept", {})  # per block: its lowered points when last made
+        made = _made(self.client, plan, todo, self.__dict__.get("pins", (np.zeros(0, dtype=np.int64), np.zeros(0))), kept)
+        todo = set(todo)
+        for k in range(n):  # per block, in order
+            if k not in todo:
                 yield None
                 continue
-            b = fine_block(plan, blk, rings)
-            yield _displace(plan, b, numbering.ids(plan, b), self.__dict__.get("pins", none))
-            del b
+            r, used, classes, ref = next(made)[1]
+            kept[k] = r.kept
+            numbering.next = int(firsts[k])
+            yield replace(r, ids=numbering.number(plan, used, classes, ref)[ref])
             report(progress, (k + 1) / n, f"block {k + 1}/{n}")
 
     def blocks(self, progress: Progress = None) -> Any:
@@ -833,8 +902,9 @@ def _most(a: "tuple | None", b: "tuple | None") -> "tuple | None":
 
 def _tally(mesh: "TiledMeshBlocks") -> _Tally:
     """Passes over the blocks; where a block's limiter lowered a point next to its
-    border (:func:`_zone`), that point is pinned at its least displacement (every
-    block made after starts from that, in this pass too), and the blocks whose
+    border (:func:`_zone`), that point is pinned at its least displacement after the
+    pass (every block of a pass starts from the pins as they stood at its start, so
+    the blocks of a pass can be made in any order and anywhere), and the blocks whose
     watched points' pins changed since they were made are made again, until no
     limiter lowers such a point (from the second pass on, a point it lowers is pinned
     at 0, where the limiter leaves it). A block made again with the pins it was made
@@ -845,22 +915,45 @@ def _tally(mesh: "TiledMeshBlocks") -> _Tally:
     shares: list = [None] * len(plan.blocks)  # per block: (its tally, the points it watches, the clock when made)
     clock = _Clock()
     redo = lambda k: shares[k] is None or clock.changed(shares[k][1], shares[k][2])  # noqa: E731
+    colour = _colours(plan)
     for k in range(MAX_PASSES):  # per pass: pins only grow and go down
-        moved = 0
-        for j, r in enumerate(mesh.displaced(mesh.progress, redo)):  # per block: its pins count at once
-            if r is None:
-                continue
-            t = _Tally(np.zeros(nb), np.zeros(nb), [], [], [], [])
-            t.add(r, o)
-            shares[j] = (t, r.watch, clock.now)
-            if len(r.moved[0]):
-                moved += len(r.moved[0])
-                mesh.__dict__["pins"] = clock.pin(mesh.__dict__.get("pins"), r.moved, zero=k >= 1)
-        if not moved:
+        settled = True
+        for c in range(int(colour.max()) + 1):  # per colour: its blocks from the pins as they stand
+            moved = []
+            for j, r in enumerate(mesh.displaced(mesh.progress, lambda b: colour[b] == c and redo(b))):  # noqa: B023
+                if r is None:
+                    continue
+                t = _Tally(np.zeros(nb), np.zeros(nb), [], [], [], [])
+                t.add(r, o)
+                shares[j] = (t, r.watch, clock.now)
+                if len(r.moved[0]):
+                    moved.append(r.moved)
+            if moved:
+                settled = False
+                mesh.__dict__["pins"] = clock.pin(mesh.__dict__.get("pins"), moved, zero=k >= 1)
+        if settled:
             mesh.__dict__["passes"] = k + 1
             return _Tally.merged([sh[0] for sh in shares])
     raise GeometryError(f"the texture folds over or overhangs across block borders, and pinning them did not settle it; "
                         f"use a smaller height or a pitch of at least {plan.fits:.3g} mm (made whole)")
+
+
+def _colours(plan: MeshPlan) -> np.ndarray:
+    """``(B,)`` a colour per block, no two blocks that share a coarse vertex (whose
+    limiters' points can meet) of one colour: greedy, in block order. The blocks of
+    one colour are made from the same pins (in any order, on a cluster too), the
+    colours one after the other, each from the pins the ones before left."""
+    from scipy.sparse import coo_matrix
+
+    rows = np.concatenate([np.full(3 * len(b), k) for k, b in enumerate(plan.blocks)])
+    cols = np.concatenate([plan.f[b].ravel() for b in plan.blocks])
+    inc = coo_matrix((np.ones(len(rows), dtype=np.int32), (rows, cols)), shape=(len(plan.blocks), len(plan.v))).tocsr()
+    touch = (inc @ inc.T).tolil().rows
+    out = np.full(len(plan.blocks), -1, dtype=np.int64)
+    for k in range(len(plan.blocks)):  # per block: the least colour none of its earlier neighbours has
+        taken = set(out[touch[k]].tolist())
+        out[k] = next(c for c in range(len(plan.blocks) + 1) if c not in taken)
+    return out
 
 
 class _Clock:
@@ -872,9 +965,9 @@ class _Clock:
         self.keys = np.zeros(0, dtype=np.int64)
         self.when = np.zeros(0, dtype=np.int64)
 
-    def pin(self, pins: "tuple | None", moved: tuple, zero: bool) -> tuple:
+    def pin(self, pins: "tuple | None", moved: list, zero: bool) -> tuple:
         """:func:`_pinned`, noting the pins that are new or lower now."""
-        new = _pinned(pins, [moved], zero)
+        new = _pinned(pins, moved, zero)
         old = pins if pins is not None else (np.zeros(0, dtype=np.int64), np.zeros(0))
         at = np.minimum(np.searchsorted(old[0], new[0]), max(len(old[0]) - 1, 0))
         same = (old[0][at] == new[0]) & (old[1][at] == new[1]) if len(old[0]) else np.zeros(len(new[0]), dtype=bool)

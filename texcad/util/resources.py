@@ -77,9 +77,11 @@ def _rss() -> int:
 
 @contextlib.contextmanager
 def memory_limit(nbytes: "int | None"):
-    """Within the block, :func:`available_memory` leaves at most ``nbytes`` bytes to
-    the job in all (what the process holds counts), so the memory guards refuse what
-    would not fit in it and name the pitch that does. None: no bound of its own."""
+    """Within the block, :func:`available_memory` leaves ``nbytes`` bytes to the job
+    in all (what the process holds counts; whatever the machine has free), so the
+    memory guards refuse what would not fit in it and name the pitch that does, and
+    the planners size tiles and blocks from it. None: no bound of its own (what the
+    machine has)."""
     token = _BOUND.set(None if nbytes is None else int(nbytes))
     try:
         yield
@@ -88,13 +90,19 @@ def memory_limit(nbytes: "int | None"):
 
 
 def available_memory() -> int:
-    """Bytes of memory this process can still use now: the least of the machine's
-    available memory (MemAvailable), what its address-space limit leaves, what its
-    container's memory limit leaves, and what the caller's bound
-    (:func:`memory_limit`, ``max_memory=``) leaves."""
-    have = min(_meminfo_available(), _address_space_left(), _cgroup_left())
+    """Bytes of memory this process can still use now. Where the caller set a bound
+    (:func:`memory_limit`, ``max_memory=``): what that bound leaves over what the
+    process holds, capped only by what its address-space limit (``ulimit -v``)
+    leaves: the bound is the user's word, so what other processes happen to leave
+    free (the machine's MemAvailable, a container's limit) does not enter, and the
+    plans made from it (tiles, blocks, and so the bytes where an overhang crosses
+    their borders) go with the bound and the input alone. Without a bound: the least
+    of the machine's available memory (MemAvailable), what the address-space limit
+    leaves and what the container's memory limit (cgroup v2) leaves."""
     bound = _BOUND.get()
-    return have if bound is None else max(0, min(have, bound - _rss()))
+    if bound is not None:
+        return max(0, min(_address_space_left(), bound - _rss()))
+    return min(_meminfo_available(), _address_space_left(), _cgroup_left())
 
 
 def texture_bytes(pixels: float, tolerance: float) -> float:
