@@ -18,7 +18,10 @@ from typing import Any, Callable, Optional
 
 from .errors import ParameterError
 
-__all__ = ["Mode", "Mapping", "Options", "DEFAULTS", "option_names", "memory_bytes"]
+__all__ = ["Mode", "Mapping", "Options", "DEFAULTS", "RUN_OPTIONS", "option_names", "memory_bytes"]
+
+#: Options of how a job runs, not of what it makes: every target takes them.
+RUN_OPTIONS = ("progress", "max_memory", "client")
 
 
 class Mode(str, enum.Enum):
@@ -102,6 +105,10 @@ class Options:
         rotation: turns the texture about the face normal (planar faces) or the
             projection axis (meshes), degrees (0).
         max_memory: bound on the job's memory, bytes, or None (what the machine has).
+        client: a ``dask.distributed.Client`` or a scheduler address
+            (``"tcp://HOST:PORT"``): a part made in tiles or blocks (a plate, a mesh
+            beyond ``max_memory``) makes them on that cluster, the same bytes as here;
+            None: here. Needs ``pip install "texcad[dask]"``.
         progress: a ``progress(fraction, message)`` callback, or None.
 
     CAD faces and 2.5D surfaces:
@@ -128,6 +135,7 @@ class Options:
     gradient: Optional[tuple] = None
     rotation: float = 0.0
     max_memory: Optional[int] = None
+    client: Any = field(default=None, compare=False, repr=False)
     progress: Optional[Callable[[float, str], None]] = field(default=None, compare=False, repr=False)
     # CAD faces and surfaces
     mapping: Mapping = Mapping.ANGLE
@@ -182,11 +190,11 @@ class Options:
     def refuse(self, allowed: "frozenset[str] | set[str]", target: str) -> None:
         """ParameterError for every option the caller gave that ``target`` does not
         use (an option is never silently ignored)."""
-        extra = sorted(self.given - set(allowed) - {"progress", "max_memory"})
+        extra = sorted(self.given - set(allowed) - set(RUN_OPTIONS))
         if extra:
             raise ParameterError(
                 f"{', '.join(extra)}: not an option when texturing {target}; "
-                f"the options there are {', '.join(sorted(set(allowed) | {'progress', 'max_memory'}))}"
+                f"the options there are {', '.join(sorted(set(allowed) | set(RUN_OPTIONS)))}"
             )
 
     def report(self, fraction: float, message: str) -> None:
@@ -283,6 +291,11 @@ def _validate(name: str, v: Any) -> Any:
         return a, b
     if name == "max_memory":
         return memory_bytes(v)
+    if name == "client":
+        if not (isinstance(v, str) and "://" in v) and not callable(getattr(v, "submit", None)):
+            raise ParameterError(f"client must be a dask.distributed.Client or a scheduler address such as "
+                                 f"'tcp://HOST:8786', got {v!r}")
+        return v
     if name == "progress":
         if not callable(v):
             raise ParameterError(f"progress must be a callable progress(fraction, message), got {v!r}")

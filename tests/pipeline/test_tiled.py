@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import texcad
+from texcad.errors import ParameterError
 from texcad.io.export import _STL_DTYPE
 from texcad.pipeline import textured_plate
 from texcad.pipeline.tiled import textured_plate_tiled
@@ -828,3 +829,24 @@ def test_lean_and_grid_tiles_meet_on_random_heightmaps(tmp_path, seed):
     grid_tiles = [len(v) == t.shape[0] * t.shape[1] for t, v, _, _ in mesh.blocks() if t is not None]
     assert 0 < sum(grid_tiles) < len(grid_tiles)  # lean tiles beside grid tiles
     assert res.triangles < 2 * (r + 1) * (c + 1) + 2 * (r + c) + 10  # leaner than the grid
+
+
+def test_texture_makes_its_tiles_on_the_cluster_given_as_client(tmp_path, monkeypatch):
+    """``texcad.texture(Plate, client=)``: the tiles made on a local cluster of two
+    worker processes, gated, written with the bytes made here; a client that is not
+    one is refused, and with build_dir too (its limited heights are a file here)."""
+    distributed = pytest.importorskip("distributed")
+    _small_budget(monkeypatch)
+    kw = dict(pitch=PITCH, height=HEIGHT, max_memory="2GB")
+    here = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", **kw)
+    here.export(tmp_path / "here.stl")
+    with pytest.raises(ParameterError, match="client must be a dask.distributed.Client"):
+        texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", client="localhost", **kw)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=50) as cluster, distributed.Client(cluster, set_as_default=False) as client:
+        there = texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", client=client, **kw)
+        assert there.info["fuse"] == "tiled" and there.mesh.client is client and there.gate.shells.closed
+        there.export(tmp_path / "there.stl")
+        with pytest.raises(ParameterError, match="build_dir with client="):
+            texcad.texture(texcad.Plate(SIZE, THICK), None, "builtin:stones", client=client, build_dir=(0, 0, 1), **kw)
+    assert (tmp_path / "there.stl").read_bytes() == (tmp_path / "here.stl").read_bytes()

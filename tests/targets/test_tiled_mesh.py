@@ -433,8 +433,7 @@ def test_blocks_on_a_local_dask_cluster_give_the_bytes_made_here(monkeypatch, tm
     here.export(tmp_path / "here.stl")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
                                   silence_logs=50) as cluster, distributed.Client(cluster) as client:
-        with tiled_mesh.blocks_on(client):
-            there = _blocks(monkeypatch, part, "all", 3000, **kw)
+        there = _blocks(monkeypatch, part, "all", 3000, client=client, **kw)
         assert there.mesh.client is client and len(client.scheduler_info()["workers"]) == 2
         there.export(tmp_path / "there.stl")
     assert here.mesh.__dict__["passes"] > 1 and len(here.mesh.__dict__["pins"][0]) > 0 and here.info["blocks"] >= 5

@@ -779,6 +779,7 @@ class MeshAdapter(Adapter):
 
     def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
         if not isinstance(relief.data, MeshRelief):  # made in blocks (texcad.targets.tiled_mesh)
+            from .tiled import cluster_client
             from .tiled_mesh import TiledMeshBlocks
 
             plan = relief.data
@@ -787,7 +788,7 @@ class MeshAdapter(Adapter):
                         coarse_pitches=plan.factor,
                         tolerance=0.0, max_error=0.0, kind="mesh", face="mesh", pitch=plan.pitch,
                         no_brep="a mesh has no B-rep: it is textured as a mesh")
-            return Fused(TiledMeshBlocks(plan, progress=told), placement.base, info, None)
+            return Fused(TiledMeshBlocks(plan, progress=told, client=cluster_client(options.client)), placement.base, info, None)
         r: MeshRelief = relief.data
         options.report(0.85, "the displaced mesh")
         out = Mesh((r.v + r.normals * r.d[:, None]).astype(np.float32), r.f.astype(np.uint32),

@@ -253,7 +253,7 @@ class PlateAdapter(Adapter):
     def fuse(self, placement: Placement, relief: Relief, options: Options) -> Fused:
         pl: PlatePlacement = placement.data
         if isinstance(relief.data, PlateTiles):
-            from .tiled import TiledMesh
+            from .tiled import TiledMesh, cluster_client
 
             g = relief.data.grid
             options.report(0.45, f"{g.count} tile(s) of up to {g.tile} x {g.tile} nodes")
@@ -266,7 +266,8 @@ class PlateAdapter(Adapter):
                 from ..printability.overhang import lean_facets
 
                 check = lean_facets(options.directions, options.critical_angle)
-            mesh = TiledMesh(g, relief.data.source, pl.thickness, progress=told, tolerance=tol, check=check)
+            client = cluster_client(options.client, limited=options.directions is not None)
+            mesh = TiledMesh(g, relief.data.source, pl.thickness, client, progress=told, tolerance=tol, check=check)
             return Fused(mesh, placement.base, info)
         r: PlateRelief = relief.data
         options.report(0.45, f"fusing {r.slab.num_triangles} texture triangles onto the base")

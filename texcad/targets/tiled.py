@@ -64,7 +64,7 @@ from ..errors import GeometryError, ParameterError, ResourceError
 from ..sources import Heightmap
 from ..util import Progress, report
 
-__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "CountedTiles", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "LimitedSource", "tile_for_memory", "BYTES_PER_TILE_NODE", "BYTES_PER_LEAN_NODE", "LEAN_TILE"]
+__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "CountedTiles", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "LimitedSource", "tile_for_memory", "cluster_client", "BYTES_PER_TILE_NODE", "BYTES_PER_LEAN_NODE", "LEAN_TILE"]
 
 #: Peak bytes per node of one tile: the texture function's temporaries (float64),
 #: the float32 vertices, int64 faces and ids, STL records or 3MF text (measured on
@@ -399,6 +399,23 @@ def _connect(address: str, timeout: float = 5.0):
     except (OSError, TimeoutError, ValueError) as exc:
         raise ResourceError(f"cannot reach the Dask scheduler at {address!r} within {timeout:g} s ({type(exc).__name__}); "
                             "check the address, or leave out client= to make the tiles here") from None
+
+
+def cluster_client(client: Any, *, limited: bool = False) -> Any:
+    """The Dask client that ``client=`` names (:class:`texcad.options.Options`): None
+    (here), a ``dask.distributed.Client``, or one connected to a scheduler address
+    (ResourceError if it cannot be reached in 5 s).
+
+    Raises:
+        ParameterError: ``limited`` (``build_dir``) with a client: the limited heights
+            are kept in a file here, which the cluster's workers cannot read.
+    """
+    if client is None:
+        return None
+    if limited:
+        raise ParameterError("build_dir with client=: the limited heights are kept in a file here, which the cluster's "
+                             "workers cannot read; leave out client= (the limiter runs here, block by block)")
+    return _connect(client) if isinstance(client, str) else client
 
 
 def tile_for_memory(max_memory: Optional[int], nodes: tuple, *, lean: bool = False) -> int:

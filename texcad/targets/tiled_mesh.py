@@ -53,7 +53,7 @@ is the untiled pitch grid (``tolerance=0``), made a block at a time:
   limiter's own tests, so made again with the same pins (for the writers) it gives
   the same result.
 
-**On a Dask cluster** (:func:`blocks_on`): each pass's blocks of one colour
+**On a Dask cluster** (``texcad.texture(..., client=)``): each pass's blocks of one colour
 (:func:`_colours`: no two share a coarse vertex) are made from the same pins, in any
 order, so the cluster's workers make them (:func:`_make`, the plan and pins sent
 once per colour) with the bytes this process makes (tested on two workers); the
@@ -113,8 +113,6 @@ the whole mesh) are refused; ``base_mesh`` is the input.
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import math
 import warnings
 from dataclasses import dataclass, replace
@@ -126,30 +124,11 @@ from ..errors import GeometryError, ParameterError, ResourceError, TexcadWarning
 from ..printability.relief import limit_relief
 from ..solid.subdivide import coarsen, edge_counts, face_normals, offset_directions, tessellate, vertex_normals
 from ..util import Progress, available_memory, finest_pitch, report, split_rows
-from .tiled import CountedTiles, _at, _connect, tiles_verdict
+from .tiled import CountedTiles, _at, tiles_verdict
 from .tiled_faces import open_edges
 
 __all__ = ["MeshPlan", "FineBlock", "BlockRelief", "TiledMeshBlocks", "mesh_plan", "fine_block", "gate_mesh_blocks",
-           "blocks_on", "BLOCK_BYTES", "LIMITED_BYTES", "KEPT_BYTES", "COARSE_BYTES", "MAX_FACTOR"]
-
-#: The Dask client the meshes made in blocks make their blocks on (:func:`blocks_on`).
-_CLIENT: "contextvars.ContextVar[Any]" = contextvars.ContextVar("texcad_mesh_blocks_client", default=None)
-
-
-@contextlib.contextmanager
-def blocks_on(client: Any):
-    """Within the block, a mesh that :func:`texcad.texture` makes in blocks makes them
-    on the Dask cluster of ``client`` (a ``dask.distributed.Client``, or a scheduler
-    address ``"tcp://HOST:PORT"``: connected here, ResourceError if it cannot be
-    reached within 5 s), for its gate and, later, its writers (keep the client open
-    until the mesh is written). The blocks of a pass are made from the same pins, so
-    the bytes are those made in one process, whatever the workers. None: here."""
-    own = isinstance(client, str)
-    token = _CLIENT.set(_connect(client) if own else client)
-    try:
-        yield _CLIENT.get()
-    finally:
-        _CLIENT.reset(token)
+           "BLOCK_BYTES", "LIMITED_BYTES", "KEPT_BYTES", "COARSE_BYTES", "MAX_FACTOR"]
 
 #: Peak bytes per refined triangle of one block (tessellation, normals, relief and the
 #: emitted float32 block; about 450 measured on an icosphere of radius 40 mm at 0.25 mm
@@ -777,8 +756,9 @@ class TiledMeshBlocks(CountedTiles):
     Blocks are made on demand (:meth:`blocks`), gated (:func:`gate_mesh_blocks`) and
     written (:meth:`write`, streamed) one at a time."""
 
-    def __init__(self, plan: MeshPlan, progress: Progress = None) -> None:
-        self.plan, self.progress, self.client, self.thickness = plan, progress, _CLIENT.get(), 0.0
+    def __init__(self, plan: MeshPlan, progress: Progress = None, client: Any = None) -> None:
+        self.plan, self.progress, self.thickness = plan, progress, 0.0
+        self.client = client  # texcad.texture(client=): the blocks made on that Dask cluster
         self.grid = None
 
     def displaced(self, progress: Progress = None, redo: Any = None) -> Any:
