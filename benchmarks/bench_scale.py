@@ -78,7 +78,7 @@ else:
     how = (f"texcad.texture, {'tiled' if tiled else 'untiled'}, gated" + (", limited upright" if limited else "")
            + (", lean (tolerance 0.02 mm)" if mode == "lean" else ""))
 sec, cpu_sec = time.perf_counter() - t0, cpu() - c0
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+peak = texcad.util.peak_rss()  # VmHWM: ru_maxrss starts at the parent's peak
 print(json.dumps({"side": side, "seconds": sec, "cpu": cpu_sec, "peak": peak, "triangles": tris, "tiles": tiles, "how": how,
                   "max_memory": max_memory, "bytes": Path(out).stat().st_size}))
 """

@@ -199,3 +199,18 @@ def test_a_large_image_is_refused_before_decoding_naming_a_size_that_fits(tmp_pa
         small = tmp_path / "small.png"
         Image.fromarray(np.zeros((h, w), np.uint8)).save(small)
         assert read_gray(small).shape == (h, w)  # the size named fits
+
+
+def test_peak_rss_is_the_child_s_own_peak_not_its_parent_s():
+    """A small child of a process that held 300 MB reads its own high-water mark
+    (VmHWM), where ``ru_maxrss`` carries the parent's over exec."""
+    import subprocess
+    import sys
+
+    big = bytearray(300 << 20)
+    big[::4096] = b"x" * len(big[::4096])  # touched: resident
+    code = "import resource, texcad.util as u; print(u.peak_rss() >> 20, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss >> 10)"
+    own, inherited = map(int, subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split())
+    del big
+    print(f"child's own peak {own} MB, ru_maxrss {inherited} MB")
+    assert own < 250  # ru_maxrss reads >= 300 here (Linux keeps it over fork and exec)

@@ -51,7 +51,6 @@ block that fails made finer, down to the grid.
 from __future__ import annotations
 
 import os
-import resource
 import tempfile
 import time
 from dataclasses import dataclass
@@ -62,7 +61,7 @@ import numpy as np
 
 from ..errors import GeometryError, ParameterError, ResourceError
 from ..sources import Heightmap
-from ..util import Progress, report
+from ..util import Progress, peak_rss, report
 
 __all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "CountedTiles", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "LimitedSource", "tile_for_memory", "cluster_client", "BYTES_PER_TILE_NODE", "BYTES_PER_LEAN_NODE", "LEAN_TILE"]
 
@@ -615,7 +614,7 @@ def _grid_of(source: Any, w: float, d: float, side: int):
 def _write(mesh: "TiledMesh", out: Path, progress: Progress, t0: float) -> TiledPlate:
     """Mesh and stream every tile, then the walls: the :class:`TiledPlate`."""
     triangles, volume = mesh.write(out, progress)
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    peak = peak_rss()
     grid, source = mesh.grid, mesh.source
     return TiledPlate(
         path=Path(out), size=tuple(grid.size), thickness=mesh.thickness, grid=tuple(source.shape), pitch=tuple(source.pitch),

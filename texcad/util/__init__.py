@@ -34,6 +34,7 @@ from .rows import (
     rowsum,
 )
 from .resources import (
+    peak_rss,
     available_memory,
     require_memory,
     texture_bytes,
@@ -69,6 +70,7 @@ __all__ = [
     'rowmin',
     'rownorm',
     'rowsum',
+    'peak_rss',
     'available_memory',
     'require_memory',
     'texture_bytes',

@@ -10,7 +10,7 @@ import os
 
 from ..errors import ResourceError
 
-__all__ = ["available_memory", "require_memory", "texture_bytes", "fitting_pitch", "finest_pitch", "require_pitch", "round_up"]
+__all__ = ["peak_rss", "available_memory", "require_memory", "texture_bytes", "fitting_pitch", "finest_pitch", "require_pitch", "round_up"]
 
 #: Peak bytes per texture pixel of the whole texturing job (slab, manifold3d union,
 #: fused mesh, writers), measured on a 100 x 100 mm stones plate at 0.125 mm: 1.10 KB
@@ -73,6 +73,19 @@ def _rss() -> int:
             return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
     except (OSError, ValueError, IndexError):
         return 0
+
+
+def peak_rss() -> int:
+    """Bytes this process has held at most (its resident high-water mark, VmHWM).
+    Not ``getrusage``'s ``ru_maxrss``: Linux carries that over ``exec`` from the
+    parent, so a small child of a large process reads the parent's peak."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            return int(next(l for l in fh if l.startswith("VmHWM:")).split()[1]) * 1024
+    except (OSError, ValueError, IndexError, StopIteration):
+        import resource
+
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 
 @contextlib.contextmanager
