@@ -340,12 +340,14 @@ def slice_mesh(
       (:data:`CURA_DEFINITION`); ``config`` adds ``-s key=value`` settings
       (True / False become ``true`` / ``false``).
 
-    ``file="3mf"`` hands the slicer the 3MF that :func:`texcad.io.export` writes
-    instead of an STL: the same mesh, with the per-object settings of
-    :func:`texcad.io.slicer_layout` (PrusaSlicer reads them; CuraEngine reads no
-    3MF, so it always gets the STL); ``layout=False`` writes the mesh as a plain
-    one-part 3MF instead (no settings, no cut: what the layout changes is then the
-    only difference). ``keep``: copy the G-code there.
+    ``file="3mf"`` hands the slicer what :func:`texcad.io.export` writes into a 3MF
+    instead of a plain STL: PrusaSlicer gets the 3MF, with the per-object settings of
+    :func:`texcad.io.slicer_layout`; CuraEngine, which reads no 3MF, gets the STL
+    with the 3MF's Cura per-object settings (:func:`texcad.io.cura_settings`) as
+    ``-s`` settings of that mesh (after its ``-l``), as Cura's frontend passes them
+    on when it loads the 3MF. ``layout=False`` writes the mesh as a plain one-part
+    3MF instead (no settings, no cut: what the layout changes is then the only
+    difference; CuraEngine: the STL alone). ``keep``: copy the G-code there.
 
     Returns:
         :class:`SliceReport` (support points mapped back to the mesh's own frame).
@@ -353,7 +355,7 @@ def slice_mesh(
     Raises:
         ResourceError: the slicer is not installed, or it ran past ``timeout`` s.
     """
-    from ..io import slicer_layout, write_3mf, write_stl
+    from ..io import cura_settings, slicer_layout, write_3mf, write_stl
     from ..solid import Mesh
 
     if file not in ("stl", "3mf"):
@@ -375,7 +377,8 @@ def slice_mesh(
             if layout:
                 lay = slicer_layout(placed, name="part")  # what export() writes
                 parts = placed if len(lay.parts) == 1 else list(lay.parts)
-                write_3mf(parts, stl, name="part", settings=lay.settings, part_settings=lay.part_settings or None)
+                write_3mf(parts, stl, name="part", settings=lay.settings, part_settings=lay.part_settings or None,
+                          cura_settings=cura_settings())
             else:
                 write_3mf(placed, stl, name="part")
         else:
@@ -395,7 +398,11 @@ def slice_mesh(
             args = []
             for k, val in (config or {}).items():
                 args += ["-s", f"{k}={str(val).lower() if isinstance(val, bool) else val}"]
-            cmd = [exe, "slice", "-j", str(CURA_DEFINITION), *args, "-l", str(stl), "-o", str(gcode)]
+            mesh_args = []
+            if file == "3mf" and layout:  # the 3MF's per-object settings, for this mesh only
+                for k, val in cura_settings().items():
+                    mesh_args += ["-s", f"{k}={val}"]
+            cmd = [exe, "slice", "-j", str(CURA_DEFINITION), *args, "-l", str(stl), *mesh_args, "-o", str(gcode)]
         full = (["/usr/bin/time", "-v"] if os.path.exists("/usr/bin/time") else []) + cmd
         try:
             proc = subprocess.run(full, capture_output=True, timeout=timeout, env={**os.environ, "LC_ALL": "C"})
