@@ -384,25 +384,8 @@ def slice_mesh(
         else:
             stl = Path(tmp) / "part.stl"
             write_stl(placed, stl)
-        if slicer == "prusaslicer":
-            args = ["--use-relative-e-distances"]
-            for k, val in (config or {}).items():
-                if val is True:
-                    args.append(f"--{k}")
-                elif val is False:
-                    args.append(f"--no-{k}")
-                else:
-                    args += [f"--{k}", str(val)]
-            cmd = [exe, "--export-gcode", "--dont-arrange", *args, "--output", str(gcode), str(stl)]
-        else:
-            args = []
-            for k, val in (config or {}).items():
-                args += ["-s", f"{k}={str(val).lower() if isinstance(val, bool) else val}"]
-            mesh_args = []
-            if file == "3mf" and layout:  # the 3MF's per-object settings, for this mesh only
-                for k, val in cura_settings().items():
-                    mesh_args += ["-s", f"{k}={val}"]
-            cmd = [exe, "slice", "-j", str(CURA_DEFINITION), *args, "-l", str(stl), *mesh_args, "-o", str(gcode)]
+        mesh_settings = cura_settings() if file == "3mf" and layout else {}  # the 3MF's, for CuraEngine's mesh
+        cmd = _command(exe, slicer, config or {}, stl, gcode, mesh_settings)
         full = (["/usr/bin/time", "-v"] if os.path.exists("/usr/bin/time") else []) + cmd
         try:
             proc = subprocess.run(full, capture_output=True, timeout=timeout, env={**os.environ, "LC_ALL": "C"})
@@ -425,6 +408,29 @@ def slice_mesh(
             if keep is not None:
                 shutil.copy(gcode, keep)
     return rep
+
+
+def _command(exe: str, slicer: str, config: dict, src: Path, gcode: Path, mesh_settings: dict) -> list[str]:
+    """The command line that slices ``src`` into ``gcode``: PrusaSlicer with
+    ``config`` as options (True / False as ``--key`` / ``--no-key``), or CuraEngine
+    with ``config`` as ``-s`` settings and ``mesh_settings`` as the mesh's own
+    (``-s`` after its ``-l``)."""
+    if slicer == "prusaslicer":
+        args = ["--use-relative-e-distances"]
+        for k, val in config.items():
+            if val is True:
+                args.append(f"--{k}")
+            elif val is False:
+                args.append(f"--no-{k}")
+            else:
+                args += [f"--{k}", str(val)]
+        return [exe, "--export-gcode", "--dont-arrange", *args, "--output", str(gcode), str(src)]
+    args, mesh_args = [], []
+    for k, val in config.items():
+        args += ["-s", f"{k}={str(val).lower() if isinstance(val, bool) else val}"]
+    for k, val in mesh_settings.items():
+        mesh_args += ["-s", f"{k}={str(val).lower() if isinstance(val, bool) else val}"]
+    return [exe, "slice", "-j", str(CURA_DEFINITION), *args, "-l", str(src), *mesh_args, "-o", str(gcode)]
 
 
 def support_near(points: np.ndarray, mesh, faces: np.ndarray, build_dir=(0.0, 0.0, 1.0), radius: float = 1.0) -> int:
