@@ -405,19 +405,46 @@ def _direction(d) -> str:
     return "(" + ", ".join(f"{v:.2f}" for v in d) + ")"
 
 
-def compare(bare, textured, d, slicer: str, timeout: float):
+def compare(bare, textured, d, slicer: str, timeout: float, keep=None):
     """``(bare report, textured report, extra support mm)`` of one part in one slicer,
     support on at threshold 45 (CuraEngine's as plain lines :data:`CURA_LINES` apart,
     so that its length measures its area). The bare part goes in as an STL; the
     textured part as what texcad writes for that slicer: PrusaSlicer gets texcad's
     3MF (its per-object settings and layout, ``texcad.io.slicer_layout``),
-    CuraEngine, which reads no 3MF, the STL. None for a slice that ran past ``timeout``."""
+    CuraEngine, which reads no 3MF, the STL with the 3MF's Cura per-object settings
+    (``texcad.io.cura_settings``). None for a slice that ran past ``timeout``.
+    ``keep``: copy the textured part's G-code there."""
     from texcad.report.slicer import extra_support, support_config
 
     cfg = support_config(slicer, 45, lines=CURA_LINES if slicer == "curaengine" else None)
     a = sliced(bare, timeout, slicer=slicer, build_dir=d, config=cfg)
-    b = sliced(textured, timeout, slicer=slicer, build_dir=d, config=cfg, file="3mf")
+    b = sliced(textured, timeout, slicer=slicer, build_dir=d, config=cfg, file="3mf", keep=keep)
     return a, b, (extra_support(b, a) if a and b else float("nan"))
+
+
+#: G-code sections that print inside the part (CuraEngine's infill) or beside it (support).
+INSIDE = ("FILL", "SUPPORT", "SUPPORT-INTERFACE")
+
+
+def plain_stl(textured, d, timeout: float, kept: str):
+    """``(report, mm)``: CuraEngine on the textured part as a plain STL (without the
+    3MF's Cura settings), and the farthest its walls and skin (every path but
+    :data:`INSIDE`) lie from those of the G-code ``kept`` (texcad's output) in any
+    layer: how far the settings move what prints outside. ``(None, nan)`` past the timeout."""
+    import tempfile
+
+    import numpy as np
+
+    from texcad.report.slicer import read_toolpaths, support_config, toolpath_deviation
+
+    with tempfile.TemporaryDirectory() as tmp:
+        g = str(Path(tmp) / "plain.gcode")
+        r = sliced(textured, timeout, slicer="curaengine", build_dir=d, config=support_config("curaengine", 45, lines=CURA_LINES),
+                   keep=g)
+        if r is None or not Path(g).exists():
+            return r, float("nan")
+        dev = toolpath_deviation(read_toolpaths(g, exclude=INSIDE), read_toolpaths(kept, exclude=INSIDE))
+    return r, float(np.max(dev)) if len(dev) else float("nan")
 
 
 def table(args) -> None:
@@ -435,6 +462,8 @@ def table(args) -> None:
     for s in have:
         headers += [f"{_NAMES[s]} support m (bare / textured)", f"{_NAMES[s]} beyond bare m",
                     f"{_NAMES[s]} CPU s (bare / textured)"]
+    if "curaengine" in have:
+        headers += ["CuraEngine CPU s, textured as a plain STL", "CuraEngine walls and skin moved mm"]
     makers = [(script, COARSE_PITCH[script], lambda sc, p: recipe_parts(sc, p)) for script in RECIPES]
     makers.append(("slotted_handle", 1.0, lambda sc, p: slotted_handle(p, tmp)))
     for script, pitch, make in makers:
@@ -445,7 +474,10 @@ def table(args) -> None:
             print(f"  {name}: load {load()}", flush=True)
             cells = [name, "not given" if d is None else _direction(d), f"{pitch:g}", f"{textured.num_triangles:,}"]
             for s in have:
-                a, b, extra = compare(bare, textured, (0.0, 0.0, 1.0) if d is None else d, s, args.timeout)
+                kept = str(Path(tmp) / "textured.gcode")
+                Path(kept).unlink(missing_ok=True)
+                a, b, extra = compare(bare, textured, (0.0, 0.0, 1.0) if d is None else d, s, args.timeout,
+                                      keep=kept if s == "curaengine" else None)
                 for label, rep in (("bare", a), ("textured", b)):
                     row(f"{name[:22]} {s[:5]} {label}", rep)
                 if a is None or b is None:
@@ -454,6 +486,9 @@ def table(args) -> None:
                 summary[s].append((a.support_mm, b.support_mm, extra, b.cpu_seconds / max(a.cpu_seconds, 0.01)))
                 cells += [f"{a.support_mm / 1000:.2f} / {b.support_mm / 1000:.2f}", f"{extra / 1000:.3f}",
                           f"{a.cpu_seconds:.1f} / {b.cpu_seconds:.1f}"]
+            if "curaengine" in have:
+                plain, moved = plain_stl(textured, (0.0, 0.0, 1.0) if d is None else d, args.timeout, kept)
+                cells += ["ran past the timeout" if plain is None else f"{plain.cpu_seconds:.1f}", f"{moved:.2f}"]
             rows.append(cells)
             _write_slicer_table(headers, rows, args)
     if args.readme:
@@ -471,7 +506,8 @@ def _write_slicer_table(headers, rows, args):
         "Every recipe run as a script at the coarse pitch shown (the paper's nine samples by the recipe's own "
         "functions), each part it makes sliced as printed (the build direction it passes to `texcad.texture`) "
         "as texcad writes it for that slicer (PrusaSlicer: texcad's 3MF, with its per-object settings; CuraEngine, "
-        "which reads no 3MF: the STL), and beside it the same part untextured as an STL (its CAD shape tessellated to "
+        "which reads no 3MF: the STL, with the 3MF's Cura per-object settings (`texcad.io.cura_settings`: skin edge "
+        "support off) as that mesh's settings, as Cura passes them on when it loads the 3MF), and beside it the same part untextured as an STL (its CAD shape tessellated to "
         f"{RECIPE_BARE_TOLERANCE:g} mm and 0.05 rad; a mesh part's base). Support on everywhere, threshold 45 degrees "
         "(the critical angle), 0.4 mm nozzle, each slicer's default layers (PrusaSlicer 0.3 mm, CuraEngine 0.2 mm "
         "in texcad's definition); CuraEngine's support laid as plain lines "
@@ -485,7 +521,10 @@ def _write_slicer_table(headers, rows, args):
         "centres each part's bounding box on the bed, so a texture anywhere on the part can move its support's "
         "edge by a cell (the diagonal at a corner of the first layer, whose support is widened); and it rests a column that stands beside a textured wall on the texture's upward "
         "facets, which adds bottom contacts, interfaces and thinner layers to it. CPU s = user + system "
-        "time of the slicer process."
+        "time of the slicer process. Plain STL: CuraEngine on the textured part's STL alone (skin edge support on, "
+        "4 layers, Cura's default), sliced in the same run; walls and skin moved: the farthest any of its paths but "
+        "infill and support lies from those of texcad's output in the same layer (`texcad.report.slicer."
+        "toolpath_deviation`), against a 0.4 mm bead."
     )
     return write_table("slicer", headers, rows, title="Support and slicing time of every recipe, bare and textured, in two slicers",
                        notes=notes)

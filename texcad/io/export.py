@@ -27,6 +27,8 @@ __all__ = [
     "write_3mf",
     "export",
     "slicer_settings",
+    "cura_settings",
+    "CURA_TEXTURE_SETTINGS",
     "slicer_layout",
     "extra_perimeter_cut",
     "SlicerLayout",
@@ -196,12 +198,13 @@ def _triangle_rows(t: np.ndarray) -> bytes:
     return b"".join(out)
 
 
-def _object_parts(oid: int, name: str, mesh: Mesh) -> Iterator[bytes]:
+def _object_parts(oid: int, name: str, mesh: Mesh, meta: bytes = b"") -> Iterator[bytes]:
     """The ``<object>`` element of ``mesh`` in pieces of at most ``_ROWS`` rows, each
     formatted when asked for (a generator), so that a writer can compress one piece
-    while the next is formatted. Joined, they are the same bytes for any split."""
+    while the next is formatted. Joined, they are the same bytes for any split.
+    ``meta``: the object's ``<metadatagroup>`` (:func:`_cura_metadata`), or empty."""
     # 0.1 um resolution: far below any printer's, and exact for texcad's float32 grid.
-    yield f'<object id="{oid}" type="model" name="{name}"><mesh><vertices>\n'.encode()
+    yield f'<object id="{oid}" type="model" name="{name}">'.encode() + meta + b"<mesh><vertices>\n"
     for a in range(0, len(mesh.vertices), _ROWS):  # per chunk of rows
         yield _vertex_rows(mesh.vertices[a : a + _ROWS])
     yield b"</vertices><triangles>\n"
@@ -226,6 +229,7 @@ def write_3mf(
     build_dir=None,
     settings: Mapping[str, Any] | None = None,
     part_settings: Sequence[Mapping[str, Any]] | None = None,
+    cura_settings: Mapping[str, Any] | None = None,
 ) -> None:
     """Write a 3MF package (3MF core spec, ``unit="millimeter"``), zip-deflated.
 
@@ -260,6 +264,11 @@ def write_3mf(
         part_settings: with several parts, PrusaSlicer per-part settings, one
             mapping per part (written as the part's metadata in the same file; the
             slicer gives that part's slices its own print region), or None.
+        cura_settings: Cura per-object settings ``{setting key: value}``
+            (:func:`cura_settings`), written as the object's ``<metadatagroup>`` of
+            ``cura:`` metadata (3MF core spec metadata, Cura's namespace), which
+            Cura's 3MF reader applies to this object over the print profile, as
+            its own project files do. None or empty: none written.
     """
     items = [(name, mesh)] if isinstance(mesh, Mesh) else list(mesh)
     if not items:
@@ -273,16 +282,18 @@ def write_3mf(
             _, _, config = _merged([(name if isinstance(mesh, Mesh) else items[0][0], part)], name, settings)
     else:
         label, part, config = _merged(items, name, settings, part_settings)
+    meta = _cura_metadata(cura_settings)
     head = (
         b'<?xml version="1.0" encoding="UTF-8"?>\n'
         b'<model unit="millimeter" xml:lang="en-US" '
-        b'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02">\n'
-        b'<metadata name="Application">texcad</metadata>\n<resources>\n'
+        b'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"'
+        + (f' xmlns:cura="{CURA_NAMESPACE}"'.encode() if meta else b"")
+        + b'>\n<metadata name="Application">texcad</metadata>\n<resources>\n'
     )
     item = b'<item objectid="1"/>' if build_dir is None else f'<item objectid="1" transform="{_print_transform(part, build_dir)}"/>'.encode()
     tail = b"</resources>\n<build>" + item + b"</build>\n</model>\n"
-    model = itertools.chain([head], _object_parts(1, label, part), [tail])
-    bound = len(head) + len(tail) + len(label.encode()) + 128 + _size_bound(part)
+    model = itertools.chain([head], _object_parts(1, label, part, meta), [tail])
+    bound = len(head) + len(tail) + len(label.encode()) + len(meta) + 128 + _size_bound(part)
     with atomic_path(path) as tmp:
         with zipfile.ZipFile(tmp, "w") as z:
             for arcname, data in (("[Content_Types].xml", _CT), ("_rels/.rels", _RELS)):
@@ -290,6 +301,28 @@ def write_3mf(
             _write_streamed(z, _zip_info("3D/3dmodel.model"), model, bound)
             if config is not None:
                 z.writestr(_zip_info(SLIC3R_CONFIG), config, compresslevel=1)
+
+
+#: The XML namespace of Cura's 3MF metadata (Cura's and libSavitar's ``cura`` prefix).
+CURA_NAMESPACE = "http://software.ultimaker.com/xml/cura/3mf/2015/10"
+
+
+def _cura_metadata(settings: Mapping[str, Any] | None) -> bytes:
+    """An ``<object>``'s ``<metadatagroup>`` of ``cura:`` settings, sorted by key, the
+    way Cura writes per-object settings (libSavitar reads each ``cura:key`` as the
+    setting ``key``); empty bytes for none."""
+    if not settings:
+        return b""
+    rows = "".join(
+        f'<metadata name="cura:{_xml_escape(str(k))}" preserve="true" type="xs:string">{_xml_escape(_cura_value(v))}</metadata>'
+        for k, v in sorted(settings.items())
+    )
+    return f"<metadatagroup>{rows}</metadatagroup>".encode()
+
+
+def _cura_value(v: Any) -> str:
+    """A setting's value as Cura writes it (booleans as ``True`` / ``False``)."""
+    return str(bool(v)) if isinstance(v, (bool, np.bool_)) else str(v)
 
 
 def _print_transform(mesh: Mesh, build_dir) -> str:
@@ -399,6 +432,28 @@ def slicer_settings(mesh: Mesh, build_dir=None, *, textured: bool = True) -> dic
     level = v @ d
     on_bed = (level[mesh.faces] <= level.min() + 0.01).all(axis=1)  # within 0.01 mm of the lowest point
     return seam if np.any(down & ~on_bed & (length > 0)) else {"overhangs": 0, **seam}
+
+
+#: Cura's per-object settings :func:`cura_settings` writes for a textured part: "skin
+#: edge support" off (Cura's default is 0.8 mm, 4 layers of 0.2 mm). It draws an infill
+#: wall under every edge of top skin on the layers below it; on a texture the top skin
+#: is terraced into as many edges as the texture has contours, and CuraEngine 4.13
+#: (``FffGcodeWriter::partitionInfillBySkinAbove``) combines the skin parts of those
+#: layers one by one, each clipped against all the parts combined so far: parts squared
+#: per layer, most of the slicing time on a textured top (docs/benchmarks/slicer.md).
+#: The walls it draws lie inside the part, under the skin; what prints outside (walls,
+#: skin, the texture) stays where it was. The layers are written too, as CuraEngine
+#: reads them (it computes no setting from another).
+CURA_TEXTURE_SETTINGS = {"skin_edge_support_thickness": 0, "skin_edge_support_layers": 0}
+
+
+def cura_settings(textured: bool = True) -> dict[str, Any]:
+    """The Cura per-object settings :func:`export` writes into a 3MF (Cura's 3MF
+    reader applies them to the object): :data:`CURA_TEXTURE_SETTINGS` for a textured
+    part (texcad's meshes), none for a CAD shape (``textured=False``). CuraEngine's
+    command line, which reads no 3MF, takes the same settings as ``-s key=value``
+    after the mesh's ``-l`` (:func:`texcad.report.slicer.slice_mesh`)."""
+    return dict(CURA_TEXTURE_SETTINGS) if textured else {}
 
 
 #: Largest share of a cross-section's contour length that one island may hold where
@@ -634,10 +689,11 @@ def export(obj: Any, path: str | os.PathLike, *, separate_texture: bool = False,
         if isinstance(meshes, Mesh):  # one part: cut for the slicers where that pays (slicer_layout)
             lay = slicer_layout(meshes, up, label, textured=not cad)
             parts = meshes if len(lay.parts) == 1 else list(lay.parts)
-            write_3mf(parts, p, name=label, build_dir=up, settings=lay.settings, part_settings=lay.part_settings or None)
+            write_3mf(parts, p, name=label, build_dir=up, settings=lay.settings, part_settings=lay.part_settings or None,
+                      cura_settings=cura_settings(not cad))
         else:
             settings = slicer_settings(whole, up, textured=not cad) if whole is not None else None
-            write_3mf(meshes, p, name=label, build_dir=up, settings=settings)
+            write_3mf(meshes, p, name=label, build_dir=up, settings=settings, cura_settings=cura_settings(not cad))
     return p
 
 

@@ -340,12 +340,14 @@ def slice_mesh(
       (:data:`CURA_DEFINITION`); ``config`` adds ``-s key=value`` settings
       (True / False become ``true`` / ``false``).
 
-    ``file="3mf"`` hands the slicer the 3MF that :func:`texcad.io.export` writes
-    instead of an STL: the same mesh, with the per-object settings of
-    :func:`texcad.io.slicer_layout` (PrusaSlicer reads them; CuraEngine reads no
-    3MF, so it always gets the STL); ``layout=False`` writes the mesh as a plain
-    one-part 3MF instead (no settings, no cut: what the layout changes is then the
-    only difference). ``keep``: copy the G-code there.
+    ``file="3mf"`` hands the slicer what :func:`texcad.io.export` writes into a 3MF
+    instead of a plain STL: PrusaSlicer gets the 3MF, with the per-object settings of
+    :func:`texcad.io.slicer_layout`; CuraEngine, which reads no 3MF, gets the STL
+    with the 3MF's Cura per-object settings (:func:`texcad.io.cura_settings`) as
+    ``-s`` settings of that mesh (after its ``-l``), as Cura's frontend passes them
+    on when it loads the 3MF. ``layout=False`` writes the mesh as a plain one-part
+    3MF instead (no settings, no cut: what the layout changes is then the only
+    difference; CuraEngine: the STL alone). ``keep``: copy the G-code there.
 
     Returns:
         :class:`SliceReport` (support points mapped back to the mesh's own frame).
@@ -353,7 +355,7 @@ def slice_mesh(
     Raises:
         ResourceError: the slicer is not installed, or it ran past ``timeout`` s.
     """
-    from ..io import slicer_layout, write_3mf, write_stl
+    from ..io import cura_settings, slicer_layout, write_3mf, write_stl
     from ..solid import Mesh
 
     if file not in ("stl", "3mf"):
@@ -375,27 +377,15 @@ def slice_mesh(
             if layout:
                 lay = slicer_layout(placed, name="part")  # what export() writes
                 parts = placed if len(lay.parts) == 1 else list(lay.parts)
-                write_3mf(parts, stl, name="part", settings=lay.settings, part_settings=lay.part_settings or None)
+                write_3mf(parts, stl, name="part", settings=lay.settings, part_settings=lay.part_settings or None,
+                          cura_settings=cura_settings())
             else:
                 write_3mf(placed, stl, name="part")
         else:
             stl = Path(tmp) / "part.stl"
             write_stl(placed, stl)
-        if slicer == "prusaslicer":
-            args = ["--use-relative-e-distances"]
-            for k, val in (config or {}).items():
-                if val is True:
-                    args.append(f"--{k}")
-                elif val is False:
-                    args.append(f"--no-{k}")
-                else:
-                    args += [f"--{k}", str(val)]
-            cmd = [exe, "--export-gcode", "--dont-arrange", *args, "--output", str(gcode), str(stl)]
-        else:
-            args = []
-            for k, val in (config or {}).items():
-                args += ["-s", f"{k}={str(val).lower() if isinstance(val, bool) else val}"]
-            cmd = [exe, "slice", "-j", str(CURA_DEFINITION), *args, "-l", str(stl), "-o", str(gcode)]
+        mesh_settings = cura_settings() if file == "3mf" and layout else {}  # the 3MF's, for CuraEngine's mesh
+        cmd = _command(exe, slicer, config or {}, stl, gcode, mesh_settings)
         full = (["/usr/bin/time", "-v"] if os.path.exists("/usr/bin/time") else []) + cmd
         try:
             proc = subprocess.run(full, capture_output=True, timeout=timeout, env={**os.environ, "LC_ALL": "C"})
@@ -418,6 +408,29 @@ def slice_mesh(
             if keep is not None:
                 shutil.copy(gcode, keep)
     return rep
+
+
+def _command(exe: str, slicer: str, config: dict, src: Path, gcode: Path, mesh_settings: dict) -> list[str]:
+    """The command line that slices ``src`` into ``gcode``: PrusaSlicer with
+    ``config`` as options (True / False as ``--key`` / ``--no-key``), or CuraEngine
+    with ``config`` as ``-s`` settings and ``mesh_settings`` as the mesh's own
+    (``-s`` after its ``-l``)."""
+    if slicer == "prusaslicer":
+        args = ["--use-relative-e-distances"]
+        for k, val in config.items():
+            if val is True:
+                args.append(f"--{k}")
+            elif val is False:
+                args.append(f"--no-{k}")
+            else:
+                args += [f"--{k}", str(val)]
+        return [exe, "--export-gcode", "--dont-arrange", *args, "--output", str(gcode), str(src)]
+    args, mesh_args = [], []
+    for k, val in config.items():
+        args += ["-s", f"{k}={str(val).lower() if isinstance(val, bool) else val}"]
+    for k, val in mesh_settings.items():
+        mesh_args += ["-s", f"{k}={str(val).lower() if isinstance(val, bool) else val}"]
+    return [exe, "slice", "-j", str(CURA_DEFINITION), *args, "-l", str(src), *mesh_args, "-o", str(gcode)]
 
 
 def support_near(points: np.ndarray, mesh, faces: np.ndarray, build_dir=(0.0, 0.0, 1.0), radius: float = 1.0) -> int:

@@ -1,0 +1,90 @@
+"""Slicing cost in CuraEngine (issue 29): the 3MF texcad writes carries Cura
+per-object settings (``texcad.io.cura_settings``: skin edge support off), which
+Cura's 3MF reader applies to the object and which ``slice_mesh`` passes to
+CuraEngine's command line as that mesh's settings. On a textured top, CuraEngine
+4.13 combines the terraced skin parts of the layers above every infill layer one
+by one (``FffGcodeWriter::partitionInfillBySkinAbove``), most of its slicing time;
+without it, the walls and the skin (what prints the texture) stay where they were.
+
+The slicer test is skipped where CuraEngine is not installed; its one timing
+assertion compares two slices of the same mesh, one after the other, with a wide
+margin (about 0.5 measured)."""
+
+import xml.etree.ElementTree as ET
+import zipfile
+
+import pytest
+
+import texcad
+from texcad.io import cura_settings
+from texcad.io.export import CURA_NAMESPACE, CURA_TEXTURE_SETTINGS
+from texcad.report import slicer
+
+cura = pytest.mark.skipif(slicer.find_slicer("curaengine") is None, reason="CuraEngine is not installed")
+CORE = "{http://schemas.microsoft.com/3dmanufacturing/core/2015/02}"
+NOZZLE = 0.4  # mm, texcad's CuraEngine definition
+INSIDE = ("FILL", "SUPPORT", "SUPPORT-INTERFACE")  # what prints inside the part or beside it
+
+
+def _cura_object_settings(path) -> dict:
+    """The ``cura:`` settings of the 3MF's object as libSavitar reads them: the
+    ``<metadatagroup>`` of the ``<object>``, each ``cura:key`` (the prefix bound to
+    Cura's namespace) as the setting ``key``."""
+    with zipfile.ZipFile(path) as z:
+        model = z.read("3D/3dmodel.model").decode()
+    root = ET.fromstring(model)
+    assert not root.findall(f".//{CORE}object/{CORE}metadatagroup") or f'xmlns:cura="{CURA_NAMESPACE}"' in model
+    out = {}
+    for obj in root.iter(f"{CORE}object"):
+        for m in obj.findall(f"{CORE}metadatagroup/{CORE}metadata"):
+            prefix, _, key = m.get("name").partition(":")
+            assert prefix == "cura"
+            out[key] = m.text
+    return out
+
+
+def _plate(side: float = 40.0, pitch: float = 2.0):
+    """A ``side`` mm square plate, 4 mm thick, under 2 mm high stones at ``pitch`` mm."""
+    hm = texcad.builtin("stones", size=(side, side), pitch=pitch, height=2.0)
+    return texcad.pipeline.textured_plate(hm, size=(side, side), thickness=4)
+
+
+def test_the_3mf_carries_the_cura_settings_of_a_texture(tmp_path):
+    """A textured result's 3MF (one part, or base and texture apart) holds skin edge
+    support off as Cura's per-object metadata; a CAD shape's 3MF holds none."""
+    from build123d import Box
+
+    box = Box(10, 10, 10)
+    tx = texcad.texture(box, box.faces().sort_by()[-1], "builtin:stones", height=1.0, pitch=1.0, brep=False)
+    want = {k: str(v) for k, v in CURA_TEXTURE_SETTINGS.items()}
+    assert want == {"skin_edge_support_thickness": "0", "skin_edge_support_layers": "0"}
+    tx.export(tmp_path / "t.3mf")
+    assert _cura_object_settings(tmp_path / "t.3mf") == want
+    texcad.export(tx, tmp_path / "s.3mf", separate_texture=True)
+    assert _cura_object_settings(tmp_path / "s.3mf") == want
+    texcad.export(box, tmp_path / "box.3mf")
+    assert _cura_object_settings(tmp_path / "box.3mf") == {}
+    assert cura_settings(textured=False) == {}
+    # the mesh is the one the STL holds, whatever the metadata
+    assert texcad.io.read_mesh(tmp_path / "t.3mf").num_triangles == tx.mesh.num_triangles
+
+
+@cura
+def test_cura_slices_texcads_output_faster_with_the_same_walls_and_skin(tmp_path):
+    """A 40 mm stones plate at 2 mm pitch in CuraEngine: texcad's output (the STL
+    with the 3MF's Cura settings) against the same STL alone. The infill walls
+    under every skin edge are gone (less infill), the walls and the skin lie where
+    they lay (within a bead), and the slice takes well under the plain STL's CPU time
+    (about half measured)."""
+    m = _plate().mesh
+    cfg = slicer.support_config("curaengine", 45)
+    plain = slicer.slice_mesh(m, slicer="curaengine", config=cfg, file="3mf", layout=False, keep=tmp_path / "plain.gcode")
+    ours = slicer.slice_mesh(m, slicer="curaengine", config=cfg, file="3mf", keep=tmp_path / "ours.gcode")
+    assert plain.returncode == 0 and ours.returncode == 0
+    assert ours.support_mm == plain.support_mm == 0.0
+    assert ours.lengths["FILL"] < 0.8 * plain.lengths["FILL"]
+    moved = slicer.toolpath_deviation(
+        slicer.read_toolpaths(tmp_path / "plain.gcode", exclude=INSIDE), slicer.read_toolpaths(tmp_path / "ours.gcode", exclude=INSIDE)
+    )
+    assert len(moved) and moved.max() < NOZZLE
+    assert ours.cpu_seconds < 0.8 * plain.cpu_seconds
