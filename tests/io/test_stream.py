@@ -90,3 +90,23 @@ def test_stl_records_made_on_threads_give_the_same_bytes(tmp_path, monkeypatch):
             s.add(v, f[:10])
         out[k] = (tmp_path / f"t{k}.stl").read_bytes()
     assert out["1"] == out["2"] == out["3"] and len(out["1"]) == 84 + 50 * (len(f) + 10)
+
+
+def test_3mf_stream_writes_what_write_3mf_writes_placement_and_slicer_settings_included(tmp_path, part):
+    """Streamed in blocks with a build direction, PrusaSlicer's and Cura's per-object
+    settings: every member of the package is the bytes :func:`write_3mf` writes for
+    the whole mesh (the item's transform from the lowest point seen while streaming)."""
+    from texcad.io import cura_settings, write_3mf
+
+    up, settings = (0.0, 1.0, 1.0), {"seam_position": "rear"}
+    write_3mf(part, tmp_path / "whole.3mf", name="plate", build_dir=up, settings=settings, cura_settings=cura_settings())
+    cuts = [0, len(part.faces) // 2, len(part.faces)]
+    with ThreeMFStream(tmp_path / "blocks.3mf", name="plate", build_dir=up, settings=settings,
+                       cura_settings=cura_settings()) as s:
+        s.add(part.vertices, part.faces[: cuts[1]], ids=np.arange(len(part.vertices)))
+        s.add(part.vertices, part.faces[cuts[1]:], ids=np.arange(len(part.vertices)))  # no new vertex
+    with zipfile.ZipFile(tmp_path / "whole.3mf") as a, zipfile.ZipFile(tmp_path / "blocks.3mf") as b:
+        assert sorted(a.namelist()) == sorted(b.namelist())
+        for member in a.namelist():
+            assert a.read(member) == b.read(member), member
+        assert b"cura:skin_edge_support_layers" in b.read("3D/3dmodel.model") and b"transform=" in b.read("3D/3dmodel.model")

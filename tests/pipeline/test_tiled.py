@@ -10,6 +10,7 @@ from __future__ import annotations
 import subprocess
 import sys
 import textwrap
+import zipfile
 
 import numpy as np
 import pytest
@@ -179,6 +180,9 @@ def test_texture_switches_to_tiles_and_equals_the_untiled_plate(tmp_path, untile
     m = texcad.io.read_mesh(tmp_path / "t.3mf")
     assert m.is_watertight and len(m.vertices) == len(np.unique(m.vertices, axis=0)) == tx.mesh.num_vertices
     assert np.isclose(m.volume, g.shells.volumes[0], rtol=1e-5)
+    with zipfile.ZipFile(tmp_path / "t.3mf") as z:  # the slicers' settings, as export() writes a whole mesh's
+        assert b"cura:skin_edge_support_layers" in z.read("3D/3dmodel.model")
+        assert b'key="seam_position" value="rear"' in z.read("Metadata/Slic3r_PE_model.config")
     whole = tx.mesh.to_mesh()
     assert whole.is_watertight and np.isclose(whole.volume, tx.volume, rtol=1e-6)
     with pytest.raises(texcad.GeometryError, match="keeps no separate texture body"):

@@ -332,6 +332,12 @@ def _print_transform(mesh: Mesh, build_dir) -> str:
 
     R = rotation_to_z(np.asarray(build_dir, dtype=np.float64).reshape(-1, 3)[0])
     z0 = float((mesh.vertices.astype(np.float64) @ R[2]).min()) if len(mesh.vertices) else 0.0
+    return _transform(R, z0)
+
+
+def _transform(R: np.ndarray, z0: float) -> str:
+    """The 3MF item transform of the rotation ``R`` (rows: the new axes) that lifts
+    the rotated lowest point ``z0`` (mm) to z = 0."""
     M = np.vstack([R.T, [0.0, 0.0, -z0]])
     M[np.abs(M) < 1e-15] = 0.0
     return " ".join(f"{x:.9g}" for x in M.ravel())
@@ -357,12 +363,23 @@ def _merged(
         "  </volume>\n"
         for i, (n, _) in enumerate(items)
     )
+    return _xml_escape(name), merged, _slic3r_config(name, settings, vols)
+
+
+def _slic3r_config(name: str, settings: Mapping[str, Any] | None, volumes: str) -> bytes:
+    """``Metadata/Slic3r_PE_model.config`` of object 1: its name, its ``settings`` and
+    its ``<volume>`` elements (the parts' triangle ranges)."""
     meta = _metadata("object", settings, "  ")
-    config = (
+    return (
         '<?xml version="1.0" encoding="UTF-8"?>\n<config>\n <object id="1" instances_count="1">\n'
-        f'  <metadata type="object" key="name" value="{_xml_escape(name)}"/>\n{meta}{vols} </object>\n</config>\n'
+        f'  <metadata type="object" key="name" value="{_xml_escape(name)}"/>\n{meta}{volumes} </object>\n</config>\n'
     ).encode()
-    return _xml_escape(name), merged, config
+
+
+def _one_volume(name: str, triangles: int) -> str:
+    """The ``<volume>`` element of a one-part object of ``triangles`` triangles."""
+    return (f'  <volume firstid="0" lastid="{triangles - 1}">\n   <metadata type="volume" key="name" value="{_xml_escape(name)}"/>\n'
+            '   <metadata type="volume" key="volume_type" value="ModelPart"/>\n  </volume>\n')
 
 
 def _metadata(kind: str, settings: Mapping[str, Any] | None, indent: str) -> str:

@@ -28,13 +28,14 @@ import tempfile
 import zipfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Iterable, Optional
+from typing import Any, Iterable, Mapping, Optional
 
 import numpy as np
 
 from ..errors import GeometryError, ParameterError
 from ..util import atomic_path, threads
-from .export import _CT, _RELS, _STL_CHUNK, _STL_DTYPE, _stl_records, _triangle_rows, _vertex_rows, _xml_escape, _zip_info
+from .export import (CURA_NAMESPACE, SLIC3R_CONFIG, _CT, _RELS, _STL_CHUNK, _STL_DTYPE, _cura_metadata, _one_volume, _slic3r_config,
+                     _stl_records, _transform, _triangle_rows, _vertex_rows, _xml_escape, _zip_info)
 
 __all__ = ["StlStream", "ThreeMFStream", "open_stream"]
 
@@ -153,10 +154,21 @@ class StlStream(_Stream):
 
 class ThreeMFStream(_Stream):
     """A 3MF package (one object, ``unit="millimeter"``) written block by block.
-    Triangles wait in a temporary file in the output's folder, not in memory."""
+    Triangles wait in a temporary file in the output's folder, not in memory.
 
-    def __init__(self, path: "str | os.PathLike", *, name: str = "texcad part") -> None:
+    As :func:`texcad.io.write_3mf` writes a one-part object: ``build_dir`` (None: as
+    placed) turned to +z with the lowest point on the bed, PrusaSlicer's per-object
+    ``settings`` and Cura's ``cura_settings`` (:func:`texcad.io.cura_settings`)."""
+
+    def __init__(self, path: "str | os.PathLike", *, name: str = "texcad part", build_dir: Any = None,
+                 settings: Mapping[str, Any] | None = None, cura_settings: Mapping[str, Any] | None = None) -> None:
         super().__init__(path)
+        from ..util import rotation_to_z
+
+        self._name, self._settings = name, settings
+        self._R = None if build_dir is None else rotation_to_z(np.asarray(build_dir, dtype=np.float64).reshape(-1, 3)[0])
+        self._z0 = np.inf
+        meta = _cura_metadata(cura_settings)
         self._zip = zipfile.ZipFile(self._tmp, "w")
         for arcname, data in (("[Content_Types].xml", _CT), ("_rels/.rels", _RELS)):
             self._zip.writestr(_zip_info(arcname), data, compresslevel=1)
@@ -165,9 +177,10 @@ class ThreeMFStream(_Stream):
         self._model = self._zip.open(info, "w", force_zip64=True)
         self._model.write(
             b'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xml:lang="en-US" '
-            b'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02">\n'
-            b'<metadata name="Application">texcad</metadata>\n<resources>\n'
-            + f'<object id="1" type="model" name="{_xml_escape(name)}"><mesh><vertices>\n'.encode()
+            b'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"'
+            + (f' xmlns:cura="{CURA_NAMESPACE}"'.encode() if meta else b"")
+            + b'>\n<metadata name="Application">texcad</metadata>\n<resources>\n'
+            + f'<object id="1" type="model" name="{_xml_escape(name)}">'.encode() + meta + b"<mesh><vertices>\n"
         )
         fd, self._tri_path = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".triangles", dir=self.path.parent)
         self._tri = os.fdopen(fd, "w+b")
@@ -184,6 +197,8 @@ class ThreeMFStream(_Stream):
         if not np.array_equal(ids[new][order], np.arange(self.vertices, self.vertices + int(new.sum()))):
             raise ParameterError("a block's new vertices must be numbered on from the last block's, without gaps")
         self._model.write(_vertex_rows(v[new][order]))
+        if self._R is not None and new.any():  # the lowest point along build_dir so far
+            self._z0 = min(self._z0, float((v[new].astype(np.float64) @ self._R[2]).min()))
         self.vertices += int(new.sum())
         self._tri.write(_triangle_rows(ids[f]))
         self.triangles += len(f)
@@ -192,8 +207,12 @@ class ThreeMFStream(_Stream):
         self._model.write(b"</vertices><triangles>\n")
         self._tri.seek(0)
         shutil.copyfileobj(self._tri, self._model, 1 << 22)
-        self._model.write(b"</triangles></mesh></object>\n</resources>\n<build><item objectid=\"1\"/></build>\n</model>\n")
+        place = b"" if self._R is None else f' transform="{_transform(self._R, self._z0)}"'.encode()
+        self._model.write(b"</triangles></mesh></object>\n</resources>\n<build><item objectid=\"1\"" + place + b"/></build>\n</model>\n")
         self._model.close()
+        if self._settings and self.triangles:
+            self._zip.writestr(_zip_info(SLIC3R_CONFIG), _slic3r_config(self._name, self._settings, _one_volume(self._name, self.triangles)),
+                               compresslevel=1)
         self._zip.close()
         self._release()
 

@@ -324,7 +324,7 @@ class Textured:
         mesh (``separate_texture``: the base and each texture as parts of one object,
         so a slicer can give each texture its own filament), ``.step``/``.stp`` from
         the B-rep, ``.png`` a picture (:meth:`render`). Atomic: a failure leaves no file."""
-        from ..io import export, write_3mf
+        from ..io import cura_settings, export, slicer_settings, write_3mf
 
         p = Path(path)
         if p.suffix.lower() == ".png":
@@ -340,14 +340,26 @@ class Textured:
             zones = self.info.get("zones") or []
             names = [zones[k] if k < len(zones) else n for k, n in enumerate(names)]
             d = self.stages.options.directions
+            up = None if d is None else d[0]
             write_3mf([("base", self.base_mesh)] + list(zip(names, layers)), p, name=name or p.stem,
-                      build_dir=None if d is None else d[0])  # placed on the bed as printed
+                      build_dir=up, settings=slicer_settings(self.mesh, up), cura_settings=cura_settings())  # as printed
             return p
         write = getattr(self._mesh, "write", None) if self._derived is None and self.is_unmoved else None
         if write is not None and not separate_texture and p.suffix.lower() in (".stl", ".3mf"):
-            write(p, **({} if p.suffix.lower() == ".stl" else {"name": name or p.stem}))  # kept in tiles: streamed
+            write(p, **({} if p.suffix.lower() == ".stl" else self._streamed_3mf(name or p.stem)))  # kept in tiles: streamed
             return p
         return export(self, p, separate_texture=separate_texture, name=name)
+
+    def _streamed_3mf(self, name: str) -> dict:
+        """A streamed 3MF's name, placement and slicer settings, as :func:`texcad.io.export`
+        writes them for a whole mesh (PrusaSlicer's seam; its bridging test needs the
+        whole mesh and is left to the profile)."""
+        from ..io import cura_settings
+        from ..io.export import TEXTURE_SEAM
+
+        d = self.stages.options.directions
+        return {"name": name, "build_dir": None if d is None else d[0], "settings": {"seam_position": TEXTURE_SEAM},
+                "cura_settings": cura_settings()}
 
     def render(self, path: "str | os.PathLike", **kwargs: Any) -> Path:
         """PNG picture of the mesh (see :func:`texcad.render.render_part`)."""
