@@ -65,6 +65,7 @@ from .solids import (
 )
 from .occt import explore, face_in, to_topods
 from .uvstrips import _grid_face, _used_twice, strip_faces, strip_origin
+from .uvtrim import trimmed_tiles
 
 __all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid", "textured_plane_solid",
            "uv_face_pairs", "uv_retextured_solid"]
@@ -91,6 +92,15 @@ def _surface_rows(face, u: np.ndarray, v: np.ndarray):
     return pts, nrm
 
 
+def _surface_points(face, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Points ``(n, 3)`` mm of a face's surface at the parameter pairs ``(u[k], v[k])``
+    (one OCCT call per point: OCCT evaluates no batch)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+
+    ad = BRepAdaptor_Surface(face, False)
+    return np.array([ad.Value(a, b).Coord() for a, b in zip(u.tolist(), v.tolist())]).reshape(-1, 3)  # per point off the face
+
+
 def _poles(face, item: dict):
     """Knots ``u (Nu,)``, ``v (Nv,)`` and poles ``(Nu, Nv, 3)`` mm of the textured face."""
     from OCP.BRepTools import BRepTools
@@ -106,16 +116,15 @@ def _poles(face, item: dict):
     rows = (ur > u0 + eu) & (ur < u1 - eu)
     cols = (vc > v0 + ev) & (vc < v1 - ev)
     valid = item["valid"][np.ix_(rows, cols)]
-    if rows.sum() < 1 or cols.sum() < 1 or (~valid).sum() > 0.05 * valid.size:
+    if rows.sum() < 1 or cols.sum() < 1 or not valid.any():
         raise GeometryError(_uncovered(fwd, (u0, u1, v0, v1), int((~valid).sum()), int(valid.size)))
     h = item["heights"][np.ix_(rows, cols)]  # signed (engraved, centred) or raised (its dip under the face cut off)
     h = np.where(valid, h if item.get("signed") else np.maximum(h, 0.0), 0.0)
     inner = item["points"][np.ix_(rows, cols)] + h[..., None] * item["normals"][np.ix_(rows, cols)]
     u = np.concatenate([[u0], ur[rows], [u1]])
     v = np.concatenate([[v0], vc[cols], [v1]])
-    ri, ci = np.nonzero(~valid)  # grid points the tessellation missed (near a pole): on the surface itself
-    for a, c in zip(ri.tolist(), ci.tolist()):  # a few points (at most 5 % of the grid)
-        inner[a, c] = _surface_rows(face, u[1:-1][[a]], v[1:-1][[c]])[0][0, 0]
+    ri, ci = np.nonzero(~valid)  # off the face (trimmed inside its rectangle) or missed near a pole: the surface itself
+    inner[ri, ci] = _surface_points(face, u[1:-1][ri], v[1:-1][ci])
     top = np.zeros((len(u), len(v), 3))
     top[1:-1, 1:-1] = inner
     edge_u, _ = _surface_rows(face, u, v[[0, -1]])  # the v0 and v1 boundaries (the relief is 0 there)
@@ -200,8 +209,9 @@ def _seam_edge(b, e, fwd, surf, u, v, top):
     first = int(np.argmin([np.linalg.norm(p - top[0, 0]) for p in pts]))
     b.Add(ne, ends[first].Oriented(TopAbs_FORWARD))
     b.Add(ne, ends[1 - first if len(ends) > 1 else 0].Oriented(TopAbs_REVERSED))
-    b.Range(ne, float(v[0]), float(v[-1]))
     cf = BRepAdaptor_Curve2d(TopoDS.Edge_s(e.Oriented(TopAbs_FORWARD)), fwd)
+    ends_v = sorted((cf.Value(cf.FirstParameter()).Y(), cf.Value(cf.LastParameter()).Y()))
+    b.Range(ne, float(max(ends_v[0], v[0])), float(min(ends_v[1], v[-1])))  # the old seam's run (a trimmed face: part of v)
     cr = BRepAdaptor_Curve2d(TopoDS.Edge_s(e.Oriented(TopAbs_REVERSED)), fwd)
     up = cf.Value(cf.LastParameter()).Y() > cf.Value(cf.FirstParameter()).Y()
     uf, ur = cf.Value(cf.FirstParameter()).X(), cr.Value(cr.FirstParameter()).X()
@@ -311,8 +321,9 @@ def _uv_solid(shape: Any, items: list, *, strips: bool):
             raise GeometryError("a face to texture on its own (u, v) was lost when its neighbour was cut into strips")
         u, v, top = _poles(face, item)
         got = strip_faces(face, u, v, top, bool(item["closed_u"]), _tolerance(face, u, v, top)) if strips else None
-        if got is None:  # not the iso-line rectangle: one face
-            topo = _replace_faces(topo, [(face, [_new_face(face, u, v, top)])])
+        if got is None:  # not the iso-line rectangle: tiles on the face's own (u, v), else one face
+            tiled = trimmed_tiles(topo, face, u, v, top, bool(item["closed_u"])) if strips else None
+            topo = tiled if tiled is not None else _replace_faces(topo, [(face, [_new_face(face, u, v, top)])])
             continue
         topo = _edges_cut(_replace_faces(topo, [(face, got[0])]), got[1])
     return topo
