@@ -19,16 +19,20 @@ triangles per cell), which OCCT's mesher and texcad's STEP writer keep.
 A face whose outline is the iso-line rectangle is made of strips of that surface
 (:mod:`texcad.brep.uvstrips`: at most ``TILE`` spans wide, knots placed for OCCT's
 plain volume integration, :mod:`texcad.brep.gprop`), its edges along u cut at the
-strip corners in every face that has them; other faces stay one face.
+strip corners in every face that has them. A face trimmed inside that rectangle (a
+cone cut by flutes or a slanted plane, a cylinder with a hole or a slot through it)
+is made of tiles on its own ``(u, v)`` (:mod:`texcad.brep.uvtrim`: the plain part
+split along iso lines, each piece on its tile of the textured surface); grid points
+off the face lie on its surface (the relief is 0 mm near its edges). Where neither
+gives a valid solid, each face stays one face.
 
 CAD operations on such a face (:mod:`texcad.pipeline.ops`) are made on the plain part
 and the texture is put again on what is left of the face (:func:`uv_face_pairs`,
 :func:`uv_retextured_solid`): the same poles, the relief taken off where the
 operation's edges cross it.
 
-Faces this does not apply to (several faces flattened together, trimmed faces whose
-outline is not the UV rectangle, an invalid grid point) raise ``GeometryError``
-saying so; the meshes (STL, 3MF) are unaffected.
+Faces this does not apply to (several faces flattened together; a face no grid point
+lies on) raise ``GeometryError`` saying so; the meshes (STL, 3MF) are unaffected.
 
 Tiles instead of one face (OCCT meshes, integrates and cuts tiles of a few hundred
 poles reliably, not one face of hundreds of thousands):
@@ -152,10 +156,10 @@ def _uncovered(face, rect: tuple, off: int, total: int) -> str:
     c = ", ".join(f"{x:.2f}" for x in props.CentreOfMass().Coord())
     u0, u1, v0, v1 = rect
     return (f"no B-rep for the {kind} face centred at ({c}) mm ({props.Mass():.1f} mm2): the texture grid does not "
-            f"cover the face's (u, v) rectangle u {u0:.4g}..{u1:.4g}, v {v0:.4g}..{v1:.4g} ({off} of {total} grid "
-            "points off it: the face is trimmed well inside that rectangle, by flutes, holes or a partial outline); "
-            "its STL and 3MF are unaffected: export those, or texture the face before those cuts and make them "
-            "afterwards on the result (textured - tool), which keeps a B-rep")
+            f"reach the face's (u, v) rectangle u {u0:.4g}..{u1:.4g}, v {v0:.4g}..{v1:.4g} ({off} of {total} grid "
+            "points off it: no grid point lies on the face); its STL and 3MF are unaffected: export those, or "
+            "texture the face before the cuts that trim it and make them afterwards on the result (textured - tool), "
+            "which keeps a B-rep")
 
 
 def _bilinear(u: np.ndarray, v: np.ndarray, top: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -299,8 +303,11 @@ def uv_textured_solid(shape: Any, items: list):
     that gives a valid solid; else one degree-1 B-spline face each, valid, whose
     plain-rule volume is then less exact (the adaptive one is not).
 
+    A face whose outline is not the iso-line rectangle (trimmed inside it) is made
+    of tiles on its own ``(u, v)`` instead (:func:`texcad.brep.uvtrim.trimmed_tiles`).
+
     Raises:
-        GeometryError: a face's grid does not cover its (u, v) rectangle.
+        GeometryError: no grid point lies on a face (or inside its (u, v) rectangle).
     """
     out = _uv_solid(shape, items, strips=True)
     if check_shape(out)["valid"]:
