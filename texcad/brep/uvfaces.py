@@ -329,7 +329,7 @@ def _uv_solid(shape: Any, items: list, *, strips: bool):
         u, v, top = _poles(face, item)
         got = strip_faces(face, u, v, top, bool(item["closed_u"]), _tolerance(face, u, v, top)) if strips else None
         if got is None:  # not the iso-line rectangle: tiles on the face's own (u, v), else one face
-            tiled = trimmed_tiles(topo, face, u, v, top, bool(item["closed_u"])) if strips else None
+            tiled = trimmed_tiles(topo, face, u, v, top) if strips else None
             topo = tiled if tiled is not None else _replace_faces(topo, [(face, [_new_face(face, u, v, top)])])
             continue
         topo = _edges_cut(_replace_faces(topo, [(face, got[0])]), got[1])
@@ -1231,15 +1231,41 @@ def uv_retextured_solid(shape: Any, faces: list) -> Any:
     from OCP.TopAbs import TopAbs_EDGE
     from OCP.TopoDS import TopoDS
 
-    swaps = []
+    made = []
     for pieces, textured, (grid, u, v) in faces:  # one per textured face
         top0 = np.ascontiguousarray(np.asarray(grid, np.float64).transpose(1, 0, 2))
         for piece in pieces:  # the faces the operations left of it
             f = TopoDS.Face_s(piece)
-            uk, vk, top, seam_cut = _plain_near(f, textured, np.asarray(u, np.float64), np.asarray(v, np.float64), top0)
-            new = _new_face(f, uk, vk, top, keep_seam=seam_cut)
-            worst = max((BRep_Tool.Tolerance_s(TopoDS.Edge_s(e)) for e in explore(new, TopAbs_EDGE)), default=0.0)
-            if worst > 0.05:
-                raise GeometryError(f"an edge of the operated face lies {worst:.3f} mm off its textured surface")
-            swaps.append((f, [new]))
+            made.append((f, *_plain_near(f, textured, np.asarray(u, np.float64), np.asarray(v, np.float64), top0)))
+    tiled = _retextured_tiles(shape, made)
+    if tiled is not None:
+        return tiled
+    swaps = []
+    for f, uk, vk, top, seam_cut in made:  # one face each (OCCT's plain volume rule is then less exact)
+        new = _new_face(f, uk, vk, top, keep_seam=seam_cut)
+        worst = max((BRep_Tool.Tolerance_s(TopoDS.Edge_s(e)) for e in explore(new, TopAbs_EDGE)), default=0.0)
+        if worst > 0.05:
+            raise GeometryError(f"an edge of the operated face lies {worst:.3f} mm off its textured surface")
+        swaps.append((f, [new]))
     return _replace_faces(to_topods(shape), swaps) if swaps else to_topods(shape)
+
+
+def _retextured_tiles(shape: Any, made: list):
+    """``shape`` with each piece of ``made`` ``[(piece, u, v, top, seam cut)]`` in tiles
+    on its own ``(u, v)`` (:func:`texcad.brep.uvtrim.trimmed_tiles`: OCCT's plain
+    volume rule right on them), one piece after the other (a piece is looked up again
+    when an earlier one's cut lines split its edges); None unless every piece is
+    tiled, no edge lies more than 0.05 mm off its tiles, and the result is valid."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopoDS import TopoDS
+
+    topo = to_topods(shape)
+    for f, uk, vk, top, _ in made:  # one per piece
+        face = face_in(topo, f)
+        out = None if face is None else trimmed_tiles(topo, face, uk, vk, top)
+        if out is None:
+            return None
+        topo = out
+    worst = max((BRep_Tool.Tolerance_s(TopoDS.Edge_s(e)) for e in explore(topo, TopAbs_EDGE)), default=0.0)
+    return topo if worst <= 0.05 and check_shape(topo)["valid"] else None

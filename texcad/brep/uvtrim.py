@@ -259,8 +259,7 @@ def _unique(shapes: list) -> list:
     return out
 
 
-def trimmed_tiles(shape: Any, face: Any, u: np.ndarray, v: np.ndarray, top: np.ndarray, closed_u: bool,
-                  tile: int = TRIM_TILE):  # fmt: skip
+def trimmed_tiles(shape: Any, face: Any, u: np.ndarray, v: np.ndarray, top: np.ndarray, tile: int = TRIM_TILE):
     """``shape`` with ``face`` textured in tiles on its own parameters (see the
     module); ``u (Nu,)``, ``v (Nv,)``, ``top (Nu, Nv, 3)`` mm as
     :func:`texcad.brep.uvfaces._poles` gives them (the whole ``(u, v)`` rectangle).
@@ -289,7 +288,7 @@ def trimmed_tiles(shape: Any, face: Any, u: np.ndarray, v: np.ndarray, top: np.n
             else:
                 hit[1] += 1
     owners = _owners(split)
-    inner = [e for e, n in count if n == owners(e)]
+    inner = [e for e, n in count if n >= 2 and n == owners(e) and not BRep_Tool.Degenerated_s(e)]  # not a pole's edge
     is_inner = lambda e: any(e.IsSame(x) for x in inner)  # noqa: E731
     kept_v = [x for e, _ in count if not is_inner(e) for x in explore(e, TopAbs_VERTEX)]
     tiles = [_tile_of(p, u[ub], v[vb]) for p in pieces]
@@ -339,6 +338,8 @@ def trimmed_tiles(shape: Any, face: Any, u: np.ndarray, v: np.ndarray, top: np.n
                 b.UpdateEdge(edge, pcs[TopAbs_FORWARD], pcs[TopAbs_REVERSED], nf, tol)
             else:
                 b.UpdateEdge(edge, next(iter(pcs.values())), nf, tol)
+            if kept and BRep_Tool.Degenerated_s(edge):  # a pole's piece: its own range (no 3-D curve to take it from)
+                b.Range(edge, nf, *BRep_Tool.Range_s(edge, pf))
             for x in explore(edge, TopAbs_VERTEX):  # its vertices at least as wide
                 vx = TopoDS.Vertex_s(x)
                 b.UpdateVertex(vx, max(BRep_Tool.Tolerance_s(vx), tol))
