@@ -69,7 +69,7 @@ from .solids import (
 )
 from .occt import explore, face_in, to_topods
 from .uvstrips import _grid_face, _used_twice, strip_faces, strip_origin
-from .uvtrim import trimmed_tiles
+from .uvtrim import _bilinear, _edge_deviation, trimmed_tiles
 
 __all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid", "textured_plane_solid",
            "uv_face_pairs", "uv_retextured_solid"]
@@ -160,30 +160,6 @@ def _uncovered(face, rect: tuple, off: int, total: int) -> str:
             "points off it: no grid point lies on the face); its STL and 3MF are unaffected: export those, or "
             "texture the face before the cuts that trim it and make them afterwards on the result (textured - tool), "
             "which keeps a B-rep")
-
-
-def _bilinear(u: np.ndarray, v: np.ndarray, top: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """The degree-1 surface through ``top`` at parameters ``q (n, 2)``."""
-    i = np.clip(np.searchsorted(u, q[:, 0]) - 1, 0, len(u) - 2)
-    j = np.clip(np.searchsorted(v, q[:, 1]) - 1, 0, len(v) - 2)
-    s = ((q[:, 0] - u[i]) / (u[i + 1] - u[i]))[:, None]
-    t = ((q[:, 1] - v[j]) / (v[j + 1] - v[j]))[:, None]
-    return (1 - s) * (1 - t) * top[i, j] + s * (1 - t) * top[i + 1, j] + (1 - s) * t * top[i, j + 1] + s * t * top[i + 1, j + 1]
-
-
-def _edge_deviation(edge, fwd, u: np.ndarray, v: np.ndarray, top: np.ndarray) -> float:
-    """Largest distance (mm) between an edge's 3-D curve and its pcurve on the new
-    surface, sampled four times per grid cell it crosses (one OCCT call per sample:
-    an outline's thousands)."""
-    from OCP.BRepAdaptor import BRepAdaptor_Curve, BRepAdaptor_Curve2d
-
-    c3, c2 = BRepAdaptor_Curve(edge), BRepAdaptor_Curve2d(edge, fwd)
-    t0, t1 = c2.FirstParameter(), c2.LastParameter()
-    n = 4 * (len(u) + len(v)) + 8
-    ts = np.linspace(t0, t1, n)
-    q = np.array([c2.Value(float(t)).Coord() for t in ts])  # per sample
-    p = np.array([c3.Value(float(t)).Coord() for t in ts])
-    return float(np.linalg.norm(_bilinear(u, v, top, q) - p, axis=1).max())
 
 
 def _u_seam(edge, fwd, u: np.ndarray) -> bool:

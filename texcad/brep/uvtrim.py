@@ -42,6 +42,30 @@ __all__ = ["trimmed_tiles", "TRIM_TILE"]
 TRIM_TILE = 8
 
 
+def _bilinear(u: np.ndarray, v: np.ndarray, top: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """The degree-1 surface through ``top`` at parameters ``q (n, 2)``."""
+    i = np.clip(np.searchsorted(u, q[:, 0]) - 1, 0, len(u) - 2)
+    j = np.clip(np.searchsorted(v, q[:, 1]) - 1, 0, len(v) - 2)
+    s = ((q[:, 0] - u[i]) / (u[i + 1] - u[i]))[:, None]
+    t = ((q[:, 1] - v[j]) / (v[j + 1] - v[j]))[:, None]
+    return (1 - s) * (1 - t) * top[i, j] + s * (1 - t) * top[i + 1, j] + (1 - s) * t * top[i, j + 1] + s * t * top[i + 1, j + 1]
+
+
+def _edge_deviation(edge, fwd, u: np.ndarray, v: np.ndarray, top: np.ndarray) -> float:
+    """Largest distance (mm) between an edge's 3-D curve and its pcurve on the new
+    surface, sampled four times per grid cell it crosses (one OCCT call per sample:
+    an outline's thousands)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve, BRepAdaptor_Curve2d
+
+    c3, c2 = BRepAdaptor_Curve(edge), BRepAdaptor_Curve2d(edge, fwd)
+    t0, t1 = c2.FirstParameter(), c2.LastParameter()
+    n = 4 * (len(u) + len(v)) + 8
+    ts = np.linspace(t0, t1, n)
+    q = np.array([c2.Value(float(t)).Coord() for t in ts])  # per sample
+    p = np.array([c3.Value(float(t)).Coord() for t in ts])
+    return float(np.linalg.norm(_bilinear(u, v, top, q) - p, axis=1).max())
+
+
 def _iso_edges(fwd, u: np.ndarray, v: np.ndarray, cu: np.ndarray, cv: np.ndarray) -> list:
     """Edges on the plain face's surface along the iso-u lines ``cu`` (from ``v[0]`` to
     ``v[-1]``) and the iso-v lines ``cv`` (from ``u[0]`` to ``u[-1]``)."""
@@ -158,8 +182,6 @@ def _padded(u: np.ndarray, v: np.ndarray, top: np.ndarray) -> tuple:
     """The same degree-1 surface (``u (Nu,)``, ``v (Nv,)``, poles ``(Nu, Nv, 3)`` mm) with
     knots inserted (:func:`_finer`): OCCT's plain rule then puts its
     :data:`~texcad.brep.gprop.GAUSS_POINTS` points on the tile, about eight per span."""
-    from .uvfaces import _bilinear
-
     uf, vf = _finer(np.asarray(u, np.float64)), _finer(np.asarray(v, np.float64))
     if len(uf) == len(u) and len(vf) == len(v):
         return u, v, top
@@ -172,8 +194,8 @@ class _Lifted:
     new edge per old edge (on the whole textured surface's iso curve), its vertices
     lifted unless the face's own edges hold them."""
 
-    def __init__(self, b, whole, kept_vertices: list, span: float):
-        self.b, self.whole, self.kept, self.span = b, whole, kept_vertices, span
+    def __init__(self, b, whole, kept_vertices: list):
+        self.b, self.whole, self.kept = b, whole, kept_vertices
         self.edges: list = []  # [(old edge, new edge, along_u, value, lo, hi)]
         self.verts: list = []  # [(old vertex, new vertex)]
 
@@ -263,13 +285,10 @@ def trimmed_tiles(shape: Any, face: Any, u: np.ndarray, v: np.ndarray, top: np.n
     """``shape`` with ``face`` textured in tiles on its own parameters (see the
     module); ``u (Nu,)``, ``v (Nv,)``, ``top (Nu, Nv, 3)`` mm as
     :func:`texcad.brep.uvfaces._poles` gives them (the whole ``(u, v)`` rectangle).
-    None where OCCT's splitter fails or a piece leaves its tile."""
-    from OCP.BRep import BRep_Builder, BRep_Tool
-    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD, TopAbs_REVERSED, TopAbs_VERTEX
-    from OCP.TopLoc import TopLoc_Location
-    from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Iterator, TopoDS_Wire
-
-    from .uvfaces import _edge_deviation
+    None where OCCT's splitter fails."""
+    from OCP.BRep import BRep_Builder
+    from OCP.TopAbs import TopAbs_FACE, TopAbs_FORWARD
+    from OCP.TopoDS import TopoDS
 
     fwd = TopoDS.Face_s(to_topods(face).Oriented(TopAbs_FORWARD))
     ub, vb = _tile_bounds(len(u) - 1, tile), _tile_bounds(len(v) - 1, tile)
@@ -279,71 +298,107 @@ def trimmed_tiles(shape: Any, face: Any, u: np.ndarray, v: np.ndarray, top: np.n
     split, made = got
     pieces = [TopoDS.Face_s(f) for f in explore(split, TopAbs_FACE) if any(f.IsSame(m) for m in made)]
     uses = [_uses(TopoDS.Face_s(p.Oriented(TopAbs_FORWARD))) for p in pieces]
-    count: list = []  # [(edge, uses in pieces)]
-    for us in uses:
-        for e, _ in us:
-            hit = next((x for x in count if x[0].IsSame(e)), None)
-            if hit is None:
-                count.append([e, 1])
-            else:
-                hit[1] += 1
-    owners = _owners(split)
-    inner = [e for e, n in count if n >= 2 and n == owners(e) and not BRep_Tool.Degenerated_s(e)]  # not a pole's edge
-    is_inner = lambda e: any(e.IsSame(x) for x in inner)  # noqa: E731
-    kept_v = [x for e, _ in count if not is_inner(e) for x in explore(e, TopAbs_VERTEX)]
+    inner, kept_v = _inner_edges(split, uses)
     tiles = [_tile_of(p, u[ub], v[vb]) for p in pieces]
     keys = sorted(set(tiles))
-    surfs = dict(zip(keys, _surfaces([(u[ub[i] : ub[i + 1] + 1], v[vb[j] : vb[j + 1] + 1], top[ub[i] : ub[i + 1] + 1, vb[j] : vb[j + 1] + 1])
-                                      for i, j in keys])))
-    whole = _surfaces([(u, v, top)])[0][0]
+    subs = {(i, j): (u[ub[i] : ub[i + 1] + 1], v[vb[j] : vb[j + 1] + 1], top[ub[i] : ub[i + 1] + 1, vb[j] : vb[j + 1] + 1])
+            for i, j in keys}  # fmt: skip
+    surfs = dict(zip(keys, _surfaces([subs[k] for k in keys])))
     b = BRep_Builder()
-    lifted = _Lifted(b, whole, kept_v, float(abs(u[-1] - u[0]) + abs(v[-1] - v[0])))
+    lifted = _Lifted(b, _surfaces([(u, v, top)])[0][0], kept_v)
     swaps = []
-    for piece, us, (i, j) in zip(pieces, uses, tiles):  # one per piece of the face
-        pf = TopoDS.Face_s(piece.Oriented(TopAbs_FORWARD))
-        su, sv = u[ub[i] : ub[i + 1] + 1], v[vb[j] : vb[j + 1] + 1]
-        st = top[ub[i] : ub[i + 1] + 1, vb[j] : vb[j + 1] + 1]
-        surf, tri = surfs[(i, j)]
-        nf = TopoDS_Face()
-        b.MakeFace(nf, surf, TopLoc_Location(), TOLERANCE)
-        curves: list = []  # [(edge, {orientation: pcurve}, kept)]
-        wit, k = TopoDS_Iterator(pf), 0
-        while wit.More():  # one per wire
-            w = TopoDS_Wire()
-            b.MakeWire(w)
-            n = sum(1 for _ in explore(wit.Value(), TopAbs_EDGE))
-            for e, c2 in us[k : k + n]:  # the wire's edge uses
-                if is_inner(e):
-                    ne, along_u, val, inc = lifted.edge(e, c2)
-                    o = e.Orientation() if inc else e.Reversed().Orientation()
-                    use, pc, kept = ne.Oriented(o), _Lifted.line(along_u, val), False
-                else:
-                    use, pc, kept = e, BRep_Tool.CurveOnSurface_s(e, pf, 0.0, 0.0), True
-                b.Add(w, use)
-                hit = next((x for x in curves if x[0].IsSame(use)), None)
-                if hit is None:
-                    curves.append([use, {use.Orientation(): pc}, kept])
-                else:
-                    hit[1][use.Orientation()] = pc
-            k += n
-            w.Closed(True)
-            b.Add(nf, w)
-            wit.Next()
-        for e, pcs, kept in curves:  # pcurves on the tile, tolerances
-            edge = TopoDS.Edge_s(e.Oriented(TopAbs_FORWARD))
-            tol = max(BRep_Tool.Tolerance_s(edge), TOLERANCE)
-            if kept and not BRep_Tool.Degenerated_s(edge):
-                tol = max(tol, 1.5 * _edge_deviation(edge, pf, su, sv, st) + TOLERANCE)
-            if len(pcs) == 2:
-                b.UpdateEdge(edge, pcs[TopAbs_FORWARD], pcs[TopAbs_REVERSED], nf, tol)
-            else:
-                b.UpdateEdge(edge, next(iter(pcs.values())), nf, tol)
-            if kept and BRep_Tool.Degenerated_s(edge):  # a pole's piece: its own range (no 3-D curve to take it from)
-                b.Range(edge, nf, *BRep_Tool.Range_s(edge, pf))
-            for x in explore(edge, TopAbs_VERTEX):  # its vertices at least as wide
-                vx = TopoDS.Vertex_s(x)
-                b.UpdateVertex(vx, max(BRep_Tool.Tolerance_s(vx), tol))
-        if not any(kept for *_, kept in curves):  # a whole tile: its grid's triangulation
-            b.UpdateFace(nf, tri)
+    for piece, us, key in zip(pieces, uses, tiles):  # one per piece of the face
+        nf = _piece_face(b, TopoDS.Face_s(piece.Oriented(TopAbs_FORWARD)), us, surfs[key], subs[key], lifted, inner)
         swaps.append((piece, [TopoDS.Face_s(nf.Oriented(piece.Orientation()))]))
     return _replace_faces(split, swaps)
+
+
+def _inner_edges(split, uses: list) -> tuple:
+    """``(inner, kept vertices)``: the edges of the pieces (``uses``, per piece) that no
+    other face has (the cut lines, a closed face's seam; not a pole's degenerate edge),
+    as a ``TopTools_IndexedMapOfShape``, and the vertices of the face's own edges."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_VERTEX
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    count: dict = {}
+    seen = TopTools_IndexedMapOfShape()
+    for us in uses:  # one per piece
+        for e, _ in us:  # its edge uses
+            k = seen.Add(e)
+            count[k] = count.get(k, 0) + 1
+    owners = _owners(split)
+    inner = TopTools_IndexedMapOfShape()
+    kept = []
+    for k in range(1, seen.Extent() + 1):  # one per edge of the pieces
+        e = TopoDS.Edge_s(seen.FindKey(k))
+        if count[k] >= 2 and count[k] == owners(e) and not BRep_Tool.Degenerated_s(e):
+            inner.Add(e)
+        else:
+            kept += explore(e, TopAbs_VERTEX)
+    return inner, kept
+
+
+def _piece_face(b, pf, us: list, tile: tuple, sub: tuple, lifted, inner):
+    """The new face (forward) of the piece ``pf`` (its edge uses ``us``) on its tile's
+    ``(surface, triangulation)``; ``sub`` the tile's ``(u, v, top)``: the piece's
+    wires with the inner edges lifted (``lifted``), pcurves and tolerances."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS_Face, TopoDS_Iterator, TopoDS_Wire
+
+    surf, tri = tile
+    nf = TopoDS_Face()
+    b.MakeFace(nf, surf, TopLoc_Location(), TOLERANCE)
+    curves: list = []  # [(edge, {orientation: pcurve}, kept)]
+    wit, k = TopoDS_Iterator(pf), 0
+    while wit.More():  # one per wire
+        w = TopoDS_Wire()
+        b.MakeWire(w)
+        n = len(explore(wit.Value(), TopAbs_EDGE))
+        for e, c2 in us[k : k + n]:  # the wire's edge uses
+            if inner.Contains(e):
+                ne, along_u, val, inc = lifted.edge(e, c2)
+                use, pc, kept = ne.Oriented(e.Orientation() if inc else e.Reversed().Orientation()), _Lifted.line(along_u, val), False
+            else:
+                use, pc, kept = e, BRep_Tool.CurveOnSurface_s(e, pf, 0.0, 0.0), True
+            b.Add(w, use)
+            hit = next((x for x in curves if x[0].IsSame(use)), None)
+            if hit is None:
+                curves.append([use, {use.Orientation(): pc}, kept])
+            else:
+                hit[1][use.Orientation()] = pc
+        k += n
+        w.Closed(True)
+        b.Add(nf, w)
+        wit.Next()
+    _pcurves(b, nf, pf, curves, sub)
+    if not any(kept for *_, kept in curves):  # a whole tile: its grid's triangulation
+        b.UpdateFace(nf, tri)
+    return nf
+
+
+def _pcurves(b, nf, pf, curves: list, sub: tuple) -> None:
+    """Each edge of ``curves`` ``[(edge, {orientation: pcurve}, kept)]`` gets its
+    pcurves on the new face ``nf``; the piece's own (kept) edges the tolerance of their
+    distance to the tile's surface ``sub`` ``(u, v, top)``, and their vertices too."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED, TopAbs_VERTEX
+    from OCP.TopoDS import TopoDS
+
+    for e, pcs, kept in curves:  # one per edge of the piece
+        edge = TopoDS.Edge_s(e.Oriented(TopAbs_FORWARD))
+        tol = max(BRep_Tool.Tolerance_s(edge), TOLERANCE)
+        if kept and not BRep_Tool.Degenerated_s(edge):
+            tol = max(tol, 1.5 * _edge_deviation(edge, pf, *sub) + TOLERANCE)
+        if len(pcs) == 2:
+            b.UpdateEdge(edge, pcs[TopAbs_FORWARD], pcs[TopAbs_REVERSED], nf, tol)
+        else:
+            b.UpdateEdge(edge, next(iter(pcs.values())), nf, tol)
+        if kept and BRep_Tool.Degenerated_s(edge):  # a pole's piece: its own range (no 3-D curve to take it from)
+            b.Range(edge, nf, *BRep_Tool.Range_s(edge, pf))
+        for x in explore(edge, TopAbs_VERTEX):  # its vertices at least as wide
+            vx = TopoDS.Vertex_s(x)
+            b.UpdateVertex(vx, max(BRep_Tool.Tolerance_s(vx), tol))
