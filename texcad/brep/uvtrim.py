@@ -194,10 +194,21 @@ class _Lifted:
     new edge per old edge (on the whole textured surface's iso curve), its vertices
     lifted unless the face's own edges hold them."""
 
-    def __init__(self, b, whole, kept_vertices: list):
+    def __init__(self, b, whole, kept_vertices: list, knots: tuple):
         self.b, self.whole, self.kept = b, whole, kept_vertices
-        self.edges: list = []  # [(old edge, new edge, along_u, value, lo, hi)]
+        self.knots = knots  # (u, v) of the whole surface: iso values and crossings snap to them
+        self.edges: list = []  # [(old edge, new edge)]
         self.verts: list = []  # [(old vertex, new vertex)]
+
+    def snap(self, q: np.ndarray) -> np.ndarray:
+        """``q (2,)`` with each coordinate within 1e-7 of the span of a knot moved onto it (OCCT's
+        splitter leaves about 1e-9 on its intersections)."""
+        out = np.array(q, np.float64)
+        for a, k in enumerate(self.knots):  # u, then v
+            i = int(np.argmin(np.abs(k - out[a])))
+            if abs(k[i] - out[a]) <= 1e-7 * (abs(k[-1] - k[0]) + 1.0):
+                out[a] = k[i]
+        return out
 
     def vertex(self, old, uv: np.ndarray):
         from OCP.BRep import BRep_Tool
@@ -226,7 +237,7 @@ class _Lifted:
         from OCP.TopExp import TopExp
         from OCP.TopoDS import TopoDS, TopoDS_Edge
 
-        p0, p1 = _ends(c2)  # along the edge's own parameter (whatever its use)
+        p0, p1 = (self.snap(p) for p in _ends(c2))  # along the edge's own parameter (whatever its use)
         along_u = abs(p1[1] - p0[1]) <= abs(p1[0] - p0[0])  # an iso-v line: runs along u
         k = 0 if along_u else 1
         inc = bool(p1[k] > p0[k])
@@ -305,7 +316,7 @@ def trimmed_tiles(shape: Any, face: Any, u: np.ndarray, v: np.ndarray, top: np.n
             for i, j in keys}  # fmt: skip
     surfs = dict(zip(keys, _surfaces([subs[k] for k in keys])))
     b = BRep_Builder()
-    lifted = _Lifted(b, _surfaces([(u, v, top)])[0][0], kept_v)
+    lifted = _Lifted(b, _surfaces([(u, v, top)])[0][0], kept_v, (np.asarray(u, np.float64), np.asarray(v, np.float64)))
     swaps = []
     for piece, us, key in zip(pieces, uses, tiles):  # one per piece of the face
         nf = _piece_face(b, TopoDS.Face_s(piece.Oriented(TopAbs_FORWARD)), us, surfs[key], subs[key], lifted, inner)
