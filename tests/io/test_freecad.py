@@ -13,7 +13,7 @@ import subprocess
 import textwrap
 
 import pytest
-from build123d import Box, Cone, Cylinder, GeomType, Pos, fillet
+from build123d import Box, Cone, Cylinder, GeomType, Pos, Rot, fillet
 
 import texcad
 
@@ -61,10 +61,16 @@ def _freecad_open(paths, tmp_path) -> list[dict]:
 
 
 def _parts():
-    """A cone (its own (u, v)), a box top with one of its fillets (tiles), and a drilled
-    cylinder (the CAD operation after texturing), each textured with stones."""
+    """A cone (its own (u, v)), a knob's cone trimmed by four slanted flutes (tiles on
+    its own (u, v)), a box top with one of its fillets (tiles), and a drilled cylinder
+    (the CAD operation after texturing), each textured with stones."""
     cone = Cone(10, 6, 12)
     yield "cone", texcad.texture(cone, cone.faces().filter_by(GeomType.CONE)[0], "builtin:stones", height=0.4, pitch=0.5)
+    knob = cone
+    for k in range(4):  # four flutes, each leaning 15 degrees
+        knob = knob - Rot(0, 0, 90 * k) * Pos(9.5, 0, 0) * Rot(0, -15, 0) * Cylinder(1.6, 20)
+    grip = max(knob.faces().filter_by(GeomType.CONE), key=lambda f: f.area)
+    yield "fluted cone", texcad.texture(knob, grip, "builtin:stones", height=0.4, pitch=0.5)
     box = fillet(Box(24, 18, 8).edges().group_by()[-1], 2)
     top = box.faces().sort_by()[-1]
     yield "box band", texcad.texture(box, [top, box.faces().filter_by(GeomType.CYLINDER)[0]], "builtin:stones",

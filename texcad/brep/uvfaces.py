@@ -19,16 +19,20 @@ triangles per cell), which OCCT's mesher and texcad's STEP writer keep.
 A face whose outline is the iso-line rectangle is made of strips of that surface
 (:mod:`texcad.brep.uvstrips`: at most ``TILE`` spans wide, knots placed for OCCT's
 plain volume integration, :mod:`texcad.brep.gprop`), its edges along u cut at the
-strip corners in every face that has them; other faces stay one face.
+strip corners in every face that has them. A face trimmed inside that rectangle (a
+cone cut by flutes or a slanted plane, a cylinder with a hole or a slot through it)
+is made of tiles on its own ``(u, v)`` (:mod:`texcad.brep.uvtrim`: the plain part
+split along iso lines, each piece on its tile of the textured surface); grid points
+off the face lie on its surface (the relief is 0 mm near its edges). Where neither
+gives a valid solid, each face stays one face.
 
 CAD operations on such a face (:mod:`texcad.pipeline.ops`) are made on the plain part
 and the texture is put again on what is left of the face (:func:`uv_face_pairs`,
 :func:`uv_retextured_solid`): the same poles, the relief taken off where the
 operation's edges cross it.
 
-Faces this does not apply to (several faces flattened together, trimmed faces whose
-outline is not the UV rectangle, an invalid grid point) raise ``GeometryError``
-saying so; the meshes (STL, 3MF) are unaffected.
+Faces this does not apply to (several faces flattened together; a face no grid point
+lies on) raise ``GeometryError`` saying so; the meshes (STL, 3MF) are unaffected.
 
 Tiles instead of one face (OCCT meshes, integrates and cuts tiles of a few hundred
 poles reliably, not one face of hundreds of thousands):
@@ -65,6 +69,7 @@ from .solids import (
 )
 from .occt import explore, face_in, to_topods
 from .uvstrips import _grid_face, _used_twice, strip_faces, strip_origin
+from .uvtrim import _bilinear, _edge_deviation, trimmed_tiles
 
 __all__ = ["uv_textured_solid", "open_extrusion_solid", "tiled_in_place", "holed_plane_solid", "textured_plane_solid",
            "uv_face_pairs", "uv_retextured_solid"]
@@ -91,6 +96,15 @@ def _surface_rows(face, u: np.ndarray, v: np.ndarray):
     return pts, nrm
 
 
+def _surface_points(face, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Points ``(n, 3)`` mm of a face's surface at the parameter pairs ``(u[k], v[k])``
+    (one OCCT call per point: OCCT evaluates no batch)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+
+    ad = BRepAdaptor_Surface(face, False)
+    return np.array([ad.Value(a, b).Coord() for a, b in zip(u.tolist(), v.tolist())]).reshape(-1, 3)  # per point off the face
+
+
 def _poles(face, item: dict):
     """Knots ``u (Nu,)``, ``v (Nv,)`` and poles ``(Nu, Nv, 3)`` mm of the textured face."""
     from OCP.BRepTools import BRepTools
@@ -106,16 +120,15 @@ def _poles(face, item: dict):
     rows = (ur > u0 + eu) & (ur < u1 - eu)
     cols = (vc > v0 + ev) & (vc < v1 - ev)
     valid = item["valid"][np.ix_(rows, cols)]
-    if rows.sum() < 1 or cols.sum() < 1 or (~valid).sum() > 0.05 * valid.size:
+    if rows.sum() < 1 or cols.sum() < 1 or not valid.any():
         raise GeometryError(_uncovered(fwd, (u0, u1, v0, v1), int((~valid).sum()), int(valid.size)))
     h = item["heights"][np.ix_(rows, cols)]  # signed (engraved, centred) or raised (its dip under the face cut off)
     h = np.where(valid, h if item.get("signed") else np.maximum(h, 0.0), 0.0)
     inner = item["points"][np.ix_(rows, cols)] + h[..., None] * item["normals"][np.ix_(rows, cols)]
     u = np.concatenate([[u0], ur[rows], [u1]])
     v = np.concatenate([[v0], vc[cols], [v1]])
-    ri, ci = np.nonzero(~valid)  # grid points the tessellation missed (near a pole): on the surface itself
-    for a, c in zip(ri.tolist(), ci.tolist()):  # a few points (at most 5 % of the grid)
-        inner[a, c] = _surface_rows(face, u[1:-1][[a]], v[1:-1][[c]])[0][0, 0]
+    ri, ci = np.nonzero(~valid)  # off the face (trimmed inside its rectangle) or missed near a pole: the surface itself
+    inner[ri, ci] = _surface_points(face, u[1:-1][ri], v[1:-1][ci])
     top = np.zeros((len(u), len(v), 3))
     top[1:-1, 1:-1] = inner
     edge_u, _ = _surface_rows(face, u, v[[0, -1]])  # the v0 and v1 boundaries (the relief is 0 there)
@@ -143,34 +156,10 @@ def _uncovered(face, rect: tuple, off: int, total: int) -> str:
     c = ", ".join(f"{x:.2f}" for x in props.CentreOfMass().Coord())
     u0, u1, v0, v1 = rect
     return (f"no B-rep for the {kind} face centred at ({c}) mm ({props.Mass():.1f} mm2): the texture grid does not "
-            f"cover the face's (u, v) rectangle u {u0:.4g}..{u1:.4g}, v {v0:.4g}..{v1:.4g} ({off} of {total} grid "
-            "points off it: the face is trimmed well inside that rectangle, by flutes, holes or a partial outline); "
-            "its STL and 3MF are unaffected: export those, or texture the face before those cuts and make them "
-            "afterwards on the result (textured - tool), which keeps a B-rep")
-
-
-def _bilinear(u: np.ndarray, v: np.ndarray, top: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """The degree-1 surface through ``top`` at parameters ``q (n, 2)``."""
-    i = np.clip(np.searchsorted(u, q[:, 0]) - 1, 0, len(u) - 2)
-    j = np.clip(np.searchsorted(v, q[:, 1]) - 1, 0, len(v) - 2)
-    s = ((q[:, 0] - u[i]) / (u[i + 1] - u[i]))[:, None]
-    t = ((q[:, 1] - v[j]) / (v[j + 1] - v[j]))[:, None]
-    return (1 - s) * (1 - t) * top[i, j] + s * (1 - t) * top[i + 1, j] + (1 - s) * t * top[i, j + 1] + s * t * top[i + 1, j + 1]
-
-
-def _edge_deviation(edge, fwd, u: np.ndarray, v: np.ndarray, top: np.ndarray) -> float:
-    """Largest distance (mm) between an edge's 3-D curve and its pcurve on the new
-    surface, sampled four times per grid cell it crosses (one OCCT call per sample:
-    an outline's thousands)."""
-    from OCP.BRepAdaptor import BRepAdaptor_Curve, BRepAdaptor_Curve2d
-
-    c3, c2 = BRepAdaptor_Curve(edge), BRepAdaptor_Curve2d(edge, fwd)
-    t0, t1 = c2.FirstParameter(), c2.LastParameter()
-    n = 4 * (len(u) + len(v)) + 8
-    ts = np.linspace(t0, t1, n)
-    q = np.array([c2.Value(float(t)).Coord() for t in ts])  # per sample
-    p = np.array([c3.Value(float(t)).Coord() for t in ts])
-    return float(np.linalg.norm(_bilinear(u, v, top, q) - p, axis=1).max())
+            f"reach the face's (u, v) rectangle u {u0:.4g}..{u1:.4g}, v {v0:.4g}..{v1:.4g} ({off} of {total} grid "
+            "points off it: no grid point lies on the face); its STL and 3MF are unaffected: export those, or "
+            "texture the face before the cuts that trim it and make them afterwards on the result (textured - tool), "
+            "which keeps a B-rep")
 
 
 def _u_seam(edge, fwd, u: np.ndarray) -> bool:
@@ -200,8 +189,9 @@ def _seam_edge(b, e, fwd, surf, u, v, top):
     first = int(np.argmin([np.linalg.norm(p - top[0, 0]) for p in pts]))
     b.Add(ne, ends[first].Oriented(TopAbs_FORWARD))
     b.Add(ne, ends[1 - first if len(ends) > 1 else 0].Oriented(TopAbs_REVERSED))
-    b.Range(ne, float(v[0]), float(v[-1]))
     cf = BRepAdaptor_Curve2d(TopoDS.Edge_s(e.Oriented(TopAbs_FORWARD)), fwd)
+    ends_v = sorted((cf.Value(cf.FirstParameter()).Y(), cf.Value(cf.LastParameter()).Y()))
+    b.Range(ne, float(max(ends_v[0], v[0])), float(min(ends_v[1], v[-1])))  # the old seam's run (a trimmed face: part of v)
     cr = BRepAdaptor_Curve2d(TopoDS.Edge_s(e.Oriented(TopAbs_REVERSED)), fwd)
     up = cf.Value(cf.LastParameter()).Y() > cf.Value(cf.FirstParameter()).Y()
     uf, ur = cf.Value(cf.FirstParameter()).X(), cr.Value(cr.FirstParameter()).X()
@@ -289,8 +279,11 @@ def uv_textured_solid(shape: Any, items: list):
     that gives a valid solid; else one degree-1 B-spline face each, valid, whose
     plain-rule volume is then less exact (the adaptive one is not).
 
+    A face whose outline is not the iso-line rectangle (trimmed inside it) is made
+    of tiles on its own ``(u, v)`` instead (:func:`texcad.brep.uvtrim.trimmed_tiles`).
+
     Raises:
-        GeometryError: a face's grid does not cover its (u, v) rectangle.
+        GeometryError: no grid point lies on a face (or inside its (u, v) rectangle).
     """
     out = _uv_solid(shape, items, strips=True)
     if check_shape(out)["valid"]:
@@ -311,8 +304,9 @@ def _uv_solid(shape: Any, items: list, *, strips: bool):
             raise GeometryError("a face to texture on its own (u, v) was lost when its neighbour was cut into strips")
         u, v, top = _poles(face, item)
         got = strip_faces(face, u, v, top, bool(item["closed_u"]), _tolerance(face, u, v, top)) if strips else None
-        if got is None:  # not the iso-line rectangle: one face
-            topo = _replace_faces(topo, [(face, [_new_face(face, u, v, top)])])
+        if got is None:  # not the iso-line rectangle: tiles on the face's own (u, v), else one face
+            tiled = trimmed_tiles(topo, face, u, v, top) if strips else None
+            topo = tiled if tiled is not None else _replace_faces(topo, [(face, [_new_face(face, u, v, top)])])
             continue
         topo = _edges_cut(_replace_faces(topo, [(face, got[0])]), got[1])
     return topo
@@ -1213,15 +1207,41 @@ def uv_retextured_solid(shape: Any, faces: list) -> Any:
     from OCP.TopAbs import TopAbs_EDGE
     from OCP.TopoDS import TopoDS
 
-    swaps = []
+    made = []
     for pieces, textured, (grid, u, v) in faces:  # one per textured face
         top0 = np.ascontiguousarray(np.asarray(grid, np.float64).transpose(1, 0, 2))
         for piece in pieces:  # the faces the operations left of it
             f = TopoDS.Face_s(piece)
-            uk, vk, top, seam_cut = _plain_near(f, textured, np.asarray(u, np.float64), np.asarray(v, np.float64), top0)
-            new = _new_face(f, uk, vk, top, keep_seam=seam_cut)
-            worst = max((BRep_Tool.Tolerance_s(TopoDS.Edge_s(e)) for e in explore(new, TopAbs_EDGE)), default=0.0)
-            if worst > 0.05:
-                raise GeometryError(f"an edge of the operated face lies {worst:.3f} mm off its textured surface")
-            swaps.append((f, [new]))
+            made.append((f, *_plain_near(f, textured, np.asarray(u, np.float64), np.asarray(v, np.float64), top0)))
+    tiled = _retextured_tiles(shape, made)
+    if tiled is not None:
+        return tiled
+    swaps = []
+    for f, uk, vk, top, seam_cut in made:  # one face each (OCCT's plain volume rule is then less exact)
+        new = _new_face(f, uk, vk, top, keep_seam=seam_cut)
+        worst = max((BRep_Tool.Tolerance_s(TopoDS.Edge_s(e)) for e in explore(new, TopAbs_EDGE)), default=0.0)
+        if worst > 0.05:
+            raise GeometryError(f"an edge of the operated face lies {worst:.3f} mm off its textured surface")
+        swaps.append((f, [new]))
     return _replace_faces(to_topods(shape), swaps) if swaps else to_topods(shape)
+
+
+def _retextured_tiles(shape: Any, made: list):
+    """``shape`` with each piece of ``made`` ``[(piece, u, v, top, seam cut)]`` in tiles
+    on its own ``(u, v)`` (:func:`texcad.brep.uvtrim.trimmed_tiles`: OCCT's plain
+    volume rule right on them), one piece after the other (a piece is looked up again
+    when an earlier one's cut lines split its edges); None unless every piece is
+    tiled, no edge lies more than 0.05 mm off its tiles, and the result is valid."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopoDS import TopoDS
+
+    topo = to_topods(shape)
+    for f, uk, vk, top, _ in made:  # one per piece
+        face = face_in(topo, f)
+        out = None if face is None else trimmed_tiles(topo, face, uk, vk, top)
+        if out is None:
+            return None
+        topo = out
+    worst = max((BRep_Tool.Tolerance_s(TopoDS.Edge_s(e)) for e in explore(topo, TopAbs_EDGE)), default=0.0)
+    return topo if worst <= 0.05 and check_shape(topo)["valid"] else None

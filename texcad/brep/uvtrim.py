@@ -1,0 +1,415 @@
+"""A face textured on its own ``(u, v)`` whose outline is not the iso-line rectangle
+(a cone trimmed by flutes or a slanted cut, a cylinder with a hole or a slot through
+it, a wall of revolution with a window): tiles on the face's own parameters (issue 28).
+
+The texture grid covers the face's whole ``(u, v)`` rectangle: grid points off the
+face lie on the face's surface (``h = 0``), and the relief is 0 mm near the face's
+own edges (texcad's M-I ramp), so the textured degree-1 surface
+(:func:`texcad.brep.uvfaces._poles`) meets them within the chord of a cell. One such
+face over the whole rectangle is valid, but OCCT's plain volume rule
+(``BRepGProp::VolumeProperties`` without a precision, build123d's ``.volume``) puts 61
+Gauss points across its hundred or so knot spans (:mod:`texcad.brep.gprop`): 0.1-0.3 %
+off. Here:
+
+1. the *plain* part is split along iso-``u`` and iso-``v`` lines of the face every
+   :data:`TRIM_TILE` grid cells (OCCT's splitter: edges on an analytic or smooth
+   surface; the face's neighbours take the pieces of any edge the lines cross);
+2. each piece of the face gets the textured surface over its tile, on the same
+   parameters (so the piece's own pcurves stay valid); the cut lines and a closed
+   face's seam between two pieces become the lifted grid lines (degree-1 iso curves
+   of the textured surface), their inner vertices lifted with them; the face's own
+   edges keep their curves, with the tolerance of their chord to the new surface.
+
+Each piece is at most :data:`TRIM_TILE` spans a side, so the plain rule has about
+eight Gauss points per span on it. Whole tiles (no edge of the face crosses them)
+carry their grid's triangulation as :func:`texcad.brep.uvstrips.strip_faces` do.
+"""
+
+from __future__ import annotations
+
+import io
+from typing import Any
+
+import numpy as np
+
+from .gprop import PAD_SPANS
+from .occt import explore, to_topods
+from .solids import TOLERANCE, _remember_tile, _replace_faces, _tile_bounds, _tile_text
+
+__all__ = ["trimmed_tiles", "TRIM_TILE"]
+
+#: Grid cells a tile of a trimmed face has at most along u and v.
+TRIM_TILE = 8
+
+
+def _bilinear(u: np.ndarray, v: np.ndarray, top: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """The degree-1 surface through ``top`` at parameters ``q (n, 2)``."""
+    i = np.clip(np.searchsorted(u, q[:, 0]) - 1, 0, len(u) - 2)
+    j = np.clip(np.searchsorted(v, q[:, 1]) - 1, 0, len(v) - 2)
+    s = ((q[:, 0] - u[i]) / (u[i + 1] - u[i]))[:, None]
+    t = ((q[:, 1] - v[j]) / (v[j + 1] - v[j]))[:, None]
+    return (1 - s) * (1 - t) * top[i, j] + s * (1 - t) * top[i + 1, j] + (1 - s) * t * top[i, j + 1] + s * t * top[i + 1, j + 1]
+
+
+def _edge_deviation(edge, fwd, u: np.ndarray, v: np.ndarray, top: np.ndarray) -> float:
+    """Largest distance (mm) between an edge's 3-D curve and its pcurve on the new
+    surface, sampled four times per grid cell it crosses (one OCCT call per sample:
+    an outline's thousands)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve, BRepAdaptor_Curve2d
+
+    c3, c2 = BRepAdaptor_Curve(edge), BRepAdaptor_Curve2d(edge, fwd)
+    t0, t1 = c2.FirstParameter(), c2.LastParameter()
+    n = 4 * (len(u) + len(v)) + 8
+    ts = np.linspace(t0, t1, n)
+    q = np.array([c2.Value(float(t)).Coord() for t in ts])  # per sample
+    p = np.array([c3.Value(float(t)).Coord() for t in ts])
+    return float(np.linalg.norm(_bilinear(u, v, top, q) - p, axis=1).max())
+
+
+def _iso_edges(fwd, u: np.ndarray, v: np.ndarray, cu: np.ndarray, cv: np.ndarray) -> list:
+    """Edges on the plain face's surface along the iso-u lines ``cu`` (from ``v[0]`` to
+    ``v[-1]``) and the iso-v lines ``cv`` (from ``u[0]`` to ``u[-1]``)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeEdge
+    from OCP.BRepLib import BRepLib
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.gp import gp_Dir2d, gp_Pnt2d
+
+    surf = BRep_Tool.Surface_s(fwd)
+    out = []
+    lines = [(gp_Pnt2d(float(a), 0.0), gp_Dir2d(0.0, 1.0), v[0], v[-1]) for a in cu.tolist()]
+    lines += [(gp_Pnt2d(0.0, float(b)), gp_Dir2d(1.0, 0.0), u[0], u[-1]) for b in cv.tolist()]
+    for p, d, t0, t1 in lines:  # one per cut line (tens)
+        mk = BRepBuilderAPI_MakeEdge(Geom2d_Line(p, d), surf, float(t0), float(t1))
+        if not mk.IsDone():
+            return []
+        e = mk.Edge()
+        BRepLib.BuildCurves3d_s(e, 1e-7)
+        out.append(e)
+    return out
+
+
+def _split(shape, fwd, edges: list):
+    """``(split shape, pieces of the face)`` by OCCT's splitter, or None."""
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Splitter
+    from OCP.TopTools import TopTools_ListOfShape
+
+    args, tools = TopTools_ListOfShape(), TopTools_ListOfShape()
+    args.Append(shape)
+    for e in edges:  # the cut lines
+        tools.Append(e)
+    sp = BRepAlgoAPI_Splitter()
+    sp.SetArguments(args)
+    sp.SetTools(tools)
+    sp.SetRunParallel(False)
+    try:
+        sp.Build()
+    except Exception:  # OCCT raises Standard_Failure from inside the splitter
+        return None
+    if not sp.IsDone():
+        return None
+    pieces = list(sp.Modified(fwd)) or [fwd]
+    return sp.Shape(), pieces
+
+
+def _uses(face) -> list:
+    """``[(edge as used, pcurve adaptor of that use)]`` over the face's wires, in order."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve2d
+    from OCP.TopoDS import TopoDS, TopoDS_Iterator
+
+    out = []
+    wit = TopoDS_Iterator(face)
+    while wit.More():  # one per wire
+        eit = TopoDS_Iterator(wit.Value())
+        while eit.More():  # one per edge use
+            e = TopoDS.Edge_s(eit.Value())
+            out.append((e, BRepAdaptor_Curve2d(e, face)))
+            eit.Next()
+        wit.Next()
+    return out
+
+
+def _ends(c2) -> tuple:
+    """``(p at first, p at last)`` of a pcurve adaptor, ``(2,)`` arrays."""
+    return np.array(c2.Value(c2.FirstParameter()).Coord()), np.array(c2.Value(c2.LastParameter()).Coord())
+
+
+def _tile_of(face, ub: np.ndarray, vb: np.ndarray) -> tuple[int, int]:
+    """The tile ``(i, j)`` (between ``ub[i] .. ub[i + 1]`` and ``vb[j] .. vb[j + 1]``,
+    parameter values) the piece ``face`` lies in: the one holding its UV box's centre."""
+    from OCP.BRepTools import BRepTools
+
+    a, z, c, d = BRepTools.UVBounds_s(face)
+    i = int(np.clip(np.searchsorted(ub, 0.5 * (a + z)) - 1, 0, len(ub) - 2))
+    j = int(np.clip(np.searchsorted(vb, 0.5 * (c + d)) - 1, 0, len(vb) - 2))
+    return i, j
+
+
+def _surfaces(parts: list) -> list:
+    """``[(surface, triangulation)]`` of degree-1 grids ``parts`` ``[(u, v, top (Nu, Nv,
+    3))]`` (one OCCT read for all)."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRepTools import BRepTools
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS, TopoDS_Iterator, TopoDS_Shape
+
+    parts = [_padded(*p) for p in parts]
+    grids = [np.ascontiguousarray(t.transpose(1, 0, 2)) for _, _, t in parts]
+    comp = TopoDS_Shape()
+    text = _tile_text(grids, [p[0] for p in parts], [p[1] for p in parts], True)
+    BRepTools.Read_s(comp, io.BytesIO(text.encode("ascii")), BRep_Builder())
+    out = []
+    it = TopoDS_Iterator(comp)
+    while it.More():  # one per tile
+        f = TopoDS.Face_s(it.Value())
+        out.append((BRep_Tool.Surface_s(f), BRep_Tool.Triangulation_s(f, TopLoc_Location())))
+        it.Next()
+    for (surf, _), g, (uu, vv, _) in zip(out, grids, parts):  # texcad's tiles: remembered for the STEP writer
+        _remember_tile(surf, g, uu, vv)
+    return out
+
+
+def _finer(k: np.ndarray) -> np.ndarray:
+    """Knots ``k`` with each span cut in equal parts until there are at least
+    :data:`~texcad.brep.gprop.PAD_SPANS`."""
+    n = len(k) - 1
+    parts = max(1, -(-PAD_SPANS // n))
+    s = np.arange(parts) / parts
+    return np.concatenate([(k[:-1, None] + np.diff(k)[:, None] * s).ravel(), k[-1:]])
+
+
+def _padded(u: np.ndarray, v: np.ndarray, top: np.ndarray) -> tuple:
+    """The same degree-1 surface (``u (Nu,)``, ``v (Nv,)``, poles ``(Nu, Nv, 3)`` mm) with
+    knots inserted (:func:`_finer`): OCCT's plain rule then puts its
+    :data:`~texcad.brep.gprop.GAUSS_POINTS` points on the tile, about eight per span."""
+    uf, vf = _finer(np.asarray(u, np.float64)), _finer(np.asarray(v, np.float64))
+    if len(uf) == len(u) and len(vf) == len(v):
+        return u, v, top
+    q = np.stack(np.meshgrid(uf, vf, indexing="ij"), axis=-1).reshape(-1, 2)
+    return uf, vf, _bilinear(u, v, top, q).reshape(len(uf), len(vf), 3)
+
+
+class _Lifted:
+    """The lifted grid lines replacing the cut lines and the seam between pieces: one
+    new edge per old edge (on the whole textured surface's iso curve), its vertices
+    lifted unless the face's own edges hold them."""
+
+    def __init__(self, b, whole, kept_vertices: list, knots: tuple):
+        self.b, self.whole, self.kept = b, whole, kept_vertices
+        self.knots = knots  # (u, v) of the whole surface: iso values and crossings snap to them
+        self.edges: list = []  # [(old edge, new edge)]
+        self.verts: list = []  # [(old vertex, new vertex)]
+
+    def snap(self, q: np.ndarray) -> np.ndarray:
+        """``q (2,)`` with each coordinate within 1e-7 of the span of a knot moved onto it (OCCT's
+        splitter leaves about 1e-9 on its intersections)."""
+        out = np.array(q, np.float64)
+        for a, k in enumerate(self.knots):  # u, then v
+            i = int(np.argmin(np.abs(k - out[a])))
+            if abs(k[i] - out[a]) <= 1e-7 * (abs(k[-1] - k[0]) + 1.0):
+                out[a] = k[i]
+        return out
+
+    def vertex(self, old, uv: np.ndarray):
+        from OCP.BRep import BRep_Tool
+        from OCP.gp import gp_Pnt
+        from OCP.TopoDS import TopoDS_Vertex
+
+        got = next((n for o, n in self.verts if o.IsSame(old)), None)
+        if got is not None:
+            return got
+        p = np.array(self.whole.Value(float(uv[0]), float(uv[1])).Coord())
+        if any(old.IsSame(k) for k in self.kept):  # on the face's own edges: stays, wide enough for both
+            tol = max(BRep_Tool.Tolerance_s(old), 1.5 * float(np.linalg.norm(p - np.array(BRep_Tool.Pnt_s(old).Coord()))) + TOLERANCE)
+            self.b.UpdateVertex(old, tol)
+            self.verts.append((old, old))
+            return old
+        new = TopoDS_Vertex()
+        self.b.MakeVertex(new, gp_Pnt(*p.tolist()), TOLERANCE)
+        self.verts.append((old, new))
+        return new
+
+    def edge(self, old, c2) -> tuple:
+        """``(new edge, along u, iso value of this use, same direction as old)`` for
+        the use of ``old`` whose pcurve is ``c2`` (an iso line of the face: a seam's
+        two uses lie at ``u0`` and ``u1``)."""
+        from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+        from OCP.TopExp import TopExp
+        from OCP.TopoDS import TopoDS, TopoDS_Edge
+
+        p0, p1 = (self.snap(p) for p in _ends(c2))  # along the edge's own parameter (whatever its use)
+        along_u = abs(p1[1] - p0[1]) <= abs(p1[0] - p0[0])  # an iso-v line: runs along u
+        k = 0 if along_u else 1
+        inc = bool(p1[k] > p0[k])
+        hit = next((x for x in self.edges if x[0].IsSame(old)), None)
+        if hit is None:
+            fe = TopoDS.Edge_s(old.Oriented(TopAbs_FORWARD))
+            first, last = TopExp.FirstVertex_s(fe), TopExp.LastVertex_s(fe)
+            (va, pa), (vz, pz) = ((first, p0), (last, p1)) if inc else ((last, p1), (first, p0))
+            na, nz = self.vertex(va, pa), self.vertex(vz, pz)
+            curve = self.whole.VIso(float(pa[1])) if along_u else self.whole.UIso(float(pa[0]))
+            new = TopoDS_Edge()
+            self.b.MakeEdge(new, curve, TOLERANCE)
+            self.b.Add(new, na.Oriented(TopAbs_FORWARD))
+            self.b.Add(new, nz.Oriented(TopAbs_REVERSED))
+            self.b.Range(new, float(pa[k]), float(pz[k]))
+            hit = (old, new)
+            self.edges.append(hit)
+        return hit[1], along_u, float(0.5 * (p0[1 - k] + p1[1 - k])), inc
+
+    @staticmethod
+    def line(along_u: bool, val: float):
+        from OCP.Geom2d import Geom2d_Line
+        from OCP.gp import gp_Dir2d, gp_Pnt2d
+
+        if along_u:
+            return Geom2d_Line(gp_Pnt2d(0.0, val), gp_Dir2d(1.0, 0.0))
+        return Geom2d_Line(gp_Pnt2d(val, 0.0), gp_Dir2d(0.0, 1.0))
+
+
+def _owners(shape):
+    """``uses(edge)``: how many times the faces of ``shape`` use ``edge`` (a seam twice
+    in its face)."""
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    m = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, m)
+
+    def uses(edge) -> int:
+        faces = list(m.FindFromKey(edge)) if m.Contains(edge) else []
+        return sum(sum(1 for e in explore(f, TopAbs_EDGE) if e.IsSame(edge)) for f in _unique(faces))
+
+    return uses
+
+
+def _unique(shapes: list) -> list:
+    out: list = []
+    for s in shapes:  # a few faces
+        if not any(s.IsSame(o) for o in out):
+            out.append(s)
+    return out
+
+
+def trimmed_tiles(shape: Any, face: Any, u: np.ndarray, v: np.ndarray, top: np.ndarray, tile: int = TRIM_TILE):
+    """``shape`` with ``face`` textured in tiles on its own parameters (see the
+    module); ``u (Nu,)``, ``v (Nv,)``, ``top (Nu, Nv, 3)`` mm as
+    :func:`texcad.brep.uvfaces._poles` gives them (the whole ``(u, v)`` rectangle).
+    None where OCCT's splitter fails."""
+    from OCP.BRep import BRep_Builder
+    from OCP.TopAbs import TopAbs_FACE, TopAbs_FORWARD
+    from OCP.TopoDS import TopoDS
+
+    fwd = TopoDS.Face_s(to_topods(face).Oriented(TopAbs_FORWARD))
+    ub, vb = _tile_bounds(len(u) - 1, tile), _tile_bounds(len(v) - 1, tile)
+    got = _split(to_topods(shape), fwd, _iso_edges(fwd, u, v, u[ub[1:-1]], v[vb[1:-1]]))
+    if got is None:
+        return None
+    split, made = got
+    pieces = [TopoDS.Face_s(f) for f in explore(split, TopAbs_FACE) if any(f.IsSame(m) for m in made)]
+    uses = [_uses(TopoDS.Face_s(p.Oriented(TopAbs_FORWARD))) for p in pieces]
+    inner, kept_v = _inner_edges(split, uses)
+    tiles = [_tile_of(p, u[ub], v[vb]) for p in pieces]
+    keys = sorted(set(tiles))
+    subs = {(i, j): (u[ub[i] : ub[i + 1] + 1], v[vb[j] : vb[j + 1] + 1], top[ub[i] : ub[i + 1] + 1, vb[j] : vb[j + 1] + 1])
+            for i, j in keys}  # fmt: skip
+    surfs = dict(zip(keys, _surfaces([subs[k] for k in keys])))
+    b = BRep_Builder()
+    lifted = _Lifted(b, _surfaces([(u, v, top)])[0][0], kept_v, (np.asarray(u, np.float64), np.asarray(v, np.float64)))
+    swaps = []
+    for piece, us, key in zip(pieces, uses, tiles):  # one per piece of the face
+        nf = _piece_face(b, TopoDS.Face_s(piece.Oriented(TopAbs_FORWARD)), us, surfs[key], subs[key], lifted, inner)
+        swaps.append((piece, [TopoDS.Face_s(nf.Oriented(piece.Orientation()))]))
+    return _replace_faces(split, swaps)
+
+
+def _inner_edges(split, uses: list) -> tuple:
+    """``(inner, kept vertices)``: the edges of the pieces (``uses``, per piece) that no
+    other face has (the cut lines, a closed face's seam; not a pole's degenerate edge),
+    as a ``TopTools_IndexedMapOfShape``, and the vertices of the face's own edges."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_VERTEX
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    count: dict = {}
+    seen = TopTools_IndexedMapOfShape()
+    for us in uses:  # one per piece
+        for e, _ in us:  # its edge uses
+            k = seen.Add(e)
+            count[k] = count.get(k, 0) + 1
+    owners = _owners(split)
+    inner = TopTools_IndexedMapOfShape()
+    kept = []
+    for k in range(1, seen.Extent() + 1):  # one per edge of the pieces
+        e = TopoDS.Edge_s(seen.FindKey(k))
+        if count[k] >= 2 and count[k] == owners(e) and not BRep_Tool.Degenerated_s(e):
+            inner.Add(e)
+        else:
+            kept += explore(e, TopAbs_VERTEX)
+    return inner, kept
+
+
+def _piece_face(b, pf, us: list, tile: tuple, sub: tuple, lifted, inner):
+    """The new face (forward) of the piece ``pf`` (its edge uses ``us``) on its tile's
+    ``(surface, triangulation)``; ``sub`` the tile's ``(u, v, top)``: the piece's
+    wires with the inner edges lifted (``lifted``), pcurves and tolerances."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS_Face, TopoDS_Iterator, TopoDS_Wire
+
+    surf, tri = tile
+    nf = TopoDS_Face()
+    b.MakeFace(nf, surf, TopLoc_Location(), TOLERANCE)
+    curves: list = []  # [(edge, {orientation: pcurve}, kept)]
+    wit, k = TopoDS_Iterator(pf), 0
+    while wit.More():  # one per wire
+        w = TopoDS_Wire()
+        b.MakeWire(w)
+        n = len(explore(wit.Value(), TopAbs_EDGE))
+        for e, c2 in us[k : k + n]:  # the wire's edge uses
+            if inner.Contains(e):
+                ne, along_u, val, inc = lifted.edge(e, c2)
+                use, pc, kept = ne.Oriented(e.Orientation() if inc else e.Reversed().Orientation()), _Lifted.line(along_u, val), False
+            else:
+                use, pc, kept = e, BRep_Tool.CurveOnSurface_s(e, pf, 0.0, 0.0), True
+            b.Add(w, use)
+            hit = next((x for x in curves if x[0].IsSame(use)), None)
+            if hit is None:
+                curves.append([use, {use.Orientation(): pc}, kept])
+            else:
+                hit[1][use.Orientation()] = pc
+        k += n
+        w.Closed(True)
+        b.Add(nf, w)
+        wit.Next()
+    _pcurves(b, nf, pf, curves, sub)
+    if not any(kept for *_, kept in curves):  # a whole tile: its grid's triangulation
+        b.UpdateFace(nf, tri)
+    return nf
+
+
+def _pcurves(b, nf, pf, curves: list, sub: tuple) -> None:
+    """Each edge of ``curves`` ``[(edge, {orientation: pcurve}, kept)]`` gets its
+    pcurves on the new face ``nf``; the piece's own (kept) edges the tolerance of their
+    distance to the tile's surface ``sub`` ``(u, v, top)``, and their vertices too."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED, TopAbs_VERTEX
+    from OCP.TopoDS import TopoDS
+
+    for e, pcs, kept in curves:  # one per edge of the piece
+        edge = TopoDS.Edge_s(e.Oriented(TopAbs_FORWARD))
+        tol = max(BRep_Tool.Tolerance_s(edge), TOLERANCE)
+        if kept and not BRep_Tool.Degenerated_s(edge):
+            tol = max(tol, 1.5 * _edge_deviation(edge, pf, *sub) + TOLERANCE)
+        if len(pcs) == 2:
+            b.UpdateEdge(edge, pcs[TopAbs_FORWARD], pcs[TopAbs_REVERSED], nf, tol)
+        else:
+            b.UpdateEdge(edge, next(iter(pcs.values())), nf, tol)
+        if kept and BRep_Tool.Degenerated_s(edge):  # a pole's piece: its own range (no 3-D curve to take it from)
+            b.Range(edge, nf, *BRep_Tool.Range_s(edge, pf))
+        for x in explore(edge, TopAbs_VERTEX):  # its vertices at least as wide
+            vx = TopoDS.Vertex_s(x)
+            b.UpdateVertex(vx, max(BRep_Tool.Tolerance_s(vx), tol))
