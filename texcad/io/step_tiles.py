@@ -1101,9 +1101,35 @@ def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np
     pk[:, 1:-1, 1:-1] = 0.0
     rest = gk - mv @ pk @ mu.T
     pk[:, 1:-1, 1:-1] = iv @ rest @ iu.T
-    if np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0))[keep].max(initial=0.0) <= tol:
+    miss = np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0))
+    if miss[keep].max(initial=0.0) <= tol:
         return pk.transpose(1, 2, 0)
+    if miss[keep].max(initial=0.0) > REACH * tol:
+        return None
+    counted = np.ones(miss.shape, bool) if skip is None else ~skip
+    wr, wc = np.ones(len(v)), np.ones(len(u))
+    for _ in range(LAWSON):  # a few rounds
+        worst = np.where(counted, miss, 0.0)
+        wr, wc = wr * (worst.max(1) + 1e-3 * tol), wc * (worst.max(0) + 1e-3 * tol)
+        wr, wc = wr / wr.max(), wc / wc.max()
+        pk[:, 1:-1, 1:-1] = _weighted(mv[:, 1:-1], wr) @ rest @ _weighted(mu[:, 1:-1], wc).T
+        miss = np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0))
+        if miss[keep].max(initial=0.0) <= tol:
+            return pk.transpose(1, 2, 0)
     return None
+
+
+def _weighted(h: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The weighted least-squares solver ``(h^T W h)^-1 h^T W`` of a basis ``h``
+    (``(n, k)``) with weights ``w`` (``n``) on its rows."""
+    hw = h.T * w
+    return np.linalg.solve(hw @ h + 1e-12 * np.eye(h.shape[1]), hw)
+
+
+#: How far (times the tolerance) a tile's least-squares fit may miss before it is
+#: reweighted (:func:`_fitted`): rows and columns of grid points weighted by their
+#: largest miss, Lawson's rule in each direction (C. L. Lawson 1961).
+REACH = 1.5
 
 
 def _basis(t: np.ndarray, kept: np.ndarray, cache: dict | None) -> tuple:
