@@ -14,14 +14,17 @@ with numpy:
 * at a tolerance (:meth:`texcad.Textured.export` passes the mesh's, 0.02 mm by
   default) the tiles keep fewer poles (:func:`_reduced`): each edge between two
   tiles, or between a tile and a planar face of the part, keeps the points its
-  least-squares fitted polyline needs (:func:`_edge_fit`; its 3-D curve, and its
-  pcurve on the plane, become that polyline and the tiles' border poles move onto
-  it), each tile the rows and columns its edges need plus the fewest its interior
-  needs with its inner poles least-squares fitted (:func:`_chosen`,
-  :func:`_fitted`), checked bilinear on every grid point; and fewer decimals
-  (:func:`decimals_for`: 3 at 0.02 mm; 8 on edges shared with the part's own faces,
-  whose pcurves are OCCT's, and on border poles moved onto an edge between its
-  points). Issue 28: the STEP against the binary STL in ``docs/benchmarks/step.md``;
+  fitted polyline needs (:func:`_edge_fit`, minimax-fitted by :func:`_minimax`;
+  among the chains of chords that hold, the one adding the fewest rows and columns
+  to the tiles beside it, :func:`_cheapest`; its 3-D curve, and its pcurve on the
+  plane, become that polyline and the tiles' border poles move onto it), each tile
+  the rows and columns its edges need plus the fewest its interior needs with its
+  inner poles fitted (least squares, reweighted by rows and columns where it misses
+  a little: :func:`_chosen`, :func:`_fitted`), checked bilinear on every grid point;
+  and fewer decimals (:func:`decimals_for`: 3 at 0.02 mm; 8 on edges shared with the
+  part's own faces, whose pcurves are OCCT's, and on border poles moved onto an edge
+  between its points). Issue 28: the STEP against the binary STL in
+  ``docs/benchmarks/step.md``;
 * at a tolerance, tiles no tool trimmed that lie side by side with even knot spans
   (the fine tiles texcad makes under a tool, past its trace) are merged into tiles
   of at most :data:`MERGED` cells a side (:func:`_merged`, :func:`_even`);
@@ -29,7 +32,8 @@ with numpy:
   and knots;
 * OCCT's entities are written without layout whitespace, the same geometry once
   (OCCT writes a 2-D context, a direction and a vector for every pcurve), their
-  points with at most 9 decimals (10 in 2-D: :func:`_short`), and everything
+  points with at most 9 decimals, knots and 2-D points rounded to
+  :data:`KNOT_DECIMALS` (:func:`_short`, :func:`_knots`), and everything
   numbered densely from ``#1`` (:func:`_renumbered`), the poles last;
 * with ``tessellate`` each tile that carries its triangulation (texcad's mesh: two
   triangles per grid cell) also gets a ``COMPLEX_TRIANGULATED_FACE`` linked to its
@@ -837,7 +841,7 @@ def _hats(t: np.ndarray, kept: np.ndarray) -> np.ndarray:
 def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list:
     """The tiles' grids with fewer poles, within ``tol`` mm of every pole (issue 28:
     a STEP at the mesh's tolerance). Each edge between two tiles keeps the points
-    its polyline needs within ``tol / 2`` (its 3-D curve is replaced by that
+    its polyline needs within :data:`EDGE_SHARE` of ``tol`` (its 3-D curve is replaced by that
     polyline, so both tiles' borders and the edge stay one curve: the dropped border
     points move onto it); each tile keeps the rows and columns its edges keep plus
     those its interior needs, checked on every grid point (bilinear, 3-D distance)
