@@ -180,3 +180,44 @@ def test_exact_step_keeps_every_pole(plate, tmp_path):
     for (_, _, _, (g, _, _)), (_, _, _, s) in zip(grids, written):  # one per tile
         poles = np.array([[s.Pole(i + 1, j + 1).Coord() for i in range(s.NbUPoles())] for j in range(s.NbVPoles())])
         assert np.abs(poles - g).max() <= 5e-9
+
+
+def test_edge_keeps_the_points_its_tiles_keep():
+    """An edge's polyline (texcad.io.step_tiles._edge_fit) is, among those within the
+    tolerance, the one whose points add the fewest rows and columns of poles to the
+    tiles beside it: a straight edge with one kink that either of two points can hold
+    takes the one the tiles keep already."""
+    from texcad.io.step_tiles import _edge_fit
+
+    t = np.arange(9, dtype=np.float64)
+    pts = np.stack([t, np.zeros(9), np.zeros(9)], axis=-1)
+    pts[4, 1] = 0.03  # a bump between two points: a polyline needs a point at 3, 4 or 5
+    plain, _ = _edge_fit(pts, t, 0.02)
+    for at in (3, 5):  # the tiles keep a row there already: nothing else is added
+        new = np.ones(9)
+        new[at] = 0.0
+        sel, q = _edge_fit(pts, t, 0.02, new)
+        assert at in sel and len(sel) <= len(plain) + 1, (sel, plain)
+        miss = np.abs(np.interp(t, t[sel], q[:, 1]) - pts[:, 1]).max()
+        assert miss <= 0.02 + 1e-12, miss
+
+
+def test_minimax_fit_holds_where_least_squares_misses():
+    """A polyline's inner points fitted by least squares miss a bump's top by more than
+    the tolerance; Lawson's reweighting (texcad.io.step_tiles._minimax) brings every
+    point within it: the fewer points the edge then keeps."""
+    from texcad.io.step_tiles import _hats, _minimax
+
+    t = np.arange(11, dtype=np.float64)
+    pts = np.zeros((11, 3))
+    pts[:, 0] = t
+    pts[:, 2] = [0, 0, 0.02, 0.05, 0.1, 0.12, 0.1, 0.05, 0.02, 0, 0]  # a bump, mm
+    kept = np.array([0, 3, 7, 10])
+    h = _hats(t, kept)
+    q = pts[kept].copy()
+    q[1:-1] = np.linalg.lstsq(h[:, 1:-1], pts - h[:, [0, -1]] @ q[[0, -1]], rcond=None)[0]
+    ls = np.sqrt(((h @ q - pts) ** 2).sum(-1)).max()
+    got = _minimax(pts, h, pts[kept].copy(), 0.8 * ls)
+    assert got is not None
+    assert np.sqrt(((h @ got - pts) ** 2).sum(-1)).max() <= 0.8 * ls
+    assert (got[[0, -1]] == pts[kept][[0, -1]]).all()  # the ends stay (other edges meet there)
