@@ -1046,8 +1046,9 @@ def _edge_fit(pts: np.ndarray, t: np.ndarray, tol: float, new: np.ndarray | None
     """The points an edge's polyline keeps (indices into ``pts``, ``(n, 3)`` mm at the
     parameters ``t``) and where they go (``(k, 3)`` mm): the fewest whose chords hold
     within a share of ``tol`` (:data:`EDGE_SHARES`, :func:`_keep`) and whose inner
-    points, least-squares fitted to all of ``pts`` (the ends stay), bring the polyline
-    within ``tol`` of every point; the chord points themselves where no fit holds.
+    points, fitted to all of ``pts`` (:func:`_minimax`; the ends stay), bring the
+    polyline within ``tol`` of every point; the chord points themselves where no fit
+    holds.
     ``new``: see :func:`_keep` (the cheapest chords for the tiles beside the edge)."""
     misses = _misses(pts[:, None], t)
     for share in EDGE_SHARES:  # the largest share first: the fewest points
@@ -1092,7 +1093,11 @@ def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np
     stays and the inner poles are the least-squares fit to the grid instead (a
     bilinear patch through the points lies on one side of a curved relief; the
     fitted one straddles it, so fewer rows and columns hold): the interior block is
-    a tensor product, so it is ``pinv(Bv) R pinv(Bu)^T``."""
+    a tensor product, so it is ``pinv(Bv) R pinv(Bu)^T``. Where that misses by less
+    than :data:`REACH` times ``tol``, it is fitted again (:data:`LAWSON` rounds) with
+    each row and column of grid points weighted by its largest miss (a weight per
+    row times one per column keeps the product form), towards the smallest largest
+    miss: the bound is on every point."""
     (mv, iv), (mu, iu) = _basis(v, rows, cache), _basis(u, cols, cache)
     gk = g.transpose(2, 0, 1)  # (3, R, C): one matrix per coordinate
     p = m[np.ix_(rows, cols)]
