@@ -123,11 +123,12 @@ def test_fine_cylinder_step_size(tmp_path):
     a tile keeps whole rows and columns of poles: the tiles' rows are chosen and
     fitted (least squares, edges between tiles too) at even parameters, whatever the
     knots (placed for OCCT's plain Gauss rule by texcad.brep.uvstrips: checked at
-    them, 3.09). Issue 28 asks for twice the STL: 1.98 here (2.22 with least-squares
-    fits and edges fitted alone; 1.85 with the end rings' edges within the whole
-    tolerance, but OCCT's plain rule then missed a plate's volume by 0.14 %), the
-    edges along the end faces fitted at their own knots (at even parameters OCCT's
-    plain rule missed a plate's volume by 0.12 %)."""
+    them, 3.09). Issue 28 asks for twice the STL: 1.99 here (2.22 with least-squares
+    fits and edges fitted alone; 1.85 with the end rings' edges minimax-fitted within
+    the whole tolerance, but OCCT's plain rule then missed a plate's volume by 0.14 %
+    and a cylinder's by 0.27 %), the edges along the end faces least-squares fitted
+    at their own knots (at even parameters OCCT's plain rule missed a plate's volume
+    by 0.12 %)."""
     from build123d import Cylinder, GeomType
 
     cyl = Cylinder(10, 12)
