@@ -14,7 +14,8 @@ with numpy:
 * at a tolerance (:meth:`texcad.Textured.export` passes the mesh's, 0.02 mm by
   default) the tiles keep fewer poles (:func:`_reduced`): each edge between two
   tiles, or between a tile and a planar face of the part, keeps the points its
-  fitted polyline needs (:func:`_edge_fit`, minimax-fitted by :func:`_minimax`;
+  fitted polyline needs (:func:`_edge_fit`, minimax-fitted by :func:`_minimax`,
+  least squares beside a planar face;
   among the chains of chords that hold, the one adding the fewest rows and columns
   to the tiles beside it, :func:`_cheapest`; its 3-D curve, and its pcurve on the
   plane, become that polyline and the tiles' border poles move onto it), each tile
