@@ -16,8 +16,8 @@ again.
     python benchmarks/bench_step.py --sizes [--size 100] [--table docs/benchmarks/step.md]
 
 ``--sizes`` (issue 28): the demo plate (``--size`` mm, stones 2 mm at 0.125 mm, the
-demo's default tolerance), the same drilled through, a cylinder (stones, knurl) and a
-cone: STEP size against the binary STL's at the same tolerance, seconds to write the STEP, to read it back (OCCT's
+demo's default tolerance), the same drilled through, a 30 mm plate drilled through, a
+cylinder (stones, knurl) and a cone: STEP size against the binary STL's at the same tolerance, seconds to write the STEP, to read it back (OCCT's
 ``STEPControl_Reader``, as FreeCAD) and to mesh it at 0.1 mm, validity and OCCT's
 volume against the mesh; written as a markdown table (machine, date, command) to
 ``--table``.
@@ -244,6 +244,9 @@ def run_sizes(out: Path, size: float, table: str | None) -> None:
     rows.append(_sizes_row(f"plate{size:g}", tx, out))
     rows.append(_sizes_row(f"plate{size:g}-tess", tx, out, tessellated=True))
     rows.append(_sizes_row(f"drilled{size:g}", tx - Pos(size / 2, size / 2, 0) * Cylinder(4, 30), out))
+    small = texcad.pipeline.plate_base((30, 30), 5)  # the same hole weighs more on a small plate
+    tx30 = texcad.texture(small, small.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=2.0, pitch=0.125)
+    rows.append(_sizes_row("drilled30-small", tx30 - Pos(15, 15, 0) * Cylinder(4, 30), out))
     cyl = Cylinder(10, 30)
     side = cyl.faces().filter_by(GeomType.CYLINDER)[0]
     rows.append(_sizes_row("cylinder", texcad.texture(cyl, side, "builtin:stones", height=0.6, pitch=0.125), out))
@@ -255,6 +258,7 @@ def run_sizes(out: Path, size: float, table: str | None) -> None:
         parts = {f"plate{size:g}": f"demo plate {size:g} x {size:g} mm, stones 2 mm at 0.125 mm",
                  f"plate{size:g}-tess": "the same, `write_step(tessellated=True)`: every pole + the grid mesh (AP242)",
                  f"drilled{size:g}": "the demo plate with a 8 mm hole drilled through (`tx - Cylinder(4, 30)`)",
+                 "drilled30-small": "a 30 x 30 mm plate, stones 2 mm at 0.125 mm, the same hole drilled through",
                  "cylinder": "cylinder r 10 x 30 mm, stones 0.6 mm at 0.125 mm",
                  "knurl": "cylinder r 10 x 30 mm, diamond knurl 0.6 mm at 0.25 mm",
                  "cone": "cone r 12 / 8 x 20 mm, stones 0.6 mm at 0.125 mm (general method: no tolerance, every pole)"}  # fmt: skip
@@ -271,11 +275,14 @@ def run_sizes(out: Path, size: float, table: str | None) -> None:
             "Seconds are wall (CPU): on a shared machine the CPU seconds are what one free core takes.",
             "`Textured.export` writes the B-rep at the mesh's tolerance (0.02 mm; `texcad.io.step_tiles`): each",
             "tile keeps the rows and columns of poles it needs to stay within it of every grid point (inner",
-            "poles least-squares fitted at even parameters: the distance to the written tile, whatever its",
-            "knots), each edge between two tiles the points its fitted polyline needs (beside a planar face,",
-            "fitted at its own knots), the tiles' straight pcurves short, 3 decimals inside the tiles, every",
-            "point once, the same geometry once, entities numbered densely, and the whole fine tiles a tool",
-            "left merged back into tiles. OCCT then meshes the B-spline tiles itself. The tessellated STEP",
+            "poles fitted at even parameters, least squares reweighted towards the smallest largest miss: the",
+            "distance to the written tile, whatever its knots), each edge between two tiles the points its",
+            "fitted polyline needs, those the tiles beside it keep already first (beside a planar face, fitted",
+            "at its own knots), the tiles' straight pcurves short (16 spans where the Gauss order needs them),",
+            "knots with 9 decimals, 3 decimals inside the tiles, every point once, the same geometry once,",
+            "entities numbered densely, and the whole fine tiles a tool left merged back into tiles. A hole's",
+            "rim adds OCCT's intersection curves and the small tiles it trims (most on a small plate). OCCT",
+            "then meshes the B-spline tiles itself. The tessellated STEP",
             "carries texcad's grid mesh, which viewers show at once. OCCT volume: the re-read STEP's",
             "(`BRepGProp`: adaptive to 1e-4, texcad's `occt_volume`; plain: its default rule, FreeCAD's and",
             "build123d's); the mesh may differ by its own tolerance times its area (a lean mesh's",

@@ -14,14 +14,18 @@ with numpy:
 * at a tolerance (:meth:`texcad.Textured.export` passes the mesh's, 0.02 mm by
   default) the tiles keep fewer poles (:func:`_reduced`): each edge between two
   tiles, or between a tile and a planar face of the part, keeps the points its
-  least-squares fitted polyline needs (:func:`_edge_fit`; its 3-D curve, and its
-  pcurve on the plane, become that polyline and the tiles' border poles move onto
-  it), each tile the rows and columns its edges need plus the fewest its interior
-  needs with its inner poles least-squares fitted (:func:`_chosen`,
-  :func:`_fitted`), checked bilinear on every grid point; and fewer decimals
-  (:func:`decimals_for`: 3 at 0.02 mm; 8 on edges shared with the part's own faces,
-  whose pcurves are OCCT's, and on border poles moved onto an edge between its
-  points). Issue 28: the STEP against the binary STL in ``docs/benchmarks/step.md``;
+  fitted polyline needs (:func:`_edge_fit`, minimax-fitted by :func:`_minimax`,
+  least squares beside a planar face;
+  among the chains of chords that hold, the one adding the fewest rows and columns
+  to the tiles beside it, :func:`_cheapest`; its 3-D curve, and its pcurve on the
+  plane, become that polyline and the tiles' border poles move onto it), each tile
+  the rows and columns its edges need plus the fewest its interior needs with its
+  inner poles fitted (least squares, reweighted by rows and columns where it misses
+  a little: :func:`_chosen`, :func:`_fitted`), checked bilinear on every grid point;
+  and fewer decimals (:func:`decimals_for`: 3 at 0.02 mm; 8 on edges shared with the
+  part's own faces, whose pcurves are OCCT's, and on border poles moved onto an edge
+  between its points). Issue 28: the STEP against the binary STL in
+  ``docs/benchmarks/step.md``;
 * at a tolerance, tiles no tool trimmed that lie side by side with even knot spans
   (the fine tiles texcad makes under a tool, past its trace) are merged into tiles
   of at most :data:`MERGED` cells a side (:func:`_merged`, :func:`_even`);
@@ -29,7 +33,8 @@ with numpy:
   and knots;
 * OCCT's entities are written without layout whitespace, the same geometry once
   (OCCT writes a 2-D context, a direction and a vector for every pcurve), their
-  points with at most 9 decimals (10 in 2-D: :func:`_short`), and everything
+  points with at most 9 decimals, knots and 2-D points rounded to
+  :data:`KNOT_DECIMALS` (:func:`_short`, :func:`_knots`), and everything
   numbered densely from ``#1`` (:func:`_renumbered`), the poles last;
 * with ``tessellate`` each tile that carries its triangulation (texcad's mesh: two
   triangles per grid cell) also gets a ``COMPLEX_TRIANGULATED_FACE`` linked to its
@@ -73,6 +78,23 @@ def _real(v: float) -> str:
 
 def _reals(a) -> str:
     return ",".join(map(_real, np.asarray(a, np.float64).tolist()))  # per knot (tens per tile)
+
+
+#: Decimals of the knots written (:func:`_knots`): 5e-10 in a surface's parameters,
+#: inside OCCT's parametric confusion (1e-9).
+KNOT_DECIMALS = 9
+_ZEROS = re.compile(r"(\.\d*?)0+$")
+
+
+def _knots(a) -> str:
+    """Knots as STEP REALs with at most :data:`KNOT_DECIMALS` decimals, trailing zeros
+    dropped (OCCT writes 12-17 significant digits: 4 % of a file); exact (:func:`_reals`)
+    where rounding would make two of them equal."""
+    k = np.asarray(a, np.float64)
+    r = np.round(k, KNOT_DECIMALS) + 0.0  # (+ 0.0: no "-0.")
+    if len(k) > 1 and not (np.diff(r) > 0).all():
+        return _reals(k)
+    return ",".join(_ZEROS.sub(r"\1", f"{x:.{KNOT_DECIMALS}f}") for x in r.tolist())  # per knot (tens per tile)
 
 
 def _tiles_of(topo) -> tuple[list, list]:
@@ -486,10 +508,11 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
     if tolerance > 0 and not tessellate:
         inner, rounding = decimals_for(tolerance)
         red = _reduced(b, sides, grids, tolerance - rounding, inner)
+
         # the points moved onto an edge's polyline between its own points keep 8 decimals too (so they stay on it)
         outer = [o[np.ix_(r, c)] | line for o, (_, _, _, r, c, line) in zip(outer, red)]
         written = [(g, u, v) for g, u, v, _, _, _ in red]
-    _line_pcurves(b, tiles, sides, grids, [len(v) - 1 for _, _, v in written])
+    _line_pcurves(b, tiles, sides, grids, written)
     grids = written
     if inner < 8:  # poles a few rounding steps from a neighbour keep 8 decimals (else a sliver collapses)
         outer = [o | _thin(g, THIN * 10.0**-inner) for o, (g, _, _) in zip(outer, grids)]
@@ -502,7 +525,7 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
     return _complete(data, len(order), tiles, grids, meshed, outer, inner)
 
 
-def _line_pcurves(b, tiles: list, sides: list, grids: list, v_spans: list) -> None:
+def _line_pcurves(b, tiles: list, sides: list, grids: list, written: list) -> None:
     """Shorten the pcurve of each edge along a whole tile side (:func:`_sides`) on
     that tile where the edge is parametrised as the tile's grid (its range the side's
     knots, its start the side's first grid point) and the pcurve is that
@@ -511,14 +534,17 @@ def _line_pcurves(b, tiles: list, sides: list, grids: list, v_spans: list) -> No
     along them (:mod:`texcad.brep.gprop`), a ``CARTESIAN_POINT`` and a knot per grid
     line in the STEP (7 % of a plate's file). Written as a ``LINE`` where the tile as
     written has 16 spans in v or more (OCCT's rule then takes its 61 points from the
-    surface: ``2 (1 + 1) 16``); on fewer spans the padded pcurve stays (the same line in
-    11 poles, :func:`_gauss_line`, put a band's re-read volume 0.42 % off); ``v_spans``:
-    per tile. Other pcurves stay."""
+    surface: ``2 (1 + 1) 16``); on fewer spans the padded pcurve keeps
+    :data:`PAD_SPANS` of its spans (:func:`_padded`: the tile's own knots along it and
+    grid lines between; the same line in 11 poles, :func:`_gauss_line`, put a band's
+    re-read volume 0.42 % off); ``written``: ``(grid, u, v)`` per tile as written.
+    Other pcurves stay."""
     from OCP.BRep import BRep_Tool
     from OCP.Geom2d import Geom2d_BSplineCurve, Geom2d_Line
     from OCP.gp import gp_Dir2d, gp_Pnt2d
 
-    for (_, face, _), tile, (g, u, v), spans in zip(tiles, sides, grids, v_spans):  # one per tile
+    for (_, face, _), tile, (g, u, v), (_, wu, wv) in zip(tiles, sides, grids, written):  # one per tile
+        spans = len(wv) - 1
         for edge, _, side, _, _ in tile:  # one per edge
             if side is None or BRep_Tool.IsClosed_s(edge, face):
                 continue
@@ -539,11 +565,41 @@ def _line_pcurves(b, tiles: list, sides: list, grids: list, v_spans: list) -> No
             iso = np.stack([np.full(len(at), u[line]), at] if axis == 1 else [at, np.full(len(at), v[line])], axis=-1)
             if np.abs(np.array([pc.Value(a).Coord() for a in at.tolist()]) - iso).max() > 1e-9 * (1 + np.abs(iso).max()):
                 continue  # not the straight iso-line along its whole length (checked at every knot and between)
-            if 2 * 2 * spans < GAUSS_ORDER:  # the padded pcurve stays: an 11-pole line in its place put
-                continue  # the re-read band of a box's sides and fillets 0.42 % off (tests/brep/test_face_kinds_bands.py)
+            if 2 * 2 * spans < GAUSS_ORDER:  # padded (an 11-pole line in its place put the re-read
+                # band of a box's sides and fillets 0.42 % off: tests/brep/test_face_kinds_bands.py)
+                if len(t) - 1 > PAD_SPANS:  # (a shorter side's pcurve has knots between its grid lines)
+                    fixed = (u[line], None) if axis == 1 else (None, v[line])
+                    b.UpdateEdge(edge, _padded(t, wv if axis == 1 else wu, fixed), face, BRep_Tool.Tolerance_s(edge))
+                continue
             at = gp_Pnt2d(u[line], 0.0) if axis == 1 else gp_Pnt2d(0.0, v[line])
             new = Geom2d_Line(at, gp_Dir2d(0.0, 1.0) if axis == 1 else gp_Dir2d(1.0, 0.0))
             b.UpdateEdge(edge, new, face, BRep_Tool.Tolerance_s(edge))
+
+
+#: Spans a padded pcurve keeps (:func:`_padded`): OCCT's plain rule takes
+#: ``2 (1 + 1) 16 = 64`` points, capped at :data:`GAUSS_ORDER` (``texcad.brep.gprop``).
+PAD_SPANS = 16
+
+
+def _padded(t: np.ndarray, own: np.ndarray, fixed: tuple):
+    """The straight iso-line pcurve along a tile side as a degree-1 2-D B-spline of
+    :data:`PAD_SPANS` spans, parametrised as the side (its parameter is the running
+    coordinate): knots at the tile's own knots ``own`` within the side's grid lines
+    ``t`` and at grid lines between, evenly picked (OCCT's adaptive integration
+    starts from a pcurve's knots). ``fixed``: ``(u, None)`` for an iso-u side,
+    ``(None, v)`` for an iso-v one."""
+    from OCP.Geom2d import Geom2d_BSplineCurve
+    from OCP.TColgp import TColgp_Array1OfPnt2d
+    from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
+    from OCP.gp import gp_Pnt2d
+
+    k = t[_pad(np.isin(t, own))]
+    poles, knots, mults = TColgp_Array1OfPnt2d(1, len(k)), TColStd_Array1OfReal(1, len(k)), TColStd_Array1OfInteger(1, len(k))
+    for i, kv in enumerate(k.tolist()):  # one per knot (17)
+        poles.SetValue(i + 1, gp_Pnt2d(fixed[0], kv) if fixed[0] is not None else gp_Pnt2d(kv, fixed[1]))
+        knots.SetValue(i + 1, kv)
+        mults.SetValue(i + 1, 2 if i in (0, len(k) - 1) else 1)
+    return Geom2d_BSplineCurve(poles, knots, mults, 1)
 
 
 #: OCCT's largest Gauss rule (``math::GaussPointsMax``), what texcad's padded pcurves
@@ -653,8 +709,16 @@ MERGED = TILE
 EVEN = 0.05
 #: Longest chord (grid cells) :func:`_keep` tries.
 SPAN = 8
-#: Share of the tolerance an edge's polyline may miss its grid points by.
-EDGE_SHARE = 0.75
+#: Share of the tolerance an edge's polyline may miss its grid points by: between two
+#: tiles, and beside a planar face of the part (whose volume OCCT's plain rule takes
+#: along it: the whole tolerance put a 30 mm plate's plain volume +0.14 % off the mesh,
+#: three quarters +0.06 %; there least squares, not minimax: with Lawson's rounds a
+#: cylinder's end rings put its plain volume +0.27 % off, +0.13 % without).
+EDGE_SHARE = 1.0
+PLANE_SHARE = 0.75
+#: Cost of a point an edge keeps, besides the rows or columns of poles it adds to the
+#: tiles on its sides (one each where that tile has none there yet; :func:`_keep`).
+NEW_POINT = 0.5
 #: Shares of that an edge's chords are first chosen within (:func:`_edge_fit`); the
 #: last, 1.0, is the chords through the grid points.
 EDGE_SHARES = (2.0, 1.5, 1.0)
@@ -685,24 +749,50 @@ def _thin(g: np.ndarray, width: float) -> np.ndarray:
     return on
 
 
-def _keep(p: np.ndarray, t: np.ndarray, tol: float, misses: np.ndarray | None = None) -> np.ndarray:
+def _keep(p: np.ndarray, t: np.ndarray, tol: float, misses: np.ndarray | None = None,
+          new: np.ndarray | None = None) -> np.ndarray:
     """Indices along axis 0 of ``p`` (``(n, m, 3)`` mm: ``m`` polylines sampled at
     the parameters ``t``) to keep so that the polylines through the kept points stay
     within ``tol`` mm (3-D distance) of every point; first and last always kept.
     Greedy: from each kept point, the farthest one whose chord holds all between.
     ``misses``: :func:`_misses` of ``p`` and ``t`` (computed here when None; pass it
-    to try several tolerances on the same points)."""
+    to try several tolerances on the same points). ``new``: per point, how many
+    tiles would get a row or column of poles more by keeping it (the tiles on both
+    sides of an edge keep whole rows and columns through its points): the cheapest
+    chain of chords is taken then (:func:`_cheapest`), not the fewest points."""
     n = len(t)
     if misses is None:
         misses = _misses(p, t)
     if misses is None:
         return np.arange(n)
     ok = misses <= tol  # (i, s): the chord from i to i + 1 + s holds its points
+    if new is not None:
+        return _cheapest(ok, NEW_POINT + np.asarray(new, np.float64))
     kept, at = [0], 0
     while at < n - 1:  # one per kept point
         at = int(min(at + 1 + np.flatnonzero(ok[at])[-1], n - 1)) if ok[at].any() else at + 1
         kept.append(at)
     return np.asarray(kept)
+
+
+def _cheapest(ok: np.ndarray, cost: np.ndarray) -> np.ndarray:
+    """Indices of the chain of chords from the first point to the last (``ok[i, s]``:
+    the chord from ``i`` to ``i + 1 + s`` holds) whose kept points cost least
+    (``cost`` per point; the first is free); ties go to the longer chords. Dynamic
+    programming over the points of one edge (tens)."""
+    n, w = len(cost), ok.shape[1]
+    best, prev = np.full(n, np.inf), np.zeros(n, np.int64)
+    best[0] = 0.0
+    for j in range(1, n):  # one per point of the edge
+        i = j - 1 - np.arange(w)
+        s = np.flatnonzero((i >= 0) & ((i == j - 1) | ok[np.maximum(i, 0), np.arange(w)]))
+        cand = i[s][::-1]  # the longest chord first
+        at = cand[np.argmin(best[cand])]
+        best[j], prev[j] = best[at] + cost[j], at
+    kept = [n - 1]
+    while kept[-1] > 0:  # one per kept point
+        kept.append(int(prev[kept[-1]]))
+    return np.asarray(kept[::-1])
 
 
 def _misses(p: np.ndarray, t: np.ndarray) -> np.ndarray | None:
@@ -752,7 +842,7 @@ def _hats(t: np.ndarray, kept: np.ndarray) -> np.ndarray:
 def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list:
     """The tiles' grids with fewer poles, within ``tol`` mm of every pole (issue 28:
     a STEP at the mesh's tolerance). Each edge between two tiles keeps the points
-    its polyline needs within ``tol / 2`` (its 3-D curve is replaced by that
+    its polyline needs within :data:`EDGE_SHARE` of ``tol`` (its 3-D curve is replaced by that
     polyline, so both tiles' borders and the edge stay one curve: the dropped border
     points move onto it); each tile keeps the rows and columns its edges keep plus
     those its interior needs, checked on every grid point (bilinear, 3-D distance)
@@ -771,6 +861,12 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
         for _, _, side, (iu, iv), _ in tile:  # one per edge
             if side is None:
                 frozen[ti][np.ix_(iv, iu)] = True
+    owners: dict = {}  # edge index -> (tile, side) of each tile it bounds as a whole side
+    index = TopTools_IndexedMapOfShape()
+    for ti, tile in enumerate(sides):  # one per tile
+        for edge, _, side, _, _ in tile:  # one per edge
+            if side is not None:
+                owners.setdefault(index.Add(edge), []).append((ti, side))
     stay = TopTools_IndexedMapOfShape()  # edges with a frozen point in either tile: kept whole
     for ti, tile in enumerate(sides):  # one per tile
         for edge, _, side, _, _ in tile:  # one per edge
@@ -789,7 +885,12 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
             if key == 0:
                 key = done.Add(edge)
                 cut = (shared or plane is not None) and not stay.Contains(edge)
-                plans[key] = _polyline(b, edge, pts, t, tol, decimals if shared else 8, plane) if cut else (None, None)
+                mine = owners.get(index.FindIndex(edge), [])
+                new = _new_lines(mine, keep_r, keep_c, hi - lo + 1)
+                plans[key] = _polyline(b, edge, pts, t, tol, decimals if shared else 8, plane, new) if cut else (None, None)
+                if plans[key][0] is not None:  # the rows or columns it adds, known to the other tile at once
+                    for tj, (ax, _, lo_j, _) in mine:  # one per tile beside the edge (two)
+                        (keep_r if ax == 1 else keep_c)[tj][lo_j + plans[key][0]] = True
             sel, q = plans[key]
             idx = np.arange(lo, hi + 1) if sel is None else lo + sel
             if axis == 1:
@@ -818,6 +919,18 @@ def _reduced(b, sides: list, grids: list, tol: float, decimals: int = 8) -> list
         rows, cols, poles = _chosen(m, g, _even_t(u), _even_t(v), keep_r[ti], keep_c[ti], tol, fit, on_edge[ti])
         out.append((poles, u[cols], v[rows], rows, cols, on_line[ti][np.ix_(rows, cols)]))
     return out
+
+
+def _new_lines(owners: list, keep_r: list, keep_c: list, n: int) -> np.ndarray | None:
+    """Per point of an edge (``n``), how many of the tiles it bounds (``owners``:
+    ``(tile, side)``) keep no row or column of poles through it yet (``keep_r``,
+    ``keep_c``: per tile); None when the sides do not all have ``n`` points."""
+    new = np.zeros(n)
+    for ti, (axis, _, lo, hi) in owners:  # one per tile beside the edge (two)
+        if hi - lo + 1 != n:
+            return None
+        new += ~(keep_r if axis == 1 else keep_c)[ti][lo : hi + 1]
+    return new
 
 
 def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: np.ndarray, need_c: np.ndarray,
@@ -863,14 +976,16 @@ def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: 
     return rows, cols, poles
 
 
-def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int, plane=None) -> tuple:
+def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int, plane=None,
+              new: np.ndarray | None = None) -> tuple:
     """The points an edge between two tiles keeps (indices into ``pts``, ``(n, 3)``
     mm at the parameters ``t``) so that its polyline stays within ``tol`` mm of every
     point, and those points as written (``decimals``; its ends as they are: other
     edges meet there); the edge's 3-D curve becomes that polyline. ``(None, None)``
     when nothing is dropped or the curve is not parametrised as the grid. ``plane``:
     the part's planar face on the edge's other side (else None: two tiles), whose
-    pcurve of the edge becomes the same polyline in the plane's parameters."""
+    pcurve of the edge becomes the same polyline in the plane's parameters. ``new``:
+    per point, the tiles it would add a row or column of poles to (:func:`_keep`)."""
     from OCP.BRep import BRep_Tool
     from OCP.Geom import Geom_BSplineCurve
     from OCP.TColgp import TColgp_Array1OfPnt
@@ -880,7 +995,8 @@ def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int
 
     # between two tiles at even parameters (see _reduced); beside a plane at its own (OCCT's
     # plain volume rule on the plane missed a plate's volume by 0.06 % more otherwise)
-    sel, q = _edge_fit(pts, _even_t(t) if plane is None else t, EDGE_SHARE * tol)
+    sel, q = (_edge_fit(pts, _even_t(t), EDGE_SHARE * tol, new) if plane is None
+              else _edge_fit(pts, t, PLANE_SHARE * tol, new, rounds=0))
     first, last = BRep_Tool.Range_s(edge)
     if len(sel) == len(t) or abs(first - t[0]) > 1e-9 or abs(last - t[-1]) > 1e-9:
         return None, None
@@ -892,25 +1008,42 @@ def _polyline(b, edge, pts: np.ndarray, t: np.ndarray, tol: float, decimals: int
         mult.SetValue(n + 1, 2 if n in (0, len(sel) - 1) else 1)
     b.UpdateEdge(edge, Geom_BSplineCurve(poles, knots, mult, 1), TopLoc_Location(), BRep_Tool.Tolerance_s(edge))
     if plane is not None:
-        b.UpdateEdge(edge, _in_plane(plane, q, knots, mult), plane, BRep_Tool.Tolerance_s(edge))
+        b.UpdateEdge(edge, _in_plane(plane, q, t[sel]), plane, BRep_Tool.Tolerance_s(edge))
     return sel, q
 
 
-def _in_plane(plane, q: np.ndarray, knots, mult):
+def _pad(mine: np.ndarray) -> np.ndarray:
+    """Indices of the points ``mine`` (bool, per grid line along a side) and of
+    others between, evenly picked, up to :data:`PAD_SPANS` spans (all of them on a
+    shorter side): the knots of a degree-1 pcurve along which OCCT's plain volume
+    rule then takes its 61 points (``texcad.brep.gprop``)."""
+    mine = mine.copy()
+    mine[[0, -1]] = True
+    rest = np.flatnonzero(~mine)
+    need = min(max(PAD_SPANS + 1 - int(mine.sum()), 0), len(rest))
+    if need:
+        mine[rest[np.round(np.linspace(0, len(rest) - 1, need)).astype(np.int64)]] = True
+    return np.flatnonzero(mine)
+
+
+def _in_plane(plane, q: np.ndarray, knots: np.ndarray):
     """The degree-1 2-D curve through the points ``q`` (``(k, 3)`` mm, in the planar
-    face ``plane``) in the plane's parameters, on ``knots`` with ``mult``."""
+    face ``plane``) in the plane's parameters, on ``knots`` (``k``, the ends doubled)."""
     from OCP.BRep import BRep_Tool
     from OCP.Geom2d import Geom2d_BSplineCurve
     from OCP.TColgp import TColgp_Array1OfPnt2d
+    from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
     from OCP.gp import gp_Pnt2d
 
     pos = BRep_Tool.Surface_s(plane).Position()  # with the face's location: the same parameters
     o, x, y = (np.array(a.Coord()) for a in (pos.Location(), pos.XDirection(), pos.YDirection()))
     uv = np.stack([(q - o) @ x, (q - o) @ y], axis=-1)
-    poles = TColgp_Array1OfPnt2d(1, len(q))
-    for n, (pu, pv) in enumerate(uv.tolist()):  # one per kept point of the edge
+    poles, kn, mult = TColgp_Array1OfPnt2d(1, len(q)), TColStd_Array1OfReal(1, len(q)), TColStd_Array1OfInteger(1, len(q))
+    for n, ((pu, pv), k) in enumerate(zip(uv.tolist(), knots.tolist())):  # one per point of the edge
         poles.SetValue(n + 1, gp_Pnt2d(pu, pv))
-    return Geom2d_BSplineCurve(poles, knots, mult, 1)
+        kn.SetValue(n + 1, k)
+        mult.SetValue(n + 1, 2 if n in (0, len(q) - 1) else 1)
+    return Geom2d_BSplineCurve(poles, kn, mult, 1)
 
 
 def _plane_beside(faces, face):
@@ -928,25 +1061,47 @@ def _plane_beside(faces, face):
     return other[0]
 
 
-def _edge_fit(pts: np.ndarray, t: np.ndarray, tol: float) -> tuple:
+def _edge_fit(pts: np.ndarray, t: np.ndarray, tol: float, new: np.ndarray | None = None, rounds: int | None = None) -> tuple:
     """The points an edge's polyline keeps (indices into ``pts``, ``(n, 3)`` mm at the
     parameters ``t``) and where they go (``(k, 3)`` mm): the fewest whose chords hold
     within a share of ``tol`` (:data:`EDGE_SHARES`, :func:`_keep`) and whose inner
-    points, least-squares fitted to all of ``pts`` (the ends stay), bring the polyline
-    within ``tol`` of every point; the chord points themselves where no fit holds."""
+    points, fitted to all of ``pts`` (:func:`_minimax`; the ends stay), bring the
+    polyline within ``tol`` of every point; the chord points themselves where no fit
+    holds.
+    ``new``: see :func:`_keep` (the cheapest chords for the tiles beside the edge);
+    ``rounds``: of :func:`_minimax` (default :data:`LAWSON`; 0: least squares)."""
     misses = _misses(pts[:, None], t)
     for share in EDGE_SHARES:  # the largest share first: the fewest points
-        sel = _keep(pts[:, None], t, share * tol, misses)
+        sel = _keep(pts[:, None], t, share * tol, misses, new)
         if len(sel) < 3:
             if share <= 1.0:
                 return sel, pts[sel].copy()
             continue
-        h = _hats(t, sel)
-        q = pts[sel].copy()
-        q[1:-1] = np.linalg.lstsq(h[:, 1:-1], pts - h[:, [0, -1]] @ q[[0, -1]], rcond=None)[0]
-        if np.sqrt(((h @ q - pts) ** 2).sum(-1)).max() <= tol:
+        q = _minimax(pts, _hats(t, sel), pts[sel].copy(), tol, LAWSON if rounds is None else rounds)
+        if q is not None:
             return sel, q
     return sel, pts[sel].copy()
+
+
+def _minimax(pts: np.ndarray, h: np.ndarray, q: np.ndarray, tol: float, rounds: int = 10) -> np.ndarray | None:
+    """The inner points of the polyline ``h @ q`` (``h``: :func:`_hats`; ``q``: its
+    points, the ends kept) fitted to ``pts`` (``(n, 3)`` mm) so that it stays within
+    ``tol`` mm of every point, or None: least squares, then Lawson's reweighting
+    towards the smallest largest miss (``rounds`` rounds; C. L. Lawson 1961)."""
+    rhs = pts - h[:, [0, -1]] @ q[[0, -1]]
+    w = np.ones(len(pts))
+    for _ in range(rounds + 1):  # a few rounds on one edge (tens of points)
+        s = np.sqrt(w)[:, None]
+        q[1:-1] = np.linalg.lstsq(s * h[:, 1:-1], s * rhs, rcond=None)[0]
+        miss = np.sqrt(((h @ q - pts) ** 2).sum(-1))
+        if miss.max() <= tol:
+            return q
+        w = w * miss / max(float((w * miss).sum()), 1e-300)
+    return None
+
+
+#: Rounds of Lawson's reweighting an edge's fit gets (:func:`_minimax`).
+LAWSON = 10
 
 
 def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np.ndarray, cols: np.ndarray, tol: float,
@@ -958,7 +1113,11 @@ def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np
     stays and the inner poles are the least-squares fit to the grid instead (a
     bilinear patch through the points lies on one side of a curved relief; the
     fitted one straddles it, so fewer rows and columns hold): the interior block is
-    a tensor product, so it is ``pinv(Bv) R pinv(Bu)^T``."""
+    a tensor product, so it is ``pinv(Bv) R pinv(Bu)^T``. Where that misses by less
+    than :data:`REACH` times ``tol``, it is fitted again (:data:`LAWSON` rounds) with
+    each row and column of grid points weighted by its largest miss (a weight per
+    row times one per column keeps the product form), towards the smallest largest
+    miss: the bound is on every point."""
     (mv, iv), (mu, iu) = _basis(v, rows, cache), _basis(u, cols, cache)
     gk = g.transpose(2, 0, 1)  # (3, R, C): one matrix per coordinate
     p = m[np.ix_(rows, cols)]
@@ -971,9 +1130,35 @@ def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np
     pk[:, 1:-1, 1:-1] = 0.0
     rest = gk - mv @ pk @ mu.T
     pk[:, 1:-1, 1:-1] = iv @ rest @ iu.T
-    if np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0))[keep].max(initial=0.0) <= tol:
+    miss = np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0))
+    if miss[keep].max(initial=0.0) <= tol:
         return pk.transpose(1, 2, 0)
+    if miss[keep].max(initial=0.0) > REACH * tol:
+        return None
+    counted = np.ones(miss.shape, bool) if skip is None else ~skip
+    wr, wc = np.ones(len(v)), np.ones(len(u))
+    for _ in range(LAWSON):  # a few rounds
+        worst = np.where(counted, miss, 0.0)
+        wr, wc = wr * (worst.max(1) + 1e-3 * tol), wc * (worst.max(0) + 1e-3 * tol)
+        wr, wc = wr / wr.max(), wc / wc.max()
+        pk[:, 1:-1, 1:-1] = _weighted(mv[:, 1:-1], wr) @ rest @ _weighted(mu[:, 1:-1], wc).T
+        miss = np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0))
+        if miss[keep].max(initial=0.0) <= tol:
+            return pk.transpose(1, 2, 0)
     return None
+
+
+def _weighted(h: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The weighted least-squares solver ``(h^T W h)^-1 h^T W`` of a basis ``h``
+    (``(n, k)``) with weights ``w`` (``n``) on its rows."""
+    hw = h.T * w
+    return np.linalg.solve(hw @ h + 1e-12 * np.eye(h.shape[1]), hw)
+
+
+#: How far (times the tolerance) a tile's least-squares fit may miss before it is
+#: reweighted (:func:`_fitted`): rows and columns of grid points weighted by their
+#: largest miss, Lawson's rule in each direction (C. L. Lawson 1961).
+REACH = 1.5
 
 
 def _basis(t: np.ndarray, kept: np.ndarray, cache: dict | None) -> tuple:
@@ -1168,21 +1353,33 @@ def _compact(params: bytes) -> bytes:
     return _WRAP.sub(b"", params)
 
 
+_CURVE_KNOTS = re.compile(rb"\(([-+0-9.E,]+)\),\.[A-Z_]+\.$")  # a B-spline curve's knots, its last list
 _LONG = re.compile(rb"(\d\.\d{9})\d+")  # 3-D: mm
-_LONG_2D = re.compile(rb"(\d\.\d{10})\d+")  # 2-D: a surface's parameters
 
 
 def _short(kind: bytes, params: bytes) -> bytes:
     """A ``CARTESIAN_POINT``'s coordinates cut to at most 9 decimals in 3-D (OCCT writes
-    17 significant digits: 1e-9 mm is far inside its 1e-7 mm edge tolerances) and 10
-    in 2-D (a pcurve's points, in the surface's parameters: OCCT's parametric
-    confusion is 1e-9, and a pcurve 1e-9 off its tile's knots next to an edge of no
-    length, where a texture wall ends in a point, has OCCT's reader rebuild that
-    tile's wire and its mesher then gives the tile nothing); other entities as they
+    17 significant digits: 1e-9 mm is far inside its 1e-7 mm edge tolerances) and
+    rounded as the knots in 2-D (:func:`_knots`: a pcurve's points, in the surface's
+    parameters: OCCT's parametric confusion is 1e-9, and a pcurve 1e-9 off its tile's
+    knots next to an edge of no length, where a texture wall ends in a point, has
+    OCCT's reader rebuild that tile's wire and its mesher then gives the tile nothing:
+    rounded alike, a pcurve on a tile's side and the tile's last knot are the same
+    number); a B-spline curve's knots as :func:`_knots`; other entities as they
     are."""
+    if kind == b"B_SPLINE_CURVE_WITH_KNOTS":  # its knots as texcad's tiles' (:func:`_knots`)
+        m = _CURVE_KNOTS.search(params)
+        if m is None:
+            return params
+        knots = _knots([float(x) for x in m.group(1).split(b",")]).encode("ascii")
+        return params[: m.start(1)] + knots + params[m.end(1) :]
     if kind != b"CARTESIAN_POINT":
         return params
-    return (_LONG if params[params.rindex(b"(") :].count(b",") >= 2 else _LONG_2D).sub(rb"\1", params)
+    at = params.rindex(b"(")
+    if params[at:].count(b",") >= 2:
+        return _LONG.sub(rb"\1", params)
+    uv = [float(x) for x in params[at + 1 : params.rindex(b")")].split(b",")]
+    return params[: at + 1] + ",".join(_ZEROS.sub(r"\1", f"{x:.{KNOT_DECIMALS}f}") for x in (np.round(uv, KNOT_DECIMALS) + 0.0).tolist()).encode("ascii") + b")"
 
 
 def _xyz(m) -> list:
@@ -1199,7 +1396,7 @@ def _surface_text(swap: tuple, ids: np.ndarray) -> bytes:
     poles = _grid_ids_template(cols, rows) % tuple(ids[o : o + rows * cols].tolist())
     return (
         f"'',1,1,({poles}),.UNSPECIFIED.,.F.,.F.,.F.,({_mults(cols)}),"
-        f"({_mults(rows)}),({_reals(u)}),({_reals(v)}),.UNSPECIFIED."
+        f"({_mults(rows)}),({_knots(u)}),({_knots(v)}),.UNSPECIFIED."
     ).encode("ascii")
 
 
