@@ -213,6 +213,9 @@ def read_step(path: str | os.PathLike):
         raise InputError(f"STEP file {p!r} does not exist; check the path")
     if os.path.getsize(p) == 0:
         raise InputError(f"STEP file {p!r} is empty (0 bytes); export the part again")
+    twice = _label_fault(p)
+    if twice:
+        raise InputError(twice)
     with _Quiet() as quiet, _FailLog(quiet) as log:
         reader = STEPControl_Reader()
         status = reader.ReadFile(p)
@@ -403,6 +406,24 @@ _PCURVE_WHOLE = re.compile(rb"DEFINITIONAL_REPRESENTATION\s*\(\s*'(?:[^']|'')*'\
 _CURVES = {b"LINE", b"CIRCLE", b"ELLIPSE", b"PARABOLA", b"HYPERBOLA", b"POLYLINE", b""}  # b"": a complex entity
 _NOT_CURVES = {b"EDGE_CURVE", b"SURFACE_CURVE", b"SEAM_CURVE", b"INTERSECTION_CURVE"}  # topology, 3D
 _USER_3D = re.compile(rb"(VERTEX_POINT|AXIS2_PLACEMENT_3D)" + _NAME + rb"(#[0-9]+)(?:\s*,\s*(#[0-9]+|\$)\s*,\s*(#[0-9]+|\$))?")
+
+
+def _label_fault(p: str) -> str | None:
+    """An entity label (``#N =``) the file defines twice, which OCCT's parser does not
+    refuse: once it has read another file in the process, it loops for ever in
+    ``StepData_StepReaderData::SetEntityNumbers`` on it (found by fuzzing,
+    ``tests/io/test_fuzz.py``). One regular expression over the bytes."""
+    with open(p, "rb") as fh:
+        data = fh.read()
+    found = list(_DEFINED.finditer(data))
+    labels = np.array([m.group(1) for m in found], dtype=bytes).astype(np.int64) if found else np.zeros(0, np.int64)
+    _, first, count = np.unique(labels, return_index=True, return_counts=True)
+    if not (count > 1).any():
+        return None
+    again = np.flatnonzero(labels == labels[first[count > 1][0]])[:2]
+    lines = [data.count(b"\n", 0, found[k].start()) + 1 for k in again]
+    return (f"STEP file {p!r}: #{labels[again[0]]} is defined twice (lines {lines[0]} and {lines[1]}); "
+            f"the file is damaged; {_FIX}")
 
 
 def _text_fault(p: str) -> str | None:
