@@ -63,7 +63,7 @@ from ..errors import GeometryError, ParameterError, ResourceError
 from ..sources import Heightmap
 from ..util import Progress, peak_rss, report
 
-__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "CountedTiles", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "LimitedSource", "tile_for_memory", "cluster_client", "BYTES_PER_TILE_NODE", "BYTES_PER_LEAN_NODE", "LEAN_TILE"]
+__all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "CountedTiles", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "LimitedSource", "tile_for_memory", "cluster_client", "in_order", "BYTES_PER_TILE_NODE", "BYTES_PER_LEAN_NODE", "LEAN_TILE"]
 
 #: Peak bytes per node of one tile: the texture function's temporaries (float64),
 #: the float32 vertices, int64 faces and ids, STL records or 3MF text (measured on
@@ -1055,20 +1055,27 @@ def _tile_vertex_blocks(grid: Any, source: Any, client: Any, make: Any = _tile_v
         for t in grid.tiles():  # per tile
             yield t, make(source, grid, t)
         return
+    [src] = client.scatter([source], broadcast=True)
+    yield from in_order(client, ((t, make, (src, grid, t)) for t in grid.tiles()))
+
+
+def in_order(client: Any, calls: Any) -> Any:
+    """``(key, fn(*args))`` for each ``(key, fn, args)`` of ``calls``, in their order,
+    made on the cluster of ``client``: at most two tasks per worker in flight, each
+    retried once, each result released once handed over."""
     from collections import deque
 
     ahead = 2 * max(1, len(client.scheduler_info().get("workers", {})))
-    [src] = client.scatter([source], broadcast=True)
     pending: deque = deque()
-    for t in grid.tiles():  # per tile: keep `ahead` in flight, hand them over in order
-        pending.append((t, client.submit(make, src, grid, t, pure=False, retries=1)))
+    for key, fn, args in calls:  # per task: keep `ahead` in flight, hand them over in order
+        pending.append((key, client.submit(fn, *args, pure=False, retries=1)))
         if len(pending) >= ahead:
-            t0, fut = pending.popleft()
-            yield t0, fut.result()
+            k0, fut = pending.popleft()
+            yield k0, fut.result()
             fut.release()
     while pending:
-        t0, fut = pending.popleft()
-        yield t0, fut.result()
+        k0, fut = pending.popleft()
+        yield k0, fut.result()
         fut.release()
 
 

@@ -124,7 +124,7 @@ from ..errors import GeometryError, ParameterError, ResourceError, TexcadWarning
 from ..printability.relief import limit_relief
 from ..solid.subdivide import coarsen, edge_counts, face_normals, offset_directions, tessellate, vertex_normals
 from ..util import Progress, available_memory, finest_pitch, report, split_rows
-from .tiled import CountedTiles, _at, tiles_verdict
+from .tiled import CountedTiles, _at, in_order, tiles_verdict
 from .tiled_faces import open_edges
 
 __all__ = ["MeshPlan", "FineBlock", "BlockRelief", "TiledMeshBlocks", "mesh_plan", "fine_block", "gate_mesh_blocks",
@@ -734,21 +734,8 @@ def _made(client: Any, plan: MeshPlan, todo: list, pins: tuple, kept: dict) -> A
         for k in todo:  # per block
             yield k, _make(plan, k, pins, kept.get(k))
         return
-    from collections import deque
-
-    ahead = 2 * max(1, len(client.scheduler_info().get("workers", {})))
     [p, q] = client.scatter([plan, pins], broadcast=True, hash=False)  # new keys: a key being released would hang
-    pending: deque = deque()
-    for k in todo:  # per block: keep `ahead` in flight, hand them over in order
-        pending.append((k, client.submit(_make, p, k, q, kept.get(k), pure=False, retries=1)))
-        if len(pending) >= ahead:
-            k0, fut = pending.popleft()
-            yield k0, fut.result()
-            fut.release()
-    while pending:
-        k0, fut = pending.popleft()
-        yield k0, fut.result()
-        fut.release()
+    yield from in_order(client, ((k, _make, (p, k, q, kept.get(k))) for k in todo))
 
 
 class TiledMeshBlocks(CountedTiles):
