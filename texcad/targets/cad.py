@@ -232,6 +232,20 @@ def _chain(target: Any) -> tuple[Any, Any, tuple]:
     return pl.topo, stages, done
 
 
+def _face_index(faces: list, face: Any, previous: Any) -> int | None:
+    """The index of ``face`` among the part's ``faces``: the same face, or, chained
+    onto an earlier result, the base part's face that ``face`` of the result's B-rep
+    took the place of (rebuilt where its edges meet the texture's tiles: the same kind
+    of surface, area and centre; :func:`texcad.brep.face_in`)."""
+    from ..brep.occt import compound, face_in
+
+    hit = next((k for k, c in enumerate(faces) if c.IsSame(face)), None)
+    if hit is not None or previous is None:
+        return hit
+    base = face_in(compound(faces), face)
+    return None if base is None else next(k for k, c in enumerate(faces) if c.IsSame(base))
+
+
 def cad_part(target: Any, where: Any) -> CadPart:
     """Resolve a CAD target and its selected faces (in the part, with orientation).
 
@@ -260,7 +274,12 @@ def cad_part(target: Any, where: Any) -> CadPart:
         f = to_topods(face)
         if f.ShapeType() != TopAbs_FACE:
             raise ParameterError(f"expected faces, got a {f.ShapeType().name.removeprefix('TopAbs_').lower()}")
-        hit = next((k for k, c in enumerate(all_faces) if c.IsSame(f)), None)
+        hit = _face_index(all_faces, f, previous)
+        if hit is None and previous is not None:
+            raise ParameterError(
+                "a face is neither a face of the textured result's part nor one its texture left plain (a tile of "
+                "a texture is textured already); select a plain face from result.part or from the base part"
+            )
         if hit is None:
             raise ParameterError(
                 "a face is not a face of this part; select it from the part itself, e.g. "
