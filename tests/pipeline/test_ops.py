@@ -111,6 +111,20 @@ def test_wrong_occt_result_raises(part, monkeypatch):
         tx.fillet(tx.part.edges()[:1], -1.0)
 
 
+def test_a_small_hole_left_out_of_a_large_part_is_caught(part, monkeypatch):
+    """A hole whose volume is under 0.1 % of the part's, which OCCT leaves out of the
+    B-rep (as it did on a real keyboard case's knurled wall), is within the whole
+    part's tolerance but not within the change's: GeometryError names both changes."""
+    from build123d import Cylinder, Pos
+
+    _, tx = part
+    drilled = tx - Pos(5, 5, 0) * Cylinder(0.3, 50)
+    assert 0 < tx.volume - drilled.volume < ops.OP_VOLUME_TOLERANCE * tx.volume
+    monkeypatch.setattr(ops, "occt_boolean", lambda shape, tool, op: shape)
+    with pytest.raises(GeometryError, match=r"changed its volume by [+-]0\.00 mm3 but .* by -\d"):
+        drilled.shape
+
+
 def test_another_tiling_when_occt_keeps_the_material(part, monkeypatch):
     """When OCCT's cut on the first tiling keeps the material, the B-rep is made again
     with the next tile size under the tool (ops.FINE_TRIES) and checked again."""
