@@ -21,7 +21,7 @@ from ..contracts import Stages
 from ..errors import GeometryError, ParameterError
 from ..solid import Mesh
 
-__all__ = ["Textured", "as_textured", "checked_brep", "VOLUME_TOLERANCE"]
+__all__ = ["Textured", "as_textured", "checked_brep", "texture_in_brep", "VOLUME_TOLERANCE"]
 
 #: Largest relative difference between the B-rep's and the mesh's volume accepted.
 VOLUME_TOLERANCE = 1e-3
@@ -59,6 +59,32 @@ def checked_brep(shape: Any, bodies: int, mesh: Mesh, slack: float = 0.0) -> tup
             "the meshes are fine: write STL or 3MF"
         )
     return shape, vb
+
+
+def texture_in_brep(vb: float, stages: Stages) -> None:
+    """Check that the B-rep holds the texture: its volume ``vb`` (mm^3) beyond the
+    untextured part's (OCCT's shape, integrated exactly, :func:`texcad.brep.volume`)
+    is the texture's integral ``stages.relief.volume`` within the gate's accepted
+    difference ``volume_slack``, the check the gate makes on the mesh. On a large part
+    a texture missing from the B-rep lies within :data:`VOLUME_TOLERANCE` of the
+    whole; not of the texture. Skipped for chained results (their base is the earlier
+    B-rep) and targets without an OCCT shape.
+
+    Raises:
+        GeometryError: naming both volume changes.
+    """
+    from ..brep import to_topods, volume
+
+    pl, relief = stages.placement, stages.relief
+    if pl.topo is None or pl.previous is not None or relief.volume is None:
+        return
+    change, expected, slack = vb - volume(to_topods(pl.topo)), float(relief.volume), float(relief.volume_slack)
+    if abs(change - expected) > slack:
+        raise GeometryError(
+            f"the textured B-rep encloses {change:+.2f} mm3 beyond the part but the texture's integral is {expected:+.2f} "
+            f"mm3 (accepted difference {slack:.2f} mm3): the texture is not all in the B-rep, so no B-rep is given; the "
+            "meshes are fine: write STL or 3MF"
+        )
 
 
 class Textured:
@@ -218,7 +244,9 @@ class Textured:
             else:
                 st = self.stages
                 slack = float(self.info.get("volume_slack", 0.0))
-                self._shape, self._brep_volume = checked_brep(self.brep(), st.placement.bodies, st.fused.mesh, slack)
+                shape, vb = checked_brep(self.brep(), st.placement.bodies, st.fused.mesh, slack)
+                texture_in_brep(vb, st)
+                self._shape, self._brep_volume = shape, vb
                 self.info["brep_volume"] = self._brep_volume
         shape = self._shape
         if not np.allclose(self._placement, np.eye(3, 4), rtol=0, atol=1e-12):
