@@ -15,7 +15,8 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["to_topods", "explore", "solids_of", "faces_of", "as_array", "compound", "matrix_of", "face_in", "general_fuse"]
+__all__ = ["to_topods", "explore", "solids_of", "faces_of", "as_array", "compound", "matrix_of", "face_in", "general_fuse",
+           "curved_area"]
 
 
 def compound(shapes: list):
@@ -144,6 +145,25 @@ def face_in(shape: Any, face: Any):
         if abs(a - area) <= 1e-6 * area and float(np.linalg.norm(c - centre)) <= 1e-6 * size:
             return TopoDS.Face_s(f)
     return None
+
+
+def curved_area(shape: Any) -> float:
+    """mm^2 of the shape's faces that are not planar (where a tessellation's chords
+    leave the surface; OCCT's surface integration, ``BRepGProp``)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GeomAbs import GeomAbs_Plane
+    from OCP.GProp import GProp_GProps
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+
+    total = 0.0
+    for f in explore(to_topods(shape), TopAbs_FACE):  # per face
+        if BRepAdaptor_Surface(TopoDS.Face_s(f), False).GetType() != GeomAbs_Plane:
+            p = GProp_GProps()
+            BRepGProp.SurfaceProperties_s(f, p)
+            total += float(p.Mass())
+    return total
 
 
 def general_fuse(groups: list):

@@ -63,22 +63,26 @@ def checked_brep(shape: Any, bodies: int, mesh: Mesh, slack: float = 0.0) -> tup
 
 def texture_in_brep(vb: float, stages: Stages) -> None:
     """Check that the B-rep holds the texture: its volume ``vb`` (mm^3) beyond the
-    untextured part's (OCCT's shape, integrated exactly, :func:`texcad.brep.volume`)
-    is the texture's integral ``stages.relief.volume`` within the gate's accepted
-    difference ``volume_slack``, the check the gate makes on the mesh. On a large part
-    a texture missing from the B-rep lies within :data:`VOLUME_TOLERANCE` of the
-    whole; not of the texture. Skipped for chained results (their base is the earlier
-    B-rep) and targets without an OCCT shape.
+    untextured part's mesh is the texture's integral ``stages.relief.volume`` within the
+    gate's accepted difference ``volume_slack`` plus the part's tessellation chord
+    (:data:`texcad.brep.TESSELLATION`) times the area of its curved faces (planar ones
+    are tessellated exactly): the check the gate makes on the
+    mesh, made on the B-rep. On a large part a texture missing from the B-rep lies
+    within :data:`VOLUME_TOLERANCE` of the whole; not of the texture. Skipped for
+    chained results (their base is the earlier B-rep) and targets without an OCCT
+    shape.
 
     Raises:
         GeometryError: naming both volume changes.
     """
-    from ..brep import to_topods, volume
+    from ..brep import TESSELLATION
+    from ..brep.occt import curved_area
 
     pl, relief = stages.placement, stages.relief
     if pl.topo is None or pl.previous is not None or relief.volume is None:
         return
-    change, expected, slack = vb - volume(to_topods(pl.topo)), float(relief.volume), float(relief.volume_slack)
+    change, expected = vb - float(pl.base.volume), float(relief.volume)
+    slack = float(relief.volume_slack) + TESSELLATION * curved_area(pl.topo)
     if abs(change - expected) > slack:
         raise GeometryError(
             f"the textured B-rep encloses {change:+.2f} mm3 beyond the part but the texture's integral is {expected:+.2f} "
