@@ -94,9 +94,9 @@ def test_several_outputs_are_all_written(tmp_path, capsys):
 
 def test_options_that_do_not_apply_are_refused(tmp_path, capsys):
     stl = _box_stl(tmp_path)
-    assert main(["texture", str(stl), "--face", "top", "-o", str(tmp_path / "o.stl")]) == 2
+    assert main(["texture", str(stl), "--face", "cylinder", "-o", str(tmp_path / "o.stl")]) == 2
     line = _one_line_error(capsys)
-    assert "--face" in line and "box.stl" in line
+    assert "--face cylinder" in line and "box.stl" in line and "top, bottom" in line
     step = tmp_path / "part.step"
     step.write_text("not read: the refusal comes first")
     assert main(["texture", str(step), "--region", "all", "-o", str(tmp_path / "o.stl")]) == 2

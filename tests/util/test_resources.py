@@ -214,3 +214,20 @@ def test_peak_rss_is_the_child_s_own_peak_not_its_parent_s():
     del big
     print(f"child's own peak {own} MB, ru_maxrss {inherited} MB")
     assert own < 250  # ru_maxrss reads >= 300 here (Linux keeps it over fork and exec)
+
+
+def test_a_bound_below_what_the_process_holds_is_named():
+    """Under a max_memory bound the process already exceeds, the refusal names the
+    bound and what the process holds in MiB (not "0.0 GiB available")."""
+    from texcad.errors import ResourceError
+    from texcad.util.resources import _rss, memory_limit, require_memory
+
+    held = _rss()
+    with memory_limit(held // 2), pytest.raises(ResourceError) as err:
+        require_memory(2**20, "a 1 MiB job", "allow more (max_memory)")
+    said = str(err.value)
+    import re
+
+    got = re.search(r"max_memory bound of (\d+) MiB leaves 0 MiB \(the process holds (\d+) MiB\)", said)
+    assert got and abs(int(got[1]) - held / 2 / 2**20) <= 1 and int(got[2]) >= int(got[1])
+    assert "0.0 GiB" not in said

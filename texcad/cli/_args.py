@@ -76,7 +76,8 @@ def add_orientation(parser: argparse.ArgumentParser) -> None:
         type=vector,
         default=None,
         metavar="X,Y,Z",
-        help="print the texture support-free along this build direction (up in the printer, any length; "
+        help="print the texture support-free along this build direction (up in the printer, any length, or +z, "
+        "-y...; "
         "see texcad.orientation); default: texture as is",
     )
     parser.add_argument(

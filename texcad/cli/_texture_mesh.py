@@ -53,13 +53,18 @@ def run_mesh(args: argparse.Namespace) -> int:
     from ..errors import ParameterError
     from ._outputs import check_outputs, write_outputs
 
-    for flag, given in (("--face", args.face), ("--gradient", args.gradient)):  # CAD options: refused, not ignored
-        if given:
-            raise ParameterError(f"{flag} applies to STEP parts, not to the mesh {args.part!r}; "
-                                 "pick a mesh's surface with --region (e.g. --region normal:+z:30 or box:x0,y0,z0,x1,y1,z1)")
+    from ..brep.selectors import DIRECTIONS
+
+    words = [w.strip() for spec in (args.face or []) for w in spec.split("+")]
+    for flag, given in (("--face", [w for w in words if w not in DIRECTIONS]), ("--gradient", args.gradient)):
+        if given:  # CAD options: refused, not ignored
+            what = f"--face {given[0]}" if flag == "--face" else flag
+            raise ParameterError(f"{what} applies to STEP parts, not to the mesh "
+                                 f"{args.part!r}; on a mesh --face takes {', '.join(DIRECTIONS)}, and --region picks any "
+                                 "surface (e.g. --region normal:+z:30 or box:x0,y0,z0,x1,y1,z1)")
     check_outputs(args.out, (".stl", ".3mf", ".png"))
     t0 = time.perf_counter()
-    regions = args.region or ["not-bottom"]
+    regions = (args.region or []) + words or ["not-bottom"]
     layers = []
     for spec in regions:  # per layer
         region, _, rest = spec.partition("@")

@@ -133,7 +133,8 @@ def add(sub: argparse._SubParsersAction) -> None:
         "--face",
         action="append",
         help="repeatable: top, bottom, front, back, left, right; a face type (cylinder, cone, sphere, torus, bspline, "
-        "revolution, extrusion: the largest), TYPE:i, TYPE:all, normal:x,y,z, or a face index (default top)",
+        "revolution, extrusion: the largest), TYPE:i, TYPE:all, normal:x,y,z, or a face index (default top); on a mesh "
+        "the direction words: its largest flat patch facing that way",
     )
     t.add_argument(
         "--zone",

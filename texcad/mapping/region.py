@@ -6,7 +6,11 @@ A region selects faces of a triangle mesh:
 * ``normal``: faces whose outward normal lies within ``angle`` degrees of
   ``direction`` (``n . d >= cos(angle)``);
 * ``box``: faces whose centroid lies in the axis-aligned box ``lo..hi`` (mm);
-* ``sphere``: faces whose centroid lies within ``radius`` mm of ``center``.
+* ``sphere``: faces whose centroid lies within ``radius`` mm of ``center``;
+* ``face``: a direction word as on a CAD part (``top``, ``bottom``, ``front``,
+  ``back``, ``left``, ``right``): the largest flat patch facing that way, the
+  connected faces whose normals lie within 2.6 degrees of it
+  (:func:`flat_patch`, resolved on the mesh by :func:`resolve_faces`).
 
 The bed face is left out unless ``bottom=True``: faces whose normal is within 1
 degree of ``-build_dir`` and whose vertices all lie within ``tolerance`` mm of the
@@ -14,7 +18,8 @@ part's lowest point along ``build_dir`` (the face the part stands on).
 
 String forms (CLI): ``"all"``, ``"not-bottom"`` (the same: the bed face is never
 textured by default), ``"all+bottom"``, ``"normal:+x:70"`` or ``"normal:0,1,1:30"``,
-``"box:x0,y0,z0,x1,y1,z1"``, ``"sphere:x,y,z,r"``; ``"not:SPEC"`` is every face but
+``"box:x0,y0,z0,x1,y1,z1"``, ``"sphere:x,y,z,r"``, ``"top"`` (``"bottom"`` includes the
+bed face it names); ``"not:SPEC"`` is every face but
 those of ``SPEC`` (e.g. ``"not:normal:+z:30"``: the sides and below, not the top).
 
 Slicer paint (``kind="paint"``, on a 3MF project: :mod:`texcad.io.paint`):
@@ -41,9 +46,12 @@ from ..errors import InputError, ParameterError
 from .projection import parse_axis
 from ..io.paint import PAINT_KINDS
 
-__all__ = ["Region", "REGION_KINDS", "bed_faces", "resolve_paint", "zone_layers", "PaintedTarget"]
+__all__ = ["Region", "REGION_KINDS", "bed_faces", "flat_patch", "resolve_faces", "resolve_paint", "zone_layers", "PaintedTarget"]
 
-REGION_KINDS = ("all", "normal", "box", "sphere", "paint")
+REGION_KINDS = ("all", "normal", "box", "sphere", "paint", "face")
+#: Largest angle between a ``face`` region's direction and its faces' normals, degrees
+#: (as a CAD part's direction words: :data:`texcad.brep.selectors.DIRECTIONS`).
+FLAT_ANGLE = 2.6
 #: ``paint:WORD`` names: the kind of paint (:data:`texcad.io.paint.ATTRIBUTES`) and its default state.
 PAINT_WORDS = {"fuzzy": ("fuzzy", 1), "support": ("support", 1), "supports": ("support", 1), "seam": ("seam", 1),
                "color": ("color", None), "colour": ("color", None)}
@@ -57,6 +65,32 @@ def _numbers(text: str, count: int, what: str) -> list[float]:
     if len(vals) != count or not all(np.isfinite(vals)):
         raise ParameterError(f"region {what!r} needs {count} numbers separated by commas (mm), got {text!r}")
     return vals
+
+
+def flat_patch(vertices: np.ndarray, faces: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """``(M,)`` bool: the largest flat patch of a welded mesh facing ``direction`` (a
+    unit vector): of the faces whose normal ``n`` has ``n . d >= cos(FLAT_ANGLE)``, the
+    set joined by shared edges with the largest area (connected components of their
+    edge graph, scipy)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    cross = np.cross(vertices[faces[:, 1]] - vertices[faces[:, 0]], vertices[faces[:, 2]] - vertices[faces[:, 0]])
+    area = np.linalg.norm(cross, axis=1)
+    facing = (cross @ np.asarray(direction, np.float64)) >= np.cos(np.radians(FLAT_ANGLE)) * area
+    idx = np.flatnonzero(facing & (area > 0))
+    mask = np.zeros(len(faces), dtype=bool)
+    if not len(idx):
+        return mask
+    e = np.sort(faces[idx][:, [[0, 1], [1, 2], [2, 0]]], axis=2).reshape(-1, 2).astype(np.int64)
+    key = e[:, 0] * (int(e.max()) + 1) + e[:, 1]
+    owner = np.repeat(np.arange(len(idx)), 3)[np.argsort(key, kind="stable")]
+    key = np.sort(key)
+    same = key[1:] == key[:-1]
+    graph = coo_matrix((np.ones(int(same.sum())), (owner[:-1][same], owner[1:][same])), shape=(len(idx), len(idx)))
+    _, label = connected_components(graph, directed=False)
+    mask[idx[label == np.argmax(np.bincount(label, weights=area[idx]))]] = True
+    return mask
 
 
 def bed_faces(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray, build_dir: np.ndarray, tolerance: float) -> np.ndarray:
@@ -132,6 +166,8 @@ class Region:
             return cls()
         if s in ("all+bottom", "everything"):
             return cls(bottom=True)
+        if s in _directions():
+            return cls("face", direction=_directions()[s], bottom=s == "bottom")
         kind, _, rest = s.partition(":")
         if kind == "paint":
             return cls._parse_paint(spec, rest)
@@ -151,7 +187,7 @@ class Region:
             return cls("sphere", center=tuple(v[:3]), radius=v[3])
         raise ParameterError(
             f"unknown region {spec!r}; use all, not-bottom, all+bottom, normal:+x:70, box:x0,y0,z0,x1,y1,z1, "
-            "sphere:x,y,z,r, paint:N, paint:fuzzy or not:REGION"
+            f"sphere:x,y,z,r, paint:N, paint:fuzzy, {', '.join(_directions())} or not:REGION"
         )
 
     @classmethod
@@ -176,7 +212,7 @@ class Region:
         face is (``all`` and ``normal`` regions: every face; ``box`` and ``sphere``:
         faces with all three corners inside, or whose bounding box misses the
         region's; the rest straddle its boundary)."""
-        if self.kind in ("all", "normal", "paint"):
+        if self.kind in ("all", "normal", "paint", "face"):
             return np.ones(len(faces), dtype=bool)
         tri = vertices[faces]
         if self.kind == "box":
@@ -208,7 +244,7 @@ class Region:
         (``paint`` regions: faces after subdivision inherit their parent's paint).
         """
         tri = vertices[faces]
-        if self.kind == "paint":
+        if self.kind in ("paint", "face"):
             sel = self._painted(len(faces), ids)
         elif self.kind == "all":
             sel = np.ones(len(faces), dtype=bool)
@@ -234,6 +270,9 @@ class Region:
         return sel
 
     def _painted(self, m: int, ids: "np.ndarray | None") -> np.ndarray:
+        if self.faces is None and self.kind == "face":
+            raise ParameterError("a face region (top, bottom, ...) is found on the mesh it textures; pass it to "
+                                 "texcad.texture with that mesh")
         if self.faces is None:
             raise ParameterError(f"the region paint:{self.state} reads a slicer project's paint: texture the project's "
                                  ".3mf file itself (texcad.texture('project.3mf', 'paint:2', ...))")
@@ -277,6 +316,19 @@ def _paint_summary(project) -> str:
 
 def _region_name(r: "Region") -> str:
     return f"paint:{r.state}" if r.paint == "color" else f"paint:{r.paint}" + (f":{r.state}" if r.state != 1 else "")
+
+
+def _directions() -> dict:
+    from ..brep.selectors import DIRECTIONS
+
+    return DIRECTIONS
+
+
+def resolve_faces(vertices: np.ndarray, faces: np.ndarray, regions: "list[Region]") -> "list[Region]":
+    """``regions`` with each ``face`` region's faces marked on the mesh
+    (:func:`flat_patch`); the others as they are."""
+    return [Region("face", direction=r.direction, bottom=r.bottom, invert=r.invert,
+                   faces=flat_patch(vertices, faces, parse_axis(r.direction))) if r.kind == "face" else r for r in regions]
 
 
 def resolve_paint(target: Any, regions: "list[Region]") -> "tuple[Any, list[Region], PaintedTarget | None]":

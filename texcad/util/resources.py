@@ -154,6 +154,20 @@ def finest_pitch(pitch: float, scaled: float, fixed: float = 0.0, have: float | 
     return round_up(float(pitch) * math.sqrt(max(scaled, 0.0) / budget))
 
 
+def _size(nbytes: float) -> str:
+    """``nbytes`` as GiB, or MiB under 1 GiB (so that small figures are not 0.0 GiB)."""
+    return f"{nbytes / 2**30:.1f} GiB" if nbytes >= 2**30 else f"{nbytes / 2**20:.0f} MiB"
+
+
+def _have_text(have: float) -> str:
+    """What :func:`available_memory` said, and under a ``max_memory`` bound what the
+    process already holds of it."""
+    bound = _BOUND.get()
+    if bound is None:
+        return f"this machine has {_size(have)} available"
+    return f"the max_memory bound of {_size(bound)} leaves {_size(have)} (the process holds {_size(_rss())})"
+
+
 def require_pitch(what: str, pitch: float, scaled: float, fixed: float = 0.0, *, unit: str = "pitch") -> None:
     """Raise :class:`ResourceError` naming the finest ``pitch`` (mm) that fits when a
     job of ``fixed + scaled`` bytes at ``pitch`` mm (``scaled`` going with
@@ -172,11 +186,8 @@ def require_pitch(what: str, pitch: float, scaled: float, fixed: float = 0.0, *,
         return
     p = finest_pitch(pitch, scaled, fixed, have)
     fix = (f"use a {unit} of at least {p:.3g} mm" if math.isfinite(p) else
-           f"the part alone needs about {fixed / 2**30:.1f} GiB: free memory or allow more (max_memory)")
-    raise ResourceError(
-        f"{what} at a {unit} of {pitch:.3g} mm needs about {need / 2**30:.1f} GiB of memory but this machine has "
-        f"{have / 2**30:.1f} GiB available; {fix}"
-    )
+           f"the part alone needs about {_size(fixed)}: free memory or allow more (max_memory)")
+    raise ResourceError(f"{what} at a {unit} of {pitch:.3g} mm needs about {_size(need)} of memory but {_have_text(have)}; {fix}")
 
 
 def require_memory(nbytes: float, what: str, fix: str) -> None:
@@ -189,7 +200,4 @@ def require_memory(nbytes: float, what: str, fix: str) -> None:
     """
     have = available_memory()
     if nbytes > have:
-        raise ResourceError(
-            f"{what} needs about {nbytes / 2**30:.1f} GiB of memory but this machine has "
-            f"{have / 2**30:.1f} GiB available; {fix}"
-        )
+        raise ResourceError(f"{what} needs about {_size(nbytes)} of memory but {_have_text(have)}; {fix}")

@@ -11,17 +11,24 @@ from ..errors import ParameterError
 __all__ = ["parse_vector", "smoothstep", "rotation_to_z"]
 
 
+_AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+
+
 def parse_vector(text: str) -> np.ndarray:
-    """``"X,Y,Z"`` (commas or spaces) to a ``(3,)`` float64 vector.
+    """``"X,Y,Z"`` (commas or spaces), or an axis (``"+z"``, ``"-x"``, ``"y"``) to a
+    ``(3,)`` float64 vector.
 
     Raises:
         ParameterError: not three finite numbers, or all zero.
     """
+    word = str(text).strip().lower()
+    if word.lstrip("+-") in _AXES and len(word) - len(word.lstrip("+-")) <= 1:
+        return (-1.0 if word.startswith("-") else 1.0) * np.array(_AXES[word.lstrip("+-")])
     parts = [p for p in re.split(r"[,\s]+", str(text).strip()) if p]
     try:
         v = np.array([float(p) for p in parts], dtype=np.float64)
     except ValueError:
-        raise ParameterError(f"expected three numbers X,Y,Z (e.g. 0,-0.5,0.87), got {text!r}") from None
+        raise ParameterError(f"expected three numbers X,Y,Z (e.g. 0,-0.5,0.87) or an axis (+z, -y), got {text!r}") from None
     if v.shape != (3,) or not np.isfinite(v).all() or not np.any(v):
         raise ParameterError(f"expected three numbers X,Y,Z, not all zero (e.g. 0,0,1), got {text!r}")
     return v
