@@ -17,7 +17,7 @@ import pytest
 
 import texcad
 from texcad.io import cura_settings
-from texcad.io.export import CURA_NAMESPACE, CURA_TEXTURE_SETTINGS
+from texcad.io.export import CURA_NAMESPACE, CURA_SINGLE_RUN_SETTINGS, CURA_TEXTURE_SETTINGS
 from texcad.report import slicer
 
 cura = pytest.mark.skipif(slicer.find_slicer("curaengine") is None, reason="CuraEngine is not installed")
@@ -56,8 +56,9 @@ def test_the_3mf_carries_the_cura_settings_of_a_texture(tmp_path):
 
     box = Box(10, 10, 10)
     tx = texcad.texture(box, box.faces().sort_by()[-1], "builtin:stones", height=1.0, pitch=1.0, brep=False)
-    want = {k: str(v) for k, v in CURA_TEXTURE_SETTINGS.items()}
-    assert want == {"skin_edge_support_thickness": "0", "skin_edge_support_layers": "0"}
+    assert CURA_TEXTURE_SETTINGS == {"skin_edge_support_thickness": 0, "skin_edge_support_layers": 0}
+    # stones on the top of a box printed +z: one run of solid on every vertical line
+    want = {k: str(v) for k, v in {**CURA_TEXTURE_SETTINGS, **CURA_SINGLE_RUN_SETTINGS}.items()}
     tx.export(tmp_path / "t.3mf")
     assert _cura_object_settings(tmp_path / "t.3mf") == want
     texcad.export(tx, tmp_path / "s.3mf", separate_texture=True)
