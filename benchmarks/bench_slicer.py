@@ -450,18 +450,23 @@ def plain_stl(textured, d, timeout: float, kept: str):
 def table(args) -> None:
     """Every recipe's part and the paper's nine samples at their coarse pitch, bare and
     textured, in both slicers: support m, support beyond the bare part's (m) and CPU s."""
-    from texcad.report.slicer import SLICERS, find_slicer
-
     import tempfile
+
+    import numpy as np
+
+    from texcad.report.slicer import SLICERS, find_slicer, support_config
 
     have = [s for s in SLICERS if find_slicer(s)]
     only = set(args.only.split(",")) if args.only else None
     rows, summary = [], {s: [] for s in have}
     tmp = tempfile.mkdtemp()
     headers = ["part", "printed", "pitch mm", "triangles"]
+    floor = {}  # each slicer's start-up and G-code writing: a bare 10 mm cube, the same settings
     for s in have:
+        cube = sliced(_cube(10.0), args.timeout, slicer=s, config=support_config(s, 45, lines=CURA_LINES if s == "curaengine" else None))
+        floor[s] = cube.cpu_seconds if cube else 0.0
         headers += [f"{_NAMES[s]} support m (bare / textured)", f"{_NAMES[s]} beyond bare m",
-                    f"{_NAMES[s]} CPU s (bare / textured)"]
+                    f"{_NAMES[s]} CPU s (bare / textured)", f"{_NAMES[s]} CPU s beyond its floor (bare / textured), textured / bare"]
     if "curaengine" in have:
         headers += ["CuraEngine CPU s, textured as a plain STL", "CuraEngine walls and skin moved mm"]
     makers = [(script, COARSE_PITCH[script], lambda sc, p: recipe_parts(sc, p)) for script in RECIPES]
@@ -483,16 +488,31 @@ def table(args) -> None:
                 if a is None or b is None:
                     cells += ["ran past the timeout", "-", "-"]
                     continue
-                summary[s].append((a.support_mm, b.support_mm, extra, b.cpu_seconds / max(a.cpu_seconds, 0.01)))
+                over = _beyond_floor(a.cpu_seconds, b.cpu_seconds, floor[s])
+                summary[s].append((a.support_mm, b.support_mm, extra, over, name))
                 cells += [f"{a.support_mm / 1000:.2f} / {b.support_mm / 1000:.2f}", f"{extra / 1000:.3f}",
-                          f"{a.cpu_seconds:.1f} / {b.cpu_seconds:.1f}"]
+                          f"{a.cpu_seconds:.1f} / {b.cpu_seconds:.1f}",
+                          f"{max(a.cpu_seconds - floor[s], 0):.2f} / {max(b.cpu_seconds - floor[s], 0):.2f}, "
+                          + (f"{over:.1f}x" if np.isfinite(over) else "bare at the floor")]
             if "curaengine" in have:
                 plain, moved = plain_stl(textured, (0.0, 0.0, 1.0) if d is None else d, args.timeout, kept)
                 cells += ["ran past the timeout" if plain is None else f"{plain.cpu_seconds:.1f}", f"{moved:.2f}"]
             rows.append(cells)
             _write_slicer_table(headers, rows, args)
     if args.readme:
-        _write_readme_summary(summary, len(rows))
+        _write_readme_summary(summary, len(rows), floor)
+
+
+#: CPU s beyond a slicer's floor under which a bare part's time is start-up and noise:
+#: no ratio is taken to it.
+FLOOR_MARGIN = 0.1
+
+
+def _beyond_floor(bare: float, textured: float, floor: float) -> float:
+    """Textured over bare CPU seconds, each less the slicer's ``floor`` (its time on a
+    bare 10 mm cube): what the texture adds to the slicing work, not to the start-up.
+    NaN where the bare part is within :data:`FLOOR_MARGIN` s of the floor."""
+    return (textured - floor) / (bare - floor) if bare - floor >= FLOOR_MARGIN else float("nan")
 
 
 def _write_slicer_table(headers, rows, args):
@@ -507,7 +527,8 @@ def _write_slicer_table(headers, rows, args):
         "functions), each part it makes sliced as printed (the build direction it passes to `texcad.texture`) "
         "as texcad writes it for that slicer (PrusaSlicer: texcad's 3MF, with its per-object settings; CuraEngine, "
         "which reads no 3MF: the STL, with the 3MF's Cura per-object settings (`texcad.io.cura_settings`: skin edge "
-        "support off) as that mesh's settings, as Cura passes them on when it loads the 3MF), and beside it the same part untextured as an STL (its CAD shape tessellated to "
+        "support off; no skin in z gaps where every line along the build direction meets the part once, "
+        "`texcad.io.single_run`) as that mesh's settings, as Cura passes them on when it loads the 3MF), and beside it the same part untextured as an STL (its CAD shape tessellated to "
         f"{RECIPE_BARE_TOLERANCE:g} mm and 0.05 rad; a mesh part's base). Support on everywhere, threshold 45 degrees "
         "(the critical angle), 0.4 mm nozzle, each slicer's default layers (PrusaSlicer 0.3 mm, CuraEngine 0.2 mm "
         "in texcad's definition); CuraEngine's support laid as plain lines "
@@ -521,7 +542,9 @@ def _write_slicer_table(headers, rows, args):
         "centres each part's bounding box on the bed, so a texture anywhere on the part can move its support's "
         "edge by a cell (the diagonal at a corner of the first layer, whose support is widened); and it rests a column that stands beside a textured wall on the texture's upward "
         "facets, which adds bottom contacts, interfaces and thinner layers to it. CPU s = user + system "
-        "time of the slicer process. Plain STL: CuraEngine on the textured part's STL alone (skin edge support on, "
+        "time of the slicer process; beyond its floor: less the slicer's time on a bare 10 mm cube with the same "
+        "settings (start-up and G-code writing, measured in the same run), and the ratio of what is left, which is "
+        f"not taken where the bare part is within {FLOOR_MARGIN:g} s of the floor. Plain STL: CuraEngine on the textured part's STL alone (skin edge support on, "
         "4 layers, Cura's default), sliced in the same run; walls and skin moved: the farthest any of its paths but "
         "infill and support lies from those of texcad's output in the same layer (`texcad.report.slicer."
         "toolpath_deviation`), against a 0.4 mm bead."
@@ -530,8 +553,9 @@ def _write_slicer_table(headers, rows, args):
                        notes=notes)
 
 
-def _write_readme_summary(summary: dict, parts: int) -> None:
+def _write_readme_summary(summary: dict, parts: int, floor: dict) -> None:
     """The README's printability figures: one row per slicer over every part."""
+    import numpy as np
     from _table import markdown_table, write_readme_block
 
     rows = []
@@ -539,12 +563,14 @@ def _write_readme_summary(summary: dict, parts: int) -> None:
         if not got:
             continue
         bare, tex, extra = (sum(x[k] for x in got) / 1000 for k in range(3))
-        ratio = sorted(x[3] for x in got)
+        ratio = sorted((x[3], x[4]) for x in got if np.isfinite(x[3]))
         clean = sum(1 for x in got if x[2] == 0.0)
-        rows.append([_NAMES[s], f"{clean} of {len(got)}", f"{bare:.1f} / {tex:.1f}", f"{extra:.3f}",
-                     f"{ratio[len(ratio) // 2]:.1f}x ({ratio[-1]:.0f}x)"])
+        at_floor = len(got) - len(ratio)
+        rows.append([_NAMES[s], f"{clean} of {len(got)}", f"{bare:.1f} / {tex:.1f}", f"{extra:.3f}", f"{floor[s]:.2f}",
+                     f"{ratio[len(ratio) // 2][0]:.1f}x ({ratio[-1][0]:.1f}x, {ratio[-1][1]}); {at_floor} bare at the floor"
+                     if ratio else "-"])
     headers = ["slicer", "parts with no support beyond bare", "support m, all parts (bare / textured)",
-               "beyond bare m", "CPU textured / bare, median (largest)"]
+               "beyond bare m", "floor CPU s", "CPU beyond the floor, textured / bare: median (largest)"]
     write_readme_block("slicer", markdown_table(headers, rows) + "\n\nPer part: [the table in the docs](docs/benchmarks.md).")
 
 

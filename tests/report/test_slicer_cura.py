@@ -17,7 +17,7 @@ import pytest
 
 import texcad
 from texcad.io import cura_settings
-from texcad.io.export import CURA_NAMESPACE, CURA_TEXTURE_SETTINGS
+from texcad.io.export import CURA_NAMESPACE, CURA_SINGLE_RUN_SETTINGS, CURA_TEXTURE_SETTINGS
 from texcad.report import slicer
 
 cura = pytest.mark.skipif(slicer.find_slicer("curaengine") is None, reason="CuraEngine is not installed")
@@ -56,8 +56,9 @@ def test_the_3mf_carries_the_cura_settings_of_a_texture(tmp_path):
 
     box = Box(10, 10, 10)
     tx = texcad.texture(box, box.faces().sort_by()[-1], "builtin:stones", height=1.0, pitch=1.0, brep=False)
-    want = {k: str(v) for k, v in CURA_TEXTURE_SETTINGS.items()}
-    assert want == {"skin_edge_support_thickness": "0", "skin_edge_support_layers": "0"}
+    assert CURA_TEXTURE_SETTINGS == {"skin_edge_support_thickness": 0, "skin_edge_support_layers": 0}
+    # stones on the top of a box printed +z: one run of solid on every vertical line
+    want = {k: str(v) for k, v in {**CURA_TEXTURE_SETTINGS, **CURA_SINGLE_RUN_SETTINGS}.items()}
     tx.export(tmp_path / "t.3mf")
     assert _cura_object_settings(tmp_path / "t.3mf") == want
     texcad.export(tx, tmp_path / "s.3mf", separate_texture=True)
@@ -88,3 +89,43 @@ def test_cura_slices_texcads_output_faster_with_the_same_walls_and_skin(tmp_path
     )
     assert len(moved) and moved.max() < NOZZLE
     assert ours.cpu_seconds < 0.8 * plain.cpu_seconds
+
+
+def test_single_run_finds_every_gap_along_the_build_direction():
+    """``single_run``: a plate textured on its top meets every vertical line once
+    (texture up or down), but not a horizontal one (through the stones); a slot
+    through a cylinder is a gap along its axis, not across it; a slab on two legs
+    has none along z and one along x (between the legs). Only such a part gets
+    Cura's "no skin in z gaps"."""
+    from build123d import Align, Box, Cylinder, Pos
+
+    from texcad.brep import shape_to_mesh
+    from texcad.io import single_run
+
+    plate = _plate(20.0, 1.0).mesh
+    assert single_run(plate) and single_run(plate, (0, 0, -1))
+    assert not single_run(plate, (0, 1, 0)) and not single_run(plate, (1, 0, 0))
+    slotted = shape_to_mesh(Cylinder(10, 40, align=(Align.CENTER, Align.CENTER, Align.MIN)) - Pos(0, 0, 30) * Box(30, 6, 8))
+    assert not single_run(slotted) and single_run(slotted, (1, 0, 0))
+    table = shape_to_mesh(Box(30, 10, 2) + Pos(-12, 0, -5) * Box(6, 10, 10) + Pos(12, 0, -5) * Box(6, 10, 10))
+    assert single_run(table) and not single_run(table, (1, 0, 0))
+    assert CURA_SINGLE_RUN_SETTINGS.items() <= cura_settings(plate).items()
+    assert cura_settings(slotted) == CURA_TEXTURE_SETTINGS and cura_settings(plate, textured=False) == {}
+
+
+@cura
+def test_no_skin_in_z_gaps_gives_the_same_gcode_in_less_time(tmp_path):
+    """A 30 mm stones plate at 1 mm pitch, 2 mm high (islands of stones over the
+    connected lower levels of the texture): with "no skin in z gaps", which texcad
+    writes for a part with one run along its build direction, every path CuraEngine
+    lays (walls, skin, infill) is where it was without it, and the slice takes well
+    under its CPU time (0.6 of it measured): each island's skin no longer intersects
+    the whole web of the layers below and above it, layer by layer."""
+    m = _plate(30.0, 1.0).mesh
+    cfg = slicer.support_config("curaengine", 45)
+    before = slicer.slice_mesh(m, slicer="curaengine", config={**cfg, **CURA_TEXTURE_SETTINGS}, keep=tmp_path / "before.gcode")
+    ours = slicer.slice_mesh(m, slicer="curaengine", config=cfg, file="3mf", keep=tmp_path / "ours.gcode")
+    assert before.returncode == 0 and ours.returncode == 0
+    moved = slicer.toolpath_deviation(slicer.read_toolpaths(tmp_path / "before.gcode"), slicer.read_toolpaths(tmp_path / "ours.gcode"))
+    assert len(moved) == before.layers and moved.max() < 0.01
+    assert ours.cpu_seconds < 0.85 * before.cpu_seconds

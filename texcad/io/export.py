@@ -29,6 +29,8 @@ __all__ = [
     "slicer_settings",
     "cura_settings",
     "CURA_TEXTURE_SETTINGS",
+    "CURA_SINGLE_RUN_SETTINGS",
+    "single_run",
     "slicer_layout",
     "extra_perimeter_cut",
     "SlicerLayout",
@@ -463,14 +465,94 @@ def slicer_settings(mesh: Mesh, build_dir=None, *, textured: bool = True) -> dic
 #: reads them (it computes no setting from another).
 CURA_TEXTURE_SETTINGS = {"skin_edge_support_thickness": 0, "skin_edge_support_layers": 0}
 
+#: Cura's per-object setting :func:`cura_settings` adds for a part that every line
+#: along its build direction crosses at most once (:func:`single_run`): "no skin in
+#: z gaps" on. CuraEngine 4.13 finds a layer's top skin by intersecting the layers
+#: above it, up to ``top_layers`` (and its bottom skin from the layers below); with
+#: the setting on it takes only the farthest of them. Each part of a layer is clipped
+#: against every part of those layers whose bounding box it meets, so one part that
+#: spans the plate (the texture's lower, connected levels) is clipped again for each
+#: of the hundreds of islands above or below it (``SkinInfillAreaComputation::
+#: calculateTopSkin`` / ``calculateBottomSkin``): islands times the whole layer, most
+#: of the slicing time of a textured top (docs/benchmarks/slicer.md). Where every
+#: vertical line meets the part in one run, whatever lies solid in the farthest layer
+#: lies solid in every layer between, so the intersection is that layer and the skin
+#: the same: the G-code is the same (tested). A part with a gap along the build
+#: direction (a slot, a ledge, a groove under an overhang) does not get it.
+CURA_SINGLE_RUN_SETTINGS = {"skin_no_small_gaps_heuristic": True}
+#: mm: spacing of the lines along the build direction :func:`single_run` tests, a
+#: 0.4 mm nozzle's width: Cura drops skin narrower than its "skin removal width"
+#: (0.8 mm by default), so a gap narrower than this changes no skin.
+SINGLE_RUN_STEP = 0.4
 
-def cura_settings(textured: bool = True) -> dict[str, Any]:
+
+def single_run(mesh: Mesh, build_dir=None, *, step: float = SINGLE_RUN_STEP) -> bool:
+    """Whether every line along ``build_dir`` (None: +z) crosses the watertight
+    ``mesh`` (mm) in at most one run of solid: no gap in the part along the build
+    direction, as on a plate textured on its top face printed texture up.
+
+    Tested on lines ``step`` mm apart across the build plate (shifted off the grid by
+    a fraction of ``step`` so that no line runs along an edge): a line crosses one run
+    per upward-facing surface it passes, so the part has one run on every line where
+    no two upward-facing triangles lie over each other. Triangles are taken in
+    chunks (each lists the lines inside its bounding box), so memory stays bounded
+    on large meshes. A gap narrower than ``step`` can be missed."""
+    from ..util import rotation_to_z
+
+    if not len(mesh.faces):
+        return True
+    R = rotation_to_z(np.array([0.0, 0.0, 1.0]) if build_dir is None else np.asarray(build_dir, dtype=np.float64).reshape(-1, 3)[0])
+    tri = (mesh.vertices.astype(np.float64) @ R.T)[mesh.faces][:, :, :2]  # (F, 3, 2) on the plate
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    area2 = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]  # twice the signed shadow area: > 0 faces up
+    up = area2 > 1e-9 * np.maximum(1.0, np.abs(area2).max())
+    tri, area2 = tri[up], area2[up]
+    origin = tri.reshape(-1, 2).min(axis=0) - step * np.array([0.3183, 0.2718])  # off the grid of the mesh
+    lo = np.floor((tri.min(axis=1) - origin) / step).astype(np.int64)
+    hi = np.floor((tri.max(axis=1) - origin) / step).astype(np.int64)
+    width = int(hi[:, 0].max()) + 2
+    hits = np.zeros(0, dtype=np.int64)
+    for chunk in np.array_split(np.arange(len(tri)), max(1, len(tri) // 100_000)):
+        ids = _covered_lines(tri[chunk], area2[chunk], lo[chunk], hi[chunk], origin, step, width)
+        hits = np.concatenate([hits, ids])
+        if len(hits) != len(np.unique(hits)):
+            return False
+    return True
+
+
+def _covered_lines(tri, area2, lo, hi, origin, step, width) -> np.ndarray:
+    """Ids (``row * width + col``) of the grid lines inside each of the upward-facing
+    triangles ``tri`` ``(T, 3, 2)`` (twice their areas ``area2``), one entry per
+    triangle and line inside it."""
+    nx, ny = hi[:, 0] - lo[:, 0] + 1, hi[:, 1] - lo[:, 1] + 1
+    n = nx * ny
+    owner = np.repeat(np.arange(len(tri)), n)
+    k = np.arange(len(owner)) - np.repeat(np.cumsum(n) - n, n)
+    col, row = lo[owner, 0] + k % nx[owner], lo[owner, 1] + k // nx[owner]
+    p = origin + step * np.stack([col, row], axis=1)
+    t = tri[owner]
+    inside = np.ones(len(owner), dtype=bool)
+    for i in range(3):  # the point on the left of all three edges (counter-clockwise; a line on an edge counts for neither side)
+        a, b = t[:, i], t[:, (i + 1) % 3]
+        inside &= (b[:, 0] - a[:, 0]) * (p[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (p[:, 0] - a[:, 0]) > 0
+    return row[inside] * width + col[inside]
+
+
+def cura_settings(mesh: Mesh | None = None, build_dir=None, *, textured: bool = True) -> dict[str, Any]:
     """The Cura per-object settings :func:`export` writes into a 3MF (Cura's 3MF
     reader applies them to the object): :data:`CURA_TEXTURE_SETTINGS` for a textured
-    part (texcad's meshes), none for a CAD shape (``textured=False``). CuraEngine's
-    command line, which reads no 3MF, takes the same settings as ``-s key=value``
-    after the mesh's ``-l`` (:func:`texcad.report.slicer.slice_mesh`)."""
-    return dict(CURA_TEXTURE_SETTINGS) if textured else {}
+    part (texcad's meshes), and :data:`CURA_SINGLE_RUN_SETTINGS` when ``mesh``
+    printed along ``build_dir`` (None: +z) has one run of solid on every line along
+    it (:func:`single_run`); none for a CAD shape (``textured=False``). Without a
+    mesh, the texture settings alone. CuraEngine's command line, which reads no 3MF,
+    takes the same settings as ``-s key=value`` after the mesh's ``-l``
+    (:func:`texcad.report.slicer.slice_mesh`)."""
+    if not textured:
+        return {}
+    out = dict(CURA_TEXTURE_SETTINGS)
+    if mesh is not None and single_run(mesh, build_dir):
+        out.update(CURA_SINGLE_RUN_SETTINGS)
+    return out
 
 
 #: Largest share of a cross-section's contour length that one island may hold where
@@ -707,10 +789,11 @@ def export(obj: Any, path: str | os.PathLike, *, separate_texture: bool = False,
             lay = slicer_layout(meshes, up, label, textured=not cad)
             parts = meshes if len(lay.parts) == 1 else list(lay.parts)
             write_3mf(parts, p, name=label, build_dir=up, settings=lay.settings, part_settings=lay.part_settings or None,
-                      cura_settings=cura_settings(not cad))
+                      cura_settings=cura_settings(meshes, up, textured=not cad))
         else:
             settings = slicer_settings(whole, up, textured=not cad) if whole is not None else None
-            write_3mf(meshes, p, name=label, build_dir=up, settings=settings, cura_settings=cura_settings(not cad))
+            write_3mf(meshes, p, name=label, build_dir=up, settings=settings,
+                      cura_settings=cura_settings(whole, up, textured=not cad))
     return p
 
 

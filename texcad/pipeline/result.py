@@ -374,7 +374,7 @@ class Textured:
             d = self.stages.options.directions
             up = None if d is None else d[0]
             write_3mf([("base", self.base_mesh)] + list(zip(names, layers)), p, name=name or p.stem,
-                      build_dir=up, settings=slicer_settings(self.mesh, up), cura_settings=cura_settings())  # as printed
+                      build_dir=up, settings=slicer_settings(self.mesh, up), cura_settings=cura_settings(self.mesh, up))  # as printed
             return p
         write = getattr(self._mesh, "write", None) if self._derived is None and self.is_unmoved else None
         if write is not None and not separate_texture and p.suffix.lower() in (".stl", ".3mf"):

@@ -378,13 +378,13 @@ def slice_mesh(
                 lay = slicer_layout(placed, name="part")  # what export() writes
                 parts = placed if len(lay.parts) == 1 else list(lay.parts)
                 write_3mf(parts, stl, name="part", settings=lay.settings, part_settings=lay.part_settings or None,
-                          cura_settings=cura_settings())
+                          cura_settings=cura_settings(placed))
             else:
                 write_3mf(placed, stl, name="part")
         else:
             stl = Path(tmp) / "part.stl"
             write_stl(placed, stl)
-        mesh_settings = cura_settings() if file == "3mf" and layout else {}  # the 3MF's, for CuraEngine's mesh
+        mesh_settings = cura_settings(placed) if file == "3mf" and layout else {}  # the 3MF's, for CuraEngine's mesh
         cmd = _command(exe, slicer, config or {}, stl, gcode, mesh_settings)
         full = (["/usr/bin/time", "-v"] if os.path.exists("/usr/bin/time") else []) + cmd
         try:
