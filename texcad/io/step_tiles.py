@@ -1205,9 +1205,9 @@ EDGE_SHARES = (2.0, 1.5, 1.0)
 #: direction); the bilinear result is then checked against the whole tolerance.
 INNER_SHARES = (4.0, 3.0, 2.5, 2.0, 1.5, 1.0, 0.75, 0.5, 0.25)
 #: Decimals (mm) of the border poles moved onto an edge's polyline between its points
-#: (:func:`_reduced`): 9e-5 mm from it at most, inside the tolerance OCCT's reader
-#: gives the edge (8 decimals put a drilled 30 mm plate's STEP 3 % larger).
-LINE_DECIMALS = 4
+#: (:func:`_reduced`): 9e-7 mm from it at most (OCCT's reader keeps the edges
+#: within 1e-6 mm; 8 decimals put a drilled 30 mm plate's STEP 1 % larger).
+LINE_DECIMALS = 6
 #: Rounding steps (``10**-decimals`` mm) within which two neighbouring poles keep 8
 #: decimals (:func:`_thin`).
 THIN = 10.0
