@@ -787,14 +787,13 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
     written = grids
     outer = _outer(sides, grids, traced if not tessellate and tolerance > 0 else None)
     inner = 4 if tessellate else 8  # 8: 5e-9 mm, below OCCT's own precision (1e-7 mm)
-    mid = None
     if tolerance > 0 and not tessellate:
         inner, rounding = decimals_for(tolerance)
         red = _reduced(b, sides, grids, tolerance - rounding, inner)
 
-        # the points moved onto an edge's polyline between its own points keep LINE_DECIMALS (so they stay on it)
-        outer = [o[np.ix_(r, c)] for o, (_, _, _, r, c, _) in zip(outer, red)]
-        mid = [line for *_, line in red]
+        # the points moved onto an edge's polyline between its own points keep 8 decimals too (so they stay on it:
+        # with 6, OCCT's reader fixed the edges' tolerances and read a plate 3.5 times as long)
+        outer = [o[np.ix_(r, c)] | line for o, (_, _, _, r, c, line) in zip(outer, red)]
         written = [(g, u, v) for g, u, v, _, _, _ in red]
     _line_pcurves(b, tiles, sides, grids, written)
     grids = written
@@ -806,7 +805,7 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
     except ValueError:
         return None
     data = occt_write(copy)
-    return _complete(data, len(order), tiles, grids, meshed, outer, inner, mid)
+    return _complete(data, len(order), tiles, grids, meshed, outer, inner)
 
 
 def _segments(b, shape) -> None:
@@ -847,9 +846,11 @@ def _segments(b, shape) -> None:
         b.Range(edge, first, last)
 
 
-#: Share of the tolerance a trace's polyline may miss OCCT's curve by (:func:`_fitted_traces`),
-#: and the most its pcurves' images may lie from it (times that share): the rest is the tiles'.
-RIM_SHARE = 0.5
+#: Share of the tolerance a trace's polyline may miss OCCT's curve by (:func:`_fitted_traces`;
+#: the curve lies on the written tile), and the most its pcurves' images may lie from it
+#: (times that share; the edge's tolerance covers it): a 30 mm plate drilled through was
+#: 2.02x its STL with a quarter of each, 1.99x with these.
+RIM_SHARE = 1.0
 RIM_PCURVE = 0.5
 #: Decimals (mm) of a fitted trace's inner points (its pcurves' inner points: 6): its
 #: ends are the vertices, as they are.
@@ -1204,10 +1205,6 @@ EDGE_SHARES = (2.0, 1.5, 1.0)
 #: Shares of the tolerance a tile's rows and columns are first chosen within (each
 #: direction); the bilinear result is then checked against the whole tolerance.
 INNER_SHARES = (4.0, 3.0, 2.5, 2.0, 1.5, 1.0, 0.75, 0.5, 0.25)
-#: Decimals (mm) of the border poles moved onto an edge's polyline between its points
-#: (:func:`_reduced`): 9e-7 mm from it at most (OCCT's reader keeps the edges
-#: within 1e-6 mm; 8 decimals put a drilled 30 mm plate's STEP 1 % larger).
-LINE_DECIMALS = 6
 #: Rounding steps (``10**-decimals`` mm) within which two neighbouring poles keep 8
 #: decimals (:func:`_thin`).
 THIN = 10.0
@@ -1699,7 +1696,7 @@ def _stand_in_ids(ents: dict, face: int, pts: np.ndarray, corners: list) -> tupl
 
 
 def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list, outer: np.ndarray,
-              inner: int = 4, mid: list | None = None) -> bytes | None:
+              inner: int = 4) -> bytes | None:
     """Rewrite the stand-in surfaces of OCCT's STEP text ``data`` with the tiles' poles
     and add their triangulations; None when the text is not laid out as expected.
 
@@ -1710,9 +1707,8 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list,
     two tiles is exactly both tiles' border whatever the decimals. ``outer``: the
     poles on edges shared with the part's own faces, written with 8 decimals (5e-9
     mm, inside the edges' 1e-7 mm: those faces' pcurves are OCCT's); every other
-    pole with ``inner`` decimals (4: 5e-5 mm, far below any mesh tolerance), but
-    those in ``mid`` (per tile, like ``outer``: border poles moved onto an edge's
-    polyline between its points) with :data:`LINE_DECIMALS`. The poles come first (``#1`` on), then OCCT's entities, identical geometry written
+    pole with ``inner`` decimals (4: 5e-5 mm, far below any mesh tolerance). The
+    poles come first (``#1`` on), then OCCT's entities, identical geometry written
     once and numbered densely (:func:`_renumbered`)."""
     ents = {int(m.group(1)): m for m in _ENTITY.finditer(data)}
     face_ids, shell_of, msb, absr_of = _layout(ents)
@@ -1722,8 +1718,6 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list,
     border = np.concatenate([_border(g.shape[0], g.shape[1]) for g, _, _ in grids])
     outer = np.concatenate([o.T.ravel() for o in outer])  # u-major as pts
     tok = _tokens(pts, inner)
-    mid = np.zeros(len(pts), bool) if mid is None else np.concatenate([o.T.ravel() for o in mid]) & ~outer
-    tok[mid] = _tokens(pts[mid], LINE_DECIMALS)
     tok[outer] = _tokens(pts[outer], 8)
     key = "i" + tok  # a point on a tile border is shared by its exact value (elementwise, object arrays)
     key[border] = "b" + _tokens(pts[border], 8)
@@ -1753,11 +1747,7 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list,
     alias = {e: pole_id[t] for e, t in zip(occt_pts, occt_tok.tolist()) if t in pole_id}
     exact = np.zeros(len(uniq), bool)  # a point is written with 8 decimals if any of its uses needs them
     np.logical_or.at(exact, inv, outer)
-    near = np.zeros(len(uniq), bool)  # else with LINE_DECIMALS if any of its uses needs them
-    np.logical_or.at(near, inv, mid)
     emit_tok = tok[first]
-    up = near & ~exact & ~mid[first] & ~outer[first]
-    emit_tok[up] = _tokens(pts[first[up]], LINE_DECIMALS)
     emit_tok[exact & ~outer[first]] = _tokens(pts[first[exact & ~outer[first]]], 8)
     repl, extra = {}, []
     next_id = max(ents) + 1
