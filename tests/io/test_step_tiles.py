@@ -78,7 +78,7 @@ def test_drilled_plate_step_size(plate, tmp_path):
     spans of the knots placed for OCCT's plain Gauss rule, texcad.brep.gprop, but not
     across sliver spans: the test below), and the small tiles the tool trimmed in
     rectangles, runs of tile sides joined, OCCT's traces of the tool fitted as
-    polylines. Issue 28 asks for twice its STL: 1.49 here (2.01 before the trimmed
+    polylines. Issue 28 asks for twice its STL: 1.48 here (2.01 before the trimmed
     tiles were merged and the traces fitted: the hole's own edges were a sixth of the
     file; docs/benchmarks/step.md)."""
     from build123d import Cylinder, Pos

@@ -73,7 +73,7 @@ def _step_checked(tx, folder, name: str) -> float:
 def test_small_drilled_plate_step(tmp_path):
     """A 20 mm plate, stones at 0.25 mm, a 5 mm hole drilled through after texturing:
     the fine tiles texcad lays under the tool and OCCT's traces around the hole are
-    written merged and fitted (1.65x)."""
+    written merged and fitted (1.63x)."""
     from build123d import Axis, Box, Cylinder, Pos
 
     box = Box(20, 20, 3)
