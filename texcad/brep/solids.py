@@ -59,7 +59,7 @@ import numpy as np
 
 from ..util import require_memory
 from ..errors import GeometryError, ParameterError
-from .gprop import polyline_pcurve, run_knots
+from .gprop import GAUSS_POINTS, gauss_knots, polyline_pcurve, run_knots
 from .occt import as_array, explore, solids_of, to_topods
 
 if TYPE_CHECKING:
@@ -1188,6 +1188,65 @@ def _leaves(rows: int, cols: int, tile: int, fine: Sequence | None, breaks=((), 
     return out
 
 
+def _tile_points(rows: int) -> int:
+    """Gauss points OCCT's plain volume rule puts along the edges of a degree-1 tile
+    of ``rows`` cells along ``v`` whose pcurves are lines or unpadded broken lines, and
+    across its ``u`` range (``BRepGProp_Face::VIntegrationOrder``: ``max(8, 2 max(4,
+    2 rows))``, at most :data:`~texcad.brep.gprop.GAUSS_POINTS`)."""
+    return min(max(8, 4 * int(rows)), GAUSS_POINTS)
+
+
+def _corner_stops(leaves: list) -> tuple[dict, dict]:
+    """``(on_row, on_col)``: the tile corners on each grid row and column (grid
+    indices, increasing), where the tiles' sides are split."""
+    corners = np.array([(l[0], l[2]) for l in leaves] + [(l[0], l[3]) for l in leaves]
+                       + [(l[1], l[2]) for l in leaves] + [(l[1], l[3]) for l in leaves])  # fmt: skip
+    corners = np.unique(corners, axis=0)
+    on_row = {r: np.unique(corners[corners[:, 0] == r, 1]) for r in np.unique(corners[:, 0])}  # one per line
+    on_col = {c: np.unique(corners[corners[:, 1] == c, 0]) for c in np.unique(corners[:, 1])}
+    return on_row, on_col
+
+
+def _right_pieces(leaf: tuple, on_col: dict) -> np.ndarray:
+    """The grid rows where the right side of ``leaf`` ``(r0, r1, c0, c1)`` is split
+    into edges (its ends included)."""
+    stops = on_col[leaf[3]]
+    return stops[(stops >= leaf[0]) & (stops <= leaf[1])]
+
+
+def _relaid(leaves: list, rows: int, cols: int, tile: int, breaks) -> set:
+    """Indices of the tiles among ``leaves`` that are not one of the grid's own runs
+    of ``tile`` cells (small tiles under a CAD operation's tool) or whose right side
+    is split by smaller tiles beside it: they get knots of their own
+    (:func:`_own_knots`)."""
+    rb, cb = _split_bounds(rows, tile, breaks[0]), _split_bounds(cols, tile, breaks[1])
+    ri, ci = {int(a): int(z) for a, z in zip(rb[:-1], rb[1:])}, {int(a): int(z) for a, z in zip(cb[:-1], cb[1:])}
+    on_col = _corner_stops(leaves)[1]
+    return {k for k, l in enumerate(leaves)  # one per tile
+            if ri.get(l[0]) != l[1] or ci.get(l[2]) != l[3] or len(_right_pieces(l, on_col)) > 2}  # fmt: skip
+
+
+def _own_knots(leaves: list, x: np.ndarray, y: np.ndarray, relaid: set) -> list:
+    """``[(u, v), ...]``: each tile's knots. Tiles in ``relaid`` get knots placed for
+    OCCT's plain rule on themselves (:mod:`texcad.brep.gprop`): ``u`` at the partial
+    sums of the Gauss weights of the :func:`_tile_points` rule over the tile's ``u``
+    range, ``v`` so over each edge of its right side (the side whose edges carry the
+    rule along ``v``: each edge integrates the face from its lowest ``u`` to the
+    edge's); the corners keep the grid's knots ``x``, ``y``. The others keep ``x``,
+    ``y``, placed for their runs (:func:`texcad.brep.gprop.run_knots`)."""
+    on_col = _corner_stops(leaves)[1] if relaid else {}
+    out = []
+    for k, (r0, r1, c0, c1) in enumerate(leaves):  # one per tile
+        if k not in relaid:
+            out.append((x[c0 : c1 + 1], y[r0 : r1 + 1]))
+            continue
+        n = _tile_points(r1 - r0)
+        stops = _right_pieces(leaves[k], on_col).tolist()
+        v = np.concatenate([[y[r0]]] + [gauss_knots(y[a], y[z], z - a, n)[1:] for a, z in zip(stops[:-1], stops[1:])])
+        out.append((gauss_knots(x[c0], x[c1], c1 - c0, n), v))
+    return out
+
+
 def tiled_grid_faces(
     grid: np.ndarray,
     x: np.ndarray,
@@ -1266,10 +1325,12 @@ def tiled_grid_faces(
     own = leaves is None
     if own:
         leaves = _leaves(g.shape[0] - 1, g.shape[1] - 1, tile, fine, breaks)
+    relaid = _relaid(leaves, g.shape[0] - 1, g.shape[1] - 1, tile, breaks) if own and outline is None else set()
+    knots = _own_knots(leaves, x, y, relaid)
     text = _tile_text(
         [g[r0 : r1 + 1, c0 : c1 + 1] for r0, r1, c0, c1 in leaves],
-        [x[c0 : c1 + 1] for r0, r1, c0, c1 in leaves],
-        [y[r0 : r1 + 1] for r0, r1, c0, c1 in leaves],
+        [u for u, _ in knots],
+        [v for _, v in knots],
         triangulate,
     )
     comp = TopoDS_Shape()
@@ -1283,7 +1344,7 @@ def tiled_grid_faces(
         faces.append(TopoDS.Face_s(it.Value()))
         faces[-1].Free(True)  # read shapes are frozen; the wire is added below
         it.Next()
-    out, boundary, edges = _share_tile_edges(b, g, x, y, leaves, faces, wrap_x, outline)
+    out, boundary, edges = _share_tile_edges(b, g, x, y, leaves, faces, wrap_x, outline, knots, relaid)
     if edges_out is not None:
         edges_out.update(edges)
     return out, (boundary if own else [])
@@ -1365,30 +1426,34 @@ def transformed_shape(shape: Any, matrix: np.ndarray):
 
 
 def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: list, faces: list, wrap_x: bool = False,
-                      outline: Any = None):
+                      outline: Any = None, knots: list | None = None, relaid: set = frozenset()):
     """Give the tile faces (``leaves`` ``(r0, r1, c0, c1)`` of the grid ``g``) shared
     vertices and edges, split at every tile corner on a side, with straight pcurves
     (the border's edges from ``outline`` if given, see :func:`tiled_grid_faces`;
     those along ``y`` of at least :data:`PLACED` cells broken lines of
     :data:`~texcad.brep.gprop.PAD_SPANS` spans or more, with knots at the rows, for
-    OCCT's plain volume integration: :mod:`texcad.brep.gprop`); returns :func:`tiled_grid_faces`' ``(faces, boundary)`` and every edge (a dict)."""
+    OCCT's plain volume integration: :mod:`texcad.brep.gprop`). ``knots``: each
+    tile's ``(u, v)`` (default ``x``, ``y``); ``relaid``: tiles with knots of their
+    own (:func:`_own_knots`): an edge along ``y`` beside one is made on the tile to
+    its left (its parameters are that tile's knots, placed for its rule) and a tile
+    whose knots differ from an edge's parameters gets a broken-line pcurve mapping
+    them. Returns :func:`tiled_grid_faces`' ``(faces, boundary)`` and every edge (a
+    dict)."""
     from OCP.BRep import BRep_Tool
     from OCP.Geom2d import Geom2d_Line
     from OCP.gp import gp_Dir2d, gp_Pnt, gp_Pnt2d
     from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
     from OCP.TopoDS import TopoDS_Edge, TopoDS_Vertex
 
+    knots = knots or [(x[c0 : c1 + 1], y[r0 : r1 + 1]) for r0, r1, c0, c1 in leaves]
     surf = {k: BRep_Tool.Surface_s(f) for k, f in enumerate(faces)}  # one per tile
     for k, (r0, r1, c0, c1) in enumerate(leaves):  # one per tile
-        _remember_tile(surf[k], g[r0 : r1 + 1, c0 : c1 + 1], x[c0 : c1 + 1], y[r0 : r1 + 1])
-    corners = np.array([(l[0], l[2]) for l in leaves] + [(l[0], l[3]) for l in leaves]
-                       + [(l[1], l[2]) for l in leaves] + [(l[1], l[3]) for l in leaves])  # fmt: skip
-    corners = np.unique(corners, axis=0)
-    on_row = {r: np.unique(corners[corners[:, 0] == r, 1]) for r in np.unique(corners[:, 0])}  # one per line
-    on_col = {c: np.unique(corners[corners[:, 1] == c, 0]) for c in np.unique(corners[:, 1])}
-    verts, edges = {}, {}
+        _remember_tile(surf[k], g[r0 : r1 + 1, c0 : c1 + 1], *knots[k])
+    on_row, on_col = _corner_stops(leaves)
+    verts, edges, params = {}, {}, {}
     given = _given_outline(outline, on_row, on_col, g.shape[0] - 1, g.shape[1] - 1, verts, edges)
     period = g.shape[1] - 1 if wrap_x else None
+    owner = _left_owners(leaves, on_col, relaid, period)
 
     def vertex(r, c):
         if period is not None:
@@ -1399,40 +1464,53 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
             verts[r, c] = v
         return verts[r, c]
 
+    def along(k, horizontal, a, z):
+        """Tile ``k``'s knots at the grid lines ``a .. z`` along a side."""
+        r0, _, c0, _ = leaves[k]
+        return knots[k][0][a - c0 : z + 1 - c0] if horizontal else knots[k][1][a - r0 : z + 1 - r0]
+
+    def make(k, key, line_idx, a, z, at):
+        """The edge ``key`` as an iso-curve of tile ``k`` (its parameters: ``k``'s
+        knots) at the grid column ``at`` (along ``y``)."""
+        horizontal = key[0]
+        curve = surf[k].VIso(float(y[line_idx])) if horizontal else surf[k].UIso(float(x[at]))
+        p = along(k, horizontal, a, z)
+        e = TopoDS_Edge()
+        b.MakeEdge(e, curve, TOLERANCE)
+        ends = ((line_idx, a), (line_idx, z)) if horizontal else ((a, line_idx), (z, line_idx))
+        b.Add(e, vertex(*ends[0]).Oriented(TopAbs_FORWARD))
+        b.Add(e, vertex(*ends[1]).Oriented(TopAbs_REVERSED))
+        b.Range(e, float(p[0]), float(p[-1]))
+        params[key] = p
+        return e
+
     def side(k, horizontal, line_idx, lo, hi):
         """Edges along one side of leaf ``k``, split at every corner on it, in
         increasing grid index; each gets this leaf's pcurve."""
         stops = on_row[line_idx] if horizontal else on_col[line_idx]
         stops = stops[(stops >= lo) & (stops <= hi)]
-        if horizontal:
-            line = (0.0, float(y[line_idx]), 1.0, 0.0)
-            knots, curve = x, None
-        else:
-            line = (float(x[line_idx]), 0.0, 0.0, 1.0)
-            knots, curve = y, None
+        line = (0.0, float(y[line_idx]), 1.0, 0.0) if horizontal else (float(x[line_idx]), 0.0, 0.0, 1.0)
         out = []
         for a, z in zip(stops[:-1], stops[1:]):  # one per edge
             key = (horizontal, int(line_idx), int(a), int(z))
             if period is not None and not horizontal:
                 key = (horizontal, int(line_idx) % period, int(a), int(z))
             if key not in edges:
-                if curve is None:
-                    curve = surf[k].VIso(line[1]) if horizontal else surf[k].UIso(line[0])
-                e = TopoDS_Edge()
-                b.MakeEdge(e, curve, TOLERANCE)
-                ends = ((line_idx, a), (line_idx, z)) if horizontal else ((a, line_idx), (z, line_idx))
-                b.Add(e, vertex(*ends[0]).Oriented(TopAbs_FORWARD))
-                b.Add(e, vertex(*ends[1]).Oriented(TopAbs_REVERSED))
-                b.Range(e, float(knots[a]), float(knots[z]))
-                edges[key] = (e, line)
-            e = edges[key][0]
+                j = owner.get(key, k)  # the tile to its left (its right side: a closed band's last column is its first)
+                edges[key] = (make(j, key, line_idx, int(a), int(z), line_idx if j == k else leaves[j][3]), line)
+            e, mine = edges[key][0], along(k, horizontal, int(a), int(z))
             if key in given:  # a given border edge: its own pcurve and tolerance
                 b.UpdateEdge(e, edges[key][1], faces[k], BRep_Tool.Tolerance_s(e))
+            elif not np.array_equal(mine, params[key]):  # another tile's parameters: a broken line onto this tile's knots
+                fixed = np.full(len(mine), line[1] if horizontal else line[0])
+                pts = np.stack([mine, fixed] if horizontal else [fixed, mine], axis=-1)
+                b.UpdateEdge(e, polyline_pcurve(pts, params[key], pad=False), faces[k], TOLERANCE)
             elif not horizontal and (z - a >= PLACED or (hi - lo >= PLACED and z - a > 1)):
                 # OCCT's plain rule along it: 61 points, knots at the rows; a piece of a long side (small tiles beside
-                # it, under a tool): knots at the rows, where OCCT's adaptive rule starts (a line: 0.28 % off)
-                pts = np.stack([np.full(z + 1 - a, line[0]), y[a : z + 1]], axis=-1)
-                b.UpdateEdge(e, polyline_pcurve(pts, y[a : z + 1], pad=z - a >= PLACED), faces[k], TOLERANCE)
+                # it, under a tool): knots at the rows, where OCCT's adaptive rule starts (a line: 0.28 % off); a tile
+                # with knots of its own: as many points as its rule across (no padding)
+                pts = np.stack([np.full(z + 1 - a, line[0]), mine], axis=-1)
+                b.UpdateEdge(e, polyline_pcurve(pts, mine, pad=z - a >= PLACED and k not in relaid), faces[k], TOLERANCE)
             else:
                 b.UpdateEdge(e, Geom2d_Line(gp_Pnt2d(line[0], line[1]), gp_Dir2d(line[2], line[3])), faces[k], TOLERANCE)
             out.append(e)
@@ -1440,6 +1518,25 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
 
     out = [_tile_wire(b, k, leaf, faces[k], side) for k, leaf in enumerate(leaves)]  # one per tile
     return out, _patch_boundary(edges, g.shape[0] - 1, g.shape[1] - 1, period is not None), edges
+
+
+def _left_owners(leaves: list, on_col: dict, relaid: set, period: int | None) -> dict:
+    """``{edge key: tile}`` for the edges along ``y`` beside a tile in ``relaid``:
+    the tile to the edge's left (whose right side it is; see
+    :func:`_share_tile_edges`)."""
+    if not relaid:
+        return {}
+    right_of = {}
+    for k, leaf in enumerate(leaves):  # one per tile: the edges of its right side
+        stops = _right_pieces(leaf, on_col).tolist()
+        for a, z in zip(stops[:-1], stops[1:]):  # one per edge
+            right_of[(False, leaf[3] % period if period else leaf[3], a, z)] = k
+    out = {}
+    for k, (r0, r1, c0, c1) in enumerate(leaves):  # one per tile
+        if k in relaid:
+            out.update({key: j for key, j in right_of.items() if key[1] in (c0 % period if period else c0, c1 % period if period else c1)
+                        and r0 <= key[2] and key[3] <= r1})  # fmt: skip
+    return out
 
 
 def _tile_wire(b, k: int, leaf: tuple, face, side):
@@ -1598,7 +1695,28 @@ def _mm_pcurve(edge, line: tuple, xs: tuple, ys: tuple):
     a, z = np.searchsorted(along, [min(t0, t1), max(t0, t1)])
     fixed = float(np.interp(line[1] if line[3] == 0.0 else line[0], across, mm_across))
     pts = np.stack([mm[a : z + 1], np.full(z + 1 - a, fixed)], axis=-1)
-    return polyline_pcurve(pts if line[3] == 0.0 else pts[:, ::-1], along[a : z + 1], pad=z - a >= PLACED)
+    params = _edge_knots(edge, z + 1 - a)
+    if params is None:
+        params = along[a : z + 1]
+    return polyline_pcurve(pts if line[3] == 0.0 else pts[:, ::-1], params, pad=z - a >= PLACED)
+
+
+def _edge_knots(edge, count: int) -> np.ndarray | None:
+    """The knots within its range of an edge's 3-D curve (a tile's degree-1
+    iso-curve: the parameters at the grid lines, those of the tile it was made on,
+    :func:`_own_knots`), or None unless there are ``count``."""
+    from OCP.BRep import BRep_Tool
+    from OCP.GeomAbs import GeomAbs_BSplineCurve
+    from OCP.GeomAdaptor import GeomAdaptor_Curve
+
+    t0, t1 = sorted(BRep_Tool.Range_s(edge))
+    c = GeomAdaptor_Curve(BRep_Tool.Curve_s(edge, 0.0, 0.0))
+    if c.GetType() != GeomAbs_BSplineCurve:
+        return None
+    bs = c.BSpline()
+    k = np.array([bs.Knot(i) for i in range(1, bs.NbKnots() + 1)])
+    k = k[(k >= t0) & (k <= t1)]
+    return k if len(k) == count and k[0] == t0 and k[-1] == t1 else None
 
 
 def _replace_by_faces(shape, old, patch):
