@@ -1167,7 +1167,7 @@ def _split_bounds(n: int, tile: int, breaks: Sequence[int] = ()) -> np.ndarray:
     return np.unique(np.concatenate([a + _tile_bounds(z - a, tile) for a, z in zip(cuts[:-1], cuts[1:])]))
 
 
-def _leaves(rows: int, cols: int, tile: int, fine: Sequence | None, breaks=((), ())) -> list[tuple[int, int, int, int]]:
+def _leaves(rows: int, cols: int, tile: int, fine: Sequence | None, breaks=((), ()), block: bool = False) -> list[tuple[int, int, int, int]]:
     """Tiles ``(r0, r1, c0, c1)`` (grid line indices) over ``rows`` x ``cols`` cells:
     at most ``tile`` cells a side, ending at the grid lines ``breaks`` ``(rows,
     columns)``, and at most :data:`FINE` where a tile overlaps one of the ``fine``
@@ -1183,9 +1183,28 @@ def _leaves(rows: int, cols: int, tile: int, fine: Sequence | None, breaks=((), 
                 out.append((r0, r1, c0, c1))
                 continue
             size = min(int(f[4]) if len(f) > 4 else FINE for f in hit)
-            sr, sc = r0 + _tile_bounds(r1 - r0, size), c0 + _tile_bounds(c1 - c0, size)
-            out += [(int(sr[a]), int(sr[a + 1]), int(sc[c]), int(sc[c + 1])) for a in range(len(sr) - 1) for c in range(len(sc) - 1)]
+            out += _fine_block((r0, r1, c0, c1), hit, size) if block else _fine_split((r0, r1, c0, c1), size)
     return out
+
+
+def _fine_split(leaf: tuple, size: int) -> list:
+    """The tile ``leaf`` ``(r0, r1, c0, c1)`` split into tiles of at most ``size``
+    cells a side."""
+    r0, r1, c0, c1 = leaf
+    sr, sc = r0 + _tile_bounds(r1 - r0, size), c0 + _tile_bounds(c1 - c0, size)
+    return [(int(sr[a]), int(sr[a + 1]), int(sc[c]), int(sc[c + 1])) for a in range(len(sr) - 1) for c in range(len(sc) - 1)]
+
+
+def _fine_block(leaf: tuple, hit: list, size: int) -> list:
+    """The tile ``leaf`` ``(r0, r1, c0, c1)`` with tiles of at most ``size`` cells a
+    side over the part of it the index rectangles ``hit`` cover (their bounding box)
+    and the rest in at most four tiles around that block (below and above it across
+    the tile's width, left and right of it)."""
+    r0, r1, c0, c1 = leaf
+    ra, rz = max(r0, min(int(f[0]) for f in hit)), min(r1, max(int(f[1]) for f in hit))
+    ca, cz = max(c0, min(int(f[2]) for f in hit)), min(c1, max(int(f[3]) for f in hit))
+    rest = [(r0, ra, c0, c1), (rz, r1, c0, c1), (ra, rz, c0, ca), (ra, rz, cz, c1)]
+    return [t for t in rest if t[1] > t[0] and t[3] > t[2]] + _fine_split((ra, rz, ca, cz), size)
 
 
 def _tile_points(rows: int) -> int:
@@ -1214,22 +1233,27 @@ def _right_pieces(leaf: tuple, on_col: dict) -> np.ndarray:
     return stops[(stops >= leaf[0]) & (stops <= leaf[1])]
 
 
-def _relaid(leaves: list, rows: int, cols: int, tile: int, breaks) -> set:
-    """Indices of the tiles among ``leaves`` that are not one of the grid's own runs
-    of ``tile`` cells (small tiles under a CAD operation's tool) or whose right side
-    is split by smaller tiles beside it: they get knots of their own
-    (:func:`_own_knots`)."""
+def _relaid(leaves: list, rows: int, cols: int, tile: int, breaks) -> dict:
+    """``{tile index: Gauss points}`` for the tiles among ``leaves`` that are not one
+    of the grid's own runs of ``tile`` cells (the tiles under and around a CAD
+    operation's tool) or whose right side is split by smaller tiles beside it: they
+    get knots of their own (:func:`_own_knots`), placed for OCCT's plain rule with
+    that many points: :data:`~texcad.brep.gprop.GAUSS_POINTS` on a tile across a
+    whole run (its edges along ``y`` on the right get that order,
+    :func:`_share_tile_edges`; its knots across stay the run's, which the edges
+    along ``x`` keep for the faces beyond them, such as a band's end rings), else
+    :func:`_tile_points`."""
     rb, cb = _split_bounds(rows, tile, breaks[0]), _split_bounds(cols, tile, breaks[1])
     ri, ci = {int(a): int(z) for a, z in zip(rb[:-1], rb[1:])}, {int(a): int(z) for a, z in zip(cb[:-1], cb[1:])}
     on_col = _corner_stops(leaves)[1]
-    return {k for k, l in enumerate(leaves)  # one per tile
+    return {k: GAUSS_POINTS if ci.get(l[2]) == l[3] else _tile_points(l[1] - l[0]) for k, l in enumerate(leaves)  # one per tile
             if ri.get(l[0]) != l[1] or ci.get(l[2]) != l[3] or len(_right_pieces(l, on_col)) > 2}  # fmt: skip
 
 
-def _own_knots(leaves: list, x: np.ndarray, y: np.ndarray, relaid: set) -> list:
+def _own_knots(leaves: list, x: np.ndarray, y: np.ndarray, relaid: dict) -> list:
     """``[(u, v), ...]``: each tile's knots. Tiles in ``relaid`` get knots placed for
     OCCT's plain rule on themselves (:mod:`texcad.brep.gprop`): ``u`` at the partial
-    sums of the Gauss weights of the :func:`_tile_points` rule over the tile's ``u``
+    sums of the weights of the rule of ``relaid[k]`` points over the tile's ``u``
     range, ``v`` so over each edge of its right side (the side whose edges carry the
     rule along ``v``: each edge integrates the face from its lowest ``u`` to the
     edge's); the corners keep the grid's knots ``x``, ``y``. The others keep ``x``,
@@ -1240,7 +1264,7 @@ def _own_knots(leaves: list, x: np.ndarray, y: np.ndarray, relaid: set) -> list:
         if k not in relaid:
             out.append((x[c0 : c1 + 1], y[r0 : r1 + 1]))
             continue
-        n = _tile_points(r1 - r0)
+        n = relaid[k]
         stops = _right_pieces(leaves[k], on_col).tolist()
         v = np.concatenate([[y[r0]]] + [gauss_knots(y[a], y[z], z - a, n)[1:] for a, z in zip(stops[:-1], stops[1:])])
         out.append((gauss_knots(x[c0], x[c1], c1 - c0, n), v))
@@ -1324,8 +1348,8 @@ def tiled_grid_faces(
     require_memory(g.shape[0] * g.shape[1] * 500.0, f"a {g.shape[0]} x {g.shape[1]} tiled B-spline face", "use a larger pitch")
     own = leaves is None
     if own:
-        leaves = _leaves(g.shape[0] - 1, g.shape[1] - 1, tile, fine, breaks)
-    relaid = _relaid(leaves, g.shape[0] - 1, g.shape[1] - 1, tile, breaks) if own and outline is None else set()
+        leaves = _leaves(g.shape[0] - 1, g.shape[1] - 1, tile, fine, breaks, block=outline is None)
+    relaid = _relaid(leaves, g.shape[0] - 1, g.shape[1] - 1, tile, breaks) if own and outline is None else {}
     knots = _own_knots(leaves, x, y, relaid)
     text = _tile_text(
         [g[r0 : r1 + 1, c0 : c1 + 1] for r0, r1, c0, c1 in leaves],
@@ -1426,7 +1450,7 @@ def transformed_shape(shape: Any, matrix: np.ndarray):
 
 
 def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: list, faces: list, wrap_x: bool = False,
-                      outline: Any = None, knots: list | None = None, relaid: set = frozenset()):
+                      outline: Any = None, knots: list | None = None, relaid: dict | None = None):
     """Give the tile faces (``leaves`` ``(r0, r1, c0, c1)`` of the grid ``g``) shared
     vertices and edges, split at every tile corner on a side, with straight pcurves
     (the border's edges from ``outline`` if given, see :func:`tiled_grid_faces`;
@@ -1446,6 +1470,7 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
     from OCP.TopoDS import TopoDS_Edge, TopoDS_Vertex
 
     knots = knots or [(x[c0 : c1 + 1], y[r0 : r1 + 1]) for r0, r1, c0, c1 in leaves]
+    relaid = relaid or {}
     surf = {k: BRep_Tool.Surface_s(f) for k, f in enumerate(faces)}  # one per tile
     for k, (r0, r1, c0, c1) in enumerate(leaves):  # one per tile
         _remember_tile(surf[k], g[r0 : r1 + 1, c0 : c1 + 1], *knots[k])
@@ -1464,6 +1489,11 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
             verts[r, c] = v
         return verts[r, c]
 
+    def wide(k, line_idx):
+        """Is ``line_idx`` the right side of tile ``k``, whose knots are placed for
+        :data:`~texcad.brep.gprop.GAUSS_POINTS` (:func:`_relaid`)?"""
+        return relaid.get(k) == GAUSS_POINTS and leaves[k][3] == line_idx
+
     def along(k, horizontal, a, z):
         """Tile ``k``'s knots at the grid lines ``a .. z`` along a side."""
         r0, _, c0, _ = leaves[k]
@@ -1475,6 +1505,13 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
         horizontal = key[0]
         curve = surf[k].VIso(float(y[line_idx])) if horizontal else surf[k].UIso(float(x[at]))
         p = along(k, horizontal, a, z)
+        border = line_idx in ((0, g.shape[0] - 1) if horizontal else (() if period else (0, g.shape[1] - 1)))
+        if k in relaid and border and (horizontal or leaves[k][2] == line_idx):  # not a tile's right side: free
+            # on the patch's border: the face beyond integrates along it (a plane, a band's end ring), with the rule of a
+            # degree-1 pcurve of its spans: parameters placed for that (a whole run's: the grid's own knots)
+            pts = g[line_idx, a : z + 1] if horizontal else g[a : z + 1, line_idx]
+            p = gauss_knots(*(x[[a, z]] if horizontal else y[[a, z]]), z - a, min(max(8, 4 * (z - a)), GAUSS_POINTS))
+            curve = _polyline_3d(pts, p)
         e = TopoDS_Edge()
         b.MakeEdge(e, curve, TOLERANCE)
         ends = ((line_idx, a), (line_idx, z)) if horizontal else ((a, line_idx), (z, line_idx))
@@ -1505,12 +1542,13 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
                 fixed = np.full(len(mine), line[1] if horizontal else line[0])
                 pts = np.stack([mine, fixed] if horizontal else [fixed, mine], axis=-1)
                 b.UpdateEdge(e, polyline_pcurve(pts, params[key], pad=False), faces[k], TOLERANCE)
-            elif not horizontal and (z - a >= PLACED or (hi - lo >= PLACED and z - a > 1)):
+            elif not horizontal and (z - a >= PLACED or (hi - lo >= PLACED and z - a > 1) or wide(k, line_idx)):
                 # OCCT's plain rule along it: 61 points, knots at the rows; a piece of a long side (small tiles beside
                 # it, under a tool): knots at the rows, where OCCT's adaptive rule starts (a line: 0.28 % off); a tile
-                # with knots of its own: as many points as its rule across (no padding)
+                # with knots of its own: as many points as its rule across (padded on the right of a whole run's width)
                 pts = np.stack([np.full(z + 1 - a, line[0]), mine], axis=-1)
-                b.UpdateEdge(e, polyline_pcurve(pts, mine, pad=z - a >= PLACED and k not in relaid), faces[k], TOLERANCE)
+                pad = wide(k, line_idx) or (z - a >= PLACED and k not in relaid)
+                b.UpdateEdge(e, polyline_pcurve(pts, mine, pad=pad), faces[k], TOLERANCE)
             else:
                 b.UpdateEdge(e, Geom2d_Line(gp_Pnt2d(line[0], line[1]), gp_Dir2d(line[2], line[3])), faces[k], TOLERANCE)
             out.append(e)
@@ -1518,6 +1556,24 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
 
     out = [_tile_wire(b, k, leaf, faces[k], side) for k, leaf in enumerate(leaves)]  # one per tile
     return out, _patch_boundary(edges, g.shape[0] - 1, g.shape[1] - 1, period is not None), edges
+
+
+def _polyline_3d(points: np.ndarray, params: np.ndarray):
+    """The degree-1 ``Geom_BSplineCurve`` through ``points`` ``(m + 1, 3)`` (mm) at
+    the increasing ``params`` ``(m + 1,)``: a tile's iso-curve along a grid line with
+    other parameters."""
+    from OCP.Geom import Geom_BSplineCurve
+    from OCP.gp import gp_Pnt
+    from OCP.TColgp import TColgp_Array1OfPnt
+    from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
+
+    n = len(params)
+    poles, knots, mults = TColgp_Array1OfPnt(1, n), TColStd_Array1OfReal(1, n), TColStd_Array1OfInteger(1, n)
+    for i, (q, t) in enumerate(zip(np.asarray(points, np.float64).tolist(), np.asarray(params, np.float64).tolist()), 1):  # per grid point of one edge (tens)
+        poles.SetValue(i, gp_Pnt(*q))
+        knots.SetValue(i, t)
+        mults.SetValue(i, 2 if i in (1, n) else 1)
+    return Geom_BSplineCurve(poles, knots, mults, 1)
 
 
 def _left_owners(leaves: list, on_col: dict, relaid: set, period: int | None) -> dict:
