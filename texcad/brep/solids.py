@@ -1464,8 +1464,7 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
     them. Returns :func:`tiled_grid_faces`' ``(faces, boundary)`` and every edge (a
     dict)."""
     from OCP.BRep import BRep_Tool
-    from OCP.Geom2d import Geom2d_Line
-    from OCP.gp import gp_Dir2d, gp_Pnt, gp_Pnt2d
+    from OCP.gp import gp_Pnt
     from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
     from OCP.TopoDS import TopoDS_Edge, TopoDS_Vertex
 
@@ -1489,11 +1488,6 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
             verts[r, c] = v
         return verts[r, c]
 
-    def wide(k, line_idx):
-        """Is ``line_idx`` the right side of tile ``k``, whose knots are placed for
-        :data:`~texcad.brep.gprop.GAUSS_POINTS` (:func:`_relaid`)?"""
-        return relaid.get(k) == GAUSS_POINTS and leaves[k][3] == line_idx
-
     def along(k, horizontal, a, z):
         """Tile ``k``'s knots at the grid lines ``a .. z`` along a side."""
         r0, _, c0, _ = leaves[k]
@@ -1507,11 +1501,7 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
         p = along(k, horizontal, a, z)
         border = line_idx in ((0, g.shape[0] - 1) if horizontal else (() if period else (0, g.shape[1] - 1)))
         if k in relaid and border and (horizontal or leaves[k][2] == line_idx):  # not a tile's right side: free
-            # on the patch's border: the face beyond integrates along it (a plane, a band's end ring), with the rule of a
-            # degree-1 pcurve of its spans: parameters placed for that (a whole run's: the grid's own knots)
-            pts = g[line_idx, a : z + 1] if horizontal else g[a : z + 1, line_idx]
-            p = gauss_knots(*(x[[a, z]] if horizontal else y[[a, z]]), z - a, min(max(8, 4 * (z - a)), GAUSS_POINTS))
-            curve = _polyline_3d(pts, p)
+            curve, p = _border_curve(g, x, y, horizontal, line_idx, a, z)
         e = TopoDS_Edge()
         b.MakeEdge(e, curve, TOLERANCE)
         ends = ((line_idx, a), (line_idx, z)) if horizontal else ((a, line_idx), (z, line_idx))
@@ -1538,24 +1528,53 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
             e, mine = edges[key][0], along(k, horizontal, int(a), int(z))
             if key in given:  # a given border edge: its own pcurve and tolerance
                 b.UpdateEdge(e, edges[key][1], faces[k], BRep_Tool.Tolerance_s(e))
-            elif not np.array_equal(mine, params[key]):  # another tile's parameters: a broken line onto this tile's knots
-                fixed = np.full(len(mine), line[1] if horizontal else line[0])
-                pts = np.stack([mine, fixed] if horizontal else [fixed, mine], axis=-1)
-                b.UpdateEdge(e, polyline_pcurve(pts, params[key], pad=False), faces[k], TOLERANCE)
-            elif not horizontal and (z - a >= PLACED or (hi - lo >= PLACED and z - a > 1) or wide(k, line_idx)):
-                # OCCT's plain rule along it: 61 points, knots at the rows; a piece of a long side (small tiles beside
-                # it, under a tool): knots at the rows, where OCCT's adaptive rule starts (a line: 0.28 % off); a tile
-                # with knots of its own: as many points as its rule across (padded on the right of a whole run's width)
-                pts = np.stack([np.full(z + 1 - a, line[0]), mine], axis=-1)
-                pad = wide(k, line_idx) or (z - a >= PLACED and k not in relaid)
-                b.UpdateEdge(e, polyline_pcurve(pts, mine, pad=pad), faces[k], TOLERANCE)
             else:
-                b.UpdateEdge(e, Geom2d_Line(gp_Pnt2d(line[0], line[1]), gp_Dir2d(line[2], line[3])), faces[k], TOLERANCE)
+                long_side = hi - lo >= PLACED and z - a > 1
+                wide = relaid.get(k) == GAUSS_POINTS and leaves[k][3] == line_idx  # right side, a run wide (_relaid)
+                pc = _tile_pcurve(line, mine, params[key], z - a, long_side, wide, k in relaid)
+                b.UpdateEdge(e, pc, faces[k], TOLERANCE)
             out.append(e)
         return out
 
     out = [_tile_wire(b, k, leaf, faces[k], side) for k, leaf in enumerate(leaves)]  # one per tile
     return out, _patch_boundary(edges, g.shape[0] - 1, g.shape[1] - 1, period is not None), edges
+
+
+def _border_curve(g: np.ndarray, x: np.ndarray, y: np.ndarray, horizontal: bool, line: int, a: int, z: int) -> tuple:
+    """``(curve, params)`` of a tile edge on a patch's border along the grid line
+    ``line`` from ``a`` to ``z`` (grid indices; ``g`` the grid, mm, ``x``, ``y`` its
+    knots): the face beyond integrates along it (a plane, a band's end ring) with the
+    rule OCCT gives a degree-1 pcurve of its spans, so its parameters are placed for
+    that (over a whole run: the grid's own knots), and its curve is the polyline
+    through the grid points there."""
+    pts = g[line, a : z + 1] if horizontal else g[a : z + 1, line]
+    p = gauss_knots(*(x[[a, z]] if horizontal else y[[a, z]]), z - a, min(max(8, 4 * (z - a)), GAUSS_POINTS))
+    return _polyline_3d(pts, p), p
+
+
+def _tile_pcurve(line: tuple, mine: np.ndarray, params: np.ndarray, span: int, long_side: bool, wide: bool, own: bool):
+    """The pcurve on a tile of its edge along the grid line ``line`` ``(x0, y0, dx,
+    dy)`` over ``span`` cells, at the tile's knots ``mine`` at the grid lines and
+    the edge's parameters ``params`` there: a broken line from those onto these
+    where they differ (another tile's parameters); else along ``y``, for OCCT's plain
+    rule, a broken line of :data:`~texcad.brep.gprop.PAD_SPANS` spans or more with
+    knots at the rows (61 points) if at least :data:`PLACED` cells long and the tile
+    keeps its run's knots, or on the right side of a tile across a whole run with knots
+    of its own (``wide``), or with knots at the rows, where OCCT's adaptive rule
+    starts, on a piece of a ``long_side`` (small tiles beside it: a line is 0.28 %
+    off) or of a tile with knots of its own (``own``: as many points as its rule
+    across); else a line."""
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.gp import gp_Dir2d, gp_Pnt2d
+
+    horizontal = line[3] == 0.0
+    fixed = np.full(len(mine), line[1] if horizontal else line[0])
+    pts = np.stack([mine, fixed] if horizontal else [fixed, mine], axis=-1)
+    if not np.array_equal(mine, params):
+        return polyline_pcurve(pts, params, pad=False)
+    if not horizontal and (span >= PLACED or long_side or wide):
+        return polyline_pcurve(pts, mine, pad=wide or (span >= PLACED and not own))
+    return Geom2d_Line(gp_Pnt2d(line[0], line[1]), gp_Dir2d(line[2], line[3]))
 
 
 def _polyline_3d(points: np.ndarray, params: np.ndarray):
