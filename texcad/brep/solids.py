@@ -1296,8 +1296,12 @@ def tiled_grid_faces(
     pcurve is a straight line and the 3-D curves are the surfaces' iso-curves
     (``S(u, y_r)``, ``S(x_c, v)``). ``fine``: index rectangles ``(r0, r1, c0, c1)``
     where the tiles are at most :data:`FINE` cells a side (where a CAD operation's
-    tool meets the texture); a larger tile next to them has its side split at their
-    corners (shared vertices: no T-junctions).
+    tool meets the texture: over their bounding box in each tile they meet, the rest
+    of that tile in up to four tiles); a larger tile next to them has its side split
+    at their corners (shared vertices: no T-junctions). Without ``outline`` and
+    ``leaves``, tiles that are not one of the grid's runs get knots of their own,
+    placed for OCCT's plain volume rule on each (:func:`_own_knots`; the tiles' knots
+    are then not all ``x`` and ``y``).
 
     ``triangulate``: each tile carries its triangulation (``Poly_Triangulation``):
     texcad's own mesh of the tile, the two triangles ``(a, b, c)``, ``(a, c, d)`` per
