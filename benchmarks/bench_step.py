@@ -17,7 +17,8 @@ again.
 
 ``--sizes`` (issue 28): the demo plate (``--size`` mm, stones 2 mm at 0.125 mm, the
 demo's default tolerance), the same drilled through, a 30 mm plate drilled through, a
-cylinder (stones, knurl) and a cone: STEP size against the binary STL's at the same tolerance, seconds to write the STEP, to read it back (OCCT's
+cylinder (stones, knurl), a cone and three faces trimmed inside their (u, v)
+rectangle (a drilled full cylinder, a fluted knob cone, a wall with a window): STEP size against the binary STL's at the same tolerance, seconds to write the STEP, to read it back (OCCT's
 ``STEPControl_Reader``, as FreeCAD) and to mesh it at 0.1 mm, validity and OCCT's
 volume against the mesh; written as a markdown table (machine, date, command) to
 ``--table``.
@@ -192,6 +193,27 @@ def run_holes(out: Path, pixels: int, occt: bool) -> None:
         print(f"    valid {c['valid']}, {c['solids']} solid, B-rep {cut.info['brep_volume']:.1f} mm3 vs mesh {cut.volume:.1f} mm3")
 
 
+_KINDS = {"CARTESIAN_POINT": "points", "B_SPLINE_SURFACE_WITH_KNOTS": "surfaces", "B_SPLINE_CURVE_WITH_KNOTS": "curves",
+          "COMPLEX_TRIANGULATED_FACE": "mesh", "COORDINATES_LIST": "mesh"}  # fmt: skip
+
+
+def _bytes_by_kind(path: Path) -> dict:
+    """Share of a STEP file's bytes per kind of entity: points, B-spline surfaces (their
+    pole lists and knots), B-spline curves (3-D and pcurves), the grid mesh (AP242),
+    and the rest (topology, lines, placements)."""
+    import re
+
+    data = path.read_bytes()
+    names = ("points", "surfaces", "curves", "mesh", "rest")
+    found = [(m.start(), names.index(_KINDS.get(m.group(1).decode(), "rest")))
+             for m in re.finditer(rb"#\d+ ?= ?([A-Z0-9_]*)\(", data)]  # fmt: skip
+    at = np.array([a for a, _ in found] + [data.rindex(b"ENDSEC;")], np.int64)
+    kind = np.array([k for _, k in found], np.int64)
+    out = dict(zip(names, np.bincount(kind, weights=np.diff(at), minlength=len(names)).tolist()))
+    total = sum(out.values()) or 1
+    return {k: v / total for k, v in out.items()}
+
+
 def _sizes_row(name: str, tx, out: Path, tessellated: bool = False) -> dict:
     from OCP.BRepGProp import BRepGProp
     from OCP.BRepMesh import BRepMesh_IncrementalMesh
@@ -224,9 +246,37 @@ def _sizes_row(name: str, tx, out: Path, tessellated: bool = False) -> dict:
         "plain": (plain - tx.volume) / tx.volume,
     }
     row["ratio"] = row["STEP MB"] / row["STL MB"]
+    row["kinds"] = _bytes_by_kind(out / f"{name}.step")
+    print("    bytes: " + ", ".join(f"{k} {100 * v:.0f} %" for k, v in row["kinds"].items() if v > 0))
     print(f"    STEP {row['STEP MB']:.2f} MB, binary STL {row['STL MB']:.2f} MB: {row['ratio']:.2f}x; valid {row['valid']}; "
           f"OCCT volume {row['volume']:+.1e} from the mesh, plain rule {row['plain']:+.1e}")  # fmt: skip
     return row
+
+
+def _trimmed_parts() -> dict:
+    """Faces trimmed inside their (u, v) rectangle (``texcad.brep.uvtrim``), as
+    ``{name: (part, face)}``: a full cylinder drilled through, a knob's cone with four
+    slanted flutes, a wall of revolution (spline profile) with a window."""
+    from build123d import Align, Axis, Box, BuildLine, BuildPart, BuildSketch, Cone, Cylinder, GeomType, Plane, Polyline
+    from build123d import Pos, Rot, SortBy, Spline, make_face, revolve
+
+    drilled = Cylinder(8, 12) - Rot(90, 0, 0) * Cylinder(1.5, 40)
+    knob = Cone(10, 6, 12, align=(Align.CENTER, Align.CENTER, Align.MIN))
+    for k in range(4):  # four flutes, each leaning 15 degrees
+        knob = knob - Rot(0, 0, 90 * k) * Pos(9.5, 0, 6) * Rot(0, -15, 0) * Cylinder(1.6, 20)
+    with BuildPart() as wall:
+        with BuildSketch(Plane.XZ):
+            with BuildLine():
+                Spline((6, 0), (8, 4), (6.5, 8), (7, 12))
+                Polyline((7, 12), (0, 12), (0, 0), (6, 0))
+            make_face()
+        revolve(axis=Axis.Z)
+    window = wall.part - Pos(0, 8, 6) * Rot(0, 0, 30) * Box(3, 6, 7)
+    return {
+        "trimmed-cylinder": (drilled, drilled.faces().filter_by(GeomType.CYLINDER).sort_by(SortBy.AREA)[-1]),
+        "trimmed-cone": (knob, knob.faces().filter_by(GeomType.CONE).sort_by(SortBy.AREA)[-1]),
+        "trimmed-window": (window, window.faces().filter_by(GeomType.REVOLUTION).sort_by(SortBy.AREA)[-1]),
+    }
 
 
 def run_sizes(out: Path, size: float, table: str | None) -> None:
@@ -254,6 +304,8 @@ def run_sizes(out: Path, size: float, table: str | None) -> None:
     cone = Cone(12, 8, 20)
     side = cone.faces().filter_by(GeomType.CONE)[0]
     rows.append(_sizes_row("cone", texcad.texture(cone, side, "builtin:stones", height=0.6, pitch=0.125), out))
+    for name, (part, face) in _trimmed_parts().items():  # faces trimmed inside their (u, v) rectangle
+        rows.append(_sizes_row(name, texcad.texture(part, face, "builtin:stones", height=0.6, pitch=0.125), out))
     if table:
         parts = {f"plate{size:g}": f"demo plate {size:g} x {size:g} mm, stones 2 mm at 0.125 mm",
                  f"plate{size:g}-tess": "the same, `write_step(tessellated=True)`: every pole + the grid mesh (AP242)",
@@ -261,7 +313,10 @@ def run_sizes(out: Path, size: float, table: str | None) -> None:
                  "drilled30-small": "a 30 x 30 mm plate, stones 2 mm at 0.125 mm, the same hole drilled through",
                  "cylinder": "cylinder r 10 x 30 mm, stones 0.6 mm at 0.125 mm",
                  "knurl": "cylinder r 10 x 30 mm, diamond knurl 0.6 mm at 0.25 mm",
-                 "cone": "cone r 12 / 8 x 20 mm, stones 0.6 mm at 0.125 mm (general method: no tolerance, every pole)"}  # fmt: skip
+                 "cone": "cone r 12 / 8 x 20 mm, stones 0.6 mm at 0.125 mm (general method: no tolerance, every pole)",
+                 "trimmed-cylinder": "full cylinder r 8 x 12 mm drilled through (3 mm) before texturing, stones 0.6 mm at 0.125 mm",
+                 "trimmed-cone": "knob cone r 10 / 6 x 12 mm with 4 slanted flutes, the same",
+                 "trimmed-window": "wall of revolution (spline profile) with a 3 x 7 mm window, the same"}  # fmt: skip
         lines = [
             "# STEP size and re-read time",
             "",
@@ -290,12 +345,16 @@ def run_sizes(out: Path, size: float, table: str | None) -> None:
             "columns of poles where the STL keeps single vertices, so the ratio is highest on low reliefs at",
             "fine pitches (the cylinder rows).",
             "",
-            "| part | binary STL MB | STEP MB | STEP / STL | write s | OCCT read s | OCCT mesh 0.1 mm s | valid solid | OCCT volume vs mesh | plain |",
-            "|---|---:|---:|---:|---:|---:|---:|---|---:|---:|",
+            "Bytes: the STEP's share in points (`CARTESIAN_POINT`), B-spline surfaces (pole lists, knots), B-spline",
+            "curves (3-D and pcurves), the grid mesh (AP242) and the rest (topology, lines, placements).",
+            "",
+            "| part | binary STL MB | STEP MB | STEP / STL | bytes: points / surfaces / curves / mesh / rest % | write s | OCCT read s | OCCT mesh 0.1 mm s | valid solid | OCCT volume vs mesh | plain |",
+            "|---|---:|---:|---:|---|---:|---:|---:|---|---:|---:|",
         ]
         for r in rows:  # one per part
             w, rd, m = (f"{r[k][0]:.1f} ({r[k][1]:.1f})" for k in ("write s", "read s", "mesh s"))
-            lines.append(f"| {parts[r['part']]} | {r['STL MB']:.2f} | {r['STEP MB']:.2f} | {r['ratio']:.2f} | {w} | {rd} | {m} | "
+            kinds = " / ".join(f"{100 * v:.0f}" for v in r["kinds"].values())
+            lines.append(f"| {parts[r['part']]} | {r['STL MB']:.2f} | {r['STEP MB']:.2f} | {r['ratio']:.2f} | {kinds} | {w} | {rd} | {m} | "
                          f"{'yes' if r['valid'] else 'NO'} | {100 * r['volume']:+.3f} % | {100 * r['plain']:+.3f} % |")  # fmt: skip
         Path(table).parent.mkdir(parents=True, exist_ok=True)
         Path(table).write_text("\n".join(lines) + "\n")
