@@ -59,7 +59,7 @@ import numpy as np
 
 from ..util import require_memory
 from ..errors import GeometryError, ParameterError
-from .gprop import polyline_pcurve, run_knots
+from .gprop import GAUSS_POINTS, gauss_knots, polyline_pcurve, run_knots
 from .occt import as_array, explore, solids_of, to_topods
 
 if TYPE_CHECKING:
@@ -1214,7 +1214,7 @@ def _split_bounds(n: int, tile: int, breaks: Sequence[int] = ()) -> np.ndarray:
     return np.unique(np.concatenate([a + _tile_bounds(z - a, tile) for a, z in zip(cuts[:-1], cuts[1:])]))
 
 
-def _leaves(rows: int, cols: int, tile: int, fine: Sequence | None, breaks=((), ())) -> list[tuple[int, int, int, int]]:
+def _leaves(rows: int, cols: int, tile: int, fine: Sequence | None, breaks=((), ()), block: bool = False) -> list[tuple[int, int, int, int]]:
     """Tiles ``(r0, r1, c0, c1)`` (grid line indices) over ``rows`` x ``cols`` cells:
     at most ``tile`` cells a side, ending at the grid lines ``breaks`` ``(rows,
     columns)``, and at most :data:`FINE` where a tile overlaps one of the ``fine``
@@ -1230,8 +1230,91 @@ def _leaves(rows: int, cols: int, tile: int, fine: Sequence | None, breaks=((), 
                 out.append((r0, r1, c0, c1))
                 continue
             size = min(int(f[4]) if len(f) > 4 else FINE for f in hit)
-            sr, sc = r0 + _tile_bounds(r1 - r0, size), c0 + _tile_bounds(c1 - c0, size)
-            out += [(int(sr[a]), int(sr[a + 1]), int(sc[c]), int(sc[c + 1])) for a in range(len(sr) - 1) for c in range(len(sc) - 1)]
+            out += _fine_block((r0, r1, c0, c1), hit, size) if block else _fine_split((r0, r1, c0, c1), size)
+    return out
+
+
+def _fine_split(leaf: tuple, size: int) -> list:
+    """The tile ``leaf`` ``(r0, r1, c0, c1)`` split into tiles of at most ``size``
+    cells a side."""
+    r0, r1, c0, c1 = leaf
+    sr, sc = r0 + _tile_bounds(r1 - r0, size), c0 + _tile_bounds(c1 - c0, size)
+    return [(int(sr[a]), int(sr[a + 1]), int(sc[c]), int(sc[c + 1])) for a in range(len(sr) - 1) for c in range(len(sc) - 1)]
+
+
+def _fine_block(leaf: tuple, hit: list, size: int) -> list:
+    """The tile ``leaf`` ``(r0, r1, c0, c1)`` with tiles of at most ``size`` cells a
+    side over the part of it the index rectangles ``hit`` cover (their bounding box)
+    and the rest in at most four tiles around that block (below and above it across
+    the tile's width, left and right of it)."""
+    r0, r1, c0, c1 = leaf
+    ra, rz = max(r0, min(int(f[0]) for f in hit)), min(r1, max(int(f[1]) for f in hit))
+    ca, cz = max(c0, min(int(f[2]) for f in hit)), min(c1, max(int(f[3]) for f in hit))
+    rest = [(r0, ra, c0, c1), (rz, r1, c0, c1), (ra, rz, c0, ca), (ra, rz, cz, c1)]
+    return [t for t in rest if t[1] > t[0] and t[3] > t[2]] + _fine_split((ra, rz, ca, cz), size)
+
+
+def _tile_points(rows: int) -> int:
+    """Gauss points OCCT's plain volume rule puts along the edges of a degree-1 tile
+    of ``rows`` cells along ``v`` whose pcurves are lines or unpadded broken lines, and
+    across its ``u`` range (``BRepGProp_Face::VIntegrationOrder``: ``max(8, 2 max(4,
+    2 rows))``, at most :data:`~texcad.brep.gprop.GAUSS_POINTS`)."""
+    return min(max(8, 4 * int(rows)), GAUSS_POINTS)
+
+
+def _corner_stops(leaves: list) -> tuple[dict, dict]:
+    """``(on_row, on_col)``: the tile corners on each grid row and column (grid
+    indices, increasing), where the tiles' sides are split."""
+    corners = np.array([(l[0], l[2]) for l in leaves] + [(l[0], l[3]) for l in leaves]
+                       + [(l[1], l[2]) for l in leaves] + [(l[1], l[3]) for l in leaves])  # fmt: skip
+    corners = np.unique(corners, axis=0)
+    on_row = {r: np.unique(corners[corners[:, 0] == r, 1]) for r in np.unique(corners[:, 0])}  # one per line
+    on_col = {c: np.unique(corners[corners[:, 1] == c, 0]) for c in np.unique(corners[:, 1])}
+    return on_row, on_col
+
+
+def _right_pieces(leaf: tuple, on_col: dict) -> np.ndarray:
+    """The grid rows where the right side of ``leaf`` ``(r0, r1, c0, c1)`` is split
+    into edges (its ends included)."""
+    stops = on_col[leaf[3]]
+    return stops[(stops >= leaf[0]) & (stops <= leaf[1])]
+
+
+def _relaid(leaves: list, rows: int, cols: int, tile: int, breaks) -> dict:
+    """``{tile index: Gauss points}`` for the tiles among ``leaves`` that are not one
+    of the grid's own runs of ``tile`` cells (the tiles under and around a CAD
+    operation's tool) or whose right side is split by smaller tiles beside it: they
+    get knots of their own (:func:`_own_knots`), placed for OCCT's plain rule with
+    that many points: :data:`~texcad.brep.gprop.GAUSS_POINTS` on a tile across a
+    whole run (its edges along ``y`` on the right get that order,
+    :func:`_share_tile_edges`; its knots across stay the run's, which the edges
+    along ``x`` keep for the faces beyond them, such as a band's end rings), else
+    :func:`_tile_points`."""
+    rb, cb = _split_bounds(rows, tile, breaks[0]), _split_bounds(cols, tile, breaks[1])
+    ri, ci = {int(a): int(z) for a, z in zip(rb[:-1], rb[1:])}, {int(a): int(z) for a, z in zip(cb[:-1], cb[1:])}
+    on_col = _corner_stops(leaves)[1]
+    return {k: GAUSS_POINTS if ci.get(l[2]) == l[3] else _tile_points(l[1] - l[0]) for k, l in enumerate(leaves)  # one per tile
+            if ri.get(l[0]) != l[1] or ci.get(l[2]) != l[3] or len(_right_pieces(l, on_col)) > 2}  # fmt: skip
+
+
+def _own_knots(leaves: list, x: np.ndarray, y: np.ndarray, relaid: dict) -> list:
+    """``[(u, v), ...]``: each tile's knots. Tiles in ``relaid`` get knots placed for
+    OCCT's plain rule on themselves (:mod:`texcad.brep.gprop`): ``u`` at the partial
+    sums of the weights of the rule of ``relaid[k]`` points over the tile's ``u``
+    range, ``v`` so over each edge of its right side (the side whose edges carry the
+    rule along ``v``: each edge integrates the face from its lowest ``u`` to the
+    edge's); the corners keep the grid's knots ``x``, ``y``. The others keep ``x``,
+    ``y``, placed for their runs (:func:`texcad.brep.gprop.run_knots`)."""
+    on_col = _corner_stops(leaves)[1] if relaid else {}
+    out = []
+    for k, (r0, r1, c0, c1) in enumerate(leaves):  # one per tile
+        if k not in relaid:
+            out.append((x[c0 : c1 + 1], y[r0 : r1 + 1]))
+            continue
+        n = relaid[k]
+        stops = _right_pieces(leaves[k], on_col).tolist()
+        v = np.concatenate([[y[r0]]] + [gauss_knots(y[a], y[z], z - a, n)[1:] for a, z in zip(stops[:-1], stops[1:])])
+        out.append((gauss_knots(x[c0], x[c1], c1 - c0, n), v))
     return out
 
 
@@ -1260,8 +1343,12 @@ def tiled_grid_faces(
     pcurve is a straight line and the 3-D curves are the surfaces' iso-curves
     (``S(u, y_r)``, ``S(x_c, v)``). ``fine``: index rectangles ``(r0, r1, c0, c1)``
     where the tiles are at most :data:`FINE` cells a side (where a CAD operation's
-    tool meets the texture); a larger tile next to them has its side split at their
-    corners (shared vertices: no T-junctions).
+    tool meets the texture: over their bounding box in each tile they meet, the rest
+    of that tile in up to four tiles); a larger tile next to them has its side split
+    at their corners (shared vertices: no T-junctions). Without ``outline`` and
+    ``leaves``, tiles that are not one of the grid's runs get knots of their own,
+    placed for OCCT's plain volume rule on each (:func:`_own_knots`; the tiles' knots
+    are then not all ``x`` and ``y``).
 
     ``triangulate``: each tile carries its triangulation (``Poly_Triangulation``):
     texcad's own mesh of the tile, the two triangles ``(a, b, c)``, ``(a, c, d)`` per
@@ -1312,11 +1399,13 @@ def tiled_grid_faces(
     require_memory(g.shape[0] * g.shape[1] * 500.0, f"a {g.shape[0]} x {g.shape[1]} tiled B-spline face", "use a larger pitch")
     own = leaves is None
     if own:
-        leaves = _leaves(g.shape[0] - 1, g.shape[1] - 1, tile, fine, breaks)
+        leaves = _leaves(g.shape[0] - 1, g.shape[1] - 1, tile, fine, breaks, block=outline is None)
+    relaid = _relaid(leaves, g.shape[0] - 1, g.shape[1] - 1, tile, breaks) if own and outline is None else {}
+    knots = _own_knots(leaves, x, y, relaid)
     text = _tile_text(
         [g[r0 : r1 + 1, c0 : c1 + 1] for r0, r1, c0, c1 in leaves],
-        [x[c0 : c1 + 1] for r0, r1, c0, c1 in leaves],
-        [y[r0 : r1 + 1] for r0, r1, c0, c1 in leaves],
+        [u for u, _ in knots],
+        [v for _, v in knots],
         triangulate,
     )
     comp = TopoDS_Shape()
@@ -1330,7 +1419,7 @@ def tiled_grid_faces(
         faces.append(TopoDS.Face_s(it.Value()))
         faces[-1].Free(True)  # read shapes are frozen; the wire is added below
         it.Next()
-    out, boundary, edges = _share_tile_edges(b, g, x, y, leaves, faces, wrap_x, outline)
+    out, boundary, edges = _share_tile_edges(b, g, x, y, leaves, faces, wrap_x, outline, knots, relaid)
     if edges_out is not None:
         edges_out.update(edges)
     return out, (boundary if own else [])
@@ -1412,30 +1501,34 @@ def transformed_shape(shape: Any, matrix: np.ndarray):
 
 
 def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: list, faces: list, wrap_x: bool = False,
-                      outline: Any = None):
+                      outline: Any = None, knots: list | None = None, relaid: dict | None = None):
     """Give the tile faces (``leaves`` ``(r0, r1, c0, c1)`` of the grid ``g``) shared
     vertices and edges, split at every tile corner on a side, with straight pcurves
     (the border's edges from ``outline`` if given, see :func:`tiled_grid_faces`;
     those along ``y`` of at least :data:`PLACED` cells broken lines of
     :data:`~texcad.brep.gprop.PAD_SPANS` spans or more, with knots at the rows, for
-    OCCT's plain volume integration: :mod:`texcad.brep.gprop`); returns :func:`tiled_grid_faces`' ``(faces, boundary)`` and every edge (a dict)."""
+    OCCT's plain volume integration: :mod:`texcad.brep.gprop`). ``knots``: each
+    tile's ``(u, v)`` (default ``x``, ``y``); ``relaid``: tiles with knots of their
+    own (:func:`_own_knots`): an edge along ``y`` beside one is made on the tile to
+    its left (its parameters are that tile's knots, placed for its rule) and a tile
+    whose knots differ from an edge's parameters gets a broken-line pcurve mapping
+    them. Returns :func:`tiled_grid_faces`' ``(faces, boundary)`` and every edge (a
+    dict)."""
     from OCP.BRep import BRep_Tool
-    from OCP.Geom2d import Geom2d_Line
-    from OCP.gp import gp_Dir2d, gp_Pnt, gp_Pnt2d
+    from OCP.gp import gp_Pnt
     from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
     from OCP.TopoDS import TopoDS_Edge, TopoDS_Vertex
 
+    knots = knots or [(x[c0 : c1 + 1], y[r0 : r1 + 1]) for r0, r1, c0, c1 in leaves]
+    relaid = relaid or {}
     surf = {k: BRep_Tool.Surface_s(f) for k, f in enumerate(faces)}  # one per tile
     for k, (r0, r1, c0, c1) in enumerate(leaves):  # one per tile
-        _remember_tile(surf[k], g[r0 : r1 + 1, c0 : c1 + 1], x[c0 : c1 + 1], y[r0 : r1 + 1])
-    corners = np.array([(l[0], l[2]) for l in leaves] + [(l[0], l[3]) for l in leaves]
-                       + [(l[1], l[2]) for l in leaves] + [(l[1], l[3]) for l in leaves])  # fmt: skip
-    corners = np.unique(corners, axis=0)
-    on_row = {r: np.unique(corners[corners[:, 0] == r, 1]) for r in np.unique(corners[:, 0])}  # one per line
-    on_col = {c: np.unique(corners[corners[:, 1] == c, 0]) for c in np.unique(corners[:, 1])}
-    verts, edges = {}, {}
+        _remember_tile(surf[k], g[r0 : r1 + 1, c0 : c1 + 1], *knots[k])
+    on_row, on_col = _corner_stops(leaves)
+    verts, edges, params = {}, {}, {}
     given = _given_outline(outline, on_row, on_col, g.shape[0] - 1, g.shape[1] - 1, verts, edges)
     period = g.shape[1] - 1 if wrap_x else None
+    owner = _left_owners(leaves, on_col, relaid, period)
 
     def vertex(r, c):
         if period is not None:
@@ -1446,47 +1539,130 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
             verts[r, c] = v
         return verts[r, c]
 
+    def along(k, horizontal, a, z):
+        """Tile ``k``'s knots at the grid lines ``a .. z`` along a side."""
+        r0, _, c0, _ = leaves[k]
+        return knots[k][0][a - c0 : z + 1 - c0] if horizontal else knots[k][1][a - r0 : z + 1 - r0]
+
+    def make(k, key, line_idx, a, z, at):
+        """The edge ``key`` as an iso-curve of tile ``k`` (its parameters: ``k``'s
+        knots) at the grid column ``at`` (along ``y``)."""
+        horizontal = key[0]
+        curve = surf[k].VIso(float(y[line_idx])) if horizontal else surf[k].UIso(float(x[at]))
+        p = along(k, horizontal, a, z)
+        border = line_idx in ((0, g.shape[0] - 1) if horizontal else (() if period else (0, g.shape[1] - 1)))
+        if k in relaid and border and (horizontal or leaves[k][2] == line_idx):  # not a tile's right side: free
+            curve, p = _border_curve(g, x, y, horizontal, line_idx, a, z)
+        e = TopoDS_Edge()
+        b.MakeEdge(e, curve, TOLERANCE)
+        ends = ((line_idx, a), (line_idx, z)) if horizontal else ((a, line_idx), (z, line_idx))
+        b.Add(e, vertex(*ends[0]).Oriented(TopAbs_FORWARD))
+        b.Add(e, vertex(*ends[1]).Oriented(TopAbs_REVERSED))
+        b.Range(e, float(p[0]), float(p[-1]))
+        params[key] = p
+        return e
+
     def side(k, horizontal, line_idx, lo, hi):
         """Edges along one side of leaf ``k``, split at every corner on it, in
         increasing grid index; each gets this leaf's pcurve."""
         stops = on_row[line_idx] if horizontal else on_col[line_idx]
         stops = stops[(stops >= lo) & (stops <= hi)]
-        if horizontal:
-            line = (0.0, float(y[line_idx]), 1.0, 0.0)
-            knots, curve = x, None
-        else:
-            line = (float(x[line_idx]), 0.0, 0.0, 1.0)
-            knots, curve = y, None
+        line = (0.0, float(y[line_idx]), 1.0, 0.0) if horizontal else (float(x[line_idx]), 0.0, 0.0, 1.0)
         out = []
         for a, z in zip(stops[:-1], stops[1:]):  # one per edge
             key = (horizontal, int(line_idx), int(a), int(z))
             if period is not None and not horizontal:
                 key = (horizontal, int(line_idx) % period, int(a), int(z))
             if key not in edges:
-                if curve is None:
-                    curve = surf[k].VIso(line[1]) if horizontal else surf[k].UIso(line[0])
-                e = TopoDS_Edge()
-                b.MakeEdge(e, curve, TOLERANCE)
-                ends = ((line_idx, a), (line_idx, z)) if horizontal else ((a, line_idx), (z, line_idx))
-                b.Add(e, vertex(*ends[0]).Oriented(TopAbs_FORWARD))
-                b.Add(e, vertex(*ends[1]).Oriented(TopAbs_REVERSED))
-                b.Range(e, float(knots[a]), float(knots[z]))
-                edges[key] = (e, line)
-            e = edges[key][0]
+                j = owner.get(key, k)  # the tile to its left (its right side: a closed band's last column is its first)
+                edges[key] = (make(j, key, line_idx, int(a), int(z), line_idx if j == k else leaves[j][3]), line)
+            e, mine = edges[key][0], along(k, horizontal, int(a), int(z))
             if key in given:  # a given border edge: its own pcurve and tolerance
                 b.UpdateEdge(e, edges[key][1], faces[k], BRep_Tool.Tolerance_s(e))
-            elif not horizontal and (z - a >= PLACED or (hi - lo >= PLACED and z - a > 1)):
-                # OCCT's plain rule along it: 61 points, knots at the rows; a piece of a long side (small tiles beside
-                # it, under a tool): knots at the rows, where OCCT's adaptive rule starts (a line: 0.28 % off)
-                pts = np.stack([np.full(z + 1 - a, line[0]), y[a : z + 1]], axis=-1)
-                b.UpdateEdge(e, polyline_pcurve(pts, y[a : z + 1], pad=z - a >= PLACED), faces[k], TOLERANCE)
             else:
-                b.UpdateEdge(e, Geom2d_Line(gp_Pnt2d(line[0], line[1]), gp_Dir2d(line[2], line[3])), faces[k], TOLERANCE)
+                long_side = hi - lo >= PLACED and z - a > 1
+                wide = relaid.get(k) == GAUSS_POINTS and leaves[k][3] == line_idx  # right side, a run wide (_relaid)
+                pc = _tile_pcurve(line, mine, params[key], z - a, long_side, wide, k in relaid)
+                b.UpdateEdge(e, pc, faces[k], TOLERANCE)
             out.append(e)
         return out
 
     out = [_tile_wire(b, k, leaf, faces[k], side) for k, leaf in enumerate(leaves)]  # one per tile
     return out, _patch_boundary(edges, g.shape[0] - 1, g.shape[1] - 1, period is not None), edges
+
+
+def _border_curve(g: np.ndarray, x: np.ndarray, y: np.ndarray, horizontal: bool, line: int, a: int, z: int) -> tuple:
+    """``(curve, params)`` of a tile edge on a patch's border along the grid line
+    ``line`` from ``a`` to ``z`` (grid indices; ``g`` the grid, mm, ``x``, ``y`` its
+    knots): the face beyond integrates along it (a plane, a band's end ring) with the
+    rule OCCT gives a degree-1 pcurve of its spans, so its parameters are placed for
+    that (over a whole run: the grid's own knots), and its curve is the polyline
+    through the grid points there."""
+    pts = g[line, a : z + 1] if horizontal else g[a : z + 1, line]
+    p = gauss_knots(*(x[[a, z]] if horizontal else y[[a, z]]), z - a, min(max(8, 4 * (z - a)), GAUSS_POINTS))
+    return _polyline_3d(pts, p), p
+
+
+def _tile_pcurve(line: tuple, mine: np.ndarray, params: np.ndarray, span: int, long_side: bool, wide: bool, own: bool):
+    """The pcurve on a tile of its edge along the grid line ``line`` ``(x0, y0, dx,
+    dy)`` over ``span`` cells, at the tile's knots ``mine`` at the grid lines and
+    the edge's parameters ``params`` there: a broken line from those onto these
+    where they differ (another tile's parameters); else along ``y``, for OCCT's plain
+    rule, a broken line of :data:`~texcad.brep.gprop.PAD_SPANS` spans or more with
+    knots at the rows (61 points) if at least :data:`PLACED` cells long and the tile
+    keeps its run's knots, or on the right side of a tile across a whole run with knots
+    of its own (``wide``), or with knots at the rows, where OCCT's adaptive rule
+    starts, on a piece of a ``long_side`` (small tiles beside it: a line is 0.28 %
+    off) or of a tile with knots of its own (``own``: as many points as its rule
+    across); else a line."""
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.gp import gp_Dir2d, gp_Pnt2d
+
+    horizontal = line[3] == 0.0
+    fixed = np.full(len(mine), line[1] if horizontal else line[0])
+    pts = np.stack([mine, fixed] if horizontal else [fixed, mine], axis=-1)
+    if not np.array_equal(mine, params):
+        return polyline_pcurve(pts, params, pad=False)
+    if not horizontal and (span >= PLACED or long_side or wide):
+        return polyline_pcurve(pts, mine, pad=wide or (span >= PLACED and not own))
+    return Geom2d_Line(gp_Pnt2d(line[0], line[1]), gp_Dir2d(line[2], line[3]))
+
+
+def _polyline_3d(points: np.ndarray, params: np.ndarray):
+    """The degree-1 ``Geom_BSplineCurve`` through ``points`` ``(m + 1, 3)`` (mm) at
+    the increasing ``params`` ``(m + 1,)``: a tile's iso-curve along a grid line with
+    other parameters."""
+    from OCP.Geom import Geom_BSplineCurve
+    from OCP.gp import gp_Pnt
+    from OCP.TColgp import TColgp_Array1OfPnt
+    from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
+
+    n = len(params)
+    poles, knots, mults = TColgp_Array1OfPnt(1, n), TColStd_Array1OfReal(1, n), TColStd_Array1OfInteger(1, n)
+    for i, (q, t) in enumerate(zip(np.asarray(points, np.float64).tolist(), np.asarray(params, np.float64).tolist()), 1):  # per grid point of one edge (tens)
+        poles.SetValue(i, gp_Pnt(*q))
+        knots.SetValue(i, t)
+        mults.SetValue(i, 2 if i in (1, n) else 1)
+    return Geom_BSplineCurve(poles, knots, mults, 1)
+
+
+def _left_owners(leaves: list, on_col: dict, relaid: set, period: int | None) -> dict:
+    """``{edge key: tile}`` for the edges along ``y`` beside a tile in ``relaid``:
+    the tile to the edge's left (whose right side it is; see
+    :func:`_share_tile_edges`)."""
+    if not relaid:
+        return {}
+    right_of = {}
+    for k, leaf in enumerate(leaves):  # one per tile: the edges of its right side
+        stops = _right_pieces(leaf, on_col).tolist()
+        for a, z in zip(stops[:-1], stops[1:]):  # one per edge
+            right_of[(False, leaf[3] % period if period else leaf[3], a, z)] = k
+    out = {}
+    for k, (r0, r1, c0, c1) in enumerate(leaves):  # one per tile
+        if k in relaid:
+            out.update({key: j for key, j in right_of.items() if key[1] in (c0 % period if period else c0, c1 % period if period else c1)
+                        and r0 <= key[2] and key[3] <= r1})  # fmt: skip
+    return out
 
 
 def _tile_wire(b, k: int, leaf: tuple, face, side):
@@ -1645,7 +1821,28 @@ def _mm_pcurve(edge, line: tuple, xs: tuple, ys: tuple):
     a, z = np.searchsorted(along, [min(t0, t1), max(t0, t1)])
     fixed = float(np.interp(line[1] if line[3] == 0.0 else line[0], across, mm_across))
     pts = np.stack([mm[a : z + 1], np.full(z + 1 - a, fixed)], axis=-1)
-    return polyline_pcurve(pts if line[3] == 0.0 else pts[:, ::-1], along[a : z + 1], pad=z - a >= PLACED)
+    params = _edge_knots(edge, z + 1 - a)
+    if params is None:
+        params = along[a : z + 1]
+    return polyline_pcurve(pts if line[3] == 0.0 else pts[:, ::-1], params, pad=z - a >= PLACED)
+
+
+def _edge_knots(edge, count: int) -> np.ndarray | None:
+    """The knots within its range of an edge's 3-D curve (a tile's degree-1
+    iso-curve: the parameters at the grid lines, those of the tile it was made on,
+    :func:`_own_knots`), or None unless there are ``count``."""
+    from OCP.BRep import BRep_Tool
+    from OCP.GeomAbs import GeomAbs_BSplineCurve
+    from OCP.GeomAdaptor import GeomAdaptor_Curve
+
+    t0, t1 = sorted(BRep_Tool.Range_s(edge))
+    c = GeomAdaptor_Curve(BRep_Tool.Curve_s(edge, 0.0, 0.0))
+    if c.GetType() != GeomAbs_BSplineCurve:
+        return None
+    bs = c.BSpline()
+    k = np.array([bs.Knot(i) for i in range(1, bs.NbKnots() + 1)])
+    k = k[(k >= t0) & (k <= t1)]
+    return k if len(k) == count and k[0] == t0 and k[-1] == t1 else None
 
 
 def _replace_by_faces(shape, old, patch):
