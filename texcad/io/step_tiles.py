@@ -100,6 +100,16 @@ def _knots(a) -> str:
     return ",".join(_ZEROS.sub(r"\1", f"{x:.{KNOT_DECIMALS}f}") for x in r.tolist())  # per knot (tens per tile)
 
 
+def _tile_map(tiles: list):
+    """The tiles' faces (``(_, face, _)`` of :func:`_tiles_of`) as an OCCT indexed map."""
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    mine = TopTools_IndexedMapOfShape()
+    for _, face, _ in tiles:  # one per tile
+        mine.Add(face)
+    return mine
+
+
 def _tiles_of(topo) -> tuple[list, list]:
     """Faces of ``topo`` in shell order (what OCCT's writer lists in each shell) and,
     for each degree-1 B-spline face without location, ``(index, face, surface)``."""
@@ -449,18 +459,14 @@ def _fused_sides(shape, traced=None):
     from OCP.BRep import BRep_Builder, BRep_Tool
     from OCP.BRepTools import BRepTools_ReShape
     from OCP.Geom import Geom_BSplineCurve
-    from OCP.Geom2d import Geom2d_Line
-    from OCP.gp import gp_Dir2d, gp_Pnt2d
-    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD, TopAbs_REVERSED, TopAbs_VERTEX
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD, TopAbs_VERTEX
     from OCP.TopExp import TopExp
     from OCP.TopLoc import TopLoc_Location
-    from OCP.TopoDS import TopoDS, TopoDS_Edge
-    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_IndexedMapOfShape
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
 
     _, tiles = _tiles_of(shape)
-    mine = TopTools_IndexedMapOfShape()
-    for _, face, _ in tiles:  # one per tile
-        mine.Add(face)
+    mine = _tile_map(tiles)
     faces_of = TopTools_IndexedDataMapOfShapeListOfShape()
     TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, faces_of)
     edges_of = TopTools_IndexedDataMapOfShapeListOfShape()
@@ -565,10 +571,9 @@ def _joined_trace(b, chain: list, faces: list):
     from OCP.BRep import BRep_Tool
     from OCP.Geom import Geom_BSplineCurve
     from OCP.Geom2d import Geom2d_BSplineCurve
-    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
     from OCP.TopExp import TopExp
     from OCP.TopoDS import TopoDS_Edge
-    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
 
     pts, uvs, knots, tol, at = [], None, [], 0.0, 0.0
     for e, o in chain:  # one per trace of the run (a few)
@@ -881,9 +886,7 @@ def _fitted_traces(b, shape, tol: float):
     from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_IndexedMapOfShape
 
     _, tiles = _tiles_of(shape)
-    mine = TopTools_IndexedMapOfShape()
-    for _, face, _ in tiles:  # one per tile
-        mine.Add(face)
+    mine = _tile_map(tiles)
     ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
     TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
     done = TopTools_IndexedMapOfShape()
@@ -1134,13 +1137,11 @@ def _sides(shape, tiles: list, grids: list) -> list:
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
     from OCP.TopExp import TopExp, TopExp_Explorer
     from OCP.TopoDS import TopoDS
-    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_IndexedMapOfShape
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
 
     ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
     TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
-    mine = TopTools_IndexedMapOfShape()
-    for _, face, _ in tiles:  # one per tile
-        mine.Add(face)
+    mine = _tile_map(tiles)
     out = []
     for (_, face, _), (g, u, v) in zip(tiles, grids):  # one per tile
         sides = []
