@@ -486,7 +486,6 @@ def cad_op(part: Any, tool: Any, op: str) -> Any:
         raise GeometryError(f"the {op} leaves nothing of the part; check the tool's placement (mm)")
     texture_op = "cut" if op == "fuse" else op
     bodies = len(to_manifold(mesh).decompose())
-    change = (float(part.mesh.volume), _slack(part, tool_mesh))
 
     def texture_mesh() -> Mesh:
         return _mesh_op(part.texture_mesh, tool_mesh, texture_op)
@@ -504,6 +503,7 @@ def cad_op(part: Any, tool: Any, op: str) -> Any:
         hist = dict(src, steps=[*src["steps"], step], to_world=world)
 
         def shape():
+            change = (float(part.mesh.volume), _slack(part, tool_mesh))  # made only when the B-rep is asked for
             if hist["make"] is None:
                 return _plain_first(hist, world, mesh, op, bodies, info, change)
             for k, cells in enumerate(FINE_TRIES):  # another tiling under the tool if OCCT got it wrong
