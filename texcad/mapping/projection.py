@@ -36,24 +36,19 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..sources import Heightmap
-from ..util import colmax, colmin, rowsum
+from ..util import axis_word, colmax, colmin, rowsum
 
 __all__ = ["PROJECTIONS", "Projection", "TileSampler", "parse_axis", "sample_heights", "frame"]
 
 PROJECTIONS = ("planar", "cylindrical", "spherical", "triplanar", "cubic", "solid")
 
-_AXES = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}
-
-
 def parse_axis(axis: "str | Sequence[float]") -> np.ndarray:
     """A unit axis from ``"+x"``, ``"-z"``, ``"y"`` or a 3-vector (any length)."""
     if isinstance(axis, str):
-        s = axis.strip().lower()
-        sign = -1.0 if s.startswith("-") else 1.0
-        key = s.lstrip("+-")
-        if key not in _AXES:
+        unit = axis_word(axis)
+        if unit is None:
             raise ParameterError(f"axis {axis!r}: use +x, -x, +y, -y, +z, -z or three numbers")
-        return sign * np.array(_AXES[key], dtype=np.float64)
+        return unit
     a = np.asarray(axis, dtype=np.float64).reshape(-1)
     n = float(np.linalg.norm(a)) if a.shape == (3,) else 0.0
     if not (np.isfinite(n) and n > 0):

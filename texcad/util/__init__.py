@@ -44,6 +44,7 @@ from .resources import (
     memory_limit,
 )
 from .vectors import (
+    axis_word,
     parse_vector,
     rotation_to_z,
     smoothstep,
@@ -78,6 +79,7 @@ __all__ = [
     'finest_pitch',
     'require_pitch',
     'memory_limit',
+    'axis_word',
     'parse_vector',
     'smoothstep',
     'rotation_to_z',

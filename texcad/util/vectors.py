@@ -8,10 +8,20 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["parse_vector", "smoothstep", "rotation_to_z"]
+__all__ = ["axis_word", "parse_vector", "smoothstep", "rotation_to_z"]
 
 
 _AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+
+
+def axis_word(text: str) -> "np.ndarray | None":
+    """The unit ``(3,)`` float64 axis an axis word names (``"+z"``, ``"-x"``, ``"y"``,
+    any case, one sign at most), or None when ``text`` is not one."""
+    word = str(text).strip().lower()
+    key = word.lstrip("+-")
+    if key not in _AXES or len(word) - len(key) > 1:
+        return None
+    return (-1.0 if word.startswith("-") else 1.0) * np.array(_AXES[key])
 
 
 def parse_vector(text: str) -> np.ndarray:
@@ -21,9 +31,9 @@ def parse_vector(text: str) -> np.ndarray:
     Raises:
         ParameterError: not three finite numbers, or all zero.
     """
-    word = str(text).strip().lower()
-    if word.lstrip("+-") in _AXES and len(word) - len(word.lstrip("+-")) <= 1:
-        return (-1.0 if word.startswith("-") else 1.0) * np.array(_AXES[word.lstrip("+-")])
+    axis = axis_word(text)
+    if axis is not None:
+        return axis
     parts = [p for p in re.split(r"[,\s]+", str(text).strip()) if p]
     try:
         v = np.array([float(p) for p in parts], dtype=np.float64)
