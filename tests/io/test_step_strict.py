@@ -118,3 +118,18 @@ def test_a_damaged_colour_does_not_refuse_the_part(good, tmp_path):
     (tmp_path / "point.step").write_text(nan_point)
     with pytest.raises(InputError, match="cannot be read"):
         read_step(tmp_path / "point.step")
+
+
+def test_an_unset_name_does_not_refuse_the_part(good, tmp_path):
+    """A name left unset (``$``, as Fusion 360's translator writes in its assembly
+    transforms: OCCT reports "not a quoted String") carries no shape: the part is
+    read, with the same faces."""
+    from texcad.io import read_step
+    from texcad.brep import occt_volume
+
+    unset = re.sub(r"ADVANCED_FACE\('[^']*'", "ADVANCED_FACE($", good, count=1)
+    assert unset != good
+    (tmp_path / "unset.step").write_text(unset)
+    shape = read_step(tmp_path / "unset.step")
+    (tmp_path / "good.step").write_text(good)
+    assert occt_volume(shape) == pytest.approx(occt_volume(read_step(tmp_path / "good.step")), rel=1e-12)
