@@ -37,6 +37,16 @@ def test_view_takes_negative_numbers_without_equals(tmp_path, capsys):
     assert out.stat().st_size > 0
 
 
+def test_build_dir_takes_a_negative_axis_word_without_equals(tmp_path, capsys):
+    """``--build-dir -y`` (a user's first try) is the direction -y, not an unknown
+    option: the check counts the box's downward face as overhang for -y only."""
+    stl = _box_stl(tmp_path)
+    assert main(["check", str(stl), "--build-dir", "-y"]) in (0, 1)
+    down = capsys.readouterr().out
+    assert main(["check", str(stl), "--build-dir=-y"]) in (0, 1)
+    assert capsys.readouterr().out == down and "overhang" in down
+
+
 def test_render_too_wide_names_a_width_that_fits(tmp_path, capsys):
     stl = _box_stl(tmp_path)
     assert main(["render", str(stl), "-o", str(tmp_path / "w.png"), "--width", "200000"]) == 2

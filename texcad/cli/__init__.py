@@ -80,12 +80,13 @@ def _signals_unwind() -> Iterator[None]:
 
 
 #: A list of numbers that starts with a minus (``-1,2,-0.5``): a value, not an option.
-_NEGATIVE_LIST = re.compile(r"-[0-9.][0-9.eE+-]*(,[-+]?[0-9.][0-9.eE+-]*)+")
+_NEGATIVE_LIST = re.compile(r"-[0-9.][0-9.eE+-]*(,[-+]?[0-9.][0-9.eE+-]*)+|-[xyzXYZ]")
 
 
 def _join_negative_values(argv: Sequence[str]) -> list[str]:
-    """``--view -1,2,-0.5`` as ``--view=-1,2,-0.5`` (argparse takes a value that
-    starts with ``-`` for an option)."""
+    """``--view -1,2,-0.5`` as ``--view=-1,2,-0.5``, ``--build-dir -y`` as
+    ``--build-dir=-y`` (argparse takes a value that starts with ``-`` for an option;
+    no texcad option is ``-x``, ``-y`` or ``-z``)."""
     out: list[str] = []
     for a in argv:  # per argument
         if out and _NEGATIVE_LIST.fullmatch(a) and out[-1].startswith("--") and "=" not in out[-1]:

@@ -154,7 +154,7 @@ class CheckReport:
         """Human-readable lines for the terminal."""
         lo, hi = np.asarray(self.bounds_mm)
         size = hi - lo
-        d = self.build_dir
+        d = np.asarray(self.build_dir, dtype=np.float64) + 0.0  # + 0.0: no "-0" printed
         lines = [
             f"part          {self.source} ({len(self.objects)} object{'s' if len(self.objects) != 1 else ''}: {', '.join(self.objects)})",
             f"watertight    {'yes' if self.watertight else 'NO'}",
