@@ -232,3 +232,65 @@ def test_a_small_crossing_whose_union_is_no_clean_solid_is_refused_saying_so(mon
     with pytest.raises(InputError, match=r"8 pairs of its triangles cross \(one near .*texcad's repair, a self-union.*"
                                          r"too short to texture.*export it again"):
         repair.resolve_crossings(v, f)
+
+
+def _stacked_boxes(same_wall: bool):
+    """Two unit boxes in one mesh, one on the other (a shaft in its bore, a lid on its
+    box, exported as one STL), each wound outward: the shared wall is the same two
+    triangles wound both ways (``same_wall``), or the upper box's own two, cut along
+    the other diagonal; volume 2."""
+    a = trimesh.creation.box((1.0, 1.0, 1.0))
+    a.apply_translation((0.5, 0.5, 0.5))
+    top = a.faces[np.isclose(a.triangles_center[:, 2], 1.0)]
+    upper = a.faces[~np.isclose(a.triangles_center[:, 2], 0.0)] + 8  # the upper box but its bottom
+    if same_wall:
+        wall = top[:, ::-1]
+    else:
+        diag = np.intersect1d(top[0], top[1])
+        other = np.setdiff1d(top.ravel(), diag)
+        wall = np.array([[other[0], other[1], diag[0]], [other[1], other[0], diag[1]]])
+        p = a.vertices[wall]
+        down = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])[:, 2] < 0
+        wall[~down] = wall[~down][:, ::-1]
+    return np.vstack([a.vertices, a.vertices + (0.0, 0.0, 1.0)]), np.vstack([a.faces, upper, wall])
+
+
+def test_bodies_touching_face_to_face_are_united_or_taken_apart():
+    """The same wall wound both ways goes (their union, one body); walls of their own
+    are kept, and the edges around them (4 triangles each) are taken apart: two closed
+    bodies at the same place (for ``union=True``). Either way volume 2."""
+    v, f = _stacked_boxes(same_wall=True)
+    rv, rf, bodies = repair_closed(v, f)
+    assert bodies == 1 and len(rf) == 20 and edge_report(rf)["watertight"]
+    assert trimesh.Trimesh(rv, rf, process=False).volume == pytest.approx(2.0, rel=1e-9)
+    v, f = _stacked_boxes(same_wall=False)
+    rv, rf, bodies = repair_closed(v, f)
+    rep = edge_report(rf)
+    assert bodies == 2 and rep["watertight"] and rep["misoriented"] == 0 and len(rv) == 12 + 4
+    assert trimesh.Trimesh(rv, rf, process=False).volume == pytest.approx(2.0, rel=1e-9)
+
+
+def test_bodies_touching_along_an_edge_are_taken_apart():
+    """Two boxes sharing only an edge (4 triangles on it): the edge's two vertices are
+    split per body; two closed, outward bodies of volume 1 each."""
+    a = trimesh.creation.box((1.0, 1.0, 1.0))
+    v = np.vstack([a.vertices, a.vertices + (1.0, 1.0, 0.0)])
+    f = np.vstack([a.faces, a.faces + 8])
+    rv, rf, bodies = repair_closed(v, f)
+    assert bodies == 2 and edge_report(rf)["watertight"] and len(rv) == 16
+    vols = [b.volume for b in trimesh.Trimesh(rv, rf, process=False).split(only_watertight=False)]
+    assert vols == pytest.approx([1.0, 1.0], rel=1e-9)
+
+
+def test_touching_bodies_are_textured_with_union():
+    """A mesh of two bodies touching face to face: refused naming ``union=True``
+    without it; with it, one watertight body (the texture on the top)."""
+    import texcad
+
+    v, f = _stacked_boxes(same_wall=False)
+    mesh = trimesh.Trimesh(v * 20.0, f, process=False)
+    with pytest.raises(InputError, match="union=True"):
+        texcad.texture(mesh, "top", "builtin:stones", height=0.5, pitch=1.0)
+    tx = texcad.texture(mesh, "top", "builtin:stones", height=0.5, pitch=1.0, union=True)
+    assert tx.gate.shells.bodies == 1 and tx.mesh.is_watertight
+    assert tx.volume > 2 * 20.0**3

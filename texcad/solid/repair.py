@@ -6,8 +6,12 @@ What a downloaded STL/3MF/OBJ needs before it can be displaced, in order:
    input order);
 2. triangles with a repeated vertex (after merging) or with the same three vertices
    as an earlier one are dropped, and so are vertices no triangle uses;
-3. closed: every undirected edge belongs to exactly two triangles (else
-   :class:`InputError` counting the open and the non-manifold edges);
+3. closed: every undirected edge belongs to exactly two triangles. Where not, bodies
+   exported touching each other (a shaft in its bore, a lid on its box) are tried:
+   a wall two of them share face to face (the same triangles wound both ways) is
+   dropped, and each edge they share (4, 6 ... triangles) is taken apart per body
+   (:func:`split_edges`); if that does not close it, :class:`InputError` counting the
+   open and the non-manifold edges;
 4. consistent winding per body: at an edge the two triangles must run through it in
    opposite directions. Triangles are nodes of a graph whose links (shared edges)
    say whether the two run the same way; a breadth-first tree per body gives each
@@ -34,7 +38,7 @@ import numpy as np
 from ..errors import InputError
 from .mesh import edge_report, edge_slot_pairs
 
-__all__ = ["repair_closed", "CrossingRepair", "resolve_crossings", "repair_crossings", "split_pinches"]
+__all__ = ["repair_closed", "CrossingRepair", "resolve_crossings", "repair_crossings", "split_pinches", "split_edges"]
 
 
 def _merge(v: np.ndarray, f: np.ndarray, merge: float) -> tuple[np.ndarray, np.ndarray]:
@@ -53,12 +57,18 @@ def _merge(v: np.ndarray, f: np.ndarray, merge: float) -> tuple[np.ndarray, np.n
     return v[np.sort(first)], remap[f]
 
 
-def _clean(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _clean(v: np.ndarray, f: np.ndarray, cancel: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Drop triangles with a repeated vertex or the vertex set of an earlier one, then
-    the vertices no triangle uses."""
+    the vertices no triangle uses. ``cancel``: where as many of one vertex set run one
+    way as the other (the wall two bodies share face to face, each wound outward), all
+    go: what is left is their union."""
     f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])]
     s = np.sort(f, axis=1)
-    _, first = np.unique(s, axis=0, return_index=True)
+    _, first, group = np.unique(s, axis=0, return_index=True, return_inverse=True)
+    if cancel:
+        turn = np.where(np.argmin(f, axis=1)[:, None] == np.arange(3), np.roll(f, -1, axis=1), 0).sum(axis=1)
+        way = np.where(turn == s[:, 1], 1, -1)  # +1: min -> mid -> max in the winding's order
+        first = first[np.bincount(group.ravel(), weights=way) != 0]
     f = f[np.sort(first)]
     used = np.zeros(len(v), dtype=bool)
     used[f.ravel()] = True
@@ -106,6 +116,18 @@ def _parity(tri: np.ndarray, same: np.ndarray, m: int) -> tuple[np.ndarray, np.n
         flip, anc = flip ^ flip[anc], nxt
 
 
+def _touching(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(v, f)`` cleaned (:func:`_clean`), or, where that is not closed, with bodies
+    that touch taken apart or united: a wall two of them share face to face dropped
+    (``cancel=True``), then each edge they share taken apart (:func:`split_edges`), if
+    that closes them."""
+    cv, cf = _clean(v, f)
+    if not len(cf) or _edge_pairs(cf)[0] is not None:
+        return cv, cf
+    tv, tf, _ = split_edges(*_clean(v, f, cancel=True))
+    return (tv, tf) if len(tf) and _edge_pairs(tf)[0] is not None else (cv, cf)
+
+
 def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-8, name: str = "the mesh") -> tuple[np.ndarray, np.ndarray, int]:
     """Closed, consistently wound, outward bodies from a triangle soup (module
     docstring). Returns ``(vertices float64 (N, 3) mm, faces int64 (M, 3), bodies)``.
@@ -126,7 +148,7 @@ def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-
     if bad[np.unique(f)].any():
         raise InputError(f"{name} has {int(bad[np.unique(f)].sum())} vertices that are not finite numbers (NaN or inf); export it again")
     v, f = _merge(v, f, merge)
-    v, f = _clean(v, f)
+    v, f = _touching(v, f)
     if not len(f):
         raise InputError(f"{name} holds no triangles (after dropping degenerate ones)")
     tri, same = _edge_pairs(f)
@@ -252,34 +274,103 @@ def _areas(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
 
 
+def _split_corners(v: np.ndarray, f: np.ndarray, label: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """Each vertex made one vertex per fan of its corners, the corners of a vertex joined
+    through the edges (slot ``(t, k)``: ``f[t, k] -> f[t, k+1]``) that share a ``label``
+    ``(3M,)``. Returns ``(vertices, faces, vertices added)``."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    m = len(f)
+    lab = label.reshape(m, 3)
+    corner = np.repeat(np.arange(3 * m), 2)  # corner (t, k) touches edge slots (t, k) and (t, k-1)
+    edge = np.stack([lab, lab[:, [2, 0, 1]]], axis=2).ravel()
+    vert = np.repeat(f.ravel(), 2)
+    order = np.lexsort((vert, edge))
+    e, w, c = edge[order], vert[order], corner[order]
+    same = (e[1:] == e[:-1]) & (w[1:] == w[:-1])  # the same edge, at the same vertex
+    _, fan = connected_components(coo_matrix((np.ones(int(same.sum())), (c[:-1][same], c[1:][same])), shape=(3 * m, 3 * m)),
+                                  directed=False)
+    pair = np.stack([f.ravel(), fan])  # (vertex, fan) of each corner
+    uniq, inv = np.unique(pair, axis=1, return_inverse=True)
+    added = int(uniq.shape[1] - len(np.unique(f)))
+    if added == 0:
+        return v, f, 0
+    return v[uniq[0]], inv.reshape(m, 3).astype(np.int64), added
+
+
+def _edge_labels(f: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per edge slot ``(3M,)``: its undirected edge's number, how many slots that edge
+    has, and the slot's ``(lo, hi)`` vertices ``(3M, 2)``."""
+    ends = np.sort(np.stack([f.ravel(), f[:, [1, 2, 0]].ravel()], axis=1), axis=1)
+    _, label, count = np.unique(ends, axis=0, return_inverse=True, return_counts=True)
+    label = label.ravel()
+    return label, count[label], ends
+
+
 def split_pinches(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """A closed, edge-manifold mesh whose surface touches itself at single vertices
     (two fans of triangles around one vertex that share no edge there) with each such
     vertex made one vertex per fan, at the same place. Returns ``(vertices, faces,
     vertices split)``. The corners of one vertex are joined through the edges at that
     vertex (connected components of corners)."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
+    return _split_corners(v, f, _edge_labels(f)[0])
 
-    m = len(f)
-    nxt, prv = f[:, [1, 2, 0]], f[:, [2, 0, 1]]
-    # corner (t, k) at vertex f[t, k] touches edges (f[t,k], nxt) and (prv, f[t,k]); the same
-    # undirected edge in a neighbour joins the corners at each of its ends
-    corner = np.arange(3 * m).reshape(m, 3)
-    a = np.concatenate([np.stack([f.ravel(), nxt.ravel()], 1), np.stack([prv.ravel(), f.ravel()], 1)])
-    c = np.concatenate([corner.ravel(), corner.ravel()])
-    key = np.sort(a, axis=1)
-    own = (np.concatenate([f.ravel(), f.ravel()]) == key[:, 1]).astype(np.int64)  # which end of the edge the corner is at
-    order = np.lexsort((own, key[:, 1], key[:, 0]))
-    k, o, cc = key[order], own[order], c[order]
-    same = np.all(k[1:] == k[:-1], axis=1) & (o[1:] == o[:-1])  # the same edge, at the same end
-    _, lab = connected_components(coo_matrix((np.ones(int(same.sum())), (cc[:-1][same], cc[1:][same])), shape=(3 * m, 3 * m)),
-                                  directed=False)
-    pair = np.stack([f.ravel(), lab])  # (vertex, fan) of each corner
-    uniq, inv = np.unique(pair, axis=1, return_inverse=True)
-    if uniq.shape[1] == len(np.unique(f)):
+
+#: Radians within which faces around an edge are at one angle (two bodies face to face).
+_SAME_ANGLE = 1e-9
+
+
+def split_edges(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """Bodies that touch along an edge (an edge of 4, 6 ... triangles: two solids
+    exported in one file, a shaft on a knob) taken apart there. Around such an edge
+    (axis ``a -> b``, ``a < b``) each triangle's third vertex has an angle ``theta``
+    and the triangle's normal ``n`` (as wound, the mesh's signed volume made positive)
+    points to smaller or larger angles: ``s = sign(n . (axis x r))`` with ``r`` the
+    third vertex's direction off the axis. Sorted by ``theta`` (at equal angles, the
+    faces of two bodies touching face to face, ``s > 0`` first), the signs alternate
+    where solid wedges alternate with empty ones; each triangle with ``s < 0`` (solid
+    towards larger angles) is paired with the next one, and the vertices are split per
+    pair (:func:`_split_corners`). Edges whose signs do not alternate stay as they are.
+    Returns ``(vertices, faces, vertices added)``."""
+    label, count, ends = _edge_labels(f)
+    many = np.flatnonzero((count > 2) & (count % 2 == 0))
+    if not len(many):
         return v, f, 0
-    return v[uniq[0]], inv.reshape(m, 3).astype(np.int64), int(uniq.shape[1] - len(np.unique(f)))
+    tri = many // 3
+    p = v[f[tri]]
+    normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    normal *= np.sign(np.einsum("ij,ij->i", v[f][:, 0], np.cross(v[f][:, 1], v[f][:, 2])).sum()) or 1.0
+    lo, hi = v[ends[many, 0]], v[ends[many, 1]]
+    axis = (hi - lo) / np.linalg.norm(hi - lo, axis=1, keepdims=True)
+    third = v[f.ravel()[3 * tri + (many + 2) % 3]] - lo
+    r = third - np.einsum("ij,ij->i", third, axis)[:, None] * axis
+    order = np.lexsort((np.arange(len(many)), label[many]))
+    first = np.r_[True, label[many][order][1:] != label[many][order][:-1]]
+    ref = r[order][np.maximum.accumulate(np.where(first, np.arange(len(order)), 0))]  # each edge's first slot
+    ref_of = np.empty_like(ref)
+    ref_of[order] = ref
+    theta = np.arctan2(np.einsum("ij,ij->i", np.cross(axis, ref_of), r), np.einsum("ij,ij->i", ref_of, r)) % (2 * np.pi)
+    theta[theta > 2 * np.pi - _SAME_ANGLE] = 0.0
+    opens = np.einsum("ij,ij->i", normal, np.cross(axis, r)) < 0
+    order = np.lexsort((theta, label[many]))
+    step = np.r_[True, (np.diff(theta[order]) > _SAME_ANGLE) | (np.diff(label[many][order]) != 0)]
+    tie = np.empty(len(order), dtype=np.int64)
+    tie[order] = np.cumsum(step)  # faces at one angle (coplanar) share a rank
+    order = np.lexsort((opens, tie))  # at one angle a wedge closes before the next opens
+    start = np.flatnonzero(np.r_[True, label[many][order][1:] != label[many][order][:-1]])
+    size = np.diff(np.r_[start, len(order)])
+    group = np.repeat(np.arange(len(start)), size)
+    pos = np.arange(len(order)) - start[group]
+    nxt = start[group] + (pos + 1) % size[group]  # the next slot around the edge, cyclically
+    o = opens[order]
+    ok = np.ones(len(start), dtype=bool)
+    np.logical_and.at(ok, group, o != o[nxt])
+    pair = np.where(o, pos, (pos - 1) % size[group])  # an opener's own position, a closer's opener's
+    new = label.copy()
+    keep = ok[group]
+    new[many[order][keep]] = label.max() + 1 + start[group][keep] + pair[keep]
+    return _split_corners(v, f, new)
 
 
 def _without_slivers(v: np.ndarray, f: np.ndarray, least: float, name: str):
