@@ -96,8 +96,9 @@ class Options:
         mode: :class:`Mode` (raised).
         tolerance: largest distance in mm from the mesh to the exact texture (0.02;
             0 = one vertex per pixel / the pitch grid itself).
-        build_dir: print without support for this build direction ``(x, y, z)`` (or
-            each of several), in the part's frame; None: no overhang limit.
+        build_dir: print without support for this build direction ``(x, y, z)`` or
+            axis word (``"+z"``, ``"-y"``), or each of several, in the part's frame;
+            None: no overhang limit.
         critical_angle: the steepest overhang that prints without support, degrees
             from the build plate (45).
         gradient: ``((x0, y0, z0), (x1, y1, z1))`` (or the six numbers flat) mm: full height at the first

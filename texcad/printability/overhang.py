@@ -175,8 +175,20 @@ def print_rotation(build_dir) -> np.ndarray:
 
 def build_directions(build_dir) -> np.ndarray:
     """Normalise one build direction ``(3,)`` or a set ``(K, 3)`` to ``(K, 3)`` unit
-    float64 vectors (any length > 0; e.g. ``(0, -1, 1)``)."""
-    d = np.asarray(build_dir, dtype=np.float64)
+    float64 vectors (any length > 0; e.g. ``(0, -1, 1)``); an axis word (``"+z"``,
+    ``"-y"``) or a list of them names the axis."""
+    from ..util import axis_word
+
+    words = [build_dir] if isinstance(build_dir, str) else build_dir
+    if isinstance(words, (list, tuple)) and words and all(isinstance(w, str) for w in words):
+        axes = [axis_word(w) for w in words]
+        if any(a is None for a in axes):
+            raise ParameterError(f"build direction {build_dir!r}: use an axis (+x, -x, +y, -y, +z, -z) or three numbers (x, y, z)")
+        build_dir = axes
+    try:
+        d = np.asarray(build_dir, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ParameterError(f"build direction {build_dir!r}: use an axis (+x, -x, +y, -y, +z, -z) or three numbers (x, y, z)") from None
     if d.ndim == 1:
         d = d[None, :]
     if d.ndim != 2 or d.shape[1] != 3 or len(d) == 0:

@@ -21,7 +21,7 @@ def axis_word(text: str) -> "np.ndarray | None":
     key = word.lstrip("+-")
     if key not in _AXES or len(word) - len(key) > 1:
         return None
-    return (-1.0 if word.startswith("-") else 1.0) * np.array(_AXES[key])
+    return (-1.0 if word.startswith("-") else 1.0) * np.array(_AXES[key]) + 0.0  # + 0.0: no -0
 
 
 def parse_vector(text: str) -> np.ndarray:
