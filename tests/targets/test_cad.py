@@ -41,3 +41,19 @@ def test_a_face_of_another_part_is_refused():
     a, b = Box(10, 10, 4), Box(10, 10, 4)
     with pytest.raises(texcad.ParameterError, match="select it from the part itself"):
         texcad.texture(a, b.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=0.3, pitch=0.5)
+
+
+def test_a_face_index_and_a_bad_texture_in_the_api():
+    """An int selects a face by its index, as ``texcad faces`` lists it and the CLI's
+    ``--face 5`` takes it; one past the part's faces, or a texture that is no name,
+    path or Heightmap, is a ParameterError saying what to pass."""
+    from build123d import Box
+
+    box = Box(20, 20, 6)
+    by_index = texcad.texture(box, 5, "builtin:stones", height=0.4, pitch=0.5)
+    by_word = texcad.texture(box, "5", "builtin:stones", height=0.4, pitch=0.5)
+    assert by_index.volume == by_word.volume > box.volume
+    with pytest.raises(texcad.ParameterError, match=r"only 6 faces \(0..5\)"):
+        texcad.texture(box, 99, "builtin:stones", height=0.4, pitch=0.5)
+    with pytest.raises(texcad.ParameterError, match="builtin:NAME"):
+        texcad.texture(box, 5, None, height=0.4, pitch=0.5)

@@ -95,6 +95,9 @@ def texture(
             large for memory is textured in tiles instead (:mod:`texcad.targets.tiled`).
     """
     o = Options.make(**options)
+    if not isinstance(texture, (Heightmap, str, os.PathLike)):
+        raise ParameterError(f"texture {texture!r}: use 'builtin:NAME' (texcad textures lists them), an image path "
+                             "or a texcad.Heightmap")
     if not isinstance(texture, Heightmap):
         texture = os.fspath(texture)
     elif "height" not in o.given and texture.max_height > 0:  # a Heightmap keeps its own heights unless told

@@ -157,25 +157,33 @@ def is_cad_target(target: Any) -> bool:
 def named_where(target: Any, where: Any) -> Any:
     """``where`` with each face selector given as text (``"top"``, ``"cylinder:all"``,
     ``"solid:1/top+right"``: :mod:`texcad.brep.selectors`, the command line's
-    vocabulary) replaced by the faces it names on the CAD ``target``; zones' faces
+    vocabulary) or as a face index (an int) replaced by the faces it names on the CAD ``target``; zones' faces
     too. Anything else (faces, a mesh's region) is returned as it is.
 
     Raises:
         ParameterError: a selector that names no face of the part.
     """
-    scope = _named_scope(target) if isinstance(where, (str, list, tuple)) else None
+    scope = _named_scope(target) if isinstance(where, (str, list, tuple)) or _index(where) else None
     if scope is None:
         return where
     from ..brep.selectors import faces_named
 
-    def faces(w: Any) -> Any:
-        return faces_named(scope, w) if isinstance(w, str) else w
+    def named(w: Any) -> bool:
+        return isinstance(w, str) or _index(w)
 
-    if isinstance(where, str):
+    def faces(w: Any) -> Any:
+        return faces_named(scope, str(int(w)) if _index(w) else w) if named(w) else w
+
+    if named(where):
         return faces(where)
     if is_zones(where):
         return [(faces(z[0]), *z[1:]) for z in where]
-    return [f for w in where for f in (faces(w) if isinstance(w, str) else [w])]
+    return [f for w in where for f in (faces(w) if named(w) else [w])]
+
+
+def _index(w: Any) -> bool:
+    """A face index (an int, as ``texcad faces`` lists them), not a bool."""
+    return isinstance(w, (int, np.integer)) and not isinstance(w, bool)
 
 
 def _named_scope(target: Any) -> Any:
