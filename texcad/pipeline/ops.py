@@ -76,12 +76,28 @@ def _is_textured(obj: Any) -> bool:
     return hasattr(type(obj), "texture_mesh") and hasattr(type(obj), "base_mesh")
 
 
+def _as_mesh_tool(tool: Any) -> Any:
+    """A ``trimesh.Trimesh`` or ``manifold3d.Manifold`` tool as a texcad :class:`Mesh`
+    (mm); any other tool as it is."""
+    import manifold3d as m3d
+
+    if isinstance(tool, m3d.Manifold):
+        return from_manifold(tool)
+    if type(tool).__name__ == "Trimesh" and hasattr(tool, "faces"):
+        return Mesh(np.asarray(tool.vertices), np.asarray(tool.faces))
+    return tool
+
+
 def _tool_mesh(tool: Any) -> Mesh:
     if _is_textured(tool):
         return tool.mesh
     if isinstance(tool, Mesh):
         return tool
-    return shape_to_mesh(tool, tolerance=TOOL_TOLERANCE)
+    try:
+        return shape_to_mesh(tool, tolerance=TOOL_TOLERANCE)
+    except ParameterError:
+        raise ParameterError(f"cannot use a {type(tool).__name__} as a tool; pass a build123d / CadQuery / OCP shape, "
+                             "a texcad Mesh, a trimesh.Trimesh or a manifold3d Manifold (mm)") from None
 
 
 def _mesh_op(a: Mesh, b: Mesh, op: str) -> Mesh:
@@ -335,8 +351,9 @@ def _find_edges(shape, mids: np.ndarray, tol: float = 1e-4) -> list:
         k = int(np.argmin(d))
         if d[k] > tol:
             raise ParameterError(
-                f"no edge of the part has its middle at {np.round(p, 3).tolist()} mm; choose edges from "
-                "textured.part.edges() or from the original part"
+                f"no edge of the untextured part has its middle at {np.round(p, 3).tolist()} mm: an edge of the "
+                "texture (its tiles, its rim) cannot be filleted; choose edges away from the texture, from "
+                "textured.part.edges() or from the original part, or fillet the part before texturing it"
             )
         found.append(edges[k])
     return found
@@ -464,8 +481,8 @@ def _info(part: Any, what: str) -> dict:
 
 def cad_op(part: Any, tool: Any, op: str) -> Any:
     """``part`` cut by, fused with or intersected with ``tool`` (a build123d /
-    CadQuery / OCP shape, a :class:`~texcad.solid.Mesh` or another
-    :class:`Textured`), mm.
+    CadQuery / OCP shape, a :class:`~texcad.solid.Mesh`, ``trimesh.Trimesh`` or
+    ``manifold3d.Manifold`` (no B-rep then), or another :class:`Textured`), mm.
 
     The mesh result is manifold3d's boolean of the fused meshes (exact on the
     triangles); the B-rep result (made on first use of ``.shape``) is OCCT's boolean of
@@ -480,6 +497,7 @@ def cad_op(part: Any, tool: Any, op: str) -> Any:
     """
     if op not in OPS:
         raise ParameterError(f"unknown operation {op!r}; use one of {', '.join(OPS)}")
+    tool = _as_mesh_tool(tool)
     tool_mesh = _tool_mesh(tool)
     mesh = _mesh_op(part.mesh, tool_mesh, op)
     if mesh.num_triangles == 0:
@@ -515,6 +533,8 @@ def cad_op(part: Any, tool: Any, op: str) -> Any:
                         raise
 
     info = _info(part, op)
+    if part.has_brep and isinstance(tool, Mesh):
+        info["no_brep"] = f"a {op} with a mesh tool; use a CAD shape as the tool for a B-rep"
     return _derived(part, mesh=mesh, texture_mesh=texture_mesh, base_mesh=base_mesh, shape=shape, info=info, hist=hist)
 
 
@@ -619,12 +639,30 @@ def _changed(mesh: Mesh, change: list) -> Mesh:
     return mesh
 
 
-def _mirror_matrix(origin: Sequence[float], normal: Sequence[float]) -> np.ndarray:
-    n = np.asarray(normal, np.float64)
-    if n.shape != (3,) or not np.linalg.norm(n) > 0:
+def _vector(v: Any, what: str, axis: bool) -> np.ndarray:
+    """``(3,)`` float64 from three numbers, a build123d ``Vector`` or (``axis``) an
+    axis word."""
+    from ..util import axis_word
+
+    a = axis_word(v) if isinstance(v, str) and axis else None
+    try:
+        a = np.asarray(tuple(v) if a is None else a, np.float64)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.shape != (3,) or not np.isfinite(a).all():
+        also = " or an axis (+x, -z...)" if axis else ""
+        raise ParameterError(f"{what} must be three numbers (x, y, z), a build123d Vector{also}, got {v!r}")
+    return a
+
+
+def _mirror_matrix(origin: Any, normal: Any) -> np.ndarray:
+    if hasattr(origin, "z_dir") and hasattr(origin, "origin"):  # a build123d Plane
+        origin, normal = origin.origin, origin.z_dir
+    n = _vector(normal, "the mirror plane's normal", axis=True)
+    if not np.linalg.norm(n) > 0:
         raise ParameterError(f"the mirror plane's normal must be a non-zero (3,) vector, got {normal!r}")
     n = n / np.linalg.norm(n)
-    o = np.asarray(origin, np.float64)
+    o = _vector(origin, "the mirror plane's origin (mm)", axis=False)
     r = np.eye(3) - 2.0 * np.outer(n, n)
     return np.hstack([r, (o - r @ o)[:, None]])
 
@@ -635,8 +673,8 @@ def _mirrored_mesh(mesh: Mesh, m: np.ndarray) -> Mesh:
 
 
 def mirror(part: Any, origin: Sequence[float] = (0.0, 0.0, 0.0), normal: Sequence[float] = (1.0, 0.0, 0.0)) -> Any:
-    """``part`` mirrored about the plane through ``origin`` (mm) with ``normal``:
-    meshes (vertices reflected, triangles turned to keep them outward) and B-rep
+    """``part`` mirrored about the plane through ``origin`` (mm) with ``normal`` (or
+    about a build123d ``Plane`` given as ``origin``, e.g. ``Plane.YZ``): meshes (vertices reflected, triangles turned to keep them outward) and B-rep
     (``BRepBuilderAPI_Transform``) alike; later operations still get fine tiles."""
     m = _mirror_matrix(origin, normal)
     hist_src = _history(part) if part.has_brep else None

@@ -337,7 +337,8 @@ class Textured:
         return fillet(self, edges, radius)
 
     def mirrored(self, origin: Any = (0.0, 0.0, 0.0), normal: Any = (1.0, 0.0, 0.0)) -> "Textured":
-        """A mirror image about the plane through ``origin`` (mm) with ``normal``."""
+        """A mirror image about the plane through ``origin`` (mm) with ``normal`` (three
+        numbers or an axis such as ``"+x"``), or about a build123d ``Plane`` (``Plane.YZ``)."""
         from .ops import mirror
 
         return mirror(self, origin, normal)
