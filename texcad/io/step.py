@@ -380,6 +380,7 @@ def _first_fault(reader, p: str) -> str | None:
         return f"STEP file {p!r} has {where}; {_FIX}"
     ents = _entities(p, faults)
     harmless = {k for k, (_, _, kinds, default_unit) in ents.items() if default_unit or _METADATA.search(kinds)}
+    harmless |= {k for k, said in faults.items() if all(map(_NAME_FAULT.search, said))}
     shape_faults = [k for k in sorted(faults) if k not in harmless]
     if not shape_faults:  # only styles, colours, product data... at fault: the shape itself reads whole
         return None
@@ -487,6 +488,7 @@ def _text_fault(p: str) -> str | None:
 #: Entities that carry no shape (presentation, colours, layers, product and document
 #: data): a fault in one of them is left to OCCT, which reads the shape without it
 #: (CAD programs write many of them; real files must not be refused for one).
+_NAME_FAULT = re.compile(r"\((?:\w+\.)?(?:name|description)\) not a quoted String")  # a label left unset ($): Fusion 360
 _METADATA = re.compile(r"STYLE|COLOUR|PRESENTATION|DRAUGHTING|ANNOTATION|PROPERTY|DOCUMENT|APPROVAL|PERSON|"
                        r"ORGANIZATION|DATE|TIME|SECURITY|CLASSIFICATION|PRODUCT|APPLICATION|DESCRIPTIVE|LAYER|"
                        r"INVISIBILITY|TEXT|FONT|OVER_RIDING|CONTEXT_DEPENDENT|MEASURE_REPRESENTATION_ITEM|VALUE_REPRESENTATION_ITEM")
