@@ -294,3 +294,52 @@ def test_touching_bodies_are_textured_with_union():
     tx = texcad.texture(mesh, "top", "builtin:stones", height=0.5, pitch=1.0, union=True)
     assert tx.gate.shells.bodies == 1 and tx.mesh.is_watertight
     assert tx.volume > 2 * 20.0**3
+
+
+def _needle_box():
+    """A unit box whose edge ``p q`` is split at its middle ``m`` on one side, the
+    T-junction stitched with the needle ``(p, q, m)`` (zero area), as PrusaSlicer's
+    3MF stitches them: closed, every edge in two triangles."""
+    b = trimesh.creation.box((1.0, 1.0, 1.0))
+    v, f = np.array(b.vertices), np.array(b.faces, dtype=np.int64)
+    p, q, x = f[0]
+    m = len(v)
+    v = np.vstack([v, 0.5 * (v[p] + v[q])])
+    f = np.vstack([f[1:], [[p, m, x], [m, q, x], [p, q, m]]])
+    return v, f
+
+
+def test_a_needle_is_flipped_away():
+    from texcad.solid.repair import flip_needles
+
+    v, f = _needle_box()
+    assert edge_report(f)["watertight"]
+    g, n = flip_needles(v, f)
+    p = v[g]
+    area = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    assert n == 1 and area.min() > 0.1 and edge_report(g)["watertight"] and edge_report(g)["misoriented"] == 0
+    assert trimesh.Trimesh(v, g, process=False).volume == pytest.approx(1.0, rel=1e-12)
+    rv, rf, _ = repair_closed(v, f)  # the repair does it too
+    p = rv[rf]
+    assert np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1).min() > 0.1
+
+
+def test_walls_touching_by_position_are_pulled_apart():
+    """Two boxes indexed apart but touching along an edge (what a reader that joins
+    points by position sees as 4 triangles on one edge): the 4 points there move
+    ``PULL`` mm inwards, after which every edge is in two triangles by position too."""
+    from texcad.report.gate import shell_report
+    from texcad.solid import Mesh
+    from texcad.solid.repair import PULL, pull_apart
+
+    a = trimesh.creation.box((1.0, 1.0, 1.0))
+    v = np.vstack([a.vertices, a.vertices + (1.0, 1.0, 0.0)])
+    f = np.vstack([a.faces, a.faces + 8]).astype(np.int64)
+    assert not shell_report(Mesh(v, f)).closed
+    out = pull_apart(v, f)
+    moved = np.linalg.norm(out - v, axis=1)
+    assert np.count_nonzero(moved) == 4 and moved.max() == pytest.approx(PULL, rel=1e-9)
+    assert shell_report(Mesh(out, f)).closed
+    touched = np.isin(f, np.flatnonzero(moved)).any(axis=1)
+    area = trimesh.Trimesh(v, f[touched], process=False).area  # the volume moves by at most PULL x this
+    assert 0 < 2.0 - trimesh.Trimesh(out, f, process=False).volume <= PULL * area

@@ -3,7 +3,11 @@
 What a downloaded STL/3MF/OBJ needs before it can be displaced, in order:
 
 1. vertices equal to ``merge`` mm (1e-8) are one vertex (first occurrence kept, in
-   input order);
+   input order); unless that leaves the mesh open or non-manifold where its own
+   indexing closes it (PrusaSlicer's 3MF keeps apart points of two walls that touch
+   along a line, with needle triangles there): then the indexing is kept, the needles
+   flipped away (:func:`flip_needles`) and the walls pulled 2 um apart there
+   (:func:`pull_apart`);
 2. triangles with a repeated vertex (after merging) or with the same three vertices
    as an earlier one are dropped, and so are vertices no triangle uses;
 3. closed: every undirected edge belongs to exactly two triangles. Where not, bodies
@@ -38,7 +42,7 @@ import numpy as np
 from ..errors import InputError
 from .mesh import edge_report, edge_slot_pairs
 
-__all__ = ["repair_closed", "CrossingRepair", "resolve_crossings", "repair_crossings", "split_pinches", "split_edges"]
+__all__ = ["repair_closed", "CrossingRepair", "resolve_crossings", "repair_crossings", "split_pinches", "split_edges", "flip_needles", "pull_apart"]
 
 
 def _merge(v: np.ndarray, f: np.ndarray, merge: float) -> tuple[np.ndarray, np.ndarray]:
@@ -128,6 +132,50 @@ def _touching(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return (tv, tf) if len(tf) and _edge_pairs(tf)[0] is not None else (cv, cf)
 
 
+#: A triangle no higher than this over its longest side (mm) is a needle: its third
+#: point lies on that side (a T-junction stitched with a zero-area triangle).
+NEEDLE = 1e-6
+
+
+def flip_needles(v: np.ndarray, f: np.ndarray, passes: int = 32) -> tuple[np.ndarray, int]:
+    """A closed mesh's needles (:data:`NEEDLE`) removed by flipping their longest side:
+    the needle ``(p, q, m)``, ``m`` on ``pq``, and the triangle across ``pq``,
+    ``(q, p, x)``, become ``(p, x, m)`` and ``(x, q, m)`` - the same surface, no
+    triangle of zero area. Needles beside needles wait for a later pass. Returns
+    ``(faces, needles flipped)``; the faces unchanged where a flip would leave the
+    mesh open or an edge doubled."""
+    f0, g, done = f, f.copy(), 0
+    for _ in range(passes):  # each pass flips needles whose neighbours are not needles
+        slots = edge_slot_pairs(g)
+        p = v[g]
+        side = p[:, [1, 2, 0]] - p
+        length = np.sqrt(np.einsum("ijk,ijk->ij", side, side))
+        k = np.argmax(length, axis=1)
+        area2 = np.linalg.norm(np.cross(side[:, 0], side[:, 2]), axis=1)
+        needle = area2 <= NEEDLE * np.maximum(length[np.arange(len(g)), k], 1e-300)
+        if slots is None or not needle.any():
+            break
+        partner = np.empty(3 * len(g), dtype=np.int64)
+        partner[slots[:, 0]], partner[slots[:, 1]] = slots[:, 1], slots[:, 0]
+        t = np.flatnonzero(needle)
+        across = partner[3 * t + k[t]]
+        other = across // 3
+        ok = ~needle[other]
+        t, across, other = t[ok], across[ok], other[ok]
+        _, first = np.unique(other, return_index=True)
+        t, across, other = t[first], across[first], other[first]
+        if not len(t):
+            break
+        kt, ko = k[t], across % 3
+        pp, q, m = g[t, kt], g[t, (kt + 1) % 3], g[t, (kt + 2) % 3]
+        x = g[other, (ko + 2) % 3]
+        g[t], g[other] = np.stack([pp, x, m], 1), np.stack([x, q, m], 1)
+        done += len(t)
+    if done and (edge_slot_pairs(g) is None or len(np.unique(np.sort(g, axis=1), axis=0)) < len(g)):
+        return f0, 0
+    return g, done
+
+
 def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-8, name: str = "the mesh") -> tuple[np.ndarray, np.ndarray, int]:
     """Closed, consistently wound, outward bodies from a triangle soup (module
     docstring). Returns ``(vertices float64 (N, 3) mm, faces int64 (M, 3), bodies)``.
@@ -147,8 +195,13 @@ def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-
     bad = ~np.isfinite(v).all(axis=1)
     if bad[np.unique(f)].any():
         raise InputError(f"{name} has {int(bad[np.unique(f)].sum())} vertices that are not finite numbers (NaN or inf); export it again")
-    v, f = _merge(v, f, merge)
-    v, f = _touching(v, f)
+    mv, mf = _touching(*_merge(v, f, merge))
+    indexed = False
+    if len(mf) and _edge_pairs(mf)[0] is None:  # closed only as indexed (a 3MF keeps points apart that touch)
+        iv, i_f = _clean(v, f)
+        indexed = bool(len(i_f)) and _edge_pairs(i_f)[0] is not None
+        mv, mf = (iv, i_f) if indexed else (mv, mf)
+    v, f = mv, mf
     if not len(f):
         raise InputError(f"{name} holds no triangles (after dropping degenerate ones)")
     tri, same = _edge_pairs(f)
@@ -167,7 +220,39 @@ def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-
     inward = _depths(p, body) % 2 == 1  # a cavity's shell faces into the cavity
     flip ^= ((np.bincount(body, weights=det) < 0) != inward)[body]
     f[flip] = f[flip][:, ::-1]
+    f, _ = flip_needles(v, f)  # wound alike now: each needle's neighbour runs its long side the other way
+    if indexed:
+        v = pull_apart(v, f)
     return v, f, int(body.max() + 1)
+
+
+#: How far (mm) :func:`pull_apart` moves each copy of a point two walls share.
+PULL = 1e-3
+
+
+def pull_apart(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """A closed, outward mesh whose walls touch along edges only by position (distinct
+    vertices at one point: walls of zero thickness between them, as PrusaSlicer's 3MF
+    keeps them) with each such vertex moved :data:`PULL` mm inwards (against its
+    area-weighted normal): a gap of about 2 um, so that a reader that joins points by
+    position (an STL, the gate) finds every edge in two triangles."""
+    key = np.unique(np.asarray(v, np.float32), axis=0, return_inverse=True)[1].ravel()
+    w = key[f]
+    ends = np.sort(np.stack([w.ravel(), w[:, [1, 2, 0]].ravel()], axis=1), axis=1)
+    _, inv, count = np.unique(ends, axis=0, return_inverse=True, return_counts=True)
+    crowded = count[inv.ravel()] > 2
+    if not crowded.any():
+        return v
+    move = np.unique(np.concatenate([f.ravel()[np.flatnonzero(crowded)], f[:, [1, 2, 0]].ravel()[np.flatnonzero(crowded)]]))
+    p = v[f]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    vn = np.zeros_like(v)
+    for k in range(3):  # per corner of the triangles
+        np.add.at(vn, f[:, k], n)
+    out = v.copy()
+    d = vn[move] / np.maximum(np.linalg.norm(vn[move], axis=1, keepdims=True), 1e-300)
+    out[move] -= PULL * d
+    return out
 
 
 #: A ray direction no mesh made of axis-aligned or 45-degree features runs along.
