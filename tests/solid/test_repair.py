@@ -343,3 +343,22 @@ def test_walls_touching_by_position_are_pulled_apart():
     touched = np.isin(f, np.flatnonzero(moved)).any(axis=1)
     area = trimesh.Trimesh(v, f[touched], process=False).area  # the volume moves by at most PULL x this
     assert 0 < 2.0 - trimesh.Trimesh(out, f, process=False).volume <= PULL * area
+
+
+def test_specks_are_dropped_and_said():
+    """A box with a tetrahedron 30 nm across beside it (debris PrusaSlicer's 3MF
+    carried): the speck goes, the box stays one body, and the result says so."""
+    import texcad
+    from texcad.solid.repair import drop_specks
+
+    box = trimesh.creation.box((20.0, 20.0, 6.0))
+    tet = trimesh.creation.box((3e-5, 3e-5, 3e-5))
+    tet.apply_translation((15.0, 0.0, 0.0))
+    v = np.vstack([box.vertices, tet.vertices])
+    f = np.vstack([box.faces, tet.faces + len(box.vertices)]).astype(np.int64)
+    rv, rf, bodies = repair_closed(v, f)
+    assert bodies == 2
+    dv, df, bodies, n = drop_specks(rv, rf)
+    assert n == 1 and bodies == 1 and len(df) == len(box.faces)
+    tx = texcad.texture(trimesh.Trimesh(v, f, process=False), "top", "builtin:stones", height=0.5, pitch=1.0)
+    assert tx.gate.shells.bodies == 1 and "1 speck dropped" in tx.info["repaired"]

@@ -69,6 +69,7 @@ from ..printability import build_directions, check_critical_angle
 from ..printability.relief import limit_relief
 from ..sources.mask import mask_sampler
 from ..solid import DEFAULT_TOLERANCE, Mesh, check_tolerance, closed_and_oriented, edge_report, repair_closed, self_intersections, shells
+from ..solid.repair import SPECK, drop_specks
 from ..solid.adaptive import build, carried, coarse_mesh, edge_counts, measure, pitch_samples
 from ..solid.repair import repair_crossings
 from ..solid.subdivide import coarsen, face_normals, offset_directions, refine, vertex_normals
@@ -129,9 +130,13 @@ def load_closed(target: Any, *, crossing: bool = True) -> tuple[np.ndarray, np.n
         raise InputError(f"{name} holds no triangles")
     n_in = len(f)
     v, f, bodies = repair_closed(v, f, name=name)
+    v, f, counted, specks = drop_specks(v, f, name)
+    bodies = counted if specks else bodies
     if crossing:
         assert_uncrossed(v, f, name)
     info = {"input_triangles": int(n_in), "repaired_triangles": int(len(f)), "bodies": bodies}
+    if specks:
+        info["repaired"] = f"{specks} speck{'s' if specks > 1 else ''} dropped (shells enclosing under {SPECK:g} mm3)"
     return v, f, bodies, info
 
 
@@ -944,6 +949,7 @@ def _separate_bodies(v: np.ndarray, f: np.ndarray, bodies: int, info: dict, name
         )
     uv, uf, note = union_bodies(v, f, split=split)
     v, f, bodies = repair_closed(uv, uf, name=name)
+    note = f"{info['repaired']}; {note}" if info.get("repaired") else note
     info.update(bodies=bodies, repaired=note, repaired_triangles=int(len(f)))
     return v, f, bodies
 
