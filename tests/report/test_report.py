@@ -313,3 +313,17 @@ def test_manifold_flag_agrees_with_manifold3d():
     for m in bad:
         assert not _closed_manifold(m) and not m3d_ok(m)
         assert not check(m).manifold
+
+
+def test_check_reads_a_step_part_and_texture_takes_its_path(tmp_path):
+    """``texcad check part.step`` tessellates the part (0.01 mm): watertight, its
+    volume within 0.1 %; ``texcad.texture("part.step", ...)`` reads it as the CLI does."""
+    from build123d import Box, Cylinder, export_step
+
+    part = Box(30, 20, 8) - Cylinder(4, 10)
+    export_step(part, str(tmp_path / "part.step"))
+    rep = check(tmp_path / "part.step")
+    assert rep.watertight and rep.manifold and rep.shells == 1
+    assert rep.volume_mm3 == pytest.approx(part.volume, rel=1e-3)
+    tx = texcad.texture(tmp_path / "part.step", "top", "builtin:stones", height=0.5, pitch=0.5)
+    assert tx.volume > part.volume and tx.gate.shells.bodies == 1

@@ -29,7 +29,7 @@ def run(args: argparse.Namespace) -> int:
 def add(sub: argparse._SubParsersAction) -> None:
     c = sub.add_parser(
         "check",
-        help="check a part (STL/3MF/OBJ): watertight, shells, volume, overhang area for a build direction",
+        help="check a part (STL/3MF/OBJ/STEP): watertight, shells, volume, overhang area for a build direction",
         description=(
             "Measure a part for printing: watertight, manifold, shells, volume (mm3), bounding box, "
             "triangles, and the overhang area (mm2: faces looking down flatter than the critical angle, "
@@ -38,7 +38,8 @@ def add(sub: argparse._SubParsersAction) -> None:
             "watertight, 2 if it cannot be read."
         ),
     )
-    c.add_argument("part", metavar="PART", help="part to check: .stl (binary or ASCII) or .3mf")
+    c.add_argument("part", metavar="PART", help="part to check: .stl (binary or ASCII), .3mf, .obj or .step "
+                   "(tessellated to 0.01 mm)")
     c.add_argument(
         "--build-dir",
         default="0,0,1",

@@ -48,7 +48,8 @@ def texture(
     Args:
         target: what to texture: a build123d ``Part``/``Solid``/``Compound`` or
             ``BuildPart``, a CadQuery ``Workplane`` or ``Shape``, an OCP
-            ``TopoDS_Shape`` holding solids, an earlier result (chaining); a 2.5D
+            ``TopoDS_Shape`` holding solids, a STEP file's path (read strictly:
+            :func:`texcad.io.read_step`), an earlier result (chaining); a 2.5D
             :class:`~texcad.Surface` / :class:`~texcad.Profile`; a
             :class:`~texcad.Plate`; or a mesh (a path
             ending in .stl / .3mf / .obj, a :class:`texcad.Mesh`, a ``trimesh.Trimesh``).
@@ -104,4 +105,16 @@ def texture(
         o = dataclasses.replace(o, height=float(texture.max_height))
     from .driver import run
 
-    return run(target, where, texture, o)
+    return run(_read_step_target(target), where, texture, o)
+
+
+def _read_step_target(target: Any) -> Any:
+    """A STEP path (``.step`` / ``.stp``) read as a build123d ``Compound`` (as the
+    command line reads it); any other target as it is."""
+    if not (isinstance(target, (str, os.PathLike)) and os.fspath(target).lower().endswith((".step", ".stp"))):
+        return target
+    from build123d import Compound
+
+    from ..io import read_step
+
+    return Compound(read_step(target))
