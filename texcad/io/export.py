@@ -696,9 +696,13 @@ def extra_perimeter_cut(mesh: Mesh, build_dir=None, *, min_work: float = CUT_MIN
     holding more than :data:`EXTRA_PERIMETER_SHARE` of its contour length, put
     halfway between two multiples of 0.025 mm, where no usual slicing plane lies.
     (The last layer under the cut is compared by PrusaSlicer with nothing, since the
-    layer above it belongs to the other part; measured on the demo plate, that moves
-    no path of it by more than 0.4 mm, and starting the cut lower is what keeps the
-    costly layer pairs where the islands begin out of the pass.) None when no such height
+    layer above it belongs to the other part; starting the cut lower is what keeps
+    the costly layer pairs where the islands begin out of the pass. PrusaSlicer
+    centres each part of an object on its own bounding box in single precision
+    (``ModelVolume::center_geometry_after_creation``), so the cut parts' coordinates
+    round otherwise than the whole mesh's, by under a micrometre: on the layers where
+    a texture's web breaks into islands that moves thin lines as far as nudging the
+    uncut mesh by a micrometre does, docs/benchmarks/slicer_cost.md.) None when no such height
     leaves a cross-section with islands above it, or when the pass above it would
     cost less than the cut: islands times contour vertices summed over the
     cross-sections above it under ``min_work`` (:data:`CUT_MIN_WORK`).
