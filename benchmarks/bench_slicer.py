@@ -528,7 +528,8 @@ def _write_slicer_table(headers, rows, args):
         "as texcad writes it for that slicer (PrusaSlicer: texcad's 3MF, with its per-object settings; CuraEngine, "
         "which reads no 3MF: the STL, with the 3MF's Cura per-object settings (`texcad.io.cura_settings`: skin edge "
         "support off; no skin in z gaps where every line along the build direction meets the part once, "
-        "`texcad.io.single_run`) as that mesh's settings, as Cura passes them on when it loads the 3MF), and beside it the same part untextured as an STL (its CAD shape tessellated to "
+        "`texcad.io.single_run`, or where its gaps along it lie within the walls' depth or are taller than the top "
+        "thickness, `texcad.io.export.skin_gap_area`) as that mesh's settings, as Cura passes them on when it loads the 3MF), and beside it the same part untextured as an STL (its CAD shape tessellated to "
         f"{RECIPE_BARE_TOLERANCE:g} mm and 0.05 rad; a mesh part's base). Support on everywhere, threshold 45 degrees "
         "(the critical angle), 0.4 mm nozzle, each slicer's default layers (PrusaSlicer 0.3 mm, CuraEngine 0.2 mm "
         "in texcad's definition); CuraEngine's support laid as plain lines "
@@ -601,6 +602,26 @@ def _cube(side: float):
     return Mesh(v, np.array(f, dtype=np.uint32))
 
 
+#: mm: how far :func:`_nudged` moves a mesh's farthest vertex (a micrometre).
+NUDGE = 0.001
+
+
+def _nudged(mesh):
+    """``mesh`` scaled across the build plate (x, y) about its bounding box's centre
+    so that its farthest vertex moves by :data:`NUDGE` mm: the same part, every
+    coordinate moved by at most a micrometre (a uniform shift would be undone when
+    the part is centred on the bed)."""
+    import numpy as np
+
+    v = mesh.vertices.astype(np.float64)
+    c = (v.min(axis=0) + v.max(axis=0)) / 2
+    r = float(np.abs(v[:, :2] - c[:2]).max())
+    v[:, :2] = c[:2] + (v[:, :2] - c[:2]) * (1.0 + NUDGE / r)
+    out = type(mesh)(v.astype(np.float32), mesh.faces)
+    out.__dict__["is_watertight"] = mesh.is_watertight
+    return out
+
+
 def cost(args) -> None:
     """PrusaSlicer's CPU seconds at its defaults for each part bare (STL), textured as
     an STL, and textured as the 3MF texcad writes (its per-object settings), and how
@@ -617,7 +638,8 @@ def cost(args) -> None:
         bare, tex = _demo_part(args.demo_pitch, args.demo_side)
         parts.append((f"demo plate {args.demo_side:g} x {args.demo_side:g} mm, stones at {args.demo_pitch:g} mm", "+z", bare, tex, (0.0, 0.0, 1.0)))
     headers = ["part", "printed", "triangles", "bare CPU s", "textured STL CPU s", "plain 3MF CPU s", "texcad's 3MF CPU s",
-               "texcad's 3MF / bare", "what texcad's 3MF adds", "toolpaths moved by it, mm (specks left out)", "toolpaths STL vs texcad's 3MF, mm"]
+               "texcad's 3MF / bare", "what texcad's 3MF adds", "toolpaths moved by it, mm (specks left out)", "toolpaths STL vs texcad's 3MF, mm",
+               f"plain 3MF nudged by {NUDGE * 1000:g} um: toolpaths moved, mm (specks left out)"]
     notes = (
         "PrusaSlicer 2.5 at its defaults (0.3 mm layers, 0.4 mm nozzle, support off), each part in its print orientation. "
         "CPU s = user + system time of the slicer process (all threads), the slices of a row run one after the other. "
@@ -629,7 +651,11 @@ def cost(args) -> None:
         "`texcad.report.slicer.toolpath_deviation`); in brackets the same with the specks left out (unbroken "
         "extrusions under a nozzle width across, `Toolpaths.without_specks(0.4)`: perimeters of islands a tenth of a "
         "mm wide, which appear or vanish when a coordinate moves by a micrometre). STL vs texcad's 3MF adds what "
-        "the file format's rounding changes. "
+        "the file format's rounding changes. Nudged: the plain 3MF with the mesh scaled across the bed about its "
+        f"centre so that its farthest vertex moves by {NUDGE * 1000:g} um, against the plain 3MF: how far PrusaSlicer's "
+        "own paths move when a coordinate moves by a micrometre (as it does when PrusaSlicer centres each part of an "
+        "object on its bounding box in single precision, `ModelVolume::center_geometry_after_creation`, which gives "
+        "a cut part other roundings than the whole mesh). "
         f"Small parts at texture pitch {args.pitch:g} mm; a slice that ran past {args.timeout:g} s of wall time "
         "(2 cores shared with other jobs) is marked so."
     )
@@ -649,6 +675,8 @@ def cost(args) -> None:
             e = sliced(textured, args.timeout, build_dir=d, keep=g_set, file="3mf", layout=False)
             c = sliced(textured, args.timeout, build_dir=d, keep=g_3mf, file="3mf")
             a = sliced(textured, args.timeout, build_dir=d, keep=g_stl)
+            g_nudge = Path(tmp) / "nudged.gcode"
+            n = sliced(_nudged(textured), args.timeout, build_dir=d, keep=g_nudge, file="3mf", layout=False)
             from texcad.printability import print_rotation
 
             R = print_rotation(d)
@@ -657,7 +685,7 @@ def cost(args) -> None:
             for label, rep in (("bare", b), ("textured STL", a), ("plain 3MF", e), ("texcad's 3MF", c)):
                 row(f"{name[:30]} {label}", rep)
             cpu = lambda r: f"{r.cpu_seconds:.1f}" if r else f"ran past {args.timeout:g} s"
-            paths = {k: read_toolpaths(g) for k, g, r in (("stl", g_stl, a), ("plain", g_set, e), ("3mf", g_3mf, c)) if r}
+            paths = {k: read_toolpaths(g) for k, g, r in (("stl", g_stl, a), ("plain", g_set, e), ("3mf", g_3mf, c), ("nudged", g_nudge, n)) if r}
             dev = lambda x, y, speck=0.0: (toolpath_deviation(paths[x].without_specks(speck), paths[y].without_specks(speck)).max()
                                            if x in paths and y in paths else float("nan"))
             written = ", ".join(f"{k} = {v}" for k, v in lay.settings.items()) or "none"
@@ -666,7 +694,8 @@ def cost(args) -> None:
             f2 = lambda x: f"{x:.2f}" if np.isfinite(x) else "-"
             rows.append([name, orient, f"{textured.num_triangles:,}", cpu(b), cpu(a), cpu(e), cpu(c),
                          f"{c.cpu_seconds / b.cpu_seconds:.1f}x" if b and c else "-", written,
-                         f"{f2(dev('plain', '3mf'))} ({f2(dev('plain', '3mf', NOZZLE))})", f2(dev("stl", "3mf"))])
+                         f"{f2(dev('plain', '3mf'))} ({f2(dev('plain', '3mf', NOZZLE))})", f2(dev("stl", "3mf")),
+                         f"{f2(dev('plain', 'nudged'))} ({f2(dev('plain', 'nudged', NOZZLE))})"])
             path = write_table("slicer_cost", headers, rows, title="Slicing cost, bare and textured, STL and texcad's 3MF", notes=notes)
     print(f"wrote {path}")
 

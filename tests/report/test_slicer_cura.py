@@ -105,12 +105,55 @@ def test_single_run_finds_every_gap_along_the_build_direction():
     plate = _plate(20.0, 1.0).mesh
     assert single_run(plate) and single_run(plate, (0, 0, -1))
     assert not single_run(plate, (0, 1, 0)) and not single_run(plate, (1, 0, 0))
-    slotted = shape_to_mesh(Cylinder(10, 40, align=(Align.CENTER, Align.CENTER, Align.MIN)) - Pos(0, 0, 30) * Box(30, 6, 8))
+    slotted = _slotted(0.6)
     assert not single_run(slotted) and single_run(slotted, (1, 0, 0))
     table = shape_to_mesh(Box(30, 10, 2) + Pos(-12, 0, -5) * Box(6, 10, 10) + Pos(12, 0, -5) * Box(6, 10, 10))
     assert single_run(table) and not single_run(table, (1, 0, 0))
     assert CURA_SINGLE_RUN_SETTINGS.items() <= cura_settings(plate).items()
     assert cura_settings(slotted) == CURA_TEXTURE_SETTINGS and cura_settings(plate, textured=False) == {}
+
+
+def _slotted(height: float):
+    """A cylinder 20 mm across and 20 mm tall with a slot 6 mm wide and ``height`` mm
+    tall through it at 10 mm: a gap along its axis."""
+    from build123d import Align, Box, Cylinder, Pos
+
+    from texcad.brep import shape_to_mesh
+
+    return shape_to_mesh(Cylinder(10, 20, align=(Align.CENTER, Align.CENTER, Align.MIN)) - Pos(0, 0, 10) * Box(30, 6, height))
+
+
+def _knurled_block(pitch: float = 1.0):
+    """A 20 x 16 x 12 mm block with a 0.8 mm diamond knurl on its four sides (triplanar),
+    limited for +z: gaps along z between the bumps, in the walls' depth."""
+    import tempfile
+    import warnings
+    from pathlib import Path
+
+    from build123d import Align, Box, export_stl
+
+    with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
+        warnings.simplefilter("ignore", texcad.TexcadWarning)
+        stl = Path(tmp) / "block.stl"
+        export_stl(Box(20, 16, 12, align=(Align.MIN, Align.MIN, Align.MIN)), str(stl))
+        spec = ("not:normal:+z:30", "builtin:diamond_knurl:period=2.5", {"height": 0.8, "projection": "triplanar"})
+        return texcad.texture(stl, [spec], pitch=pitch, build_dir=(0, 0, 1)).mesh
+
+
+def test_skin_gap_area_sees_only_gaps_the_skin_can_see():
+    """``skin_gap_area``: a slot thinner than the top thickness (0.6 mm) is a gap the
+    skin sees (the layers under and over it get skin only without the setting); an
+    8 mm slot, taller than the top thickness, and the gaps
+    between a knurl's bumps on a side, within the walls' depth, are not: those parts
+    get "no skin in z gaps" though a line along z meets them more than once."""
+    from texcad.io.export import SKIN_GAP_AREA, skin_gap_area
+
+    thin, tall, knurl = _slotted(0.6), _slotted(8.0), _knurled_block()
+    assert skin_gap_area(thin) > 10.0  # mm^2: the slot's floor and ceiling, across the cylinder
+    assert skin_gap_area(tall) <= SKIN_GAP_AREA and skin_gap_area(thin, (1, 0, 0)) <= SKIN_GAP_AREA
+    assert not texcad.io.single_run(knurl) and skin_gap_area(knurl) <= SKIN_GAP_AREA
+    assert CURA_SINGLE_RUN_SETTINGS.items() <= cura_settings(knurl).items()
+    assert CURA_SINGLE_RUN_SETTINGS.items() <= cura_settings(tall).items()
 
 
 @cura
@@ -129,3 +172,24 @@ def test_no_skin_in_z_gaps_gives_the_same_gcode_in_less_time(tmp_path):
     moved = slicer.toolpath_deviation(slicer.read_toolpaths(tmp_path / "before.gcode"), slicer.read_toolpaths(tmp_path / "ours.gcode"))
     assert len(moved) == before.layers and moved.max() < 0.01
     assert ours.cpu_seconds < 0.85 * before.cpu_seconds
+
+
+@cura
+@pytest.mark.parametrize("which", ["knurl", "tall slot", "thin slot"])
+def test_no_skin_in_z_gaps_where_skin_gap_area_allows_it(tmp_path, which):
+    """CuraEngine with and without "no skin in z gaps" on parts a line along z meets
+    more than once: where ``skin_gap_area`` allows the setting (a knurled block, an
+    8 mm slot) every path lies where it lay; where it does not (a 1 mm slot, thinner
+    than the top thickness) the skin moves by more than a bead, which is why texcad
+    does not write it there."""
+    from texcad.io.export import SKIN_GAP_AREA, skin_gap_area
+
+    m = {"knurl": _knurled_block, "tall slot": lambda: _slotted(8.0), "thin slot": lambda: _slotted(1.0)}[which]()
+    cfg = {**slicer.support_config("curaengine", 45), **CURA_TEXTURE_SETTINGS}
+    off = slicer.slice_mesh(m, slicer="curaengine", config=cfg, keep=tmp_path / "off.gcode")
+    on = slicer.slice_mesh(m, slicer="curaengine", config={**cfg, **CURA_SINGLE_RUN_SETTINGS}, keep=tmp_path / "on.gcode")
+    assert off.returncode == 0 and on.returncode == 0 and on.support_mm == off.support_mm
+    moved = slicer.toolpath_deviation(slicer.read_toolpaths(tmp_path / "off.gcode"), slicer.read_toolpaths(tmp_path / "on.gcode"))
+    allowed = skin_gap_area(m) <= SKIN_GAP_AREA
+    assert allowed == (which != "thin slot")
+    assert len(moved) == off.layers and (moved.max() < 0.01 if allowed else moved.max() > NOZZLE)

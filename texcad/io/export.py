@@ -478,7 +478,9 @@ CURA_TEXTURE_SETTINGS = {"skin_edge_support_thickness": 0, "skin_edge_support_la
 #: vertical line meets the part in one run, whatever lies solid in the farthest layer
 #: lies solid in every layer between, so the intersection is that layer and the skin
 #: the same: the G-code is the same (tested). A part with a gap along the build
-#: direction (a slot, a ledge, a groove under an overhang) does not get it.
+#: direction gets it too where the gap cannot change the skin (:func:`skin_gap_area`:
+#: gaps within the walls' depth, such as between the bumps of a knurled side, or
+#: taller than the top thickness); a thin slot, a ledge just over air does not.
 CURA_SINGLE_RUN_SETTINGS = {"skin_no_small_gaps_heuristic": True}
 #: mm: spacing of the lines along the build direction :func:`single_run` tests, a
 #: 0.4 mm nozzle's width: Cura drops skin narrower than its "skin removal width"
@@ -538,19 +540,109 @@ def _covered_lines(tri, area2, lo, hi, origin, step, width) -> np.ndarray:
     return row[inside] * width + col[inside]
 
 
+#: mm: how far inside a layer's outline CuraEngine 4.13's skin begins with Cura's
+#: defaults for a 0.4 mm nozzle: two walls of 0.4 mm
+#: (``SkinInfillAreaComputation::generateSkinAndInfillAreas``, the innermost wall's
+#: inner edge); more walls or a wider nozzle put it deeper.
+SKIN_INSET = 0.8
+#: mm: how far it grows the other layers' outlines before it compares them with that
+#: skin (its "skin removal width", by default the walls' width, less the walls'
+#: insets: half the outer wall).
+SKIN_REACH = 0.2
+#: mm: the top and bottom skin thickness :func:`skin_gap_area` allows for: Cura's
+#: default is 0.8 mm, texcad's CuraEngine definition 6 layers of 0.2 mm. A gap
+#: along the build direction taller than this is seen the same way with or without
+#: "no skin in z gaps" (both see air on the farthest layer).
+SKIN_WINDOW = 1.2
+#: mm between the cross-sections :func:`skin_gap_area` compares (finer than the usual layers).
+SKIN_STEP = 0.1
+#: mm^2: area below which :func:`cura_settings` takes a layer's skin to be the same
+#: (what the slicers' own rounding of the outlines, 0.025 mm, moves).
+SKIN_GAP_AREA = 0.01
+
+
+def skin_gap_area(mesh: Mesh, build_dir=None, *, inset: float = SKIN_INSET, reach: float = SKIN_REACH,
+                  window: float = SKIN_WINDOW, step: float = SKIN_STEP) -> float:
+    """The largest area (mm^2) of one cross-section of ``mesh`` (mm) printed along
+    ``build_dir`` (None: +z) where CuraEngine 4.13's skin could differ with "no skin
+    in z gaps": 0 where it is the same on every layer.
+
+    For a layer's top skin CuraEngine takes the part at least ``inset`` mm inside
+    the layer's outline and removes what lies within ``reach`` mm of every layer
+    above it up to the top thickness; with the setting, only of the farthest of
+    them. The two differ at a point only where the part is deep there on a layer
+    below, more than ``reach`` from it on a layer, and within ``reach`` on a layer
+    above, all within ``window`` mm (and the same downwards for bottom skin): a gap
+    along the build direction that reaches deeper than the walls and is thinner than
+    the top thickness. Gaps in the walls' depth (between the bumps of a knurl on a
+    side) or taller than the window change nothing. Cross-sections every ``step``
+    mm; the unions over the window are made in blocks of its length, two per
+    cross-section (van Herk / Gil-Werman). A mesh that is not one closed solid:
+    infinity."""
+    import manifold3d as m3d
+
+    try:
+        man = _upright(mesh, build_dir)[0]
+    except GeometryError:
+        return float("inf")
+    lo, hi = man.bounding_box()[2], man.bounding_box()[5]
+    sections = [man.slice(float(z)) for z in lo + np.arange(step / 2, hi - lo, step)]  # per cross-section
+    deep = [s.offset(-inset, m3d.JoinType.Miter) for s in sections]
+    near = [s.offset(reach, m3d.JoinType.Miter) for s in sections]
+    w = max(1, int(round(window / step)))
+    deep_below, deep_above = _window_unions(deep, w)
+    near_below, near_above = _window_unions(near, w)
+    worst = 0.0
+    for j in range(len(sections)):  # per cross-section
+        top = ((deep_below[j] - near[j]) ^ near_above[j]).area()
+        bottom = ((deep_above[j] - near[j]) ^ near_below[j]).area()
+        worst = max(worst, top, bottom)
+    return worst
+
+
+def _window_unions(sections: list, w: int) -> tuple[list, list]:
+    """``(below, above)``: for each ``j`` the union of ``sections[j-w:j]`` and of
+    ``sections[j+1:j+1+w]`` (manifold3d CrossSections), from prefix and suffix
+    unions within blocks of ``w``."""
+    import manifold3d as m3d
+
+    n, empty = len(sections), m3d.CrossSection()
+    pre, suf = [empty] * n, [empty] * n
+    for s in range(0, n, w):  # per block
+        acc = empty
+        for t in range(s, min(n, s + w)):
+            acc = pre[t] = acc + sections[t]
+        acc = empty
+        for t in range(min(n, s + w) - 1, s - 1, -1):
+            acc = suf[t] = acc + sections[t]
+
+    def union(a: int, b: int):  # sections[a:b], b - a <= w
+        if b <= a:
+            return empty
+        if a // w != (b - 1) // w:
+            return suf[a] + pre[b - 1]
+        if a % w == 0:
+            return pre[b - 1]
+        return suf[a] if b == n or b % w == 0 else m3d.CrossSection.batch_boolean(sections[a:b], m3d.OpType.Add)
+
+    return [union(max(0, j - w), j) for j in range(n)], [union(j + 1, min(n, j + 1 + w)) for j in range(n)]
+
+
 def cura_settings(mesh: Mesh | None = None, build_dir=None, *, textured: bool = True) -> dict[str, Any]:
     """The Cura per-object settings :func:`export` writes into a 3MF (Cura's 3MF
     reader applies them to the object): :data:`CURA_TEXTURE_SETTINGS` for a textured
     part (texcad's meshes), and :data:`CURA_SINGLE_RUN_SETTINGS` when ``mesh``
     printed along ``build_dir`` (None: +z) has one run of solid on every line along
-    it (:func:`single_run`); none for a CAD shape (``textured=False``). Without a
+    it (:func:`single_run`) or, with Cura's defaults for a 0.4 mm nozzle, no gap
+    along it that its skin can see (:func:`skin_gap_area` at most
+    :data:`SKIN_GAP_AREA`); none for a CAD shape (``textured=False``). Without a
     mesh, the texture settings alone. CuraEngine's command line, which reads no 3MF,
     takes the same settings as ``-s key=value`` after the mesh's ``-l``
     (:func:`texcad.report.slicer.slice_mesh`)."""
     if not textured:
         return {}
     out = dict(CURA_TEXTURE_SETTINGS)
-    if mesh is not None and single_run(mesh, build_dir):
+    if mesh is not None and (single_run(mesh, build_dir) or skin_gap_area(mesh, build_dir) <= SKIN_GAP_AREA):
         out.update(CURA_SINGLE_RUN_SETTINGS)
     return out
 
@@ -604,9 +696,13 @@ def extra_perimeter_cut(mesh: Mesh, build_dir=None, *, min_work: float = CUT_MIN
     holding more than :data:`EXTRA_PERIMETER_SHARE` of its contour length, put
     halfway between two multiples of 0.025 mm, where no usual slicing plane lies.
     (The last layer under the cut is compared by PrusaSlicer with nothing, since the
-    layer above it belongs to the other part; measured on the demo plate, that moves
-    no path of it by more than 0.4 mm, and starting the cut lower is what keeps the
-    costly layer pairs where the islands begin out of the pass.) None when no such height
+    layer above it belongs to the other part; starting the cut lower is what keeps
+    the costly layer pairs where the islands begin out of the pass. PrusaSlicer
+    centres each part of an object on its own bounding box in single precision
+    (``ModelVolume::center_geometry_after_creation``), so the cut parts' coordinates
+    round otherwise than the whole mesh's, by under a micrometre: on the layers where
+    a texture's web breaks into islands that moves thin lines as far as nudging the
+    uncut mesh by a micrometre does, docs/benchmarks/slicer_cost.md.) None when no such height
     leaves a cross-section with islands above it, or when the pass above it would
     cost less than the cut: islands times contour vertices summed over the
     cross-sections above it under ``min_work`` (:data:`CUT_MIN_WORK`).
