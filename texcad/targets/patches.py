@@ -216,13 +216,16 @@ class PatchBodies:
     (raised, centred), ``cutter`` to subtract (engraved, centred), ``low_cutter``
     (the texture at its lowest: the base the texture mesh is measured against);
     ``error``: the lean side's measured largest error, mm; ``top_triangles``: the
-    textured side's triangle count."""
+    textured side's triangle count; ``lean_top``: ``(R, C)`` mm, the raised slab's
+    lean top at every grid point, as an offset along the normal (None: the slab's
+    top is the grid itself, or the texture is not raised; :func:`lean_offsets`)."""
 
     slab: Optional[Mesh]
     cutter: Optional[Mesh]
     low_cutter: Optional[Mesh]
     error: float
     top_triangles: int
+    lean_top: Optional[np.ndarray] = None
 
 
 @dataclass(frozen=True)
@@ -274,6 +277,15 @@ class PatchRelief:
     def max_error(self) -> float:
         """The lean side's measured largest error, mm (0: the grid itself)."""
         return self.bodies.error
+
+    @property
+    def brep_top(self) -> np.ndarray:
+        """``(R, C)`` mm: the heights a one-face B-rep is made of: the lean top
+        where the slab's textured side is lean (:attr:`PatchBodies.lean_top`: the
+        B-rep then follows the mesh, not the grid the mesh lies within its tolerance
+        of; a stones torus at 0.125 mm was +0.09 % off its lean mesh, +0.10 % after a
+        drill), else ``h_top``."""
+        return self.h_top if self.bodies.lean_top is None else self.bodies.lean_top
 
 
 # ------------------------------------------------------------------------------------------
@@ -645,6 +657,7 @@ def patch_bodies(g: PatchGrid, surf: PatchSurface, opts: PatchOptions, faces: tu
     P, N = grid.points, grid.normals
     s, c, fc = surf.surface, surf.c, surf.floor_c
     tex_tri, err = _lean_relief(g, surf, float(opts.tolerance), opts)
+    lean_top = lean_offsets(P, N, s, tex_tri, grid.wrap_y) if tex_tri is not None and c == 0 else None
     if tex_tri is None:
         tex_tri = _cell_triangles(cells, grid.wrap_y)
     ring = _outline_ring(cells, grid.wrap_y)
@@ -667,7 +680,42 @@ def patch_bodies(g: PatchGrid, surf: PatchSurface, opts: PatchOptions, faces: tu
         low = body(np.minimum(-c * surf.env, -fc) - 2 * fc, above, False, outside)
         if c < 1:
             slab = body(np.where(surf.band, -surf.sink, s), np.minimum(-surf.depth, cut_bottom - 0.05), True, inside)
-    return PatchBodies(slab, cutter, low, err, len(tex_tri))
+    return PatchBodies(slab, cutter, low, err, len(tex_tri), lean_top)
+
+
+def lean_offsets(P: np.ndarray, N: np.ndarray, s: np.ndarray, tri: np.ndarray, wrap: bool) -> np.ndarray:
+    """``(R, C)`` mm: the lean surface through ``P + s N`` (grid points and unit
+    normals ``(R, C, 3)`` mm, offsets ``s`` mm) over the triangles ``tri`` (flat grid
+    indices, ``(M, 3)``; rows closed round when ``wrap``) at every grid point, as
+    its offset along the point's normal: each point inside a triangle in the grid's
+    index plane gets the triangle's point at its barycentric coordinates there (the
+    lean facet's chord under a curved face included); points under no triangle keep
+    ``s``. Vectorized over the points of each triangle's bounding box."""
+    R, C = s.shape
+    rows, cols = tri // C, tri % C
+    if wrap:  # a triangle across the seam: row 0 is row R there
+        rows = np.where((rows.max(axis=1, keepdims=True) - rows.min(axis=1, keepdims=True)) > R // 2,
+                        np.where(rows == 0, R, rows), rows)
+    Pe, Ne, se = (np.concatenate([a, a[:1]]) for a in (P, N, s)) if wrap else (P, N, s)
+    V = Pe + se[..., None] * Ne  # the lean surface's vertices
+    r0, r1, c0, c1 = rows.min(1), rows.max(1), cols.min(1), cols.max(1)
+    nr, nc = r1 - r0 + 1, c1 - c0 + 1
+    k = np.repeat(np.arange(len(tri)), nr * nc)  # one per point of each triangle's box
+    local = np.arange(len(k)) - np.repeat(np.cumsum(nr * nc) - nr * nc, nr * nc)
+    qr, qc = r0[k] + local // nc[k], c0[k] + local % nc[k]
+    (ar, br, cr), (ac, bc, cc) = rows[k].T, cols[k].T
+    det = (br - ar) * (cc - ac) - (cr - ar) * (bc - ac)
+    l1 = ((qr - ar) * (cc - ac) - (cr - ar) * (qc - ac)) / det
+    l2 = ((br - ar) * (qc - ac) - (qr - ar) * (bc - ac)) / det
+    lam = np.stack([1.0 - l1 - l2, l1, l2], axis=1)
+    inside = (lam >= -1e-9).all(axis=1) & (det != 0)
+    k, qr, qc, lam = k[inside], qr[inside] % R, qc[inside], lam[inside]
+    corners = tri[k]  # flat indices of the three lean vertices (their rows mod R)
+    L = sum(lam[:, j, None] * V.reshape(-1, 3)[np.where(rows[k, j] == R, corners[:, j] % C + R * C, corners[:, j])]
+            for j in range(3))
+    out = np.asarray(s, np.float64).copy()
+    out[qr, qc] = np.einsum("ij,ij->i", L - P[qr, qc], N[qr, qc])
+    return out
 
 
 def _cut_above(grid: Any, faces: tuple) -> np.ndarray:
