@@ -370,3 +370,21 @@ def test_lean_sphere_b_rep_follows_its_mesh():
     shape = flat_solids(tx.shape)
     assert abs(occt_volume(shape) - tx.volume) <= 2e-4 * tx.volume
     assert abs(Part(shape).volume - tx.volume) <= 2e-4 * tx.volume
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_fillet_of_a_textured_faces_edge_says_so():
+    """The top circle of a textured cone, picked from ``textured.part.edges()`` (a
+    piece of it: the strips cut it), is found on the plain part; where the B-rep's
+    fillet and the mesh's disagree (the mesh's takes the relief off, the B-rep's
+    keeps it up to the fillet) the error says the edge borders the textured face
+    and names STL or 3MF, while the mesh result is made."""
+    from build123d import Align, Axis, Box, Cone, GeomType, Pos
+
+    up = (Align.CENTER, Align.CENTER, Align.MIN)
+    part = Box(30, 30, 3) + Pos(0, 0, 1.5) * Cone(10, 6, 12, align=up)
+    tx = texcad.texture(part, part.faces().filter_by(GeomType.CONE)[0], "builtin:stones", height=0.4, pitch=0.5)
+    rounded = tx.fillet(tx.part.edges().filter_by(GeomType.CIRCLE).sort_by(Axis.Z)[-1:], 0.8)
+    assert tx.volume - 5 < rounded.volume < tx.volume - 0.5  # the mesh's fillet took the rim off
+    with pytest.raises(GeometryError, match="borders the textured face.*STL or 3MF"):
+        rounded.shape
