@@ -592,11 +592,12 @@ def fillet(part: Any, edges: Sequence[Any], radius: float) -> Any:
         try:
             return _plain_first(hist, world, mesh, "fillet", bodies, info, (float(part.mesh.volume), _slack(part)))
         except GeometryError as exc:
-            if not textured_edge:
+            why = (". An edge to fillet borders the textured face: there the mesh's fillet takes off the relief and the "
+                   "B-rep's keeps it up to the fillet; fillet the part before texturing it for a B-rep") if textured_edge else ""
+            fine = "" if "STL" in str(exc) else " (the mesh result is fine: write STL or 3MF)"
+            if not (why or fine):
                 raise
-            raise GeometryError(f"{exc}. An edge to fillet borders the textured face: there the mesh's fillet takes off "
-                                "the relief and the B-rep's keeps it up to the fillet; fillet the part before texturing "
-                                "it for a B-rep (the mesh result is fine: write STL or 3MF)") from None
+            raise GeometryError(f"{exc}{why}{fine}") from None
 
     info = _info(part, "fillet")
     return _derived(part, mesh=mesh, texture_mesh=lambda: part.texture_mesh, base_mesh=lambda: _changed(part.base_mesh, change),
@@ -706,8 +707,10 @@ def mirror(part: Any, origin: Sequence[float] = (0.0, 0.0, 0.0), normal: Sequenc
 
         def shape():
             mesh = _mirrored_mesh(part.mesh, m)
-            return _checked(_apply(_replay(hist), world), mesh, "mirror", len(to_manifold(mesh).decompose()), info,
-                            hist.get("offset", 0.0))
+            bodies = len(to_manifold(mesh).decompose())
+            if hist["make"] is None and hist["steps"]:  # operations made so far: on the plain part first, as they were
+                return _plain_first(hist, world, mesh, "mirror", bodies, info)
+            return _checked(_apply(_replay(hist), world), mesh, "mirror", bodies, info, hist.get("offset", 0.0))
 
     info = _info(part, "mirror")
     return _derived(
