@@ -690,32 +690,49 @@ def lean_offsets(P: np.ndarray, N: np.ndarray, s: np.ndarray, tri: np.ndarray, w
     its offset along the point's normal: each point inside a triangle in the grid's
     index plane gets the triangle's point at its barycentric coordinates there (the
     lean facet's chord under a curved face included); points under no triangle keep
-    ``s``. Vectorized over the points of each triangle's bounding box."""
+    ``s``. Vectorized over the points of the triangles' bounding boxes, in chunks of
+    at most :data:`LEAN_CHUNK` points."""
     R, C = s.shape
     rows, cols = tri // C, tri % C
     if wrap:  # a triangle across the seam: row 0 is row R there
         rows = np.where((rows.max(axis=1, keepdims=True) - rows.min(axis=1, keepdims=True)) > R // 2,
                         np.where(rows == 0, R, rows), rows)
     Pe, Ne, se = (np.concatenate([a, a[:1]]) for a in (P, N, s)) if wrap else (P, N, s)
-    V = Pe + se[..., None] * Ne  # the lean surface's vertices
+    V = (Pe + se[..., None] * Ne).reshape(-1, 3)  # the lean surface's vertices (row R: row 0 again)
+    unrolled = rows * C + cols
+    out = np.asarray(s, np.float64).copy()
+    box = (rows.max(1) - rows.min(1) + 1) * (cols.max(1) - cols.min(1) + 1)
+    ends = np.searchsorted(np.cumsum(box), np.arange(LEAN_CHUNK, int(box.sum()) + LEAN_CHUNK, LEAN_CHUNK), side="right")
+    start = 0
+    for end in np.unique(np.clip(ends, 1, len(tri))):  # one per chunk of triangles
+        qr, qc, L = _lean_points(rows[start:end], cols[start:end], V[unrolled[start:end]])
+        out[qr % R, qc] = np.einsum("ij,ij->i", L - P[qr % R, qc], N[qr % R, qc])
+        start = end
+    return out
+
+
+#: Grid points (over the triangles' bounding boxes) :func:`lean_offsets` handles at once.
+LEAN_CHUNK = 1_000_000
+
+
+def _lean_points(rows: np.ndarray, cols: np.ndarray, corners: np.ndarray) -> tuple:
+    """``(qr, qc, L)``: the grid points ``(qr, qc)`` inside the triangles with grid
+    corners ``rows``, ``cols`` ``(M, 3)`` and points ``corners`` ``(M, 3, 3)`` mm,
+    and the triangles' points ``L`` ``(n, 3)`` there (barycentric in the index plane)."""
     r0, r1, c0, c1 = rows.min(1), rows.max(1), cols.min(1), cols.max(1)
     nr, nc = r1 - r0 + 1, c1 - c0 + 1
-    k = np.repeat(np.arange(len(tri)), nr * nc)  # one per point of each triangle's box
+    k = np.repeat(np.arange(len(rows)), nr * nc)  # one per point of each triangle's box
     local = np.arange(len(k)) - np.repeat(np.cumsum(nr * nc) - nr * nc, nr * nc)
     qr, qc = r0[k] + local // nc[k], c0[k] + local % nc[k]
     (ar, br, cr), (ac, bc, cc) = rows[k].T, cols[k].T
     det = (br - ar) * (cc - ac) - (cr - ar) * (bc - ac)
-    l1 = ((qr - ar) * (cc - ac) - (cr - ar) * (qc - ac)) / det
-    l2 = ((br - ar) * (qc - ac) - (qr - ar) * (bc - ac)) / det
+    safe = np.where(det == 0, 1, det)
+    l1 = ((qr - ar) * (cc - ac) - (cr - ar) * (qc - ac)) / safe
+    l2 = ((br - ar) * (qc - ac) - (qr - ar) * (bc - ac)) / safe
     lam = np.stack([1.0 - l1 - l2, l1, l2], axis=1)
     inside = (lam >= -1e-9).all(axis=1) & (det != 0)
-    k, qr, qc, lam = k[inside], qr[inside] % R, qc[inside], lam[inside]
-    corners = tri[k]  # flat indices of the three lean vertices (their rows mod R)
-    L = sum(lam[:, j, None] * V.reshape(-1, 3)[np.where(rows[k, j] == R, corners[:, j] % C + R * C, corners[:, j])]
-            for j in range(3))
-    out = np.asarray(s, np.float64).copy()
-    out[qr, qc] = np.einsum("ij,ij->i", L - P[qr, qc], N[qr, qc])
-    return out
+    k, lam = k[inside], lam[inside]
+    return qr[inside], qc[inside], np.einsum("ij,ijk->ik", lam, corners[k])
 
 
 def _cut_above(grid: Any, faces: tuple) -> np.ndarray:
