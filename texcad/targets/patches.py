@@ -48,7 +48,8 @@ from ..util import smoothstep
 from .mesh import _gradient
 
 __all__ = [
-    "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED", "SMOOTH_ANGLE", "PatchOptions", "PatchParam", "PatchGrid",
+    "lean_heights", "lean_offsets", "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED", "SMOOTH_ANGLE", "PatchOptions",
+    "PatchParam", "PatchGrid",
     "PatchSurface", "PatchBodies", "PatchRelief", "smooth_patches", "patch_param", "patch_grid", "patch_surface",
     "limit_patch", "patch_bodies", "patch_relief", "patch_volume", "patch_displaced", "fused_offset",
 ]
@@ -701,14 +702,39 @@ def lean_offsets(P: np.ndarray, N: np.ndarray, s: np.ndarray, tri: np.ndarray, w
     V = (Pe + se[..., None] * Ne).reshape(-1, 3)  # the lean surface's vertices (row R: row 0 again)
     unrolled = rows * C + cols
     out = np.asarray(s, np.float64).copy()
+    for part in _chunks(rows, cols):  # one per chunk of triangles
+        qr, qc, L = _lean_points(rows[part], cols[part], V[unrolled[part]])
+        out[qr % R, qc] = np.einsum("ij,ij->i", L - P[qr % R, qc], N[qr % R, qc])
+    return out
+
+
+def lean_heights(vertices: np.ndarray, faces: np.ndarray, origin: tuple, pitch: tuple, shape: tuple) -> np.ndarray:
+    """``shape`` ``(R, C)`` mm: a lean heightfield surface (``vertices`` ``(N, 3)`` mm
+    at pixel centres ``origin + ((c + 1/2) px, (r + 1/2) py, z)``, triangles
+    ``faces``; a slab's ``"texture"`` group) at every pixel centre (barycentric in
+    the pixel grid, as :func:`lean_offsets`); NaN where no triangle lies."""
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces, np.int64)
+    col = np.rint((v[:, 0] - origin[0]) / pitch[0] - 0.5).astype(np.int64)
+    row = np.rint((v[:, 1] - origin[1]) / pitch[1] - 0.5).astype(np.int64)
+    z = np.zeros((len(v), 3))
+    z[:, 2] = v[:, 2] - origin[2]
+    rows, cols = row[f], col[f]
+    out = np.full(shape, np.nan)
+    for part in _chunks(rows, cols):  # one per chunk of triangles
+        qr, qc, L = _lean_points(rows[part], cols[part], z[f[part]])
+        ok = (qr >= 0) & (qr < shape[0]) & (qc >= 0) & (qc < shape[1])
+        out[qr[ok], qc[ok]] = L[ok, 2]
+    return out
+
+
+def _chunks(rows: np.ndarray, cols: np.ndarray) -> list:
+    """Slices of consecutive triangles (grid corners ``rows``, ``cols`` ``(M, 3)``)
+    whose bounding boxes hold at most about :data:`LEAN_CHUNK` grid points each."""
     box = (rows.max(1) - rows.min(1) + 1) * (cols.max(1) - cols.min(1) + 1)
     ends = np.searchsorted(np.cumsum(box), np.arange(LEAN_CHUNK, int(box.sum()) + LEAN_CHUNK, LEAN_CHUNK), side="right")
-    start = 0
-    for end in np.unique(np.clip(ends, 1, len(tri))):  # one per chunk of triangles
-        qr, qc, L = _lean_points(rows[start:end], cols[start:end], V[unrolled[start:end]])
-        out[qr % R, qc] = np.einsum("ij,ij->i", L - P[qr % R, qc], N[qr % R, qc])
-        start = end
-    return out
+    bounds = np.unique(np.concatenate([[0], np.clip(ends, 1, len(rows))]))
+    return [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
 
 
 #: Grid points (over the triangles' bounding boxes) :func:`lean_offsets` handles at once.
