@@ -447,7 +447,7 @@ def test_b_rep_holds_the_mesh_that_keeps_every_pixel():
 @pytest.mark.parametrize("arc", [360, 180])
 def test_lean_cylinder_b_rep_follows_its_mesh(arc):
     """A full and a half cylinder textured at 0.25 mm with a lean mesh (0.02 mm): the
-    B-rep's grid is put on the lean mesh (texcad.brep.targets.snapped_grid), so OCCT's
+    B-rep's grid is moved onto the lean mesh (texcad.brep.targets.snapped_grid), so OCCT's
     adaptive and plain volumes are within 0.1 % of the mesh's with no allowance (on
     the grid itself: +0.11 % and +0.12 %, plain +0.17 %)."""
     from build123d import Cylinder, GeomType
@@ -464,7 +464,7 @@ def test_lean_cylinder_b_rep_follows_its_mesh(arc):
 @pytest.mark.filterwarnings("ignore::UserWarning")
 def test_lean_plane_b_rep_follows_its_mesh():
     """A box top textured at 0.25 mm with a lean mesh (0.02 mm): the B-rep's heights
-    are the lean slab's top at every pixel (texcad.targets.patches.lean_heights), so
+    follow the lean slab's top (texcad.targets.patches.lean_heights, averaged), so
     OCCT's volumes are within 0.02 % of the mesh's (of the pixel grid: +0.09 %, and
     +0.12 % at 0.125 mm), and a hole drilled through it within 0.1 %."""
     from build123d import Axis, Box, Cylinder

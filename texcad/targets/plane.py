@@ -97,7 +97,18 @@ def _brep_heights(r: "PlaneRelief") -> np.ndarray:
     pitch = (float(r.xs[1] - r.xs[0]), float(r.ys[1] - r.ys[0]))
     lean = lean_heights(s.vertices, s.faces[s.groups["texture"]], r.slab_origin, pitch, r.h.shape)
     ok = (r.h > 0) & np.isfinite(lean) & (np.abs(lean - r.h) <= r.tolerance + 1e-6)
-    return np.where(ok, np.maximum(lean, 0.0), r.h).astype(np.asarray(r.h).dtype)
+    from scipy.ndimage import uniform_filter
+
+    d = np.where(ok, lean - r.h, 0.0)
+    w = uniform_filter(ok.astype(np.float64), LEAN_SMOOTH, mode="constant")
+    mean = uniform_filter(d, LEAN_SMOOTH, mode="constant") / np.maximum(w, 1e-12)
+    return np.where(ok, np.maximum(r.h + mean, 0.0), r.h).astype(np.asarray(r.h).dtype)
+
+
+#: Pixels a side over which the lean top's offset from the pixel grid is averaged
+#: (:func:`_brep_heights`): the B-rep keeps the grid's shape (its STEP tiles fit as
+#: few poles) and the lean mesh's volume.
+LEAN_SMOOTH = 5
 
 
 @dataclass(frozen=True)
