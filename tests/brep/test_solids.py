@@ -161,6 +161,29 @@ def test_tiles_share_edges_and_refine_locally():
     assert flux == pytest.approx(brep.grid_flux(g), rel=1e-12)
 
 
+@pytest.mark.parametrize("fine", [(0, 7, 13, 23), (5, 9, 40, 50), (3, 8, 0, 6)])
+def test_band_tiles_under_a_tool_close_round_the_seam(fine):
+    """A closed band's tiles (wrap_x) with small tiles under a tool: every inner edge
+    is shared by two tiles, also where the small tiles split the first column's
+    side (the last column's side, the same line, is split there too; it was one
+    edge, and a boss 0.1 mm from a full cylinder's relief was refused)."""
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    t = np.linspace(0, 2 * np.pi, 97)[:-1]
+    z = np.linspace(0, 10, 22)
+    r = 8 + 0.2 * np.sin(3 * t)[None, :] * np.cos(z)[:, None]
+    g = np.stack([r * np.cos(t)[None, :], r * np.sin(t)[None, :], np.broadcast_to(z[:, None], r.shape)], axis=-1)
+    grid = np.concatenate([g, g[:, :1]], axis=1)
+    x, y = np.arange(grid.shape[1], dtype=float), np.arange(grid.shape[0], dtype=float)
+    faces, rows = brep.tiled_grid_faces(grid, x, y, tile=24, wrap_x=True, fine=[fine])
+    emap = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(texcad.brep.compound(faces), TopAbs_EDGE, TopAbs_FACE, emap)
+    uses = np.array([emap.FindFromIndex(i).Size() for i in range(1, emap.Extent() + 1)])
+    assert set(uses) == {1, 2} and (uses == 1).sum() == len(rows["v0"]) + len(rows["v1"])
+
+
 @pytest.mark.parametrize("boss", [False, True])
 def test_cylinder_band_without_boolean(boss):
     import warnings

@@ -1268,14 +1268,19 @@ def _tile_points(rows: int) -> int:
     return min(max(8, 4 * int(rows)), GAUSS_POINTS)
 
 
-def _corner_stops(leaves: list) -> tuple[dict, dict]:
+def _corner_stops(leaves: list, period: int | None = None) -> tuple[dict, dict]:
     """``(on_row, on_col)``: the tile corners on each grid row and column (grid
-    indices, increasing), where the tiles' sides are split."""
+    indices, increasing), where the tiles' sides are split. ``period``: a closed
+    band's last column (its first): both get the corners of either (small tiles under
+    a tool at the first column split the last column's side too: one shared edge
+    each, else the band is open there)."""
     corners = np.array([(l[0], l[2]) for l in leaves] + [(l[0], l[3]) for l in leaves]
                        + [(l[1], l[2]) for l in leaves] + [(l[1], l[3]) for l in leaves])  # fmt: skip
     corners = np.unique(corners, axis=0)
     on_row = {r: np.unique(corners[corners[:, 0] == r, 1]) for r in np.unique(corners[:, 0])}  # one per line
     on_col = {c: np.unique(corners[corners[:, 1] == c, 0]) for c in np.unique(corners[:, 1])}
+    if period is not None and 0 in on_col and period in on_col:
+        on_col[0] = on_col[period] = np.union1d(on_col[0], on_col[period])
     return on_row, on_col
 
 
@@ -1286,7 +1291,7 @@ def _right_pieces(leaf: tuple, on_col: dict) -> np.ndarray:
     return stops[(stops >= leaf[0]) & (stops <= leaf[1])]
 
 
-def _relaid(leaves: list, rows: int, cols: int, tile: int, breaks) -> dict:
+def _relaid(leaves: list, rows: int, cols: int, tile: int, breaks, period: int | None = None) -> dict:
     """``{tile index: Gauss points}`` for the tiles among ``leaves`` that are not one
     of the grid's own runs of ``tile`` cells (the tiles under and around a CAD
     operation's tool) or whose right side is split by smaller tiles beside it: they
@@ -1295,15 +1300,15 @@ def _relaid(leaves: list, rows: int, cols: int, tile: int, breaks) -> dict:
     whole run (its edges along ``y`` on the right get that order,
     :func:`_share_tile_edges`; its knots across stay the run's, which the edges
     along ``x`` keep for the faces beyond them, such as a band's end rings), else
-    :func:`_tile_points`."""
+    :func:`_tile_points`. ``period``: as :func:`_corner_stops`."""
     rb, cb = _split_bounds(rows, tile, breaks[0]), _split_bounds(cols, tile, breaks[1])
     ri, ci = {int(a): int(z) for a, z in zip(rb[:-1], rb[1:])}, {int(a): int(z) for a, z in zip(cb[:-1], cb[1:])}
-    on_col = _corner_stops(leaves)[1]
+    on_col = _corner_stops(leaves, period)[1]
     return {k: GAUSS_POINTS if ci.get(l[2]) == l[3] else _tile_points(l[1] - l[0]) for k, l in enumerate(leaves)  # one per tile
             if ri.get(l[0]) != l[1] or ci.get(l[2]) != l[3] or len(_right_pieces(l, on_col)) > 2}  # fmt: skip
 
 
-def _own_knots(leaves: list, x: np.ndarray, y: np.ndarray, relaid: dict) -> list:
+def _own_knots(leaves: list, x: np.ndarray, y: np.ndarray, relaid: dict, period: int | None = None) -> list:
     """``[(u, v), ...]``: each tile's knots. Tiles in ``relaid`` get knots placed for
     OCCT's plain rule on themselves (:mod:`texcad.brep.gprop`): ``u`` at the partial
     sums of the weights of the rule of ``relaid[k]`` points over the tile's ``u``
@@ -1311,7 +1316,7 @@ def _own_knots(leaves: list, x: np.ndarray, y: np.ndarray, relaid: dict) -> list
     rule along ``v``: each edge integrates the face from its lowest ``u`` to the
     edge's); the corners keep the grid's knots ``x``, ``y``. The others keep ``x``,
     ``y``, placed for their runs (:func:`texcad.brep.gprop.run_knots`)."""
-    on_col = _corner_stops(leaves)[1] if relaid else {}
+    on_col = _corner_stops(leaves, period)[1] if relaid else {}
     out = []
     for k, (r0, r1, c0, c1) in enumerate(leaves):  # one per tile
         if k not in relaid:
@@ -1406,8 +1411,9 @@ def tiled_grid_faces(
     own = leaves is None
     if own:
         leaves = _leaves(g.shape[0] - 1, g.shape[1] - 1, tile, fine, breaks, block=outline is None)
-    relaid = _relaid(leaves, g.shape[0] - 1, g.shape[1] - 1, tile, breaks) if own and outline is None else {}
-    knots = _own_knots(leaves, x, y, relaid)
+    period = g.shape[1] - 1 if wrap_x else None
+    relaid = _relaid(leaves, g.shape[0] - 1, g.shape[1] - 1, tile, breaks, period) if own and outline is None else {}
+    knots = _own_knots(leaves, x, y, relaid, period)
     text = _tile_text(
         [g[r0 : r1 + 1, c0 : c1 + 1] for r0, r1, c0, c1 in leaves],
         [u for u, _ in knots],
@@ -1530,7 +1536,7 @@ def _share_tile_edges(b, g: np.ndarray, x: np.ndarray, y: np.ndarray, leaves: li
     surf = {k: BRep_Tool.Surface_s(f) for k, f in enumerate(faces)}  # one per tile
     for k, (r0, r1, c0, c1) in enumerate(leaves):  # one per tile
         _remember_tile(surf[k], g[r0 : r1 + 1, c0 : c1 + 1], *knots[k])
-    on_row, on_col = _corner_stops(leaves)
+    on_row, on_col = _corner_stops(leaves, g.shape[1] - 1 if wrap_x else None)
     verts, edges, params = {}, {}, {}
     given = _given_outline(outline, on_row, on_col, g.shape[0] - 1, g.shape[1] - 1, verts, edges)
     period = g.shape[1] - 1 if wrap_x else None

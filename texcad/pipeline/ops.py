@@ -359,6 +359,38 @@ def _find_edges(shape, mids: np.ndarray, tol: float = 1e-4) -> list:
     return found
 
 
+def _whole_edges(shape, mids: np.ndarray, tol: float = 1e-4) -> np.ndarray:
+    """``(m, 3)`` mid-points (mm) of the edges of ``shape`` (the plain part) that the
+    edges with mid-points ``mids`` lie on: an edge of the textured part may be a piece
+    of one (a face textured on its own (u, v) in strips cuts its boundary circles at
+    the strip corners); each edge once, in the order asked. A point on no edge is
+    kept (:func:`_find_edges` then names it)."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeVertex
+    from OCP.BRepExtrema import BRepExtrema_DistShapeShape
+    from OCP.gp import gp_Pnt
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    emap = TopTools_IndexedMapOfShape()
+    TopExp.MapShapes_s(shape, TopAbs_EDGE, emap)
+    edges = [emap.FindKey(i) for i in range(1, emap.Extent() + 1)]  # one per edge of the plain part
+    have = _edge_mids(edges)
+    out: list = []
+    for p in mids:  # one per edge asked for
+        got = p
+        if np.linalg.norm(have - p, axis=1).min() > tol:  # not a whole edge: the one it lies on
+            vx = BRepBuilderAPI_MakeVertex(gp_Pnt(*map(float, p))).Vertex()
+            for e, m in zip(edges, have):  # per edge of the plain part (a few dozen)
+                dist = BRepExtrema_DistShapeShape(vx, e)
+                if dist.IsDone() and dist.Value() <= tol:
+                    got = m
+                    break
+        if not any(np.allclose(got, q, rtol=0, atol=tol) for q in out):
+            out.append(got)
+    return np.array(out, np.float64).reshape(-1, 3)
+
+
 def _occt_fillet(shape, mids: np.ndarray, radius: float, maker: bool = False):
     """``shape`` with the edges at ``mids`` rounded (``maker``: and OCCT's fillet
     algorithm, for its history)."""
@@ -564,21 +596,49 @@ def fillet(part: Any, edges: Sequence[Any], radius: float) -> Any:
     world = _world(part, hist_src)
     inv = np.linalg.inv(_m4(world))
     mids = _edge_mids(edge_list) @ inv[:3, :3].T + inv[:3, 3]  # in the history frame
-    step = {"op": "fillet", "edges": mids, "radius": float(radius)}
-    hist = dict(hist_src, steps=[*hist_src["steps"], step], to_world=world)
-    base = hist["base"]
+    base = hist_src["base"]
     for st in hist_src["steps"]:  # the operations so far, on the untextured part
         base = occt_boolean(base, st["tool"], st["op"]) if st["op"] != "fillet" else _occt_fillet(base, st["edges"], st["radius"])
+    mids = _whole_edges(base, mids)  # pieces of an edge (a textured face's strips cut it): the whole edge
+    step = {"op": "fillet", "edges": mids, "radius": float(radius)}
+    hist = dict(hist_src, steps=[*hist_src["steps"], step], to_world=world)
     change = _fillet_change(base, _occt_fillet(base, mids, radius), world)
     mesh = _changed(part.mesh, change)
     bodies = len(to_manifold(mesh).decompose())
 
+    textured_edge = _borders_texture(base, mids, hist_src)
+
     def shape():
-        return _plain_first(hist, world, mesh, "fillet", bodies, info, (float(part.mesh.volume), _slack(part)))
+        try:
+            return _plain_first(hist, world, mesh, "fillet", bodies, info, (float(part.mesh.volume), _slack(part)))
+        except GeometryError as exc:
+            why = (". An edge to fillet borders the textured face: there the mesh's fillet takes off the relief and the "
+                   "B-rep's keeps it up to the fillet; fillet the part before texturing it for a B-rep") if textured_edge else ""
+            fine = "" if "STL" in str(exc) else " (the mesh result is fine: write STL or 3MF)"
+            if not (why or fine):
+                raise
+            raise GeometryError(f"{exc}{why}{fine}") from None
 
     info = _info(part, "fillet")
     return _derived(part, mesh=mesh, texture_mesh=lambda: part.texture_mesh, base_mesh=lambda: _changed(part.base_mesh, change),
                     shape=shape, info=info, hist=hist)
+
+
+def _borders_texture(base, mids: np.ndarray, hist: dict) -> bool:
+    """Does an edge of the plain part ``base`` at ``mids`` (mm) bound a face textured
+    on its own (u, v) (``hist["uv"]``; faces of the part before any operation)?"""
+    from OCP.TopAbs import TopAbs_EDGE
+
+    from ..brep.occt import explore
+
+    faces = [face for face, _, _ in hist.get("uv") or ()]
+    if not faces:
+        return False
+    try:
+        edges = _find_edges(base, mids)
+    except ParameterError:
+        return False
+    return any(e.IsSame(g) for f in faces for g in explore(f, TopAbs_EDGE) for e in edges)
 
 
 def _fillet_change(before, after, world: np.ndarray) -> list:
@@ -685,8 +745,10 @@ def mirror(part: Any, origin: Sequence[float] = (0.0, 0.0, 0.0), normal: Sequenc
 
         def shape():
             mesh = _mirrored_mesh(part.mesh, m)
-            return _checked(_apply(_replay(hist), world), mesh, "mirror", len(to_manifold(mesh).decompose()), info,
-                            hist.get("offset", 0.0))
+            bodies = len(to_manifold(mesh).decompose())
+            if hist["make"] is None and hist["steps"]:  # operations made so far: on the plain part first, as they were
+                return _plain_first(hist, world, mesh, "mirror", bodies, info)
+            return _checked(_apply(_replay(hist), world), mesh, "mirror", bodies, info, hist.get("offset", 0.0))
 
     info = _info(part, "mirror")
     return _derived(

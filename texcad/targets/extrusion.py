@@ -455,4 +455,5 @@ class ExtrusionAdapter(Adapter):
         fr: ExtrusionFrame = stages.placement.data
         r: ExtrusionRelief = stages.relief.data
         base = fr.world(np.insert(fr.profile.point(r.s), 1, r.y0, axis=1))
-        return extrusion_brep(stages.placement.topo, fr.face, r.top, r.bottom, closed=r.closed, base=base, fine=fine)
+        return extrusion_brep(stages.placement.topo, fr.face, r.top, r.bottom, closed=r.closed, base=base, fine=fine,
+                              mesh=stages.fused.mesh, max_error=float(stages.relief.max_error or 0.0))

@@ -487,7 +487,7 @@ def _brep(topo: Any, patches: tuple, no_brep: str, rotation: float, fine: Any = 
             continue
         ut, vt, closed = r.tables
         g = r.grid
-        items.append({"face": r.face, "points": g.points, "normals": g.normals, "heights": r.h_top, "signed": r.signed,
+        items.append({"face": r.face, "points": g.points, "normals": g.normals, "heights": r.brep_top, "signed": r.signed,
                       "valid": g.valid, "xs": g.xs, "ys": g.ys, "u_table": ut, "v_table": vt, "closed_u": bool(closed)})
     try:
         shape = uv_textured_solid(topo, items) if items else topo
