@@ -455,7 +455,14 @@ def _fused_sides(shape, traced=None):
     pcurves the iso lines. Around a hole drilled through the texture the fine tiles
     texcad leaves split their neighbours' sides into an edge each (about 650 bytes of
     STEP an edge). Runs of the traces in ``traced`` (polylines :func:`_fitted_traces`
-    made) between the same two faces are joined too (:func:`_trace_runs`)."""
+    made) between the same two faces are joined too (:func:`_trace_runs`).
+
+    Only runs along ``u`` (iso-``v`` on both tiles) are joined: OCCT's plain volume rule
+    takes one Gauss rule over each edge that runs along ``v`` (:mod:`texcad.brep.gprop`),
+    and texcad places a tile's ``v`` knots for the rule over each such edge (a face in
+    strips, ``texcad.brep.uvstrips``: a strip's sides split at its runs); one edge over
+    several runs put a whole cone's plain volume 2.5 % off at 0.25 mm. An edge along
+    ``u`` adds nothing to that rule."""
     from OCP.BRep import BRep_Builder, BRep_Tool
     from OCP.BRepTools import BRepTools_ReShape
     from OCP.Geom import Geom_BSplineCurve
@@ -483,7 +490,7 @@ def _fused_sides(shape, traced=None):
             continue
         ids = sorted(((mine.FindIndex(f), f) for f in fs), key=lambda x: x[0])
         isos = [_iso(edge, f) for _, f in ids]
-        if None in isos:
+        if None in isos or any(axis == 0 for axis, _ in isos):  # along v: one Gauss rule per edge (docstring)
             continue
         runs.setdefault((ids[0][0], ids[1][0], *isos), []).append((*BRep_Tool.Range_s(edge), edge, ids))
     traces = _trace_runs(shape, traced, edges_of) if traced is not None else []
@@ -1209,6 +1216,8 @@ EDGE_SHARES = (2.0, 1.5, 1.0)
 #: Shares of the tolerance a tile's rows and columns are first chosen within (each
 #: direction); the bilinear result is then checked against the whole tolerance.
 INNER_SHARES = (4.0, 3.0, 2.5, 2.0, 1.5, 1.0, 0.75, 0.5, 0.25)
+#: Most rows or columns a tile keeps for :func:`_chosen` to try dropping each in turn.
+LONG = 2 * TILE + 1
 #: Rounding steps (``10**-decimals`` mm) within which two neighbouring poles keep 8
 #: decimals (:func:`_thin`).
 THIN = 10.0
@@ -1285,9 +1294,9 @@ def _misses(p: np.ndarray, t: np.ndarray) -> np.ndarray | None:
     the ``m`` polylines of ``p`` (``(n, m, 3)`` mm at the parameters ``t``); None
     when there are too few points or too many to compare (then every point stays)."""
     n = len(t)
-    if n <= 2 or n**3 * p.shape[1] > 4_000_000:  # a tile's 25 x 25 points: 0.4 M
-        return None
     w_ = min(n - 1, SPAN)
+    if n <= 2 or n * w_**2 * p.shape[1] > 4_000_000:  # a tile's 25 x 25 points: 40 k (a strip's 166 x 25: 0.27 M)
+        return None
     i = np.arange(n)[:, None, None]
     j = np.minimum(i + np.arange(1, w_ + 1)[None, None, :], n - 1)  # (i, 1, s): chords up to SPAN long
     k = np.minimum(i + np.arange(1, w_)[None, :, None], n - 1)  # (i, q, 1): the points they skip
@@ -1483,6 +1492,8 @@ def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: 
             break
         dropped[axis] = False
         kept, need = (rows, need_r) if axis == 0 else (cols, need_c)
+        if len(kept) > LONG:  # a strip's length (a face in strips, texcad.brep.uvstrips): a fit per line is too slow
+            continue
         for i in kept[1:-1]:  # one per kept interior row or column (24 at most)
             if i in need:
                 continue
@@ -1696,7 +1707,13 @@ def _basis(t: np.ndarray, kept: np.ndarray, cache: dict | None) -> tuple:
     got = None if cache is None else cache.get(key)
     if got is None:
         h = _hats(t, kept)
-        got = (h, np.linalg.pinv(h[:, 1:-1]) if len(kept) >= 3 else None)
+        inner = h[:, 1:-1]
+        if len(kept) < 3:
+            got = (h, None)
+        elif len(t) > LONG:  # a strip's length: the normal equations (tridiagonal), a tenth of an SVD's time
+            got = (h, np.linalg.solve(inner.T @ inner, inner.T))
+        else:
+            got = (h, np.linalg.pinv(inner))
         if cache is not None:
             cache[key] = got
     return got

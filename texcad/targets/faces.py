@@ -447,6 +447,7 @@ def _info(placement: Placement, reliefs: list, options: Options) -> dict:
         ),
         "distortion": None if dist is None else dist.to_dict(),
         "chained": chained,
+        "tolerance": float(options.tolerance),  # the lean mesh's; the STEP is written at it (texcad.io.write_step)
         # the lean mesh may enclose up to its error times the textured area more or less than the grid's B-rep
         # (chained: and the earlier textures' lean meshes theirs)
         "volume_slack": max_error * area + (float(placement.previous.fused.info.get("volume_slack", 0.0)) if chained else 0.0),
