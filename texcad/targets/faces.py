@@ -447,11 +447,12 @@ def _info(placement: Placement, reliefs: list, options: Options) -> dict:
         ),
         "distortion": None if dist is None else dist.to_dict(),
         "chained": chained,
-        "tolerance": float(options.tolerance),  # the lean mesh's; the STEP is written at it (texcad.io.write_step)
         # the lean mesh may enclose up to its error times the textured area more or less than the grid's B-rep
         # (chained: and the earlier textures' lean meshes theirs)
         "volume_slack": max_error * area + (float(placement.previous.fused.info.get("volume_slack", 0.0)) if chained else 0.0),
     }
+    if not any(r.face is None for r in reliefs) and (not chained or placement.previous.fused.info.get("tolerance")):
+        info["tolerance"] = float(options.tolerance)  # the STEP is written at it (faces flattened together: exact)
     if options.build_dir is not None:
         info["build_dir"] = np.asarray(patch_options(options).build_dir).tolist()
         info["critical_angle"] = float(options.critical_angle)
