@@ -451,6 +451,8 @@ def _info(placement: Placement, reliefs: list, options: Options) -> dict:
         # (chained: and the earlier textures' lean meshes theirs)
         "volume_slack": max_error * area + (float(placement.previous.fused.info.get("volume_slack", 0.0)) if chained else 0.0),
     }
+    if not any(r.face is None for r in reliefs) and (not chained or placement.previous.fused.info.get("tolerance")):
+        info["tolerance"] = float(options.tolerance)  # the STEP is written at it (faces flattened together: exact)
     if options.build_dir is not None:
         info["build_dir"] = np.asarray(patch_options(options).build_dir).tolist()
         info["critical_angle"] = float(options.critical_angle)
