@@ -205,16 +205,33 @@ def _rich(pc, first: float, last: float, knots: np.ndarray | None = None):
     return pc
 
 
+class _Same:
+    """Shapes to values, found by ``IsSame`` (same TShape and location, any
+    orientation) through OCCT's shape hash, which ignores orientation too: one lookup,
+    not a scan (a fine torus's cut made 5.8 million ``IsSame`` calls)."""
+
+    def __init__(self, shapes=()):
+        self._by: dict = {}
+        for s in shapes:  # one per shape given
+            self.add(s, s)
+
+    def get(self, shape):
+        return next((v for k, v in self._by.get(hash(shape), ()) if k.IsSame(shape)), None)
+
+    def add(self, shape, value) -> None:
+        self._by.setdefault(hash(shape), []).append((shape, value))
+
+
 class _Lifted:
     """The lifted grid lines replacing the cut lines and the seam between pieces: one
     new edge per old edge (on the whole textured surface's iso curve), its vertices
     lifted unless the face's own edges hold them."""
 
     def __init__(self, b, whole, kept_vertices: list, knots: tuple):
-        self.b, self.whole, self.kept = b, whole, kept_vertices
+        self.b, self.whole, self.kept = b, whole, _Same(kept_vertices)
         self.knots = knots  # (u, v) of the whole surface: iso values and crossings snap to them
-        self.edges: list = []  # [(old edge, new edge)]
-        self.verts: list = []  # [(old vertex, new vertex)]
+        self.edges = _Same()  # old edge -> (old edge, new edge)
+        self.verts = _Same()  # old vertex -> new vertex
 
     def snap(self, q: np.ndarray) -> np.ndarray:
         """``q (2,)`` with each coordinate within 1e-7 of the span of a knot moved onto it (OCCT's
@@ -231,18 +248,18 @@ class _Lifted:
         from OCP.gp import gp_Pnt
         from OCP.TopoDS import TopoDS_Vertex
 
-        got = next((n for o, n in self.verts if o.IsSame(old)), None)
+        got = self.verts.get(old)
         if got is not None:
             return got
         p = np.array(self.whole.Value(float(uv[0]), float(uv[1])).Coord())
-        if any(old.IsSame(k) for k in self.kept):  # on the face's own edges: stays, wide enough for both
+        if self.kept.get(old) is not None:  # on the face's own edges: stays, wide enough for both
             tol = max(BRep_Tool.Tolerance_s(old), 1.5 * float(np.linalg.norm(p - np.array(BRep_Tool.Pnt_s(old).Coord()))) + TOLERANCE)
             self.b.UpdateVertex(old, tol)
-            self.verts.append((old, old))
+            self.verts.add(old, old)
             return old
         new = TopoDS_Vertex()
         self.b.MakeVertex(new, gp_Pnt(*p.tolist()), TOLERANCE)
-        self.verts.append((old, new))
+        self.verts.add(old, new)
         return new
 
     def edge(self, old, c2) -> tuple:
@@ -257,7 +274,7 @@ class _Lifted:
         along_u = abs(p1[1] - p0[1]) <= abs(p1[0] - p0[0])  # an iso-v line: runs along u
         k = 0 if along_u else 1
         inc = bool(p1[k] > p0[k])
-        hit = next((x for x in self.edges if x[0].IsSame(old)), None)
+        hit = self.edges.get(old)
         if hit is None:
             fe = TopoDS.Edge_s(old.Oriented(TopAbs_FORWARD))
             first, last = TopExp.FirstVertex_s(fe), TopExp.LastVertex_s(fe)
@@ -270,7 +287,7 @@ class _Lifted:
             self.b.Add(new, nz.Oriented(TopAbs_REVERSED))
             self.b.Range(new, float(pa[k]), float(pz[k]))
             hit = (old, new)
-            self.edges.append(hit)
+            self.edges.add(old, hit)
         return hit[1], along_u, float(0.5 * (p0[1 - k] + p1[1 - k])), inc
 
     @staticmethod
