@@ -83,34 +83,6 @@ class PlaneFused:
     stitched: "Mesh | None"
 
 
-def _brep_heights(r: "PlaneRelief") -> np.ndarray:
-    """``(R, C)`` mm: the heights the B-rep is made of: the lean slab's top at every
-    pixel centre where it is lean (within its tolerance of ``r.h`` over the relief:
-    :func:`texcad.targets.patches.lean_heights`), so that the B-rep follows the mesh
-    it is checked against (a stones plate at 0.125 mm read 0.12 % above its lean
-    mesh); ``r.h`` elsewhere (the face around the relief, the outline band)."""
-    if r.tolerance <= 0:
-        return r.h
-    from .patches import lean_heights
-
-    s = r.slab
-    pitch = (float(r.xs[1] - r.xs[0]), float(r.ys[1] - r.ys[0]))
-    lean = lean_heights(s.vertices, s.faces[s.groups["texture"]], r.slab_origin, pitch, r.h.shape)
-    ok = (r.h > 0) & np.isfinite(lean) & (np.abs(lean - r.h) <= r.tolerance + 1e-6)
-    from scipy.ndimage import uniform_filter
-
-    d = np.where(ok, lean - r.h, 0.0)
-    w = uniform_filter(ok.astype(np.float64), LEAN_SMOOTH, mode="constant")
-    mean = uniform_filter(d, LEAN_SMOOTH, mode="constant") / np.maximum(w, 1e-12)
-    return np.where(ok, np.maximum(r.h + mean, 0.0), r.h).astype(np.asarray(r.h).dtype)
-
-
-#: Pixels a side over which the lean top's offset from the pixel grid is averaged
-#: (:func:`_brep_heights`): the B-rep keeps the grid's shape (its STEP tiles fit as
-#: few poles) and the lean mesh's volume.
-LEAN_SMOOTH = 5
-
-
 @dataclass(frozen=True)
 class PlaneRelief:
     """The relief on a planar face: heights ``h`` (R, C) mm on pixel centres ``xs``,
@@ -452,8 +424,8 @@ class PlaneAdapter(Adapter):
                                 "or use a coarser pitch for STEP")
         fr: PlaneFrame = stages.placement.data
         r: PlaneRelief = stages.relief.data
-        return textured_plane_solid(stages.placement.topo, fr.face, _brep_heights(r), r.xs, r.ys, origin=fr.origin,
-                                    xdir=fr.axes[0], normal=fr.axes[2], fine=fine)
+        return textured_plane_solid(stages.placement.topo, fr.face, r.h, r.xs, r.ys, origin=fr.origin, xdir=fr.axes[0],
+                                    normal=fr.axes[2], fine=fine)
 
     def fine_frame(self, stages: Stages) -> Any:
         fr: PlaneFrame = stages.placement.data
