@@ -221,6 +221,19 @@ def _plain_volume(shape) -> float:
     return props.Mass()
 
 
+def _random_plate(seed: int):
+    """A 30 x 30 x 4 mm box, its top, pixel centres ``x`` (57, mm) and random heights
+    ``(57, 57)`` up to 0.5 mm, 0 on the border."""
+    from build123d import Axis, Box
+
+    box = Box(30, 30, 4)
+    x = np.linspace(-14, 14, 57)
+    h = np.random.default_rng(seed).uniform(0, 0.5, (57, 57))
+    h[[0, -1]] = 0.0
+    h[:, [0, -1]] = 0.0
+    return box, box.faces().sort_by(Axis.Z)[-1], x, h
+
+
 @pytest.mark.parametrize("tile", [8, 15, 24])
 def test_tiles_are_integrated_right_by_occts_plain_rule(tile):
     """A 30 x 30 mm plate of random bilinear relief in tiles of 8, 15 and 24 cells:
@@ -228,20 +241,13 @@ def test_tiles_are_integrated_right_by_occts_plain_rule(tile):
     volume within 2e-5 (the knots at partial sums of its weights; with the knots at
     the grid's mm it was 0.1-0.5 % off; tiles under PLACED cells keep straight sides
     and are not placed exactly), and the gauss_knots partition the rule."""
-    from build123d import Axis, Box
-
     from texcad.brep.gprop import GAUSS_POINTS, gauss_knots
 
     k = gauss_knots(0.0, 1.0, 24)
     assert k[0] == 0.0 and k[-1] == 1.0 and np.all(np.diff(k) > 0)
     nodes = (np.polynomial.legendre.leggauss(GAUSS_POINTS)[0] + 1) / 2
     assert (np.histogram(nodes, k)[0] >= 2).all()  # every span holds its own nodes
-    box = Box(30, 30, 4)
-    face = box.faces().sort_by(Axis.Z)[-1]
-    x = np.linspace(-14, 14, 57)
-    h = np.random.default_rng(5).uniform(0, 0.5, (57, 57))
-    h[[0, -1]] = 0.0
-    h[:, [0, -1]] = 0.0
+    box, face, x, h = _random_plate(5)
     shape = brep.tiled_plane_solid(box, face, h, x, x, origin=(0, 0, 2), xdir=(1, 0, 0), normal=(0, 0, 1), tile=tile)
     assert brep.check_shape(shape)["valid"]
     exact = brep.occt_volume(shape, 1e-6)
@@ -257,14 +263,7 @@ def test_small_tiles_under_a_tool_are_integrated_right_by_occts_plain_rule(cells
     for 61 points, the 2-cell tiles put a drilled plate 0.53 % and a drilled
     cylinder 1.7 % off), so the plain rule agrees with the adaptive one within 2e-5,
     and the tiles are one valid closed shell."""
-    from build123d import Axis, Box
-
-    box = Box(30, 30, 4)
-    face = box.faces().sort_by(Axis.Z)[-1]
-    x = np.linspace(-14, 14, 57)
-    h = np.random.default_rng(7).uniform(0, 0.5, (57, 57))
-    h[[0, -1]] = 0.0
-    h[:, [0, -1]] = 0.0
+    box, face, x, h = _random_plate(7)
     fine = [(-3.2, 2.9, -1.3, 4.4, cells)]  # (x0, x1, y0, y1, cells), mm
     shape = brep.tiled_plane_solid(box, face, h, x, x, origin=(0, 0, 2), xdir=(1, 0, 0), normal=(0, 0, 1), fine=fine)
     coarse = brep.tiled_plane_solid(box, face, h, x, x, origin=(0, 0, 2), xdir=(1, 0, 0), normal=(0, 0, 1))

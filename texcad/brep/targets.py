@@ -65,5 +65,6 @@ def snapped_grid(top: np.ndarray, mesh: Any, max_error: float, *, closed: bool) 
 
 
 #: Grid points a side over which the lean mesh's offset from the grid is averaged
-#: (:func:`snapped_grid`).
+#: (:func:`snapped_grid`; the faces on their own (u, v) too,
+#: :attr:`texcad.targets.patches.PatchRelief.brep_top`).
 LEAN_SMOOTH = 5

@@ -40,6 +40,7 @@ from typing import Any, Optional
 import numpy as np
 
 from ..brep import TESSELLATION, FaceMesh, PartMesh, as_array
+from ..brep.targets import LEAN_SMOOTH
 from ..errors import GeometryError
 from ..printability.rule import support_free_angle
 from ..solid import Mesh, edge_report
@@ -48,7 +49,7 @@ from ..util import smoothstep
 from .mesh import _gradient
 
 __all__ = [
-    "lean_heights", "lean_offsets", "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED", "SMOOTH_ANGLE", "PatchOptions",
+    "lean_offsets", "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED", "SMOOTH_ANGLE", "PatchOptions",
     "PatchParam", "PatchGrid",
     "PatchSurface", "PatchBodies", "PatchRelief", "smooth_patches", "patch_param", "patch_grid", "patch_surface",
     "limit_patch", "patch_bodies", "patch_relief", "patch_volume", "patch_displaced", "fused_offset",
@@ -716,26 +717,6 @@ def lean_offsets(P: np.ndarray, N: np.ndarray, s: np.ndarray, tri: np.ndarray, w
     return out
 
 
-def lean_heights(vertices: np.ndarray, faces: np.ndarray, origin: tuple, pitch: tuple, shape: tuple) -> np.ndarray:
-    """``shape`` ``(R, C)`` mm: a lean heightfield surface (``vertices`` ``(N, 3)`` mm
-    at pixel centres ``origin + ((c + 1/2) px, (r + 1/2) py, z)``, triangles
-    ``faces``; a slab's ``"texture"`` group) at every pixel centre (barycentric in
-    the pixel grid, as :func:`lean_offsets`); NaN where no triangle lies."""
-    v = np.asarray(vertices, np.float64)
-    f = np.asarray(faces, np.int64)
-    col = np.rint((v[:, 0] - origin[0]) / pitch[0] - 0.5).astype(np.int64)
-    row = np.rint((v[:, 1] - origin[1]) / pitch[1] - 0.5).astype(np.int64)
-    z = np.zeros((len(v), 3))
-    z[:, 2] = v[:, 2] - origin[2]
-    rows, cols = row[f], col[f]
-    out = np.full(shape, np.nan)
-    for part in _chunks(rows, cols):  # one per chunk of triangles
-        qr, qc, L = _lean_points(rows[part], cols[part], z[f[part]])
-        ok = (qr >= 0) & (qr < shape[0]) & (qc >= 0) & (qc < shape[1])
-        out[qr[ok], qc[ok]] = L[ok, 2]
-    return out
-
-
 def _chunks(rows: np.ndarray, cols: np.ndarray) -> list:
     """Slices of consecutive triangles (grid corners ``rows``, ``cols`` ``(M, 3)``)
     whose bounding boxes hold at most about :data:`LEAN_CHUNK` grid points each."""
@@ -745,9 +726,6 @@ def _chunks(rows: np.ndarray, cols: np.ndarray) -> list:
     return [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
 
 
-#: Grid points a side over which a lean top's offset from the grid is averaged
-#: (:attr:`PatchRelief.brep_top`).
-LEAN_SMOOTH = 5
 #: Grid points (over the triangles' bounding boxes) :func:`lean_offsets` handles at once.
 LEAN_CHUNK = 1_000_000
 
