@@ -458,6 +458,16 @@ def split_edges(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, i
     return _split_corners(v, f, new)
 
 
+def _shell_volumes(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each triangle's shell ``(M,)`` and each shell's signed volume ``(S,)`` mm^3
+    (``sum det(a, b, c) / 6``)."""
+    from .overlap import _shell_labels
+
+    label = _shell_labels(f)
+    p = v[f]
+    return label, np.bincount(label, weights=np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])) / 6.0)
+
+
 #: A shell enclosing less than this (mm^3) is a speck: debris a mesh tool left (a
 #: PrusaSlicer 3MF of dice holds tetrahedra 30 nm across), nothing a printer makes.
 SPECK = 1e-6
@@ -466,11 +476,7 @@ SPECK = 1e-6
 def drop_specks(v: np.ndarray, f: np.ndarray, name: str = "the mesh") -> tuple[np.ndarray, np.ndarray, int, int]:
     """A repaired mesh without its specks (shells under :data:`SPECK` mm^3, when any
     other shell is left): ``(vertices, faces, bodies, specks dropped)``."""
-    from .overlap import _shell_labels
-
-    label = _shell_labels(f)
-    p = v[f]
-    vol = np.bincount(label, weights=np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])) / 6.0)
+    label, vol = _shell_volumes(v, f)
     speck = np.abs(vol) < SPECK
     if not speck.any() or speck.all():
         return v, f, int((vol > 0).sum()), 0
@@ -480,11 +486,7 @@ def drop_specks(v: np.ndarray, f: np.ndarray, name: str = "the mesh") -> tuple[n
 
 def _without_slivers(v: np.ndarray, f: np.ndarray, least: float, name: str):
     """``(v, f, bodies)`` without the shells that enclose less than ``least`` mm^3."""
-    from .overlap import _shell_labels
-
-    label = _shell_labels(f)
-    p = v[f]
-    vol = np.bincount(label, weights=np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])) / 6.0)
+    label, vol = _shell_volumes(v, f)
     keep = np.abs(vol) >= least
     if keep.all():
         return v, f, int(len(vol))
