@@ -37,6 +37,8 @@ from pathlib import Path
 from typing import Iterator
 
 import numpy as np
+
+import texcad
 import ocp_vscode  # noqa: F401  (imported here: on import it resets the filter of its camera warning)
 import pytest
 
@@ -297,3 +299,30 @@ def test_show_draws_the_part_in_the_standalone_viewer(tmp_path):
     assert s["not_background"] > e["not_background"] + 0.10, (e, s)
     # The texture: its relief shades the top face; the plain box's faces are flat.
     assert s["relief"] > 0.02 and s["relief"] > 5 * p["relief"], (p, s)
+
+
+def test_a_picture_of_a_textured_part_shows_its_texture(tmp_path):
+    """A box textured on its bottom face is seen from below (texture_view picks the
+    mirror image of the usual view that sees the texture), a knurled cylinder from the
+    usual view; the picture shows relief: its texture faces cover a large share of it."""
+    from build123d import Axis, Box, Cylinder
+
+    from texcad.render import DEFAULT_VIEW, render_mesh, texture_view
+    from texcad.solid import shared_faces
+
+    box = Box(20, 20, 4)
+    under = texcad.texture(box, box.faces().sort_by(Axis.Z)[0], "builtin:stones", height=0.5, pitch=0.5)
+    view = texture_view(under.mesh, under.base_mesh)
+    assert view[2] > 0 and np.allclose(np.abs(view), np.abs(DEFAULT_VIEW))  # looking up at it
+    img, info = render_mesh(under.mesh, view=view, width=300, return_info=True)
+    tex = ~shared_faces(under.mesh, under.base_mesh)[0]
+    hit = info["face"][info["face"] >= 0]
+    assert tex[hit].mean() > 0.5  # most of what the picture shows is texture
+    _, usual = render_mesh(under.mesh, view=DEFAULT_VIEW, width=300, return_info=True)
+    assert tex[usual["face"][usual["face"] >= 0]].mean() < 0.05  # the usual view would show none
+
+    cyl = Cylinder(8, 20)
+    knurled = texcad.texture(cyl, cyl.faces().filter_by(lambda f: f.geom_type.name == "CYLINDER")[0],
+                             "builtin:diamond_knurl", height=0.4, pitch=0.5)
+    assert texture_view(knurled.mesh, knurled.base_mesh) == tuple(DEFAULT_VIEW)
+    assert under.render(tmp_path / "under.png").stat().st_size > 1000

@@ -111,9 +111,12 @@ class AssemblyTextured(Textured):
                               separate_texture=separate_texture, name=name)
 
     def render(self, path: Any, **kwargs: Any):
-        """PNG picture of every body."""
-        from ..render import render_part
+        """PNG picture of every body, seen from the side that shows the texture unless
+        ``view=`` says otherwise (:func:`texcad.render.texture_view`)."""
+        from ..render import render_part, texture_view
 
+        if kwargs.get("view") is None:
+            kwargs["view"] = texture_view(self.mesh, self.base_mesh)
         return render_part(self.assembly_mesh, path, **kwargs)
 
     def __repr__(self) -> str:

@@ -395,10 +395,11 @@ class Textured:
                 "cura_settings": cura_settings()}
 
     def render(self, path: "str | os.PathLike", **kwargs: Any) -> Path:
-        """PNG picture of the mesh (see :func:`texcad.render.render_part`)."""
+        """PNG picture of the mesh (see :func:`texcad.render.render_part`), seen from
+        the side that shows the texture unless ``view=`` says otherwise."""
         from ..render import render_part
 
-        return render_part(self.mesh, path, **kwargs)
+        return render_part(self, path, **kwargs)
 
     def show(self, **kwargs: Any) -> Any:
         """Show the mesh in the OCP CAD viewer (see :func:`texcad.render.show`)."""

@@ -16,6 +16,8 @@ from .raster import (
 )
 from .viewer import (
     render_part,
+    texture_view,
+    DEFAULT_VIEW,
     show,
     display_shape,
 )
@@ -30,6 +32,8 @@ __all__ = [
     'height_image',
     'write_png',
     'render_part',
+    'texture_view',
+    'DEFAULT_VIEW',
     'show',
     'display_shape',
 ]

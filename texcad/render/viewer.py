@@ -6,13 +6,21 @@ import os
 from pathlib import Path
 from typing import Any, Sequence
 
+import numpy as np
+
 from ..errors import ResourceError
 from ..io import load_mesh
-from ..solid import Mesh
+from ..solid import Mesh, shared_faces
 from ..brep import mesh_face, shape_to_mesh
 from .raster import render_mesh, write_png
 
-__all__ = ["render_part", "show", "display_shape"]
+__all__ = ["render_part", "texture_view", "show", "display_shape", "DEFAULT_VIEW"]
+
+#: The direction a picture looks along unless told: from the front left, above.
+DEFAULT_VIEW = (-1.0, 2.0, -1.2)
+
+#: How much more texture another view must show to replace :data:`DEFAULT_VIEW`.
+VIEW_GAIN = 1.25
 
 
 def _is_textured(obj: Any) -> bool:
@@ -30,12 +38,35 @@ def _mesh_of(obj: Any) -> Mesh:
     return shape_to_mesh(obj)
 
 
+def texture_view(mesh: Mesh, base: Mesh, view: Sequence[float] = DEFAULT_VIEW) -> tuple[float, float, float]:
+    """The direction to look along that shows a textured part's texture: of ``view``
+    and its seven mirror images (the signs of its components flipped), the one that
+    maximises the texture's area seen,
+
+        S(v) = sum_i A_i max(0, -n_i . v / |v|),
+
+    over the faces ``i`` of ``mesh`` (area ``A_i`` mm2, unit normal ``n_i``) that
+    ``base`` (the part before texturing) does not have (:func:`texcad.solid.shared_faces`);
+    ``view`` itself unless another shows :data:`VIEW_GAIN` times as much (a knurled
+    cylinder keeps the usual view, a plate textured underneath is seen from below).
+    """
+    new = ~shared_faces(mesh, base)[0]
+    tri = mesh.vertices[mesh.faces[new]].astype(np.float64)
+    an = 0.5 * np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # (T, 3): area x unit normal
+    signs = np.array([[sx, sy, sz] for sx in (1, -1) for sy in (1, -1) for sz in (1, -1)], dtype=np.float64)
+    cands = signs * np.asarray(view, dtype=np.float64)
+    cands /= np.linalg.norm(cands, axis=1, keepdims=True)
+    seen = np.clip(-(an @ cands.T), 0.0, None).sum(axis=0)  # (8,) mm2, cands[0] is view itself
+    best = int(np.argmax(seen))
+    return tuple(float(c) for c in (signs[best] if seen[best] > VIEW_GAIN * seen[0] else signs[0]) * np.asarray(view, float))
+
+
 def render_part(
     obj: Any,
     path: str | os.PathLike,
     *,
     width: int = 1200,
-    view: Sequence[float] = (-1.0, 2.0, -1.2),
+    view: Sequence[float] | None = None,
     up: Sequence[float] = (0.0, 0.0, 1.0),
     supersample: int = 2,
 ) -> Path:
@@ -46,10 +77,14 @@ def render_part(
             CadQuery shape (tessellated), or a path to an STL, 3MF, OBJ or STEP file.
         path: output ``.png``.
         width: image width in pixels (height follows the part's aspect).
-        view: direction the camera looks along.
+        view: direction the camera looks along (default :data:`DEFAULT_VIEW`; for a
+            textured part, the mirror image of it that shows its texture,
+            :func:`texture_view`).
         up: direction shown as up.
         supersample: anti-aliasing factor.
     """
+    if view is None:
+        view = texture_view(obj.mesh, obj.base_mesh) if _is_textured(obj) else DEFAULT_VIEW
     img = render_mesh(_mesh_of(obj), view=view, up=up, width=int(width), supersample=int(supersample))
     write_png(path, img)
     return Path(path)

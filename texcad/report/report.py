@@ -47,7 +47,7 @@ from ..errors import ParameterError
 from ..util import one_blas_thread, threads
 from ..sources import Heightmap
 from ..io import read_part
-from ..solid import Mesh, box_cells, closed_and_oriented, edge_report, shells
+from ..solid import Mesh, box_cells, closed_and_oriented, edge_report, shared_faces, shells
 from .gate import shell_report
 from ..printability import (
     DEFAULT_CRITICAL_ANGLE,
@@ -369,21 +369,6 @@ def _holds(geo, t: np.ndarray, q: np.ndarray, tol: float) -> np.ndarray:
     return out
 
 
-def _shared_faces(mesh: Mesh, *others: Mesh) -> list[np.ndarray]:
-    """For each of ``others``, ``(M,)`` bool: which faces of ``mesh`` are also its faces
-    (the same three vertex positions, bit for bit, in any order). Sorting, no geometry."""
-    meshes = (mesh, *others)
-    verts = np.concatenate([m.vertices for m in meshes]).astype(np.float32) + np.float32(0.0)  # -0.0 -> 0.0
-    _, vid = np.unique(np.ascontiguousarray(verts).view(np.dtype((np.void, 12))).ravel(), return_inverse=True)
-    offsets = np.cumsum([0] + [len(m.vertices) for m in meshes])
-    keys = [np.sort(vid[m.faces.astype(np.int64) + off], axis=1) for m, off in zip(meshes, offsets)]
-    _, fid = np.unique(np.concatenate(keys), axis=0, return_inverse=True)
-    bounds = np.cumsum([0] + [len(k) for k in keys])
-    fid = fid.ravel()
-    own = fid[: bounds[1]]
-    return [np.isin(own, fid[lo:hi]) for lo, hi in zip(bounds[1:-1], bounds[2:])]
-
-
 def _texture_faces(fused: Mesh, texture: Mesh, base: Mesh) -> np.ndarray:
     """``(M,)`` bool: the faces of a fused part that belong to its texture.
 
@@ -391,7 +376,7 @@ def _texture_faces(fused: Mesh, texture: Mesh, base: Mesh) -> np.ndarray:
     few faces the union re-triangulated (along the contact) are decided by where
     they lie: on the texture's surface and not on the base's.
     """
-    on_tex, on_base = _shared_faces(fused, texture, base)
+    on_tex, on_base = shared_faces(fused, texture, base)
     mask = on_tex & ~on_base
     rest = np.flatnonzero(~on_tex & ~on_base)
     if len(rest):

@@ -32,6 +32,7 @@ from .mesh import (
     shells,
     edge_slot_pairs,
     surface_slab,
+    shared_faces,
 )
 from .rtin import (
     BLOCK,
@@ -77,6 +78,7 @@ __all__ = [
     'shells',
     'edge_slot_pairs',
     'surface_slab',
+    'shared_faces',
     'BLOCK',
     'rtin_triangles',
     'grid_error',

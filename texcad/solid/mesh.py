@@ -24,7 +24,7 @@ from ..util import argsort_ints, require_memory
 from ..errors import GeometryError, ParameterError
 from ..sources import Heightmap
 
-__all__ = ["Mesh", "grid_faces", "heightfield_slab", "grid_solid", "edge_report", "closed_and_oriented", "edge_slot_pairs", "shells", "surface_slab", "heightfield_volume"]
+__all__ = ["Mesh", "grid_faces", "heightfield_slab", "grid_solid", "edge_report", "closed_and_oriented", "edge_slot_pairs", "shells", "surface_slab", "heightfield_volume", "shared_faces"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -477,6 +477,22 @@ def surface_slab(
     walls = np.concatenate([np.stack([tj, ti, i + nv], 1), np.stack([tj, i + nv, j + nv], 1)])
     faces = np.concatenate([tri, btri[:, ::-1] + nv, walls]).astype(np.uint32)
     return Mesh(np.concatenate([vt, vb]).astype(np.float32), faces)
+
+
+def shared_faces(mesh: Mesh, *others: Mesh) -> list[np.ndarray]:
+    """For each of ``others``, ``(M,)`` bool: which faces of ``mesh`` are also its faces
+    (the same three vertex positions, bit for bit in float32, in any order). Sorting, no
+    geometry: a fused part's faces that are not its base part's are its texture's."""
+    meshes = (mesh, *others)
+    verts = np.concatenate([m.vertices for m in meshes]).astype(np.float32) + np.float32(0.0)  # -0.0 -> 0.0
+    _, vid = np.unique(np.ascontiguousarray(verts).view(np.dtype((np.void, 12))).ravel(), return_inverse=True)
+    offsets = np.cumsum([0] + [len(m.vertices) for m in meshes])
+    keys = [np.sort(vid[m.faces.astype(np.int64) + off], axis=1) for m, off in zip(meshes, offsets)]
+    _, fid = np.unique(np.concatenate(keys), axis=0, return_inverse=True)
+    bounds = np.cumsum([0] + [len(k) for k in keys])
+    fid = fid.ravel()
+    own = fid[: bounds[1]]
+    return [np.isin(own, fid[lo:hi]) for lo, hi in zip(bounds[1:-1], bounds[2:])]
 
 
 def heightfield_volume(heights: np.ndarray, pitch: Sequence[float]) -> tuple[float, float]:
