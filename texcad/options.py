@@ -85,6 +85,18 @@ def _pair(name: str, v: Any) -> tuple[float, float]:
     return a, b
 
 
+def _is_default(value: Any, default: Any) -> bool:
+    """``value`` is the option's ``default``: the same enum member, string, flag or
+    number (arrays and other objects never count as a default)."""
+    if default is None:
+        return value is None
+    if isinstance(default, (enum.Enum, str, bool)):
+        return type(value) is type(default) and value == default
+    if isinstance(default, (int, float)):
+        return isinstance(value, (int, float)) and not isinstance(value, bool) and float(value) == float(default)
+    return False
+
+
 @dataclass(frozen=True)
 class Options:
     """Every option of :func:`texcad.texture`; lengths in mm, angles in degrees.
@@ -188,10 +200,17 @@ class Options:
         given = {k: v for k, v in changes.items() if v is not None}
         return dataclasses.replace(self, **{k: _validate(k, v) for k, v in given.items()}, given=self.given | set(given))
 
+    @property
+    def changed(self) -> frozenset:
+        """The options given at another value than their default: those that change
+        what is made (``rotation=0`` from the command line changes nothing)."""
+        defaults = {f.name: f.default for f in dataclasses.fields(self) if f.default is not dataclasses.MISSING}
+        return frozenset(n for n in self.given if n not in defaults or not _is_default(getattr(self, n), defaults[n]))
+
     def refuse(self, allowed: "frozenset[str] | set[str]", target: str) -> None:
         """ParameterError for every option the caller gave that ``target`` does not
         use (an option is never silently ignored)."""
-        extra = sorted(self.given - set(allowed) - set(RUN_OPTIONS))
+        extra = sorted(self.changed - set(allowed) - set(RUN_OPTIONS))
         if extra:
             raise ParameterError(
                 f"{', '.join(extra)}: not an option when texturing {target}; "

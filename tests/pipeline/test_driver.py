@@ -84,6 +84,24 @@ def test_api_and_cli_share_their_defaults():
         DEFAULTS.height, DEFAULTS.pitch, DEFAULTS.tolerance, DEFAULTS.critical_angle)
 
 
+def test_an_option_given_at_its_default_changes_nothing():
+    """The command line passes every option (``rotation=0.0`` among them): a cylinder
+    is textured by the same adapter, into the same mesh, as when the options are left
+    out (it went the general faces path, whose B-rep failed on a real knob), and an
+    option at its default is not refused where it does not apply."""
+    from build123d import Cylinder
+
+    cyl = Cylinder(6, 8)
+    side = cyl.faces().filter_by(lambda f: f.geom_type.name == "CYLINDER")[0]
+    plain = texcad.texture(cyl, side, "builtin:stones", height=0.3, pitch=0.5)
+    as_cli = texcad.texture(cyl, side, "builtin:stones", height=0.3, pitch=0.5, rotation=0.0, critical_angle=45.0,
+                            mode="raised", tolerance=0.02)
+    assert plain.stages.adapter.kind == as_cli.stages.adapter.kind == "extrusion"
+    assert as_cli.volume == plain.volume
+    turned = texcad.texture(cyl, side, "builtin:stones", height=0.3, pitch=0.5, rotation=10.0)
+    assert turned.stages.adapter.kind == "faces"  # a rotation the extrusion path has not
+
+
 _OPTIONS = st.fixed_dictionaries({}, optional={
     "height": st.one_of(st.floats(0.05, 2.0), st.sampled_from([0.0, -1.0, float("nan")])),
     "pitch": st.one_of(st.floats(0.35, 1.2), st.sampled_from([0.0, -0.5, float("inf")])),

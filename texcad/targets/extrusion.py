@@ -338,12 +338,13 @@ class ExtrusionAdapter(Adapter):
 
     def accepts(self, target: Any, where: Any, options: Options) -> bool:
         """One cylinder or extrusion face of a CAD part (not chained), raised, no
-        gradient; options this adapter does not use are left to the faces path."""
+        gradient; options this adapter does not use are left to the faces path, unless
+        given at their default (the command line gives ``rotation=0``)."""
         from OCP.GeomAbs import GeomAbs_Cylinder, GeomAbs_SurfaceOfExtrusion
 
         if options.mode is not Mode.RAISED or options.gradient is not None or where is None or hasattr(target, "stages"):
             return False
-        if options.given - self.options - {"progress", "max_memory"} or not is_cad_target(target):
+        if options.changed - self.options - {"progress", "max_memory"} or not is_cad_target(target):
             return False
         return _surface_kind(where) in (GeomAbs_Cylinder, GeomAbs_SurfaceOfExtrusion)
 
