@@ -44,7 +44,9 @@ def _shifted_cylinder(u0: float, r: float = R, h: float = H):
         e = TopoDS.Edge_s(edges.FindKey(i))
         c1 = BRep_Tool.CurveOnSurface_s(TopoDS.Edge_s(e.Oriented(TopAbs_FORWARD)), face, 0.0, 0.0).Transformed(move)
         seam = BRep_Tool.IsClosed_s(e, face)
-        c2 = BRep_Tool.CurveOnSurface_s(TopoDS.Edge_s(e.Oriented(TopAbs_REVERSED)), face, 0.0, 0.0).Transformed(move) if seam else None
+        c2 = None
+        if seam:
+            c2 = BRep_Tool.CurveOnSurface_s(TopoDS.Edge_s(e.Oriented(TopAbs_REVERSED)), face, 0.0, 0.0).Transformed(move)
         pcurves.append((e, c1, c2))
     b = BRep_Builder()
     surf = Geom_CylindricalSurface(gp_Ax3(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1), gp_Dir(1, 0, 0)), r)
@@ -205,8 +207,9 @@ def test_step_volume_of_a_shifted_domain_with_a_hole(shifted, mode, in_pieces, t
     solid, _, u0 = shifted
     drill = BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(0, 0, H / 2), gp_Dir(math.cos(3.0), math.sin(3.0), 0)), 3.0, 1.5 * R)
     part = BRepAlgoAPI_Cut(solid, drill.Shape()).Shape()
-    side = next(f for f in map(TopoDS.Face_s, explore(part, TopAbs_FACE))
-                if BRepAdaptor_Surface(f).GetType().name == "GeomAbs_Cylinder" and abs(BRepAdaptor_Surface(f).Cylinder().Radius() - R) < 1e-9)  # fmt: skip
+    faces = list(map(TopoDS.Face_s, explore(part, TopAbs_FACE)))
+    cylinders = [f for f in faces if BRepAdaptor_Surface(f).GetType().name == "GeomAbs_Cylinder"]
+    side = next(f for f in cylinders if abs(BRepAdaptor_Surface(f).Cylinder().Radius() - R) < 1e-9)  # not the hole's wall
     assert BRepTools.UVBounds_s(side)[:2] == pytest.approx((u0, u0 + 2 * math.pi), abs=1e-9)
     tx = texcad.texture(part, side, "builtin:stones", height=0.6, pitch=0.5, mode=mode)
     assert in_pieces["split"]
@@ -260,7 +263,8 @@ def test_step_volume_of_a_cone_and_torus_domain_moved(kind, mode, in_pieces, tmp
         solid, du, dv = BRepPrimAPI_MakeCone(12.0, 6.0, 15.0).Shape(), -2 * math.pi, 0.0
     else:
         solid, du, dv = BRepPrimAPI_MakeTorus(20.0, 6.0).Shape(), -2 * math.pi, 2 * math.pi
-    face = next(f for f in map(TopoDS.Face_s, explore(solid, TopAbs_FACE)) if BRepAdaptor_Surface(f).GetType().name == "GeomAbs_" + kind.title())
+    faces = map(TopoDS.Face_s, explore(solid, TopAbs_FACE))
+    face = next(f for f in faces if BRepAdaptor_Surface(f).GetType().name == "GeomAbs_" + kind.title())
     before = BRepTools.UVBounds_s(face)
     _moved_by_periods(face, du, dv)
     assert BRepTools.UVBounds_s(face) == pytest.approx((before[0] + du, before[1] + du, before[2] + dv, before[3] + dv), abs=1e-9)
