@@ -158,7 +158,8 @@ def part_tessellation(topo, tolerance: float = TESSELLATION) -> PartMesh:
     nodes but hardly any triangles); and last the faces sewn along their edges
     (``BRepBuilderAPI_Sewing``, so that neighbours share one edge discretization).
     ``faces[k]`` is always the part's own face ``k`` (its pieces' triangles
-    together), so face numbers keep meaning what ``texcad faces`` lists.
+    together, their ``(u, v)`` moved by whole periods onto the face's own domain:
+    :func:`_in_domain`), so face numbers keep meaning what ``texcad faces`` lists.
 
     Raises:
         GeometryError: no watertight tessellation could be made; the message names
