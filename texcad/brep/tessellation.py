@@ -158,7 +158,8 @@ def part_tessellation(topo, tolerance: float = TESSELLATION) -> PartMesh:
     nodes but hardly any triangles); and last the faces sewn along their edges
     (``BRepBuilderAPI_Sewing``, so that neighbours share one edge discretization).
     ``faces[k]`` is always the part's own face ``k`` (its pieces' triangles
-    together), so face numbers keep meaning what ``texcad faces`` lists.
+    together, their ``(u, v)`` moved by whole periods onto the face's own domain:
+    :func:`_in_domain`), so face numbers keep meaning what ``texcad faces`` lists.
 
     Raises:
         GeometryError: no watertight tessellation could be made; the message names
@@ -253,7 +254,35 @@ def _own_faces(fms: list, whose: "list[int]", own: list) -> list:
         offs = np.cumsum([0] + [len(fm.points) for fm in mine[:-1]])
         out.append(FaceMesh(face, np.concatenate([fm.points for fm in mine]),
                             np.concatenate([fm.tris + o for fm, o in zip(mine, offs)]),
-                            np.concatenate([fm.uv for fm in mine]), mine[0].kind))
+                            np.concatenate(_in_domain(face, [fm.uv for fm in mine])), mine[0].kind))
+    return out
+
+
+def _in_domain(face, uvs: list) -> list:
+    """The pieces' ``(u, v)`` ``uvs`` (each ``(n, 2)``) on ``face``'s own domain.
+
+    A piece of a face on a periodic surface (period ``T`` in u or v) carries its
+    parameters in the range OCCT picked for the piece (``ShapeUpgrade`` and the
+    sewing put them in ``[0, T)``), while the face's own domain may start anywhere
+    (a STEP reader's cylinder in ``u`` ``[-pi, pi]`` or ``[pi, 3pi]``): the same
+    point at ``u`` and ``u + kT``. Each piece is moved by the whole number of
+    periods ``k = round((m_piece - m_face) / T)`` that brings the middle of its
+    range ``m_piece`` nearest the middle of the face's ``m_face`` (a piece lies
+    inside its face, so ``|m_piece - m_face| < T / 2`` once moved)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.BRepTools import BRepTools
+
+    ad = BRepAdaptor_Surface(face, False)
+    u0, u1, v0, v1 = BRepTools.UVBounds_s(face)
+    axes = [(0, ad.IsUPeriodic() and ad.UPeriod(), 0.5 * (u0 + u1)), (1, ad.IsVPeriodic() and ad.VPeriod(), 0.5 * (v0 + v1))]
+    out = []
+    for uv in uvs:  # one per piece
+        uv = np.array(uv, dtype=np.float64)
+        for axis, period, mid in axes:  # u, v
+            if period and len(uv):
+                k = np.round((0.5 * (uv[:, axis].min() + uv[:, axis].max()) - mid) / period)
+                uv[:, axis] -= k * period
+        out.append(uv)
     return out
 
 
