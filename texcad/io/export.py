@@ -353,6 +353,16 @@ def write_3mf(
             ``cura:`` metadata (3MF core spec metadata, Cura's namespace), which
             Cura's 3MF reader applies to this object over the print profile, as
             its own project files do. None or empty: none written.
+
+    Every coordinate is written on the binary grid ``2^-k`` mm of :func:`_grid_bits`
+    (``k = 14``, 61 nm, for coordinates under 256 mm; it moves a vertex by at most
+    31 nm, far below any mesh tolerance) as its exact decimal, so that a reader's
+    float32 is the value written, and PrusaSlicer's centring of each part of an
+    object on its own bounding box in float32 and the offset it adds back are
+    exact: a part's vertices are, to the bit, the whole mesh's along the build
+    direction. An object of several parts says it is PrusaSlicer's 3MF version 1
+    (``slic3rpe:Version3mf``): PrusaSlicer bakes the build item's transform into the
+    first part only of a 3MF without it, leaving the others where they are.
     """
     items = [(name, mesh)] if isinstance(mesh, Mesh) else list(mesh)
     if not items:
@@ -793,12 +803,13 @@ def extra_perimeter_cut(mesh: Mesh, build_dir=None, *, min_work: float = CUT_MIN
     halfway between two multiples of 0.025 mm, where no usual slicing plane lies.
     (The last layer under the cut is compared by PrusaSlicer with nothing, since the
     layer above it belongs to the other part; starting the cut lower is what keeps
-    the costly layer pairs where the islands begin out of the pass. PrusaSlicer
-    centres each part of an object on its own bounding box in single precision
-    (``ModelVolume::center_geometry_after_creation``), so the cut parts' coordinates
-    round otherwise than the whole mesh's, by under a micrometre: on the layers where
-    a texture's web breaks into islands that moves thin lines as far as nudging the
-    uncut mesh by a micrometre does, docs/benchmarks/slicer_cost.md.) None when no such height
+    the costly layer pairs where the islands begin out of the pass. The cut parts
+    load with the whole mesh's coordinates (:func:`write_3mf`'s grid), but the
+    triangles the cut splits end on the cut plane at float32-rounded points, a few
+    nanometres off the whole triangles: PrusaSlicer's paths on the layers next to
+    the cut can move by about a line width where a texture's web breaks into
+    islands, as they do when the uncut mesh is nudged by a micrometre,
+    docs/benchmarks/slicer_cost.md.) None when no such height
     leaves a cross-section with islands above it, or when the pass above it would
     cost less than the cut: islands times contour vertices summed over the
     cross-sections above it under ``min_work`` (:data:`CUT_MIN_WORK`).
