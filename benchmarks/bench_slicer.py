@@ -654,7 +654,7 @@ def cost(args) -> None:
         bare, tex = _demo_part(args.demo_pitch, args.demo_side)
         parts.append((f"demo plate {args.demo_side:g} x {args.demo_side:g} mm, stones at {args.demo_pitch:g} mm", "+z", bare, tex, (0.0, 0.0, 1.0)))
     headers = ["part", "printed", "triangles", "bare CPU s", "textured STL CPU s", "plain 3MF CPU s", "texcad's 3MF CPU s",
-               "texcad's 3MF / bare", "what texcad's 3MF adds", "toolpaths moved by it, mm (specks left out)", "toolpaths STL vs texcad's 3MF, mm",
+               "texcad's 3MF / bare", "what texcad's 3MF adds", "toolpaths moved by it, mm (specks left out, at the layer of print height z)", "toolpaths STL vs texcad's 3MF, mm",
                f"plain 3MF nudged by {NUDGE * 1000:g} um: toolpaths moved, mm (specks left out)"]
     notes = (
         "PrusaSlicer 2.5 at its defaults (0.3 mm layers, 0.4 mm nozzle, support off), each part in its print orientation. "
@@ -669,9 +669,13 @@ def cost(args) -> None:
         "mm wide, which appear or vanish when a coordinate moves by a micrometre). STL vs texcad's 3MF adds what "
         "the file format's rounding changes. Nudged: the plain 3MF with the mesh scaled across the bed about its "
         f"centre so that its farthest vertex moves by {NUDGE * 1000:g} um, against the plain 3MF: how far PrusaSlicer's "
-        "own paths move when a coordinate moves by a micrometre (as it does when PrusaSlicer centres each part of an "
-        "object on its bounding box in single precision, `ModelVolume::center_geometry_after_creation`, which gives "
-        "a cut part other roundings than the whole mesh). "
+        "own paths move when a coordinate moves by a micrometre. Both 3MFs put every coordinate on a binary grid "
+        "(2^-14 mm) as its exact decimal, so that the parts of a cut load with the whole mesh's float32 coordinates "
+        "(PrusaSlicer centres each part on its own bounding box in single precision, "
+        "`ModelVolume::center_geometry_after_creation`, exactly on that grid); what is left of a cut's move is on "
+        "the layers next to the cut (the height in brackets), where the triangles the cut splits end at float32-rounded "
+        "points a few nanometres off the whole triangles, and on the layers whose solid infill the last layer under "
+        "the cut, which loses its extra perimeters, reaches. "
         f"Small parts at texture pitch {args.pitch:g} mm; a slice that ran past {args.timeout:g} s of wall time "
         "(2 cores shared with other jobs) is marked so."
     )
@@ -702,15 +706,24 @@ def cost(args) -> None:
                 row(f"{name[:30]} {label}", rep)
             cpu = lambda r: f"{r.cpu_seconds:.1f}" if r else f"ran past {args.timeout:g} s"
             paths = {k: read_toolpaths(g) for k, g, r in (("stl", g_stl, a), ("plain", g_set, e), ("3mf", g_3mf, c), ("nudged", g_nudge, n)) if r}
-            dev = lambda x, y, speck=0.0: (toolpath_deviation(paths[x].without_specks(speck), paths[y].without_specks(speck)).max()
-                                           if x in paths and y in paths else float("nan"))
+            def per_layer(x, y, speck=0.0):
+                if x not in paths or y not in paths:
+                    return np.array([float("nan")]), np.array([float("nan")])
+                a, b = paths[x].without_specks(speck), paths[y].without_specks(speck)
+                return toolpath_deviation(a, b), np.union1d(a.z, b.z)
+
+            dev = lambda x, y, speck=0.0: float(per_layer(x, y, speck)[0].max())
+
+            def dev_at(x, y, speck=0.0):  # "0.45 at z 6.05"
+                d, z = per_layer(x, y, speck)
+                return f"{d.max():.2f} at z {z[int(np.argmax(d))]:g}" if np.all(np.isfinite(d)) else "-"
             written = ", ".join(f"{k} = {v}" for k, v in lay.settings.items()) or "none"
             if lay.cut is not None:
                 written += f"; cut at {lay.cut:g} mm, the upper part extra_perimeters = 0"
             f2 = lambda x: f"{x:.2f}" if np.isfinite(x) else "-"
             rows.append([name, orient, f"{textured.num_triangles:,}", cpu(b), cpu(a), cpu(e), cpu(c),
                          f"{c.cpu_seconds / b.cpu_seconds:.1f}x" if b and c else "-", written,
-                         f"{f2(dev('plain', '3mf'))} ({f2(dev('plain', '3mf', NOZZLE))})", f2(dev("stl", "3mf")),
+                         f"{f2(dev('plain', '3mf'))} ({dev_at('plain', '3mf', NOZZLE)})", f2(dev("stl", "3mf")),
                          f"{f2(dev('plain', 'nudged'))} ({f2(dev('plain', 'nudged', NOZZLE))})"])
             path = write_table("slicer_cost", headers, rows, title="Slicing cost, bare and textured, STL and texcad's 3MF", notes=notes)
     print(f"wrote {path}")

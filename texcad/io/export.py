@@ -190,6 +190,85 @@ def _vertex_rows(v: np.ndarray) -> bytes:
     return b"".join(out)
 
 
+#: Fraction bits of the finest grid :func:`write_3mf` puts vertices on: 2^-14 mm (61 nm).
+GRID_BITS = 14
+_GRID_SPARE = 22  # grid = 2^(E - 22) for |x| < 2^E: 2 bits of float32's 24 to spare (see _grid_bits)
+
+
+def _grid_bits(v: np.ndarray) -> int:
+    """Fraction bits ``k`` of the binary grid ``2^-k`` mm on which :func:`write_3mf`
+    writes the coordinates ``v``, so that PrusaSlicer's loading is exact.
+
+    With every ``|x| < 2^E`` and ``x`` a multiple of ``g = 2^(E - 22)`` (so
+    ``k = 22 - E``, at most :data:`GRID_BITS`): ``x`` has at most 22 significant bits,
+    exact in float32 (24); a bounding-box centre ``s = (lo + hi) / 2`` is a multiple
+    of ``g / 2`` under ``2^E`` (23 bits: exact in float32, where PrusaSlicer rounds
+    it, ``ModelVolume::center_geometry_after_creation``); ``x - s`` is a multiple of
+    ``g / 2`` of at most ``2^(E + 1)`` (24 bits: exact); and adding the part's
+    offset back (``s`` and a lift ``-z0`` on the same grid) gives ``x`` (or
+    ``x - z0``) exactly. So every part of an object loads with, along the build
+    direction, the very float32 coordinates the whole mesh loads with, wherever
+    PrusaSlicer centres it."""
+    m = float(np.abs(v).max()) if len(v) else 0.0
+    if not np.isfinite(m):
+        return GRID_BITS
+    e = max(int(np.floor(np.log2(m))) + 1, 0) if m > 0 else 0  # smallest E with m < 2^E
+    if m >= 2.0**e:  # log2 rounding
+        e += 1
+    return min(GRID_BITS, _GRID_SPARE - e)
+
+
+def _on_grid(v: np.ndarray, bits: int) -> np.ndarray:
+    """``v`` (mm) rounded to the nearest multiples of ``2^-bits`` mm (ties to even),
+    float32 (exact there for ``|v| < 2^(24 - bits)``)."""
+    return (np.rint(np.asarray(v, dtype=np.float64) * 2.0**bits) / 2.0**bits).astype(np.float32)
+
+
+def _exact(x: np.ndarray, bits: int) -> np.ndarray | None:
+    """The exact decimal of each ``x`` (float64 multiples of ``2^-bits``, ``0 <= bits
+    <= 16``) as ``(n, w)`` bytes (0 = none), trailing zeros of the fraction (and a
+    bare point) left out: ``m 2^-bits = m 5^bits / 10^bits``, so the digits of the
+    integer ``|m| 5^bits`` with ``bits`` of them after the point. None if
+    ``|m| 5^bits`` would pass int64 or a value is not finite."""
+    if not np.all(np.isfinite(x)):
+        return None
+    m = np.rint(np.abs(x) * 2.0**bits).astype(np.int64) if len(x) else np.zeros(0, np.int64)
+    if len(m) and int(m.max()) >= (2**62) // 5**bits:
+        return None
+    k = m * 5**bits
+    ip, fp = np.divmod(k, 10**bits)
+    w = _width(ip)
+    out = np.zeros((len(x), w + 2 + bits), dtype=np.uint8)
+    out[:, 0] = np.where(np.signbit(x) & (m > 0), 45, 0)  # '-' (not for 0)
+    out[:, 1 : w + 1] = _digits(ip, w, 1)
+    if bits:
+        out[:, w + 1] = 46  # '.'
+        frac = _digits(fp, bits, bits)
+        last = np.zeros(len(x), dtype=bool)  # a nonzero digit at or right of this column
+        for j in range(bits - 1, -1, -1):  # per fraction column, right to left: drop trailing zeros
+            last |= frac[:, j] != 48
+            frac[:, j] *= last
+        out[:, w + 2 :] = frac
+        out[:, w + 1] *= fp > 0  # no bare point
+    return out
+
+
+def _grid_vertex_rows(v: np.ndarray, bits: int) -> bytes:
+    """``<vertex x=".." y=".." z=".."/>`` rows of ``v`` (multiples of ``2^-bits``
+    mm), each coordinate as its exact decimal (:func:`_exact`), which every reader
+    parses to that very float32, formatted in bulk with numpy; ``%r`` of the float64
+    (also exact, longer) where a value does not fit."""
+    out = []
+    for a in range(0, len(v), _ROWS):  # per chunk of rows
+        c = v[a : a + _ROWS].astype(np.float64)
+        f = [_exact(c[:, k], bits) if 0 <= bits <= 16 else None for k in range(3)]
+        if any(x is None for x in f):
+            out.append(_fmt_rows('<vertex x="%r" y="%r" z="%r"/>\n', c))
+            continue
+        out.append(_bulk_rows([b'<vertex x="', f[0], b'" y="', f[1], b'" z="', f[2], b'"/>\n'], len(c)))
+    return b"".join(out)
+
+
 def _triangle_rows(t: np.ndarray) -> bytes:
     """``<triangle v1="%d" v2="%d" v3="%d"/>`` rows, formatted in bulk with numpy."""
     out = []
@@ -200,15 +279,17 @@ def _triangle_rows(t: np.ndarray) -> bytes:
     return b"".join(out)
 
 
-def _object_parts(oid: int, name: str, mesh: Mesh, meta: bytes = b"") -> Iterator[bytes]:
+def _object_parts(oid: int, name: str, mesh: Mesh, meta: bytes = b"", bits: int | None = None) -> Iterator[bytes]:
     """The ``<object>`` element of ``mesh`` in pieces of at most ``_ROWS`` rows, each
     formatted when asked for (a generator), so that a writer can compress one piece
     while the next is formatted. Joined, they are the same bytes for any split.
-    ``meta``: the object's ``<metadatagroup>`` (:func:`_cura_metadata`), or empty."""
-    # 0.1 um resolution: far below any printer's, and exact for texcad's float32 grid.
+    ``meta``: the object's ``<metadatagroup>`` (:func:`_cura_metadata`), or empty.
+    ``bits``: the vertices lie on the grid ``2^-bits`` mm (:func:`_grid_bits`) and are
+    written as exact decimals; None: ``%.4f`` (0.1 um)."""
     yield f'<object id="{oid}" type="model" name="{name}">'.encode() + meta + b"<mesh><vertices>\n"
     for a in range(0, len(mesh.vertices), _ROWS):  # per chunk of rows
-        yield _vertex_rows(mesh.vertices[a : a + _ROWS])
+        c = mesh.vertices[a : a + _ROWS]
+        yield _vertex_rows(c) if bits is None else _grid_vertex_rows(c, bits)
     yield b"</vertices><triangles>\n"
     for a in range(0, len(mesh.faces), _ROWS):  # per chunk of rows
         yield _triangle_rows(mesh.faces[a : a + _ROWS])
@@ -217,10 +298,11 @@ def _object_parts(oid: int, name: str, mesh: Mesh, meta: bytes = b"") -> Iterato
 
 def _size_bound(mesh: Mesh) -> int:
     """An upper bound of the bytes :func:`_object_parts` writes for ``mesh``: rows times
-    their widest form (``%.4f`` of ``|x| < 10^9`` takes at most 15 characters; larger
-    values at most 50; indices at most 10 digits); the name, head and tail not counted."""
+    their widest form (``%.4f`` of ``|x| < 10^9`` takes at most 15 characters, an
+    exact grid decimal at most 1 + 19 + 1 + 16 = 37; larger values at most 50;
+    indices at most 10 digits); the name, head and tail not counted."""
     big = len(mesh.vertices) and not float(np.abs(mesh.vertices).max()) < 1e9
-    return len(mesh.vertices) * (27 + 3 * (50 if big else 15)) + len(mesh.faces) * 62
+    return len(mesh.vertices) * (27 + 3 * (50 if big else 37)) + len(mesh.faces) * 62
 
 
 def write_3mf(
@@ -271,6 +353,16 @@ def write_3mf(
             ``cura:`` metadata (3MF core spec metadata, Cura's namespace), which
             Cura's 3MF reader applies to this object over the print profile, as
             its own project files do. None or empty: none written.
+
+    Every coordinate is written on the binary grid ``2^-k`` mm of :func:`_grid_bits`
+    (``k = 14``, 61 nm, for coordinates under 256 mm; it moves a vertex by at most
+    31 nm, far below any mesh tolerance) as its exact decimal, so that a reader's
+    float32 is the value written, and PrusaSlicer's centring of each part of an
+    object on its own bounding box in float32 and the offset it adds back are
+    exact: a part's vertices are, to the bit, the whole mesh's along the build
+    direction. An object of several parts says it is PrusaSlicer's 3MF version 1
+    (``slic3rpe:Version3mf``): PrusaSlicer bakes the build item's transform into the
+    first part only of a 3MF without it, leaving the others where they are.
     """
     items = [(name, mesh)] if isinstance(mesh, Mesh) else list(mesh)
     if not items:
@@ -284,17 +376,24 @@ def write_3mf(
             _, _, config = _merged([(name if isinstance(mesh, Mesh) else items[0][0], part)], name, settings)
     else:
         label, part, config = _merged(items, name, settings, part_settings)
+    bits = _grid_bits(part.vertices)
+    part = Mesh(_on_grid(part.vertices, bits), part.faces)  # moves each coordinate by at most 2^-(bits + 1) mm
     meta = _cura_metadata(cura_settings)
     head = (
         b'<?xml version="1.0" encoding="UTF-8"?>\n'
         b'<model unit="millimeter" xml:lang="en-US" '
         b'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"'
         + (f' xmlns:cura="{CURA_NAMESPACE}"'.encode() if meta else b"")
-        + b'>\n<metadata name="Application">texcad</metadata>\n<resources>\n'
+        + b'>\n<metadata name="Application">texcad</metadata>\n'
+        # PrusaSlicer bakes a build item's transform into the first part of an object from
+        # a 3MF without this, and leaves the other parts where they are (_3MF_Importer::
+        # _generate_volumes, 2.5 and later): with it the transform stays the instance's
+        + (b'<metadata name="slic3rpe:Version3mf">1</metadata>\n' if len(items) > 1 else b"")
+        + b"<resources>\n"
     )
     item = b'<item objectid="1"/>' if build_dir is None else f'<item objectid="1" transform="{_print_transform(part, build_dir)}"/>'.encode()
     tail = b"</resources>\n<build>" + item + b"</build>\n</model>\n"
-    model = itertools.chain([head], _object_parts(1, label, part, meta), [tail])
+    model = itertools.chain([head], _object_parts(1, label, part, meta, bits), [tail])
     bound = len(head) + len(tail) + len(label.encode()) + len(meta) + 128 + _size_bound(part)
     with atomic_path(path) as tmp:
         with zipfile.ZipFile(tmp, "w") as z:
@@ -342,7 +441,14 @@ def _transform(R: np.ndarray, z0: float) -> str:
     the rotated lowest point ``z0`` (mm) to z = 0."""
     M = np.vstack([R.T, [0.0, 0.0, -z0]])
     M[np.abs(M) < 1e-15] = 0.0
-    return " ".join(f"{x:.9g}" for x in M.ravel())
+    return " ".join(_number(float(x)) for x in M.ravel())
+
+
+def _number(x: float) -> str:
+    """``x`` as ``%.9g`` where that reads back as ``x`` (float64), else its shortest
+    exact form (``repr``): a lift on :func:`write_3mf`'s vertex grid stays exact."""
+    short = f"{x:.9g}"
+    return short if float(short) == x else repr(x)
 
 
 def _merged(
@@ -697,12 +803,13 @@ def extra_perimeter_cut(mesh: Mesh, build_dir=None, *, min_work: float = CUT_MIN
     halfway between two multiples of 0.025 mm, where no usual slicing plane lies.
     (The last layer under the cut is compared by PrusaSlicer with nothing, since the
     layer above it belongs to the other part; starting the cut lower is what keeps
-    the costly layer pairs where the islands begin out of the pass. PrusaSlicer
-    centres each part of an object on its own bounding box in single precision
-    (``ModelVolume::center_geometry_after_creation``), so the cut parts' coordinates
-    round otherwise than the whole mesh's, by under a micrometre: on the layers where
-    a texture's web breaks into islands that moves thin lines as far as nudging the
-    uncut mesh by a micrometre does, docs/benchmarks/slicer_cost.md.) None when no such height
+    the costly layer pairs where the islands begin out of the pass. The cut parts
+    load with the whole mesh's coordinates (:func:`write_3mf`'s grid), but the
+    triangles the cut splits end on the cut plane at float32-rounded points, a few
+    nanometres off the whole triangles: PrusaSlicer's paths on the layers next to
+    the cut can move by about a line width where a texture's web breaks into
+    islands, as they do when the uncut mesh is nudged by a micrometre,
+    docs/benchmarks/slicer_cost.md.) None when no such height
     leaves a cross-section with islands above it, or when the pass above it would
     cost less than the cut: islands times contour vertices summed over the
     cross-sections above it under ``min_work`` (:data:`CUT_MIN_WORK`).

@@ -34,8 +34,8 @@ import numpy as np
 
 from ..errors import GeometryError, ParameterError
 from ..util import atomic_path, threads
-from .export import (CURA_NAMESPACE, SLIC3R_CONFIG, _CT, _RELS, _STL_CHUNK, _STL_DTYPE, _cura_metadata, _one_volume, _slic3r_config,
-                     _stl_records, _transform, _triangle_rows, _vertex_rows, _xml_escape, _zip_info)
+from .export import (CURA_NAMESPACE, GRID_BITS, SLIC3R_CONFIG, _CT, _RELS, _STL_CHUNK, _STL_DTYPE, _cura_metadata, _grid_vertex_rows,
+                     _one_volume, _slic3r_config, _stl_records, _transform, _triangle_rows, _xml_escape, _zip_info, _on_grid)
 
 __all__ = ["StlStream", "ThreeMFStream", "open_stream"]
 
@@ -158,7 +158,9 @@ class ThreeMFStream(_Stream):
 
     As :func:`texcad.io.write_3mf` writes a one-part object: ``build_dir`` (None: as
     placed) turned to +z with the lowest point on the bed, PrusaSlicer's per-object
-    ``settings`` and Cura's ``cura_settings`` (:func:`texcad.io.cura_settings`)."""
+    ``settings`` and Cura's ``cura_settings`` (:func:`texcad.io.cura_settings`), the
+    vertices on its grid of ``2^-14`` mm (the same bytes for coordinates under 256 mm;
+    past that write_3mf's grid is coarser, chosen from the whole mesh)."""
 
     def __init__(self, path: "str | os.PathLike", *, name: str = "texcad part", build_dir: Any = None,
                  settings: Mapping[str, Any] | None = None, cura_settings: Mapping[str, Any] | None = None) -> None:
@@ -196,9 +198,10 @@ class ThreeMFStream(_Stream):
         order = np.argsort(ids[new], kind="stable")
         if not np.array_equal(ids[new][order], np.arange(self.vertices, self.vertices + int(new.sum()))):
             raise ParameterError("a block's new vertices must be numbered on from the last block's, without gaps")
-        self._model.write(_vertex_rows(v[new][order]))
+        g = _on_grid(v[new][order], GRID_BITS)  # write_3mf's grid for coordinates under 256 mm
+        self._model.write(_grid_vertex_rows(g, GRID_BITS))
         if self._R is not None and new.any():  # the lowest point along build_dir so far
-            self._z0 = min(self._z0, float((v[new].astype(np.float64) @ self._R[2]).min()))
+            self._z0 = min(self._z0, float((g.astype(np.float64) @ self._R[2]).min()))
         self.vertices += int(new.sum())
         self._tri.write(_triangle_rows(ids[f]))
         self.triangles += len(f)
