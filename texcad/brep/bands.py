@@ -46,7 +46,7 @@ from .occt import explore, face_in, general_fuse, to_topods
 from .gprop import polyline_pcurve, run_knots, split_at_knots
 from .solids import TILE, TOLERANCE, _band_fine, _replace_faces, _tile_bounds, grid_surface, tiled_grid_faces
 
-__all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "PATCH_TILE", "creases"]
+__all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "whole_tiles", "PATCH_TILE", "WHOLE_TILE", "creases"]
 
 #: Tiles of a patch are at most this many cells a side. With the tiles' knots placed
 #: for OCCT's plain Gauss integration (build123d's ``.volume``; :mod:`texcad.brep.gprop`)
@@ -55,6 +55,17 @@ __all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "PATCH
 #: centred), 0.05 % at 8 and 0.03 % at 24 (knots at the grid index: 0.07 % at 4,
 #: 0.2 % at 8).
 PATCH_TILE = 4
+#: Tiles of a patch whose meshed cells texcad's run tiles cover whole (a band all
+#: around, a rectangle of cells: no tile halved near the outline) are at most this many
+#: cells a side (``texcad.brep.solids.TILE``): each is one run, its knots placed for the
+#: plain rule over it, as on a textured plate. Small tiles keep their run's knots (placed
+#: over the run), so elsewhere a patch keeps :data:`PATCH_TILE`: at 24 the corner patches
+#: of ``tests/brep/test_band_corners.py`` summed 5e-5 to 1.5e-4 of their volume off in the
+#: tiles' plain integrals (2e-6 to 5e-6 at 4). The STEP at the mesh's tolerance keeps the
+#: rows and columns of poles a tile needs, so the larger tiles are what make it small: a
+#: box's sides and rounded edges at 0.125 mm 1.07x its binary STL (4.6x with 4-cell
+#: tiles, whose knots must not be merged across: ``texcad.io.step_tiles``).
+WHOLE_TILE = TILE
 #: mm added to the wall height over the chord error and the grid's sag.
 WALL_MARGIN = 0.005
 
@@ -488,6 +499,29 @@ def _runs_over(K: np.ndarray, tile: int) -> tuple:
     return tuple(out)
 
 
+def whole_tiles(cells: np.ndarray, wrap: bool) -> bool:
+    """Are a patch's meshed ``cells`` (``(R - 1, C - 1)``, ``(R, C - 1)`` when
+    ``wrap``, as :func:`patch_solid` takes them) covered by whole tiles of
+    :data:`WHOLE_TILE` cells (:func:`_whole_runs`)? Its B-rep then has those tiles,
+    each its knots placed for OCCT's plain rule over it, and its STEP is written at
+    the mesh's tolerance (``texcad.targets.faces``); else 4-cell tiles, whose STEP at
+    the tolerance OCCT meshed open beside a mitre and an L plate's concave corner
+    (``tests/brep/test_band_corners.py``): written with every pole."""
+    K = _unpinched(np.asarray(cells, bool).T, wrap)
+    return K is not None and _whole_runs(K, WHOLE_TILE)
+
+
+def _whole_runs(K: np.ndarray, tile: int) -> bool:
+    """Do :func:`_leaves_over`'s tiles of at most ``tile`` cells cover the cells ``K``
+    with whole runs only (each tile one run of :func:`_runs_over` both ways, none
+    halved near the outline)?"""
+    leaves = _leaves_over(K, tile, None)
+    if not leaves:
+        return False
+    rows, cols = (set(r) for r in _runs_over(K, tile))
+    return all((r0, r1) in rows and (c0, c1) in cols for r0, r1, c0, c1 in leaves)
+
+
 def _placed(n: int, runs: list) -> np.ndarray:
     """``n`` knots at the grid index, placed for OCCT's plain Gauss rule in the
     ``runs`` ``[(a, z), ...]`` (consecutive grid lines)."""
@@ -549,7 +583,7 @@ def _has_edge(face, edges: list) -> bool:
 
 
 def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray, heights: np.ndarray, cells: np.ndarray, *,
-                wrap: bool, signed: bool, chord: float, tile: int = PATCH_TILE, fine=None):
+                wrap: bool, signed: bool, chord: float, tile: int | None = None, fine=None):
     """``shape`` with the smooth patch ``faces`` (as they lie in it) textured in
     place, in tiles with walls (module docstring).
 
@@ -563,6 +597,8 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
             tessellation's chord error).
         fine: boxes ``(lo (3,), hi (3,)[, cells])`` mm where the tiles are small (a CAD
             operation's tool).
+        tile: most cells a tile side; None: :data:`WHOLE_TILE` where those tiles cover
+            the cells whole (:func:`whole_tiles`, before ``fine``), else :data:`PATCH_TILE`.
 
     Returns:
         The new shape, or None where this does not apply.
@@ -581,6 +617,8 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
     h = np.where(edge, np.minimum(h, -w) if signed else w, h)
     top = G + h[..., None] * N
     other = G + (w if signed else -w)[..., None] * N
+    if tile is None:
+        tile = WHOLE_TILE if whole_tiles(cells, wrap) else PATCH_TILE
     leaves = _leaves_over(K, tile, _band_fine(top, fine))
     if not leaves:
         return None
