@@ -118,9 +118,10 @@ def test_face_in_strips_written_at_the_tolerance(tmp_path):
     assert (tmp_path / "cone.step").stat().st_size <= 0.85 * (tmp_path / "exact.step").stat().st_size
 
 
-# Faces textured together: written at the mesh's tolerance in whole tiles of
-# texcad.brep.bands.WHOLE_TILE cells, their knots placed for OCCT's plain rule over each.
-# Stones at 0.25 mm (at 0.5 mm the part's own faces weigh most against the STL).
+# Faces textured together whose cells whole tiles cover (texcad.brep.bands.whole_tiles):
+# written at the mesh's tolerance, their 4-cell tiles merged with the u knots placed again
+# for OCCT's plain rule (texcad.io.step_tiles._merged). Stones at 0.25 mm (at 0.5 mm the
+# part's own faces weigh most against the STL).
 
 
 def _band():
@@ -142,8 +143,8 @@ def _flattened():
 def test_faces_textured_together_written_at_the_tolerance(make, tmp_path):
     """A band and a flattened patch whose cells whole tiles cover: the STEP at the
     mesh's tolerance, at most twice the binary STL, its volumes within 0.1 % in both
-    of OCCT's rules (4-cell tiles merged across their knots read 2.5 % low in the plain
-    rule)."""
+    of OCCT's rules (4-cell tiles merged with the knots they had: 2.5 % low in the
+    plain rule)."""
     part, faces, method = make()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the texture scaled to fit around

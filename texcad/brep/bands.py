@@ -55,16 +55,8 @@ __all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "whole
 #: centred), 0.05 % at 8 and 0.03 % at 24 (knots at the grid index: 0.07 % at 4,
 #: 0.2 % at 8).
 PATCH_TILE = 4
-#: Tiles of a patch whose meshed cells texcad's run tiles cover whole (a band all
-#: around, a rectangle of cells: no tile halved near the outline) are at most this many
-#: cells a side (``texcad.brep.solids.TILE``): each is one run, its knots placed for the
-#: plain rule over it, as on a textured plate. Small tiles keep their run's knots (placed
-#: over the run), so elsewhere a patch keeps :data:`PATCH_TILE`: at 24 the corner patches
-#: of ``tests/brep/test_band_corners.py`` summed 5e-5 to 1.5e-4 of their volume off in the
-#: tiles' plain integrals (2e-6 to 5e-6 at 4). The STEP at the mesh's tolerance keeps the
-#: rows and columns of poles a tile needs, so the larger tiles are what make it small: a
-#: box's sides and rounded edges at 0.125 mm 1.07x its binary STL (4.6x with 4-cell
-#: tiles, whose knots must not be merged across: ``texcad.io.step_tiles``).
+#: Tiles (cells a side) :func:`whole_tiles` lays over a patch's cells to tell whether
+#: they are whole runs (a band all around, a rectangle of cells).
 WHOLE_TILE = TILE
 #: mm added to the wall height over the chord error and the grid's sag.
 WALL_MARGIN = 0.005
@@ -500,13 +492,14 @@ def _runs_over(K: np.ndarray, tile: int) -> tuple:
 
 
 def whole_tiles(cells: np.ndarray, wrap: bool) -> bool:
-    """Are a patch's meshed ``cells`` (``(R - 1, C - 1)``, ``(R, C - 1)`` when
-    ``wrap``, as :func:`patch_solid` takes them) covered by whole tiles of
-    :data:`WHOLE_TILE` cells (:func:`_whole_runs`)? Its B-rep then has those tiles,
-    each its knots placed for OCCT's plain rule over it, and its STEP is written at
-    the mesh's tolerance (``texcad.targets.faces``); else 4-cell tiles, whose STEP at
-    the tolerance OCCT meshed open beside a mitre and an L plate's concave corner
-    (``tests/brep/test_band_corners.py``): written with every pole."""
+    """Do tiles of :data:`WHOLE_TILE` cells cover a patch's meshed ``cells`` (``(R -
+    1, C - 1)``, ``(R, C - 1)`` when ``wrap``, as :func:`patch_solid` takes them) as
+    whole runs (:func:`_whole_runs`: a band all around, a rectangle of cells)? Its
+    STEP is then written at the mesh's tolerance (``texcad.targets.faces``), its
+    4-cell tiles merged into larger ones with their u knots placed again for OCCT's
+    plain rule (``texcad.io.step_tiles``); else with every pole (at the tolerance, OCCT
+    meshed the 4-cell tiles beside a mitre and an L plate's concave corner open:
+    ``tests/brep/test_band_corners.py``)."""
     K = _unpinched(np.asarray(cells, bool).T, wrap)
     return K is not None and _whole_runs(K, WHOLE_TILE)
 
@@ -583,7 +576,7 @@ def _has_edge(face, edges: list) -> bool:
 
 
 def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray, heights: np.ndarray, cells: np.ndarray, *,
-                wrap: bool, signed: bool, chord: float, tile: int | None = None, fine=None):
+                wrap: bool, signed: bool, chord: float, tile: int = PATCH_TILE, fine=None):
     """``shape`` with the smooth patch ``faces`` (as they lie in it) textured in
     place, in tiles with walls (module docstring).
 
@@ -597,8 +590,6 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
             tessellation's chord error).
         fine: boxes ``(lo (3,), hi (3,)[, cells])`` mm where the tiles are small (a CAD
             operation's tool).
-        tile: most cells a tile side; None: :data:`WHOLE_TILE` where those tiles cover
-            the cells whole (:func:`whole_tiles`, before ``fine``), else :data:`PATCH_TILE`.
 
     Returns:
         The new shape, or None where this does not apply.
@@ -617,8 +608,6 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
     h = np.where(edge, np.minimum(h, -w) if signed else w, h)
     top = G + h[..., None] * N
     other = G + (w if signed else -w)[..., None] * N
-    if tile is None:
-        tile = WHOLE_TILE if whole_tiles(cells, wrap) else PATCH_TILE
     leaves = _leaves_over(K, tile, _band_fine(top, fine))
     if not leaves:
         return None
