@@ -13,15 +13,17 @@ again.
     python benchmarks/bench_step.py [--pixels 800] [--plain] [--occt-volume] [--paper] [--sledgehammer]
     python benchmarks/bench_step.py --open 0.125
     python benchmarks/bench_step.py --holes [--pixels 800] [--occt-volume]
-    python benchmarks/bench_step.py --sizes [--size 100] [--table docs/benchmarks/step.md]
+    python benchmarks/bench_step.py --sizes [--size 100] [--table docs/benchmarks/step.md] [--rows band,flattened]
 
 ``--sizes`` (issue 28): the demo plate (``--size`` mm, stones 2 mm at 0.125 mm, the
 demo's default tolerance), the same drilled through, a 30 mm plate drilled through, a
 cylinder (stones, knurl), a cone and three faces trimmed inside their (u, v)
-rectangle (a drilled full cylinder, a fluted knob cone, a wall with a window): STEP size against the binary STL's at the same tolerance, seconds to write the STEP, to read it back (OCCT's
+rectangle (a drilled full cylinder, a fluted knob cone, a wall with a window), faces
+textured together (a box's sides and rounded edges, a band; a top, fillet and side
+flattened together): STEP size against the binary STL's at the same tolerance, seconds to write the STEP, to read it back (OCCT's
 ``STEPControl_Reader``, as FreeCAD) and to mesh it at 0.1 mm, validity and OCCT's
 volume against the mesh; written as a markdown table (machine, date, command) to
-``--table``.
+``--table``. ``--rows a,b``: only those rows (names as printed).
 
 ``--open PITCH``: instead of the plate, the paper's sine and curved samples (open
 profiles, tiles sewn in place) with the diamond knurl at PITCH mm: B-rep, OCCT's own
@@ -279,33 +281,76 @@ def _trimmed_parts() -> dict:
     }
 
 
-def run_sizes(out: Path, size: float, table: str | None) -> None:
+def _band_parts() -> dict:
+    """Faces textured together across smooth edges (``texcad.brep.bands``), as
+    ``{name: (part, faces)}``: a box's four sides with the rounded vertical edges
+    between them (a band), and a box's top, one rounded top edge and the side below
+    it flattened together (a flattened patch, conformal)."""
+    from build123d import Axis, Box, GeomType, fillet
+
+    box = fillet(Box(30, 20, 10).edges().filter_by(Axis.Z), 4)
+    roof = fillet(Box(30, 20, 10).edges().filter_by(Axis.Y).sort_by(Axis.Z)[-1:], 4)
+    return {
+        "band": (box, [f for f in box.faces() if abs(f.normal_at().Z) < 0.5]),
+        "flattened": (roof, [f for f in roof.faces() if f.center().Z > 4.9 or f.center().X > 14.9 or f.geom_type == GeomType.CYLINDER]),
+    }
+
+
+def _sizes_rows(size: float) -> dict:
+    """The ``--sizes`` rows, ``{name: () -> (textured, tessellated)}`` (made when run)."""
+    from build123d import Axis, Cone, Cylinder, GeomType, Pos
+
+    made: dict = {}
+
+    def plate():  # made once, shared by the plate rows
+        if "plate" not in made:
+            p = texcad.pipeline.plate_base((size, size), 5)
+            made["plate"] = texcad.texture(p, p.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=2.0, pitch=0.125)
+        return made["plate"]
+
+    def small():  # the same hole weighs more on a small plate
+        p = texcad.pipeline.plate_base((30, 30), 5)
+        tx30 = texcad.texture(p, p.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=2.0, pitch=0.125)
+        return tx30 - Pos(15, 15, 0) * Cylinder(4, 30)
+
+    def side(part, kind):
+        return part.faces().filter_by(kind)[0]
+
+    cyl, cone = Cylinder(10, 30), Cone(12, 8, 20)
+    rows = {
+        f"plate{size:g}": lambda: (plate(), False),
+        f"plate{size:g}-tess": lambda: (plate(), True),
+        f"drilled{size:g}": lambda: (plate() - Pos(size / 2, size / 2, 0) * Cylinder(4, 30), False),
+        "drilled30-small": lambda: (small(), False),
+        "cylinder": lambda: (texcad.texture(cyl, side(cyl, GeomType.CYLINDER), "builtin:stones", height=0.6, pitch=0.125), False),
+        "knurl": lambda: (texcad.texture(cyl, side(cyl, GeomType.CYLINDER), "builtin:diamond_knurl", height=0.6, pitch=0.25), False),
+        "cone": lambda: (texcad.texture(cone, side(cone, GeomType.CONE), "builtin:stones", height=0.6, pitch=0.125), False),
+    }
+    for name, (part, face) in _trimmed_parts().items():  # faces trimmed inside their (u, v) rectangle
+        rows[name] = lambda part=part, face=face: (texcad.texture(part, face, "builtin:stones", height=0.6, pitch=0.125), False)
+    for name, (part, faces) in _band_parts().items():  # faces textured together
+        rows[name] = lambda part=part, faces=faces: (texcad.texture(part, faces, "builtin:stones", height=0.6, pitch=0.125), False)
+    return rows
+
+
+def run_sizes(out: Path, size: float, table: str | None, only: list | None = None) -> None:
     """STEP size against binary STL, re-read and mesh seconds (issue 28): the demo
     plate, the same with a hole drilled through (texcad's ops: fine tiles under the
-    tool), a cylinder and a cone."""
+    tool), a cylinder, a cone, faces trimmed inside their (u, v) rectangle and faces
+    textured together (a band, a flattened patch); ``only``: those rows."""
     import platform
     from datetime import datetime, timezone
 
-    from build123d import Axis, Cone, Cylinder, GeomType, Pos
-
-    plate = texcad.pipeline.plate_base((size, size), 5)
+    makers = _sizes_rows(size)
+    unknown = sorted(set(only or ()) - set(makers))
+    if unknown:
+        raise SystemExit(f"--rows: no row {', '.join(unknown)}; rows: {', '.join(makers)}")
     rows = []
-    tx = texcad.texture(plate, plate.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=2.0, pitch=0.125)
-    rows.append(_sizes_row(f"plate{size:g}", tx, out))
-    rows.append(_sizes_row(f"plate{size:g}-tess", tx, out, tessellated=True))
-    rows.append(_sizes_row(f"drilled{size:g}", tx - Pos(size / 2, size / 2, 0) * Cylinder(4, 30), out))
-    small = texcad.pipeline.plate_base((30, 30), 5)  # the same hole weighs more on a small plate
-    tx30 = texcad.texture(small, small.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=2.0, pitch=0.125)
-    rows.append(_sizes_row("drilled30-small", tx30 - Pos(15, 15, 0) * Cylinder(4, 30), out))
-    cyl = Cylinder(10, 30)
-    side = cyl.faces().filter_by(GeomType.CYLINDER)[0]
-    rows.append(_sizes_row("cylinder", texcad.texture(cyl, side, "builtin:stones", height=0.6, pitch=0.125), out))
-    rows.append(_sizes_row("knurl", texcad.texture(cyl, side, "builtin:diamond_knurl", height=0.6, pitch=0.25), out))
-    cone = Cone(12, 8, 20)
-    side = cone.faces().filter_by(GeomType.CONE)[0]
-    rows.append(_sizes_row("cone", texcad.texture(cone, side, "builtin:stones", height=0.6, pitch=0.125), out))
-    for name, (part, face) in _trimmed_parts().items():  # faces trimmed inside their (u, v) rectangle
-        rows.append(_sizes_row(name, texcad.texture(part, face, "builtin:stones", height=0.6, pitch=0.125), out))
+    for name, make in makers.items():  # one per row
+        if only and name not in only:
+            continue
+        tx, tessellated = make()
+        rows.append(_sizes_row(name, tx, out, tessellated=tessellated))
     if table:
         parts = {f"plate{size:g}": f"demo plate {size:g} x {size:g} mm, stones 2 mm at 0.125 mm",
                  f"plate{size:g}-tess": "the same, `write_step(tessellated=True)`: every pole + the grid mesh (AP242)",
@@ -316,13 +361,16 @@ def run_sizes(out: Path, size: float, table: str | None) -> None:
                  "cone": "cone r 12 / 8 x 20 mm, stones 0.6 mm at 0.125 mm (general method: a face in strips)",
                  "trimmed-cylinder": "full cylinder r 8 x 12 mm drilled through (3 mm) before texturing, stones 0.6 mm at 0.125 mm",
                  "trimmed-cone": "knob cone r 10 / 6 x 12 mm with 4 slanted flutes, the same",
-                 "trimmed-window": "wall of revolution (spline profile) with a 3 x 7 mm window, the same"}  # fmt: skip
+                 "trimmed-window": "wall of revolution (spline profile) with a 3 x 7 mm window, the same",
+                 "band": "box 30 x 20 x 10 mm, vertical edges rounded r 4: its 4 sides and 4 rounded edges textured together (a band), the same",
+                 "flattened": "box 30 x 20 x 10 mm, a top edge rounded r 4, top, fillet and side flattened together, the same"}  # fmt: skip
         lines = [
             "# STEP size and re-read time",
             "",
             "Written by `benchmarks/bench_step.py --sizes`; do not edit by hand.",
             "",
-            f"- command: `python benchmarks/bench_step.py --sizes --size {size:g} --table {table}`",
+            f"- command: `python benchmarks/bench_step.py --sizes --size {size:g} --table {table}"
+            + (f" --rows {','.join(only)}`" if only else "`"),
             f"- machine: {platform.machine()}, {os.cpu_count()} cores, {platform.python_version()}, "
             f"load {os.getloadavg()[0]:.1f} (1 min; the machine was shared)",
             f"- date: {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC",
@@ -414,6 +462,7 @@ def main() -> None:
     ap.add_argument("--sizes", action="store_true", help="only STEP size vs binary STL and re-read seconds (issue 28)")
     ap.add_argument("--size", type=float, default=100.0, help="--sizes: the plate's side, mm")
     ap.add_argument("--table", default=None, help="--sizes: write the markdown table here")
+    ap.add_argument("--rows", default=None, help="--sizes: only these rows (comma-separated names, e.g. band,flattened)")
     args = ap.parse_args()
     import build123d  # noqa: F401  (import cost is not part of the job)
 
@@ -425,7 +474,7 @@ def main() -> None:
         elif args.holes:
             run_holes(Path(d), args.pixels, args.occt_volume)
         elif args.sizes:
-            run_sizes(Path(d), args.size, args.table)
+            run_sizes(Path(d), args.size, args.table, args.rows.split(",") if args.rows else None)
         else:
             run_plate(args.pixels, Path(d), args.plain, args.occt_volume)
         if args.paper:

@@ -46,7 +46,7 @@ from .occt import explore, face_in, general_fuse, to_topods
 from .gprop import polyline_pcurve, run_knots, split_at_knots
 from .solids import TILE, TOLERANCE, _band_fine, _replace_faces, _tile_bounds, grid_surface, tiled_grid_faces
 
-__all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "PATCH_TILE", "creases"]
+__all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "whole_tiles", "PATCH_TILE", "WHOLE_TILE", "creases"]
 
 #: Tiles of a patch are at most this many cells a side. With the tiles' knots placed
 #: for OCCT's plain Gauss integration (build123d's ``.volume``; :mod:`texcad.brep.gprop`)
@@ -55,6 +55,9 @@ __all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "PATCH
 #: centred), 0.05 % at 8 and 0.03 % at 24 (knots at the grid index: 0.07 % at 4,
 #: 0.2 % at 8).
 PATCH_TILE = 4
+#: Tiles (cells a side) :func:`whole_tiles` lays over a patch's cells to tell whether
+#: they are whole runs (a band all around, a rectangle of cells).
+WHOLE_TILE = TILE
 #: mm added to the wall height over the chord error and the grid's sag.
 WALL_MARGIN = 0.005
 
@@ -486,6 +489,30 @@ def _runs_over(K: np.ndarray, tile: int) -> tuple:
         b = int(a[0]) + _tile_bounds(int(a[-1]) + 1 - int(a[0]), tile)
         out.append(list(zip(b[:-1].tolist(), b[1:].tolist())))
     return tuple(out)
+
+
+def whole_tiles(cells: np.ndarray, wrap: bool) -> bool:
+    """Do tiles of :data:`WHOLE_TILE` cells cover a patch's meshed ``cells`` (``(R -
+    1, C - 1)``, ``(R, C - 1)`` when ``wrap``, as :func:`patch_solid` takes them) as
+    whole runs (:func:`_whole_runs`: a band all around, a rectangle of cells)? Its
+    STEP is then written at the mesh's tolerance (``texcad.targets.faces``), its
+    4-cell tiles merged into larger ones with their u knots placed again for OCCT's
+    plain rule (``texcad.io.step_tiles``); else with every pole (at the tolerance, OCCT
+    meshed the 4-cell tiles beside a mitre and an L plate's concave corner open:
+    ``tests/brep/test_band_corners.py``)."""
+    K = _unpinched(np.asarray(cells, bool).T, wrap)
+    return K is not None and _whole_runs(K, WHOLE_TILE)
+
+
+def _whole_runs(K: np.ndarray, tile: int) -> bool:
+    """Do :func:`_leaves_over`'s tiles of at most ``tile`` cells cover the cells ``K``
+    with whole runs only (each tile one run of :func:`_runs_over` both ways, none
+    halved near the outline)?"""
+    leaves = _leaves_over(K, tile, None)
+    if not leaves:
+        return False
+    rows, cols = (set(r) for r in _runs_over(K, tile))
+    return all((r0, r1) in rows and (c0, c1) in cols for r0, r1, c0, c1 in leaves)
 
 
 def _placed(n: int, runs: list) -> np.ndarray:

@@ -303,7 +303,11 @@ def _trimmed_neighbours(shape, tiles: list, grids: list) -> tuple[dict, dict]:
     orientation, the knot spans even together (:func:`_even`; OCCT's cut leaves
     border poles up to 5e-12 mm apart: within 1e-9 mm). Their surfaces are
     whole (the trimming is their outline's), so a rectangle of them is one grid
-    without a gap; the shared side may be cut or missing (the tool took it)."""
+    without a gap; the shared side may be cut or missing (the tool took it). Not past
+    the high-u side of a tile whose u knots are placed for OCCT's plain rule over
+    itself (:func:`_placed`; a patch's tiles, ``texcad.brep.bands``): the rule across
+    u then spans the merged tile and misses (4-cell tiles of a box's sides merged into
+    24: the STEP's plain volume 2.5 % low)."""
     from OCP.TopAbs import TopAbs_WIRE
     from OCP.TopExp import TopExp_Explorer
 
@@ -322,6 +326,8 @@ def _trimmed_neighbours(shape, tiles: list, grids: list) -> tuple[dict, dict]:
     for a in small.values():  # one per small trimmed tile
         ga, u, v = grids[a]
         b = small.get((float(u[-1]), float(v[0])))
+        if b is not None and (_placed(u) or _placed(grids[b][1])):
+            b = None  # u knots placed for OCCT's plain rule over the tile alone (a patch's, texcad.brep.bands): not wider
         if b is not None and tiles[b][1].Orientation() == tiles[a][1].Orientation():
             gb, ub, vb = grids[b]
             if np.array_equal(vb, v) and np.allclose(gb[:, 0], ga[:, -1], rtol=0.0, atol=1e-9) and _even(np.r_[u, ub[1:]]):
@@ -370,7 +376,15 @@ def _merged(shape, cells: int, trimmed: bool = False):
     placed for the rule on each (``texcad.brep.solids``); merged, the rule takes
     more points across them and misses: a 30 mm plate drilled through read +0.107 %
     in the plain rule (+0.053 % so), and the merged tile kept whole rows and columns
-    of poles across all of them (2.04x its STL; 2.005x so)."""
+    of poles across all of them (2.04x its STL; 2.005x so).
+
+    Tiles whose knots are placed each for the rule over itself (a patch's 4-cell
+    tiles, ``texcad.brep.bands``) are merged with their u knots placed again over the
+    merged tile (:func:`~texcad.brep.gprop.gauss_knots`; a degree-1 surface's knots are
+    free), the outer edges' pcurves mapped to them (:func:`_remapped`): the rule
+    across u then spans the merged tile as placed, and along v each edge keeps its
+    own rule over its tile's placed v knots (merged as they were, a box's sides read
+    2.5 % low in the plain rule)."""
     from OCP.BRep import BRep_Builder, BRep_Tool
     from OCP.BRepTools import BRepTools_ReShape
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD
@@ -380,6 +394,7 @@ def _merged(shape, cells: int, trimmed: bool = False):
     from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_IndexedMapOfShape
 
     from ..brep import grid_surface
+    from ..brep.gprop import gauss_knots
 
     _, tiles = _tiles_of(shape)
     grids = _grids(tiles)
@@ -393,12 +408,15 @@ def _merged(shape, cells: int, trimmed: bool = False):
     for group in groups:  # one per merged rectangle
         U = np.unique(np.concatenate([grids[a][1] for a in group]))
         V = np.unique(np.concatenate([grids[a][2] for a in group]))
+        U0 = U
         if not trimmed and not (_placed(U) and _placed(V)):
-            continue  # knots not placed for OCCT's plain rule over the merged tile (docstring)
+            if not all(_placed(grids[a][1]) and _placed(grids[a][2]) and len(grids[a][1]) <= SMALL + 1 for a in group):
+                continue  # knots not placed for OCCT's plain rule over the merged tile (docstring)
+            U = gauss_knots(U0[0], U0[-1], len(U0) - 1)  # tiles placed each (a patch's): u placed again over the merge
         G = np.zeros((len(V), len(U), 3))
         for a in group:  # one per tile of the rectangle
             g, u, v = grids[a]
-            G[np.ix_(np.searchsorted(V, v), np.searchsorted(U, u))] = g
+            G[np.ix_(np.searchsorted(V, v), np.searchsorted(U0, u))] = g
         members = TopTools_IndexedMapOfShape()
         for a in group:  # one per tile of the rectangle
             members.Add(tiles[a][1])
@@ -425,16 +443,58 @@ def _merged(shape, cells: int, trimmed: bool = False):
         b.MakeFace(face, grid_surface(G, U, V), TopLoc_Location(), BRep_Tool.Tolerance_s(first))
         b.MakeWire(wire)
         placed = _placed(U)
-        for k in chain:  # one per outer edge
-            e, tile = outline[k]
+        pcs = [BRep_Tool.CurveOnSurface_s(outline[k][0], outline[k][1], 0.0, 0.0) for k in chain]  # one per outer edge
+        if U is not U0:
+            pcs = [_remapped(outline[k][0], pc, U0, U) for k, pc in zip(chain, pcs)]
+            if any(pc is None for pc in pcs):
+                continue
+        for k, pc in zip(chain, pcs):  # one per outer edge
+            e = outline[k][0]
             b.Add(wire, e)
-            b.UpdateEdge(e, _ruled(e, BRep_Tool.CurveOnSurface_s(e, tile, 0.0, 0.0), U[0], placed), face, BRep_Tool.Tolerance_s(e))
+            b.UpdateEdge(e, _ruled(e, pc, U[0], placed), face, BRep_Tool.Tolerance_s(e))
         wire.Closed(True)
         b.Add(face, wire)
         reshape.Replace(first, face.Oriented(first.Orientation()))
         for a in group[1:]:  # one per other tile of the rectangle
             reshape.Remove(tiles[a][1])
     return reshape.Apply(shape)
+
+
+def _remapped(edge, pc, u: np.ndarray, new: np.ndarray):
+    """The pcurve ``pc`` of ``edge`` with its ``u`` mapped from the knots ``u`` to
+    ``new`` (piecewise linearly: the same points of a degree-1 surface whose u knots
+    are ``new``), or None if ``pc`` is not a line or a degree-1 B-spline. An edge
+    along v (``u`` constant) keeps its curve, moved (a line stays a line, a padded
+    pcurve its spans: OCCT's plain rule keeps its order along it); an edge along u
+    becomes the broken line through its points at ``u`` and its own knots."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom2d import Geom2d_BSplineCurve, Geom2d_Line
+    from OCP.gp import gp_Vec2d
+
+    from ..brep.gprop import polyline_pcurve
+
+    if isinstance(pc, Geom2d_BSplineCurve) and pc.Degree() == 1:
+        ks = np.array([pc.Knot(i) for i in range(1, pc.NbKnots() + 1)])
+    elif isinstance(pc, Geom2d_Line):
+        ks = np.zeros(0)
+    else:
+        return None
+    first, last = BRep_Tool.Range_s(edge)
+    t = np.unique(np.r_[first, ks[(ks > first) & (ks < last)], last])
+    q = np.array([pc.Value(x).Coord() for x in t.tolist()])  # per knot (tens)
+    eps = 1e-12 * (1.0 + np.abs(u).max())
+    if np.ptp(q[:, 0]) <= eps:  # along v
+        out = pc.Copy()
+        out.Translate(gp_Vec2d(float(np.interp(q[0, 0], u, new)) - q[0, 0], 0.0))
+        return out
+    cut = [t]
+    for a in range(len(t) - 1):  # per span: where it crosses a knot of u
+        lo, hi = sorted((q[a, 0], q[a + 1, 0]))
+        inner = u[(u > lo + eps) & (u < hi - eps)]
+        cut.append(t[a] + (inner - q[a, 0]) / (q[a + 1, 0] - q[a, 0]) * (t[a + 1] - t[a]))
+    t = np.unique(np.concatenate(cut))
+    q = np.array([pc.Value(x).Coord() for x in t.tolist()])  # per point (tens)
+    return polyline_pcurve(np.stack([np.interp(q[:, 0], u, new), q[:, 1]], axis=-1), t, pad=False)
 
 
 def _iso(edge, face) -> tuple | None:

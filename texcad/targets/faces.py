@@ -426,6 +426,17 @@ def _limits(reliefs: list, options: Options, opts: PatchOptions):
     )
 
 
+def _at_tolerance(reliefs: list) -> bool:
+    """Is the STEP of these patches written at the mesh's tolerance? Faces flattened
+    together (a patch without one face) only where whole tiles cover their cells
+    (:func:`texcad.brep.bands.whole_tiles`: a band all around, a rectangle of cells);
+    else their 4-cell tiles are written with every pole (at the tolerance OCCT meshed
+    a mitre's and an L plate's corner open)."""
+    from ..brep.bands import whole_tiles
+
+    return all(r.face is not None or whole_tiles(r.cells, bool(r.grid.wrap_y)) for r in reliefs)
+
+
 def _info(placement: Placement, reliefs: list, options: Options) -> dict:
     """What was done, plain values (``Textured.info``)."""
     from ..mapping import Distortion
@@ -451,8 +462,8 @@ def _info(placement: Placement, reliefs: list, options: Options) -> dict:
         # (chained: and the earlier textures' lean meshes theirs)
         "volume_slack": max_error * area + (float(placement.previous.fused.info.get("volume_slack", 0.0)) if chained else 0.0),
     }
-    if not any(r.face is None for r in reliefs) and (not chained or placement.previous.fused.info.get("tolerance")):
-        info["tolerance"] = float(options.tolerance)  # the STEP is written at it (faces flattened together: exact)
+    if _at_tolerance(reliefs) and (not chained or placement.previous.fused.info.get("tolerance")):
+        info["tolerance"] = float(options.tolerance)  # the STEP is written at it (texcad.io.step_tiles)
     if options.build_dir is not None:
         info["build_dir"] = np.asarray(patch_options(options).build_dir).tolist()
         info["critical_angle"] = float(options.critical_angle)
