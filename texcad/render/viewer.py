@@ -67,7 +67,7 @@ def render_part(
     *,
     width: int = 1200,
     view: Sequence[float] | None = None,
-    up: Sequence[float] = (0.0, 0.0, 1.0),
+    up: Sequence[float] | None = None,
     supersample: int = 2,
 ) -> Path:
     """Write a PNG picture of a part (offscreen, plain numpy: :mod:`texcad.render.raster`).
@@ -80,11 +80,15 @@ def render_part(
         view: direction the camera looks along (default :data:`DEFAULT_VIEW`; for a
             textured part, the mirror image of it that shows its texture,
             :func:`texture_view`).
-        up: direction shown as up.
+        up: direction shown as up (default +z, or -z for a view that looks up at the
+            part: a face seen from below is shown as if the part were turned over,
+            lit from the camera's side).
         supersample: anti-aliasing factor.
     """
     if view is None:
         view = texture_view(obj.mesh, obj.base_mesh) if _is_textured(obj) else DEFAULT_VIEW
+    if up is None:
+        up = (0.0, 0.0, -1.0) if view[2] > 0 else (0.0, 0.0, 1.0)
     img = render_mesh(_mesh_of(obj), view=view, up=up, width=int(width), supersample=int(supersample))
     write_png(path, img)
     return Path(path)
