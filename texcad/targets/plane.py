@@ -101,26 +101,67 @@ def _positive_volume(vertices: np.ndarray, faces: np.ndarray, z0: float) -> floa
     return float((area * mean).sum())
 
 
-def _brep_heights(r: "PlaneRelief") -> np.ndarray:
-    """``(R, C)`` mm: the heights the B-rep is made of, ``r.h`` moved so that its
-    bilinear surface encloses the lean mesh's volume cell by cell (a lean top is
-    within ``tolerance`` of ``r.h`` at the pixel centres only: between them its
-    chords cut under convex stones, a stones plate at 0.125 mm read 0.12 % below its
-    B-rep, and where the relief is steep its triangles cross the cells other than
-    the grid's diagonals do, a pins plate at 0.5 mm pitch 0.53 % below).
+def _far_from(g: np.ndarray, h: np.ndarray, xs: np.ndarray, ys: np.ndarray, z0: float, V: np.ndarray, F: np.ndarray,
+              limit: float) -> np.ndarray:
+    """``(R, C)`` bool: the pixel centres moved off ``h`` to ``g`` (mm, at ``(xs,
+    ys)`` over ``z0``) that lie more than ``limit`` mm from the lean top (triangles
+    ``F`` of ``V``), or under a vertex of it (a kept pixel centre) that lies more
+    than ``limit`` from the grid through ``g`` (libigl's AABB search both ways)."""
+    import igl
 
-    Each cell ``c`` (area ``A = px py``) gets ``e_c = A (T_c - B_c)``: ``T_c`` the
-    lean top's mean height over the cell by the trapezoid rule on the grid refined
-    twice (:func:`texcad.targets.patches.lean_heights`, weights 1, 2, 4 / 16), ``B_c``
-    the mean of its corners (the bilinear surface's). Its corners with ``h > 0``
-    (the face round the relief stays) rise by ``e_c / (A n_c)`` each (``n_c`` of
-    them): a corner raised by ``d`` adds ``A d`` to the bilinear volume. What the
-    estimate misses of the exact difference (the lean top's volume above the face,
-    :func:`_positive_volume`, less the grid's, :func:`~texcad.solid.mesh.heightfield_volume`),
-    and what the floor at 0 mm clips, goes to the moved corners in proportion to
-    their moves."""
+    from ..solid import grid_faces
+
+    R, C = g.shape
+    moved = g != h
+    rr, cc = np.nonzero(moved)
+    out = np.zeros(g.shape, bool)
+    if not len(rr):
+        return out
+    q = np.stack([xs[cc], ys[rr], z0 + g[rr, cc]], axis=1).astype(np.float64)
+    out[rr, cc] = igl.point_mesh_squared_distance(q, V, F)[0] > limit ** 2
+    used = np.unique(F)
+    kc = np.rint((V[used, 0] - xs[0]) / (xs[1] - xs[0])).astype(np.int64)
+    kr = np.rint((V[used, 1] - ys[0]) / (ys[1] - ys[0])).astype(np.int64)
+    near = moved[kr, kc]  # kept pixel centres that moved
+    if near.any():
+        gx, gy = np.meshgrid(xs, ys)
+        grid = np.stack([gx.ravel(), gy.ravel(), z0 + g.ravel()], axis=1).astype(np.float64)
+        d2 = igl.point_mesh_squared_distance(V[used[near]], grid, grid_faces(R, C).astype(np.int64))[0]
+        out[kr[near][d2 > limit ** 2], kc[near][d2 > limit ** 2]] = True
+    return out
+
+
+def _brep_heights(r: "PlaneRelief") -> np.ndarray:
+    """``(R, C)`` mm: the heights the B-rep is made of: ``r.h`` moved so that its
+    bilinear surface encloses the lean mesh's volume, near where the lean mesh has
+    it. A lean top is within ``tolerance`` of ``r.h`` at the pixel centres only:
+    between them its chords cut under convex stones (a stones plate at 0.125 mm read
+    0.12 % below its B-rep) and, where the relief is steep, its triangles cross the
+    cells other than the grid's diagonals (pins 2 px across at 0.5 mm: 0.53 %).
+
+    Each cell ``c`` (area ``A = px py``) is off by ``e_c = A (T_c - B_c)``: ``T_c``
+    the lean top's mean height over it by the trapezoid rule on the grid refined
+    twice (:func:`texcad.targets.patches.lean_heights`, weights 1, 2, 4 / 16),
+    ``B_c`` the mean of its corners (the bilinear surface's). Its corners with
+    ``h > 0`` (the face round the relief stays) move by ``e_c / (A n_c)`` each
+    (``n_c`` of them; a corner raised by ``d`` adds ``A d`` to the bilinear
+    volume), averaged over :data:`~texcad.brep.targets.LEAN_SMOOTH` pixels a side
+    where the relief is gentle (the STEP tiles fit as few poles). A pixel centre
+    stays within ``a = REACH x tolerance`` of the lean top across its steepest facet
+    (slope ``s``: ``|g - L| <= a sqrt(1 + s^2)``); what the estimate misses of the
+    exact difference (the lean top's volume above the face,
+    :func:`_positive_volume`, less the grid's,
+    :func:`~texcad.solid.mesh.heightfield_volume`) goes to the pixel centres in
+    proportion to the room they have. Where no facet is steeper than :data:`WALL`
+    every moved pixel centre is then checked against the lean top, and every kept
+    vertex of the lean top against the moved grid (:func:`_far_from`): a move that
+    puts them more than ``a`` apart is halved (and the volume spread again), so the
+    B-rep lies within the tolerance of the mesh there."""
     if r.tolerance <= 0:
         return r.h
+    from scipy.ndimage import maximum_filter, minimum_filter, uniform_filter
+
+    from ..brep.targets import LEAN_SMOOTH as smooth
     from .patches import lean_heights
 
     s = r.slab
@@ -143,15 +184,55 @@ def _brep_heights(r: "PlaneRelief") -> np.ndarray:
     d[:-1, 1:] += share
     d[1:, 1:] += share
     d *= okf
+    # gentle relief: the offsets averaged (the STEP tiles fit as few poles)
+    gentle = ok & (maximum_filter(h, 3) - minimum_filter(h, 3) <= STEEP * min(px, py))
+    wf = gentle.astype(np.float64)
+    mean = uniform_filter(d * wf, smooth, mode="constant") / np.maximum(uniform_filter(wf, smooth, mode="constant"), 1e-12)
+    d = np.where(gentle, mean, d)
     target = _positive_volume(s.vertices, top, float(r.slab_origin[2]))
-    g = np.where(ok, np.maximum(h + d, 0.0), h)
-    for _ in range(3):  # the estimate's miss and the floor's clip, to the moved corners
-        w = np.abs(g - h) * (g > 0) * ok
-        miss = target - heightfield_volume(g, (px, py))[0]
-        if not w.sum() > 0 or abs(miss) <= 1e-9 * target:
+    dx, dy = np.abs(np.diff(h, axis=1)) / px, np.abs(np.diff(h, axis=0)) / py
+    sx = np.maximum(np.pad(dx, ((0, 0), (1, 0))), np.pad(dx, ((0, 0), (0, 1))))
+    sy = np.maximum(np.pad(dy, ((1, 0), (0, 0))), np.pad(dy, ((0, 1), (0, 0))))
+    limit = REACH * r.tolerance
+    reach = limit * np.sqrt(1.0 + sx ** 2 + sy ** 2)
+    checked = np.maximum(sx, sy) <= WALL
+    at = L[::2, ::2]
+    lo = np.minimum(np.where(ok, np.maximum(at - reach, 0.0), h), h)  # (the grid itself always may be)
+    hi = np.maximum(np.where(ok, at + reach, h), h)
+    g = np.clip(h + d, lo, hi)
+    V, F = np.asarray(s.vertices, np.float64), np.asarray(top, np.int64)
+    z0 = float(r.slab_origin[2])
+    for _ in range(CHECKS):
+        for _ in range(2):  # what the estimate missed, to the corners with room, in proportion to it
+            miss = target - heightfield_volume(g, (px, py))[0]
+            room = (hi - g) if miss > 0 else (g - lo)
+            if not room.sum() > 0 or abs(miss) <= 1e-9 * target:
+                break
+            g = np.clip(g + np.sign(miss) * min(1.0, abs(miss) / (area * room.sum())) * room, lo, hi)
+        far = _far_from(g, h, r.xs, r.ys, z0, V, F, limit) & checked
+        if not far.any():
             break
-        g = np.where(ok, np.maximum(g + miss * w / (area * w.sum()), 0.0), h)
+        half = h + 0.5 * (g - h)
+        lo, hi = np.where(far, np.minimum(half, h), lo), np.where(far, np.maximum(half, h), hi)
+        g = np.where(far, half, g)
+    else:
+        g = np.where(_far_from(g, h, r.xs, r.ys, z0, V, F, limit) & checked, h, g)
     return g.astype(np.asarray(r.h).dtype)
+
+
+#: Gentle relief (:func:`_brep_heights` averages its offsets): heights within
+#: ``STEEP`` pitches over every 3 x 3 pixels.
+STEEP = 1.0
+#: The B-rep's pixel centres stay within this share of the tolerance of the lean top
+#: (across its slope), so within it of the mesh.
+REACH = 0.9
+#: Rounds of :func:`_brep_heights`' distance check.
+CHECKS = 4
+#: Steep relief (a facet's slope above ``WALL``, 76 degrees): the lean top crosses
+#: the pixel cells there far from the grid's surface (2 px pins: by 1 mm in the middle
+#: of a cell), so its pixel centres may move by :data:`REACH` x tolerance across the
+#: slope without the distance check.
+WALL = 4.0
 
 
 @dataclass(frozen=True)
