@@ -131,6 +131,39 @@ def _far_from(g: np.ndarray, h: np.ndarray, xs: np.ndarray, ys: np.ndarray, z0: 
     return out
 
 
+def _cell_offsets(h: np.ndarray, slab: Mesh, origin: tuple, pitch: tuple) -> np.ndarray:
+    """``(e, L)``: ``e`` ``(R - 1, C - 1)`` mm, how far the lean top of ``slab`` (its ``"texture"``
+    group, over ``origin``) lies above the bilinear surface through ``h`` (``(R,
+    C)`` mm, pixel ``pitch``) on average over each cell: ``T_c - B_c``, ``T_c`` the
+    lean top's mean height over the cell by the trapezoid rule on the grid refined
+    twice (:func:`texcad.targets.patches.lean_heights`, weights 1, 2, 4 / 16, only
+    above the face), ``B_c`` the mean of the cell's corners; ``L`` ``(2 R - 1, 2 C -
+    1)`` mm, the lean top's heights on that refined grid."""
+    from .patches import lean_heights
+
+    top = slab.faces[slab.groups["texture"]]
+    L = np.nan_to_num(np.maximum(lean_heights(slab.vertices, top, origin, pitch, h.shape, sub=2), 0.0))
+    corner = lambda g, i, j: g[i:g.shape[0] - 2 + i:2, j:g.shape[1] - 2 + j:2]  # noqa: E731 - (R-1, C-1) points of each cell
+    T = (corner(L, 0, 0) + corner(L, 0, 2) + corner(L, 2, 0) + corner(L, 2, 2)
+         + 2 * (corner(L, 1, 0) + corner(L, 1, 2) + corner(L, 0, 1) + corner(L, 2, 1)) + 4 * corner(L, 1, 1)) / 16
+    g = np.asarray(h, np.float64)
+    return T - 0.25 * (g[:-1, :-1] + g[1:, :-1] + g[:-1, 1:] + g[1:, 1:]), L
+
+
+def _lean_crosses(h: np.ndarray, slab: Mesh, origin: tuple, pitch: tuple, tolerance: float) -> float:
+    """The volume (mm^3) the lean top of ``slab`` loses against the pixel grid's
+    surface in the cells it crosses more than ``tolerance`` away from it on average
+    (:func:`_cell_offsets`), as a share of ``tolerance`` x the textured area: about
+    0.01 on stones (its chords stay near the grid), 0.7-1.1 on pins 2 px across
+    (its triangles cut their edges between the pixel centres), where neither the
+    gate's allowance (the tolerance x area) nor a B-rep through the pixel centres
+    near the mesh holds."""
+    e, _ = _cell_offsets(h, slab, origin, pitch)
+    far = np.abs(e) > tolerance
+    textured = float((np.asarray(h) > 0).sum()) * pitch[0] * pitch[1]
+    return abs(float(e[far].sum())) * pitch[0] * pitch[1] / max(tolerance * textured, 1e-300)
+
+
 def _brep_heights(r: "PlaneRelief") -> np.ndarray:
     """``(R, C)`` mm: the heights the B-rep is made of: ``r.h`` moved so that its
     bilinear surface encloses the lean mesh's volume, near where the lean mesh has
@@ -162,22 +195,17 @@ def _brep_heights(r: "PlaneRelief") -> np.ndarray:
     from scipy.ndimage import maximum_filter, minimum_filter, uniform_filter
 
     from ..brep.targets import LEAN_SMOOTH as smooth
-    from .patches import lean_heights
 
     s = r.slab
     top = s.faces[s.groups["texture"]]
     px, py = float(r.xs[1] - r.xs[0]), float(r.ys[1] - r.ys[0])
     area = px * py
     h = np.asarray(r.h, np.float64)
-    L = np.nan_to_num(np.maximum(lean_heights(s.vertices, top, r.slab_origin, (px, py), h.shape, sub=2), 0.0))
-    corner = lambda g, i, j: g[i:g.shape[0] - 2 + i:2, j:g.shape[1] - 2 + j:2]  # noqa: E731 - (R-1, C-1) points of each cell
-    T = (corner(L, 0, 0) + corner(L, 0, 2) + corner(L, 2, 0) + corner(L, 2, 2)
-         + 2 * (corner(L, 1, 0) + corner(L, 1, 2) + corner(L, 0, 1) + corner(L, 2, 1)) + 4 * corner(L, 1, 1)) / 16
-    B = 0.25 * (h[:-1, :-1] + h[1:, :-1] + h[:-1, 1:] + h[1:, 1:])
+    e, L = _cell_offsets(h, s, r.slab_origin, (px, py))
     ok = h > 0
     okf = ok.astype(np.float64)
     n = okf[:-1, :-1] + okf[1:, :-1] + okf[:-1, 1:] + okf[1:, 1:]
-    share = np.where(n > 0, (T - B) / np.maximum(n, 1.0), 0.0)
+    share = np.where(n > 0, e / np.maximum(n, 1.0), 0.0)
     d = np.zeros_like(h)
     d[:-1, :-1] += share
     d[1:, :-1] += share
@@ -220,6 +248,8 @@ def _brep_heights(r: "PlaneRelief") -> np.ndarray:
     return g.astype(np.asarray(r.h).dtype)
 
 
+#: Largest :func:`_lean_crosses` a lean slab may have (else the pixel grid is used).
+CROSSING = 0.25
 #: Gentle relief (:func:`_brep_heights` averages its offsets): heights within
 #: ``STEEP`` pitches over every 3 x 3 pixels.
 STEEP = 1.0
@@ -444,6 +474,9 @@ class PlaneAdapter(Adapter):
                                                   tolerance=tolerance, depth=1.0, origin=slab_origin)
         else:
             slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin, tolerance=tolerance)
+        if tolerance > 0 and _lean_crosses(h, slab, slab_origin, (px, py), tolerance) > CROSSING:
+            # steep relief a few pixels across: the pixel grid (see _lean_crosses)
+            slab, tolerance = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin), 0.0
         vol, slack = heightfield_volume(h_mesh, (px, py))
         data = PlaneRelief(h, h_mesh, xs, ys, slab, slab_origin, float(tolerance), obstructed, (vol, slack))
         return Relief(
