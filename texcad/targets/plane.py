@@ -252,7 +252,7 @@ def _brep_heights(r: "PlaneRelief") -> np.ndarray:
 CROSSING = 0.25
 #: Gentle relief (:func:`_brep_heights` averages its offsets): heights within
 #: ``STEEP`` pitches over every 3 x 3 pixels.
-STEEP = 1.0
+STEEP = 4.0
 #: The B-rep's pixel centres stay within this share of the tolerance of the lean top
 #: (across its slope), so within it of the mesh.
 REACH = 0.9
