@@ -14,12 +14,16 @@ edge modification M-I (section 2.1.3) on every border,
 (0 on every cell the outline crosses, then rising at ``edge_angle``), a floor of
 :data:`FLOOR` mm inside the ramp, the overhang limiter for ``build_dir``
 (:func:`texcad.printability.limit_overhangs`) and the slab mesh (lean within
-``tolerance``, or one vertex per pixel).
+``tolerance``, or one vertex per pixel; also where a lean top would cross steep
+cells far from the pixel grid's surface, :func:`_lean_crosses`: pins a few pixels
+across).
 
 **Fuse.** A lean relief on an unobstructed face is stitched into the body's mesh
 without a boolean (:func:`texcad.solid.boolean.fuse_on_plane`, checked); otherwise
 manifold3d's union. **B-rep**: the textured part of the plane becomes B-spline tiles
-sewn to the face's own edges (:func:`texcad.brep.textured_plane_solid`).
+sewn to the face's own edges (:func:`texcad.brep.textured_plane_solid`), their
+heights moved from the pixel grid's so that they enclose the lean mesh's volume
+within its tolerance of it (:func:`_brep_heights`).
 
 **Tiles.** Where the untiled relief would not fit in the memory available (the
 machine's, or ``max_memory``), the face is made in tiles instead
