@@ -105,33 +105,40 @@ def _positive_volume(vertices: np.ndarray, faces: np.ndarray, z0: float) -> floa
     return float((area * mean).sum())
 
 
-def _far_from(g: np.ndarray, h: np.ndarray, xs: np.ndarray, ys: np.ndarray, z0: float, V: np.ndarray, F: np.ndarray,
-              limit: float) -> np.ndarray:
+def _far_from(g: np.ndarray, h: np.ndarray, at: np.ndarray, xs: np.ndarray, ys: np.ndarray, z0: float, V: np.ndarray,
+              F: np.ndarray, limit: float) -> np.ndarray:
     """``(R, C)`` bool: the pixel centres moved off ``h`` to ``g`` (mm, at ``(xs,
     ys)`` over ``z0``) that lie more than ``limit`` mm from the lean top (triangles
-    ``F`` of ``V``), or under a vertex of it (a kept pixel centre) that lies more
-    than ``limit`` from the grid through ``g`` (libigl's AABB search both ways)."""
+    ``F`` of ``V``; ``at`` its heights there), or under a vertex of it (a kept pixel
+    centre) that lies more than ``limit`` from the grid through ``g`` (libigl's AABB
+    search both ways). Only moves of more than ``limit`` (off ``at``, resp. ``h``)
+    are searched: a vertical gap bounds the distance."""
     import igl
 
     from ..solid import grid_faces
 
     R, C = g.shape
-    moved = g != h
-    rr, cc = np.nonzero(moved)
     out = np.zeros(g.shape, bool)
-    if not len(rr):
-        return out
-    q = np.stack([xs[cc], ys[rr], z0 + g[rr, cc]], axis=1).astype(np.float64)
-    out[rr, cc] = igl.point_mesh_squared_distance(q, V, F)[0] > limit ** 2
+    rr, cc = np.nonzero((g != h) & (np.abs(g - at) > limit))
+    if len(rr):
+        q = np.stack([xs[cc], ys[rr], z0 + g[rr, cc]], axis=1).astype(np.float64)
+        out[rr, cc] = igl.point_mesh_squared_distance(q, V, F)[0] > limit ** 2
     used = np.unique(F)
     kc = np.rint((V[used, 0] - xs[0]) / (xs[1] - xs[0])).astype(np.int64)
     kr = np.rint((V[used, 1] - ys[0]) / (ys[1] - ys[0])).astype(np.int64)
-    near = moved[kr, kc]  # kept pixel centres that moved
+    near = np.abs(g[kr, kc] - h[kr, kc]) > limit  # kept pixel centres that moved more than limit
     if near.any():
+        kr, kc = kr[near], kc[near]
+        # the grid's triangles in the 4 cells round each (the nearest point within limit < pitch lies there)
+        ci = np.clip(kr[:, None] + np.array([-1, -1, 0, 0]), 0, R - 2)
+        cj = np.clip(kc[:, None] + np.array([-1, 0, -1, 0]), 0, C - 2)
+        cells = np.unique((ci * (C - 1) + cj).ravel())
+        tri = grid_faces(R, C).astype(np.int64)[np.stack([2 * cells, 2 * cells + 1], axis=1).ravel()]
         gx, gy = np.meshgrid(xs, ys)
         grid = np.stack([gx.ravel(), gy.ravel(), z0 + g.ravel()], axis=1).astype(np.float64)
-        d2 = igl.point_mesh_squared_distance(V[used[near]], grid, grid_faces(R, C).astype(np.int64))[0]
-        out[kr[near][d2 > limit ** 2], kc[near][d2 > limit ** 2]] = True
+        q = np.stack([xs[kc], ys[kr], z0 + h[kr, kc]], axis=1).astype(np.float64)
+        far = igl.point_mesh_squared_distance(q, grid, tri)[0] > limit ** 2
+        out[kr[far], kc[far]] = True
     return out
 
 
@@ -241,14 +248,14 @@ def _brep_heights(r: "PlaneRelief") -> np.ndarray:
             if not room.sum() > 0 or abs(miss) <= 1e-9 * target:
                 break
             g = np.clip(g + np.sign(miss) * min(1.0, abs(miss) / (area * room.sum())) * room, lo, hi)
-        far = _far_from(g, h, r.xs, r.ys, z0, V, F, limit) & checked
+        far = _far_from(g, h, at, r.xs, r.ys, z0, V, F, limit) & checked
         if not far.any():
             break
         half = h + 0.5 * (g - h)
         lo, hi = np.where(far, np.minimum(half, h), lo), np.where(far, np.maximum(half, h), hi)
         g = np.where(far, half, g)
     else:
-        g = np.where(_far_from(g, h, r.xs, r.ys, z0, V, F, limit) & checked, h, g)
+        g = np.where(_far_from(g, h, at, r.xs, r.ys, z0, V, F, limit) & checked, h, g)
     return g.astype(np.asarray(r.h).dtype)
 
 
