@@ -459,3 +459,56 @@ def test_lean_cylinder_b_rep_follows_its_mesh(arc):
     assert check_shape(flat)["valid"]
     assert abs(occt_volume(flat) - tx.volume) <= 1e-3 * tx.volume
     _plain_volumes_agree(flat, tx.volume)
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_lean_plane_b_rep_follows_its_mesh():
+    """A box top textured with stones at 0.125 mm, lean (0.02 mm): the lean top's
+    chords cut under the stones (its volume 0.1 % under the pixel grid's), and the
+    B-rep's heights enclose the lean mesh's volume cell by cell
+    (texcad.targets.plane._brep_heights), so OCCT's adaptive and plain volumes are
+    within 2e-4 of the mesh's, and a hole drilled through within 1e-3."""
+    from build123d import Axis, Box, Cylinder
+
+    box = Box(20, 20, 4)
+    top = box.faces().sort_by(Axis.Z)[-1]
+    tx = texcad.texture(box, top, "builtin:stones", height=0.4, pitch=0.125)
+    full = texcad.texture(box, top, "builtin:stones", height=0.4, pitch=0.125, tolerance=0.0)
+    assert tx.info["tolerance"] > 0 and full.volume - tx.volume > 5e-4 * tx.volume  # the lean mesh is the smaller
+    flat = flat_solids(tx.shape)
+    assert abs(occt_volume(flat) - tx.volume) <= 2e-4 * tx.volume
+    _plain_volumes_agree(flat, tx.volume, rel=2e-4)
+    drilled = tx - Cylinder(1.5, 30)
+    assert tx.volume - drilled.volume > 20
+    flat = flat_solids(drilled.shape)
+    assert abs(occt_volume(flat) - drilled.volume) <= 1e-3 * drilled.volume
+    _plain_volumes_agree(flat, drilled.volume)
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+@pytest.mark.parametrize("pitch", [0.5, 0.25])
+def test_pins_b_rep_holds_its_mesh(pitch):
+    """Pins 4 mm tall (the heat sink recipe's texture). At 0.5 mm, 2 px across, a
+    lean top would cross their edges between the pixel centres (0.26 % under the
+    grid's volume, past the gate's allowance on a larger plate though every pixel
+    centre is within 0.02 mm): the face keeps the pixel grid (tolerance 0). At 0.25
+    mm the lean top stays and the B-rep encloses its volume. Either way OCCT's
+    adaptive and plain volumes are within 2e-4 of the mesh's, a hole through the pins
+    within 1e-3."""
+    from build123d import Axis, Box, Cylinder
+
+    box = Box(20, 20, 4)
+    top = box.faces().sort_by(Axis.Z)[-1]
+    pins = "builtin:pins:period=3,diameter=1.4"
+    tx = texcad.texture(box, top, pins, height=4.0, pitch=pitch)
+    assert (tx.info["tolerance"] == 0) == (pitch == 0.5)
+    full = texcad.texture(box, top, pins, height=4.0, pitch=pitch, tolerance=0.0)
+    assert abs(full.volume - tx.volume) <= (1e-9 if pitch == 0.5 else 2e-3) * tx.volume
+    flat = flat_solids(tx.shape)
+    assert abs(occt_volume(flat) - tx.volume) <= 2e-4 * tx.volume
+    _plain_volumes_agree(flat, tx.volume, rel=2e-4)
+    drilled = tx - Cylinder(1.5, 30)
+    assert tx.volume - drilled.volume > 20
+    flat = flat_solids(drilled.shape)
+    assert abs(occt_volume(flat) - drilled.volume) <= 1e-3 * drilled.volume
+    _plain_volumes_agree(flat, drilled.volume)

@@ -49,7 +49,7 @@ from ..util import smoothstep
 from .mesh import _gradient
 
 __all__ = [
-    "lean_offsets", "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED", "SMOOTH_ANGLE", "PatchOptions",
+    "lean_heights", "lean_offsets", "FADE_FULL", "FADE_ZERO", "FLOOR_CURVED", "SMOOTH_ANGLE", "PatchOptions",
     "PatchParam", "PatchGrid",
     "PatchSurface", "PatchBodies", "PatchRelief", "smooth_patches", "patch_param", "patch_grid", "patch_surface",
     "limit_patch", "patch_bodies", "patch_relief", "patch_volume", "patch_displaced", "fused_offset",
@@ -714,6 +714,30 @@ def lean_offsets(P: np.ndarray, N: np.ndarray, s: np.ndarray, tri: np.ndarray, w
     for part in _chunks(rows, cols):  # one per chunk of triangles
         qr, qc, L = _lean_points(rows[part], cols[part], V[unrolled[part]])
         out[qr % R, qc] = np.einsum("ij,ij->i", L - P[qr % R, qc], N[qr % R, qc])
+    return out
+
+
+def lean_heights(vertices: np.ndarray, faces: np.ndarray, origin: tuple, pitch: tuple, shape: tuple,
+                 sub: int = 1) -> np.ndarray:
+    """``((R - 1) sub + 1, (C - 1) sub + 1)`` mm: a lean heightfield surface
+    (``vertices`` ``(N, 3)`` mm at pixel centres ``origin + ((c + 1/2) px, (r + 1/2)
+    py, z)`` of an ``(R, C)`` = ``shape`` grid, triangles ``faces``; a slab's
+    ``"texture"`` group) at every point of the grid refined ``sub`` times (point
+    ``(i, j)`` at pixel ``(i / sub, j / sub)``; ``sub = 1``: the pixel centres),
+    barycentric in the pixel grid as :func:`lean_offsets`, height above
+    ``origin[2]``; NaN where no triangle lies."""
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces, np.int64)
+    col = np.rint((v[:, 0] - origin[0]) / pitch[0] - 0.5).astype(np.int64)
+    row = np.rint((v[:, 1] - origin[1]) / pitch[1] - 0.5).astype(np.int64)
+    z = np.zeros((len(v), 3))
+    z[:, 2] = v[:, 2] - origin[2]
+    rows, cols = sub * row[f], sub * col[f]
+    out = np.full(((shape[0] - 1) * sub + 1, (shape[1] - 1) * sub + 1), np.nan)
+    for part in _chunks(rows, cols):  # one per chunk of triangles
+        qr, qc, L = _lean_points(rows[part], cols[part], z[f[part]])
+        ok = (qr >= 0) & (qr < out.shape[0]) & (qc >= 0) & (qc < out.shape[1])
+        out[qr[ok], qc[ok]] = L[ok, 2]
     return out
 
 

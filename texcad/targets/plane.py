@@ -14,12 +14,16 @@ edge modification M-I (section 2.1.3) on every border,
 (0 on every cell the outline crosses, then rising at ``edge_angle``), a floor of
 :data:`FLOOR` mm inside the ramp, the overhang limiter for ``build_dir``
 (:func:`texcad.printability.limit_overhangs`) and the slab mesh (lean within
-``tolerance``, or one vertex per pixel).
+``tolerance``, or one vertex per pixel; also where a lean top would cross steep
+cells far from the pixel grid's surface, :func:`_lean_crosses`: pins a few pixels
+across).
 
 **Fuse.** A lean relief on an unobstructed face is stitched into the body's mesh
 without a boolean (:func:`texcad.solid.boolean.fuse_on_plane`, checked); otherwise
 manifold3d's union. **B-rep**: the textured part of the plane becomes B-spline tiles
-sewn to the face's own edges (:func:`texcad.brep.textured_plane_solid`).
+sewn to the face's own edges (:func:`texcad.brep.textured_plane_solid`), their
+heights moved from the pixel grid's so that they enclose the lean mesh's volume
+within its tolerance of it (:func:`_brep_heights`).
 
 **Tiles.** Where the untiled relief would not fit in the memory available (the
 machine's, or ``max_memory``), the face is made in tiles instead
@@ -81,6 +85,195 @@ class PlaneFused:
 
     local: Mesh
     stitched: "Mesh | None"
+
+
+def _positive_volume(vertices: np.ndarray, faces: np.ndarray, z0: float) -> float:
+    """mm^3: the volume between ``z = z0`` and the triangles ``faces`` of
+    ``vertices`` (``(N, 3)`` mm, a heightfield's top) where they lie above it,
+    exactly: per triangle of projected area ``A`` and heights ``a <= b <= c`` (mm
+    above ``z0``) ``A (a + b + c) / 3`` less the part below, ``A a^3 / (3 (a - b)
+    (a - c))`` where only ``a < 0``, or ``A c^3 / (3 (c - a) (c - b))`` where only
+    ``c > 0`` (the linear height over the corner triangle the plane cuts off)."""
+    v = np.asarray(vertices, np.float64)[np.asarray(faces, np.int64)]
+    e1, e2 = v[:, 1, :2] - v[:, 0, :2], v[:, 2, :2] - v[:, 0, :2]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    a, b, c = np.sort(v[:, :, 2] - z0, axis=1).T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        one_below = (a + b + c) / 3 - a ** 3 / (3 * (a - b) * (a - c))
+        one_above = c ** 3 / (3 * (c - a) * (c - b))
+    mean = np.where(a >= 0, (a + b + c) / 3, np.where(b >= 0, one_below, np.where(c > 0, one_above, 0.0)))
+    return float((area * mean).sum())
+
+
+def _far_from(g: np.ndarray, h: np.ndarray, at: np.ndarray, xs: np.ndarray, ys: np.ndarray, z0: float, V: np.ndarray,
+              F: np.ndarray, limit: float) -> np.ndarray:
+    """``(R, C)`` bool: the pixel centres moved off ``h`` to ``g`` (mm, at ``(xs,
+    ys)`` over ``z0``) that lie more than ``limit`` mm from the lean top (triangles
+    ``F`` of ``V``; ``at`` its heights there), or under a vertex of it (a kept pixel
+    centre) that lies more than ``limit`` from the grid through ``g`` (libigl's AABB
+    search both ways). Only moves of more than ``limit`` (off ``at``, resp. ``h``)
+    are searched: a vertical gap bounds the distance."""
+    import igl
+
+    from ..solid import grid_faces
+
+    R, C = g.shape
+    out = np.zeros(g.shape, bool)
+    rr, cc = np.nonzero((g != h) & (np.abs(g - at) > limit))
+    if len(rr):
+        q = np.stack([xs[cc], ys[rr], z0 + g[rr, cc]], axis=1).astype(np.float64)
+        out[rr, cc] = igl.point_mesh_squared_distance(q, V, F)[0] > limit ** 2
+    used = np.unique(F)
+    kc = np.rint((V[used, 0] - xs[0]) / (xs[1] - xs[0])).astype(np.int64)
+    kr = np.rint((V[used, 1] - ys[0]) / (ys[1] - ys[0])).astype(np.int64)
+    near = np.abs(g[kr, kc] - h[kr, kc]) > limit  # kept pixel centres that moved more than limit
+    if near.any():
+        kr, kc = kr[near], kc[near]
+        # the grid's triangles in the 4 cells round each (the nearest point within limit < pitch lies there)
+        ci = np.clip(kr[:, None] + np.array([-1, -1, 0, 0]), 0, R - 2)
+        cj = np.clip(kc[:, None] + np.array([-1, 0, -1, 0]), 0, C - 2)
+        cells = np.unique((ci * (C - 1) + cj).ravel())
+        tri = grid_faces(R, C).astype(np.int64)[np.stack([2 * cells, 2 * cells + 1], axis=1).ravel()]
+        gx, gy = np.meshgrid(xs, ys)
+        grid = np.stack([gx.ravel(), gy.ravel(), z0 + g.ravel()], axis=1).astype(np.float64)
+        q = np.stack([xs[kc], ys[kr], z0 + h[kr, kc]], axis=1).astype(np.float64)
+        far = igl.point_mesh_squared_distance(q, grid, tri)[0] > limit ** 2
+        out[kr[far], kc[far]] = True
+    return out
+
+
+def _cell_offsets(h: np.ndarray, slab: Mesh, origin: tuple, pitch: tuple) -> np.ndarray:
+    """``(e, L)``: ``e`` ``(R - 1, C - 1)`` mm, how far the lean top of ``slab`` (its ``"texture"``
+    group, over ``origin``) lies above the bilinear surface through ``h`` (``(R,
+    C)`` mm, pixel ``pitch``) on average over each cell: ``T_c - B_c``, ``T_c`` the
+    lean top's mean height over the cell by the trapezoid rule on the grid refined
+    twice (:func:`texcad.targets.patches.lean_heights`, weights 1, 2, 4 / 16, only
+    above the face), ``B_c`` the mean of the cell's corners; ``L`` ``(2 R - 1, 2 C -
+    1)`` mm, the lean top's heights on that refined grid."""
+    from .patches import lean_heights
+
+    top = slab.faces[slab.groups["texture"]]
+    L = np.nan_to_num(np.maximum(lean_heights(slab.vertices, top, origin, pitch, h.shape, sub=2), 0.0))
+    corner = lambda g, i, j: g[i:g.shape[0] - 2 + i:2, j:g.shape[1] - 2 + j:2]  # noqa: E731 - (R-1, C-1) points of each cell
+    T = (corner(L, 0, 0) + corner(L, 0, 2) + corner(L, 2, 0) + corner(L, 2, 2)
+         + 2 * (corner(L, 1, 0) + corner(L, 1, 2) + corner(L, 0, 1) + corner(L, 2, 1)) + 4 * corner(L, 1, 1)) / 16
+    g = np.asarray(h, np.float64)
+    return T - 0.25 * (g[:-1, :-1] + g[1:, :-1] + g[:-1, 1:] + g[1:, 1:]), L
+
+
+def _lean_crosses(h: np.ndarray, slab: Mesh, origin: tuple, pitch: tuple, tolerance: float) -> float:
+    """The volume (mm^3) the lean top of ``slab`` loses against the pixel grid's
+    surface in the cells it crosses more than ``tolerance`` away from it on average
+    (:func:`_cell_offsets`), as a share of ``tolerance`` x the textured area: about
+    0.01 on stones (its chords stay near the grid), 0.7-1.1 on pins 2 px across
+    (its triangles cut their edges between the pixel centres), where neither the
+    gate's allowance (the tolerance x area) nor a B-rep through the pixel centres
+    near the mesh holds."""
+    e, _ = _cell_offsets(h, slab, origin, pitch)
+    far = np.abs(e) > tolerance
+    textured = float((np.asarray(h) > 0).sum()) * pitch[0] * pitch[1]
+    return abs(float(e[far].sum())) * pitch[0] * pitch[1] / max(tolerance * textured, 1e-300)
+
+
+def _brep_heights(r: "PlaneRelief") -> np.ndarray:
+    """``(R, C)`` mm: the heights the B-rep is made of: ``r.h`` moved so that its
+    bilinear surface encloses the lean mesh's volume, near where the lean mesh has
+    it. A lean top is within ``tolerance`` of ``r.h`` at the pixel centres only:
+    between them its chords cut under convex stones (a stones plate at 0.125 mm read
+    0.12 % below its B-rep) and, where the relief is steep, its triangles cross the
+    cells other than the grid's diagonals (pins 2 px across at 0.5 mm: 0.53 %).
+
+    Each cell ``c`` (area ``A = px py``) is off by ``e_c = A (T_c - B_c)``: ``T_c``
+    the lean top's mean height over it by the trapezoid rule on the grid refined
+    twice (:func:`texcad.targets.patches.lean_heights`, weights 1, 2, 4 / 16),
+    ``B_c`` the mean of its corners (the bilinear surface's). Its corners with
+    ``h > 0`` (the face round the relief stays) move by ``e_c / (A n_c)`` each
+    (``n_c`` of them; a corner raised by ``d`` adds ``A d`` to the bilinear
+    volume), averaged over :data:`~texcad.brep.targets.LEAN_SMOOTH` pixels a side
+    where the relief is gentle (the STEP tiles fit as few poles). A pixel centre
+    stays within ``a = REACH x tolerance`` of the lean top across its steepest facet
+    (slope ``s``: ``|g - L| <= a sqrt(1 + s^2)``); what the estimate misses of the
+    exact difference (the lean top's volume above the face,
+    :func:`_positive_volume`, less the grid's,
+    :func:`~texcad.solid.mesh.heightfield_volume`) goes to the pixel centres in
+    proportion to the room they have. Where no facet is steeper than :data:`WALL`
+    every moved pixel centre is then checked against the lean top, and every kept
+    vertex of the lean top against the moved grid (:func:`_far_from`): a move that
+    puts them more than ``a`` apart is halved (and the volume spread again), so the
+    B-rep lies within the tolerance of the mesh there."""
+    if r.tolerance <= 0:
+        return r.h
+    from scipy.ndimage import maximum_filter, minimum_filter, uniform_filter
+
+    from ..brep.targets import LEAN_SMOOTH as smooth
+
+    s = r.slab
+    top = s.faces[s.groups["texture"]]
+    px, py = float(r.xs[1] - r.xs[0]), float(r.ys[1] - r.ys[0])
+    area = px * py
+    h = np.asarray(r.h, np.float64)
+    e, L = _cell_offsets(h, s, r.slab_origin, (px, py))
+    ok = h > 0
+    okf = ok.astype(np.float64)
+    n = okf[:-1, :-1] + okf[1:, :-1] + okf[:-1, 1:] + okf[1:, 1:]
+    share = np.where(n > 0, e / np.maximum(n, 1.0), 0.0)
+    d = np.zeros_like(h)
+    d[:-1, :-1] += share
+    d[1:, :-1] += share
+    d[:-1, 1:] += share
+    d[1:, 1:] += share
+    d *= okf
+    # gentle relief: the offsets averaged (the STEP tiles fit as few poles)
+    gentle = ok & (maximum_filter(h, 3) - minimum_filter(h, 3) <= STEEP * min(px, py))
+    wf = gentle.astype(np.float64)
+    mean = uniform_filter(d * wf, smooth, mode="constant") / np.maximum(uniform_filter(wf, smooth, mode="constant"), 1e-12)
+    d = np.where(gentle, mean, d)
+    target = _positive_volume(s.vertices, top, float(r.slab_origin[2]))
+    dx, dy = np.abs(np.diff(h, axis=1)) / px, np.abs(np.diff(h, axis=0)) / py
+    sx = np.maximum(np.pad(dx, ((0, 0), (1, 0))), np.pad(dx, ((0, 0), (0, 1))))
+    sy = np.maximum(np.pad(dy, ((1, 0), (0, 0))), np.pad(dy, ((0, 1), (0, 0))))
+    limit = REACH * r.tolerance
+    reach = limit * np.sqrt(1.0 + sx ** 2 + sy ** 2)
+    checked = np.maximum(sx, sy) <= WALL
+    at = L[::2, ::2]
+    lo = np.minimum(np.where(ok, np.maximum(at - reach, 0.0), h), h)  # (the grid itself always may be)
+    hi = np.maximum(np.where(ok, at + reach, h), h)
+    g = np.clip(h + d, lo, hi)
+    V, F = np.asarray(s.vertices, np.float64), np.asarray(top, np.int64)
+    z0 = float(r.slab_origin[2])
+    for _ in range(CHECKS):
+        for _ in range(2):  # what the estimate missed, to the corners with room, in proportion to it
+            miss = target - heightfield_volume(g, (px, py))[0]
+            room = (hi - g) if miss > 0 else (g - lo)
+            if not room.sum() > 0 or abs(miss) <= 1e-9 * target:
+                break
+            g = np.clip(g + np.sign(miss) * min(1.0, abs(miss) / (area * room.sum())) * room, lo, hi)
+        far = _far_from(g, h, at, r.xs, r.ys, z0, V, F, limit) & checked
+        if not far.any():
+            break
+        half = h + 0.5 * (g - h)
+        lo, hi = np.where(far, np.minimum(half, h), lo), np.where(far, np.maximum(half, h), hi)
+        g = np.where(far, half, g)
+    else:
+        g = np.where(_far_from(g, h, at, r.xs, r.ys, z0, V, F, limit) & checked, h, g)
+    return g.astype(np.asarray(r.h).dtype)
+
+
+#: Largest :func:`_lean_crosses` a lean slab may have (else the pixel grid is used).
+CROSSING = 0.25
+#: Gentle relief (:func:`_brep_heights` averages its offsets): heights within
+#: ``STEEP`` pitches over every 3 x 3 pixels.
+STEEP = 4.0
+#: The B-rep's pixel centres stay within this share of the tolerance of the lean top
+#: (across its slope), so within it of the mesh.
+REACH = 0.9
+#: Rounds of :func:`_brep_heights`' distance check.
+CHECKS = 4
+#: Steep relief (a facet's slope above ``WALL``, 76 degrees): the lean top crosses
+#: the pixel cells there far from the grid's surface (2 px pins: by 1 mm in the middle
+#: of a cell), so its pixel centres may move by :data:`REACH` x tolerance across the
+#: slope without the distance check.
+WALL = 4.0
 
 
 @dataclass(frozen=True)
@@ -292,6 +485,9 @@ class PlaneAdapter(Adapter):
                                                   tolerance=tolerance, depth=1.0, origin=slab_origin)
         else:
             slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin, tolerance=tolerance)
+        if tolerance > 0 and _lean_crosses(h, slab, slab_origin, (px, py), tolerance) > CROSSING:
+            # steep relief a few pixels across: the pixel grid (see _lean_crosses)
+            slab, tolerance = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin), 0.0
         vol, slack = heightfield_volume(h_mesh, (px, py))
         data = PlaneRelief(h, h_mesh, xs, ys, slab, slab_origin, float(tolerance), obstructed, (vol, slack))
         return Relief(
@@ -424,8 +620,8 @@ class PlaneAdapter(Adapter):
                                 "or use a coarser pitch for STEP")
         fr: PlaneFrame = stages.placement.data
         r: PlaneRelief = stages.relief.data
-        return textured_plane_solid(stages.placement.topo, fr.face, r.h, r.xs, r.ys, origin=fr.origin, xdir=fr.axes[0],
-                                    normal=fr.axes[2], fine=fine)
+        return textured_plane_solid(stages.placement.topo, fr.face, _brep_heights(r), r.xs, r.ys, origin=fr.origin,
+                                    xdir=fr.axes[0], normal=fr.axes[2], fine=fine)
 
     def fine_frame(self, stages: Stages) -> Any:
         fr: PlaneFrame = stages.placement.data
