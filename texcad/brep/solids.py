@@ -1342,6 +1342,7 @@ def tiled_grid_faces(
     breaks: tuple = ((), ()),
     leaves: list | None = None,
     edges_out: dict | None = None,
+    relay: bool = False,
 ):
     """The degree-1 B-spline surface through an ``(R, C, 3)`` grid (mm), made as a
     patchwork of tiles of at most ``tile`` x ``tile`` cells that **share** their
@@ -1387,7 +1388,11 @@ def tiled_grid_faces(
     ``(r0, r1, c0, c1)`` (grid line indices) to make instead of the whole grid's (any
     set of non-overlapping rectangles; ``boundary`` is then empty); ``edges_out``: a
     dict filled with every edge, ``{(horizontal, line, a, z): (edge, param_line)}``
-    (grid indices; edges oriented towards the higher index).
+    (grid indices; edges oriented towards the higher index). ``relay``: given
+    ``leaves`` that are not one of the grid's runs of ``tile`` cells get knots of
+    their own too (as without ``leaves``; ``x``, ``y`` then the runs' knots,
+    :func:`texcad.brep.gprop.run_knots`, and the edges' parameters not mm: a face
+    beyond them maps them, :func:`_mm_pcurve`).
 
     Returns:
         ``(faces, boundary)``: ``faces`` a list of forward ``TopoDS_Face`` (normal
@@ -1412,7 +1417,7 @@ def tiled_grid_faces(
     if own:
         leaves = _leaves(g.shape[0] - 1, g.shape[1] - 1, tile, fine, breaks, block=outline is None)
     period = g.shape[1] - 1 if wrap_x else None
-    relaid = _relaid(leaves, g.shape[0] - 1, g.shape[1] - 1, tile, breaks, period) if own and outline is None else {}
+    relaid = _relaid(leaves, g.shape[0] - 1, g.shape[1] - 1, tile, breaks, period) if (own or relay) and outline is None else {}
     knots = _own_knots(leaves, x, y, relaid, period)
     text = _tile_text(
         [g[r0 : r1 + 1, c0 : c1 + 1] for r0, r1, c0, c1 in leaves],

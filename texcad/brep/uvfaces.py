@@ -971,10 +971,14 @@ def _plane_regions(items: list) -> list | None:
     return faces
 
 
-def _plane_face(b, surf, pln, loops: list):
+def _plane_face(b, surf, pln, loops: list, knots: tuple | None = None):
     """A planar face on ``surf`` (the face frame's plane ``pln``) bounded by
     ``loops``: the part's own wires (``"wire"``, oriented for the outward normal) or
-    tile boundary loops (``"loop"``, run the tiles' way: reversed here)."""
+    tile boundary loops (``"loop"``, run the tiles' way: reversed here). ``knots``:
+    the tiles' knots are not mm (placed for OCCT's plain rule,
+    :func:`texcad.brep.gprop.run_knots`): each tile edge's pcurve is its 3-D curve
+    (a degree-1 polyline in the plane) projected on ``pln``, the same parameters
+    (an affine map of the poles), else the straight line ``param_line``."""
     from OCP.BRep import BRep_Tool
     from OCP.Geom2d import Geom2d_Line
     from OCP.GeomAPI import GeomAPI
@@ -1000,7 +1004,8 @@ def _plane_face(b, surf, pln, loops: list):
         b.MakeWire(w)
         for e, pl, _ in reversed(item["loop"]):  # one per tile edge on the loop
             b.Add(w, e.Reversed())
-            b.UpdateEdge(TopoDS.Edge_s(e), Geom2d_Line(gp_Pnt2d(pl[0], pl[1]), gp_Dir2d(pl[2], pl[3])), f, TOLERANCE)
+            pc = GeomAPI.To2d_s(BRep_Tool.Curve_s(TopoDS.Edge_s(e), 0.0, 0.0), pln) if knots else Geom2d_Line(gp_Pnt2d(pl[0], pl[1]), gp_Dir2d(pl[2], pl[3]))
+            b.UpdateEdge(TopoDS.Edge_s(e), pc, f, TOLERANCE)
         w.Closed(True)
         b.Add(f, w)
     return f
@@ -1030,7 +1035,8 @@ def holed_plane_solid(shape: Any, face: Any, heights: np.ndarray, x: np.ndarray,
     from OCP.Geom import Geom_Plane
     from OCP.TopoDS import TopoDS, TopoDS_Iterator
 
-    from .solids import _frame_pln
+    from .gprop import run_knots
+    from .solids import _frame_pln, _split_bounds
 
     old = TopoDS.Face_s(to_topods(face))
     o, ex, n = (np.asarray(a, np.float64) for a in (origin, xdir, normal))
@@ -1053,7 +1059,8 @@ def holed_plane_solid(shape: Any, face: Any, heights: np.ndarray, x: np.ndarray,
     leaves, covered = got
     grid = o + x[None, :, None] * ex + y[:, None, None] * ey + h[..., None] * n
     edges: dict = {}
-    tiles, _ = tiled_grid_faces(grid, x, y, leaves=leaves, edges_out=edges)
+    xk, yk = run_knots(x, _split_bounds(len(x) - 1, tile)), run_knots(y, _split_bounds(len(y) - 1, tile))  # for OCCT's plain Gauss rule
+    tiles, _ = tiled_grid_faces(grid, xk, yk, tile=tile, leaves=leaves, edges_out=edges, relay=True)
     items = []
     for loop in _loops(edges, covered):  # the tiles' boundary loops, reversed for the plane
         poly = np.array([(x[c], y[r]) for _, _, (r, c) in loop])[::-1]
@@ -1069,7 +1076,7 @@ def holed_plane_solid(shape: Any, face: Any, heights: np.ndarray, x: np.ndarray,
     b = BRep_Builder()
     pln = _frame_pln(o, n, ex)
     surf = Geom_Plane(pln)
-    flats = [_plane_face(b, surf, pln, loops) for loops in regions]  # one per planar region
+    flats = [_plane_face(b, surf, pln, loops, ((xk, x), (yk, y))) for loops in regions]  # one per planar region
     return _replace_faces(to_topods(shape), [(old, flats + list(tiles))])
 
 
