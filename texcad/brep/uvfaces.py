@@ -971,10 +971,10 @@ def _plane_regions(items: list) -> list | None:
     return faces
 
 
-def _plane_face(b, surf, pln, loops: list, knots: tuple | None = None):
+def _plane_face(b, surf, pln, loops: list, placed: bool = False):
     """A planar face on ``surf`` (the face frame's plane ``pln``) bounded by
     ``loops``: the part's own wires (``"wire"``, oriented for the outward normal) or
-    tile boundary loops (``"loop"``, run the tiles' way: reversed here). ``knots``:
+    tile boundary loops (``"loop"``, run the tiles' way: reversed here). ``placed``:
     the tiles' knots are not mm (placed for OCCT's plain rule,
     :func:`texcad.brep.gprop.run_knots`): each tile edge's pcurve is its 3-D curve
     (a degree-1 polyline in the plane) projected on ``pln``, the same parameters
@@ -1004,7 +1004,7 @@ def _plane_face(b, surf, pln, loops: list, knots: tuple | None = None):
         b.MakeWire(w)
         for e, pl, _ in reversed(item["loop"]):  # one per tile edge on the loop
             b.Add(w, e.Reversed())
-            pc = GeomAPI.To2d_s(BRep_Tool.Curve_s(TopoDS.Edge_s(e), 0.0, 0.0), pln) if knots else Geom2d_Line(gp_Pnt2d(pl[0], pl[1]), gp_Dir2d(pl[2], pl[3]))
+            pc = GeomAPI.To2d_s(BRep_Tool.Curve_s(TopoDS.Edge_s(e), 0.0, 0.0), pln) if placed else Geom2d_Line(gp_Pnt2d(pl[0], pl[1]), gp_Dir2d(pl[2], pl[3]))
             b.UpdateEdge(TopoDS.Edge_s(e), pc, f, TOLERANCE)
         w.Closed(True)
         b.Add(f, w)
@@ -1020,7 +1020,12 @@ def holed_plane_solid(shape: Any, face: Any, heights: np.ndarray, x: np.ndarray,
     outline comes near: no tile touches it), and the rest of the face stays planar:
     one planar face per region between the face's own wires and the tiles' boundary
     loops (a texture ring around a hole leaves a planar island around it). Every edge
-    is shared: closed by construction. Arguments as
+    is shared: closed by construction. The tiles' knots are placed for OCCT's plain
+    volume rule as on a rectangular top (:func:`texcad.brep.gprop.run_knots` over the
+    grid's runs, knots of their own on the tiles halved near the outline,
+    ``tiled_grid_faces(relay=True)``): with the grid's mm knots a run of 21 cells
+    under one 61-point rule put a heat sink's plain volume 1.6 % over (4 mm pins at
+    0.5 mm), now 0.004 %. Arguments as
     :func:`texcad.solid.textured_plane_face` (mm; ``heights`` exactly 0 on every cell
     the outline crosses), ``fine`` as :func:`texcad.solid.tiled_plane_solid`.
     ``flatten_outline``: set the heights to 0 on every cell within two cells of the
@@ -1076,7 +1081,7 @@ def holed_plane_solid(shape: Any, face: Any, heights: np.ndarray, x: np.ndarray,
     b = BRep_Builder()
     pln = _frame_pln(o, n, ex)
     surf = Geom_Plane(pln)
-    flats = [_plane_face(b, surf, pln, loops, ((xk, x), (yk, y))) for loops in regions]  # one per planar region
+    flats = [_plane_face(b, surf, pln, loops, placed=True) for loops in regions]  # one per planar region
     return _replace_faces(to_topods(shape), [(old, flats + list(tiles))])
 
 
