@@ -124,6 +124,10 @@ import texcad.cli.textures as cmd
 from texcad.cli import main
 from texcad.util import atomic_path
 
+# a job started in the background of a non-interactive shell (as a CI script may be)
+# inherits SIGINT ignored, and Python then installs no KeyboardInterrupt handler
+signal.signal(signal.SIGINT, signal.default_int_handler)
+
 def run(args):
     with atomic_path(Path(sys.argv[1]) / "out.stl") as tmp:
         Path(tmp).write_bytes(b"half")
