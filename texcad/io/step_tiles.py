@@ -1132,7 +1132,8 @@ def _line_pcurves(b, tiles: list, sides: list, grids: list, written: list) -> No
             part = lo > 0 or hi < len(v if axis == 1 else u) - 1  # a part of the tile's side (a strip's run)
             if 2 * 2 * spans < GAUSS_ORDER or part:  # padded (an 11-pole line in its place put the re-read
                 # band of a box's sides and fillets 0.42 % off: tests/brep/test_face_kinds_bands.py)
-                if len(t) - 1 > PAD_SPANS:  # (a shorter side's pcurve has knots between its grid lines)
+                if True:  # (a shorter side's padded pcurve has 16 spans, knots between its grid lines: raised
+                    # instead, :func:`_raised_line`, on the tile's own knots as written)
                     fixed = (u[line], None) if axis == 1 else (None, v[line])
                     b.UpdateEdge(edge, _padded(t, wv if axis == 1 else wu, fixed), face, BRep_Tool.Tolerance_s(edge))
                 continue
@@ -1158,6 +1159,17 @@ def _padded(t: np.ndarray, own: np.ndarray, fixed: tuple):
     from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
     from OCP.gp import gp_Pnt2d
 
+    mine = np.isin(t, own)
+    mine[[0, -1]] = True
+    k = t[mine]
+    if 4 * (len(k) - 1) < GAUSS_ORDER:  # the side's own knots (widest spans halved up to 8), the degree raised
+        while len(k) - 1 < 4:  # (a few: a side of 1-3 spans)
+            w = int(np.argmax(np.diff(k)))
+            k = np.insert(k, w + 1, 0.5 * (k[w] + k[w + 1]))
+        while 8 * (len(k) - 1) < GAUSS_ORDER and len(k) - 1 < 8:
+            w = int(np.argmax(np.diff(k)))
+            k = np.insert(k, w + 1, 0.5 * (k[w] + k[w + 1]))
+        return _raised_line(k, fixed, int(np.ceil(GAUSS_ORDER / (2.0 * (len(k) - 1)))) - 1)
     k = t[_pad(np.isin(t, own))]
     poles, knots, mults = TColgp_Array1OfPnt2d(1, len(k)), TColStd_Array1OfReal(1, len(k)), TColStd_Array1OfInteger(1, len(k))
     for i, kv in enumerate(k.tolist()):  # one per knot (17)
@@ -1165,6 +1177,33 @@ def _padded(t: np.ndarray, own: np.ndarray, fixed: tuple):
         knots.SetValue(i + 1, kv)
         mults.SetValue(i + 1, 2 if i in (0, len(k) - 1) else 1)
     return Geom2d_BSplineCurve(poles, knots, mults, 1)
+
+
+def _raised_line(k: np.ndarray, fixed: tuple, deg: int):
+    """The straight iso-line pcurve along a tile side (``fixed`` as in :func:`_padded`),
+    parametrised as the side, as a B-spline of degree ``deg`` whose knots are ``k``
+    only (the tile's own knots along it, simple inside): poles at the Greville
+    abscissae ``(t_{i+1} + ... + t_{i+deg}) / deg`` of the full knot vector (a B-spline
+    reproduces linear functions there), ``len(k) - 1 + deg`` of them. OCCT's plain rule
+    takes ``min(2 (deg + 1) spans, 61)`` points along it (61 for ``deg`` from
+    ``ceil(61 / (2 spans)) - 1``), its adaptive integration starts at the grid lines
+    ``k``; 11 poles and 5 knots for a 4-cell side instead of 17 and 17 padded."""
+    from OCP.Geom2d import Geom2d_BSplineCurve
+    from OCP.TColgp import TColgp_Array1OfPnt2d
+    from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
+    from OCP.gp import gp_Pnt2d
+
+    full = np.r_[[k[0]] * deg, k, [k[-1]] * deg]
+    n = len(k) - 1 + deg
+    grev = np.convolve(full[1:-1], np.ones(deg) / deg, mode="valid")[:n]  # per pole
+    grev[0], grev[-1] = k[0], k[-1]
+    poles, knots, mults = TColgp_Array1OfPnt2d(1, n), TColStd_Array1OfReal(1, len(k)), TColStd_Array1OfInteger(1, len(k))
+    for i, g in enumerate(grev.tolist()):  # per pole (about 11)
+        poles.SetValue(i + 1, gp_Pnt2d(fixed[0], g) if fixed[0] is not None else gp_Pnt2d(g, fixed[1]))
+    for i, kv in enumerate(k.tolist()):  # per knot (about 5)
+        knots.SetValue(i + 1, kv)
+        mults.SetValue(i + 1, deg + 1 if i in (0, len(k) - 1) else 1)
+    return Geom2d_BSplineCurve(poles, knots, mults, deg)
 
 
 #: OCCT's largest Gauss rule (``math::GaussPointsMax``), what texcad's padded pcurves
