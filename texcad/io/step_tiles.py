@@ -405,6 +405,7 @@ def _merged(shape, cells: int, trimmed: bool = False):
     vertices = TopTools_IndexedMapOfShape()
     ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
     TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
+    plans = []  # (group, U0, U, G, outline, chain) per rectangle to merge
     for group in groups:  # one per merged rectangle
         U = np.unique(np.concatenate([grids[a][1] for a in group]))
         V = np.unique(np.concatenate([grids[a][2] for a in group]))
@@ -438,6 +439,10 @@ def _merged(shape, cells: int, trimmed: bool = False):
             at = vertices.Add(TopExp.LastVertex_s(outline[chain[-1]][0], True))
         if len(set(chain)) != len(outline) or any(len(ks) != 1 for ks in start.values()):
             continue  # not one simple loop: leave these tiles as they are
+        plans.append((group, U0, U, G, V, outline, chain))
+    seen, along = _reparametrised(plans, tiles, ancestors)
+    at = lambda e: along.get(seen.FindIndex(e))  # noqa: E731 (the edge's new curves, or None)
+    for group, U0, U, G, V, outline, chain in plans:  # one per merged rectangle
         face, wire = TopoDS_Face(), TopoDS_Wire()
         first = tiles[group[0]][1]
         b.MakeFace(face, grid_surface(G, U, V), TopLoc_Location(), BRep_Tool.Tolerance_s(first))
@@ -445,7 +450,8 @@ def _merged(shape, cells: int, trimmed: bool = False):
         placed = _placed(U)
         pcs = [BRep_Tool.CurveOnSurface_s(outline[k][0], outline[k][1], 0.0, 0.0) for k in chain]  # one per outer edge
         if U is not U0:
-            pcs = [_remapped(outline[k][0], pc, U0, U) for k, pc in zip(chain, pcs)]
+            pcs = [at(outline[k][0])[2] if at(outline[k][0]) else _remapped(outline[k][0], pc, U0, U)
+                   for k, pc in zip(chain, pcs)]  # fmt: skip
             if any(pc is None for pc in pcs):
                 continue
         for k, pc in zip(chain, pcs):  # one per outer edge
@@ -457,7 +463,69 @@ def _merged(shape, cells: int, trimmed: bool = False):
         reshape.Replace(first, face.Oriented(first.Orientation()))
         for a in group[1:]:  # one per other tile of the rectangle
             reshape.Remove(tiles[a][1])
+    for e, curve, _, rng in along.values():  # one per edge along u given the merged tiles' parameter
+        b.UpdateEdge(e, curve, BRep_Tool.Tolerance_s(e))
+        b.Range(e, *rng)
     return reshape.Apply(shape)
+
+
+def _reparametrised(plans: list, tiles: list, ancestors) -> dict:
+    """The edges along ``u`` between two rectangles :func:`_merged` joins whose ``u``
+    knots are placed again the same way (the same ``U0`` mapped to the same ``U``: one
+    above the other), ``{edge: (3-D curve, pcurve, (first, last))}``: the edge's
+    degree-1 3-D curve with its knots mapped from ``U0`` to ``U`` (piecewise linearly,
+    as the merged surfaces' u), its pcurve on both merged tiles then the straight
+    iso-v line ``(t, v)`` again, not the broken line :func:`_remapped` gives; such
+    runs of edges between the same two merged tiles are then joined into one
+    (:func:`_fused_sides`; an edge along ``u`` adds nothing to OCCT's plain rule).
+    Returns ``(edges, {index in edges: (edge, curve, pcurve, (first, last))})``."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom import Geom_BSplineCurve
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.gp import gp_Dir2d, gp_Pnt2d
+    from OCP.TopAbs import TopAbs_FORWARD
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    moved = TopTools_IndexedMapOfShape()  # the tiles of the rectangles whose u is placed again
+    which = {}
+    for i, (group, U0, U, *_rest) in enumerate(plans):  # one per merged rectangle
+        if U is U0:
+            continue
+        for a in group:  # one per tile of the rectangle
+            which[moved.Add(tiles[a][1])] = i
+    out, seen = {}, TopTools_IndexedMapOfShape()  # keyed by the edge's index in seen (either orientation)
+    for i, (group, U0, U, _, _, outline, _) in enumerate(plans):  # one per merged rectangle
+        if U is U0:
+            continue
+        for e, fwd in outline:  # one per outer edge
+            if seen.Contains(e):
+                continue
+            seen.Add(e)
+            fs = [TopoDS.Face_s(f) for f in ancestors.FindFromKey(e)]
+            if len(fs) != 2 or fs[0].IsSame(fs[1]) or not all(moved.Contains(f) for f in fs):
+                continue
+            j = [which[moved.FindIndex(f)] for f in fs]
+            if len(set(j)) != 2 or any(not (np.array_equal(plans[x][1], U0) and np.array_equal(plans[x][2], U)) for x in j):
+                continue
+            isos = [_iso(e, TopoDS.Face_s(f.Oriented(TopAbs_FORWARD))) for f in fs]
+            if None in isos or any(ax != 1 for ax, _ in isos) or isos[0][1] != isos[1][1]:
+                continue  # along u on both, the same v (one above the other share it)
+            loc = TopLoc_Location()
+            c = BRep_Tool.Curve_s(e, loc, 0.0, 0.0)
+            if not isinstance(c, Geom_BSplineCurve) or c.Degree() != 1 or not loc.IsIdentity():
+                continue
+            k = np.array([c.Knot(x) for x in range(1, c.NbKnots() + 1)])
+            p = np.array([c.Pole(x).Coord() for x in range(1, c.NbPoles() + 1)])
+            eps = 1e-9 * (1.0 + np.abs(U0).max())
+            if len(p) != len(k) or k[0] < U0[0] - eps or k[-1] > U0[-1] + eps:
+                continue
+            first, last = BRep_Tool.Range_s(e)
+            line = Geom2d_Line(gp_Pnt2d(0.0, isos[0][1]), gp_Dir2d(1.0, 0.0))
+            m = np.interp(k, U0, U)
+            out[seen.FindIndex(e)] = (e, _polyline3d(p, m), line, (float(np.interp(first, U0, U)), float(np.interp(last, U0, U))))
+    return seen, out
 
 
 def _remapped(edge, pc, u: np.ndarray, new: np.ndarray):
