@@ -384,7 +384,11 @@ def _merged(shape, cells: int, trimmed: bool = False):
     free), the outer edges' pcurves mapped to them (:func:`_remapped`): the rule
     across u then spans the merged tile as placed, and along v each edge keeps its
     own rule over its tile's placed v knots (merged as they were, a box's sides read
-    2.5 % low in the plain rule)."""
+    2.5 % low in the plain rule). An edge along u between two such merged tiles one
+    above the other (the same u mapped the same way) gets the new parameter instead
+    (:func:`_reparametrised`: its 3-D curve's knots mapped, straight pcurves), so
+    that :func:`_fused_sides` joins the run of them between the two: the band of a
+    box's sides and rounded edges in ``bench_step.py --sizes`` 5.21 -> 4.21 MB."""
     from OCP.BRep import BRep_Builder, BRep_Tool
     from OCP.BRepTools import BRepTools_ReShape
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD
