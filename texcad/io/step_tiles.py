@@ -1204,8 +1204,10 @@ def _line_pcurves(b, tiles: list, sides: list, grids: list, written: list) -> No
             part = lo > 0 or hi < len(v if axis == 1 else u) - 1  # a part of the tile's side (a strip's run)
             if 2 * 2 * spans < GAUSS_ORDER or part:  # padded (an 11-pole line in its place put the re-read
                 # band of a box's sides and fillets 0.42 % off: tests/brep/test_face_kinds_bands.py)
-                if True:  # (a shorter side's padded pcurve has 16 spans, knots between its grid lines: raised
-                    # instead, :func:`_raised_line`, on the tile's own knots as written)
+                mine = np.isin(t, wv if axis == 1 else wu)
+                mine[[0, -1]] = True
+                if len(t) - 1 > PAD_SPANS or mine.sum() - 1 <= RAISED_SPANS:  # (a shorter side's padded pcurve has
+                    # knots between its grid lines: kept, or raised on the tile's own knots, :func:`_raised_line`)
                     fixed = (u[line], None) if axis == 1 else (None, v[line])
                     b.UpdateEdge(edge, _padded(t, wv if axis == 1 else wu, fixed), face, BRep_Tool.Tolerance_s(edge))
                 continue
@@ -1217,6 +1219,10 @@ def _line_pcurves(b, tiles: list, sides: list, grids: list, written: list) -> No
 #: Spans a padded pcurve keeps (:func:`_padded`): OCCT's plain rule takes
 #: ``2 (1 + 1) 16 = 64`` points, capped at :data:`GAUSS_ORDER` (``texcad.brep.gprop``).
 PAD_SPANS = 16
+
+
+#: Most own spans along a tile side :func:`_padded` writes raised (:func:`_raised_line`).
+RAISED_SPANS = 8
 
 
 def _padded(t: np.ndarray, own: np.ndarray, fixed: tuple):
@@ -1237,7 +1243,7 @@ def _padded(t: np.ndarray, own: np.ndarray, fixed: tuple):
     mine = np.isin(t, own)
     mine[[0, -1]] = True
     k = t[mine]
-    if len(k) - 1 <= 8:  # the side's own knots (widest spans halved up to 4), the degree raised: 11 poles (with
+    if len(k) - 1 <= RAISED_SPANS:  # the side's own knots (widest spans halved up to 4), the degree raised: 11 poles (with
         # more own spans the padded line is as long, its poles on grid lines a neighbouring tile's pcurve shares)
         while len(k) - 1 < 4:  # (a few: a side of 1-3 spans)
             w = int(np.argmax(np.diff(k)))
