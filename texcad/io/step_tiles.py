@@ -384,7 +384,11 @@ def _merged(shape, cells: int, trimmed: bool = False):
     free), the outer edges' pcurves mapped to them (:func:`_remapped`): the rule
     across u then spans the merged tile as placed, and along v each edge keeps its
     own rule over its tile's placed v knots (merged as they were, a box's sides read
-    2.5 % low in the plain rule)."""
+    2.5 % low in the plain rule). An edge along u between two such merged tiles one
+    above the other (the same u mapped the same way) gets the new parameter instead
+    (:func:`_reparametrised`: its 3-D curve's knots mapped, straight pcurves), so
+    that :func:`_fused_sides` joins the run of them between the two: the band of a
+    box's sides and rounded edges in ``bench_step.py --sizes`` 5.21 -> 4.21 MB."""
     from OCP.BRep import BRep_Builder, BRep_Tool
     from OCP.BRepTools import BRepTools_ReShape
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD
@@ -405,6 +409,7 @@ def _merged(shape, cells: int, trimmed: bool = False):
     vertices = TopTools_IndexedMapOfShape()
     ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
     TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
+    plans = []  # (group, U0, U, G, outline, chain) per rectangle to merge
     for group in groups:  # one per merged rectangle
         U = np.unique(np.concatenate([grids[a][1] for a in group]))
         V = np.unique(np.concatenate([grids[a][2] for a in group]))
@@ -438,6 +443,10 @@ def _merged(shape, cells: int, trimmed: bool = False):
             at = vertices.Add(TopExp.LastVertex_s(outline[chain[-1]][0], True))
         if len(set(chain)) != len(outline) or any(len(ks) != 1 for ks in start.values()):
             continue  # not one simple loop: leave these tiles as they are
+        plans.append((group, U0, U, G, V, outline, chain))
+    seen, along = _reparametrised(plans, tiles, ancestors)
+    at = lambda e: along.get(seen.FindIndex(e))  # noqa: E731 (the edge's new curves, or None)
+    for group, U0, U, G, V, outline, chain in plans:  # one per merged rectangle
         face, wire = TopoDS_Face(), TopoDS_Wire()
         first = tiles[group[0]][1]
         b.MakeFace(face, grid_surface(G, U, V), TopLoc_Location(), BRep_Tool.Tolerance_s(first))
@@ -445,7 +454,8 @@ def _merged(shape, cells: int, trimmed: bool = False):
         placed = _placed(U)
         pcs = [BRep_Tool.CurveOnSurface_s(outline[k][0], outline[k][1], 0.0, 0.0) for k in chain]  # one per outer edge
         if U is not U0:
-            pcs = [_remapped(outline[k][0], pc, U0, U) for k, pc in zip(chain, pcs)]
+            pcs = [at(outline[k][0])[2] if at(outline[k][0]) else _remapped(outline[k][0], pc, U0, U)
+                   for k, pc in zip(chain, pcs)]  # fmt: skip
             if any(pc is None for pc in pcs):
                 continue
         for k, pc in zip(chain, pcs):  # one per outer edge
@@ -457,7 +467,69 @@ def _merged(shape, cells: int, trimmed: bool = False):
         reshape.Replace(first, face.Oriented(first.Orientation()))
         for a in group[1:]:  # one per other tile of the rectangle
             reshape.Remove(tiles[a][1])
+    for e, curve, _, rng in along.values():  # one per edge along u given the merged tiles' parameter
+        b.UpdateEdge(e, curve, BRep_Tool.Tolerance_s(e))
+        b.Range(e, *rng)
     return reshape.Apply(shape)
+
+
+def _reparametrised(plans: list, tiles: list, ancestors) -> dict:
+    """The edges along ``u`` between two rectangles :func:`_merged` joins whose ``u``
+    knots are placed again the same way (the same ``U0`` mapped to the same ``U``: one
+    above the other), ``{edge: (3-D curve, pcurve, (first, last))}``: the edge's
+    degree-1 3-D curve with its knots mapped from ``U0`` to ``U`` (piecewise linearly,
+    as the merged surfaces' u), its pcurve on both merged tiles then the straight
+    iso-v line ``(t, v)`` again, not the broken line :func:`_remapped` gives; such
+    runs of edges between the same two merged tiles are then joined into one
+    (:func:`_fused_sides`; an edge along ``u`` adds nothing to OCCT's plain rule).
+    Returns ``(edges, {index in edges: (edge, curve, pcurve, (first, last))})``."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom import Geom_BSplineCurve
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.gp import gp_Dir2d, gp_Pnt2d
+    from OCP.TopAbs import TopAbs_FORWARD
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    moved = TopTools_IndexedMapOfShape()  # the tiles of the rectangles whose u is placed again
+    which = {}
+    for i, (group, U0, U, *_rest) in enumerate(plans):  # one per merged rectangle
+        if U is U0:
+            continue
+        for a in group:  # one per tile of the rectangle
+            which[moved.Add(tiles[a][1])] = i
+    out, seen = {}, TopTools_IndexedMapOfShape()  # keyed by the edge's index in seen (either orientation)
+    for i, (group, U0, U, _, _, outline, _) in enumerate(plans):  # one per merged rectangle
+        if U is U0:
+            continue
+        for e, fwd in outline:  # one per outer edge
+            if seen.Contains(e):
+                continue
+            seen.Add(e)
+            fs = [TopoDS.Face_s(f) for f in ancestors.FindFromKey(e)]
+            if len(fs) != 2 or fs[0].IsSame(fs[1]) or not all(moved.Contains(f) for f in fs):
+                continue
+            j = [which[moved.FindIndex(f)] for f in fs]
+            if len(set(j)) != 2 or any(not (np.array_equal(plans[x][1], U0) and np.array_equal(plans[x][2], U)) for x in j):
+                continue
+            isos = [_iso(e, TopoDS.Face_s(f.Oriented(TopAbs_FORWARD))) for f in fs]
+            if None in isos or any(ax != 1 for ax, _ in isos) or isos[0][1] != isos[1][1]:
+                continue  # along u on both, the same v (one above the other share it)
+            loc = TopLoc_Location()
+            c = BRep_Tool.Curve_s(e, loc, 0.0, 0.0)
+            if not isinstance(c, Geom_BSplineCurve) or c.Degree() != 1 or not loc.IsIdentity():
+                continue
+            k = np.array([c.Knot(x) for x in range(1, c.NbKnots() + 1)])
+            p = np.array([c.Pole(x).Coord() for x in range(1, c.NbPoles() + 1)])
+            eps = 1e-9 * (1.0 + np.abs(U0).max())
+            if len(p) != len(k) or k[0] < U0[0] - eps or k[-1] > U0[-1] + eps:
+                continue
+            first, last = BRep_Tool.Range_s(e)
+            line = Geom2d_Line(gp_Pnt2d(0.0, isos[0][1]), gp_Dir2d(1.0, 0.0))
+            m = np.interp(k, U0, U)
+            out[seen.FindIndex(e)] = (e, _polyline3d(p, m), line, (float(np.interp(first, U0, U)), float(np.interp(last, U0, U))))
+    return seen, out
 
 
 def _remapped(edge, pc, u: np.ndarray, new: np.ndarray):
@@ -1132,7 +1204,10 @@ def _line_pcurves(b, tiles: list, sides: list, grids: list, written: list) -> No
             part = lo > 0 or hi < len(v if axis == 1 else u) - 1  # a part of the tile's side (a strip's run)
             if 2 * 2 * spans < GAUSS_ORDER or part:  # padded (an 11-pole line in its place put the re-read
                 # band of a box's sides and fillets 0.42 % off: tests/brep/test_face_kinds_bands.py)
-                if len(t) - 1 > PAD_SPANS:  # (a shorter side's pcurve has knots between its grid lines)
+                mine = np.isin(t, wv if axis == 1 else wu)
+                mine[[0, -1]] = True
+                if len(t) - 1 > PAD_SPANS or mine.sum() - 1 <= RAISED_SPANS:  # (a shorter side's padded pcurve has
+                    # knots between its grid lines: kept, or raised on the tile's own knots, :func:`_raised_line`)
                     fixed = (u[line], None) if axis == 1 else (None, v[line])
                     b.UpdateEdge(edge, _padded(t, wv if axis == 1 else wu, fixed), face, BRep_Tool.Tolerance_s(edge))
                 continue
@@ -1146,18 +1221,34 @@ def _line_pcurves(b, tiles: list, sides: list, grids: list, written: list) -> No
 PAD_SPANS = 16
 
 
+#: Most own spans along a tile side :func:`_padded` writes raised (:func:`_raised_line`).
+RAISED_SPANS = 8
+
+
 def _padded(t: np.ndarray, own: np.ndarray, fixed: tuple):
     """The straight iso-line pcurve along a tile side as a degree-1 2-D B-spline of
     :data:`PAD_SPANS` spans, parametrised as the side (its parameter is the running
     coordinate): knots at the tile's own knots ``own`` within the side's grid lines
     ``t`` and at grid lines between, evenly picked (OCCT's adaptive integration
     starts from a pcurve's knots). ``fixed``: ``(u, None)`` for an iso-u side,
-    ``(None, v)`` for an iso-v one."""
+    ``(None, v)`` for an iso-v one. A side of at most 8 own spans (a patch's 4-cell
+    tiles, ``texcad.brep.bands``) is written on its own knots instead (spans halved
+    up to 4), of degree ``ceil(61 / (2 spans)) - 1`` (:func:`_raised_line`: 11 poles
+    for 17; the merged flattened box patch of ``bench_step.py --sizes`` 3.90 -> 3.66 MB)."""
     from OCP.Geom2d import Geom2d_BSplineCurve
     from OCP.TColgp import TColgp_Array1OfPnt2d
     from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
     from OCP.gp import gp_Pnt2d
 
+    mine = np.isin(t, own)
+    mine[[0, -1]] = True
+    k = t[mine]
+    if len(k) - 1 <= RAISED_SPANS:  # the side's own knots (widest spans halved up to 4), the degree raised: 11 poles (with
+        # more own spans the padded line is as long, its poles on grid lines a neighbouring tile's pcurve shares)
+        while len(k) - 1 < 4:  # (a few: a side of 1-3 spans)
+            w = int(np.argmax(np.diff(k)))
+            k = np.insert(k, w + 1, 0.5 * (k[w] + k[w + 1]))
+        return _raised_line(k, fixed, int(np.ceil(GAUSS_ORDER / (2.0 * (len(k) - 1)))) - 1)
     k = t[_pad(np.isin(t, own))]
     poles, knots, mults = TColgp_Array1OfPnt2d(1, len(k)), TColStd_Array1OfReal(1, len(k)), TColStd_Array1OfInteger(1, len(k))
     for i, kv in enumerate(k.tolist()):  # one per knot (17)
@@ -1165,6 +1256,33 @@ def _padded(t: np.ndarray, own: np.ndarray, fixed: tuple):
         knots.SetValue(i + 1, kv)
         mults.SetValue(i + 1, 2 if i in (0, len(k) - 1) else 1)
     return Geom2d_BSplineCurve(poles, knots, mults, 1)
+
+
+def _raised_line(k: np.ndarray, fixed: tuple, deg: int):
+    """The straight iso-line pcurve along a tile side (``fixed`` as in :func:`_padded`),
+    parametrised as the side, as a B-spline of degree ``deg`` whose knots are ``k``
+    only (the tile's own knots along it, simple inside): poles at the Greville
+    abscissae ``(t_{i+1} + ... + t_{i+deg}) / deg`` of the full knot vector (a B-spline
+    reproduces linear functions there), ``len(k) - 1 + deg`` of them. OCCT's plain rule
+    takes ``min(2 (deg + 1) spans, 61)`` points along it (61 for ``deg`` from
+    ``ceil(61 / (2 spans)) - 1``), its adaptive integration starts at the grid lines
+    ``k``; 11 poles and 5 knots for a 4-cell side instead of 17 and 17 padded."""
+    from OCP.Geom2d import Geom2d_BSplineCurve
+    from OCP.TColgp import TColgp_Array1OfPnt2d
+    from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
+    from OCP.gp import gp_Pnt2d
+
+    full = np.r_[[k[0]] * deg, k, [k[-1]] * deg]
+    n = len(k) - 1 + deg
+    grev = np.convolve(full[1:-1], np.ones(deg) / deg, mode="valid")[:n]  # per pole
+    grev[0], grev[-1] = k[0], k[-1]
+    poles, knots, mults = TColgp_Array1OfPnt2d(1, n), TColStd_Array1OfReal(1, len(k)), TColStd_Array1OfInteger(1, len(k))
+    for i, g in enumerate(grev.tolist()):  # per pole (about 11)
+        poles.SetValue(i + 1, gp_Pnt2d(fixed[0], g) if fixed[0] is not None else gp_Pnt2d(g, fixed[1]))
+    for i, kv in enumerate(k.tolist()):  # per knot (about 5)
+        knots.SetValue(i + 1, kv)
+        mults.SetValue(i + 1, deg + 1 if i in (0, len(k) - 1) else 1)
+    return Geom2d_BSplineCurve(poles, knots, mults, deg)
 
 
 #: OCCT's largest Gauss rule (``math::GaussPointsMax``), what texcad's padded pcurves
