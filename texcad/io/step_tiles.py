@@ -391,25 +391,41 @@ def _merged(shape, cells: int, trimmed: bool = False):
     box's sides and rounded edges in ``bench_step.py --sizes`` 5.21 -> 4.21 MB."""
     from OCP.BRep import BRep_Builder, BRep_Tool
     from OCP.BRepTools import BRepTools_ReShape
-    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD
-    from OCP.TopExp import TopExp, TopExp_Explorer
-    from OCP.TopLoc import TopLoc_Location
-    from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Wire
-    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_IndexedMapOfShape
-
-    from ..brep import grid_surface
-    from ..brep.gprop import gauss_knots
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
 
     _, tiles = _tiles_of(shape)
     grids = _grids(tiles)
     groups = [g for g in _groups(shape, tiles, grids, cells, trimmed) if len(g) > 1]
     if not groups:
         return shape
-    b, reshape = BRep_Builder(), BRepTools_ReShape()
-    vertices = TopTools_IndexedMapOfShape()
     ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
     TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
-    plans = []  # (group, U0, U, G, outline, chain) per rectangle to merge
+    plans = _merge_plans(groups, tiles, grids, ancestors, trimmed)
+    seen, along = _reparametrised(plans, tiles, ancestors)
+    reshape = BRepTools_ReShape()
+    for plan in plans:  # one per merged rectangle
+        _merge_one(plan, tiles, lambda e: along.get(seen.FindIndex(e)), reshape)
+    b = BRep_Builder()
+    for e, curve, _, rng in along.values():  # one per edge along u given the merged tiles' parameter
+        b.UpdateEdge(e, curve, BRep_Tool.Tolerance_s(e))
+        b.Range(e, *rng)
+    return reshape.Apply(shape)
+
+
+def _merge_plans(groups: list, tiles: list, grids: list, ancestors, trimmed: bool) -> list:
+    """``(group, U0, U, G, V, outline, chain)`` per rectangle of tiles that
+    :func:`_merged` merges: the tiles' knots ``U0`` / ``V`` and the merged tile's
+    ``U`` (placed again where the tiles were placed each), the poles ``G``, and its
+    outer edges ``outline`` in loop order ``chain``; rectangles whose knots do not
+    suit OCCT's plain rule, or whose outline is not one simple loop, are left out."""
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    from ..brep.gprop import gauss_knots
+
+    vertices = TopTools_IndexedMapOfShape()
+    plans = []
     for group in groups:  # one per merged rectangle
         U = np.unique(np.concatenate([grids[a][1] for a in group]))
         V = np.unique(np.concatenate([grids[a][2] for a in group]))
@@ -422,55 +438,77 @@ def _merged(shape, cells: int, trimmed: bool = False):
         for a in group:  # one per tile of the rectangle
             g, u, v = grids[a]
             G[np.ix_(np.searchsorted(V, v), np.searchsorted(U0, u))] = g
-        members = TopTools_IndexedMapOfShape()
-        for a in group:  # one per tile of the rectangle
-            members.Add(tiles[a][1])
-        outline = []  # (edge as in its forward tile, that tile)
-        for a in group:  # one per tile of the rectangle
-            fwd = TopoDS.Face_s(tiles[a][1].Oriented(TopAbs_FORWARD))
-            exp = TopExp_Explorer(fwd, TopAbs_EDGE)
-            while exp.More():  # one per edge of the tile
-                e = TopoDS.Edge_s(exp.Current())
-                exp.Next()
-                if sum(members.Contains(f) for f in ancestors.FindFromKey(e)) < 2:
-                    outline.append((e, fwd))
-        start = {}
-        for k, (e, _) in enumerate(outline):  # one per outer edge
-            start.setdefault(vertices.Add(TopExp.FirstVertex_s(e, True)), []).append(k)
-        chain, at = [0], vertices.Add(TopExp.LastVertex_s(outline[0][0], True))
-        while len(chain) < len(outline) and len(start.get(at, ())) == 1:  # one per outer edge
-            chain.append(start[at][0])
-            at = vertices.Add(TopExp.LastVertex_s(outline[chain[-1]][0], True))
-        if len(set(chain)) != len(outline) or any(len(ks) != 1 for ks in start.values()):
-            continue  # not one simple loop: leave these tiles as they are
-        plans.append((group, U0, U, G, V, outline, chain))
-    seen, along = _reparametrised(plans, tiles, ancestors)
-    at = lambda e: along.get(seen.FindIndex(e))  # noqa: E731 (the edge's new curves, or None)
-    for group, U0, U, G, V, outline, chain in plans:  # one per merged rectangle
-        face, wire = TopoDS_Face(), TopoDS_Wire()
-        first = tiles[group[0]][1]
-        b.MakeFace(face, grid_surface(G, U, V), TopLoc_Location(), BRep_Tool.Tolerance_s(first))
-        b.MakeWire(wire)
-        placed = _placed(U)
-        pcs = [BRep_Tool.CurveOnSurface_s(outline[k][0], outline[k][1], 0.0, 0.0) for k in chain]  # one per outer edge
-        if U is not U0:
-            pcs = [at(outline[k][0])[2] if at(outline[k][0]) else _remapped(outline[k][0], pc, U0, U)
-                   for k, pc in zip(chain, pcs)]  # fmt: skip
-            if any(pc is None for pc in pcs):
-                continue
-        for k, pc in zip(chain, pcs):  # one per outer edge
-            e = outline[k][0]
-            b.Add(wire, e)
-            b.UpdateEdge(e, _ruled(e, pc, U[0], placed), face, BRep_Tool.Tolerance_s(e))
-        wire.Closed(True)
-        b.Add(face, wire)
-        reshape.Replace(first, face.Oriented(first.Orientation()))
-        for a in group[1:]:  # one per other tile of the rectangle
-            reshape.Remove(tiles[a][1])
-    for e, curve, _, rng in along.values():  # one per edge along u given the merged tiles' parameter
-        b.UpdateEdge(e, curve, BRep_Tool.Tolerance_s(e))
-        b.Range(e, *rng)
-    return reshape.Apply(shape)
+        loop = _outline_loop(group, tiles, ancestors, vertices)
+        if loop is not None:
+            plans.append((group, U0, U, G, V, *loop))
+    return plans
+
+
+def _outline_loop(group: list, tiles: list, ancestors, vertices) -> "tuple | None":
+    """``(outline, chain)``: the outer edges of the tiles ``group`` (each as in its
+    forward tile, with that tile) and their order around the one loop they make, or
+    None where they make no simple loop."""
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FORWARD
+    from OCP.TopExp import TopExp, TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    members = TopTools_IndexedMapOfShape()
+    for a in group:  # one per tile of the rectangle
+        members.Add(tiles[a][1])
+    outline = []  # (edge as in its forward tile, that tile)
+    for a in group:  # one per tile of the rectangle
+        fwd = TopoDS.Face_s(tiles[a][1].Oriented(TopAbs_FORWARD))
+        exp = TopExp_Explorer(fwd, TopAbs_EDGE)
+        while exp.More():  # one per edge of the tile
+            e = TopoDS.Edge_s(exp.Current())
+            exp.Next()
+            if sum(members.Contains(f) for f in ancestors.FindFromKey(e)) < 2:
+                outline.append((e, fwd))
+    start = {}
+    for k, (e, _) in enumerate(outline):  # one per outer edge
+        start.setdefault(vertices.Add(TopExp.FirstVertex_s(e, True)), []).append(k)
+    chain, at = [0], vertices.Add(TopExp.LastVertex_s(outline[0][0], True))
+    while len(chain) < len(outline) and len(start.get(at, ())) == 1:  # one per outer edge
+        chain.append(start[at][0])
+        at = vertices.Add(TopExp.LastVertex_s(outline[chain[-1]][0], True))
+    if len(set(chain)) != len(outline) or any(len(ks) != 1 for ks in start.values()):
+        return None  # not one simple loop: leave these tiles as they are
+    return outline, chain
+
+
+def _merge_one(plan: tuple, tiles: list, at, reshape) -> None:
+    """Record in ``reshape`` the merge of one rectangle ``plan`` (:func:`_merge_plans`):
+    one face on the poles ``G`` over ``U`` x ``V``, bounded by the outer edges with
+    their pcurves (mapped to ``U``, or the new curves ``at(edge)`` gives an edge along
+    u given the merged tiles' parameter), the other tiles removed."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS_Face, TopoDS_Wire
+
+    from ..brep import grid_surface
+
+    group, U0, U, G, V, outline, chain = plan
+    b, face, wire = BRep_Builder(), TopoDS_Face(), TopoDS_Wire()
+    first = tiles[group[0]][1]
+    b.MakeFace(face, grid_surface(G, U, V), TopLoc_Location(), BRep_Tool.Tolerance_s(first))
+    b.MakeWire(wire)
+    placed = _placed(U)
+    pcs = [BRep_Tool.CurveOnSurface_s(outline[k][0], outline[k][1], 0.0, 0.0) for k in chain]  # one per outer edge
+    if U is not U0:
+        pcs = [at(outline[k][0])[2] if at(outline[k][0]) else _remapped(outline[k][0], pc, U0, U)
+               for k, pc in zip(chain, pcs)]  # fmt: skip
+        if any(pc is None for pc in pcs):
+            return
+    for k, pc in zip(chain, pcs):  # one per outer edge
+        e = outline[k][0]
+        b.Add(wire, e)
+        b.UpdateEdge(e, _ruled(e, pc, U[0], placed), face, BRep_Tool.Tolerance_s(e))
+    wire.Closed(True)
+    b.Add(face, wire)
+    reshape.Replace(first, face.Oriented(first.Orientation()))
+    for a in group[1:]:  # one per other tile of the rectangle
+        reshape.Remove(tiles[a][1])
 
 
 def _reparametrised(plans: list, tiles: list, ancestors) -> dict:
