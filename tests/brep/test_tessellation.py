@@ -75,3 +75,36 @@ def test_split_pieces_come_back_to_their_face():
     own = [TopoDS.Face_s(f) for f in explore(part.wrapped, TopAbs_FACE)]
     shape, whose = tessellation._split(part.wrapped, own)
     assert len(whose) > len(own) and min(whose) == 0 and sorted(set(whose)) == list(range(len(own)))
+
+
+def _box_with_an_open_face():
+    """A 10 mm box whose top face carries a triangulation of one triangle (as a
+    file's own mesh can be), marked finer than any chord asked for, so that OCCT's
+    mesher keeps it: the box meshes open."""
+    from OCP.BRep import BRep_Builder
+    from OCP.gp import gp_Pnt
+    from OCP.Poly import Poly_Triangle, Poly_Triangulation
+
+    box = Box(10, 10, 10)
+    top = box.faces().sort_by()[-1]
+    tri = Poly_Triangulation(3, 1, False)
+    for i, (x, y) in enumerate(((-5, -5), (5, -5), (5, 5))):
+        tri.SetNode(i + 1, gp_Pnt(x, y, 5))
+    tri.SetTriangle(1, Poly_Triangle(1, 2, 3))
+    tri.Deflection(1e-9)
+    BRep_Builder().UpdateFace(top.wrapped, tri)
+    return box
+
+
+def test_closed_shape_mesh_heals_an_open_tessellation():
+    """A shape OCCT's mesher leaves open (a face of a real STEP file meshed as a
+    few triangles) is tessellated again the way texcad tessellates parts: closed,
+    with the box's volume; a closed shape keeps OCCT's first mesh."""
+    from texcad.brep import closed_shape_mesh, shape_to_mesh
+
+    box = _box_with_an_open_face()
+    assert not shape_to_mesh(box).is_watertight
+    healed = closed_shape_mesh(box)
+    assert healed.is_watertight and healed.volume == pytest.approx(1000.0, rel=1e-9)
+    whole = Box(10, 10, 10)
+    assert np.array_equal(closed_shape_mesh(whole).faces, shape_to_mesh(whole).faces)

@@ -46,7 +46,7 @@ from .uvfaces import (
     uv_textured_solid,
     open_extrusion_solid,
 )
-from .tessellation import FaceMesh, PartMesh, TESSELLATION, part_tessellation, shape_to_mesh
+from .tessellation import FaceMesh, PartMesh, TESSELLATION, closed_shape_mesh, part_tessellation, shape_to_mesh
 from .frames import plane_frame
 from .targets import extrusion_brep
 
@@ -91,6 +91,7 @@ __all__ = [
     'FaceMesh',
     'PartMesh',
     'TESSELLATION',
+    'closed_shape_mesh',
     'part_tessellation',
     'shape_to_mesh',
     'plane_frame',

@@ -15,7 +15,7 @@ from ..errors import GeometryError, ParameterError
 from ..solid import Mesh, to_manifold
 from .occt import explore
 
-__all__ = ["shape_to_mesh", "part_tessellation", "FaceMesh", "PartMesh", "TESSELLATION"]
+__all__ = ["shape_to_mesh", "closed_shape_mesh", "part_tessellation", "FaceMesh", "PartMesh", "TESSELLATION"]
 
 
 def shape_to_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: float = 0.1) -> Mesh:
@@ -145,6 +145,29 @@ def _face_triangles(face) -> "FaceMesh | None":
     if face.Orientation() == TopAbs_REVERSED:
         tri = tri[:, ::-1]
     return FaceMesh(face, pts, tri, uv, _face_kind(face))
+
+
+def closed_shape_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: float = 0.1, mesh: "Mesh | None" = None) -> Mesh:
+    """:func:`shape_to_mesh` (``tolerance`` mm, ``angular_tolerance`` radians), or
+    where that is not closed (OCCT's mesher leaves some faces of some files open, e.g.
+    a cone bounded by one wire of 75 edges meshed as 12 triangles) the healed
+    tessellation texcad textures parts with (:func:`part_tessellation` at
+    ``tolerance``: finer, cleaned, welded, split at 90 degrees, sewn), so that a
+    closed part is not shown or reported open. A shape that stays open after healing
+    comes back as OCCT meshed it. ``mesh``: that first tessellation when the caller
+    made it already (e.g. texcad's own view of its grid faces)."""
+    from .occt import to_topods
+
+    mesh = shape_to_mesh(shape, tolerance=tolerance, angular_tolerance=angular_tolerance) if mesh is None else mesh
+    try:
+        to_manifold(mesh)
+        return mesh
+    except GeometryError:
+        pass
+    try:
+        return part_tessellation(to_topods(shape), tolerance).mesh
+    except GeometryError:
+        return mesh
 
 
 def part_tessellation(topo, tolerance: float = TESSELLATION) -> PartMesh:

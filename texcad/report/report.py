@@ -195,10 +195,10 @@ STEP_ANGLE = 0.5
 
 def _items(part: Any) -> tuple[str, list[tuple[str, Mesh]], Heightmap | None]:
     if isinstance(part, (str, os.PathLike)) and os.fspath(part).lower().endswith((".step", ".stp")):
-        from ..brep import shape_to_mesh
+        from ..brep import closed_shape_mesh
         from ..io import read_step
 
-        mesh = shape_to_mesh(read_step(part), tolerance=STEP_CHORD, angular_tolerance=STEP_ANGLE)
+        mesh = closed_shape_mesh(read_step(part), tolerance=STEP_CHORD, angular_tolerance=STEP_ANGLE)
         return os.fspath(part), [(os.path.splitext(os.path.basename(part))[0], mesh)], None
     if isinstance(part, (str, os.PathLike)):
         return os.fspath(part), read_part(part), None
