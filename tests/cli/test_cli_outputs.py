@@ -153,6 +153,48 @@ def test_signals_leave_no_partial_file(tmp_path, sig):
     assert list(folder.iterdir()) == []
 
 
+_STUCK_IN_C = r"""
+import ctypes, os, signal, sys, threading
+from pathlib import Path
+import texcad.cli.textures as cmd
+from texcad.cli import main
+from texcad.util import atomic_path
+
+def run(args):
+    with atomic_path(Path(sys.argv[1]) / "out.step") as tmp:
+        Path(tmp).write_bytes(b"half")
+        threading.Timer(0.5, os.kill, (os.getpid(), getattr(signal, sys.argv[2]))).start()
+        # native code that runs on through signals, as OCCT's mesher does (system() waits again when
+        # interrupted); the sleep holds none of our pipes, so the test sees our exit, not the sleep's
+        ctypes.CDLL(None).system(b"exec sleep 20 </dev/null >/dev/null 2>&1")
+    return 0
+
+cmd.run = run
+sys.exit(main(["textures"]))
+"""
+
+
+@pytest.mark.parametrize("sig", ["SIGTERM", "SIGHUP"])
+def test_signals_stop_a_command_inside_native_code(tmp_path, sig):
+    """A signal that arrives while the main thread runs native code for long (no
+    Python handler can run there) ends the command within the grace period, with
+    the exit status and one line of a handled one, and no temporary output left."""
+    import time
+
+    from texcad.cli._signals import GRACE
+
+    script = tmp_path / "stuck.py"
+    script.write_text(_STUCK_IN_C)
+    folder = tmp_path / "out"
+    folder.mkdir()
+    t = time.monotonic()
+    r = subprocess.run([sys.executable, str(script), str(folder), sig], capture_output=True, text=True, timeout=60)
+    assert time.monotonic() - t < 15 < 20  # not the native call's 20 s
+    assert r.returncode == 128 + int(getattr(signal, sig)), r.stderr
+    assert r.stderr.strip().splitlines() == [f"texcad: terminated by signal {int(getattr(signal, sig))}; no output was left half-written"]
+    assert GRACE <= 5 and list(folder.iterdir()) == []
+
+
 def test_signal_handlers_are_put_back():
     before = signal.getsignal(signal.SIGTERM)
     assert main(["textures"]) == 0

@@ -14,12 +14,11 @@ import importlib
 import os
 import pkgutil
 import re
-import signal
 import sys
-import threading
-from typing import Callable, Iterator, Sequence
+from typing import Callable, Sequence
 
 from ..errors import TexcadError
+from ._signals import Terminated, signals_unwind
 
 __all__ = ["main", "entry", "build_parser", "commands"]
 
@@ -47,38 +46,6 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-class Terminated(BaseException):
-    """SIGTERM or SIGHUP arrived: unwinds like KeyboardInterrupt, so that every
-    temporary output is removed on the way out (:func:`texcad.util.atomic_path`)."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(signum)
-        self.signum = signum
-
-
-def _terminate(signum: int, frame: object) -> None:
-    raise Terminated(signum)
-
-
-@contextlib.contextmanager
-def _signals_unwind() -> Iterator[None]:
-    """SIGTERM and SIGHUP raise :class:`Terminated` while the command runs (main
-    thread only; the previous handlers are put back)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    old = {}
-    for name in ("SIGTERM", "SIGHUP"):  # SIGHUP does not exist on Windows
-        sig = getattr(signal, name, None)
-        if sig is not None:
-            old[sig] = signal.signal(sig, _terminate)
-    try:
-        yield
-    finally:
-        for sig, handler in old.items():
-            signal.signal(sig, handler)
-
-
 #: A list of numbers that starts with a minus (``-1,2,-0.5``): a value, not an option.
 _NEGATIVE_LIST = re.compile(r"-[0-9.][0-9.eE+-]*(,[-+]?[0-9.][0-9.eE+-]*)+|-[xyzXYZ]")
 
@@ -104,7 +71,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(_join_negative_values(sys.argv[1:] if argv is None else list(argv)))
     func: Callable[[argparse.Namespace], int] = args.func
     try:
-        with _signals_unwind():
+        with signals_unwind():
             return func(args)
     except TexcadError as exc:
         print(f"texcad: error: {exc}", file=sys.stderr)

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from ..errors import InputError, ParameterError
+from ..util.atomic import pending, renaming
 
 __all__ = ["check_outputs", "write_outputs"]
 
@@ -46,19 +47,23 @@ def write_outputs(result: Any, outs: Sequence[str], *, separate_texture: bool = 
     temporary file beside it (same suffix), then all renamed. ``separate_texture``
     applies to the 3MF outputs only."""
     done: list[tuple[str, Path]] = []
+    stack = contextlib.ExitStack()
     try:
         for k, out in enumerate(outs):  # per output: to a temporary file
             p = Path(out)
             tmp = p.with_name(f".{p.stem}.texcad-{os.getpid()}-{k}.part{p.suffix}")
             done.append((str(tmp), p))
+            stack.enter_context(pending(tmp))
             kw = {"separate_texture": True} if separate_texture and p.suffix.lower() == ".3mf" else {}
             if p.suffix.lower() in (".3mf", ".step", ".stp", ".stl"):
                 kw["name"] = p.stem
             result.export(tmp, **kw)
-        for tmp, p in done:  # all written: into place
-            os.replace(tmp, p)
-        done = []
+        with renaming():
+            for tmp, p in done:  # all written: into place
+                os.replace(tmp, p)
+            done = []
     finally:
         for tmp, _ in done:  # a failure: no output at all
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
+        stack.close()

@@ -34,6 +34,7 @@ import numpy as np
 
 from ..errors import GeometryError, ParameterError
 from ..util import atomic_path, threads
+from ..util.atomic import track, untrack
 from .export import (CURA_NAMESPACE, GRID_BITS, SLIC3R_CONFIG, _CT, _RELS, _STL_CHUNK, _STL_DTYPE, _cura_metadata, _grid_vertex_rows,
                      _one_volume, _slic3r_config, _stl_records, _transform, _triangle_rows, _xml_escape, _zip_info, _on_grid)
 
@@ -185,6 +186,7 @@ class ThreeMFStream(_Stream):
             + f'<object id="1" type="model" name="{_xml_escape(name)}">'.encode() + meta + b"<mesh><vertices>\n"
         )
         fd, self._tri_path = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".triangles", dir=self.path.parent)
+        track(self._tri_path)
         self._tri = os.fdopen(fd, "w+b")
 
     def add(self, vertices: np.ndarray, faces: np.ndarray, ids: Optional[np.ndarray] = None) -> None:
@@ -227,6 +229,7 @@ class ThreeMFStream(_Stream):
         self._tri.close()
         with contextlib.suppress(FileNotFoundError):
             os.unlink(self._tri_path)
+        untrack(self._tri_path)
 
 
 def open_stream(path: "str | os.PathLike", **kwargs) -> "StlStream | ThreeMFStream":

@@ -62,6 +62,7 @@ import numpy as np
 from ..errors import GeometryError, ParameterError, ResourceError
 from ..sources import Heightmap
 from ..util import Progress, peak_rss, report
+from ..util.atomic import track, untrack
 
 __all__ = ["textured_plate_tiled", "TiledPlate", "TiledMesh", "CountedTiles", "TiledSurfaceMesh", "tiled_surface", "surface_tiles", "gate_tiled", "plate_source", "builtin_grid", "LimitedSource", "tile_for_memory", "cluster_client", "in_order", "BYTES_PER_TILE_NODE", "BYTES_PER_LEAN_NODE", "LEAN_TILE"]
 
@@ -205,6 +206,7 @@ class _BuiltinSource:
         f, self._file = getattr(self, "_file", None), None
         if f is not None:
             f.close()
+            untrack(f.name)
         self._cache = None
 
     def __getstate__(self) -> dict:  # to a Dask worker: no open file
@@ -336,6 +338,7 @@ class LimitedSource:
         self.nominal = source.integral() if nominal is None else tuple(nominal)
         r, c = self.shape
         self._file = tempfile.NamedTemporaryFile(prefix=".texcad-", suffix=".limited", dir=cache_dir)
+        track(self._file.name)
         self._file.truncate(4 * r * c)
         self._cache = Path(self._file.name)
 
@@ -371,6 +374,7 @@ class LimitedSource:
         f, self._file = getattr(self, "_file", None), None
         if f is not None:
             f.close()
+            untrack(f.name)
 
     def __getstate__(self) -> dict:  # to a Dask worker on this machine: the file by name, not the handle
         state = dict(self.__dict__)
@@ -593,12 +597,14 @@ def plate_source(texture: Any, size: Sequence[float], pitch: float, height: floa
     cache = None
     if pool is None:
         cache = tempfile.NamedTemporaryFile(prefix=".texcad-", suffix=".heights", dir=cache_dir)
+        track(cache.name)
     try:
         source = _BuiltinSource(os.fspath(texture), (w, d), pitch, height, block=max(side - 1, 1), pool=pool,
                                 cache=None if cache is None else Path(cache.name))
     except BaseException:
         if cache is not None:
             cache.close()
+            untrack(cache.name)
         raise
     source._file = cache  # removed with the source
     return source, side
