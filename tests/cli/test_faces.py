@@ -69,8 +69,27 @@ def test_faces_png_shows_the_numbers(part_step, tmp_path, capsys):
     assert_picture(png)
 
 
-def test_faces_of_a_mesh_is_one_line(tmp_path, capsys):
+def test_faces_of_a_mesh_lists_its_regions(tmp_path, capsys):
+    """A mesh has no faces to name: ``texcad faces`` says what each usual
+    ``--region`` picks (an L-shaped block: two tops, the larger is ``top``), and the
+    region it names textures those faces."""
+    import trimesh
+
+    block = trimesh.creation.box((30, 10, 10), trimesh.transformations.translation_matrix((15, 5, 5)))
+    step = trimesh.creation.box((10, 10, 10), trimesh.transformations.translation_matrix((5, 15, 5)))
+    stl = tmp_path / "l.stl"
+    trimesh.boolean.union([block, step], engine="manifold").export(stl)
+    assert main(["faces", str(stl)]) == 0
+    rows = {line.split()[0]: line.split() for line in capsys.readouterr().out.splitlines()[1:14]}
+    assert float(rows["top"][2]) == pytest.approx(400.0) and float(rows["not-bottom"][2]) == pytest.approx(1400.0)
+    assert float(rows["front"][2]) == pytest.approx(300.0) and rows["normal:-z:45"][1] == "0"
+    assert main(["faces", str(stl), "--png", str(tmp_path / "x.png")]) == 2
+    assert "texcad render" in capsys.readouterr().err
+
+
+def test_faces_of_an_empty_mesh_is_one_line(tmp_path, capsys):
     stl = tmp_path / "m.stl"
     stl.write_text("solid x\nendsolid x\n")
     assert main(["faces", str(stl)]) == 2
-    assert capsys.readouterr().err.strip().startswith("texcad: error: texcad faces lists the faces of a STEP part")
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("texcad: error: ") and len(err.splitlines()) == 1

@@ -1,6 +1,7 @@
 """``texcad faces PART.step``: every face of a part with its number, and the
 ``--face`` selectors that pick it; ``--png faces.png`` draws the part with the face
-numbers on it.
+numbers on it. ``texcad faces PART.stl`` (3MF, OBJ): a mesh has no faces to name, so
+what each usual ``--region`` spec picks on it (faces, area, centre).
 
 One line per face: index, solid, type, area (mm2), centre (mm), the normal at the
 centre (planar and free-form faces) or the axis (cylinders, cones, tori, surfaces of
@@ -120,7 +121,7 @@ def face_table(part: Any) -> list[dict]:
 
 
 def _fmt(v: tuple) -> str:
-    return "(" + ", ".join(f"{x + 0.0:.3f}" for x in v) + ")"
+    return "(" + ", ".join(f"{round(x, 3) + 0.0:.3f}" for x in v) + ")"
 
 
 def _line(row: dict) -> str:
@@ -192,6 +193,26 @@ def draw_faces(part: Any, path: str, *, width: int = 1200, view=(-1.0, 2.0, -1.2
     return drawn
 
 
+def _mesh_regions(args: argparse.Namespace) -> int:
+    """A mesh has no faces to name: what each ``--region`` spec picks on it."""
+    from ..errors import ParameterError
+    from ..io import load_mesh
+    from ..mapping.region import region_table
+
+    if args.png:
+        raise ParameterError(f"--png draws a STEP part's face numbers; {args.part!r} is a mesh: draw it with texcad render")
+    t0 = time.perf_counter()
+    mesh = load_mesh(args.part)
+    print(f"{'region':<14} {'faces':>9} {'area mm2':>12}  centre mm")
+    for row in region_table(mesh.vertices, mesh.faces):  # thirteen rows
+        centre = _fmt(row["centre"]) if row["centre"] is not None else "-"
+        print(f"{row['region']:<14} {row['faces']:>9} {row['area']:>12.3f}  {centre}")
+    print(f"triangles    {len(mesh.faces)} of {args.part}, printed along +z (texcad texture PART --region SPEC; "
+          "box:, sphere: and paint: regions too, see --help)")
+    print(f"seconds      {time.perf_counter() - t0:.2f}")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     from build123d import Compound
 
@@ -199,9 +220,12 @@ def run(args: argparse.Namespace) -> int:
     from ..io import read_step
     from ._outputs import check_outputs
 
-    if Path(args.part).suffix.lower() not in (".step", ".stp"):
-        raise ParameterError(f"texcad faces lists the faces of a STEP part, not of {args.part!r}; a mesh has "
-                             "regions instead (texcad texture PART.stl --region ...)")
+    suffix = Path(args.part).suffix.lower()
+    if suffix in (".stl", ".3mf", ".obj"):
+        return _mesh_regions(args)
+    if suffix not in (".step", ".stp"):
+        raise ParameterError(f"texcad faces lists the faces of a STEP part or the regions of an STL/3MF/OBJ mesh, "
+                             f"not of {args.part!r}")
     if args.png:
         check_outputs([args.png], (".png",))
     t0 = time.perf_counter()
@@ -221,8 +245,9 @@ def run(args: argparse.Namespace) -> int:
 def add(sub: argparse._SubParsersAction) -> None:
     from ._args import vector
 
-    p = sub.add_parser("faces", help="list a STEP part's faces: number, type, area, centre, normal, selectors")
-    p.add_argument("part", help="PART.step (mm)")
+    p = sub.add_parser("faces", help="list a STEP part's faces (number, type, area, centre, normal, selectors), "
+                       "or what each --region picks on an STL/3MF/OBJ mesh")
+    p.add_argument("part", help="PART.step, or a mesh PART.stl / .3mf / .obj (mm)")
     p.add_argument("--png", default=None, metavar="OUT.png", help="also draw the part with the face numbers on it")
     p.add_argument("--width", type=int, default=1200, help="--png: picture width in pixels (default 1200)")
     p.add_argument("--view", type=vector, default=(-1.0, 2.0, -1.2), metavar="X,Y,Z",

@@ -46,7 +46,7 @@ from ..errors import InputError, ParameterError
 from .projection import parse_axis
 from ..io.paint import PAINT_KINDS
 
-__all__ = ["Region", "REGION_KINDS", "bed_faces", "flat_patch", "resolve_faces", "resolve_paint", "zone_layers", "PaintedTarget"]
+__all__ = ["Region", "REGION_KINDS", "bed_faces", "flat_patch", "resolve_faces", "resolve_paint", "zone_layers", "PaintedTarget", "region_table"]
 
 REGION_KINDS = ("all", "normal", "box", "sphere", "paint", "face")
 #: Largest angle between a ``face`` region's direction and its faces' normals, degrees
@@ -415,3 +415,29 @@ def zone_layers(where: Any, texture: Any) -> list:
             raise ParameterError("every zone of the mapping has texture None: give at least one zone a texture")
         return out
     return where if isinstance(where, list) else [(where, texture, {})]
+
+
+#: The ``--region`` specs :func:`region_table` lists for a mesh: the default, each
+#: direction word's flat patch, and the faces within 45 degrees of each axis.
+LISTED_REGIONS = ("not-bottom", "top", "bottom", "front", "back", "left", "right",
+                  "normal:+z:45", "normal:-z:45", "normal:+x:45", "normal:-x:45", "normal:+y:45", "normal:-y:45")
+
+
+def region_table(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float = 0.01) -> list[dict]:
+    """What each ``--region`` spec of :data:`LISTED_REGIONS` picks on a mesh printed
+    along +z (``tolerance`` mm: the bed face's, :func:`bed_faces`): one dict per spec
+    with ``region``, ``faces`` (count), ``area`` (mm2) and ``centre`` (mm, the
+    area-weighted centroid of its faces; None when it picks none)."""
+    v, f = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
+    cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    area = 0.5 * np.linalg.norm(cross, axis=1)
+    normals = cross / np.maximum(2.0 * area, 1e-300)[:, None]
+    centroid = v[f].mean(axis=1)
+    rows = []
+    for spec in LISTED_REGIONS:  # thirteen specs, each vectorized over the faces
+        (region,) = resolve_faces(v, f, [Region.parse(spec)])
+        sel = region.select(v, f, normals, build_dir=np.array([0.0, 0.0, 1.0]), tolerance=tolerance)
+        a = float(area[sel].sum())
+        rows.append({"region": spec, "faces": int(sel.sum()), "area": a,
+                     "centre": tuple(float(c) for c in area[sel] @ centroid[sel] / a) if a > 0 else None})
+    return rows
