@@ -54,3 +54,19 @@ def test_direction_words_parse_and_texture_a_mesh():
     assert not np.any(top_z & ~moved)  # nothing raised at the sides
     with pytest.raises(ParameterError, match="top, bottom"):
         Region.parse("upper")
+
+
+def test_region_table_of_a_box():
+    """Each listed spec picks what texturing with it would: the default leaves the
+    bed face out, a direction word its flat patch, nothing faces down but the bed."""
+    import trimesh
+
+    from texcad.mapping.region import LISTED_REGIONS, region_table
+
+    box = trimesh.creation.box((20, 10, 4))
+    rows = {r["region"]: r for r in region_table(box.vertices, box.faces)}
+    assert list(rows) == list(LISTED_REGIONS)
+    assert rows["not-bottom"]["area"] == pytest.approx(2 * (200 + 80 + 40) - 200)
+    assert rows["top"]["area"] == pytest.approx(200) and rows["top"]["centre"] == pytest.approx((0, 0, 2))
+    assert rows["normal:-z:45"]["faces"] == 0 and rows["normal:-z:45"]["centre"] is None
+    assert rows["bottom"]["area"] == pytest.approx(200)  # the word names the bed face and takes it
