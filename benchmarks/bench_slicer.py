@@ -638,6 +638,18 @@ def _nudged(mesh):
     return out
 
 
+def _same_print(moved: float, nudge: float) -> str:
+    """``yes`` when ``moved`` mm (texcad's 3MF against the plain 3MF, specks left out)
+    is at most the larger of the nozzle width and ``nudge`` mm (the plain 3MF
+    against itself nudged by :data:`NUDGE`): the rule the docs state."""
+    import numpy as np
+
+    if not (np.isfinite(moved) and np.isfinite(nudge)):
+        return "-"
+    bound = max(NOZZLE, nudge)
+    return f"{'yes' if moved <= bound else 'no'} ({moved:.3f} against {bound:.3f} mm)"
+
+
 def cost(args) -> None:
     """PrusaSlicer's CPU seconds at its defaults for each part bare (STL), textured as
     an STL, and textured as the 3MF texcad writes (its per-object settings), and how
@@ -655,7 +667,8 @@ def cost(args) -> None:
         parts.append((f"demo plate {args.demo_side:g} x {args.demo_side:g} mm, stones at {args.demo_pitch:g} mm", "+z", bare, tex, (0.0, 0.0, 1.0)))
     headers = ["part", "printed", "triangles", "bare CPU s", "textured STL CPU s", "plain 3MF CPU s", "texcad's 3MF CPU s",
                "texcad's 3MF / bare", "what texcad's 3MF adds", "toolpaths moved by it, mm (specks left out, at the layer of print height z)", "toolpaths STL vs texcad's 3MF, mm",
-               f"plain 3MF nudged by {NUDGE * 1000:g} um: toolpaths moved, mm (specks left out)"]
+               f"plain 3MF nudged by {NUDGE * 1000:g} um: toolpaths moved, mm (specks left out)",
+               "the same print: moved at most the nozzle or the nudge's move"]
     notes = (
         "PrusaSlicer 2.5 at its defaults (0.3 mm layers, 0.4 mm nozzle, support off), each part in its print orientation. "
         "CPU s = user + system time of the slicer process (all threads), the slices of a row run one after the other. "
@@ -675,7 +688,10 @@ def cost(args) -> None:
         "`ModelVolume::center_geometry_after_creation`, exactly on that grid); what is left of a cut's move is on "
         "the layers next to the cut (the height in brackets), where the triangles the cut splits end at float32-rounded "
         "points a few nanometres off the whole triangles, and on the layers whose solid infill the last layer under "
-        "the cut, which loses its extra perimeters, reaches. "
+        "the cut, which loses its extra perimeters, reaches. The same print: texcad's 3MF moves no path (specks left "
+        "out) farther from the plain 3MF's than a nozzle width, or than PrusaSlicer's own paths move when the plain "
+        "3MF is nudged by a micrometre, where that is farther (the slicer's paths are not defined closer than that "
+        "on that part). "
         f"Small parts at texture pitch {args.pitch:g} mm; a slice that ran past {args.timeout:g} s of wall time "
         "(2 cores shared with other jobs) is marked so."
     )
@@ -724,7 +740,8 @@ def cost(args) -> None:
             rows.append([name, orient, f"{textured.num_triangles:,}", cpu(b), cpu(a), cpu(e), cpu(c),
                          f"{c.cpu_seconds / b.cpu_seconds:.1f}x" if b and c else "-", written,
                          f"{f2(dev('plain', '3mf'))} ({dev_at('plain', '3mf', NOZZLE)})", f2(dev("stl", "3mf")),
-                         f"{f2(dev('plain', 'nudged'))} ({f2(dev('plain', 'nudged', NOZZLE))})"])
+                         f"{f2(dev('plain', 'nudged'))} ({f2(dev('plain', 'nudged', NOZZLE))})",
+                         _same_print(dev("plain", "3mf", NOZZLE), dev("plain", "nudged", NOZZLE))])
             path = write_table("slicer_cost", headers, rows, title="Slicing cost, bare and textured, STL and texcad's 3MF", notes=notes)
     print(f"wrote {path}")
 
