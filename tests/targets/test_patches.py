@@ -589,3 +589,75 @@ def test_engraved_plane_has_its_step(tmp_path):
     assert texcad.brep.occt_volume(back, 1e-4) == pytest.approx(tx.volume, rel=1e-3)  # (eps 1e-3 stops early: 2e-3)
     tx.export(tmp_path / "x.stl")
     assert trimesh.load(tmp_path / "x.stl").is_watertight
+
+
+def _frustum(top_radius: float):
+    """A hexagonal frustum (lofted: B-spline faces) with its slanted edges rounded
+    r 3 mm: its twelve sides form one smooth band around z, tilted inwards."""
+    from build123d import Plane, RegularPolygon, fillet, loft
+
+    part = loft([RegularPolygon(20, 6), Plane.XY.offset(20) * RegularPolygon(top_radius, 6)])
+    part = fillet([e for e in part.edges() if abs(e.tangent_at(0.5).Z) > 0.1], 3)
+    return part, [f for f in part.faces() if abs(f.normal_at().Z) < 0.9]
+
+
+def test_a_tilted_band_is_textured_at_its_scale_along_the_surface():
+    """A band whose faces lean off its axis (a frustum's rounded sides, 17 degrees;
+    a vase's bulge) runs around it too: one band, watertight, only on its faces,
+    and the texture keeps its scale up the slope (heights along the surface,
+    :func:`texcad.mapping.param.meridian_heights`; the height along the axis would
+    shrink it to cos 17 = 0.96)."""
+    part, sides = _frustum(14)
+    assert len(sides) == 12
+    tx = texture(part, sides, "builtin:stones", height=0.4, pitch=PITCH)
+    (info,) = tx.info["faces"]
+    assert "band" in info["parameterization"] and len(info["faces"]) == 12
+    assert_solid(tx, part)
+    assert_only_on(tx, part, sides, 0.4)
+    assert 0.99 < tx.distortion.x[0] and tx.distortion.x[1] < 1.015  # up the slope
+
+
+def test_a_band_around_no_one_axis_is_refused():
+    """An elbow's tube (cylinder, torus, cylinder): a closed band whose two rims
+    face different ways; refused with the way out."""
+    from build123d import BuildLine, BuildPart, BuildSketch, Circle, GeomType, JernArc, Line, Plane, sweep
+
+    with BuildPart() as elbow:
+        with BuildLine():
+            a = Line((0, 0, 0), (0, 0, 20))
+            b = JernArc(a @ 1, a % 1, 10, 90)
+            Line(b @ 1, b @ 1 + (b % 1) * 20)
+        with BuildSketch(Plane.XY):
+            Circle(5)
+        sweep()
+    tube = [f for f in elbow.part.faces() if f.geom_type != GeomType.PLANE]
+    with pytest.raises(GeometryError, match="does not run around one axis.*two calls"):
+        texture(elbow.part, tube, "builtin:stones", height=0.4, pitch=PITCH)
+
+
+def _frustum_band(r0: float, r1: float, height: float, rings: int = 21, sections: int = 128):
+    """A frustum's side as a triangle mesh: ``rings`` circles from radius ``r0`` at
+    z = 0 to ``r1`` at ``height`` (mm)."""
+    t = np.linspace(0.0, 1.0, rings)[:, None]
+    ang = np.linspace(0.0, 2 * np.pi, sections, endpoint=False)[None, :]
+    r, z = r0 + (r1 - r0) * t, height * t
+    V = np.stack([r * np.cos(ang), r * np.sin(ang), z + 0 * ang], axis=2).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(rings - 1), np.arange(sections), indexing="ij")
+    a, b = i * sections + j, i * sections + (j + 1) % sections
+    F = np.concatenate([np.stack([a, b, b + sections], -1), np.stack([a, b + sections, a + sections], -1)]).reshape(-1, 3)
+    return V, F
+
+
+def test_meridian_heights_are_the_slant_length():
+    """On a frustum the heights along the surface are the slant length (z times
+    sqrt(1 + (dr/dz)^2)) up to the chords' error; on a straight band (every
+    triangle parallel to the axis) they are the heights given, unchanged."""
+    from texcad.mapping.param import meridian_heights
+
+    axis = np.array([0.0, 0, 1])
+    V, F = _frustum_band(10.0, 5.0, 10.0)
+    y = meridian_heights(V, F, axis, V[:, 2])
+    slant = np.hypot(5.0, 10.0) / 10.0
+    assert np.abs((y - y.mean()) - (V[:, 2] - V[:, 2].mean()) * slant).max() < 1e-3 * 10.0
+    V, F = _frustum_band(5.0, 5.0, 10.0)
+    assert np.array_equal(meridian_heights(V, F, axis, V[:, 2]), V[:, 2])

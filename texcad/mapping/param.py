@@ -401,11 +401,13 @@ def lscm_coordinates(V: np.ndarray, F: np.ndarray) -> np.ndarray:
 def band_coordinates(V: np.ndarray, F: np.ndarray, axis: np.ndarray, centre: np.ndarray) -> tuple[np.ndarray, float]:
     """Texture coordinates on a closed band around ``axis`` (e.g. the sides and
     rounded corners of a box): x = arc length around the cross-section (the 2.5D
-    method's profile arc length), y = height along the axis (mm).
+    method's profile arc length), y = height along the surface (mm).
 
     The cross-section is the band's longest boundary loop seen along the axis (a
     polyline of the tessellation's own edge points); every vertex takes the arc
-    length of its nearest point on it (exact for prismatic bands).
+    length of its nearest point on it (exact for prismatic bands); y is the height
+    along the surface (:func:`meridian_heights`: the meridian's arc length on a
+    surface of revolution, the height on a prismatic band).
 
     Returns:
         ``(XY, perimeter)``: ``(N, 2)`` mm and the section's perimeter in mm.
@@ -440,7 +442,50 @@ def band_coordinates(V: np.ndarray, F: np.ndarray, axis: np.ndarray, centre: np.
         r = np.arange(len(j))
         best[k0 : k0 + 4096] = dist[r, j]
         x[k0 : k0 + 4096] = cum[j] + t[r, j] * seg[j]
-    return np.stack([x, q @ a], axis=1), perimeter
+    return np.stack([x, meridian_heights(V, F, a, q @ a)], axis=1), perimeter
+
+
+def meridian_heights(V: np.ndarray, F: np.ndarray, axis: np.ndarray, heights: np.ndarray) -> np.ndarray:
+    """Heights along a band's surface (mm): the function ``y`` on the mesh whose
+    gradient is closest, in the least-squares sense over the area, to the unit
+    tangent ``t = (a - (a . n) n) / |a - (a . n) n|`` (the axis ``a`` projected on
+    each triangle's plane, normal ``n``: uphill along the surface),
+
+        min_y  sum_T A_T |grad_T y - t_T|^2   =>   (G^T W G) y = G^T W t,
+
+    with ``G`` the per-triangle gradient of a piecewise linear function
+    (``grad_T y = sum_i y_i (n x e_i) / 2 A_T``, ``e_i`` the edge opposite corner ``i``)
+    and ``W`` the triangle areas: the cotangent Laplacian (the heat method's Poisson
+    step). On a surface of revolution ``y`` is the meridian's arc length, on a
+    prismatic band the height itself, and a bulging or twisted band keeps its
+    texture's scale along the surface instead of shrinking it by the cosine of the
+    slope. A band whose triangles are all parallel to the axis returns ``heights``
+    (``V @ a`` about any origin) as they are; otherwise ``y`` has their mean."""
+    from scipy.sparse import coo_matrix, identity
+    from scipy.sparse.linalg import spsolve
+
+    a = np.asarray(axis, np.float64) / np.linalg.norm(axis)
+    P = V[F]
+    N = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
+    twice = np.linalg.norm(N, axis=1)
+    ok = twice > 1e-12 * max(1.0, float(twice.max(initial=0.0)))
+    n = N[ok] / twice[ok, None]
+    tilt = n @ a
+    if not len(n) or float(np.abs(tilt).max()) < 1e-9:
+        return heights
+    t = a - tilt[:, None] * n
+    t /= np.maximum(np.linalg.norm(t, axis=1), 1e-12)[:, None]
+    Fk, Pk, area = F[ok], P[ok], 0.5 * twice[ok]
+    edges = np.stack([Pk[:, 2] - Pk[:, 1], Pk[:, 0] - Pk[:, 2], Pk[:, 1] - Pk[:, 0]], axis=1)  # opposite corner i
+    g = np.cross(n[:, None, :], edges) / (2.0 * area)[:, None, None]  # (T, 3 corners, 3 coords)
+    rows = (3 * np.arange(len(Fk)))[:, None, None] + np.arange(3)[None, None, :]  # gradient row per coordinate
+    G = coo_matrix((g.ravel(), (np.broadcast_to(rows, g.shape).ravel(), np.repeat(Fk, 3, axis=1).ravel())),
+                   shape=(3 * len(Fk), len(V))).tocsr()
+    w = np.repeat(area, 3)
+    L = (G.T.multiply(w) @ G).tocsc()
+    rhs = G.T @ (w * t.ravel())
+    y = spsolve(L + 1e-10 * float(L.diagonal().mean()) * identity(len(V), format="csc"), rhs)
+    return y - y.mean() + float(np.mean(heights))
 
 
 def cell_mask(keep: np.ndarray, wrap_y: bool) -> np.ndarray:

@@ -364,6 +364,53 @@ def _surface_tables(fm: FaceMesh, n: int = 48):
     return (ut, Y), (vt, X), closed_u
 
 
+def _loop_turns(V2: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Turns of each boundary loop of a mesh about its own vertices' mean, seen in the
+    2-D coordinates ``V2``: the angle swept along the loop's directed edges (as the
+    faces run them; no ordering needed), one figure per loop (connected components
+    of the boundary edges, scipy)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    e = F[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2).astype(np.int64)
+    key = np.sort(e, axis=1)
+    _, inv, cnt = np.unique(key[:, 0] * len(V2) + key[:, 1], return_inverse=True, return_counts=True)
+    b = e[cnt[inv] == 1]
+    if not len(b):
+        return np.zeros(0)
+    _, comp = connected_components(coo_matrix((np.ones(len(b)), (b[:, 0], b[:, 1])), shape=(len(V2),) * 2), directed=False)
+    lab = comp[b[:, 0]]
+    k = int(lab.max()) + 1
+    on = np.unique(b.ravel())
+    centre = np.stack([np.bincount(comp[on], V2[on, d], k) for d in (0, 1)], axis=1) / np.maximum(np.bincount(comp[on], None, k), 1)[:, None]
+    p, q = V2[b[:, 0]] - centre[lab], V2[b[:, 1]] - centre[lab]
+    swept = np.arctan2(p[:, 0] * q[:, 1] - p[:, 1] * q[:, 0], (p * q).sum(axis=1))
+    return np.bincount(lab, swept, k)[np.unique(lab)] / (2 * np.pi)
+
+
+def band_axis(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """The axis a closed band of faces (an annulus) runs around: the direction ``a``
+    least seen by its area-weighted normals (the smallest eigenvector of
+    ``sum_T N_T N_T^T``, ``|N_T|`` twice the area), which must stand apart from the
+    other two (a tube, a vase, a cone band: ``lambda_1 < lambda_2 / 2``), with both
+    boundary loops winding once around it seen along it.
+
+    Raises:
+        GeometryError: no such axis (the faces bend around no one direction)."""
+    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    w, vec = np.linalg.eigh(fn.T @ fn)
+    a = vec[:, 0]
+    e1 = np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0])
+    e1 /= np.linalg.norm(e1)
+    turns = _loop_turns(V @ np.stack([e1, np.cross(a, e1)], axis=1), F)
+    if w[0] > 0.5 * w[1] or len(turns) != 2 or np.any(np.abs(np.abs(turns) - 1) > 0.1):
+        raise GeometryError(
+            "the faces form a closed band that does not run around one axis; texture them in two calls "
+            "or as two selections that each form an open strip"
+        )
+    return a
+
+
 def patch_param(pm: PartMesh, patch: list, tile: "tuple | None", rotation: float) -> PatchParam:
     """Texture coordinates (mm) of the patch (module docstring): a plane's frame, one
     curved face's ``(u, v)`` by arc length, a band, or LSCM. ``tile``: the texture
@@ -395,18 +442,11 @@ def patch_param(pm: PartMesh, patch: list, tile: "tuple | None", rotation: float
     ne = len(np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0))
     euler = len(V) - ne + len(F)
     if euler == 0:  # a band (annulus): around an axis
-        fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-        w, vec = np.linalg.eigh(fn.T @ fn)
-        axis = vec[:, 0]
-        if w[0] > 0.05 * w[2]:
-            raise GeometryError(
-                "the faces form a closed band that does not run around one axis; texture them in two calls "
-                "or as two selections that each form an open strip"
-            )
+        axis = band_axis(V, F)
         XY, perim = band_coordinates(V, F, axis, V.mean(axis=0))
         period = perim if tile is None else max(1, round(perim / tile[1])) * tile[1]
         XY = np.stack([XY[:, 1], XY[:, 0] * (period / perim)], axis=1)
-        return PatchParam(V, F, XY, period, "band: cross-section arc length around, height along the axis")
+        return PatchParam(V, F, XY, period, "band: cross-section arc length around, height along the surface")
     return PatchParam(V, F, lscm_coordinates(V, F), None, "conformal flattening (LSCM)")
 
 
