@@ -656,3 +656,90 @@ def mesh_error(
     rc = np.zeros((len(v), 2), dtype=np.int64)
     rc[used, 0], rc[used, 1] = ri, ci
     return surface_error(heights, rc, v[:, 2] - oz, f)
+
+
+def refined_heights(vertices: np.ndarray, faces: np.ndarray, origin: tuple, pitch: tuple, shape: tuple) -> np.ndarray:
+    """``(2 R - 1, 2 C - 1)`` mm: a lean heightfield surface (``vertices`` ``(N, 3)``
+    mm at pixel centres ``origin + ((c + 1/2) px, (r + 1/2) py, z)`` of an ``(R, C)``
+    = ``shape`` grid, triangles ``faces``; a slab's ``"texture"`` group) at every
+    point of the grid refined twice (point ``(i, j)`` at pixel ``(i / 2, j / 2)``),
+    height above ``origin[2]``, NaN where no triangle lies: the values of
+    :func:`texcad.targets.patches.lean_heights` with ``sub=2``, bit for bit, faster.
+
+    A triangle's value at a point ``q`` of the refined grid is ``l0 z0 + l1 z1 + l2
+    z2``, its barycentric coordinates ``l1 = n1 / det``, ``l2 = n2 / det``, ``l0 = 1
+    - l1 - l2`` from the points' integer indices, where the last triangle (in
+    ``faces`` order) holding ``q`` writes it. Half-cells (three corners of one pixel
+    cell, most triangles of a lean top where the relief is busy) hold only their
+    corners (``z``) and the middles of their sides (``z_a / 2 + z_b / 2``, the same
+    in every triangle sharing that side, so they are written first, all at once);
+    every other triangle is rasterized by rows (:func:`_row_spans`: exactly the
+    points of the closed triangle, integer arithmetic) in ``faces`` order."""
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces, np.int64)
+    col = np.rint((v[:, 0] - origin[0]) / pitch[0] - 0.5).astype(np.int64)
+    row = np.rint((v[:, 1] - origin[1]) / pitch[1] - 0.5).astype(np.int64)
+    z = v[:, 2] - origin[2]
+    rows, cols, zf = 2 * row[f], 2 * col[f], z[f]
+    out = np.full(((shape[0] - 1) * 2 + 1, (shape[1] - 1) * 2 + 1), np.nan)
+    (ar, br, cr), (ac, bc, cc) = rows.T, cols.T
+    det = (br - ar) * (cc - ac) - (cr - ar) * (bc - ac)
+    half = (det != 0) & (rows.max(1) - rows.min(1) == 2) & (cols.max(1) - cols.min(1) == 2)
+    hr, hc, hz = rows[half], cols[half], zf[half]
+    out[hr, hc] = hz
+    for a, b in ((0, 1), (1, 2), (2, 0)):  # the middles of the half-cells' sides
+        out[(hr[:, a] + hr[:, b]) // 2, (hc[:, a] + hc[:, b]) // 2] = 0.5 * hz[:, a] + 0.5 * hz[:, b]
+    rest = np.nonzero(~half & (det != 0))[0]
+    for part in _row_chunks(rows[rest], REFINED_CHUNK):  # in faces order
+        k, qr, qc = _row_spans(rows[rest[part]], cols[rest[part]])
+        t = rest[part][k]
+        (ar, br, cr), (ac, bc, cc) = rows[t].T, cols[t].T
+        d = det[t]
+        l1 = ((qr - ar) * (cc - ac) - (cr - ar) * (qc - ac)) / d
+        l2 = ((br - ar) * (qc - ac) - (qr - ar) * (bc - ac)) / d
+        zt = zf[t]
+        # summed in this order, unfused: lean_heights' einsum("ij,ijk->ik") bit for bit
+        L = ((1.0 - l1 - l2) * zt[:, 0] + l1 * zt[:, 1]) + l2 * zt[:, 2]
+        ok = (qr >= 0) & (qr < out.shape[0]) & (qc >= 0) & (qc < out.shape[1])
+        out[qr[ok], qc[ok]] = L[ok]
+    return out
+
+
+#: (triangle, row) pairs :func:`refined_heights` rasterizes at once.
+REFINED_CHUNK = 1 << 20
+
+
+def _row_chunks(rows: np.ndarray, chunk: int) -> list:
+    """Slices of consecutive triangles (grid rows ``rows`` ``(M, 3)``) spanning about
+    ``chunk`` grid rows together."""
+    n = rows.max(1) - rows.min(1) + 1
+    ends = np.searchsorted(np.cumsum(n), np.arange(chunk, int(n.sum()) + chunk, chunk), side="right")
+    bounds = np.unique(np.concatenate([[0], np.clip(ends, 1, len(rows))]))
+    return [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+
+
+def _row_spans(rows: np.ndarray, cols: np.ndarray) -> tuple:
+    """``(k, r, c)``: every grid point ``(r, c)`` of the closed triangles ``k`` with
+    grid corners ``rows``, ``cols`` ``(M, 3)`` (nonzero area), triangle by triangle.
+    On row ``r`` a triangle holds the columns from ``ceil`` of the least to ``floor``
+    of the largest column ``c_a + (r - r_a) (c_b - c_a) / (r_b - r_a)`` where its
+    sides ``ab`` meet the row (both ends of a side along the row), exactly (integer
+    floor division)."""
+    r0, r1 = rows.min(1), rows.max(1)
+    n = r1 - r0 + 1
+    k = np.repeat(np.arange(len(rows)), n)
+    r = r0[k] + np.arange(len(k)) - np.repeat(np.cumsum(n) - n, n)
+    big = np.iinfo(np.int64).max // 4
+    lo, hi = np.full(len(k), big), np.full(len(k), -big)
+    for a, b in ((0, 1), (1, 2), (2, 0)):  # each side
+        ra, rb, ca, cb = rows[k, a], rows[k, b], cols[k, a], cols[k, b]
+        dr = rb - ra
+        meets = (np.minimum(ra, rb) <= r) & (r <= np.maximum(ra, rb))
+        flat = meets & (dr == 0)
+        s = np.where(dr < 0, -1, 1)
+        num, den = s * (ca * dr + (r - ra) * (cb - ca)), np.where(dr == 0, 1, s * dr)
+        lo = np.where(meets, np.minimum(lo, np.where(flat, np.minimum(ca, cb), -((-num) // den))), lo)
+        hi = np.where(meets, np.maximum(hi, np.where(flat, np.maximum(ca, cb), num // den)), hi)
+    span = np.maximum(hi - lo + 1, 0)
+    kk = np.repeat(k, span)
+    return kk, np.repeat(r, span), np.repeat(lo - (np.cumsum(span) - span), span) + np.arange(len(kk))

@@ -142,34 +142,45 @@ def _far_from(g: np.ndarray, h: np.ndarray, at: np.ndarray, xs: np.ndarray, ys: 
     return out
 
 
-def _cell_offsets(h: np.ndarray, slab: Mesh, origin: tuple, pitch: tuple) -> np.ndarray:
-    """``(e, L)``: ``e`` ``(R - 1, C - 1)`` mm, how far the lean top of ``slab`` (its ``"texture"``
-    group, over ``origin``) lies above the bilinear surface through ``h`` (``(R,
-    C)`` mm, pixel ``pitch``) on average over each cell: ``T_c - B_c``, ``T_c`` the
-    lean top's mean height over the cell by the trapezoid rule on the grid refined
-    twice (:func:`texcad.targets.patches.lean_heights`, weights 1, 2, 4 / 16, only
-    above the face), ``B_c`` the mean of the cell's corners; ``L`` ``(2 R - 1, 2 C -
-    1)`` mm, the lean top's heights on that refined grid."""
-    from .patches import lean_heights
+@dataclass(frozen=True)
+class CellOffsets:
+    """A lean top against the pixel grid's surface cell by cell (:func:`_cell_offsets`):
+    ``cells`` ``(R - 1, C - 1)`` mm, ``e_c = T_c - B_c``; ``centres`` ``(R, C)`` mm, the
+    lean top's heights at the pixel centres (0 where it lies below the face)."""
+
+    cells: np.ndarray
+    centres: np.ndarray
+
+
+def _cell_offsets(h: np.ndarray, slab: Mesh, origin: tuple, pitch: tuple) -> CellOffsets:
+    """How far the lean top of ``slab`` (its ``"texture"`` group, over ``origin``)
+    lies above the bilinear surface through ``h`` (``(R, C)`` mm, pixel ``pitch``)
+    on average over each pixel cell: ``T_c - B_c``, ``T_c`` the lean top's mean
+    height over the cell by the trapezoid rule on the grid refined twice
+    (:func:`texcad.solid.lean.refined_heights`, weights 1, 2, 4 / 16, only above the
+    face), ``B_c`` the mean of the cell's corners. Made once per relief: the crossing
+    test (:func:`_lean_crosses`) and the B-rep's heights (:func:`_brep_heights`,
+    through :attr:`PlaneRelief.offsets`) use the same."""
+    from ..solid.lean import refined_heights
 
     top = slab.faces[slab.groups["texture"]]
-    L = np.nan_to_num(np.maximum(lean_heights(slab.vertices, top, origin, pitch, h.shape, sub=2), 0.0))
+    L = np.nan_to_num(np.maximum(refined_heights(slab.vertices, top, origin, pitch, h.shape), 0.0))
     corner = lambda g, i, j: g[i:g.shape[0] - 2 + i:2, j:g.shape[1] - 2 + j:2]  # noqa: E731 - (R-1, C-1) points of each cell
     T = (corner(L, 0, 0) + corner(L, 0, 2) + corner(L, 2, 0) + corner(L, 2, 2)
          + 2 * (corner(L, 1, 0) + corner(L, 1, 2) + corner(L, 0, 1) + corner(L, 2, 1)) + 4 * corner(L, 1, 1)) / 16
     g = np.asarray(h, np.float64)
-    return T - 0.25 * (g[:-1, :-1] + g[1:, :-1] + g[:-1, 1:] + g[1:, 1:]), L
+    return CellOffsets(T - 0.25 * (g[:-1, :-1] + g[1:, :-1] + g[:-1, 1:] + g[1:, 1:]), np.ascontiguousarray(L[::2, ::2]))
 
 
-def _lean_crosses(h: np.ndarray, slab: Mesh, origin: tuple, pitch: tuple, tolerance: float) -> float:
-    """The volume (mm^3) the lean top of ``slab`` loses against the pixel grid's
-    surface in the cells it crosses more than ``tolerance`` away from it on average
-    (:func:`_cell_offsets`), as a share of ``tolerance`` x the textured area: about
-    0.01 on stones (its chords stay near the grid), 0.7-1.1 on pins 2 px across
-    (its triangles cut their edges between the pixel centres), where neither the
-    gate's allowance (the tolerance x area) nor a B-rep through the pixel centres
-    near the mesh holds."""
-    e, _ = _cell_offsets(h, slab, origin, pitch)
+def _lean_crosses(h: np.ndarray, offsets: CellOffsets, pitch: tuple, tolerance: float) -> float:
+    """The volume (mm^3) the lean top loses against the pixel grid's surface (``h``,
+    ``(R, C)`` mm, pixel ``pitch``) in the cells it crosses more than ``tolerance``
+    away from it on average (``offsets``, :func:`_cell_offsets`), as a share of
+    ``tolerance`` x the textured area: about 0.01 on stones (its chords stay near the
+    grid), 0.7-1.1 on pins 2 px across (its triangles cut their edges between the
+    pixel centres), where neither the gate's allowance (the tolerance x area) nor a
+    B-rep through the pixel centres near the mesh holds."""
+    e = offsets.cells
     far = np.abs(e) > tolerance
     textured = float((np.asarray(h) > 0).sum()) * pitch[0] * pitch[1]
     return abs(float(e[far].sum())) * pitch[0] * pitch[1] / max(tolerance * textured, 1e-300)
@@ -185,7 +196,7 @@ def _brep_heights(r: "PlaneRelief") -> np.ndarray:
 
     Each cell ``c`` (area ``A = px py``) is off by ``e_c = A (T_c - B_c)``: ``T_c``
     the lean top's mean height over it by the trapezoid rule on the grid refined
-    twice (:func:`texcad.targets.patches.lean_heights`, weights 1, 2, 4 / 16),
+    twice (:func:`_cell_offsets`, made with the relief, weights 1, 2, 4 / 16),
     ``B_c`` the mean of its corners (the bilinear surface's). Its corners with
     ``h > 0`` (the face round the relief stays) move by ``e_c / (A n_c)`` each
     (``n_c`` of them; a corner raised by ``d`` adds ``A d`` to the bilinear
@@ -212,7 +223,8 @@ def _brep_heights(r: "PlaneRelief") -> np.ndarray:
     px, py = float(r.xs[1] - r.xs[0]), float(r.ys[1] - r.ys[0])
     area = px * py
     h = np.asarray(r.h, np.float64)
-    e, L = _cell_offsets(h, s, r.slab_origin, (px, py))
+    o = r.offsets if r.offsets is not None else _cell_offsets(h, s, r.slab_origin, (px, py))
+    e = o.cells
     ok = h > 0
     okf = ok.astype(np.float64)
     n = okf[:-1, :-1] + okf[1:, :-1] + okf[:-1, 1:] + okf[1:, 1:]
@@ -235,7 +247,7 @@ def _brep_heights(r: "PlaneRelief") -> np.ndarray:
     limit = REACH * r.tolerance
     reach = limit * np.sqrt(1.0 + sx ** 2 + sy ** 2)
     checked = np.maximum(sx, sy) <= WALL
-    at = L[::2, ::2]
+    at = o.centres
     lo = np.minimum(np.where(ok, np.maximum(at - reach, 0.0), h), h)  # (the grid itself always may be)
     hi = np.maximum(np.where(ok, at + reach, h), h)
     g = np.clip(h + d, lo, hi)
@@ -280,8 +292,10 @@ WALL = 4.0
 class PlaneRelief:
     """The relief on a planar face: heights ``h`` (R, C) mm on pixel centres ``xs``,
     ``ys`` (face frame), the meshed field ``h_mesh`` (-1 mm off the face), the slab,
-    whether body material lies over the face, and ``field_volume``: ``h_mesh``'s
-    :func:`~texcad.solid.mesh.heightfield_volume` ``(volume, slack)`` mm^3."""
+    whether body material lies over the face, ``field_volume``: ``h_mesh``'s
+    :func:`~texcad.solid.mesh.heightfield_volume` ``(volume, slack)`` mm^3, and
+    ``offsets``: a lean slab's :class:`CellOffsets` for the B-rep (None without one
+    or with ``brep=False``; :func:`_brep_heights` makes them then)."""
 
     h: np.ndarray
     h_mesh: np.ndarray
@@ -292,6 +306,7 @@ class PlaneRelief:
     tolerance: float
     obstructed: bool
     field_volume: tuple = (0.0, 0.0)
+    offsets: "CellOffsets | None" = None
 
 
 def _local(points: np.ndarray, origin: np.ndarray, axes: np.ndarray) -> np.ndarray:
@@ -485,11 +500,13 @@ class PlaneAdapter(Adapter):
                                                   tolerance=tolerance, depth=1.0, origin=slab_origin)
         else:
             slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin, tolerance=tolerance)
-        if tolerance > 0 and _lean_crosses(h, slab, slab_origin, (px, py), tolerance) > CROSSING:
+        offsets = _cell_offsets(h, slab, slab_origin, (px, py)) if tolerance > 0 else None
+        if offsets is not None and _lean_crosses(h, offsets, (px, py), tolerance) > CROSSING:
             # steep relief a few pixels across: the pixel grid (see _lean_crosses)
-            slab, tolerance = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin), 0.0
+            slab, tolerance, offsets = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin), 0.0, None
         vol, slack = heightfield_volume(h_mesh, (px, py))
-        data = PlaneRelief(h, h_mesh, xs, ys, slab, slab_origin, float(tolerance), obstructed, (vol, slack))
+        data = PlaneRelief(h, h_mesh, xs, ys, slab, slab_origin, float(tolerance), obstructed, (vol, slack),
+                           offsets if options.brep else None)
         return Relief(
             heightmap=Heightmap(h, (px, py)), limits=limits, volume=vol,
             volume_slack=slack + float(tolerance) * px * py * h_mesh.size + 1e-3 * abs(vol),
