@@ -684,24 +684,29 @@ def refined_heights(vertices: np.ndarray, faces: np.ndarray, origin: tuple, pitc
     out = np.full(((shape[0] - 1) * 2 + 1, (shape[1] - 1) * 2 + 1), np.nan)
     (ar, br, cr), (ac, bc, cc) = rows.T, cols.T
     det = (br - ar) * (cc - ac) - (cr - ar) * (bc - ac)
-    half = (det != 0) & (rows.max(1) - rows.min(1) == 2) & (cols.max(1) - cols.min(1) == 2)
+    extent = lambda g: np.maximum(np.maximum(g[:, 0], g[:, 1]), g[:, 2]) - np.minimum(np.minimum(g[:, 0], g[:, 1]), g[:, 2])  # noqa: E731
+    half = (det != 0) & (extent(rows) == 2) & (extent(cols) == 2)
     hr, hc, hz = rows[half], cols[half], zf[half]
     out[hr, hc] = hz
     for a, b in ((0, 1), (1, 2), (2, 0)):  # the middles of the half-cells' sides
         out[(hr[:, a] + hr[:, b]) // 2, (hc[:, a] + hc[:, b]) // 2] = 0.5 * hz[:, a] + 0.5 * hz[:, b]
     rest = np.nonzero(~half & (det != 0))[0]
+    flat_out = out.reshape(-1)
     for part in _row_chunks(rows[rest], REFINED_CHUNK):  # in faces order
-        k, qr, qc = _row_spans(rows[rest[part]], cols[rest[part]])
-        t = rest[part][k]
+        k, r, lo, span = _row_spans(rows[rest[part]], cols[rest[part]])
+        t = rest[part][k]  # per (triangle, row) pair
         (ar, br, cr), (ac, bc, cc) = rows[t].T, cols[t].T
-        d = det[t]
-        l1 = ((qr - ar) * (cc - ac) - (cr - ar) * (qc - ac)) / d
-        l2 = ((br - ar) * (qc - ac) - (qr - ar) * (bc - ac)) / d
+        # l1 = ((r - ar)(cc - ac) - (cr - ar)(c - ac)) / det = (p1 - s1 c) / det and
+        # l2 = ((br - ar)(c - ac) - (r - ar)(bc - ac)) / det = (s2 c - p2) / det, integers
+        p1, s1 = (r - ar) * (cc - ac) + (cr - ar) * ac, cr - ar
+        p2, s2 = (br - ar) * ac + (r - ar) * (bc - ac), br - ar
+        rep = lambda a: np.repeat(a, span)  # noqa: E731 - pair values at each of its points
+        c = rep(lo - (np.cumsum(span) - span)) + np.arange(int(span.sum()))
+        d = rep(det[t])
+        l1, l2 = (rep(p1) - rep(s1) * c) / d, (rep(s2) * c - rep(p2)) / d
         zt = zf[t]
         # summed in this order, unfused: lean_heights' einsum("ij,ijk->ik") bit for bit
-        L = ((1.0 - l1 - l2) * zt[:, 0] + l1 * zt[:, 1]) + l2 * zt[:, 2]
-        ok = (qr >= 0) & (qr < out.shape[0]) & (qc >= 0) & (qc < out.shape[1])
-        out[qr[ok], qc[ok]] = L[ok]
+        flat_out[rep(r * out.shape[1]) + c] = ((1.0 - l1 - l2) * rep(zt[:, 0]) + l1 * rep(zt[:, 1])) + l2 * rep(zt[:, 2])
     return out
 
 
@@ -719,27 +724,27 @@ def _row_chunks(rows: np.ndarray, chunk: int) -> list:
 
 
 def _row_spans(rows: np.ndarray, cols: np.ndarray) -> tuple:
-    """``(k, r, c)``: every grid point ``(r, c)`` of the closed triangles ``k`` with
-    grid corners ``rows``, ``cols`` ``(M, 3)`` (nonzero area), triangle by triangle.
-    On row ``r`` a triangle holds the columns from ``ceil`` of the least to ``floor``
-    of the largest column ``c_a + (r - r_a) (c_b - c_a) / (r_b - r_a)`` where its
-    sides ``ab`` meet the row (both ends of a side along the row), exactly (integer
-    floor division)."""
-    r0, r1 = rows.min(1), rows.max(1)
-    n = r1 - r0 + 1
+    """``(k, r, lo, n)``: the grid points of the closed triangles with grid corners
+    ``rows``, ``cols`` ``(M, 3)`` (nonzero area), triangle by triangle and row by row:
+    triangle ``k`` holds ``n`` points ``(r, lo)``, ``(r, lo + 1)``, ... of row ``r``.
+    With its corners ``t``, ``m``, ``b`` by row, row ``r`` meets the side ``tb`` and
+    ``tm`` (``r < r_m``) or ``mb`` at columns ``x = c_a + (r - r_a) (c_b - c_a) / (r_b
+    - r_a)`` (``c_m`` on a side along the row); the triangle holds the columns from
+    the least ``ceil(x)`` to the largest ``floor(x)``, exactly: ``x`` in floats is
+    within a few units in the last place (``|x| < 1e6``: 1e-10) of a ratio with
+    denominator ``r_b - r_a < 1e6``, which is an integer or at least ``1 / (r_b -
+    r_a)`` from one."""
+    o = np.argsort(rows, axis=1, kind="stable")
+    (rt, rm, rb), (ct, cm, cb) = np.take_along_axis(rows, o, 1).T, np.take_along_axis(cols, o, 1).T
+    n = rb - rt + 1
     k = np.repeat(np.arange(len(rows)), n)
-    r = r0[k] + np.arange(len(k)) - np.repeat(np.cumsum(n) - n, n)
-    big = np.iinfo(np.int64).max // 4
-    lo, hi = np.full(len(k), big), np.full(len(k), -big)
-    for a, b in ((0, 1), (1, 2), (2, 0)):  # each side
-        ra, rb, ca, cb = rows[k, a], rows[k, b], cols[k, a], cols[k, b]
-        dr = rb - ra
-        meets = (np.minimum(ra, rb) <= r) & (r <= np.maximum(ra, rb))
-        flat = meets & (dr == 0)
-        s = np.where(dr < 0, -1, 1)
-        num, den = s * (ca * dr + (r - ra) * (cb - ca)), np.where(dr == 0, 1, s * dr)
-        lo = np.where(meets, np.minimum(lo, np.where(flat, np.minimum(ca, cb), -((-num) // den))), lo)
-        hi = np.where(meets, np.maximum(hi, np.where(flat, np.maximum(ca, cb), num // den)), hi)
-    span = np.maximum(hi - lo + 1, 0)
-    kk = np.repeat(k, span)
-    return kk, np.repeat(r, span), np.repeat(lo - (np.cumsum(span) - span), span) + np.arange(len(kk))
+    r = rt[k] + np.arange(len(k)) - np.repeat(np.cumsum(n) - n, n)
+    x_long = ct[k] + (r - rt[k]) * (cb - ct)[k] / (rb - rt)[k]
+    upper = r < rm[k]
+    a_r, a_c = np.where(upper, rt[k], rm[k]), np.where(upper, ct[k], cm[k])
+    d_r, d_c = np.where(upper, (rm - rt)[k], (rb - rm)[k]), np.where(upper, (cm - ct)[k], (cb - cm)[k])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x_short = np.where(d_r > 0, a_c + (r - a_r) * d_c / d_r, a_c)
+    lo = np.minimum(np.ceil(x_long), np.ceil(x_short)).astype(np.int64)
+    hi = np.maximum(np.floor(x_long), np.floor(x_short)).astype(np.int64)
+    return k, r, lo, np.maximum(hi - lo + 1, 0)
