@@ -44,3 +44,23 @@ def test_a_bad_mask_is_refused(box):
     part, top = box
     with pytest.raises(texcad.ParameterError, match="mask"):
         texcad.texture(part, top, "builtin:stones", pitch=0.5, mask=np.full((4, 4), 2.0))
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_cell_offsets_are_made_once_and_carried_to_the_b_rep(box):
+    """The lean top's cell offsets are made with the relief (the crossing test) and
+    carried in PlaneRelief for the B-rep, whose heights are those made from the slab
+    again, bit for bit; without a B-rep (brep=False) or a lean top nothing is kept."""
+    import dataclasses
+
+    import texcad.targets.plane as plane
+
+    part, top = box
+    tx = texcad.texture(part, top, "builtin:stones", pitch=0.25, height=1.0)
+    r = tx.stages.relief.data
+    assert r.tolerance > 0 and r.offsets is not None
+    assert r.offsets.cells.shape == (r.h.shape[0] - 1, r.h.shape[1] - 1) and r.offsets.centres.shape == r.h.shape
+    again = plane._brep_heights(dataclasses.replace(r, offsets=None))
+    np.testing.assert_array_equal(plane._brep_heights(r), again)
+    assert texcad.texture(part, top, "builtin:stones", pitch=0.25, height=1.0, brep=False).stages.relief.data.offsets is None
+    assert texcad.texture(part, top, "builtin:stones", pitch=0.25, height=1.0, tolerance=0).stages.relief.data.offsets is None
