@@ -700,8 +700,9 @@ def refined_heights(vertices: np.ndarray, faces: np.ndarray, origin: tuple, pitc
         # l2 = ((br - ar)(c - ac) - (r - ar)(bc - ac)) / det = (s2 c - p2) / det, integers
         p1, s1 = (r - ar) * (cc - ac) + (cr - ar) * ac, cr - ar
         p2, s2 = (br - ar) * ac + (r - ar) * (bc - ac), br - ar
-        rep = lambda a: np.repeat(a, span)  # noqa: E731 - pair values at each of its points
-        c = rep(lo - (np.cumsum(span) - span)) + np.arange(int(span.sum()))
+        at = np.repeat(np.arange(len(t)), span)  # the pair of each point
+        rep = lambda a: np.take(a, at)  # noqa: E731 - pair values at each of its points
+        c = rep(lo - (np.cumsum(span) - span)) + np.arange(len(at))
         d = rep(det[t])
         l1, l2 = (rep(p1) - rep(s1) * c) / d, (rep(s2) * c - rep(p2)) / d
         zt = zf[t]
@@ -710,8 +711,9 @@ def refined_heights(vertices: np.ndarray, faces: np.ndarray, origin: tuple, pitc
     return out
 
 
-#: (triangle, row) pairs :func:`refined_heights` rasterizes at once.
-REFINED_CHUNK = 1 << 20
+#: (triangle, row) pairs :func:`refined_heights` rasterizes at once (its arrays stay in the
+#: processor's cache).
+REFINED_CHUNK = 1 << 14
 
 
 def _row_chunks(rows: np.ndarray, chunk: int) -> list:
