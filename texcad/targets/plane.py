@@ -111,8 +111,8 @@ def _far_from_lean(q: np.ndarray, rr: np.ndarray, cc: np.ndarray, V: np.ndarray,
     cc)`` of the ``shape`` grid at ``(xs, ys)``) that lie more than ``limit`` mm from
     the lean top (triangles ``F`` of ``V``, corners at pixel centres; libigl's AABB
     search). Only the triangles whose pixel bounding box comes within ``m =
-    ceil(limit / pitch) + 1`` pixels of a point are searched (a summed-area table of
-    the points' pixels): a triangle within ``limit`` of a point has a point within
+    ceil(limit / pitch + 0.01)`` pixels of a point are searched (a summed-area table
+    of the points' pixels): a triangle within ``limit`` of a point has a point within
     ``limit`` of it in x and y, so the answer is the whole top's, and the tree is
     built on a few triangles instead of all."""
     import igl
@@ -120,7 +120,7 @@ def _far_from_lean(q: np.ndarray, rr: np.ndarray, cc: np.ndarray, V: np.ndarray,
     R, C = shape
     vc = np.rint((V[:, 0] - xs[0]) / (xs[1] - xs[0])).astype(np.int64)[F]
     vr = np.rint((V[:, 1] - ys[0]) / (ys[1] - ys[0])).astype(np.int64)[F]
-    m = int(np.ceil(limit / min(xs[1] - xs[0], ys[1] - ys[0]))) + 1
+    m = int(np.ceil(limit / min(xs[1] - xs[0], ys[1] - ys[0]) + 0.01))  # (0.01: float32 vertices)
     marked = np.zeros((R + 1, C + 1), np.int64)
     marked[rr + 1, cc + 1] = 1
     S = marked.cumsum(0).cumsum(1)  # S[i, j]: points in rows < i, columns < j
