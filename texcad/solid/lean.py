@@ -672,9 +672,11 @@ def refined_heights(vertices: np.ndarray, faces: np.ndarray, origin: tuple, pitc
     ``faces`` order) holding ``q`` writes it. Half-cells (three corners of one pixel
     cell, most triangles of a lean top where the relief is busy) hold only their
     corners (``z``) and the middles of their sides (``z_a / 2 + z_b / 2``, the same
-    in every triangle sharing that side, so they are written first, all at once);
+    in every triangle holding them: the triangles meet along whole sides), so they
+    are written first, all at once;
     every other triangle is rasterized by rows (:func:`_row_spans`: exactly the
-    points of the closed triangle, integer arithmetic) in ``faces`` order."""
+    points of the closed triangle, integer arithmetic) in ``faces`` order. Raises
+    :class:`GeometryError` if a vertex is off the grid."""
     v = np.asarray(vertices, np.float64)
     f = np.asarray(faces, np.int64)
     col = np.rint((v[:, 0] - origin[0]) / pitch[0] - 0.5).astype(np.int64)
@@ -682,6 +684,8 @@ def refined_heights(vertices: np.ndarray, faces: np.ndarray, origin: tuple, pitc
     z = v[:, 2] - origin[2]
     rows, cols, zf = 2 * row[f], 2 * col[f], z[f]
     out = np.full(((shape[0] - 1) * 2 + 1, (shape[1] - 1) * 2 + 1), np.nan)
+    if f.size and (min(rows.min(), cols.min()) < 0 or rows.max() >= out.shape[0] or cols.max() >= out.shape[1]):
+        raise GeometryError(f"the lean top has vertices off the {shape[0]} x {shape[1]} px grid")
     (ar, br, cr), (ac, bc, cc) = rows.T, cols.T
     det = (br - ar) * (cc - ac) - (cr - ar) * (bc - ac)
     extent = lambda g: np.maximum(np.maximum(g[:, 0], g[:, 1]), g[:, 2]) - np.minimum(np.minimum(g[:, 0], g[:, 1]), g[:, 2])  # noqa: E731
