@@ -23,7 +23,8 @@ without a boolean (:func:`texcad.solid.boolean.fuse_on_plane`, checked); otherwi
 manifold3d's union. **B-rep**: the textured part of the plane becomes B-spline tiles
 sewn to the face's own edges (:func:`texcad.brep.textured_plane_solid`), their
 heights moved from the pixel grid's so that they enclose the lean mesh's volume
-within its tolerance of it (:func:`_brep_heights`).
+within its tolerance of it (:func:`_brep_heights`, from the cell offsets the relief
+made for its crossing test, :class:`CellOffsets`).
 
 **Tiles.** Where the untiled relief would not fit in the memory available (the
 machine's, or ``max_memory``), the face is made in tiles instead
