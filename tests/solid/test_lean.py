@@ -267,3 +267,31 @@ def test_lean_tile_falls_back_to_the_grid():
         assert err == 0.0 and len(rc) == r * c and len(f) == 2 * (r - 1) * (c - 1)
     rc, f, err = lean.lean_tile(h, 0.02, accept=lambda rc, f: 3.0)  # "3 x the bound": tightened twice, then the grid
     assert err == 0.0 and len(rc) == r * c
+
+
+@pytest.mark.parametrize("seed, tol", [(0, 0.05), (1, 0.2), (2, 0.5), (3, 0.0)])
+def test_refined_heights_are_lean_heights_bit_for_bit(seed, tol):
+    """lean.refined_heights (half-cells at once, other triangles by exact integer row
+    spans) gives patches.lean_heights(sub=2)'s values bit for bit: the same point set
+    of every triangle, the same last writer on shared sides, the same arithmetic
+    (tolerance 0: the pixel grid, all half-cells; coarse tolerances: long slivers).
+    Faces shuffled too (the last triangle holding a point writes it)."""
+    from texcad.targets.patches import lean_heights
+
+    rng = np.random.default_rng(seed)
+    h = (np.cumsum(rng.normal(size=(37, 53)), axis=1) * 0.3 + 3 * rng.random((37, 53)) ** 8).astype(np.float32)
+    if tol > 0:
+        rc, f = lean.triangulate(h, tol, max_fraction=1.0)
+    else:
+        from texcad.solid import grid_faces
+
+        rc = np.stack(np.divmod(np.arange(h.size), h.shape[1]), axis=1)
+        f = grid_faces(*h.shape)
+    pitch, origin = (0.3, 0.7), (-5.0, 2.0, 1.5)
+    v = np.stack([origin[0] + (rc[:, 1] + 0.5) * pitch[0], origin[1] + (rc[:, 0] + 0.5) * pitch[1],
+                  origin[2] + h[rc[:, 0], rc[:, 1]]], axis=1).astype(np.float32)
+    for faces in (f, f[rng.permutation(len(f))]):
+        want = lean_heights(v, faces, origin, pitch, h.shape, sub=2)
+        got = lean.refined_heights(v, faces, origin, pitch, h.shape)
+        assert not np.isnan(got).any()
+        np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))

@@ -44,3 +44,47 @@ def test_a_bad_mask_is_refused(box):
     part, top = box
     with pytest.raises(texcad.ParameterError, match="mask"):
         texcad.texture(part, top, "builtin:stones", pitch=0.5, mask=np.full((4, 4), 2.0))
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_cell_offsets_are_made_once_and_carried_to_the_b_rep(box):
+    """The lean top's cell offsets are made with the relief (the crossing test) and
+    carried in PlaneRelief for the B-rep, whose heights are those made from the slab
+    again, bit for bit; without a B-rep (brep=False) or a lean top nothing is kept."""
+    import dataclasses
+
+    import texcad.targets.plane as plane
+
+    part, top = box
+    tx = texcad.texture(part, top, "builtin:stones", pitch=0.25, height=1.0)
+    r = tx.stages.relief.data
+    assert r.tolerance > 0 and r.offsets is not None
+    assert r.offsets.cells.shape == (r.h.shape[0] - 1, r.h.shape[1] - 1) and r.offsets.centres.shape == r.h.shape
+    again = plane._brep_heights(dataclasses.replace(r, offsets=None))
+    np.testing.assert_array_equal(plane._brep_heights(r), again)
+    assert texcad.texture(part, top, "builtin:stones", pitch=0.25, height=1.0, brep=False).stages.relief.data.offsets is None
+    assert texcad.texture(part, top, "builtin:stones", pitch=0.25, height=1.0, tolerance=0).stages.relief.data.offsets is None
+
+
+def test_far_from_lean_searches_only_nearby_triangles_with_the_same_answer():
+    """plane._far_from_lean (the AABB built on the triangles within reach of the
+    points) answers as a search of the whole lean top: points over pixel centres
+    moved up and down by up to 3 x limit, limits below and above a pitch."""
+    import igl
+
+    import texcad.targets.plane as plane
+    from texcad.solid import lean
+
+    rng = np.random.default_rng(4)
+    h = (np.cumsum(rng.normal(size=(41, 57)), axis=0) * 0.2).astype(np.float32)
+    rc, f = lean.triangulate(h, 0.1, max_fraction=1.0)
+    xs, ys = -3.0 + 0.25 * np.arange(57), 1.0 + 0.25 * np.arange(41)
+    V = np.stack([xs[rc[:, 1]], ys[rc[:, 0]], h[rc[:, 0], rc[:, 1]]], axis=1).astype(np.float32).astype(np.float64)
+    F = np.asarray(f, np.int64)
+    for limit in (0.02, 0.1, 0.4):
+        rr, cc = rng.integers(0, 41, 400), rng.integers(0, 57, 400)
+        q = np.stack([xs[cc], ys[rr], h[rr, cc] + rng.uniform(-3, 3, 400) * limit], axis=1)
+        want = igl.point_mesh_squared_distance(q, V, F)[0] > limit ** 2
+        got = plane._far_from_lean(q, rr, cc, V, F, xs, ys, h.shape, limit)
+        assert 0 < want.sum() < len(want)
+        np.testing.assert_array_equal(got, want)

@@ -656,3 +656,101 @@ def mesh_error(
     rc = np.zeros((len(v), 2), dtype=np.int64)
     rc[used, 0], rc[used, 1] = ri, ci
     return surface_error(heights, rc, v[:, 2] - oz, f)
+
+
+def refined_heights(vertices: np.ndarray, faces: np.ndarray, origin: tuple, pitch: tuple, shape: tuple) -> np.ndarray:
+    """``(2 R - 1, 2 C - 1)`` mm: a lean heightfield surface (``vertices`` ``(N, 3)``
+    mm at pixel centres ``origin + ((c + 1/2) px, (r + 1/2) py, z)`` of an ``(R, C)``
+    = ``shape`` grid, triangles ``faces``; a slab's ``"texture"`` group) at every
+    point of the grid refined twice (point ``(i, j)`` at pixel ``(i / 2, j / 2)``),
+    height above ``origin[2]``, NaN where no triangle lies: the values of
+    :func:`texcad.targets.patches.lean_heights` with ``sub=2``, bit for bit, faster.
+
+    A triangle's value at a point ``q`` of the refined grid is ``l0 z0 + l1 z1 + l2
+    z2``, its barycentric coordinates ``l1 = n1 / det``, ``l2 = n2 / det``, ``l0 = 1
+    - l1 - l2`` from the points' integer indices, where the last triangle (in
+    ``faces`` order) holding ``q`` writes it. Half-cells (three corners of one pixel
+    cell, most triangles of a lean top where the relief is busy) hold only their
+    corners (``z``) and the middles of their sides (``z_a / 2 + z_b / 2``, the same
+    in every triangle holding them: the triangles meet along whole sides), so they
+    are written first, all at once;
+    every other triangle is rasterized by rows (:func:`_row_spans`: exactly the
+    points of the closed triangle, integer arithmetic) in ``faces`` order. Raises
+    :class:`GeometryError` if a vertex is off the grid."""
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces, np.int64)
+    col = np.rint((v[:, 0] - origin[0]) / pitch[0] - 0.5).astype(np.int64)
+    row = np.rint((v[:, 1] - origin[1]) / pitch[1] - 0.5).astype(np.int64)
+    z = v[:, 2] - origin[2]
+    rows, cols, zf = 2 * row[f], 2 * col[f], z[f]
+    out = np.full(((shape[0] - 1) * 2 + 1, (shape[1] - 1) * 2 + 1), np.nan)
+    if f.size and (min(rows.min(), cols.min()) < 0 or rows.max() >= out.shape[0] or cols.max() >= out.shape[1]):
+        raise GeometryError(f"the lean top has vertices off the {shape[0]} x {shape[1]} px grid")
+    (ar, br, cr), (ac, bc, cc) = rows.T, cols.T
+    det = (br - ar) * (cc - ac) - (cr - ar) * (bc - ac)
+    extent = lambda g: np.maximum(np.maximum(g[:, 0], g[:, 1]), g[:, 2]) - np.minimum(np.minimum(g[:, 0], g[:, 1]), g[:, 2])  # noqa: E731
+    half = (det != 0) & (extent(rows) == 2) & (extent(cols) == 2)
+    hr, hc, hz = rows[half], cols[half], zf[half]
+    out[hr, hc] = hz
+    for a, b in ((0, 1), (1, 2), (2, 0)):  # the middles of the half-cells' sides
+        out[(hr[:, a] + hr[:, b]) // 2, (hc[:, a] + hc[:, b]) // 2] = 0.5 * hz[:, a] + 0.5 * hz[:, b]
+    rest = np.nonzero(~half & (det != 0))[0]
+    flat_out = out.reshape(-1)
+    for part in _row_chunks(rows[rest], REFINED_CHUNK):  # in faces order
+        k, r, lo, span = _row_spans(rows[rest[part]], cols[rest[part]])
+        t = rest[part][k]  # per (triangle, row) pair
+        (ar, br, cr), (ac, bc, cc) = rows[t].T, cols[t].T
+        # l1 = ((r - ar)(cc - ac) - (cr - ar)(c - ac)) / det = (p1 - s1 c) / det and
+        # l2 = ((br - ar)(c - ac) - (r - ar)(bc - ac)) / det = (s2 c - p2) / det, integers
+        p1, s1 = (r - ar) * (cc - ac) + (cr - ar) * ac, cr - ar
+        p2, s2 = (br - ar) * ac + (r - ar) * (bc - ac), br - ar
+        at = np.repeat(np.arange(len(t)), span)  # the pair of each point
+        rep = lambda a: np.take(a, at)  # noqa: E731 - pair values at each of its points
+        c = rep(lo - (np.cumsum(span) - span)) + np.arange(len(at))
+        d = rep(det[t])
+        l1, l2 = (rep(p1) - rep(s1) * c) / d, (rep(s2) * c - rep(p2)) / d
+        zt = zf[t]
+        # summed in this order, unfused: lean_heights' einsum("ij,ijk->ik") bit for bit
+        flat_out[rep(r * out.shape[1]) + c] = ((1.0 - l1 - l2) * rep(zt[:, 0]) + l1 * rep(zt[:, 1])) + l2 * rep(zt[:, 2])
+    return out
+
+
+#: (triangle, row) pairs :func:`refined_heights` rasterizes at once (its arrays stay in the
+#: processor's cache).
+REFINED_CHUNK = 1 << 14
+
+
+def _row_chunks(rows: np.ndarray, chunk: int) -> list:
+    """Slices of consecutive triangles (grid rows ``rows`` ``(M, 3)``) spanning about
+    ``chunk`` grid rows together."""
+    n = rows.max(1) - rows.min(1) + 1
+    ends = np.searchsorted(np.cumsum(n), np.arange(chunk, int(n.sum()) + chunk, chunk), side="right")
+    bounds = np.unique(np.concatenate([[0], np.clip(ends, 1, len(rows))]))
+    return [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+
+
+def _row_spans(rows: np.ndarray, cols: np.ndarray) -> tuple:
+    """``(k, r, lo, n)``: the grid points of the closed triangles with grid corners
+    ``rows``, ``cols`` ``(M, 3)`` (nonzero area), triangle by triangle and row by row:
+    triangle ``k`` holds ``n`` points ``(r, lo)``, ``(r, lo + 1)``, ... of row ``r``.
+    With its corners ``t``, ``m``, ``b`` by row, row ``r`` meets the side ``tb`` and
+    ``tm`` (``r < r_m``) or ``mb`` at columns ``x = c_a + (r - r_a) (c_b - c_a) / (r_b
+    - r_a)`` (``c_m`` on a side along the row); the triangle holds the columns from
+    the least ``ceil(x)`` to the largest ``floor(x)``, exactly: ``x`` in floats is
+    within a few units in the last place (``|x| < 1e6``: 1e-10) of a ratio with
+    denominator ``r_b - r_a < 1e6``, which is an integer or at least ``1 / (r_b -
+    r_a)`` from one."""
+    o = np.argsort(rows, axis=1, kind="stable")
+    (rt, rm, rb), (ct, cm, cb) = np.take_along_axis(rows, o, 1).T, np.take_along_axis(cols, o, 1).T
+    n = rb - rt + 1
+    k = np.repeat(np.arange(len(rows)), n)
+    r = rt[k] + np.arange(len(k)) - np.repeat(np.cumsum(n) - n, n)
+    x_long = ct[k] + (r - rt[k]) * (cb - ct)[k] / (rb - rt)[k]
+    upper = r < rm[k]
+    a_r, a_c = np.where(upper, rt[k], rm[k]), np.where(upper, ct[k], cm[k])
+    d_r, d_c = np.where(upper, (rm - rt)[k], (rb - rm)[k]), np.where(upper, (cm - ct)[k], (cb - cm)[k])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x_short = np.where(d_r > 0, a_c + (r - a_r) * d_c / d_r, a_c)
+    lo = np.minimum(np.ceil(x_long), np.ceil(x_short)).astype(np.int64)
+    hi = np.maximum(np.floor(x_long), np.floor(x_short)).astype(np.int64)
+    return k, r, lo, np.maximum(hi - lo + 1, 0)

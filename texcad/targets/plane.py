@@ -23,7 +23,8 @@ without a boolean (:func:`texcad.solid.boolean.fuse_on_plane`, checked); otherwi
 manifold3d's union. **B-rep**: the textured part of the plane becomes B-spline tiles
 sewn to the face's own edges (:func:`texcad.brep.textured_plane_solid`), their
 heights moved from the pixel grid's so that they enclose the lean mesh's volume
-within its tolerance of it (:func:`_brep_heights`).
+within its tolerance of it (:func:`_brep_heights`, from the cell offsets the relief
+made for its crossing test, :class:`CellOffsets`).
 
 **Tiles.** Where the untiled relief would not fit in the memory available (the
 machine's, or ``max_memory``), the face is made in tiles instead
@@ -105,6 +106,34 @@ def _positive_volume(vertices: np.ndarray, faces: np.ndarray, z0: float) -> floa
     return float((area * mean).sum())
 
 
+def _far_from_lean(q: np.ndarray, rr: np.ndarray, cc: np.ndarray, V: np.ndarray, F: np.ndarray, xs: np.ndarray,
+                   ys: np.ndarray, shape: tuple, limit: float) -> np.ndarray:
+    """``(N,)`` bool: the points ``q`` (``(N, 3)`` mm, over pixel centres ``(rr,
+    cc)`` of the ``shape`` grid at ``(xs, ys)``) that lie more than ``limit`` mm from
+    the lean top (triangles ``F`` of ``V``, corners at pixel centres; libigl's AABB
+    search). Only the triangles whose pixel bounding box comes within ``m =
+    ceil(limit / pitch + 0.01)`` pixels of a point are searched (a summed-area table
+    of the points' pixels): a triangle within ``limit`` of a point has a point within
+    ``limit`` of it in x and y, so the answer is the whole top's, and the tree is
+    built on a few triangles instead of all."""
+    import igl
+
+    R, C = shape
+    vc = np.rint((V[:, 0] - xs[0]) / (xs[1] - xs[0])).astype(np.int64)[F]
+    vr = np.rint((V[:, 1] - ys[0]) / (ys[1] - ys[0])).astype(np.int64)[F]
+    m = int(np.ceil(limit / min(xs[1] - xs[0], ys[1] - ys[0]) + 0.01))  # (0.01: float32 vertices)
+    marked = np.zeros((R + 1, C + 1), np.int64)
+    marked[rr + 1, cc + 1] = 1
+    S = marked.cumsum(0).cumsum(1)  # S[i, j]: points in rows < i, columns < j
+    lo = lambda a: np.minimum(np.minimum(a[:, 0], a[:, 1]), a[:, 2]) - m  # noqa: E731
+    hi = lambda a: np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2]) + m  # noqa: E731
+    r0, r1, c0, c1 = np.clip(lo(vr), 0, R - 1), np.clip(hi(vr), 0, R - 1) + 1, np.clip(lo(vc), 0, C - 1), np.clip(hi(vc), 0, C - 1) + 1
+    near = F[S[r1, c1] - S[r0, c1] - S[r1, c0] + S[r0, c0] > 0]
+    if not len(near):
+        return np.ones(len(q), bool)
+    return igl.point_mesh_squared_distance(q, V, near)[0] > limit ** 2
+
+
 def _far_from(g: np.ndarray, h: np.ndarray, at: np.ndarray, xs: np.ndarray, ys: np.ndarray, z0: float, V: np.ndarray,
               F: np.ndarray, limit: float) -> np.ndarray:
     """``(R, C)`` bool: the pixel centres moved off ``h`` to ``g`` (mm, at ``(xs,
@@ -122,8 +151,10 @@ def _far_from(g: np.ndarray, h: np.ndarray, at: np.ndarray, xs: np.ndarray, ys: 
     rr, cc = np.nonzero((g != h) & (np.abs(g - at) > limit))
     if len(rr):
         q = np.stack([xs[cc], ys[rr], z0 + g[rr, cc]], axis=1).astype(np.float64)
-        out[rr, cc] = igl.point_mesh_squared_distance(q, V, F)[0] > limit ** 2
-    used = np.unique(F)
+        out[rr, cc] = _far_from_lean(q, rr, cc, V, F, xs, ys, g.shape, limit)
+    used = np.zeros(len(V), bool)
+    used[F] = True
+    used = np.flatnonzero(used)  # np.unique(F), without sorting 3 M indices
     kc = np.rint((V[used, 0] - xs[0]) / (xs[1] - xs[0])).astype(np.int64)
     kr = np.rint((V[used, 1] - ys[0]) / (ys[1] - ys[0])).astype(np.int64)
     near = np.abs(g[kr, kc] - h[kr, kc]) > limit  # kept pixel centres that moved more than limit
@@ -142,34 +173,45 @@ def _far_from(g: np.ndarray, h: np.ndarray, at: np.ndarray, xs: np.ndarray, ys: 
     return out
 
 
-def _cell_offsets(h: np.ndarray, slab: Mesh, origin: tuple, pitch: tuple) -> np.ndarray:
-    """``(e, L)``: ``e`` ``(R - 1, C - 1)`` mm, how far the lean top of ``slab`` (its ``"texture"``
-    group, over ``origin``) lies above the bilinear surface through ``h`` (``(R,
-    C)`` mm, pixel ``pitch``) on average over each cell: ``T_c - B_c``, ``T_c`` the
-    lean top's mean height over the cell by the trapezoid rule on the grid refined
-    twice (:func:`texcad.targets.patches.lean_heights`, weights 1, 2, 4 / 16, only
-    above the face), ``B_c`` the mean of the cell's corners; ``L`` ``(2 R - 1, 2 C -
-    1)`` mm, the lean top's heights on that refined grid."""
-    from .patches import lean_heights
+@dataclass(frozen=True)
+class CellOffsets:
+    """A lean top against the pixel grid's surface cell by cell (:func:`_cell_offsets`):
+    ``cells`` ``(R - 1, C - 1)`` mm, ``e_c = T_c - B_c``; ``centres`` ``(R, C)`` mm, the
+    lean top's heights at the pixel centres (0 where it lies below the face)."""
+
+    cells: np.ndarray
+    centres: np.ndarray
+
+
+def _cell_offsets(h: np.ndarray, slab: Mesh, origin: tuple, pitch: tuple) -> CellOffsets:
+    """How far the lean top of ``slab`` (its ``"texture"`` group, over ``origin``)
+    lies above the bilinear surface through ``h`` (``(R, C)`` mm, pixel ``pitch``)
+    on average over each pixel cell: ``T_c - B_c``, ``T_c`` the lean top's mean
+    height over the cell by the trapezoid rule on the grid refined twice
+    (:func:`texcad.solid.lean.refined_heights`, weights 1, 2, 4 / 16, only above the
+    face), ``B_c`` the mean of the cell's corners. Made once per relief: the crossing
+    test (:func:`_lean_crosses`) and the B-rep's heights (:func:`_brep_heights`,
+    through :attr:`PlaneRelief.offsets`) use the same."""
+    from ..solid.lean import refined_heights
 
     top = slab.faces[slab.groups["texture"]]
-    L = np.nan_to_num(np.maximum(lean_heights(slab.vertices, top, origin, pitch, h.shape, sub=2), 0.0))
+    L = np.nan_to_num(np.maximum(refined_heights(slab.vertices, top, origin, pitch, h.shape), 0.0))
     corner = lambda g, i, j: g[i:g.shape[0] - 2 + i:2, j:g.shape[1] - 2 + j:2]  # noqa: E731 - (R-1, C-1) points of each cell
     T = (corner(L, 0, 0) + corner(L, 0, 2) + corner(L, 2, 0) + corner(L, 2, 2)
          + 2 * (corner(L, 1, 0) + corner(L, 1, 2) + corner(L, 0, 1) + corner(L, 2, 1)) + 4 * corner(L, 1, 1)) / 16
     g = np.asarray(h, np.float64)
-    return T - 0.25 * (g[:-1, :-1] + g[1:, :-1] + g[:-1, 1:] + g[1:, 1:]), L
+    return CellOffsets(T - 0.25 * (g[:-1, :-1] + g[1:, :-1] + g[:-1, 1:] + g[1:, 1:]), np.ascontiguousarray(L[::2, ::2]))
 
 
-def _lean_crosses(h: np.ndarray, slab: Mesh, origin: tuple, pitch: tuple, tolerance: float) -> float:
-    """The volume (mm^3) the lean top of ``slab`` loses against the pixel grid's
-    surface in the cells it crosses more than ``tolerance`` away from it on average
-    (:func:`_cell_offsets`), as a share of ``tolerance`` x the textured area: about
-    0.01 on stones (its chords stay near the grid), 0.7-1.1 on pins 2 px across
-    (its triangles cut their edges between the pixel centres), where neither the
-    gate's allowance (the tolerance x area) nor a B-rep through the pixel centres
-    near the mesh holds."""
-    e, _ = _cell_offsets(h, slab, origin, pitch)
+def _lean_crosses(h: np.ndarray, offsets: CellOffsets, pitch: tuple, tolerance: float) -> float:
+    """The volume (mm^3) the lean top loses against the pixel grid's surface (``h``,
+    ``(R, C)`` mm, pixel ``pitch``) in the cells it crosses more than ``tolerance``
+    away from it on average (``offsets``, :func:`_cell_offsets`), as a share of
+    ``tolerance`` x the textured area: about 0.01 on stones (its chords stay near the
+    grid), 0.7-1.1 on pins 2 px across (its triangles cut their edges between the
+    pixel centres), where neither the gate's allowance (the tolerance x area) nor a
+    B-rep through the pixel centres near the mesh holds."""
+    e = offsets.cells
     far = np.abs(e) > tolerance
     textured = float((np.asarray(h) > 0).sum()) * pitch[0] * pitch[1]
     return abs(float(e[far].sum())) * pitch[0] * pitch[1] / max(tolerance * textured, 1e-300)
@@ -185,7 +227,7 @@ def _brep_heights(r: "PlaneRelief") -> np.ndarray:
 
     Each cell ``c`` (area ``A = px py``) is off by ``e_c = A (T_c - B_c)``: ``T_c``
     the lean top's mean height over it by the trapezoid rule on the grid refined
-    twice (:func:`texcad.targets.patches.lean_heights`, weights 1, 2, 4 / 16),
+    twice (:func:`_cell_offsets`, made with the relief, weights 1, 2, 4 / 16),
     ``B_c`` the mean of its corners (the bilinear surface's). Its corners with
     ``h > 0`` (the face round the relief stays) move by ``e_c / (A n_c)`` each
     (``n_c`` of them; a corner raised by ``d`` adds ``A d`` to the bilinear
@@ -212,7 +254,8 @@ def _brep_heights(r: "PlaneRelief") -> np.ndarray:
     px, py = float(r.xs[1] - r.xs[0]), float(r.ys[1] - r.ys[0])
     area = px * py
     h = np.asarray(r.h, np.float64)
-    e, L = _cell_offsets(h, s, r.slab_origin, (px, py))
+    o = r.offsets if r.offsets is not None else _cell_offsets(h, s, r.slab_origin, (px, py))
+    e = o.cells
     ok = h > 0
     okf = ok.astype(np.float64)
     n = okf[:-1, :-1] + okf[1:, :-1] + okf[:-1, 1:] + okf[1:, 1:]
@@ -235,7 +278,7 @@ def _brep_heights(r: "PlaneRelief") -> np.ndarray:
     limit = REACH * r.tolerance
     reach = limit * np.sqrt(1.0 + sx ** 2 + sy ** 2)
     checked = np.maximum(sx, sy) <= WALL
-    at = L[::2, ::2]
+    at = o.centres
     lo = np.minimum(np.where(ok, np.maximum(at - reach, 0.0), h), h)  # (the grid itself always may be)
     hi = np.maximum(np.where(ok, at + reach, h), h)
     g = np.clip(h + d, lo, hi)
@@ -280,8 +323,10 @@ WALL = 4.0
 class PlaneRelief:
     """The relief on a planar face: heights ``h`` (R, C) mm on pixel centres ``xs``,
     ``ys`` (face frame), the meshed field ``h_mesh`` (-1 mm off the face), the slab,
-    whether body material lies over the face, and ``field_volume``: ``h_mesh``'s
-    :func:`~texcad.solid.mesh.heightfield_volume` ``(volume, slack)`` mm^3."""
+    whether body material lies over the face, ``field_volume``: ``h_mesh``'s
+    :func:`~texcad.solid.mesh.heightfield_volume` ``(volume, slack)`` mm^3, and
+    ``offsets``: a lean slab's :class:`CellOffsets` for the B-rep (None without one
+    or with ``brep=False``; :func:`_brep_heights` makes them then)."""
 
     h: np.ndarray
     h_mesh: np.ndarray
@@ -292,6 +337,7 @@ class PlaneRelief:
     tolerance: float
     obstructed: bool
     field_volume: tuple = (0.0, 0.0)
+    offsets: "CellOffsets | None" = None
 
 
 def _local(points: np.ndarray, origin: np.ndarray, axes: np.ndarray) -> np.ndarray:
@@ -485,11 +531,13 @@ class PlaneAdapter(Adapter):
                                                   tolerance=tolerance, depth=1.0, origin=slab_origin)
         else:
             slab = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin, tolerance=tolerance)
-        if tolerance > 0 and _lean_crosses(h, slab, slab_origin, (px, py), tolerance) > CROSSING:
+        offsets = _cell_offsets(h, slab, slab_origin, (px, py)) if tolerance > 0 else None
+        if offsets is not None and _lean_crosses(h, offsets, (px, py), tolerance) > CROSSING:
             # steep relief a few pixels across: the pixel grid (see _lean_crosses)
-            slab, tolerance = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin), 0.0
+            slab, tolerance, offsets = heightfield_slab(Heightmap(h_mesh, (px, py)), depth=1.0, origin=slab_origin), 0.0, None
         vol, slack = heightfield_volume(h_mesh, (px, py))
-        data = PlaneRelief(h, h_mesh, xs, ys, slab, slab_origin, float(tolerance), obstructed, (vol, slack))
+        data = PlaneRelief(h, h_mesh, xs, ys, slab, slab_origin, float(tolerance), obstructed, (vol, slack),
+                           offsets if options.brep else None)
         return Relief(
             heightmap=Heightmap(h, (px, py)), limits=limits, volume=vol,
             volume_slack=slack + float(tolerance) * px * py * h_mesh.size + 1e-3 * abs(vol),
