@@ -88,3 +88,39 @@ def test_far_from_lean_searches_only_nearby_triangles_with_the_same_answer():
         got = plane._far_from_lean(q, rr, cc, V, F, xs, ys, h.shape, limit)
         assert 0 < want.sum() < len(want)
         np.testing.assert_array_equal(got, want)
+
+
+def _box_with_an_edge_off_its_top(off: float, tol: float):
+    """A 20 x 20 x 4 mm box whose top face's edge along y = -10 has its 3-D curve
+    ``off`` mm above the top plane and the tolerance ``tol`` mm (its vertices too), as
+    a STEP file from another CAD program can have it."""
+    from build123d import Axis, Box
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.Geom import Geom_Line
+    from OCP.gp import gp_Vec
+
+    part = Box(20, 20, 4)
+    edge = part.faces().sort_by(Axis.Z)[-1].edges().sort_by(Axis.Y)[0]
+    curve = BRep_Tool.Curve_s(edge.wrapped, 0.0, 0.0)  # a Geom_Line: the same parameters once moved
+    line = Geom_Line(curve.Position().Translated(gp_Vec(0, 0, off)))
+    b = BRep_Builder()
+    b.UpdateEdge(edge.wrapped, line, tol)
+    for v in edge.vertices():
+        b.UpdateVertex(v.wrapped, tol)
+    return part
+
+
+def test_a_planar_face_within_its_edges_tolerance_is_textured():
+    """Edges up to their own tolerance off the plane (a SolidWorks knob's rim: 11 um)
+    are the file's accuracy, not a curved face: textured, watertight; farther than
+    their tolerance they are refused, naming both figures."""
+    import texcad
+    from texcad.errors import GeometryError
+    from build123d import Axis
+
+    part = _box_with_an_edge_off_its_top(0.01, 0.012)
+    tx = texcad.texture(part, part.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=0.4, pitch=0.5)
+    assert tx.mesh.is_watertight and tx.volume > 20 * 20 * 4 + 20
+    part = _box_with_an_edge_off_its_top(0.01, 1e-7)
+    with pytest.raises(GeometryError, match="leave its plane by 0.01 mm, more than their own tolerance"):
+        texcad.texture(part, part.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=0.4, pitch=0.5)

@@ -406,6 +406,19 @@ def _masked(h: np.ndarray, fr: PlaneFrame, xs: np.ndarray, ys: np.ndarray, optio
     return (h * mask_on_grid(options.mask, size, xs, ys)).astype(h.dtype)
 
 
+def _edge_tolerance(face) -> float:
+    """The largest tolerance (mm) of the face's edges (``BRep_Tool::Tolerance``): how
+    far the file, or OCCT's fixing of it, says an edge's curve may lie from the faces
+    it bounds (a SolidWorks knob's fluted rim: 0.011 mm off its top plane)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopoDS import TopoDS
+
+    from ..brep.occt import explore
+
+    return max((BRep_Tool.Tolerance_s(TopoDS.Edge_s(e)) for e in explore(face, TopAbs_EDGE)), default=0.0)
+
+
 class PlaneAdapter(Adapter):
     kind = "plane"
     label = "a planar face"
@@ -432,8 +445,9 @@ class PlaneAdapter(Adapter):
         segs3 = face_segments(face, 0.5 * (min(texture.pitch) if isinstance(texture, Heightmap) else options.pitch))
         segs = _local(segs3.reshape(-1, 3), p0, axes).reshape(-1, 2, 3)
         off_plane = float(np.abs(segs[..., 2]).max())
-        if off_plane > 1e-4:
-            raise GeometryError(f"the face's edges leave its plane by {off_plane:.3g} mm; is the face really planar?")
+        if off_plane > max(1e-4, 1.01 * _edge_tolerance(face)):  # within what the file says its edges are good to
+            raise GeometryError(f"the face's edges leave its plane by {off_plane:.3g} mm, more than their own tolerance "
+                                f"({_edge_tolerance(face):.3g} mm); is the face really planar?")
         segs = segs[..., :2]
         lo, hi = segs.reshape(-1, 2).min(axis=0), segs.reshape(-1, 2).max(axis=0)
         centre = (lo + hi) / 2
