@@ -270,12 +270,12 @@ class Textured:
 
     @property
     def part(self):
-        """The B-rep as a build123d ``Part``."""
-        from build123d import Part
-
+        """The B-rep as a build123d ``Part`` whose booleans (``-``, ``+``, ``&``) go
+        through texcad's checked operations (:class:`texcad.pipeline.part.TexturedPart`)."""
         from ..brep import flat_solids
+        from .part import TexturedPart
 
-        return Part(flat_solids(self.shape))  # solids directly in one compound (build123d's volume counts only those)
+        return TexturedPart.of(flat_solids(self.shape), self)  # solids directly in one compound (build123d's volume counts only those)
 
     @property
     def workplane(self):
