@@ -71,34 +71,61 @@ def _edge_deviation(edge, fwd, u: np.ndarray, v: np.ndarray, top: np.ndarray) ->
 
 def _iso_edges(fwd, u: np.ndarray, v: np.ndarray, cu: np.ndarray, cv: np.ndarray) -> list:
     """Edges on the plain face's surface along the iso-u lines ``cu`` (from ``v[0]`` to
-    ``v[-1]``) and the iso-v lines ``cv`` (from ``u[0]`` to ``u[-1]``)."""
-    from OCP.BRep import BRep_Tool
+    ``v[-1]``) and the iso-v lines ``cv`` (from ``u[0]`` to ``u[-1]``): each the
+    surface's own iso curve (``UIso``/``VIso``: a circle or a line on an analytic
+    surface, which OCCT's splitter intersects faster than an approximation), on the
+    same parameter as its straight pcurve; an approximation (``BuildCurves3d``) only
+    where the iso curve strays from ``S(pcurve(t))`` by more than 1e-9 mm."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeEdge
     from OCP.BRepLib import BRepLib
     from OCP.Geom2d import Geom2d_Line
     from OCP.gp import gp_Dir2d, gp_Pnt2d
 
-    surf = BRep_Tool.Surface_s(fwd)
+    surf, b = BRep_Tool.Surface_s(fwd), BRep_Builder()
     out = []
-    lines = [(gp_Pnt2d(float(a), 0.0), gp_Dir2d(0.0, 1.0), v[0], v[-1]) for a in cu.tolist()]
-    lines += [(gp_Pnt2d(0.0, float(b)), gp_Dir2d(1.0, 0.0), u[0], u[-1]) for b in cv.tolist()]
-    for p, d, t0, t1 in lines:  # one per cut line (tens)
+    lines = [(gp_Pnt2d(float(a), 0.0), gp_Dir2d(0.0, 1.0), v[0], v[-1], True, float(a)) for a in cu.tolist()]
+    lines += [(gp_Pnt2d(0.0, float(c)), gp_Dir2d(1.0, 0.0), u[0], u[-1], False, float(c)) for c in cv.tolist()]
+    for p, d, t0, t1, iso_u, val in lines:  # one per cut line (tens)
         mk = BRepBuilderAPI_MakeEdge(Geom2d_Line(p, d), surf, float(t0), float(t1))
         if not mk.IsDone():
             return []
         e = mk.Edge()
-        BRepLib.BuildCurves3d_s(e, 1e-7)
+        curve = surf.UIso(val) if iso_u else surf.VIso(val)
+        ts = np.linspace(float(t0), float(t1), 9).tolist()
+        off = max(curve.Value(t).Distance(surf.Value(val, t) if iso_u else surf.Value(t, val)) for t in ts)  # 9 samples
+        if off <= 1e-9:
+            b.UpdateEdge(e, curve, BRep_Tool.Tolerance_s(e))
+        else:
+            BRepLib.BuildCurves3d_s(e, 1e-7)
         out.append(e)
     return out
 
 
 def _split(shape, fwd, edges: list):
-    """``(split shape, pieces of the face)`` by OCCT's splitter, or None."""
+    """``(split compound, [face, its neighbours], [their pieces])`` by OCCT's
+    splitter (the face first, each piece oriented as its face lies in the shell), or
+    None. Only the face and the faces sharing an edge with it (which take
+    the pieces of any edge the cut lines cross) are split, as a compound of faces: on
+    the solid, OCCT would also classify every piece of a cut line off the face (in a
+    hole) against the whole solid (``FillInternalShapes``), a drilled torus's
+    thousands of faces each time."""
     from OCP.BRepAlgoAPI import BRepAlgoAPI_Splitter
-    from OCP.TopTools import TopTools_ListOfShape
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_ListOfShape
 
+    from .occt import compound
+
+    owners = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, owners)
+    faces = [f for f in explore(shape, TopAbs_FACE) if f.IsSame(fwd)][:1]
+    for e in explore(fwd, TopAbs_EDGE):  # the face's edges: their other faces
+        for f in owners.FindFromKey(e) if owners.Contains(e) else []:  # two faces, a seam's one
+            if not any(f.IsSame(g) for g in faces):
+                faces.append(f)
     args, tools = TopTools_ListOfShape(), TopTools_ListOfShape()
-    args.Append(shape)
+    args.Append(compound(faces))
     for e in edges:  # the cut lines
         tools.Append(e)
     sp = BRepAlgoAPI_Splitter()
@@ -109,10 +136,19 @@ def _split(shape, fwd, edges: list):
         sp.Build()
     except Exception:  # OCCT raises Standard_Failure from inside the splitter
         return None
-    if not sp.IsDone():
+    if not sp.IsDone() or not faces:
         return None
-    pieces = list(sp.Modified(fwd)) or [fwd]
-    return sp.Shape(), pieces
+    of = _Same()
+    for k, f in enumerate(faces):  # the face, then its neighbours
+        for m in list(sp.Modified(f)) or [f]:  # its images
+            of.add(m, k)
+    images: list = [[] for _ in faces]
+    for f in explore(sp.Shape(), TopAbs_FACE):  # the split faces, oriented as their face lies in the shell
+        k = of.get(f)
+        if k is None:
+            return None
+        images[k].append(f)
+    return sp.Shape(), faces, images
 
 
 def _uses(face) -> list:
@@ -224,12 +260,14 @@ class _Same:
 
 class _Lifted:
     """The lifted grid lines replacing the cut lines and the seam between pieces: one
-    new edge per old edge (on the whole textured surface's iso curve), its vertices
-    lifted unless the face's own edges hold them."""
+    new edge per old edge (on the iso curve of the textured surface of the tile it
+    bounds: the degree-1 grid's row or column over that tile, the same curve on the
+    tile beside it), its vertices lifted (onto the bilinear grid ``grid`` ``(u, v,
+    top)``) unless the face's own edges hold them."""
 
-    def __init__(self, b, whole, kept_vertices: list, knots: tuple):
-        self.b, self.whole, self.kept = b, whole, _Same(kept_vertices)
-        self.knots = knots  # (u, v) of the whole surface: iso values and crossings snap to them
+    def __init__(self, b, grid: tuple, kept_vertices: list):
+        self.b, self.grid, self.kept = b, grid, _Same(kept_vertices)
+        self.knots = grid[:2]  # (u, v) of the whole surface: iso values and crossings snap to them
         self.edges = _Same()  # old edge -> (old edge, new edge)
         self.verts = _Same()  # old vertex -> new vertex
 
@@ -251,7 +289,7 @@ class _Lifted:
         got = self.verts.get(old)
         if got is not None:
             return got
-        p = np.array(self.whole.Value(float(uv[0]), float(uv[1])).Coord())
+        p = _bilinear(*self.grid[:2], self.grid[2], np.asarray(uv, np.float64)[None, :])[0]
         if self.kept.get(old) is not None:  # on the face's own edges: stays, wide enough for both
             tol = max(BRep_Tool.Tolerance_s(old), 1.5 * float(np.linalg.norm(p - np.array(BRep_Tool.Pnt_s(old).Coord()))) + TOLERANCE)
             self.b.UpdateVertex(old, tol)
@@ -262,10 +300,11 @@ class _Lifted:
         self.verts.add(old, new)
         return new
 
-    def edge(self, old, c2) -> tuple:
+    def edge(self, old, c2, surf) -> tuple:
         """``(new edge, along u, iso value of this use, same direction as old)`` for
         the use of ``old`` whose pcurve is ``c2`` (an iso line of the face: a seam's
-        two uses lie at ``u0`` and ``u1``)."""
+        two uses lie at ``u0`` and ``u1``) on the piece whose tile's surface is
+        ``surf``."""
         from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
         from OCP.TopExp import TopExp
         from OCP.TopoDS import TopoDS, TopoDS_Edge
@@ -280,7 +319,7 @@ class _Lifted:
             first, last = TopExp.FirstVertex_s(fe), TopExp.LastVertex_s(fe)
             (va, pa), (vz, pz) = ((first, p0), (last, p1)) if inc else ((last, p1), (first, p0))
             na, nz = self.vertex(va, pa), self.vertex(vz, pz)
-            curve = self.whole.VIso(float(pa[1])) if along_u else self.whole.UIso(float(pa[0]))
+            curve = surf.VIso(float(pa[1])) if along_u else surf.UIso(float(pa[0]))
             new = TopoDS_Edge()
             self.b.MakeEdge(new, curve, TOLERANCE)
             self.b.Add(new, na.Oriented(TopAbs_FORWARD))
@@ -302,27 +341,25 @@ class _Lifted:
 
 def _owners(shape):
     """``uses(edge)``: how many times the faces of ``shape`` use ``edge`` (a seam twice
-    in its face)."""
+    in its face), counted in one pass over the faces' edge uses."""
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
-    from OCP.TopExp import TopExp
-    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+    from OCP.TopTools import TopTools_IndexedMapOfShape
 
-    m = TopTools_IndexedDataMapOfShapeListOfShape()
-    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, m)
+    faces, seen = TopTools_IndexedMapOfShape(), TopTools_IndexedMapOfShape()
+    count: dict = {}
+    for f in explore(shape, TopAbs_FACE):  # one per face use: each face once
+        if faces.Contains(f):
+            continue
+        faces.Add(f)
+        for e in explore(f, TopAbs_EDGE):  # its edge uses (a seam's two)
+            k = seen.Add(e)
+            count[k] = count.get(k, 0) + 1
 
     def uses(edge) -> int:
-        faces = list(m.FindFromKey(edge)) if m.Contains(edge) else []
-        return sum(sum(1 for e in explore(f, TopAbs_EDGE) if e.IsSame(edge)) for f in _unique(faces))
+        k = seen.FindIndex(edge)
+        return count.get(k, 0) if k else 0
 
     return uses
-
-
-def _unique(shapes: list) -> list:
-    out: list = []
-    for s in shapes:  # a few faces
-        if not any(s.IsSame(o) for o in out):
-            out.append(s)
-    return out
 
 
 def trimmed_tiles(shape: Any, face: Any, u: np.ndarray, v: np.ndarray, top: np.ndarray, tile: int = TRIM_TILE):
@@ -336,11 +373,12 @@ def trimmed_tiles(shape: Any, face: Any, u: np.ndarray, v: np.ndarray, top: np.n
 
     fwd = TopoDS.Face_s(to_topods(face).Oriented(TopAbs_FORWARD))
     ub, vb = _tile_bounds(len(u) - 1, tile), _tile_bounds(len(v) - 1, tile)
-    got = _split(to_topods(shape), fwd, _iso_edges(fwd, u, v, u[ub[1:-1]], v[vb[1:-1]]))
+    shape = to_topods(shape)
+    got = _split(shape, fwd, _iso_edges(fwd, u, v, u[ub[1:-1]], v[vb[1:-1]]))
     if got is None:
         return None
-    split, made = got
-    pieces = [TopoDS.Face_s(f) for f in explore(split, TopAbs_FACE) if any(f.IsSame(m) for m in made)]
+    split, faces, images = got
+    pieces = [TopoDS.Face_s(f) for f in images[0]]
     uses = [_uses(TopoDS.Face_s(p.Oriented(TopAbs_FORWARD))) for p in pieces]
     inner, kept_v = _inner_edges(split, uses)
     tiles = [_tile_of(p, u[ub], v[vb]) for p in pieces]
@@ -349,12 +387,12 @@ def trimmed_tiles(shape: Any, face: Any, u: np.ndarray, v: np.ndarray, top: np.n
             for i, j in keys}  # fmt: skip
     surfs = dict(zip(keys, _surfaces([subs[k] for k in keys])))
     b = BRep_Builder()
-    lifted = _Lifted(b, _surfaces([(u, v, top)])[0][0], kept_v, (np.asarray(u, np.float64), np.asarray(v, np.float64)))
-    swaps = []
+    lifted = _Lifted(b, (np.asarray(u, np.float64), np.asarray(v, np.float64), top), kept_v)
+    new = []
     for piece, us, key in zip(pieces, uses, tiles):  # one per piece of the face
         nf = _piece_face(b, TopoDS.Face_s(piece.Oriented(TopAbs_FORWARD)), us, surfs[key], subs[key], lifted, inner)
-        swaps.append((piece, [TopoDS.Face_s(nf.Oriented(piece.Orientation()))]))
-    return _replace_faces(split, swaps)
+        new.append(TopoDS.Face_s(nf.Oriented(piece.Orientation())))
+    return _replace_faces(shape, [(faces[0], new)] + list(zip(faces[1:], images[1:])))
 
 
 def _inner_edges(split, uses: list) -> tuple:
@@ -404,7 +442,7 @@ def _piece_face(b, pf, us: list, tile: tuple, sub: tuple, lifted, inner):
         n = len(explore(wit.Value(), TopAbs_EDGE))
         for e, c2 in us[k : k + n]:  # the wire's edge uses
             if inner.Contains(e):
-                ne, along_u, val, inc = lifted.edge(e, c2)
+                ne, along_u, val, inc = lifted.edge(e, c2, tile[0])
                 use, pc, kept = ne.Oriented(e.Orientation() if inc else e.Reversed().Orientation()), _Lifted.line(along_u, val), False
                 pc = _rich(pc, *BRep_Tool.Range_s(ne), lifted.knots[1])
             else:
