@@ -35,9 +35,10 @@ from typing import Any
 
 import numpy as np
 
-from .gprop import GAUSS_POINTS, polyline_pcurve
+from .gprop import GAUSS_POINTS, polyline_pcurve, run_knots
 from .occt import explore, to_topods
 from .solids import TOLERANCE, _remember_tile, _replace_faces, _tile_bounds, _tile_text
+from .uvstrips import _remapped
 
 __all__ = ["trimmed_tiles", "TRIM_TILE"]
 
@@ -265,9 +266,10 @@ class _Lifted:
     tile beside it), its vertices lifted (onto the bilinear grid ``grid`` ``(u, v,
     top)``) unless the face's own edges hold them."""
 
-    def __init__(self, b, grid: tuple, kept_vertices: list):
+    def __init__(self, b, grid: tuple, kept_vertices: list, placed: tuple):
         self.b, self.grid, self.kept = b, grid, _Same(kept_vertices)
         self.knots = grid[:2]  # (u, v) of the whole surface: iso values and crossings snap to them
+        self.placed = placed  # (u, v) knots placed for the plain rule: the lifted edges' parameters
         self.edges = _Same()  # old edge -> (old edge, new edge)
         self.verts = _Same()  # old vertex -> new vertex
 
@@ -300,11 +302,16 @@ class _Lifted:
         self.verts.add(old, new)
         return new
 
-    def edge(self, old, c2, surf) -> tuple:
+    def to_placed(self, axis: int, x):
+        """Face parameters ``x`` along ``axis`` (0: u) on the placed knots (piecewise linear)."""
+        return np.interp(x, self.knots[axis], self.placed[axis])
+
+    def edge(self, old, c2, surf, placed: bool) -> tuple:
         """``(new edge, along u, iso value of this use, same direction as old)`` for
         the use of ``old`` whose pcurve is ``c2`` (an iso line of the face: a seam's
         two uses lie at ``u0`` and ``u1``) on the piece whose tile's surface is
-        ``surf``."""
+        ``surf`` (on the placed knots if ``placed``). The new edge runs on the placed
+        knots whichever tile made it (its curve's knots set to them)."""
         from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
         from OCP.TopExp import TopExp
         from OCP.TopoDS import TopoDS, TopoDS_Edge
@@ -319,24 +326,43 @@ class _Lifted:
             first, last = TopExp.FirstVertex_s(fe), TopExp.LastVertex_s(fe)
             (va, pa), (vz, pz) = ((first, p0), (last, p1)) if inc else ((last, p1), (first, p0))
             na, nz = self.vertex(va, pa), self.vertex(vz, pz)
-            curve = surf.VIso(float(pa[1])) if along_u else surf.UIso(float(pa[0]))
+            curve = surf.VIso(float(pa[1])) if along_u else surf.UIso(float(pa[0]))  # a tile bound: the same placed
+            if not placed:
+                from OCP.TColStd import TColStd_Array1OfReal
+
+                ks = self.to_placed(k, np.array([curve.Knot(i) for i in range(1, curve.NbKnots() + 1)]))
+                arr = TColStd_Array1OfReal(1, len(ks))
+                for i, a in enumerate(ks.tolist(), 1):  # per knot of the tile's side (nine)
+                    arr.SetValue(i, a)
+                curve.SetKnots(arr)
             new = TopoDS_Edge()
             self.b.MakeEdge(new, curve, TOLERANCE)
             self.b.Add(new, na.Oriented(TopAbs_FORWARD))
             self.b.Add(new, nz.Oriented(TopAbs_REVERSED))
-            self.b.Range(new, float(pa[k]), float(pz[k]))
+            self.b.Range(new, float(self.to_placed(k, pa[k])), float(self.to_placed(k, pz[k])))
             hit = (old, new)
             self.edges.add(old, hit)
         return hit[1], along_u, float(0.5 * (p0[1 - k] + p1[1 - k])), inc
 
-    @staticmethod
-    def line(along_u: bool, val: float):
+    def pcurve(self, new, along_u: bool, val: float, placed: bool):
+        """The pcurve of the lifted edge ``new`` (on the placed knots, at the face
+        parameter ``val`` across it) on a piece whose surface is on the placed knots
+        (``placed``: a straight line, along v a degree-1 B-spline with knots at the
+        rows, padded for the rule's points) or on the face's own (a broken line,
+        corners at the grid lines: exact, both maps are linear between them)."""
+        from OCP.BRep import BRep_Tool
         from OCP.Geom2d import Geom2d_Line
         from OCP.gp import gp_Dir2d, gp_Pnt2d
 
-        if along_u:
-            return Geom2d_Line(gp_Pnt2d(0.0, val), gp_Dir2d(1.0, 0.0))
-        return Geom2d_Line(gp_Pnt2d(val, 0.0), gp_Dir2d(0.0, 1.0))
+        k = 0 if along_u else 1
+        if along_u and placed:  # no share in the rule
+            return Geom2d_Line(gp_Pnt2d(0.0, float(self.to_placed(1, val))), gp_Dir2d(1.0, 0.0))
+        t0, t1 = BRep_Tool.Range_s(new)
+        kp = self.placed[k]
+        ts = np.concatenate([[t0], kp[(kp > t0 + 1e-9 * (1 + abs(t0))) & (kp < t1 - 1e-9 * (1 + abs(t1)))], [t1]])
+        run = ts if placed else np.interp(ts, kp, self.knots[k])
+        across = np.full(len(ts), self.to_placed(1 - k, val) if placed else val)
+        return polyline_pcurve(np.stack([run, across] if along_u else [across, run], axis=-1), ts, pad=not along_u)
 
 
 def _owners(shape):
@@ -381,18 +407,42 @@ def trimmed_tiles(shape: Any, face: Any, u: np.ndarray, v: np.ndarray, top: np.n
     pieces = [TopoDS.Face_s(f) for f in images[0]]
     uses = [_uses(TopoDS.Face_s(p.Oriented(TopAbs_FORWARD))) for p in pieces]
     inner, kept_v = _inner_edges(split, uses)
-    tiles = [_tile_of(p, u[ub], v[vb]) for p in pieces]
+    u, v = np.asarray(u, np.float64), np.asarray(v, np.float64)
+    uk, vk = run_knots(u, ub), run_knots(v, vb)
+    tiles = [(*_tile_of(p, u[ub], v[vb]), _placeable(us, inner)) for p, us in zip(pieces, uses)]
     keys = sorted(set(tiles))
-    subs = {(i, j): (u[ub[i] : ub[i + 1] + 1], v[vb[j] : vb[j + 1] + 1], top[ub[i] : ub[i + 1] + 1, vb[j] : vb[j + 1] + 1])
-            for i, j in keys}  # fmt: skip
-    surfs = dict(zip(keys, _surfaces([subs[k] for k in keys])))
+    subs = {(i, j, q): (u[ub[i] : ub[i + 1] + 1], v[vb[j] : vb[j + 1] + 1], top[ub[i] : ub[i + 1] + 1, vb[j] : vb[j + 1] + 1])
+            for i, j, q in keys}  # fmt: skip
+    on = {(i, j, q): (uk[ub[i] : ub[i + 1] + 1], vk[vb[j] : vb[j + 1] + 1], subs[(i, j, q)][2]) if q else subs[(i, j, q)]
+          for i, j, q in keys}  # fmt: skip
+    surfs = dict(zip(keys, _surfaces([on[k] for k in keys])))
     b = BRep_Builder()
-    lifted = _Lifted(b, (np.asarray(u, np.float64), np.asarray(v, np.float64), top), kept_v)
+    lifted = _Lifted(b, (u, v, top), kept_v, (uk, vk))
     new = []
     for piece, us, key in zip(pieces, uses, tiles):  # one per piece of the face
-        nf = _piece_face(b, TopoDS.Face_s(piece.Oriented(TopAbs_FORWARD)), us, surfs[key], subs[key], lifted, inner)
+        nf = _piece_face(b, TopoDS.Face_s(piece.Oriented(TopAbs_FORWARD)), us, surfs[key], subs[key], lifted, inner, key[2])
         new.append(TopoDS.Face_s(nf.Oriented(piece.Orientation())))
     return _replace_faces(shape, [(faces[0], new)] + list(zip(faces[1:], images[1:])))
+
+
+def _placeable(us: list, inner) -> bool:
+    """Can the piece with edge uses ``us`` go on the knots placed for OCCT's plain rule
+    (:func:`texcad.brep.gprop.run_knots` per tile)? Only if each of its own edges (not
+    ``inner``: those are lifted) is a straight iso line of the face, used once, not a
+    pole's: its pcurve is then a broken line on the placed knots, exactly. A piece a
+    trim curve crosses keeps the face's parameters (and OCCT's rule its few tenths of
+    a per mille there)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.GeomAbs import GeomAbs_Line
+
+    own = [(e, c2) for e, c2 in us if not inner.Contains(e)]
+    for e, c2 in own:  # the piece's own edges (a few)
+        if BRep_Tool.Degenerated_s(e) or c2.GetType() != GeomAbs_Line or sum(1 for x, _ in own if x.IsSame(e)) > 1:
+            return False
+        dx, dy = c2.Line().Direction().Coord()
+        if min(abs(dx), abs(dy)) > 1e-12:
+            return False
+    return True
 
 
 def _inner_edges(split, uses: list) -> tuple:
@@ -422,10 +472,12 @@ def _inner_edges(split, uses: list) -> tuple:
     return inner, kept
 
 
-def _piece_face(b, pf, us: list, tile: tuple, sub: tuple, lifted, inner):
+def _piece_face(b, pf, us: list, tile: tuple, sub: tuple, lifted, inner, placed: bool):
     """The new face (forward) of the piece ``pf`` (its edge uses ``us``) on its tile's
-    ``(surface, triangulation)``; ``sub`` the tile's ``(u, v, top)``: the piece's
-    wires with the inner edges lifted (``lifted``), pcurves and tolerances."""
+    ``(surface, triangulation)``; ``sub`` the tile's ``(u, v, top)`` on the face's
+    parameters: the piece's wires with the inner edges lifted (``lifted``), pcurves
+    and tolerances. ``placed``: the surface is on the placed knots (the piece's own
+    edges, iso lines, get broken lines onto them: :func:`_placeable`)."""
     from OCP.BRep import BRep_Tool
     from OCP.TopAbs import TopAbs_EDGE
     from OCP.TopLoc import TopLoc_Location
@@ -442,9 +494,11 @@ def _piece_face(b, pf, us: list, tile: tuple, sub: tuple, lifted, inner):
         n = len(explore(wit.Value(), TopAbs_EDGE))
         for e, c2 in us[k : k + n]:  # the wire's edge uses
             if inner.Contains(e):
-                ne, along_u, val, inc = lifted.edge(e, c2, tile[0])
-                use, pc, kept = ne.Oriented(e.Orientation() if inc else e.Reversed().Orientation()), _Lifted.line(along_u, val), False
-                pc = _rich(pc, *BRep_Tool.Range_s(ne), lifted.knots[1])
+                ne, along_u, val, inc = lifted.edge(e, c2, tile[0], placed)
+                use, pc, kept = ne.Oriented(e.Orientation() if inc else e.Reversed().Orientation()), lifted.pcurve(ne, along_u, val, placed), False
+            elif placed:  # an iso line of the face: a broken line on the placed knots
+                t0, t1 = c2.FirstParameter(), c2.LastParameter()
+                use, pc, kept = e, _remapped(t0, t1, *_ends(c2), *lifted.knots, *lifted.placed), True
             else:
                 use, pc, kept = e, BRep_Tool.CurveOnSurface_s(e, pf, 0.0, 0.0), True
                 pc = _rich(pc, *BRep_Tool.Range_s(e, pf), lifted.knots[1])
