@@ -285,9 +285,9 @@ def _rich(pc, first: float, last: float, knots: np.ndarray | None = None):
     lines it passes; :func:`~texcad.brep.gprop.polyline_pcurve`), a B-spline of too
     few spans with each span cut in equal parts (knots inserted: the same curve);
     the same points at the same parameters either way. Any other curve as it is.
-    (A piece's own surface has at most :data:`TRIM_TILE` spans a side, whose order,
-    ``2 (1 + 1) 8 = 32``, the rule takes on lines; texcad once inserted knots in the
-    surfaces instead: four times the poles in the STEP.)"""
+    Used on the pieces that keep the face's parameters (a pole or a seam of their
+    own). (Texcad once inserted knots in the surfaces instead: four times the poles
+    in the STEP.)"""
     from OCP.Geom2d import Geom2d_BSplineCurve, Geom2d_Line
 
     if isinstance(pc, Geom2d_Line):
