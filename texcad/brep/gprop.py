@@ -46,6 +46,8 @@ beside a long kept fillet strip before).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 __all__ = ["GAUSS_POINTS", "PAD_SPANS", "gauss_knots", "run_knots", "polyline_pcurve", "split_at_knots"]
@@ -66,11 +68,19 @@ def gauss_knots(lo: float, hi: float, spans: int, points: int = GAUSS_POINTS) ->
     points: equal spans."""
     if spans > points:
         return np.linspace(lo, hi, spans + 1)
-    _, w = np.polynomial.legendre.leggauss(points)
-    c = np.concatenate([[0.0], np.cumsum(w)]) / w.sum()
-    k = lo + (hi - lo) * c[np.round(np.arange(spans + 1) * points / spans).astype(np.int64)]
+    k = lo + (hi - lo) * _partial_sums(points)[np.round(np.arange(spans + 1) * points / spans).astype(np.int64)]
     k[0], k[-1] = lo, hi
     return k
+
+
+@functools.lru_cache(maxsize=8)
+def _partial_sums(points: int) -> np.ndarray:
+    """``(points + 1,)`` partial sums of the ``points``-point Gauss-Legendre weights,
+    divided by their total (0 to 1; computed once per rule: an eigenvalue problem)."""
+    _, w = np.polynomial.legendre.leggauss(points)
+    out = np.concatenate([[0.0], np.cumsum(w)]) / w.sum()
+    out.setflags(write=False)
+    return out
 
 
 def run_knots(knots: np.ndarray, bounds: np.ndarray) -> np.ndarray:
