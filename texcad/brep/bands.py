@@ -46,7 +46,7 @@ from .occt import explore, face_in, general_fuse, to_topods
 from .gprop import polyline_pcurve, run_knots, split_at_knots
 from .solids import TILE, TOLERANCE, _band_fine, _replace_faces, _tile_bounds, grid_surface, tiled_grid_faces
 
-__all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "whole_tiles", "PATCH_TILE", "WHOLE_TILE", "creases"]
+__all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "PATCH_TILE", "creases"]
 
 #: Tiles of a patch are at most this many cells a side. With the tiles' knots placed
 #: for OCCT's plain Gauss integration (build123d's ``.volume``; :mod:`texcad.brep.gprop`)
@@ -55,9 +55,6 @@ __all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "whole
 #: centred), 0.05 % at 8 and 0.03 % at 24 (knots at the grid index: 0.07 % at 4,
 #: 0.2 % at 8).
 PATCH_TILE = 4
-#: Tiles (cells a side) :func:`whole_tiles` lays over a patch's cells to tell whether
-#: they are whole runs (a band all around, a rectangle of cells).
-WHOLE_TILE = TILE
 #: mm added to the wall height over the chord error and the grid's sag.
 WALL_MARGIN = 0.005
 
@@ -491,30 +488,6 @@ def _runs_over(K: np.ndarray, tile: int) -> tuple:
     return tuple(out)
 
 
-def whole_tiles(cells: np.ndarray, wrap: bool) -> bool:
-    """Do tiles of :data:`WHOLE_TILE` cells cover a patch's meshed ``cells`` (``(R -
-    1, C - 1)``, ``(R, C - 1)`` when ``wrap``, as :func:`patch_solid` takes them) as
-    whole runs (:func:`_whole_runs`: a band all around, a rectangle of cells)? Its
-    STEP is then written at the mesh's tolerance (``texcad.targets.faces``), its
-    4-cell tiles merged into larger ones with their u knots placed again for OCCT's
-    plain rule (``texcad.io.step_tiles``); else with every pole (at the tolerance, OCCT
-    meshed the 4-cell tiles beside a mitre and an L plate's concave corner open:
-    ``tests/brep/test_band_corners.py``)."""
-    K = _unpinched(np.asarray(cells, bool).T, wrap)
-    return K is not None and _whole_runs(K, WHOLE_TILE)
-
-
-def _whole_runs(K: np.ndarray, tile: int) -> bool:
-    """Do :func:`_leaves_over`'s tiles of at most ``tile`` cells cover the cells ``K``
-    with whole runs only (each tile one run of :func:`_runs_over` both ways, none
-    halved near the outline)?"""
-    leaves = _leaves_over(K, tile, None)
-    if not leaves:
-        return False
-    rows, cols = (set(r) for r in _runs_over(K, tile))
-    return all((r0, r1) in rows and (c0, c1) in cols for r0, r1, c0, c1 in leaves)
-
-
 def _placed(n: int, runs: list) -> np.ndarray:
     """``n`` knots at the grid index, placed for OCCT's plain Gauss rule in the
     ``runs`` ``[(a, z), ...]`` (consecutive grid lines)."""
@@ -631,7 +604,7 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
             nrm = np.cross(travel, O[0] - T[0])  # the strip's S_u x S_v there
             want = -1.0 if signed else 1.0  # raised: the wall faces away from the tiles; engraved: towards them
             strips.append((face if float(nrm @ away) * want > 0 else face.Reversed(), e))
-    return _assemble(topo, faces, tiles, strips)
+    return _assemble(topo, faces, tiles, strips, _cell_size(G, K))
 
 
 def signed_plane_solid(shape: Any, face: Any, points: np.ndarray, normals: np.ndarray, heights: np.ndarray, cells: np.ndarray, *,
@@ -706,7 +679,106 @@ def _outside(pieces: list, outline: list, walls: list) -> list:
     return [pieces[k] for k in sorted(out)]
 
 
-def _assemble(topo, faces: list, tiles: list, strips: list):
+def _sliver_cuts(topo, faces: list, kept: list, walls: list, length: float) -> tuple:
+    """``(edges, owners)``: for each piece of ``kept`` with edges on the ``walls``
+    that spans more than ``length`` mm along them, edges across it on its surface (a
+    straight line in its parameters) from wall corners about ``length`` mm apart to
+    the nearest point of the patch's outline (at most ``length / 4`` mm away: a
+    sliver), and the faces of the part that own the outline edges."""
+    from OCP.BRepExtrema import BRepExtrema_DistShapeShape
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_IndexedMapOfShape
+
+    from .occt import compound
+
+    emap = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(topo, TopAbs_EDGE, TopAbs_FACE, emap)
+    outline = _outline_edges(topo, faces)
+    on_walls = TopTools_IndexedMapOfShape()
+    for w in walls:  # one per wall
+        TopExp.MapShapes_s(w, TopAbs_EDGE, on_walls)
+    cuts, owners = [], []
+    for k in kept:  # a few pieces
+        edges = explore(k, TopAbs_EDGE)
+        rim = [e for e in edges if any(e.IsSame(o) for o in outline)]
+        corners = _wall_corners(k, [e for e in edges if on_walls.Contains(e)], length)
+        if not rim or not corners:
+            continue
+        for p in corners:  # one per cut
+            dist = BRepExtrema_DistShapeShape(p, compound(rim))
+            if not dist.IsDone() or dist.NbSolution() < 1 or dist.Value() > 0.25 * length:
+                continue
+            e = _cut_edge(k, p, dist.PointOnShape2(1))
+            if e is not None:
+                cuts.append(e)
+        owners += [f for e in rim for f in emap.FindFromKey(e)]
+    return cuts, owners
+
+
+def _wall_corners(face, edges: list, length: float) -> list:
+    """Vertices of the wall ``edges`` of a kept ``face``, about ``length`` mm apart
+    along the line they spread along (their principal axis), none within half of it
+    of the ends; empty when they span less than twice ``length``."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_VERTEX
+    from OCP.TopoDS import TopoDS
+
+    verts = [TopoDS.Vertex_s(v) for e in edges for v in explore(e, TopAbs_VERTEX)]
+    if len(verts) < 3:
+        return []
+    pts = np.array([BRep_Tool.Pnt_s(v).Coord() for v in verts])  # per vertex (tens)
+    c = pts - pts.mean(axis=0)
+    t = c @ np.linalg.svd(c, full_matrices=False)[2][0]
+    lo, hi = float(t.min()), float(t.max())
+    if hi - lo < 2.0 * length:
+        return []
+    n = int((hi - lo) // length)
+    return [verts[int(np.argmin(np.abs(t - (lo + (hi - lo) * j / n))))] for j in range(1, n)]
+
+
+def _cut_edge(face, vertex, q):
+    """The edge on ``face``'s surface from ``vertex`` to the point ``q`` (``gp_Pnt``,
+    mm): the straight line between their parameters (periodic ones brought into the
+    face's range), or None."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeEdge, BRepBuilderAPI_MakeVertex
+    from OCP.BRepLib import BRepLib
+    from OCP.BRepTools import BRepTools
+    from OCP.GCE2d import GCE2d_MakeSegment
+    from OCP.gp import gp_Pnt2d
+    from OCP.ShapeAnalysis import ShapeAnalysis_Surface
+    from OCP.TopoDS import TopoDS
+
+    face = TopoDS.Face_s(face)
+    surf = BRep_Tool.Surface_s(face)
+    sa = ShapeAnalysis_Surface(surf)
+    u0, u1, v0, v1 = BRepTools.UVBounds_s(face)
+    uv = []
+    for p in (BRep_Tool.Pnt_s(vertex), q):  # the two ends
+        a = sa.ValueOfUV(p, 1e-7)
+        u, v = a.X(), a.Y()
+        if surf.IsUPeriodic():
+            u += surf.UPeriod() * np.round((0.5 * (u0 + u1) - u) / surf.UPeriod())
+        if surf.IsVPeriodic():
+            v += surf.VPeriod() * np.round((0.5 * (v0 + v1) - v) / surf.VPeriod())
+        uv.append(gp_Pnt2d(u, v))
+    if uv[0].Distance(uv[1]) < 1e-9:
+        return None
+    try:
+        seg = GCE2d_MakeSegment(uv[0], uv[1]).Value()
+        end = BRepBuilderAPI_MakeVertex(q).Vertex()
+        mk = BRepBuilderAPI_MakeEdge(seg, surf, vertex, end, seg.FirstParameter(), seg.LastParameter())
+        if not mk.IsDone():
+            return None
+        e = mk.Edge()
+        BRepLib.BuildCurves3d_s(e)
+        return e
+    except Exception:  # OCCT's Standard_Failure: no cut here
+        return None
+
+
+def _assemble(topo, faces: list, tiles: list, strips: list, cell: float):
     """The general fuse of the patch's faces and the walls; the pieces kept (module
     docstring) and the tiles in place of the patch's faces; None if a wall or a face
     was not cut as expected."""
@@ -726,4 +798,41 @@ def _assemble(topo, faces: list, tiles: list, strips: list):
     if split is None:
         return None
     kept, walls = split
-    return _replace_faces(topo, [(faces[0], kept + walls + list(tiles))] + [(f, []) for f in faces[1:]])
+    kept, walls, beside = _cut_slivers(topo, faces, kept, walls, cell)
+    return _replace_faces(topo, [(faces[0], kept + walls + list(tiles))] + [(f, []) for f in faces[1:]] + beside)
+
+
+#: Grid cells (along the outline) a face piece kept beside the walls spans at most
+#: before :func:`_cut_slivers` cuts it across.
+SLIVER = 16
+
+
+def _cut_slivers(topo, faces: list, kept: list, walls: list, cell: float):
+    """``(kept, walls, [(neighbour, [its new face]), ...])``: the face pieces ``kept``
+    beside the walls cut across, from a wall's corner to the nearest point of the
+    patch's outline, every :data:`SLIVER` cells (``cell`` mm) or so along them, by
+    OCCT's general fuse (the outline edges cut there, and their faces outside the
+    patch with them). Where the patch's outline runs across the grid the walls step
+    along it and the piece kept between them and the outline is a long sliver with a
+    saw-tooth side: OCCT's mesher (0.1 mm, 0.5 rad) laid triangles across its teeth,
+    outside the face, and the STEP meshed open (a box top and two fillets at 0.125
+    mm); pieces a few mm long mesh closed. Unchanged where no piece is that long,
+    or the fuse fails or cuts a wall."""
+    cuts, owners = _sliver_cuts(topo, faces, kept, walls, SLIVER * cell)
+    if not cuts:
+        return kept, walls, []
+    beside = []
+    for o in owners:  # a few faces, each once
+        if not any(o.IsSame(f) for f in faces + beside):
+            beside.append(o)
+    gf = general_fuse([list(kept) + list(walls) + beside, cuts])
+    if gf is None or any(gf.Modified(w).Size() > 0 or gf.IsDeleted(w) for w in walls):
+        return kept, walls, []  # a cut crossed a wall: the pieces as they were
+    pieces = [p if p.Orientation() == k.Orientation() else p.Reversed() for k in kept for p in _pieces(gf, k)]
+    swaps = []
+    for o in beside:  # one per face outside the patch along the cut outline
+        got = _pieces(gf, o)
+        if len(got) != 1:
+            return kept, walls, []
+        swaps.append((o, [got[0] if got[0].Orientation() == o.Orientation() else got[0].Reversed()]))
+    return pieces, walls, swaps
