@@ -681,10 +681,12 @@ def _outside(pieces: list, outline: list, walls: list) -> list:
 
 def _sliver_cuts(topo, faces: list, kept: list, walls: list, length: float) -> tuple:
     """``(edges, owners)``: for each piece of ``kept`` with edges on the ``walls``
-    that spans more than ``length`` mm along them, edges across it on its surface (a
-    straight line in its parameters) from wall corners about ``length`` mm apart to
-    the nearest point of the patch's outline (at most ``length / 4`` mm away: a
-    sliver), and the faces of the part that own the outline edges."""
+    that spans more than twice ``length`` mm along them, edges across it on its
+    surface (a straight line in its parameters) from wall corners about ``length`` mm
+    apart (:func:`_wall_corners`) to the nearest point of the patch's outline (at most
+    ``length / 2`` mm away: a sliver), from each corner of the outline to the nearest
+    wall corner within ``2 length`` mm (:func:`_rim_turns`), and the faces of the part
+    that own the outline edges.""" 
     from OCP.BRepExtrema import BRepExtrema_DistShapeShape
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
     from OCP.TopExp import TopExp
@@ -702,44 +704,79 @@ def _sliver_cuts(topo, faces: list, kept: list, walls: list, length: float) -> t
     for k in kept:  # a few pieces
         edges = explore(k, TopAbs_EDGE)
         rim = [e for e in edges if any(e.IsSame(o) for o in outline)]
-        corners = _wall_corners(k, [e for e in edges if on_walls.Contains(e)], length)
-        if not rim or not corners:
+        if not rim:
             continue
-        for p in corners:  # one per cut
+        sides = [e for e in edges if on_walls.Contains(e)]
+        for p in _wall_corners(sides, rim, length):  # one per cut
             dist = BRepExtrema_DistShapeShape(p, compound(rim))
-            if not dist.IsDone() or dist.NbSolution() < 1 or dist.Value() > 0.25 * length:
+            if not dist.IsDone() or dist.NbSolution() < 1 or dist.Value() > 0.5 * length:
                 continue
-            e = _cut_edge(k, p, dist.PointOnShape2(1))
-            if e is not None:
-                cuts.append(e)
+            cuts.append(_cut_edge(k, p, dist.PointOnShape2(1)))
+        cuts += [_cut_edge(k, p, q) for q, p in _rim_turns(rim, sides, 2.0 * length)]
         owners += [f for e in rim for f in emap.FindFromKey(e)]
+    cuts = [e for e in cuts if e is not None]
     return cuts, owners
 
 
-def _wall_corners(face, edges: list, length: float) -> list:
-    """Vertices of the wall ``edges`` of a kept ``face``, about ``length`` mm apart
-    along the line they spread along (their principal axis), none within half of it
-    of the ends; empty when they span less than twice ``length``."""
+def _wall_corners(edges: list, rim: list, length: float) -> list:
+    """Vertices of the wall ``edges`` of a kept piece, about ``length`` mm apart along
+    the line they spread along (their principal axis): near each mark the one nearest
+    the outline ``rim`` (a tooth's tip, so that the cut from it crosses no tooth);
+    empty when they span less than twice ``length``."""
     from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
     from OCP.TopAbs import TopAbs_VERTEX
     from OCP.TopoDS import TopoDS
+    from scipy.spatial import cKDTree
 
     verts = [TopoDS.Vertex_s(v) for e in edges for v in explore(e, TopAbs_VERTEX)]
     if len(verts) < 3:
         return []
-    pts = np.array([BRep_Tool.Pnt_s(v).Coord() for v in verts])  # per vertex (tens)
+    pts = np.array([BRep_Tool.Pnt_s(v).Coord() for v in verts])  # per vertex (hundreds)
     c = pts - pts.mean(axis=0)
     t = c @ np.linalg.svd(c, full_matrices=False)[2][0]
     lo, hi = float(t.min()), float(t.max())
     if hi - lo < 2.0 * length:
         return []
+    curves = [BRepAdaptor_Curve(TopoDS.Edge_s(e)) for e in rim]
+    line = np.array([a.Value(x).Coord() for a in curves for x in np.linspace(a.FirstParameter(), a.LastParameter(), 200)])
+    gap = cKDTree(line).query(pts)[0]  # mm to the outline (sampled), per vertex
     n = int((hi - lo) // length)
-    return [verts[int(np.argmin(np.abs(t - (lo + (hi - lo) * j / n))))] for j in range(1, n)]
+    out = []
+    for j in range(1, n):  # one per cut
+        near = np.abs(t - (lo + (hi - lo) * j / n)) <= 0.25 * length
+        if near.any():
+            out.append(verts[int(np.flatnonzero(near)[np.argmin(gap[near])])])
+    return out
+
+
+def _rim_turns(rim: list, sides: list, reach: float) -> list:
+    """``[(outline vertex, wall vertex), ...]``: each vertex where two of a kept
+    piece's ``rim`` edges meet (the outline turns: a fillet's end) and the vertex of
+    its wall edges ``sides`` nearest it, within ``reach`` mm (a cut between them
+    parts the piece's arms, which OCCT's mesher joined across the tiles' side)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_VERTEX
+    from OCP.TopoDS import TopoDS
+
+    walls = [TopoDS.Vertex_s(v) for e in sides for v in explore(e, TopAbs_VERTEX)]
+    ends = [TopoDS.Vertex_s(v) for e in rim for v in explore(e, TopAbs_VERTEX)]
+    if not walls:
+        return []
+    wp = np.array([BRep_Tool.Pnt_s(v).Coord() for v in walls])  # per vertex (hundreds)
+    out = []
+    for v in ends:  # two per rim edge
+        if sum(v.IsSame(x) for x in ends) < 2 or any(v.IsSame(x) for x in walls) or any(v.IsSame(q) for q, _ in out):
+            continue
+        d = np.linalg.norm(wp - np.array(BRep_Tool.Pnt_s(v).Coord()), axis=1)
+        if d.min() <= reach:
+            out.append((v, walls[int(np.argmin(d))]))
+    return out
 
 
 def _cut_edge(face, vertex, q):
-    """The edge on ``face``'s surface from ``vertex`` to the point ``q`` (``gp_Pnt``,
-    mm): the straight line between their parameters (periodic ones brought into the
+    """The edge on ``face``'s surface from ``vertex`` to ``q`` (a vertex, or a point
+    ``gp_Pnt`` mm): the straight line between their parameters (periodic ones brought into the
     face's range), or None."""
     from OCP.BRep import BRep_Tool
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeEdge, BRepBuilderAPI_MakeVertex
@@ -748,14 +785,15 @@ def _cut_edge(face, vertex, q):
     from OCP.GCE2d import GCE2d_MakeSegment
     from OCP.gp import gp_Pnt2d
     from OCP.ShapeAnalysis import ShapeAnalysis_Surface
-    from OCP.TopoDS import TopoDS
+    from OCP.TopoDS import TopoDS, TopoDS_Vertex
 
     face = TopoDS.Face_s(face)
     surf = BRep_Tool.Surface_s(face)
     sa = ShapeAnalysis_Surface(surf)
     u0, u1, v0, v1 = BRepTools.UVBounds_s(face)
     uv = []
-    for p in (BRep_Tool.Pnt_s(vertex), q):  # the two ends
+    end = q if isinstance(q, TopoDS_Vertex) else None
+    for p in (BRep_Tool.Pnt_s(vertex), q if end is None else BRep_Tool.Pnt_s(end)):  # the two ends
         a = sa.ValueOfUV(p, 1e-7)
         u, v = a.X(), a.Y()
         if surf.IsUPeriodic():
@@ -767,7 +805,7 @@ def _cut_edge(face, vertex, q):
         return None
     try:
         seg = GCE2d_MakeSegment(uv[0], uv[1]).Value()
-        end = BRepBuilderAPI_MakeVertex(q).Vertex()
+        end = BRepBuilderAPI_MakeVertex(q).Vertex() if end is None else end
         mk = BRepBuilderAPI_MakeEdge(seg, surf, vertex, end, seg.FirstParameter(), seg.LastParameter())
         if not mk.IsDone():
             return None
@@ -804,7 +842,7 @@ def _assemble(topo, faces: list, tiles: list, strips: list, cell: float):
 
 #: Grid cells (along the outline) a face piece kept beside the walls spans at most
 #: before :func:`_cut_slivers` cuts it across.
-SLIVER = 16
+SLIVER = 8
 
 
 def _cut_slivers(topo, faces: list, kept: list, walls: list, cell: float):
