@@ -707,7 +707,10 @@ def _sliver_cuts(topo, faces: list, kept: list, walls: list, length: float) -> t
         if not rim:
             continue
         sides = [e for e in edges if on_walls.Contains(e)]
-        for p in _wall_corners(sides, rim, length):  # one per cut
+        corners = _wall_corners(sides, rim, length)
+        if corners is None:  # no saw-tooth: the walls run along the outline
+            continue
+        for p in corners:  # one per cut
             dist = BRepExtrema_DistShapeShape(p, compound(rim))
             if not dist.IsDone() or dist.NbSolution() < 1 or dist.Value() > 0.5 * length:
                 continue
@@ -722,7 +725,9 @@ def _wall_corners(edges: list, rim: list, length: float) -> list:
     """Vertices of the wall ``edges`` of a kept piece, about ``length`` mm apart along
     the line they spread along (their principal axis): near each mark the one nearest
     the outline ``rim`` (a tooth's tip, so that the cut from it crosses no tooth);
-    empty when they span less than twice ``length``."""
+    empty when they span less than twice ``length``; None when their distances to the
+    outline differ by less than half a cell (``length / SLIVER`` mm): the walls run along
+    the outline, as on a band, and the piece is a plain strip OCCT meshes closed."""
     from OCP.BRep import BRep_Tool
     from OCP.BRepAdaptor import BRepAdaptor_Curve
     from OCP.TopAbs import TopAbs_VERTEX
@@ -731,16 +736,18 @@ def _wall_corners(edges: list, rim: list, length: float) -> list:
 
     verts = [TopoDS.Vertex_s(v) for e in edges for v in explore(e, TopAbs_VERTEX)]
     if len(verts) < 3:
-        return []
+        return None
     pts = np.array([BRep_Tool.Pnt_s(v).Coord() for v in verts])  # per vertex (hundreds)
+    curves = [BRepAdaptor_Curve(TopoDS.Edge_s(e)) for e in rim]
+    line = np.array([a.Value(x).Coord() for a in curves for x in np.linspace(a.FirstParameter(), a.LastParameter(), 200)])
+    gap = cKDTree(line).query(pts)[0]  # mm to the outline (sampled), per vertex
+    if np.ptp(gap) < 0.5 * length / SLIVER:
+        return None
     c = pts - pts.mean(axis=0)
     t = c @ np.linalg.svd(c, full_matrices=False)[2][0]
     lo, hi = float(t.min()), float(t.max())
     if hi - lo < 2.0 * length:
         return []
-    curves = [BRepAdaptor_Curve(TopoDS.Edge_s(e)) for e in rim]
-    line = np.array([a.Value(x).Coord() for a in curves for x in np.linspace(a.FirstParameter(), a.LastParameter(), 200)])
-    gap = cKDTree(line).query(pts)[0]  # mm to the outline (sampled), per vertex
     n = int((hi - lo) // length)
     out = []
     for j in range(1, n):  # one per cut
