@@ -23,7 +23,9 @@ replaces the part of the patch under ``K``, **without a boolean of the texture**
   strips cuts both along their exact intersection: the face pieces that keep an edge
   of the patch's outline stay, the rest of the faces (under the tiles) go, and of
   each strip the piece holding its tile edge stays (the step between the face and
-  the tiles, ``w`` mm high at most).
+  the tiles, ``w`` mm high at most); a kept piece the walls step along (an outline
+  across the grid) is cut across into short pieces, which OCCT's mesher meshes
+  closed (:func:`_cut_slivers`).
 
 The tiles follow texcad's mesh (its grid points lie on the tessellation, as the
 mesh's do), so the B-rep and the mesh enclose the same volume up to the walls'
@@ -854,15 +856,17 @@ SLIVER = 8
 
 def _cut_slivers(topo, faces: list, kept: list, walls: list, cell: float):
     """``(kept, walls, [(neighbour, [its new face]), ...])``: the face pieces ``kept``
-    beside the walls cut across, from a wall's corner to the nearest point of the
-    patch's outline, every :data:`SLIVER` cells (``cell`` mm) or so along them, by
-    OCCT's general fuse (the outline edges cut there, and their faces outside the
-    patch with them). Where the patch's outline runs across the grid the walls step
-    along it and the piece kept between them and the outline is a long sliver with a
-    saw-tooth side: OCCT's mesher (0.1 mm, 0.5 rad) laid triangles across its teeth,
-    outside the face, and the STEP meshed open (a box top and two fillets at 0.125
-    mm); pieces a few mm long mesh closed. Unchanged where no piece is that long,
-    or the fuse fails or cuts a wall."""
+    that the walls step along cut across (:func:`_sliver_cuts`): from a wall's corner
+    to the nearest point of the patch's outline every :data:`SLIVER` cells (``cell``
+    mm) or so along them, and from each turn of the outline to the wall corner
+    nearest it, by OCCT's general fuse (the outline edges cut there, and their faces
+    outside the patch with them). Where the patch's outline runs across the grid the
+    walls step along it and the piece kept between them and the outline is a long
+    sliver with a saw-tooth side (with an arm along a fillet's end): OCCT's mesher
+    (0.1 mm, 0.5 rad) laid triangles across its teeth and between its arms, outside
+    the face, and the STEP meshed open (a box top and two fillets at 0.25 and 0.125
+    mm, every pole or at the tolerance); the short pieces mesh closed. Unchanged
+    where no piece is that long, or the fuse fails or cuts a wall."""
     cuts, owners = _sliver_cuts(topo, faces, kept, walls, SLIVER * cell)
     if not cuts:
         return kept, walls, []
