@@ -20,7 +20,8 @@ demo's default tolerance), the same drilled through, a 30 mm plate drilled throu
 cylinder (stones, knurl), a cone and three faces trimmed inside their (u, v)
 rectangle (a drilled full cylinder, a fluted knob cone, a wall with a window), faces
 textured together (a box's sides and rounded edges, a band; a top, fillet and side
-flattened together): STEP size against the binary STL's at the same tolerance, seconds to write the STEP, to read it back (OCCT's
+flattened together; a box's top and two fillets meeting at a mitre, a cylinder's cap
+and its fillet: outlines that turn a corner): STEP size against the binary STL's at the same tolerance, seconds to write the STEP, to read it back (OCCT's
 ``STEPControl_Reader``, as FreeCAD) and to mesh it at 0.1 mm, validity and OCCT's
 volume against the mesh; written as a markdown table (machine, date, command) to
 ``--table``. ``--rows a,b``: only those rows (names as printed).
@@ -296,6 +297,21 @@ def _band_parts() -> dict:
     }
 
 
+def _corner_parts() -> dict:
+    """Faces flattened together whose outline turns a corner
+    (``tests/brep/test_band_corners.py``), as ``{name: (part, faces)}``: a 24 x 18 x 8
+    mm box, its top edges rounded r 2, its top and the two fillets that meet at a
+    mitre; a cylinder r 10 x 8 mm, its top edge rounded r 2, its cap and that fillet."""
+    from build123d import Axis, Box, Cylinder, GeomType, fillet
+
+    box = fillet(Box(24, 18, 8).edges().group_by()[-1], 2)
+    cap = fillet(Cylinder(10, 8).edges().sort_by(Axis.Z)[-1:], 2)
+    return {
+        "mitre": (box, [box.faces().sort_by()[-1], *box.faces().filter_by(GeomType.CYLINDER)[:2]]),
+        "cap": (cap, [cap.faces().sort_by()[-1], *cap.faces().filter_by(GeomType.TORUS)]),
+    }
+
+
 def _sizes_rows(size: float) -> dict:
     """The ``--sizes`` rows, ``{name: () -> (textured, tessellated)}`` (made when run)."""
     from build123d import Axis, Cone, Cylinder, GeomType, Pos
@@ -328,7 +344,7 @@ def _sizes_rows(size: float) -> dict:
     }
     for name, (part, face) in _trimmed_parts().items():  # faces trimmed inside their (u, v) rectangle
         rows[name] = lambda part=part, face=face: (texcad.texture(part, face, "builtin:stones", height=0.6, pitch=0.125), False)
-    for name, (part, faces) in _band_parts().items():  # faces textured together
+    for name, (part, faces) in {**_band_parts(), **_corner_parts()}.items():  # faces textured together
         rows[name] = lambda part=part, faces=faces: (texcad.texture(part, faces, "builtin:stones", height=0.6, pitch=0.125), False)
     return rows
 
@@ -363,7 +379,9 @@ def run_sizes(out: Path, size: float, table: str | None, only: list | None = Non
                  "trimmed-cone": "knob cone r 10 / 6 x 12 mm with 4 slanted flutes, the same",
                  "trimmed-window": "wall of revolution (spline profile) with a 3 x 7 mm window, the same",
                  "band": "box 30 x 20 x 10 mm, vertical edges rounded r 4: its 4 sides and 4 rounded edges textured together (a band), the same",
-                 "flattened": "box 30 x 20 x 10 mm, a top edge rounded r 4, top, fillet and side flattened together, the same"}  # fmt: skip
+                 "flattened": "box 30 x 20 x 10 mm, a top edge rounded r 4, top, fillet and side flattened together, the same",
+                 "mitre": "box 24 x 18 x 8 mm, top edges rounded r 2: top and the two fillets meeting at a mitre, the same",
+                 "cap": "cylinder r 10 x 8 mm, top edge rounded r 2: cap and fillet flattened together, the same"}  # fmt: skip
         lines = [
             "# STEP size and re-read time",
             "",

@@ -23,7 +23,9 @@ replaces the part of the patch under ``K``, **without a boolean of the texture**
   strips cuts both along their exact intersection: the face pieces that keep an edge
   of the patch's outline stay, the rest of the faces (under the tiles) go, and of
   each strip the piece holding its tile edge stays (the step between the face and
-  the tiles, ``w`` mm high at most).
+  the tiles, ``w`` mm high at most); a kept piece the walls step along (an outline
+  across the grid) is cut across into short pieces, which OCCT's mesher meshes
+  closed (:func:`_cut_slivers`).
 
 The tiles follow texcad's mesh (its grid points lie on the tessellation, as the
 mesh's do), so the B-rep and the mesh enclose the same volume up to the walls'
@@ -46,7 +48,7 @@ from .occt import explore, face_in, general_fuse, to_topods
 from .gprop import polyline_pcurve, run_knots, split_at_knots
 from .solids import TILE, TOLERANCE, _band_fine, _replace_faces, _tile_bounds, grid_surface, tiled_grid_faces
 
-__all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "whole_tiles", "PATCH_TILE", "WHOLE_TILE", "creases"]
+__all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "PATCH_TILE", "creases"]
 
 #: Tiles of a patch are at most this many cells a side. With the tiles' knots placed
 #: for OCCT's plain Gauss integration (build123d's ``.volume``; :mod:`texcad.brep.gprop`)
@@ -55,9 +57,6 @@ __all__ = ["patch_solid", "signed_plane_solid", "face_in", "wall_height", "whole
 #: centred), 0.05 % at 8 and 0.03 % at 24 (knots at the grid index: 0.07 % at 4,
 #: 0.2 % at 8).
 PATCH_TILE = 4
-#: Tiles (cells a side) :func:`whole_tiles` lays over a patch's cells to tell whether
-#: they are whole runs (a band all around, a rectangle of cells).
-WHOLE_TILE = TILE
 #: mm added to the wall height over the chord error and the grid's sag.
 WALL_MARGIN = 0.005
 
@@ -491,30 +490,6 @@ def _runs_over(K: np.ndarray, tile: int) -> tuple:
     return tuple(out)
 
 
-def whole_tiles(cells: np.ndarray, wrap: bool) -> bool:
-    """Do tiles of :data:`WHOLE_TILE` cells cover a patch's meshed ``cells`` (``(R -
-    1, C - 1)``, ``(R, C - 1)`` when ``wrap``, as :func:`patch_solid` takes them) as
-    whole runs (:func:`_whole_runs`: a band all around, a rectangle of cells)? Its
-    STEP is then written at the mesh's tolerance (``texcad.targets.faces``), its
-    4-cell tiles merged into larger ones with their u knots placed again for OCCT's
-    plain rule (``texcad.io.step_tiles``); else with every pole (at the tolerance, OCCT
-    meshed the 4-cell tiles beside a mitre and an L plate's concave corner open:
-    ``tests/brep/test_band_corners.py``)."""
-    K = _unpinched(np.asarray(cells, bool).T, wrap)
-    return K is not None and _whole_runs(K, WHOLE_TILE)
-
-
-def _whole_runs(K: np.ndarray, tile: int) -> bool:
-    """Do :func:`_leaves_over`'s tiles of at most ``tile`` cells cover the cells ``K``
-    with whole runs only (each tile one run of :func:`_runs_over` both ways, none
-    halved near the outline)?"""
-    leaves = _leaves_over(K, tile, None)
-    if not leaves:
-        return False
-    rows, cols = (set(r) for r in _runs_over(K, tile))
-    return all((r0, r1) in rows and (c0, c1) in cols for r0, r1, c0, c1 in leaves)
-
-
 def _placed(n: int, runs: list) -> np.ndarray:
     """``n`` knots at the grid index, placed for OCCT's plain Gauss rule in the
     ``runs`` ``[(a, z), ...]`` (consecutive grid lines)."""
@@ -631,7 +606,7 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
             nrm = np.cross(travel, O[0] - T[0])  # the strip's S_u x S_v there
             want = -1.0 if signed else 1.0  # raised: the wall faces away from the tiles; engraved: towards them
             strips.append((face if float(nrm @ away) * want > 0 else face.Reversed(), e))
-    return _assemble(topo, faces, tiles, strips)
+    return _assemble(topo, faces, tiles, strips, _cell_size(G, K))
 
 
 def signed_plane_solid(shape: Any, face: Any, points: np.ndarray, normals: np.ndarray, heights: np.ndarray, cells: np.ndarray, *,
@@ -706,7 +681,151 @@ def _outside(pieces: list, outline: list, walls: list) -> list:
     return [pieces[k] for k in sorted(out)]
 
 
-def _assemble(topo, faces: list, tiles: list, strips: list):
+def _sliver_cuts(topo, faces: list, kept: list, walls: list, length: float) -> tuple:
+    """``(edges, owners)``: for each piece of ``kept`` with edges on the ``walls``
+    that spans more than twice ``length`` mm along them, edges across it on its
+    surface (a straight line in its parameters) from wall corners about ``length`` mm
+    apart (:func:`_wall_corners`) to the nearest point of the patch's outline (at most
+    ``length / 2`` mm away: a sliver), from each corner of the outline to the nearest
+    wall corner within ``2 length`` mm (:func:`_rim_turns`), and the faces of the part
+    that own the outline edges.""" 
+    from OCP.BRepExtrema import BRepExtrema_DistShapeShape
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_IndexedMapOfShape
+
+    from .occt import compound
+
+    emap = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(topo, TopAbs_EDGE, TopAbs_FACE, emap)
+    outline = _outline_edges(topo, faces)
+    on_walls = TopTools_IndexedMapOfShape()
+    for w in walls:  # one per wall
+        TopExp.MapShapes_s(w, TopAbs_EDGE, on_walls)
+    cuts, owners = [], []
+    for k in kept:  # a few pieces
+        edges = explore(k, TopAbs_EDGE)
+        rim = [e for e in edges if any(e.IsSame(o) for o in outline)]
+        if not rim:
+            continue
+        sides = [e for e in edges if on_walls.Contains(e)]
+        corners = _wall_corners(sides, rim, length)
+        if corners is None:  # no saw-tooth: the walls run along the outline
+            continue
+        for p in corners:  # one per cut
+            dist = BRepExtrema_DistShapeShape(p, compound(rim))
+            if not dist.IsDone() or dist.NbSolution() < 1 or dist.Value() > 0.5 * length:
+                continue
+            cuts.append(_cut_edge(k, p, dist.PointOnShape2(1)))
+        cuts += [_cut_edge(k, p, q) for q, p in _rim_turns(rim, sides, 2.0 * length)]
+        owners += [f for e in rim for f in emap.FindFromKey(e)]
+    cuts = [e for e in cuts if e is not None]
+    return cuts, owners
+
+
+def _wall_corners(edges: list, rim: list, length: float) -> list:
+    """Vertices of the wall ``edges`` of a kept piece, about ``length`` mm apart along
+    the line they spread along (their principal axis): near each mark the one nearest
+    the outline ``rim`` (a tooth's tip, so that the cut from it crosses no tooth);
+    empty when they span less than twice ``length``; None when their distances to the
+    outline differ by less than half a cell (``length / SLIVER`` mm): the walls run along
+    the outline, as on a band, and the piece is a plain strip OCCT meshes closed."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.TopAbs import TopAbs_VERTEX
+    from OCP.TopoDS import TopoDS
+    from scipy.spatial import cKDTree
+
+    verts = [TopoDS.Vertex_s(v) for e in edges for v in explore(e, TopAbs_VERTEX)]
+    if len(verts) < 3:
+        return None
+    pts = np.array([BRep_Tool.Pnt_s(v).Coord() for v in verts])  # per vertex (hundreds)
+    curves = [BRepAdaptor_Curve(TopoDS.Edge_s(e)) for e in rim]
+    line = np.array([a.Value(x).Coord() for a in curves for x in np.linspace(a.FirstParameter(), a.LastParameter(), 200)])
+    gap = cKDTree(line).query(pts)[0]  # mm to the outline (sampled), per vertex
+    if np.ptp(gap) < 0.5 * length / SLIVER:
+        return None
+    c = pts - pts.mean(axis=0)
+    t = c @ np.linalg.svd(c, full_matrices=False)[2][0]
+    lo, hi = float(t.min()), float(t.max())
+    if hi - lo < 2.0 * length:
+        return []
+    n = int((hi - lo) // length)
+    out = []
+    for j in range(1, n):  # one per cut
+        near = np.abs(t - (lo + (hi - lo) * j / n)) <= 0.25 * length
+        if near.any():
+            out.append(verts[int(np.flatnonzero(near)[np.argmin(gap[near])])])
+    return out
+
+
+def _rim_turns(rim: list, sides: list, reach: float) -> list:
+    """``[(outline vertex, wall vertex), ...]``: each vertex where two of a kept
+    piece's ``rim`` edges meet (the outline turns: a fillet's end) and the vertex of
+    its wall edges ``sides`` nearest it, within ``reach`` mm (a cut between them
+    parts the piece's arms, which OCCT's mesher joined across the tiles' side)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_VERTEX
+    from OCP.TopoDS import TopoDS
+
+    walls = [TopoDS.Vertex_s(v) for e in sides for v in explore(e, TopAbs_VERTEX)]
+    ends = [TopoDS.Vertex_s(v) for e in rim for v in explore(e, TopAbs_VERTEX)]
+    if not walls:
+        return []
+    wp = np.array([BRep_Tool.Pnt_s(v).Coord() for v in walls])  # per vertex (hundreds)
+    out = []
+    for v in ends:  # two per rim edge
+        if sum(v.IsSame(x) for x in ends) < 2 or any(v.IsSame(x) for x in walls) or any(v.IsSame(q) for q, _ in out):
+            continue
+        d = np.linalg.norm(wp - np.array(BRep_Tool.Pnt_s(v).Coord()), axis=1)
+        if d.min() <= reach:
+            out.append((v, walls[int(np.argmin(d))]))
+    return out
+
+
+def _cut_edge(face, vertex, q):
+    """The edge on ``face``'s surface from ``vertex`` to ``q`` (a vertex, or a point
+    ``gp_Pnt`` mm): the straight line between their parameters (periodic ones brought into the
+    face's range), or None."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeEdge, BRepBuilderAPI_MakeVertex
+    from OCP.BRepLib import BRepLib
+    from OCP.BRepTools import BRepTools
+    from OCP.GCE2d import GCE2d_MakeSegment
+    from OCP.gp import gp_Pnt2d
+    from OCP.ShapeAnalysis import ShapeAnalysis_Surface
+    from OCP.TopoDS import TopoDS, TopoDS_Vertex
+
+    face = TopoDS.Face_s(face)
+    surf = BRep_Tool.Surface_s(face)
+    sa = ShapeAnalysis_Surface(surf)
+    u0, u1, v0, v1 = BRepTools.UVBounds_s(face)
+    uv = []
+    end = q if isinstance(q, TopoDS_Vertex) else None
+    for p in (BRep_Tool.Pnt_s(vertex), q if end is None else BRep_Tool.Pnt_s(end)):  # the two ends
+        a = sa.ValueOfUV(p, 1e-7)
+        u, v = a.X(), a.Y()
+        if surf.IsUPeriodic():
+            u += surf.UPeriod() * np.round((0.5 * (u0 + u1) - u) / surf.UPeriod())
+        if surf.IsVPeriodic():
+            v += surf.VPeriod() * np.round((0.5 * (v0 + v1) - v) / surf.VPeriod())
+        uv.append(gp_Pnt2d(u, v))
+    if uv[0].Distance(uv[1]) < 1e-9:
+        return None
+    try:
+        seg = GCE2d_MakeSegment(uv[0], uv[1]).Value()
+        end = BRepBuilderAPI_MakeVertex(q).Vertex() if end is None else end
+        mk = BRepBuilderAPI_MakeEdge(seg, surf, vertex, end, seg.FirstParameter(), seg.LastParameter())
+        if not mk.IsDone():
+            return None
+        e = mk.Edge()
+        BRepLib.BuildCurves3d_s(e)
+        return e
+    except Exception:  # OCCT's Standard_Failure: no cut here
+        return None
+
+
+def _assemble(topo, faces: list, tiles: list, strips: list, cell: float):
     """The general fuse of the patch's faces and the walls; the pieces kept (module
     docstring) and the tiles in place of the patch's faces; None if a wall or a face
     was not cut as expected."""
@@ -726,4 +845,43 @@ def _assemble(topo, faces: list, tiles: list, strips: list):
     if split is None:
         return None
     kept, walls = split
-    return _replace_faces(topo, [(faces[0], kept + walls + list(tiles))] + [(f, []) for f in faces[1:]])
+    kept, walls, beside = _cut_slivers(topo, faces, kept, walls, cell)
+    return _replace_faces(topo, [(faces[0], kept + walls + list(tiles))] + [(f, []) for f in faces[1:]] + beside)
+
+
+#: Grid cells (along the outline) a face piece kept beside the walls spans at most
+#: before :func:`_cut_slivers` cuts it across.
+SLIVER = 8
+
+
+def _cut_slivers(topo, faces: list, kept: list, walls: list, cell: float):
+    """``(kept, walls, [(neighbour, [its new face]), ...])``: the face pieces ``kept``
+    that the walls step along cut across (:func:`_sliver_cuts`): from a wall's corner
+    to the nearest point of the patch's outline every :data:`SLIVER` cells (``cell``
+    mm) or so along them, and from each turn of the outline to the wall corner
+    nearest it, by OCCT's general fuse (the outline edges cut there, and their faces
+    outside the patch with them). Where the patch's outline runs across the grid the
+    walls step along it and the piece kept between them and the outline is a long
+    sliver with a saw-tooth side (with an arm along a fillet's end): OCCT's mesher
+    (0.1 mm, 0.5 rad) laid triangles across its teeth and between its arms, outside
+    the face, and the STEP meshed open (a box top and two fillets at 0.25 and 0.125
+    mm, every pole or at the tolerance); the short pieces mesh closed. Unchanged
+    where no piece is that long, or the fuse fails or cuts a wall."""
+    cuts, owners = _sliver_cuts(topo, faces, kept, walls, SLIVER * cell)
+    if not cuts:
+        return kept, walls, []
+    beside = []
+    for o in owners:  # a few faces, each once
+        if not any(o.IsSame(f) for f in faces + beside):
+            beside.append(o)
+    gf = general_fuse([list(kept) + list(walls) + beside, cuts])
+    if gf is None or any(gf.Modified(w).Size() > 0 or gf.IsDeleted(w) for w in walls):
+        return kept, walls, []  # a cut crossed a wall: the pieces as they were
+    pieces = [p if p.Orientation() == k.Orientation() else p.Reversed() for k in kept for p in _pieces(gf, k)]
+    swaps = []
+    for o in beside:  # one per face outside the patch along the cut outline
+        got = _pieces(gf, o)
+        if len(got) != 1:
+            return kept, walls, []
+        swaps.append((o, [got[0] if got[0].Orientation() == o.Orientation() else got[0].Reversed()]))
+    return pieces, walls, swaps

@@ -427,14 +427,12 @@ def _limits(reliefs: list, options: Options, opts: PatchOptions):
 
 
 def _at_tolerance(reliefs: list) -> bool:
-    """Is the STEP of these patches written at the mesh's tolerance? Faces flattened
-    together (a patch without one face) only where whole tiles cover their cells
-    (:func:`texcad.brep.bands.whole_tiles`: a band all around, a rectangle of cells);
-    else their 4-cell tiles are written with every pole (at the tolerance OCCT meshed
-    a mitre's and an L plate's corner open)."""
-    from ..brep.bands import whole_tiles
-
-    return all(r.face is not None or whole_tiles(r.cells, bool(r.grid.wrap_y)) for r in reliefs)
+    """Is the STEP of these patches written at the mesh's tolerance? Yes: faces
+    flattened together too, whole runs of tiles merged (a band all around, a
+    rectangle of cells) and the 4-cell tiles where their outline turns a corner
+    (the face pieces kept beside the walls there are cut short,
+    :func:`texcad.brep.bands._cut_slivers`, so OCCT meshes them closed)."""
+    return bool(reliefs)
 
 
 def _info(placement: Placement, reliefs: list, options: Options) -> dict:
