@@ -118,7 +118,7 @@ def test_face_in_strips_written_at_the_tolerance(tmp_path):
     assert (tmp_path / "cone.step").stat().st_size <= 0.85 * (tmp_path / "exact.step").stat().st_size
 
 
-# Faces textured together whose cells whole tiles cover (texcad.brep.bands.whole_tiles):
+# Faces textured together (texcad.brep.bands; where the walls step along the outline, the pieces cut across: _cut_slivers):
 # written at the mesh's tolerance, their 4-cell tiles merged with the u knots placed again
 # for OCCT's plain rule (texcad.io.step_tiles._merged), the edges along u between merged
 # tiles joined, the sides along v on their own knots (texcad.io.step_tiles._raised_line).
