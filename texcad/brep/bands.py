@@ -723,7 +723,7 @@ def _assemble(topo, faces: list, tiles: list, strips: list):
     pieces = [p for f in faces for p in _pieces(gf, f)]  # the patch's faces, cut along the walls
     outline = _outline_edges(topo, faces)
     kept = _outside(pieces, outline, walls)
-    split = split_at_knots(kept, walls, outline)  # the outline stays whole: faces outside the patch share it  # the section edges cut for OCCT's plain Gauss rule
+    split = split_at_knots(kept, walls, outline)  # section edges cut for the plain Gauss rule; the outline (shared outside) whole
     if split is None:
         return None
     kept, walls = split
