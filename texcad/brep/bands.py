@@ -840,8 +840,9 @@ def _assemble(topo, faces: list, tiles: list, strips: list, cell: float):
             return None
         walls.append(mine[0])
     pieces = [p for f in faces for p in _pieces(gf, f)]  # the patch's faces, cut along the walls
-    kept = _outside(pieces, _outline_edges(topo, faces), walls)
-    split = split_at_knots(kept, walls)  # the section edges cut for OCCT's plain Gauss rule
+    outline = _outline_edges(topo, faces)
+    kept = _outside(pieces, outline, walls)
+    split = split_at_knots(kept, walls, outline)  # section edges cut for the plain Gauss rule; the outline (shared outside) whole
     if split is None:
         return None
     kept, walls = split

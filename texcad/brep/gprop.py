@@ -133,9 +133,9 @@ def _spaced(c, k: np.ndarray, least: float) -> list:
     return keep
 
 
-def _knot_points(faces: list) -> list:
+def _knot_points(faces: list, keep: list = ()) -> list:
     """Vertices at the interior knots of the B-spline pcurves of ``faces``' edges
-    (each edge once)."""
+    (each edge once), none on the edges ``keep``."""
     from OCP.BRep import BRep_Tool
     from OCP.BRepAdaptor import BRepAdaptor_Curve
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeVertex
@@ -148,6 +148,8 @@ def _knot_points(faces: list) -> list:
     from .occt import explore
 
     seen, out = TopTools_IndexedMapOfShape(), []
+    for e in keep:  # edges not to cut: as if seen
+        seen.Add(e)
     for f in faces:  # the kept pieces (tens)
         f = TopoDS.Face_s(f)
         for e in explore(f, TopAbs_EDGE):  # their edges
@@ -165,14 +167,16 @@ def _knot_points(faces: list) -> list:
     return out
 
 
-def split_at_knots(faces: list, others: list) -> tuple | None:
+def split_at_knots(faces: list, others: list, keep: list = ()) -> tuple | None:
     """``(faces, others)`` with the edges of ``faces`` whose pcurve is a B-spline cut
     at its interior knots (module docstring), by OCCT's general fuse with vertices
     there (the edges' other faces among ``others`` get the same pieces; each face
-    keeps its orientation); unchanged if there are none, None if the fuse fails."""
+    keeps its orientation); unchanged if there are none, None if the fuse fails.
+    ``keep``: edges left whole (a patch's outline, which faces outside the fuse share:
+    cut, they would no longer be shared)."""
     from .occt import general_fuse
 
-    points = _knot_points(faces)
+    points = _knot_points(faces, keep)
     if not points:
         return faces, others
     gf = general_fuse([list(faces) + list(others), points])
