@@ -147,31 +147,30 @@ def _face_triangles(face) -> "FaceMesh | None":
     return FaceMesh(face, pts, tri, uv, _face_kind(face))
 
 
-def closed_shape_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: float = 0.1, mesh: "Mesh | None" = None) -> Mesh:
+def closed_shape_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: float = 0.1) -> Mesh:
     """:func:`shape_to_mesh` (``tolerance`` mm, ``angular_tolerance`` radians), or
     where that is not closed (OCCT's mesher leaves some faces of some files open, e.g.
     a cone bounded by one wire of 75 edges meshed as 12 triangles) the healed
     tessellation texcad textures parts with (:func:`part_tessellation` at
-    ``tolerance``: finer, cleaned, welded, split at 90 degrees, sewn), so that a
-    closed part is not shown or reported open. A shape that stays open after healing
-    comes back as OCCT meshed it. ``mesh``: that first tessellation when the caller
-    made it already (e.g. texcad's own view of its grid faces)."""
+    ``tolerance`` and ``angular_tolerance``: finer, cleaned, welded, split at 90
+    degrees, sewn), so that a closed part is not shown or reported open. A shape
+    that stays open after healing comes back as OCCT meshed it."""
     from .occt import to_topods
 
-    mesh = shape_to_mesh(shape, tolerance=tolerance, angular_tolerance=angular_tolerance) if mesh is None else mesh
+    mesh = shape_to_mesh(shape, tolerance=tolerance, angular_tolerance=angular_tolerance)
     try:
         to_manifold(mesh)
         return mesh
     except GeometryError:
         pass
     try:
-        return part_tessellation(to_topods(shape), tolerance).mesh
+        return part_tessellation(to_topods(shape), tolerance, angular_tolerance).mesh
     except GeometryError:
         return mesh
 
 
-def part_tessellation(topo, tolerance: float = TESSELLATION) -> PartMesh:
-    """Tessellate ``topo`` (OCCT, ``tolerance`` mm chord error) into per-face meshes
+def part_tessellation(topo, tolerance: float = TESSELLATION, angle: float = 0.1) -> PartMesh:
+    """Tessellate ``topo`` (OCCT, ``tolerance`` mm chord error, ``angle`` radians) into per-face meshes
     and one welded mesh; checked closed (manifold3d) and healed if needed, in order:
     a finer tessellation; the same after dropping every triangulation the file
     carried (``BRepTools::Clean``: a STEP file's own, possibly open, meshes are
@@ -205,7 +204,7 @@ def part_tessellation(topo, tolerance: float = TESSELLATION) -> PartMesh:
             shape, whose = _split(topo, own)
         if how:
             BRepTools.Clean_s(shape)
-        BRepMesh_IncrementalMesh(shape, tol, False, 0.1, True)
+        BRepMesh_IncrementalMesh(shape, tol, False, angle, True)
         fms = [_face_triangles(TopoDS.Face_s(f)) for f in explore(shape, TopAbs_FACE)]
         if whose is not None:  # the pieces' triangles, for the part's own faces
             fms = _own_faces(fms, whose, own)

@@ -852,8 +852,7 @@ def load_mesh(path: str | os.PathLike, *, tolerance: float = 0.01) -> Mesh:
 
     STEP: texcad's texture faces (degree-1 B-spline grids) are meshed from their
     poles, every other face by OCCT with ``tolerance`` mm (see
-    :func:`texcad.brep.shape_mesh`), healed where that is not closed
-    (:func:`texcad.brep.closed_shape_mesh`): a mesh for looking at, not for printing.
+    :func:`texcad.brep.shape_mesh`): a mesh for looking at, not for printing.
 
     Raises:
         InputError: missing or unreadable file.
@@ -866,11 +865,10 @@ def load_mesh(path: str | os.PathLike, *, tolerance: float = 0.01) -> Mesh:
         raise InputError(f"{str(p)!r} does not exist")
     suffix = p.suffix.lower()
     if suffix in (".step", ".stp"):
-        from ..brep import closed_shape_mesh, shape_mesh
+        from ..brep import shape_mesh
         from .step import read_step
 
-        shape = read_step(p)
-        return closed_shape_mesh(shape, tolerance=tolerance, mesh=shape_mesh(shape, tolerance=tolerance))
+        return shape_mesh(read_step(p), tolerance=tolerance)
     if suffix not in (".stl", ".3mf", ".obj"):
         raise ParameterError(f"cannot read {p.suffix!r} files; use .stl, .3mf, .obj or .step")
     return read_mesh(p)
