@@ -62,9 +62,10 @@ def test_region_table_of_a_box():
     import trimesh
 
     from texcad.mapping.region import LISTED_REGIONS, region_table
+    from texcad.solid import Mesh
 
     box = trimesh.creation.box((20, 10, 4))
-    rows = {r["region"]: r for r in region_table(box.vertices, box.faces)}
+    rows = {r["region"]: r for r in region_table(Mesh(box.vertices, box.faces))}
     assert list(rows) == list(LISTED_REGIONS)
     assert rows["not-bottom"]["area"] == pytest.approx(2 * (200 + 80 + 40) - 200)
     assert rows["top"]["area"] == pytest.approx(200) and rows["top"]["centre"] == pytest.approx((0, 0, 2))

@@ -204,7 +204,7 @@ def _mesh_regions(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     mesh = load_mesh(args.part)
     print(f"{'region':<14} {'faces':>9} {'area mm2':>12}  centre mm")
-    for row in region_table(mesh.vertices, mesh.faces):  # thirteen rows
+    for row in region_table(mesh):  # thirteen rows
         centre = _fmt(row["centre"]) if row["centre"] is not None else "-"
         print(f"{row['region']:<14} {row['faces']:>9} {row['area']:>12.3f}  {centre}")
     print(f"triangles    {len(mesh.faces)} of {args.part}, printed along +z (texcad texture PART --region SPEC; "

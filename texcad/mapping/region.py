@@ -423,16 +423,16 @@ LISTED_REGIONS = ("not-bottom", "top", "bottom", "front", "back", "left", "right
                   "normal:+z:45", "normal:-z:45", "normal:+x:45", "normal:-x:45", "normal:+y:45", "normal:-y:45")
 
 
-def region_table(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float = 0.01) -> list[dict]:
-    """What each ``--region`` spec of :data:`LISTED_REGIONS` picks on a mesh printed
-    along +z (``tolerance`` mm: the bed face's, :func:`bed_faces`): one dict per spec
-    with ``region``, ``faces`` (count), ``area`` (mm2) and ``centre`` (mm, the
-    area-weighted centroid of its faces; None when it picks none)."""
-    v, f = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
-    cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    area = 0.5 * np.linalg.norm(cross, axis=1)
-    normals = cross / np.maximum(2.0 * area, 1e-300)[:, None]
-    centroid = v[f].mean(axis=1)
+def region_table(mesh: Any, *, tolerance: float = 0.01) -> list[dict]:
+    """What each ``--region`` spec of :data:`LISTED_REGIONS` picks on a
+    :class:`~texcad.solid.Mesh` printed along +z (``tolerance`` mm: the bed face's,
+    :func:`bed_faces`): one dict per spec with ``region``, ``faces`` (count), ``area``
+    (mm2) and ``centre`` (mm, the area-weighted centroid of its faces; None when it
+    picks none)."""
+    from ..solid import face_normals
+
+    v, f = mesh.vertices.astype(np.float64), np.asarray(mesh.faces, np.int64)
+    (normals, area), centroid = face_normals(v, f), v[f].mean(axis=1)
     rows = []
     for spec in LISTED_REGIONS:  # thirteen specs, each vectorized over the faces
         (region,) = resolve_faces(v, f, [Region.parse(spec)])

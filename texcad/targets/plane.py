@@ -444,10 +444,10 @@ class PlaneAdapter(Adapter):
         axes = np.stack([ex, ey, n])
         segs3 = face_segments(face, 0.5 * (min(texture.pitch) if isinstance(texture, Heightmap) else options.pitch))
         segs = _local(segs3.reshape(-1, 3), p0, axes).reshape(-1, 2, 3)
-        off_plane = float(np.abs(segs[..., 2]).max())
-        if off_plane > max(1e-4, 1.01 * _edge_tolerance(face)):  # within what the file says its edges are good to
+        off_plane, edge_tol = float(np.abs(segs[..., 2]).max()), _edge_tolerance(face)
+        if off_plane > max(1e-4, 1.01 * edge_tol):  # within what the file says its edges are good to
             raise GeometryError(f"the face's edges leave its plane by {off_plane:.3g} mm, more than their own tolerance "
-                                f"({_edge_tolerance(face):.3g} mm); is the face really planar?")
+                                f"({edge_tol:.3g} mm); is the face really planar?")
         segs = segs[..., :2]
         lo, hi = segs.reshape(-1, 2).min(axis=0), segs.reshape(-1, 2).max(axis=0)
         centre = (lo + hi) / 2
