@@ -134,6 +134,24 @@ def test_no_brep_when_told():
         tx.shape
 
 
+def test_a_failed_brep_names_the_faces_and_the_mesh_outputs(monkeypatch):
+    """``info`` carries no "no_brep" (it read as if there were none); when the B-rep
+    cannot be made, the error names the faces, OCCT's reason and STL/3MF."""
+    import texcad.brep
+    from build123d import Cone, GeomType
+
+    cone = Cone(10, 5, 10)
+    tx = _quiet(cone, cone.faces().filter_by(GeomType.CONE), "builtin:stones", **KW)
+    assert "no_brep" not in tx.info
+
+    def fails(*a, **k):
+        raise GeometryError("OCCT's splitter left a gap")
+
+    monkeypatch.setattr(texcad.brep, "uv_textured_solid", fails)
+    with pytest.raises(GeometryError, match=r"no B-rep of the textured cone face\(s\): OCCT's splitter left a gap; .*part\.stl"):
+        tx.shape
+
+
 def test_a_face_not_of_the_part_is_refused():
     from build123d import Box, Cone, GeomType
 

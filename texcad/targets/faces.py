@@ -322,7 +322,8 @@ class FacesAdapter(Adapter):
         (:func:`texcad.brep.bands.patch_solid`); chained, on the earlier result's
         B-rep (:func:`chained_base`). ``fine``: rectangles ``(x0, x1, y0, y1)`` mm in a
         lone planar face's frame, or boxes ``(lo, hi)`` mm (CAD operations)."""
-        no_brep = stages.fused.info["no_brep"]
+        kinds = sorted({k for i in stages.fused.info["faces"] for k in i["kinds"]})
+        no_brep = f"no B-rep of the textured {', '.join(kinds)} face(s)"
         if not stages.options.brep:
             raise GeometryError("textured with brep=False; texture it again with brep=True for STEP")
         base = stages.placement.topo
@@ -440,7 +441,6 @@ def _info(placement: Placement, reliefs: list, options: Options) -> dict:
     from ..mapping import Distortion
 
     infos = [r.info for r in reliefs]
-    kinds = sorted({k for i in infos for k in i["kinds"]})
     dist = Distortion.combined([r.distortion for r in reliefs])
     max_error = max(r.max_error for r in reliefs)
     area = float(sum(r.cells.sum() * np.prod(r.heightmap.pitch) for r in reliefs))
@@ -450,10 +450,6 @@ def _info(placement: Placement, reliefs: list, options: Options) -> dict:
         "faces": infos,
         "grid": infos[0]["grid"],
         "brep": True,
-        "no_brep": (
-            f"{', '.join(kinds)} face(s) textured by the general method (a texture grid on the face's "
-            "parameterization, fused as a mesh) have no B-rep; write the mesh: export('part.stl') or export('part.3mf')"
-        ),
         "distortion": None if dist is None else dist.to_dict(),
         "chained": chained,
         # the lean mesh may enclose up to its error times the textured area more or less than the grid's B-rep
@@ -482,7 +478,8 @@ def _brep(topo: Any, patches: tuple, no_brep: str, rotation: float, fine: Any = 
     (:func:`texcad.brep.bands.patch_solid`).
 
     Raises:
-        GeometryError: a patch has no B-rep this way (``no_brep`` says what to write instead).
+        GeometryError: a patch has no B-rep this way (``no_brep`` names the faces; the
+            message names the mesh outputs).
     """
     from ..brep import uv_textured_solid
 
@@ -508,7 +505,7 @@ def _brep(topo: Any, patches: tuple, no_brep: str, rotation: float, fine: Any = 
             shape = _patch_brep(shape, r, pm, fine)
         return shape
     except GeometryError as e:
-        raise GeometryError(f"{no_brep}: {e}") from None
+        raise GeometryError(f"{no_brep}: {e}; the mesh is fine: export('part.stl') or export('part.3mf')") from None
 
 
 def _found(shape: Any, r: PatchRelief, pm: Any) -> PatchRelief:
