@@ -46,6 +46,7 @@ from ..printability.rule import support_free_angle
 from ..solid import Mesh, edge_report
 from ..sources import Heightmap
 from ..util import smoothstep
+from .extrusion import require_relief
 from .mesh import _gradient
 
 __all__ = [
@@ -512,6 +513,8 @@ def patch_grid(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> Patch
     from ..mapping import cell_mask, concave_convex, lay_grid, point_scales
 
     hm, periodic = texture_tile(tex, opts.pitch, opts.height)
+    if hm is not None:  # flat at this pitch: say so, not "too small" for every face
+        require_relief(hm, tex)
     tile = hm.size if (hm is not None and periodic) else None
     par = patch_param(pm, patch, tile, opts.rotation)
     pitch = hm.pitch if hm is not None else (opts.pitch, opts.pitch)
@@ -1144,6 +1147,7 @@ def patch_relief(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> Pat
     Raises:
         GeometryError: no texture is left on the patch (too small or narrow at this
             pitch, or faded / limited away), or a degenerate face.
+        ParameterError: the built-in texture is flat (0 mm everywhere) at this pitch.
     """
     from ..mapping import measure_distortion
 
