@@ -19,3 +19,62 @@ def test_a_texture_flat_at_the_pitch_is_named_on_curved_and_several_faces():
     for part, where in ((c, [top, side]), (s, s.faces()[0])):  # several faces; one sphere face
         with pytest.raises(ParameterError, match="flat .* at a pitch of 0.5 mm.*use a smaller pitch"):
             texcad.texture(part, where, "builtin:knurl_fine", pitch=0.5)
+
+
+def _split_washer():
+    """A washer whose top is two half-rings (as SolidWorks, Inventor and CATIA split
+    periodic faces): one solid, fused without merging the halves."""
+    from build123d import Compound, Cylinder, Keep, Plane, split
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Fuse
+
+    a, b = split(Cylinder(15, 4) - Cylinder(6, 4), bisect_by=Plane.XZ, keep=Keep.BOTH).solids()
+    op = BRepAlgoAPI_Fuse(a.wrapped, b.wrapped)
+    op.Build()
+    return Compound(op.Shape()).solids()[0]
+
+
+def _panel_with_a_hole():
+    """A box's top, rounded edge and side as one sheet with a vent hole in the side
+    (a sheet-metal enclosure's lid, Protocase via Autodesk): a disk with a hole."""
+    from build123d import Axis, Box, Cylinder, GeomType, Pos, Rot, fillet
+
+    b = Box(30, 24, 16)
+    b = fillet(b.edges().filter_by(Axis.Y).sort_by(Axis.X)[-2:].sort_by(Axis.Z)[-1:], 3)
+    b = b - Pos(15, 0, -2) * Rot(0, 90, 0) * Cylinder(2, 6)
+    top = b.faces().sort_by(Axis.Z)[-1]
+    side = b.faces().filter_by(GeomType.PLANE).sort_by(Axis.X)[-1]
+    bend = b.faces().filter_by(GeomType.CYLINDER).sort_by(Axis.Z)[-1]
+    return b, [top, bend, side]
+
+
+@pytest.mark.parametrize("make", ["washer", "panel"])
+def test_a_sheet_with_one_hole_is_flattened_not_refused_as_a_band(make):
+    """Faces joined into a disk with one hole have an annulus' topology (Euler
+    characteristic 0) but do not run around an axis: they were refused as 'a closed
+    band that does not run around one axis'."""
+    from build123d import Axis
+
+    if make == "washer":
+        part = _split_washer()
+        faces = list(part.faces().filter_by(Axis.Z).group_by(Axis.Z)[-1])
+        assert len(faces) == 2
+    else:
+        part, faces = _panel_with_a_hole()
+    tx = texcad.texture(part, faces, "builtin:stones", pitch=0.5, height=0.5)
+    assert tx.mesh.is_watertight
+    area = sum(f.area for f in faces)
+    assert 0.05 * area < tx.volume - part.volume < 0.5 * area  # raised stones on those faces only
+
+
+def test_a_band_around_an_axis_still_runs_around():
+    """The four sides of a box are a band around z (wraps_around), a bent sheet is not."""
+    import numpy as np
+    import trimesh
+
+    from texcad.targets.patches import wraps_around
+
+    box = trimesh.creation.box((10, 10, 10))
+    sides = np.abs(box.face_normals[:, 2]) < 0.5
+    assert wraps_around(box.vertices, box.faces[sides])
+    top_and_side = (box.face_normals[:, 2] > 0.5) | (box.face_normals[:, 0] > 0.5)
+    assert not wraps_around(box.vertices, box.faces[top_and_side])

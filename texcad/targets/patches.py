@@ -389,6 +389,25 @@ def _loop_turns(V2: np.ndarray, F: np.ndarray) -> np.ndarray:
     return np.bincount(lab, swept, k)[np.unique(lab)] / (2 * np.pi)
 
 
+#: Largest length of the area-weighted normals' sum, as a share of their summed
+#: lengths, across the least-seen direction, of faces that run around (a band).
+WRAP_RESULTANT = 0.5
+
+
+def wraps_around(V: np.ndarray, F: np.ndarray) -> bool:
+    """Whether a mesh of one annulus' topology runs around (a band: a tube, a vase, a
+    ring of a box's sides), not a sheet with one hole (a bent panel with a vent hole,
+    a flat ring split into two faces): seen across the direction its area-weighted
+    normals least see (:func:`band_axis`), a band's normals point every way and
+    nearly cancel, a sheet's mostly one way (their sum over
+    :data:`WRAP_RESULTANT` of their summed lengths)."""
+    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    a = np.linalg.eigh(fn.T @ fn)[1][:, 0]
+    across = fn - np.outer(fn @ a, a)
+    total = float(np.linalg.norm(across, axis=1).sum())
+    return total > 0 and float(np.linalg.norm(across.sum(axis=0))) < WRAP_RESULTANT * total
+
+
 def band_axis(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """The axis a closed band of faces (an annulus) runs around: the direction ``a``
     least seen by its area-weighted normals (the smallest eigenvector of
@@ -442,7 +461,7 @@ def patch_param(pm: PartMesh, patch: list, tile: "tuple | None", rotation: float
     V = m.vertices[used].astype(np.float64)
     ne = len(np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0))
     euler = len(V) - ne + len(F)
-    if euler == 0:  # a band (annulus): around an axis
+    if euler == 0 and wraps_around(V, F):  # a band (annulus) around an axis, not a sheet with one hole
         axis = band_axis(V, F)
         XY, perim = band_coordinates(V, F, axis, V.mean(axis=0))
         period = perim if tile is None else max(1, round(perim / tile[1])) * tile[1]
