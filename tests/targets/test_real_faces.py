@@ -78,3 +78,25 @@ def test_a_band_around_an_axis_still_runs_around():
     assert wraps_around(box.vertices, box.faces[sides])
     top_and_side = (box.face_normals[:, 2] > 0.5) | (box.face_normals[:, 0] > 0.5)
     assert not wraps_around(box.vertices, box.faces[top_and_side])
+
+
+def test_narrow_faces_left_untextured_are_one_warning():
+    """A fluted cap's forty flutes (gustebeast/superglue-cap nozzle) gave twenty
+    identical warnings, one per flute too narrow for the border band."""
+    import warnings
+
+    from build123d import Axis, Box, chamfer
+
+    from texcad.errors import TexcadWarning
+
+    b = Box(20, 20, 8)
+    b = chamfer(b.edges().group_by(Axis.Z)[-1], 0.6)
+    top = b.faces().sort_by(Axis.Z)[-1]
+    slopes = [f for f in b.faces() if 0.3 < f.normal_at().Z < 0.9]
+    assert len(slopes) == 4
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        tx = texcad.texture(b, [top] + slopes, "builtin:dots", pitch=0.5, height=0.4)
+    msgs = [str(w.message) for w in seen if issubclass(w.category, TexcadWarning) and "untextured" in str(w.message)]
+    assert len(msgs) == 1 and msgs[0].startswith("4 patches of faces ("), msgs
+    assert tx.volume > b.volume

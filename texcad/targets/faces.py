@@ -156,6 +156,19 @@ def patch_options(options: Options) -> PatchOptions:
     )
 
 
+def _warn_untextured(bare: list) -> None:
+    """One warning for the patches ``[(faces, GeometryError), ...]`` left untextured
+    (a fluted knob's forty narrow flutes: one line, not forty)."""
+    if not bare:
+        return
+    if len(bare) == 1:
+        warnings.warn(f"face(s) {bare[0][0]} left untextured: {bare[0][1]}", TexcadWarning, stacklevel=4)
+        return
+    faces = ", ".join(str(f) for p, _ in bare for f in p)
+    warnings.warn(f"{len(bare)} patches of faces ({faces}) left untextured; the first: {bare[0][1]}", TexcadWarning,
+                  stacklevel=4)
+
+
 class FacesAdapter(Adapter):
     """Any faces of a CAD part (the last adapter: it takes every CAD target with faces)."""
 
@@ -202,7 +215,7 @@ class FacesAdapter(Adapter):
         fp: FacesPlacement = placement.data
         pm, patches = fp.mesh, fp.patches
         opts = patch_options(options)
-        reliefs, zone_of = [], []
+        reliefs, zone_of, bare_patches = [], [], []
         for k, patch in enumerate(patches):  # per patch of smoothly joined faces
             zone = fp.zones[fp.zone_of[k]] if fp.zones else FacesZone("texture", patch, texture, opts)
             options.report(0.05 + 0.6 * k / len(patches), f"texturing face(s) {list(patch)} ({', '.join(pm.faces[i].kind for i in patch)})")
@@ -212,7 +225,8 @@ class FacesAdapter(Adapter):
             except GeometryError as e:
                 if len(patches) == 1:
                     raise
-                warnings.warn(f"face(s) {list(patch)} left untextured: {e}", TexcadWarning, stacklevel=3)
+                bare_patches.append((list(patch), e))
+        _warn_untextured(bare_patches)
         if not reliefs:
             raise GeometryError("no texture is left on any selected face: they are too small or narrow at this pitch")
         bare = sorted(set(range(len(fp.zones))) - set(zone_of)) if fp.zoned else []
