@@ -90,9 +90,9 @@ class AssemblyTextured(Textured):
     @functools.cached_property
     def other_meshes(self) -> list:
         """The other solids' meshes (their tessellation at ``tolerance`` mm), in order."""
-        from ..brep import shape_to_mesh
+        from ..brep import closed_shape_mesh
 
-        return [shape_to_mesh(s, tolerance=self.tolerance) for s in self.others]  # per kept solid
+        return [closed_shape_mesh(s, tolerance=self.tolerance) for s in self.others]  # per kept solid: healed if OCCT meshes it open
 
     @property
     def bodies(self) -> list:
