@@ -100,3 +100,26 @@ def test_narrow_faces_left_untextured_are_one_warning():
     msgs = [str(w.message) for w in seen if issubclass(w.category, TexcadWarning) and "untextured" in str(w.message)]
     assert len(msgs) == 1 and msgs[0].startswith("4 patches of faces ("), msgs
     assert tx.volume > b.volume
+
+
+def test_an_assemblys_faces_are_named_as_texcad_faces_numbers_them():
+    """A Protocase (Autodesk) enclosure of two solids: faces 52, 69, 54 of its lid were
+    reported as faces [36], [53], [38] (numbers within the lid alone)."""
+    import warnings
+
+    from build123d import Axis, Box, Compound, Pos, chamfer
+
+    from texcad.errors import TexcadWarning
+
+    lid = Pos(40, 0, 10) * chamfer(Box(20, 20, 8).edges().group_by(Axis.Z)[-1], 0.6)
+    part = Compound([Box(10, 10, 10), lid])
+    faces = part.faces()
+    top = max(range(len(faces)), key=lambda i: faces[i].center().Z)
+    slope = next(i for i, f in enumerate(faces) if 0.3 < f.normal_at().Z < 0.9)
+    assert top >= 6 and slope >= 6  # the lid's faces follow the first box's 6
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        tx = texcad.texture(part, [faces[top], faces[slope]], "builtin:dots", pitch=0.5, height=0.4)
+    msgs = [str(w.message) for w in seen if issubclass(w.category, TexcadWarning) and "untextured" in str(w.message)]
+    assert len(msgs) == 1 and msgs[0].startswith(f"face(s) [{slope}] left untextured"), msgs
+    assert [p["faces"] for p in tx.info["faces"]] == [[top]]

@@ -46,6 +46,7 @@ from ..printability.rule import support_free_angle
 from ..solid import Mesh, edge_report
 from ..sources import Heightmap
 from ..util import smoothstep
+from .cad import face_numbers
 from .extrusion import require_relief
 from .mesh import _gradient
 
@@ -1177,7 +1178,7 @@ def patch_relief(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> Pat
         surf, lim = limit_patch(g, surf, opts)
     if not textured_points(surf, g.keep).any():
         raise GeometryError(
-            f"no texture is left on the face(s) {patch}: too small or narrow for the {g.d_floor:.2f} mm border band at "
+            f"no texture is left on the face(s) {face_numbers(patch)}: too small or narrow for the {g.d_floor:.2f} mm border band at "
             f"{g.px:.3g} mm pitch (or faded / limited away); use a smaller pitch or a larger face"
         )
     grid, keep = g.grid, g.keep
