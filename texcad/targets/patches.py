@@ -409,6 +409,18 @@ def wraps_around(V: np.ndarray, F: np.ndarray) -> bool:
     return total > 0 and float(np.linalg.norm(across.sum(axis=0))) < WRAP_RESULTANT * total
 
 
+def _band_axis_or_sheet(V: np.ndarray, F: np.ndarray) -> "np.ndarray | None":
+    """The axis of a mesh of one annulus' topology that runs around it
+    (:func:`band_axis`), or None for a sheet with one hole (:func:`wraps_around`
+    false: flattened like a disk); a band around no one axis is refused."""
+    try:
+        return band_axis(V, F)
+    except GeometryError:
+        if wraps_around(V, F):
+            raise
+        return None
+
+
 def band_axis(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """The axis a closed band of faces (an annulus) runs around: the direction ``a``
     least seen by its area-weighted normals (the smallest eigenvector of
@@ -462,8 +474,8 @@ def patch_param(pm: PartMesh, patch: list, tile: "tuple | None", rotation: float
     V = m.vertices[used].astype(np.float64)
     ne = len(np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0))
     euler = len(V) - ne + len(F)
-    if euler == 0 and wraps_around(V, F):  # a band (annulus) around an axis, not a sheet with one hole
-        axis = band_axis(V, F)
+    axis = _band_axis_or_sheet(V, F) if euler == 0 else None  # an annulus: a band, or a sheet with one hole
+    if axis is not None:
         XY, perim = band_coordinates(V, F, axis, V.mean(axis=0))
         period = perim if tile is None else max(1, round(perim / tile[1])) * tile[1]
         XY = np.stack([XY[:, 1], XY[:, 0] * (period / perim)], axis=1)
