@@ -362,3 +362,17 @@ def test_specks_are_dropped_and_said():
     assert n == 1 and bodies == 1 and len(df) == len(box.faces)
     tx = texcad.texture(trimesh.Trimesh(v, f, process=False), "top", "builtin:stones", height=0.5, pitch=1.0)
     assert tx.gate.shells.bodies == 1 and "1 speck dropped" in tx.info["repaired"]
+
+
+def test_a_mesh_closed_but_non_manifold_is_not_told_to_close_holes():
+    """A FreeCAD 3MF of 18 touching plates (floookay/klappbrettle): 0 open edges, 5952
+    non-manifold ones, and the advice was 'close the holes'. Here two cubes with one
+    wall between them: its rim's 4 edges each in three triangles."""
+    a, b = trimesh.creation.box((1, 1, 1)), trimesh.creation.box((1, 1, 1))
+    b.apply_translation((1, 0, 0))
+    keep = ~np.isclose(b.triangles_center[:, 0], 0.5)  # the wall once, from the first cube
+    v = np.concatenate([a.vertices, b.vertices])
+    f = np.concatenate([a.faces, b.faces[keep] + len(a.vertices)])
+    with pytest.raises(InputError, match=r"\(0 open edges, 4 non-manifold edges\).*overlap or touch") as e:
+        repair_closed(v, f)
+    assert "close the holes" not in str(e.value)

@@ -990,15 +990,16 @@ def shape_mesh(shape: Any, *, tolerance: float = 0.05) -> "Mesh":
     detail; texcad's grid faces are meshed from their poles instead (exact: degree 1
     is bilinear between the poles), trimmed planar grid faces as their plane
     (OCCT, fast) plus the grid cells that leave it. Every other face is tessellated by
-    OCCT with ``tolerance`` mm. Not guaranteed watertight: use texcad's own meshes
-    (STL/3MF) for printing.
+    OCCT with ``tolerance`` mm; a shape without grid faces (any CAD part) healed
+    where OCCT meshes it open (:func:`texcad.brep.closed_shape_mesh`). Not guaranteed
+    watertight: use texcad's own meshes (STL/3MF) for printing.
     """
     from OCP.BRep import BRep_Builder
     from OCP.TopAbs import TopAbs_FACE
     from OCP.TopoDS import TopoDS, TopoDS_Compound
 
     from ..solid.mesh import Mesh, grid_faces
-    from .tessellation import shape_to_mesh
+    from .tessellation import closed_shape_mesh, shape_to_mesh
 
     topo = to_topods(shape)
     rest = TopoDS_Compound()
@@ -1027,8 +1028,8 @@ def shape_mesh(shape: Any, *, tolerance: float = 0.05) -> "Mesh":
             tri = tri[:, ::-1]
         used, tri = np.unique(tri, return_inverse=True)  # drop vertices of cells left out
         parts.append((grid.reshape(-1, 3)[used], tri.reshape(-1, 3)))
-    if n_rest:
-        m = shape_to_mesh(rest, tolerance=tolerance)
+    if n_rest:  # a part with no grid face: healed where OCCT meshes it open, as texcad check shows it
+        m = closed_shape_mesh(topo, tolerance=tolerance) if not parts else shape_to_mesh(rest, tolerance=tolerance)
         parts.append((m.vertices.astype(np.float64), m.faces.astype(np.int64)))
     if not parts:
         raise GeometryError("the shape has no faces to mesh")

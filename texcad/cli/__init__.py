@@ -15,9 +15,10 @@ import os
 import pkgutil
 import re
 import sys
+import warnings
 from typing import Callable, Sequence
 
-from ..errors import TexcadError
+from ..errors import TexcadError, TexcadWarning
 from ._signals import Terminated, signals_unwind
 
 __all__ = ["main", "entry", "build_parser", "commands"]
@@ -63,6 +64,25 @@ def _join_negative_values(argv: Sequence[str]) -> list[str]:
     return out
 
 
+@contextlib.contextmanager
+def _one_line_warnings():
+    """Texcad's warnings formatted as ``texcad: warning: ...`` on one line (Python's
+    default adds the library's file, line number and source line); any other
+    warning as Python formats it. Whoever records warnings still gets them."""
+    formatted = warnings.formatwarning
+
+    def format_one(message, category, filename, lineno, line=None):  # warnings.formatwarning's signature
+        if issubclass(category, TexcadWarning):
+            return f"texcad: warning: {message}\n"
+        return formatted(message, category, filename, lineno, line)
+
+    warnings.formatwarning = format_one
+    try:
+        yield
+    finally:
+        warnings.formatwarning = formatted
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit status (2: a texcad error, printed on one line;
     130: interrupted; 128 + the signal for SIGTERM and SIGHUP; 141: the output's reader
@@ -71,7 +91,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(_join_negative_values(sys.argv[1:] if argv is None else list(argv)))
     func: Callable[[argparse.Namespace], int] = args.func
     try:
-        with signals_unwind():
+        with signals_unwind(), _one_line_warnings():
             return func(args)
     except TexcadError as exc:
         print(f"texcad: error: {exc}", file=sys.stderr)

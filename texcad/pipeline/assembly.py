@@ -85,14 +85,17 @@ class AssemblyTextured(Textured):
     def __init__(self, textured: Textured, split: AssemblySplit, tolerance: float = 0.01) -> None:
         super().__init__(textured.stages)
         self.info = dict(textured.info, solid=split.index, solids=split.count)
+        for key in ("faces", "zone_reliefs"):  # the patches' faces as texcad faces numbers the assembly's
+            if isinstance(self.info.get(key), list) and split.face_numbers:
+                self.info[key] = _renumbered(self.info[key], split.face_numbers)
         self.solid_index, self.others, self.tolerance = split.index, split.others, tolerance
 
     @functools.cached_property
     def other_meshes(self) -> list:
         """The other solids' meshes (their tessellation at ``tolerance`` mm), in order."""
-        from ..brep import shape_to_mesh
+        from ..brep import closed_shape_mesh
 
-        return [shape_to_mesh(s, tolerance=self.tolerance) for s in self.others]  # per kept solid
+        return [closed_shape_mesh(s, tolerance=self.tolerance) for s in self.others]  # per kept solid: healed if OCCT meshes it open
 
     @property
     def bodies(self) -> list:
@@ -121,6 +124,13 @@ class AssemblyTextured(Textured):
 
     def __repr__(self) -> str:
         return f"{Textured.__repr__(self)[:-1]}, solid {self.solid_index} of {len(self.others) + 1})"
+
+
+def _renumbered(items: list, numbers: tuple) -> list:
+    """``items`` (dicts of a result's info) with each ``"faces"`` list of face indices
+    of the solid mapped through ``numbers`` (new dicts; the rest as they are)."""
+    return [dict(d, faces=[int(numbers[i]) for i in d["faces"]]) if isinstance(d, dict) and isinstance(d.get("faces"), list)
+            else d for d in items]  # fmt: skip
 
 
 def assembly_result(textured: Textured, split: AssemblySplit, *, tolerance: float = 0.01) -> AssemblyTextured:

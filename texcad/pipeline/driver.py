@@ -25,7 +25,7 @@ from ..solid import Mesh
 from ..targets import ADAPTERS, Decline
 from ..targets.assembly import assembly_split
 from ..targets.budget import require_faces_memory
-from ..targets.cad import named_where
+from ..targets.cad import FACE_NUMBERS, named_where
 from ..util import memory_limit
 from .assembly import assembly_result
 from .result import Textured
@@ -59,7 +59,11 @@ def run(target: Any, where: Any, texture: Any, options: Options) -> Textured:
     where = named_where(target, where)  # "top", "cylinder:all": the command line's face selectors
     split = assembly_split(target, where)  # several solids: the one that owns the faces alone, the others kept
     if split is not None:
-        return assembly_result(run(split.solid, where, texture, options), split)
+        numbered = FACE_NUMBERS.set(split.face_numbers)  # messages name faces as texcad faces lists the assembly's
+        try:
+            return assembly_result(run(split.solid, where, texture, options), split)
+        finally:
+            FACE_NUMBERS.reset(numbered)
     with memory_limit(options.max_memory):
         require_faces_memory(target, where, texture, options)  # CAD faces: memory estimated before any allocation
         declined = None

@@ -207,10 +207,13 @@ def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-
     tri, same = _edge_pairs(f)
     if tri is None:
         bad = edge_report(f)
+        what = ("close the holes" if bad["boundary"] else
+                "its non-manifold edges (each in more than two triangles) are objects or walls that overlap or "
+                "touch, or a surface folded onto itself: make one closed surface per body")
         raise InputError(
             f"{name} is not closed after repair ({bad['boundary']} open edges, {bad['nonmanifold']} non-manifold "
-            "edges); texcad textures closed solids: close the holes (e.g. in the CAD program or a mesh repair "
-            "tool) and export it again"
+            f"edges); texcad textures closed solids: {what} (e.g. in the CAD program or a mesh repair tool) and "
+            "export it again"
         )
     flip, body = _parity(tri, same, len(f))
     if np.any(same ^ flip[tri[:, 0]] ^ flip[tri[:, 1]]):

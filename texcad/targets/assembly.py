@@ -23,11 +23,14 @@ class AssemblySplit:
         index: that solid's index among the target's solids (explorer order, from 0).
         solid: that solid (OCP ``TopoDS_Solid``), textured alone.
         others: the other solids (``TopoDS_Solid``), in order, kept as they are.
+        face_numbers: for each face of ``solid`` (explorer order) its number among
+            the assembly's faces, as ``texcad faces`` lists them.
     """
 
     index: int
     solid: Any
     others: tuple
+    face_numbers: tuple = ()
 
     @property
     def count(self) -> int:
@@ -72,4 +75,18 @@ def assembly_split(target: Any, where: Any) -> "AssemblySplit | None":
             "at a time (its solids are part.solids(), numbered from 0; texcad faces PART.step lists them)"
         )
     k = owners.pop()
-    return AssemblySplit(k, solids[k], tuple(s for j, s in enumerate(solids) if j != k))
+    return AssemblySplit(k, solids[k], tuple(s for j, s in enumerate(solids) if j != k), _face_numbers(topo, solids[k]))
+
+
+def _face_numbers(topo: Any, solid: Any) -> tuple:
+    """For each face of ``solid`` its number among the faces of ``topo`` (OCCT's
+    indexed map: the order of ``part.faces()`` and ``texcad faces``)."""
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    from ..brep.occt import explore
+
+    index = TopTools_IndexedMapOfShape()
+    TopExp.MapShapes_s(topo, TopAbs_FACE, index)
+    return tuple(index.FindIndex(f) - 1 for f in explore(solid, TopAbs_FACE))

@@ -7,6 +7,7 @@ base, the selected faces' triangles as the selected surface). Lengths in mm.
 from __future__ import annotations
 
 import os
+from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import Any
 
@@ -17,11 +18,24 @@ from ..contracts import Stages
 from ..errors import GeometryError, ParameterError
 
 __all__ = ["named_where", "selected_faces", "CadPart", "CadZone", "ZONE_OPTIONS", "cad_part", "cad_zones", "face_list", "is_cad_target", "is_zones",
-           "zone_options"]
+           "zone_options", "FACE_NUMBERS", "face_numbers"]
 
 #: The options a zone of a CAD part may set for itself (the rest are the call's: one
 #: build direction, one B-rep for the whole part).
 ZONE_OPTIONS = ("height", "pitch", "mode", "depth", "edge_angle", "rotation", "tolerance", "gradient", "mask", "mask_size")
+
+
+#: While one solid of an assembly is textured alone: for each of its faces the
+#: number ``texcad faces`` gives it among the assembly's faces (messages name those).
+FACE_NUMBERS: ContextVar = ContextVar("texcad_face_numbers", default=None)
+
+
+def face_numbers(ids: Any) -> list:
+    """The face indices ``ids`` of the part being textured as the user numbers them:
+    the assembly's numbers while one of its solids is textured alone
+    (:data:`FACE_NUMBERS`), else as they are."""
+    table = FACE_NUMBERS.get()
+    return [int(i) if table is None or int(i) >= len(table) else int(table[int(i)]) for i in ids]
 
 
 @dataclass(frozen=True)

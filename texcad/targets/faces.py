@@ -58,7 +58,8 @@ from ..report.gate import Expectation
 from ..solid import Mesh, from_manifold, to_manifold
 from ..solid.boolean import welded_mesh
 from .base import Adapter
-from .cad import CadPart, body_count, cad_part, cad_zones, face_list, is_cad_target, is_zones, selected_surface, tessellation, zone_options
+from .cad import (CadPart, body_count, cad_part, cad_zones, face_list, face_numbers, is_cad_target, is_zones, selected_surface,
+                  tessellation, zone_options)
 from ..solid.weld import welded
 from .patches import FADE_FULL, PatchOptions, PatchRelief, patch_relief, smooth_patches
 
@@ -156,6 +157,19 @@ def patch_options(options: Options) -> PatchOptions:
     )
 
 
+def _warn_untextured(bare: list) -> None:
+    """One warning for the patches ``[(faces, GeometryError), ...]`` left untextured
+    (a fluted knob's forty narrow flutes: one line, not forty)."""
+    if not bare:
+        return
+    if len(bare) == 1:
+        warnings.warn(f"face(s) {bare[0][0]} left untextured: {bare[0][1]}", TexcadWarning, stacklevel=4)
+        return
+    faces = ", ".join(str(f) for p, _ in bare for f in p)
+    warnings.warn(f"{len(bare)} patches of faces ({faces}) left untextured; the first: {bare[0][1]}", TexcadWarning,
+                  stacklevel=4)
+
+
 class FacesAdapter(Adapter):
     """Any faces of a CAD part (the last adapter: it takes every CAD target with faces)."""
 
@@ -202,17 +216,18 @@ class FacesAdapter(Adapter):
         fp: FacesPlacement = placement.data
         pm, patches = fp.mesh, fp.patches
         opts = patch_options(options)
-        reliefs, zone_of = [], []
+        reliefs, zone_of, bare_patches = [], [], []
         for k, patch in enumerate(patches):  # per patch of smoothly joined faces
             zone = fp.zones[fp.zone_of[k]] if fp.zones else FacesZone("texture", patch, texture, opts)
-            options.report(0.05 + 0.6 * k / len(patches), f"texturing face(s) {list(patch)} ({', '.join(pm.faces[i].kind for i in patch)})")
+            options.report(0.05 + 0.6 * k / len(patches), f"texturing face(s) {face_numbers(patch)} ({', '.join(pm.faces[i].kind for i in patch)})")
             try:
                 reliefs.append(patch_relief(pm, list(patch), zone.texture, zone.options))
                 zone_of.append(fp.zone_of[k] if fp.zones else 0)
             except GeometryError as e:
                 if len(patches) == 1:
                     raise
-                warnings.warn(f"face(s) {list(patch)} left untextured: {e}", TexcadWarning, stacklevel=3)
+                bare_patches.append((face_numbers(patch), e))
+        _warn_untextured(bare_patches)
         if not reliefs:
             raise GeometryError("no texture is left on any selected face: they are too small or narrow at this pitch")
         bare = sorted(set(range(len(fp.zones))) - set(zone_of)) if fp.zoned else []
@@ -364,7 +379,7 @@ def _warn(reliefs: list) -> None:
     if faded:
         warnings.warn(
             f"the texture fades out on {100 * max(r.distortion.faded_fraction for r in faded):.1f} % of face(s) "
-            f"{[r.info['faces'] for r in faded]}: the texture scale there leaves [{FADE_FULL}, {1 / FADE_FULL:.2f}] "
+            f"{[face_numbers(r.info['faces']) for r in faded]}: the texture scale there leaves [{FADE_FULL}, {1 / FADE_FULL:.2f}] "
             "(a pole, a needle-thin region)",
             TexcadWarning,
             stacklevel=4,
@@ -537,7 +552,7 @@ def _patch_brep(shape: Any, r: PatchRelief, pm: Any, fine: Any = None) -> Any:
     out = patch_solid(shape, [face_in(shape, pm.faces[i].face) for i in r.faces], g.points, g.normals, top, r.cells, wrap=bool(g.wrap_y),
                       signed=bool(r.signed), chord=TESSELLATION, fine=boxes or None)
     if out is None:
-        raise GeometryError(f"faces {r.info['faces']} were flattened together and OCCT did not cut their walls")
+        raise GeometryError(f"faces {face_numbers(r.info['faces'])} were flattened together and OCCT did not cut their walls")
     return out
 
 

@@ -140,6 +140,25 @@ def load_closed(target: Any, *, crossing: bool = True) -> tuple[np.ndarray, np.n
     return v, f, bodies, info
 
 
+#: Pitches the largest extent of a mesh part must span: a smaller part has no room
+#: for a texture (and was most likely written in metres or inches).
+MIN_PITCHES = 4
+
+
+def require_size(v: np.ndarray, name: str, pitch: float) -> None:
+    """InputError when the part ``v`` (``(N, 3)`` mm) spans under :data:`MIN_PITCHES`
+    pitches along every axis: no texture fits on it (a mesh in metres, from a game
+    engine or a scan, reads as mm; an OBJ has no unit)."""
+    size = np.ptp(v, axis=0)
+    if float(size.max()) < MIN_PITCHES * pitch:
+        dims = " x ".join(f"{s:.3g}" for s in size)
+        raise InputError(
+            f"{name} is {dims} mm: under {MIN_PITCHES} pitches ({MIN_PITCHES * pitch:g} mm), no texture fits on it. "
+            "If it was written in metres (or inches), scale it to mm first (x1000, or x25.4: e.g. trimesh's "
+            "mesh.apply_scale); else use a smaller pitch"
+        )
+
+
 def _name(target: Any) -> str:
     return repr(os.fspath(target)) if isinstance(target, (str, os.PathLike)) else "the mesh"
 
@@ -741,6 +760,7 @@ class MeshAdapter(Adapter):
         layers = tuple(replace(layer, region=r) for layer, r in zip(layers, regions))
         options.report(0.0, "reading the mesh")
         v, f, bodies, info = load_closed(target, crossing=False)
+        require_size(v, _name(target), options.pitch)
         if bodies > 1 or options.union:  # overlapping or touching bodies: refused, or united on request
             v, f, bodies = _separate_bodies(v, f, bodies, info, _name(target), options.union)
         if painted is None:  # small self-intersections resolved (issue 27); paint follows face numbers: not re-meshed

@@ -46,6 +46,8 @@ from ..printability.rule import support_free_angle
 from ..solid import Mesh, edge_report
 from ..sources import Heightmap
 from ..util import smoothstep
+from .cad import face_numbers
+from .extrusion import require_relief
 from .mesh import _gradient
 
 __all__ = [
@@ -388,6 +390,37 @@ def _loop_turns(V2: np.ndarray, F: np.ndarray) -> np.ndarray:
     return np.bincount(lab, swept, k)[np.unique(lab)] / (2 * np.pi)
 
 
+#: Largest length of the area-weighted normals' sum, as a share of their summed
+#: lengths, across the least-seen direction, of faces that run around (a band).
+WRAP_RESULTANT = 0.5
+
+
+def wraps_around(V: np.ndarray, F: np.ndarray) -> bool:
+    """Whether a mesh of one annulus' topology runs around (a band: a tube, a vase, a
+    ring of a box's sides), not a sheet with one hole (a bent panel with a vent hole,
+    a flat ring split into two faces): seen across the direction its area-weighted
+    normals least see (:func:`band_axis`), a band's normals point every way and
+    nearly cancel, a sheet's mostly one way (their sum over
+    :data:`WRAP_RESULTANT` of their summed lengths)."""
+    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    a = np.linalg.eigh(fn.T @ fn)[1][:, 0]
+    across = fn - np.outer(fn @ a, a)
+    total = float(np.linalg.norm(across, axis=1).sum())
+    return total > 0 and float(np.linalg.norm(across.sum(axis=0))) < WRAP_RESULTANT * total
+
+
+def _band_axis_or_sheet(V: np.ndarray, F: np.ndarray) -> "np.ndarray | None":
+    """The axis of a mesh of one annulus' topology that runs around it
+    (:func:`band_axis`), or None for a sheet with one hole (:func:`wraps_around`
+    false: flattened like a disk); a band around no one axis is refused."""
+    try:
+        return band_axis(V, F)
+    except GeometryError:
+        if wraps_around(V, F):
+            raise
+        return None
+
+
 def band_axis(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """The axis a closed band of faces (an annulus) runs around: the direction ``a``
     least seen by its area-weighted normals (the smallest eigenvector of
@@ -441,8 +474,8 @@ def patch_param(pm: PartMesh, patch: list, tile: "tuple | None", rotation: float
     V = m.vertices[used].astype(np.float64)
     ne = len(np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0))
     euler = len(V) - ne + len(F)
-    if euler == 0:  # a band (annulus): around an axis
-        axis = band_axis(V, F)
+    axis = _band_axis_or_sheet(V, F) if euler == 0 else None  # an annulus: a band, or a sheet with one hole
+    if axis is not None:
         XY, perim = band_coordinates(V, F, axis, V.mean(axis=0))
         period = perim if tile is None else max(1, round(perim / tile[1])) * tile[1]
         XY = np.stack([XY[:, 1], XY[:, 0] * (period / perim)], axis=1)
@@ -512,6 +545,8 @@ def patch_grid(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> Patch
     from ..mapping import cell_mask, concave_convex, lay_grid, point_scales
 
     hm, periodic = texture_tile(tex, opts.pitch, opts.height)
+    if hm is not None:  # flat at this pitch: say so, not "too small" for every face
+        require_relief(hm, tex)
     tile = hm.size if (hm is not None and periodic) else None
     par = patch_param(pm, patch, tile, opts.rotation)
     pitch = hm.pitch if hm is not None else (opts.pitch, opts.pitch)
@@ -1144,6 +1179,7 @@ def patch_relief(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> Pat
     Raises:
         GeometryError: no texture is left on the patch (too small or narrow at this
             pitch, or faded / limited away), or a degenerate face.
+        ParameterError: the built-in texture is flat (0 mm everywhere) at this pitch.
     """
     from ..mapping import measure_distortion
 
@@ -1154,7 +1190,7 @@ def patch_relief(pm: PartMesh, patch: list, tex: Any, opts: PatchOptions) -> Pat
         surf, lim = limit_patch(g, surf, opts)
     if not textured_points(surf, g.keep).any():
         raise GeometryError(
-            f"no texture is left on the face(s) {patch}: too small or narrow for the {g.d_floor:.2f} mm border band at "
+            f"no texture is left on the face(s) {face_numbers(patch)}: too small or narrow for the {g.d_floor:.2f} mm border band at "
             f"{g.px:.3g} mm pitch (or faded / limited away); use a smaller pitch or a larger face"
         )
     grid, keep = g.grid, g.keep

@@ -1,0 +1,34 @@
+"""The command line as a user reads it on real parts (session 9, real files)."""
+
+import subprocess
+import sys
+import warnings
+
+from texcad.errors import TexcadWarning
+
+
+def test_warnings_print_on_one_line_without_the_library_source(tmp_path):
+    """A warning on the command line read '/.../texcad/pipeline/driver.py:62:
+    TexcadWarning: ...' followed by a line of texcad's source; now 'texcad: warning: ...'."""
+    from build123d import Box, Compound, Pos, export_step
+
+    export_step(Compound([Box(10, 10, 5), Pos(9, 0, 0) * Box(10, 10, 5)]), str(tmp_path / "two.step"))
+    r = subprocess.run([sys.executable, "-m", "texcad", "texture", str(tmp_path / "two.step"), "--face", "4",
+                        "--pitch", "0.5", "-o", str(tmp_path / "out.stl")], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    lines = [s for s in r.stderr.splitlines() if not s.startswith("[")]  # progress lines aside
+    assert lines and lines[0].startswith("texcad: warning: the assembly's solids meet"), r.stderr
+    assert not any(".py:" in s or "TexcadWarning" in s or s.startswith("  ") for s in lines), r.stderr
+
+
+def test_other_warnings_and_recorders_are_left_as_they_were():
+    from texcad.cli import _one_line_warnings
+
+    with _one_line_warnings():
+        assert warnings.formatwarning(TexcadWarning("x"), TexcadWarning, "f.py", 1) == "texcad: warning: x\n"
+        assert "f.py:1: UserWarning: y" in warnings.formatwarning(UserWarning("y"), UserWarning, "f.py", 1)
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always")
+            warnings.warn("z", TexcadWarning)
+        assert [str(w.message) for w in seen] == ["z"]
+    assert "TexcadWarning" in warnings.formatwarning(TexcadWarning("x"), TexcadWarning, "f.py", 1)
