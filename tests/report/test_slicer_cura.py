@@ -156,6 +156,27 @@ def test_skin_gap_area_sees_only_gaps_the_skin_can_see():
     assert CURA_SINGLE_RUN_SETTINGS.items() <= cura_settings(tall).items()
 
 
+def test_skin_gap_area_stops_at_the_first_gap_past_its_limit(monkeypatch):
+    """With ``limit`` (what :func:`cura_settings` asks) the cross-sections are made
+    from the bottom up and stop at the first run where a gap passes it: a 120 mm tall
+    part with a thin slot 4 mm up is decided from its lowest few mm (a 118 mm tap
+    handle took 51 CPU-s for every cross-section), with the same figure."""
+    import importlib
+
+    from build123d import Box, Cylinder, Pos
+
+    ex = importlib.import_module("texcad.io.export")  # the module (texcad.io.export is also its function)
+
+    part = Cylinder(8, 120) - Pos(0, 0, -56) * Box(20, 20, 0.6)
+    m = texcad.brep.shape_to_mesh(part)
+    made = []
+    real = ex._SkinOffsets.__call__
+    monkeypatch.setattr(ex._SkinOffsets, "__call__", lambda self, k: made.append(k) or real(self, k))
+    limited = ex.skin_gap_area(m, limit=ex.SKIN_GAP_AREA)
+    assert limited > 10.0 and max(made) < 250  # of 1200 cross-sections
+    assert ex.skin_gap_area(m) == pytest.approx(limited, rel=1e-9)
+
+
 @cura
 def test_no_skin_in_z_gaps_gives_the_same_gcode_in_less_time(tmp_path):
     """A 30 mm stones plate at 1 mm pitch, 2 mm high (islands of stones over the

@@ -668,7 +668,7 @@ SKIN_GAP_AREA = 0.01
 
 
 def skin_gap_area(mesh: Mesh, build_dir=None, *, inset: float = SKIN_INSET, reach: float = SKIN_REACH,
-                  window: float = SKIN_WINDOW, step: float = SKIN_STEP) -> float:
+                  window: float = SKIN_WINDOW, step: float = SKIN_STEP, limit: float | None = None) -> float:
     """The largest area (mm^2) of one cross-section of ``mesh`` (mm) printed along
     ``build_dir`` (None: +z) where CuraEngine 4.13's skin could differ with "no skin
     in z gaps": 0 where it is the same on every layer.
@@ -682,27 +682,65 @@ def skin_gap_area(mesh: Mesh, build_dir=None, *, inset: float = SKIN_INSET, reac
     along the build direction that reaches deeper than the walls and is thinner than
     the top thickness. Gaps in the walls' depth (between the bumps of a knurl on a
     side) or taller than the window change nothing. Cross-sections every ``step``
-    mm; the unions over the window are made in blocks of its length, two per
-    cross-section (van Herk / Gil-Werman). A mesh that is not one closed solid:
-    infinity."""
-    import manifold3d as m3d
-
+    mm, from the bottom up in runs of :data:`_SKIN_RUN` windows; the unions over
+    the window are made in blocks of its length, two per cross-section (van Herk /
+    Gil-Werman). ``limit`` (mm^2): stop at the first run where an area passes it
+    (the figure returned is then above ``limit``, not necessarily the largest). A
+    mesh that is not one closed solid: infinity."""
     try:
         man = _upright(mesh, build_dir)[0]
     except GeometryError:
         return float("inf")
     lo, hi = man.bounding_box()[2], man.bounding_box()[5]
-    sections = [man.slice(float(z)) for z in lo + np.arange(step / 2, hi - lo, step)]  # per cross-section
-    deep = [s.offset(-inset, m3d.JoinType.Miter) for s in sections]
-    near = [s.offset(reach, m3d.JoinType.Miter) for s in sections]
+    heights = lo + np.arange(step / 2, hi - lo, step)
     w = max(1, int(round(window / step)))
-    deep_below, deep_above = _window_unions(deep, w)
-    near_below, near_above = _window_unions(near, w)
+    offsets = _SkinOffsets(man, heights, inset, reach)
+    worst, run = 0.0, _SKIN_RUN * w
+    for s in range(0, len(heights), run):  # per run of cross-sections, from the bottom up
+        worst = max(worst, _skin_gaps(offsets, s, min(len(heights), s + run), w))
+        if limit is not None and worst > limit:
+            break
+    return worst
+
+
+#: Windows of cross-sections :func:`skin_gap_area` takes at a time before it may stop.
+_SKIN_RUN = 8
+
+
+class _SkinOffsets:
+    """The cross-sections of an upright manifold at ``heights`` (mm), each grown
+    inwards by ``inset`` and outwards by ``reach`` mm, made once on first use."""
+
+    def __init__(self, man, heights: np.ndarray, inset: float, reach: float) -> None:
+        self.man, self.heights, self.inset, self.reach = man, heights, inset, reach
+        self.made: dict = {}
+
+    def __call__(self, k: int) -> tuple:
+        """``(section k, deep: inset inwards, near: reach outwards)``."""
+        import manifold3d as m3d
+
+        if k not in self.made:
+            s = self.man.slice(float(self.heights[k]))
+            self.made[k] = (s, s.offset(-self.inset, m3d.JoinType.Miter), s.offset(self.reach, m3d.JoinType.Miter))
+        return self.made[k]
+
+
+def _skin_gaps(offsets: _SkinOffsets, a: int, b: int, w: int) -> float:
+    """The largest skin-gap area (:func:`skin_gap_area`) of cross-sections ``a:b``,
+    their windows of ``w`` on either side taken from ``offsets``; the sections no
+    later run needs are dropped."""
+    lo, hi = max(0, a - w), min(len(offsets.heights), b + w)
+    got = [offsets(k) for k in range(lo, hi)]
+    deep_below, deep_above = _window_unions([g[1] for g in got], w)
+    near_below, near_above = _window_unions([g[2] for g in got], w)
     worst = 0.0
-    for j in range(len(sections)):  # per cross-section
-        top = ((deep_below[j] - near[j]) ^ near_above[j]).area()
-        bottom = ((deep_above[j] - near[j]) ^ near_below[j]).area()
+    for j in range(a - lo, b - lo):  # per cross-section of the run
+        near = got[j][2]
+        top = ((deep_below[j] - near) ^ near_above[j]).area()
+        bottom = ((deep_above[j] - near) ^ near_below[j]).area()
         worst = max(worst, top, bottom)
+    for k in range(lo, b - w):  # below the next run's window
+        offsets.made.pop(k, None)
     return worst
 
 
@@ -748,7 +786,7 @@ def cura_settings(mesh: Mesh | None = None, build_dir=None, *, textured: bool = 
     if not textured:
         return {}
     out = dict(CURA_TEXTURE_SETTINGS)
-    if mesh is not None and (single_run(mesh, build_dir) or skin_gap_area(mesh, build_dir) <= SKIN_GAP_AREA):
+    if mesh is not None and (single_run(mesh, build_dir) or skin_gap_area(mesh, build_dir, limit=SKIN_GAP_AREA) <= SKIN_GAP_AREA):
         out.update(CURA_SINGLE_RUN_SETTINGS)
     return out
 
@@ -977,10 +1015,10 @@ def export(obj: Any, path: str | os.PathLike, *, separate_texture: bool = False,
         meshes: Any = [("base", obj.base_mesh), ("texture", obj.texture_mesh)] if separate_texture else obj.mesh
     elif isinstance(obj, Mesh) or isinstance(obj, (list, tuple)):
         meshes = obj
-    else:
-        from ..brep import shape_to_mesh
+    else:  # a CAD shape: healed where OCCT meshes it open, as texcad textures and checks parts
+        from ..brep import closed_shape_mesh
 
-        meshes = shape_to_mesh(obj)
+        meshes = closed_shape_mesh(obj)
     if suffix == ".stl":
         if not isinstance(meshes, Mesh):
             raise ParameterError("an STL holds one mesh; write several objects as .3mf")
