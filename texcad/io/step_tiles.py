@@ -1023,6 +1023,8 @@ def _wall_links(shape, tiles: list, grids: list) -> dict:
     two surfaces' poles there the same (to 1e-9 mm), their ``v`` knots the same and both
     faces the same way round in the shell: the two are one degree-1 ruled strip over
     ``u`` (its grid columns end to end), cut apart at the ruling."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom2d import Geom2d_Line
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
     from OCP.TopExp import TopExp
     from OCP.TopoDS import TopoDS
@@ -1039,6 +1041,8 @@ def _wall_links(shape, tiles: list, grids: list) -> dict:
         face, (g, u, v) = tiles[i][1], grids[i]
         for e in explore(face, TopAbs_EDGE):  # its edges (four or five)
             e = TopoDS.Edge_s(e)
+            if not isinstance(BRep_Tool.CurveOnSurface_s(e, face, 0.0, 0.0), Geom2d_Line):  # not a ruling
+                continue
             owners = [TopoDS.Face_s(f) for f in ancestors.FindFromKey(e)]
             if len(owners) != 2 or _iso(e, face) != (0, float(round(u[-1], 12))):
                 continue
