@@ -403,7 +403,7 @@ def _merged(shape, cells: int, trimmed: bool = False):
         return shape
     ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
     TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
-    plans = _merge_plans(groups, tiles, grids, ancestors, trimmed)
+    plans = _merge_plans(groups, tiles, grids, trimmed)
     seen, along = _reparametrised(plans, tiles, ancestors)
     reshape = BRepTools_ReShape()
     for plan in plans:  # one per merged rectangle
@@ -415,7 +415,7 @@ def _merged(shape, cells: int, trimmed: bool = False):
     return reshape.Apply(shape)
 
 
-def _merge_plans(groups: list, tiles: list, grids: list, ancestors, trimmed: bool) -> list:
+def _merge_plans(groups: list, tiles: list, grids: list, trimmed: bool) -> list:
     """``(group, U0, U, G, V, outline, chain)`` per rectangle of tiles that
     :func:`_merged` merges: the tiles' knots ``U0`` / ``V`` and the merged tile's
     ``U`` (placed again where the tiles were placed each), the poles ``G``, and its
@@ -439,24 +439,25 @@ def _merge_plans(groups: list, tiles: list, grids: list, ancestors, trimmed: boo
         for a in group:  # one per tile of the rectangle
             g, u, v = grids[a]
             G[np.ix_(np.searchsorted(V, v), np.searchsorted(U0, u))] = g
-        loop = _outline_loop(group, tiles, ancestors, vertices)
+        loop = _outline_loop(group, tiles, vertices)
         if loop is not None:
             plans.append((group, U0, U, G, V, *loop))
     return plans
 
 
-def _outline_loop(group: list, tiles: list, ancestors, vertices) -> "tuple | None":
+def _outline_loop(group: list, tiles: list, vertices) -> "tuple | None":
     """``(outline, chain)``: the outer edges of the tiles ``group`` (each as in its
     forward tile, with that tile) and their order around the one loop they make, or
     None where they make no simple loop."""
-    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FORWARD
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD
     from OCP.TopExp import TopExp, TopExp_Explorer
     from OCP.TopoDS import TopoDS
-    from OCP.TopTools import TopTools_IndexedMapOfShape
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
 
-    members = TopTools_IndexedMapOfShape()
-    for a in group:  # one per tile of the rectangle
-        members.Add(tiles[a][1])
+    from ..brep.occt import compound
+
+    inside = TopTools_IndexedDataMapOfShapeListOfShape()  # the group's edges and their tiles in it
+    TopExp.MapShapesAndAncestors_s(compound([tiles[a][1] for a in group]), TopAbs_EDGE, TopAbs_FACE, inside)
     outline = []  # (edge as in its forward tile, that tile)
     for a in group:  # one per tile of the rectangle
         fwd = TopoDS.Face_s(tiles[a][1].Oriented(TopAbs_FORWARD))
@@ -464,7 +465,7 @@ def _outline_loop(group: list, tiles: list, ancestors, vertices) -> "tuple | Non
         while exp.More():  # one per edge of the tile
             e = TopoDS.Edge_s(exp.Current())
             exp.Next()
-            if sum(members.Contains(f) for f in ancestors.FindFromKey(e)) < 2:
+            if inside.FindFromKey(e).Size() < 2:
                 outline.append((e, fwd))
     start = {}
     for k, (e, _) in enumerate(outline):  # one per outer edge
