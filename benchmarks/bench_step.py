@@ -301,14 +301,20 @@ def _corner_parts() -> dict:
     """Faces flattened together whose outline turns a corner
     (``tests/brep/test_band_corners.py``), as ``{name: (part, faces)}``: a 24 x 18 x 8
     mm box, its top edges rounded r 2, its top and the two fillets that meet at a
-    mitre; a cylinder r 10 x 8 mm, its top edge rounded r 2, its cap and that fillet."""
-    from build123d import Axis, Box, Cylinder, GeomType, fillet
+    mitre; a cylinder r 10 x 8 mm, its top edge rounded r 2, its cap and that fillet;
+    an L plate (outline (0, 0), (30, 0), (30, 12), (12, 12), (12, 30), (0, 30), 6 mm
+    thick), its top edges rounded r 2, its top and those fillets (a concave mitre at
+    the inner corner)."""
+    from build123d import Axis, Box, Cylinder, GeomType, Polyline, extrude, fillet, make_face
 
     box = fillet(Box(24, 18, 8).edges().group_by()[-1], 2)
     cap = fillet(Cylinder(10, 8).edges().sort_by(Axis.Z)[-1:], 2)
+    outline = Polyline((0, 0), (30, 0), (30, 12), (12, 12), (12, 30), (0, 30), close=True)
+    plate = fillet(extrude(make_face(outline), 6).edges().group_by()[-1], 2)
     return {
         "mitre": (box, [box.faces().sort_by()[-1], *box.faces().filter_by(GeomType.CYLINDER)[:2]]),
         "cap": (cap, [cap.faces().sort_by()[-1], *cap.faces().filter_by(GeomType.TORUS)]),
+        "lplate": (plate, [plate.faces().sort_by()[-1], *plate.faces().filter_by(GeomType.CYLINDER)]),
     }
 
 
@@ -381,7 +387,8 @@ def run_sizes(out: Path, size: float, table: str | None, only: list | None = Non
                  "band": "box 30 x 20 x 10 mm, vertical edges rounded r 4: its 4 sides and 4 rounded edges textured together (a band), the same",
                  "flattened": "box 30 x 20 x 10 mm, a top edge rounded r 4, top, fillet and side flattened together, the same",
                  "mitre": "box 24 x 18 x 8 mm, top edges rounded r 2: top and the two fillets meeting at a mitre, the same",
-                 "cap": "cylinder r 10 x 8 mm, top edge rounded r 2: cap and fillet flattened together, the same"}  # fmt: skip
+                 "cap": "cylinder r 10 x 8 mm, top edge rounded r 2: cap and fillet flattened together, the same",
+                 "lplate": "L plate 30 x 30 x 6 mm (12 mm arms), top edges rounded r 2: top and fillets, the same"}  # fmt: skip
         lines = [
             "# STEP size and re-read time",
             "",

@@ -211,8 +211,9 @@ def test_corner_step_at_the_tolerance_meshes_closed(tmp_path):
     face pieces kept beside the walls are cut short (texcad.brep.bands._cut_slivers):
     uncut, a fillet's sliver along a saw-tooth of walls, and the arm of it along the
     fillet's end, got triangles across the tiles' side and the mesh was open (every
-    pole or at the tolerance). The STEP stays within 5.5 times the binary STL (5.0x: the
-    staircase of short walls and the small tiles along it; not yet 2x)."""
+    pole or at the tolerance). The STEP stays within 4.8 times the binary STL (4.5x with
+    the staircase's short walls joined into one face per 24 cells by the writer, 5.0x
+    without; the tile edges along the staircase and the small tiles beside it: not yet 2x)."""
     part, faces, _ = CASES["box top and two fillets (a mitre)"]()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -220,7 +221,31 @@ def test_corner_step_at_the_tolerance_meshes_closed(tmp_path):
     assert tx.info["tolerance"] > 0
     tx.export(tmp_path / "mitre.step")
     tx.export(tmp_path / "mitre.stl")
-    assert (tmp_path / "mitre.step").stat().st_size <= 5.5 * (tmp_path / "mitre.stl").stat().st_size
+    assert (tmp_path / "mitre.step").stat().st_size <= 4.8 * (tmp_path / "mitre.stl").stat().st_size
     back = texcad.io.read_step(tmp_path / "mitre.step")
     _assert_matches(back, tx.volume, tx.info.get("volume_slack", 0.0))
     assert shape_to_mesh(back, tolerance=0.1, angular_tolerance=0.5).is_watertight
+
+
+def test_beside_a_wall_are_the_cells_on_both_sides():
+    from texcad.brep.bands import _beside
+
+    rows, cols = np.array([2, 2, 2]), np.array([5, 4, 3])  # along grid row 2, columns 5 -> 3
+    assert sorted(zip(*_beside(rows, cols, (4, 8), False))) == [(1, 3), (1, 4), (2, 3), (2, 4)]
+    rows, cols = np.array([0, 1]), np.array([0, 0])  # along grid column 0 of a band: the last column wraps
+    assert sorted(zip(*_beside(rows, cols, (4, 8), True))) == [(0, 0), (0, 7)]
+
+
+def test_l_plate_fine_gets_a_brep():
+    """The L plate with the ``bench_step.py`` rows' texture (stones 0.6 mm at 0.125 mm):
+    one wall, at the outer corner where the fillets' lower edges meet the sharp
+    vertical edge, lies along a fillet's edge tangent to the side face below it, and
+    OCCT's fuse did not cut it (raised three times as high, still not: its crossing
+    with the part lies past the fillet, on the side face, which is not in the fuse).
+    texcad.brep.bands.patch_solid leaves the cells beside such a wall to the part's
+    face and builds the patch once more: one valid solid within 0.1 % of the mesh."""
+    part, faces, _ = CASES["L plate (concave corner)"]()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tx = texcad.texture(part, faces, "builtin:stones", height=0.6, pitch=0.125)
+    _assert_matches(flat_solids(tx.shape), tx.volume, tx.info.get("volume_slack", 0.0))

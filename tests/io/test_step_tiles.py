@@ -241,3 +241,31 @@ def test_minimax_fit_holds_where_least_squares_misses():
     assert got is not None
     assert np.sqrt(((h @ got - pts) ** 2).sum(-1)).max() <= 0.8 * ls
     assert (got[[0, -1]] == pts[kept][[0, -1]]).all()  # the ends stay (other edges meet there)
+
+
+def test_staircase_walls_joined_keep_the_solid():
+    """Where a patch's outline crosses the grid (a box top and two mitred fillets) the
+    writer joins its walls end to end (texcad.io.step_tiles._joined_walls): fewer
+    faces, each joined wall a strip through its strips' columns that folds at the
+    steps, the same solid (valid, closed, OCCT's volume the same to 1e-9 of it)."""
+    from build123d import Box, GeomType, fillet
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Copy
+    from OCP.TopAbs import TopAbs_FACE
+
+    from texcad.brep.occt import explore, to_topods
+    from texcad.io.step_tiles import _folded, _grids, _is_wall, _joined_walls, _tiles_of
+
+    part = fillet(Box(24, 18, 8).edges().group_by()[-1], 2)
+    faces = [part.faces().sort_by()[-1], *part.faces().filter_by(GeomType.CYLINDER)[:2]]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tx = texcad.texture(part, faces, "builtin:stones", height=0.4, pitch=0.5)
+    shape = to_topods(tx.shape)
+    joined = _joined_walls(BRepBuilderAPI_Copy(shape, False, False).Shape())
+    walls = [g for g in _grids(_tiles_of(joined)[1]) if _is_wall(*g)]
+    folded = [g for g, _, _ in walls if _folded(g[0])]
+    assert len(folded) > 5 and max(g.shape[1] for g in folded) > 10  # long walls folding along the staircase
+    assert len(explore(joined, TopAbs_FACE)) < len(explore(shape, TopAbs_FACE)) - 100
+    chk = check_shape(joined)
+    assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
+    assert occt_volume(joined) == pytest.approx(occt_volume(shape), rel=1e-9)

@@ -31,7 +31,12 @@ The tiles follow texcad's mesh (its grid points lie on the tessellation, as the
 mesh's do), so the B-rep and the mesh enclose the same volume up to the walls'
 steps (``w`` times half a cell along ``K``'s boundary). Every edge is shared: the
 solid is closed by construction, and :func:`patch_solid` returns None where this
-does not apply (a loop the fuse did not cut, an outline piece inside ``K``).
+does not apply (a loop the fuse did not cut, an outline piece inside ``K``). A wall
+the fuse does not cut (along a fillet's edge tangent to the side face past the
+patch's outline, the wall crosses the part there, on a face not in the fuse: an L
+plate's outer corner) has the cells on both sides of it left to the part's face
+(the B-rep then differs from the mesh by their relief, a few cells), and the patch
+is built once more.
 
 A single planar face textured engraved or centred takes the same way
 (:func:`signed_plane_solid`): its mesh keeps the cut's floor out to the cells'
@@ -571,6 +576,33 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
     """
     topo = to_topods(shape)
     G, N, H, K = _layout(points, normals, heights, cells, wrap)
+    out = _patch_over(topo, faces, (G, N, H), K, wrap, signed, chord, tile, fine)
+    if isinstance(out, list):  # walls the fuse did not cut: the cells beside them left to the part's face, once
+        K = K.copy()
+        for rows, cols in out:  # one per wall not cut
+            K[_beside(rows, cols, K.shape, wrap)] = False
+        out = _patch_over(topo, faces, (G, N, H), K, wrap, signed, chord, tile, fine)
+    return None if isinstance(out, list) else out
+
+
+def _beside(rows: np.ndarray, cols: np.ndarray, shape: tuple, wrap: bool) -> tuple:
+    """Index arrays of the cells (of ``shape``) on both sides of each grid edge
+    between consecutive grid points ``(rows, cols)`` of a wall (along one grid line)."""
+    r, c = np.minimum(rows[:-1], rows[1:]), np.minimum(cols[:-1], cols[1:])
+    across = rows[:-1] == rows[1:]  # an edge along a row: the cells below and above it
+    rr = np.concatenate([np.where(across, r - 1, r), r])
+    cc = np.concatenate([c, np.where(across, c, c - 1)])
+    if wrap:
+        cc %= shape[1]
+    ok = (rr >= 0) & (rr < shape[0]) & (cc >= 0) & (cc < shape[1])
+    return rr[ok], cc[ok]
+
+
+def _patch_over(topo, faces: list, grid: tuple, K: np.ndarray, wrap: bool, signed: bool, chord: float, tile: int, fine):
+    """:func:`patch_solid` over the cells ``K`` (``grid``: ``(G, N, H)`` laid out by
+    :func:`_layout`): the new shape, None, or the walls the fuse did not cut
+    (:func:`_walled`)."""
+    G, N, H = grid
     K = _unpinched(K, wrap)
     if K is None:
         return None
@@ -579,6 +611,16 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
     edge = (around > 0) & (around < 4)
     w = wall_height(G, N, K, chord, wrap)
     w = _over_creases(w, G, N, edge, _creases(faces, 0.25 * _cell_size(G, K)), wrap)
+    return _walled(topo, faces, (G, N, H, K, edge, period), w, signed, tile, fine)
+
+
+def _walled(topo, faces: list, grid: tuple, w: np.ndarray, signed: bool, tile: int, fine):
+    """:func:`patch_solid` from the wall height ``w`` on (``grid``: ``(G, N, H, K,
+    edge, period)``): the tiles, the walls and their fuse (:func:`_assemble`): the new
+    shape, None, or the grid indices ``[(rows, cols), ...]`` of the walls the fuse did
+    not cut."""
+    G, N, H, K, edge, period = grid
+    wrap = period is not None
     h = H if signed else np.maximum(H, 0.0)
     h = np.where(edge, np.minimum(h, -w) if signed else w, h)
     top = G + h[..., None] * N
@@ -605,7 +647,7 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
             away = np.cross(travel, _mid_normal(N, key))  # away from the cells, along the face
             nrm = np.cross(travel, O[0] - T[0])  # the strip's S_u x S_v there
             want = -1.0 if signed else 1.0  # raised: the wall faces away from the tiles; engraved: towards them
-            strips.append((face if float(nrm @ away) * want > 0 else face.Reversed(), e))
+            strips.append((face if float(nrm @ away) * want > 0 else face.Reversed(), e, walls._indices(run)))
     return _assemble(topo, faces, tiles, strips, _cell_size(G, K))
 
 
@@ -827,18 +869,22 @@ def _cut_edge(face, vertex, q):
 
 def _assemble(topo, faces: list, tiles: list, strips: list, cell: float):
     """The general fuse of the patch's faces and the walls; the pieces kept (module
-    docstring) and the tiles in place of the patch's faces; None if a wall or a face
-    was not cut as expected."""
-    gf = general_fuse([list(faces), [s for s, _ in strips]])
+    docstring) and the tiles in place of the patch's faces; None if a face was not cut
+    as expected, the grid indices of the walls (``strips``' third item) the faces did
+    not cut if any."""
+    gf = general_fuse([list(faces), [s for s, _, _ in strips]])
     if gf is None:
         return None
-    walls = []
-    for s, e in strips:  # the walls: the piece on the tile's side
+    walls, uncut = [], []
+    for s, e, at in strips:  # the walls: the piece on the tile's side
         pieces = _pieces(gf, s)
         mine = [p for p in pieces if _has_edge(p, [e])]
         if len(pieces) < 2 or len(mine) != 1:  # a wall the faces did not cut
-            return None
-        walls.append(mine[0])
+            uncut.append(at)
+        else:
+            walls.append(mine[0])
+    if uncut:
+        return uncut
     pieces = [p for f in faces for p in _pieces(gf, f)]  # the patch's faces, cut along the walls
     outline = _outline_edges(topo, faces)
     kept = _outside(pieces, outline, walls)

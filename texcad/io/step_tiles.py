@@ -60,6 +60,7 @@ from typing import Any
 import numpy as np
 
 from ..brep import TILE, surface_grid, tile_grid
+from ..brep.occt import explore
 
 __all__ = ["tiled_step_text"]
 
@@ -402,7 +403,7 @@ def _merged(shape, cells: int, trimmed: bool = False):
         return shape
     ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
     TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
-    plans = _merge_plans(groups, tiles, grids, ancestors, trimmed)
+    plans = _merge_plans(groups, tiles, grids, trimmed)
     seen, along = _reparametrised(plans, tiles, ancestors)
     reshape = BRepTools_ReShape()
     for plan in plans:  # one per merged rectangle
@@ -414,7 +415,7 @@ def _merged(shape, cells: int, trimmed: bool = False):
     return reshape.Apply(shape)
 
 
-def _merge_plans(groups: list, tiles: list, grids: list, ancestors, trimmed: bool) -> list:
+def _merge_plans(groups: list, tiles: list, grids: list, trimmed: bool) -> list:
     """``(group, U0, U, G, V, outline, chain)`` per rectangle of tiles that
     :func:`_merged` merges: the tiles' knots ``U0`` / ``V`` and the merged tile's
     ``U`` (placed again where the tiles were placed each), the poles ``G``, and its
@@ -438,24 +439,25 @@ def _merge_plans(groups: list, tiles: list, grids: list, ancestors, trimmed: boo
         for a in group:  # one per tile of the rectangle
             g, u, v = grids[a]
             G[np.ix_(np.searchsorted(V, v), np.searchsorted(U0, u))] = g
-        loop = _outline_loop(group, tiles, ancestors, vertices)
+        loop = _outline_loop(group, tiles, vertices)
         if loop is not None:
             plans.append((group, U0, U, G, V, *loop))
     return plans
 
 
-def _outline_loop(group: list, tiles: list, ancestors, vertices) -> "tuple | None":
+def _outline_loop(group: list, tiles: list, vertices) -> "tuple | None":
     """``(outline, chain)``: the outer edges of the tiles ``group`` (each as in its
     forward tile, with that tile) and their order around the one loop they make, or
     None where they make no simple loop."""
-    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FORWARD
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD
     from OCP.TopExp import TopExp, TopExp_Explorer
     from OCP.TopoDS import TopoDS
-    from OCP.TopTools import TopTools_IndexedMapOfShape
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
 
-    members = TopTools_IndexedMapOfShape()
-    for a in group:  # one per tile of the rectangle
-        members.Add(tiles[a][1])
+    from ..brep.occt import compound
+
+    inside = TopTools_IndexedDataMapOfShapeListOfShape()  # the group's edges and their tiles in it
+    TopExp.MapShapesAndAncestors_s(compound([tiles[a][1] for a in group]), TopAbs_EDGE, TopAbs_FACE, inside)
     outline = []  # (edge as in its forward tile, that tile)
     for a in group:  # one per tile of the rectangle
         fwd = TopoDS.Face_s(tiles[a][1].Oriented(TopAbs_FORWARD))
@@ -463,7 +465,7 @@ def _outline_loop(group: list, tiles: list, ancestors, vertices) -> "tuple | Non
         while exp.More():  # one per edge of the tile
             e = TopoDS.Edge_s(exp.Current())
             exp.Next()
-            if sum(members.Contains(f) for f in ancestors.FindFromKey(e)) < 2:
+            if inside.FindFromKey(e).Size() < 2:
                 outline.append((e, fwd))
     start = {}
     for k, (e, _) in enumerate(outline):  # one per outer edge
@@ -610,21 +612,27 @@ def _remapped(edge, pc, u: np.ndarray, new: np.ndarray):
 def _iso(edge, face) -> tuple | None:
     """``(axis, value)`` when the pcurve of ``edge`` on ``face`` is the iso line of the
     face's parameter ``axis`` (0: u, 1: v) at ``value``, parametrised by the other
-    parameter (a tile side as texcad makes it); else None."""
+    parameter (a tile side as texcad makes it); else None. Checked at the ends, the
+    middle and, on a B-spline pcurve, at its knots and between them (a broken line
+    through the grid points at the tiles' knots, on a wall strip whose ``u`` is the
+    grid index, matched the iso line at its ends and middle only)."""
     from OCP.BRep import BRep_Tool
+    from OCP.Geom2d import Geom2d_BSplineCurve
 
     pc = BRep_Tool.CurveOnSurface_s(edge, face, 0.0, 0.0)
     if pc is None:
         return None
     first, last = BRep_Tool.Range_s(edge)
-    mid = 0.5 * (first + last)
-    a, m, z = (np.array(pc.Value(t).Coord()) for t in (first, mid, last))
-    eps = 1e-9 * (1.0 + np.abs(np.r_[a, z]).max())
+    t = np.array([first, 0.5 * (first + last), last])
+    if isinstance(pc, Geom2d_BSplineCurve):
+        k = np.array([pc.Knot(i) for i in range(1, pc.NbKnots() + 1)])  # per knot (tens)
+        k = k[(k > first) & (k < last)]
+        t = np.unique(np.r_[t, k, 0.5 * (np.r_[first, k] + np.r_[k, last])])
+    q = np.array([pc.Value(x).Coord() for x in t.tolist()])  # per knot (tens)
+    eps = 1e-9 * (1.0 + np.abs(q[[0, -1]]).max())
     for axis in (0, 1):  # u constant (runs along v), then v constant
-        run = 1 - axis
-        if (abs(z[axis] - a[axis]) <= eps and abs(m[axis] - a[axis]) <= eps and abs(a[run] - first) <= eps
-                and abs(z[run] - last) <= eps and abs(m[run] - mid) <= eps):  # fmt: skip
-            return axis, float(round(a[axis], 12))
+        if np.abs(q[:, axis] - q[0, axis]).max() <= eps and np.abs(q[:, 1 - axis] - t).max() <= eps:
+            return axis, float(round(q[0, axis], 12))
     return None
 
 
@@ -963,7 +971,7 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
     copy = BRepBuilderAPI_Copy(topo, False, False).Shape()  # new topology, the same geometry
     traced = None
     if not tessellate and tolerance > 0:
-        copy = _merged(_merged(copy, MERGED), MERGED, trimmed=True)
+        copy = _joined_walls(_merged(_merged(copy, MERGED), MERGED, trimmed=True))
     _segments(BRep_Builder(), copy)
     if not tessellate and tolerance > 0:
         traced = _fitted_traces(BRep_Builder(), copy, RIM_SHARE * tolerance)
@@ -1001,6 +1009,191 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
         return None
     data = occt_write(copy)
     return _complete(data, len(order), tiles, grids, meshed, outer, inner)
+
+
+#: Most grid cells a wall :func:`_joined_walls` makes runs along (as many as a strip,
+#: :data:`texcad.brep.bands.RUN`): a mitre's walls joined all along the outline (a few
+#: hundred cells each; their poles then with 3 decimals) made no smaller a STEP, which
+#: read back valid and within 0.1 %, but OCCT's mesher left a hole.
+WALL_CELLS = 24
+
+
+def _wall_links(shape, tiles: list, grids: list) -> dict:
+    """``{i: (j, ruling)}``: the wall strips of a patch (:func:`_is_wall`) continued by
+    another: the tile ``i``'s side at its last ``u`` knot is an edge (``ruling``) that the tile ``j`` has at its first ``u`` knot, the
+    two surfaces' poles there the same (to 1e-9 mm), their ``v`` knots the same and both
+    faces the same way round in the shell: the two are one degree-1 ruled strip over
+    ``u`` (its grid columns end to end), cut apart at the ruling."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    strips = {i for i, (g, u, v) in enumerate(grids) if _is_wall(g, u, v)}
+    if not strips:
+        return {}
+    mine = _tile_map(tiles)
+    ancestors = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndUniqueAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, ancestors)
+    links, taken = {}, set()
+    for i in sorted(strips):  # one per strip (hundreds)
+        face, (g, u, v) = tiles[i][1], grids[i]
+        for e in explore(face, TopAbs_EDGE):  # its edges (four or five)
+            e = TopoDS.Edge_s(e)
+            if not isinstance(BRep_Tool.CurveOnSurface_s(e, face, 0.0, 0.0), Geom2d_Line):  # not a ruling
+                continue
+            owners = [TopoDS.Face_s(f) for f in ancestors.FindFromKey(e)]
+            if len(owners) != 2 or _iso(e, face) != (0, float(round(u[-1], 12))):
+                continue
+            other = owners[1] if owners[0].IsSame(face) else owners[0]
+            j = mine.FindIndex(other) - 1
+            if j < 0 or j not in strips or j in taken or j == i or other.Orientation() != face.Orientation():
+                continue
+            h, uj, vj = grids[j]
+            if (_iso(e, other) == (0, float(round(uj[0], 12))) and np.array_equal(v, vj)
+                    and np.abs(g[:, -1] - h[:, 0]).max() <= 1e-9):  # fmt: skip
+                links[i] = (j, e)
+                taken.add(j)
+                break
+    return links
+
+
+def _is_wall(g: np.ndarray, u: np.ndarray, v: np.ndarray) -> bool:
+    """Is the grid ``(g, u, v)`` a patch's wall strip (``texcad.brep.bands``): two rows
+    of poles, ``v`` 0 .. 1, ``u`` the grid index from 0?"""
+    return g.shape[0] == 2 and np.array_equal(v, [0.0, 1.0]) and np.array_equal(u, np.arange(len(u)))
+
+
+def _folded(top: np.ndarray) -> bool:
+    """Does the polyline ``top`` (a wall's tile side, mm) turn by more than 45 degrees
+    at a point (a wall joined along a staircase of grid lines)?"""
+    d = np.diff(top, axis=0)
+    d /= np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
+    return bool(((d[1:] * d[:-1]).sum(axis=1) < np.sqrt(0.5)).any())
+
+
+def _wall_chains(links: dict, grids: list, most: int) -> list:
+    """Chains ``[i, ...]`` of strips :func:`_wall_links` links end to end (a loop
+    all around is opened at its lowest strip), each of at most ``most`` grid cells
+    (a longer one split; a loop in two at least), two strips at least."""
+    heads = sorted(set(links) - {j for j, _ in links.values()})
+    out, seen = [], set()
+    for h in heads + sorted(links):  # one per chain (the heads first: the rest are loops)
+        if h in seen:
+            continue
+        strips = _follow(links, h)
+        seen.update(strips)
+        cap = most
+        if strips[-1] in links:  # a loop: two chains (one face would hold a ruling twice, a seam)
+            cap = min(most, (sum(len(grids[i][1]) - 1 for i in strips) + 1) // 2)
+        chain, cells = [], 0
+        for i in strips:  # its strips
+            n = len(grids[i][1]) - 1
+            if chain and cells + n > cap:
+                out.append(chain)
+                chain, cells = [], 0
+            chain.append(i)
+            cells += n
+        out.append(chain)
+    return [c for c in out if len(c) > 1]
+
+
+def _follow(links: dict, i: int) -> list:
+    """The strips from ``i`` along ``links`` to the chain's end (or back to ``i``)."""
+    out = [i]
+    while out[-1] in links and links[out[-1]][0] != i:  # one per strip
+        out.append(links[out[-1]][0])
+    return out
+
+
+def _joined_wall(b, chain: list, links: dict, tiles: list, grids: list):
+    """One face for the strips ``chain`` (:func:`_wall_chains`), the same way round
+    as they are: its surface the degree-1 strip through their grid columns end to end
+    (strip ``k``'s ``u`` shifted by ``o_k``, the sum of the spans before it, so that
+    the surface is theirs there point for point), its wire their edges but the rulings
+    between them, each edge's pcurve on it its pcurve on its strip shifted by ``o_k``
+    along ``u`` (the old one dropped). None where the edges do not close one loop."""
+    from OCP.BRep import BRep_Tool
+    from OCP.gp import gp_Vec2d
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FORWARD
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Wire
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    from ..brep.solids import grid_surface
+
+    inner = TopTools_IndexedMapOfShape()
+    for i in chain[:-1]:  # the rulings between the strips
+        inner.Add(links[i][1])
+    cols, knots, moved, at = [], [], [], 0.0
+    for k, i in enumerate(chain):  # one per strip
+        g, u, v = grids[i]
+        off = at - float(u[0])
+        cols.append(g if k == 0 else g[:, 1:])
+        knots.append((u + off) if k == 0 else (u[1:] + off))
+        at = float(u[-1]) + off
+        face = TopoDS.Face_s(tiles[i][1].Oriented(TopAbs_FORWARD))
+        for e in explore(face, TopAbs_EDGE):  # its edges, as its wire runs them
+            if inner.Contains(e):
+                continue
+            if BRep_Tool.IsClosed_s(TopoDS.Edge_s(e), face):
+                return None
+            moved.append((TopoDS.Edge_s(e), face, off))
+    surf = grid_surface(np.concatenate(cols, axis=1), np.concatenate(knots), grids[chain[0]][2])
+    new = TopoDS_Face()
+    b.MakeFace(new, surf, max(BRep_Tool.Tolerance_s(tiles[i][1]) for i in chain))
+    verts = TopTools_IndexedMapOfShape()
+    starts = {}
+    for e, face, off in moved:  # one per edge kept (tens)
+        starts[verts.Add(TopExp.FirstVertex_s(e, True))] = e
+    loop = [moved[0][0]]
+    while len(loop) < len(moved):  # the edges end to end
+        nxt = starts.get(verts.FindIndex(TopExp.LastVertex_s(loop[-1], True)))
+        if nxt is None or any(nxt.IsSame(x) for x in loop):
+            return None
+        loop.append(nxt)
+    if len(starts) != len(moved) or not TopExp.LastVertex_s(loop[-1], True).IsSame(TopExp.FirstVertex_s(loop[0], True)):
+        return None
+    for e, face, off in moved:  # their pcurves moved onto the joined strip
+        tol = BRep_Tool.Tolerance_s(e)
+        pc = BRep_Tool.CurveOnSurface_s(e, face, 0.0, 0.0)
+        b.UpdateEdge(e, pc.Translated(gp_Vec2d(off, 0.0)), new, tol)
+        b.UpdateEdge(e, None, face, tol)
+    wire = TopoDS_Wire()
+    b.MakeWire(wire)
+    for e in loop:  # counter-clockwise, as on the strips
+        b.Add(wire, e)
+    wire.Closed(True)
+    b.Add(new, wire)
+    return new if tiles[chain[0]][1].Orientation() == TopAbs_FORWARD else new.Reversed()
+
+
+def _joined_walls(shape, most: int = WALL_CELLS):
+    """``shape`` with each chain of wall strips end to end (:func:`_wall_chains`)
+    written as one face (:func:`_joined_wall`): where a patch's outline crosses the
+    texture grid its walls step along it a cell or two each (``texcad.brep.bands``),
+    and each, with its ruling and its section edge, weighed more in the STEP than the
+    tiles beside it. The joined face is the same surface, bounded by the same edges
+    (but the rulings between the strips), so the solid is the same point for point;
+    :func:`_trace_runs` then joins the section edges along it."""
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepTools import BRepTools_ReShape
+
+    _, tiles = _tiles_of(shape)
+    grids = _grids(tiles)
+    links = _wall_links(shape, tiles, grids)
+    b, reshape, done = BRep_Builder(), BRepTools_ReShape(), False
+    for chain in _wall_chains(links, grids, most):  # one per joined wall
+        new = _joined_wall(b, chain, links, tiles, grids)
+        if new is None:
+            continue
+        reshape.Replace(tiles[chain[0]][1], new)
+        for i in chain[1:]:  # the strips it replaces
+            reshape.Remove(tiles[i][1])
+        done = True
+    return reshape.Apply(shape) if done else shape
 
 
 def _segments(b, shape) -> None:
@@ -1411,10 +1604,16 @@ def _outer(sides: list, grids: list, traced=None) -> list:
     another tile: where the patchwork meets the part's own faces (their curves and
     pcurves are OCCT's, so these poles keep 8 decimals). Not the edges in ``traced``
     (a ``TopTools_IndexedMapOfShape``: traces :func:`_fitted_traces` made polylines,
-    whose tolerance is the tiles' already)."""
+    whose tolerance is the tiles' already). Every pole of a wall :func:`_joined_walls`
+    joined (:func:`_is_wall` and :func:`_folded`): the traces along it may hold tighter
+    than its rounding (a wall is a few hundredths of a mm high, its section polylines
+    fitted within a few um); with 3 decimals OCCT's reader re-made some of their
+    pcurves, across a fold onto the wall's top, split the wall there and its mesher
+    left a hole (a box top and two mitred fillets at 0.5 and 0.125 mm). A straight
+    strip keeps its rounding (with 8 decimals a band's STEP was 0.7 % larger)."""
     out = []
-    for tile, (g, _, _) in zip(sides, grids):  # one per tile
-        on = np.zeros(g.shape[:2], bool)
+    for tile, (g, u, v) in zip(sides, grids):  # one per tile
+        on = np.full(g.shape[:2], _is_wall(g, u, v) and _folded(g[0]))  # a joined wall: every pole (docstring)
         for edge, shared, _, (iu, iv), _ in tile:  # one per edge
             if not shared and (traced is None or not traced.Contains(edge)):
                 on[np.ix_(iv, iu)] = True
