@@ -249,3 +249,36 @@ def test_l_plate_fine_gets_a_brep():
         warnings.simplefilter("ignore")
         tx = texcad.texture(part, faces, "builtin:stones", height=0.6, pitch=0.125)
     _assert_matches(flat_solids(tx.shape), tx.volume, tx.info.get("volume_slack", 0.0))
+
+
+def test_a_cut_that_divides_nothing_leaves_no_internal_edge():
+    """A sliver cut from the outline to a hole's rim (a vent hole beside a patch on a
+    Protocase enclosure) divides nothing: OCCT's general fuse keeps it as an INTERNAL
+    edge in a wire of its own, which BRepCheck called intersecting wires there. The
+    piece is written without it: the same area, every other edge kept, valid."""
+    from build123d import Circle, Edge, Pos, Rectangle
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+    from OCP.TopAbs import TopAbs_INTERNAL
+
+    from texcad.brep.bands import _pieces, _raw, _without_internal
+    from texcad.brep.occt import general_fuse
+
+    face = (Rectangle(20, 10) - Pos(3, 0) * Circle(2)).faces()[0].wrapped
+    gf = general_fuse([[face], [Edge.make_line((10, 0, 0), (5, 0, 0)).wrapped]])
+    (piece,) = _pieces(gf, face)
+
+    def edges(f):
+        return [str(e.Orientation()) for w in _raw(f) for e in _raw(w)]
+
+    def area(f):
+        p = GProp_GProps()
+        BRepGProp.SurfaceProperties_s(f, p)
+        return p.Mass()
+
+    assert str(TopAbs_INTERNAL) in edges(piece)  # what the fuse leaves
+    clean = _without_internal(piece)
+    assert str(TopAbs_INTERNAL) not in edges(clean) and len(edges(clean)) == len(edges(piece)) - 1
+    assert len(_raw(clean)) == 2 and check_shape(clean)["valid"]
+    assert area(clean) == pytest.approx(area(face), rel=1e-12)
+    assert _without_internal(clean) is clean

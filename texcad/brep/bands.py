@@ -549,6 +549,45 @@ def _pieces(gf, shape) -> list:
     return list(mod)
 
 
+def _without_internal(face):
+    """``face`` without its INTERNAL edges: what OCCT's general fuse leaves of a cut
+    line that divides nothing (one from a wall's corner to a hole's rim in the piece
+    only joins the outline to the hole); ``BRepCheck`` calls such a face's wires
+    intersecting. The same face where it has none."""
+    from OCP.BRep import BRep_Builder
+    from OCP.TopAbs import TopAbs_INTERNAL
+    from OCP.TopoDS import TopoDS, TopoDS_Wire
+
+    wires = _raw(face)
+    kept = [[e for e in _raw(w) if e.Orientation() != TopAbs_INTERNAL] for w in wires]  # per wire, as stored
+    if sum(map(len, kept)) == sum(len(_raw(w)) for w in wires):
+        return face
+    b, out = BRep_Builder(), TopoDS.Face_s(face.EmptyCopied())
+    for w, edges in zip(wires, kept):  # per wire: its other edges, in order
+        if not edges:
+            continue
+        nw = TopoDS_Wire()
+        b.MakeWire(nw)
+        for e in edges:
+            b.Add(nw, e)
+        nw.Closed(True)
+        nw.Location(w.Location())
+        b.Add(out, nw.Oriented(w.Orientation()))
+    return out
+
+
+def _raw(shape) -> list:
+    """The sub-shapes of ``shape`` one level down, as stored in it (their own
+    orientations and locations, not composed with ``shape``'s), in order."""
+    from OCP.TopoDS import TopoDS_Iterator
+
+    it, out = TopoDS_Iterator(shape, False, False), []
+    while it.More():
+        out.append(it.Value())
+        it.Next()
+    return out
+
+
 def _has_edge(face, edges: list) -> bool:
     from OCP.TopAbs import TopAbs_EDGE
 
@@ -924,7 +963,7 @@ def _cut_slivers(topo, faces: list, kept: list, walls: list, cell: float):
     gf = general_fuse([list(kept) + list(walls) + beside, cuts])
     if gf is None or any(gf.Modified(w).Size() > 0 or gf.IsDeleted(w) for w in walls):
         return kept, walls, []  # a cut crossed a wall: the pieces as they were
-    pieces = [p if p.Orientation() == k.Orientation() else p.Reversed() for k in kept for p in _pieces(gf, k)]
+    pieces = [_without_internal(p if p.Orientation() == k.Orientation() else p.Reversed()) for k in kept for p in _pieces(gf, k)]
     swaps = []
     for o in beside:  # one per face outside the patch along the cut outline
         got = _pieces(gf, o)
