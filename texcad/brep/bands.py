@@ -49,6 +49,7 @@ from typing import Any
 
 import numpy as np
 
+from ..util.runs import runs_within
 from .occt import explore, face_in, general_fuse, to_topods
 from .gprop import polyline_pcurve, run_knots, split_at_knots
 from .solids import TILE, TOLERANCE, _band_fine, _replace_faces, _tile_bounds, grid_surface, tiled_grid_faces
@@ -452,15 +453,9 @@ def _runs(loop: list, most: int = RUN) -> list:
     cut = [k - cut[0] for k in cut] + [len(loop)]
     out = []
     for a, z in zip(cut[:-1], cut[1:]):  # one per straight stretch
-        run, cells = [], 0
-        for item in loop[a:z]:  # its tile edges
-            n = item[1][3] - item[1][2]
-            if run and cells + n > most:
-                out.append(run)
-                run, cells = [], 0
-            run.append(item)
-            cells += n
-        out.append(run)
+        stretch = loop[a:z]
+        runs = runs_within([item[1][3] - item[1][2] for item in stretch], most)  # cells per tile edge
+        out.extend([stretch[k] for k in r] for r in runs)
     return out
 
 

@@ -61,6 +61,7 @@ import numpy as np
 
 from ..brep import TILE, surface_grid, tile_grid
 from ..brep.occt import explore
+from ..util.runs import runs_within
 
 __all__ = ["tiled_step_text"]
 
@@ -1088,15 +1089,8 @@ def _wall_chains(links: dict, grids: list, most: int) -> list:
         cap = most
         if strips[-1] in links:  # a loop: two chains (one face would hold a ruling twice, a seam)
             cap = min(most, (sum(len(grids[i][1]) - 1 for i in strips) + 1) // 2)
-        chain, cells = [], 0
-        for i in strips:  # its strips
-            n = len(grids[i][1]) - 1
-            if chain and cells + n > cap:
-                out.append(chain)
-                chain, cells = [], 0
-            chain.append(i)
-            cells += n
-        out.append(chain)
+        runs = runs_within([len(grids[i][1]) - 1 for i in strips], cap)  # cells per strip
+        out.extend([strips[k] for k in r] for r in runs)
     return [c for c in out if len(c) > 1]
 
 

@@ -21,6 +21,9 @@ from .progress import (
     report,
     subrange,
 )
+from .runs import (
+    runs_within,
+)
 from .rows import (
     argsort_ints,
     colmax,
@@ -71,6 +74,7 @@ __all__ = [
     'rowmin',
     'rownorm',
     'rowsum',
+    'runs_within',
     'peak_rss',
     'available_memory',
     'require_memory',
