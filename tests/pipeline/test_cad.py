@@ -223,8 +223,9 @@ def test_errors_name_the_problem():
         texcad.texture(box, [box.faces()[0], other], TEX)
     with pytest.raises(ParameterError, match="flat"):
         texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:pins", pitch=1.0)
-    ball = Sphere(5)  # spheres are textured since issue 13 (tests/test_faces.py); a 1 mm pixel is too coarse here
-    with pytest.raises(GeometryError, match="no texture is left|smaller than a few"):
+    ball = Sphere(5)  # spheres are textured since issue 13 (tests/test_faces.py); a 4 mm pixel is too coarse here:
+    # the hexagons fitted at it are flat (named as such since the real-parts run), or the sphere too small for it
+    with pytest.raises((GeometryError, ParameterError), match="no texture is left|smaller than a few|is flat .* use a smaller pitch"):
         texcad.texture(ball, ball.faces()[0], TEX, pitch=4.0)
     with pytest.raises(ParameterError, match="mapping"):
         texcad.texture(box, box.faces()[0], TEX, mapping="bent")
