@@ -553,12 +553,12 @@ def _without_internal(face):
     from OCP.TopAbs import TopAbs_INTERNAL
     from OCP.TopoDS import TopoDS, TopoDS_Wire
 
-    wires = _raw(face)
-    kept = [[e for e in _raw(w) if e.Orientation() != TopAbs_INTERNAL] for w in wires]  # per wire, as stored
-    if sum(map(len, kept)) == sum(len(_raw(w)) for w in wires):
+    wires = [(w, _raw(w)) for w in _raw(face)]  # per wire: its edges, as stored
+    if not any(e.Orientation() == TopAbs_INTERNAL for _, edges in wires for e in edges):
         return face
     b, out = BRep_Builder(), TopoDS.Face_s(face.EmptyCopied())
-    for w, edges in zip(wires, kept):  # per wire: its other edges, in order
+    for w, edges in wires:  # per wire: its other edges, in order
+        edges = [e for e in edges if e.Orientation() != TopAbs_INTERNAL]
         if not edges:
             continue
         nw = TopoDS_Wire()

@@ -395,6 +395,15 @@ def _loop_turns(V2: np.ndarray, F: np.ndarray) -> np.ndarray:
 WRAP_RESULTANT = 0.5
 
 
+def _least_seen(V: np.ndarray, F: np.ndarray) -> tuple:
+    """``(N, w, a)``: the faces' area-weighted normals ``N`` (``|N_T|`` twice the
+    area), the eigenvalues ``w`` (ascending) of ``sum_T N_T N_T^T`` and ``a``, the unit
+    direction they see least (its smallest eigenvector)."""
+    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    w, vec = np.linalg.eigh(fn.T @ fn)
+    return fn, w, vec[:, 0]
+
+
 def wraps_around(V: np.ndarray, F: np.ndarray) -> bool:
     """Whether a mesh of one annulus' topology runs around (a band: a tube, a vase, a
     ring of a box's sides), not a sheet with one hole (a bent panel with a vent hole,
@@ -402,8 +411,7 @@ def wraps_around(V: np.ndarray, F: np.ndarray) -> bool:
     normals least see (:func:`band_axis`), a band's normals point every way and
     nearly cancel, a sheet's mostly one way (their sum over
     :data:`WRAP_RESULTANT` of their summed lengths)."""
-    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    a = np.linalg.eigh(fn.T @ fn)[1][:, 0]
+    fn, _, a = _least_seen(V, F)
     across = fn - np.outer(fn @ a, a)
     total = float(np.linalg.norm(across, axis=1).sum())
     return total > 0 and float(np.linalg.norm(across.sum(axis=0))) < WRAP_RESULTANT * total
@@ -430,9 +438,7 @@ def band_axis(V: np.ndarray, F: np.ndarray) -> np.ndarray:
 
     Raises:
         GeometryError: no such axis (the faces bend around no one direction)."""
-    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    w, vec = np.linalg.eigh(fn.T @ fn)
-    a = vec[:, 0]
+    _, w, a = _least_seen(V, F)
     e1 = np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0])
     e1 /= np.linalg.norm(e1)
     turns = _loop_turns(V @ np.stack([e1, np.cross(a, e1)], axis=1), F)
