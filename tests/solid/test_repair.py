@@ -270,6 +270,29 @@ def test_bodies_touching_face_to_face_are_united_or_taken_apart():
     assert trimesh.Trimesh(rv, rf, process=False).volume == pytest.approx(2.0, rel=1e-9)
 
 
+def test_repairs_beyond_merging_are_noted_and_warned():
+    """A repair that changes the surface (a wall two bodies share dropped, edges taken
+    apart) is said in ``notes``, and texturing such a mesh warns with it: a silent
+    union could be the wrong part. A mesh closed as it is adds no note."""
+    import texcad
+    from texcad.errors import TexcadWarning
+
+    notes = []
+    repair_closed(*_stacked_boxes(same_wall=True), notes=notes)
+    assert len(notes) == 1 and "2 triangles of walls shared face to face dropped" in notes[0]
+    notes = []
+    repair_closed(*_stacked_boxes(same_wall=False), notes=notes)
+    assert len(notes) == 1 and "4 edges shared by more than two triangles taken apart" in notes[0]
+    notes = []
+    a = trimesh.creation.box((1.0, 1.0, 1.0))
+    repair_closed(a.vertices, a.faces, notes=notes)
+    assert notes == []
+    v, f = _stacked_boxes(same_wall=True)
+    with pytest.warns(TexcadWarning, match="was repaired: 2 triangles of walls shared face to face dropped"):
+        tx = texcad.texture(trimesh.Trimesh(v * 20.0, f, process=False), "top", "builtin:stones", height=0.5, pitch=1.0)
+    assert "walls shared face to face" in tx.info["repaired"] and tx.mesh.is_watertight
+
+
 def test_bodies_touching_along_an_edge_are_taken_apart():
     """Two boxes sharing only an edge (4 triangles on it): the edge's two vertices are
     split per body; two closed, outward bodies of volume 1 each."""

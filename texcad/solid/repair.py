@@ -120,16 +120,23 @@ def _parity(tri: np.ndarray, same: np.ndarray, m: int) -> tuple[np.ndarray, np.n
         flip, anc = flip ^ flip[anc], nxt
 
 
-def _touching(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(v, f)`` cleaned (:func:`_clean`), or, where that is not closed, with bodies
-    that touch taken apart or united: a wall two of them share face to face dropped
-    (``cancel=True``), then each edge they share taken apart (:func:`split_edges`), if
-    that closes them."""
+def _touching(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, str]:
+    """``(v, f, note)``: ``(v, f)`` cleaned (:func:`_clean`), or, where that is not
+    closed, with bodies that touch taken apart or united: a wall two of them share
+    face to face dropped (``cancel=True``), then each edge they share taken apart
+    (:func:`split_edges`), if that closes them; ``note`` says what was done ("" if
+    nothing)."""
     cv, cf = _clean(v, f)
     if not len(cf) or _edge_pairs(cf)[0] is not None:
-        return cv, cf
-    tv, tf, _ = split_edges(*_clean(v, f, cancel=True))
-    return (tv, tf) if len(tf) and _edge_pairs(tf)[0] is not None else (cv, cf)
+        return cv, cf, ""
+    uv, uf = _clean(v, f, cancel=True)
+    tv, tf, _ = split_edges(uv, uf)
+    if not (len(tf) and _edge_pairs(tf)[0] is not None):
+        return cv, cf, ""
+    walls, edges = len(cf) - len(uf), edge_report(uf)["nonmanifold"]
+    done = [f"{walls} triangles of walls shared face to face dropped (the bodies united there)"] if walls else []
+    done += [f"{edges} edges shared by more than two triangles taken apart (bodies touching along them)"] if edges else []
+    return tv, tf, "; ".join(done)
 
 
 #: A triangle no higher than this over its longest side (mm) is a needle: its third
@@ -176,7 +183,8 @@ def flip_needles(v: np.ndarray, f: np.ndarray, passes: int = 32) -> tuple[np.nda
     return g, done
 
 
-def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-8, name: str = "the mesh") -> tuple[np.ndarray, np.ndarray, int]:
+def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-8, name: str = "the mesh",
+                  notes: list | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """Closed, consistently wound, outward bodies from a triangle soup (module
     docstring). Returns ``(vertices float64 (N, 3) mm, faces int64 (M, 3), bodies)``.
 
@@ -184,6 +192,9 @@ def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-
         vertices: ``(N, 3)`` mm. faces: ``(M, 3)`` vertex indices.
         merge: vertices closer than this (mm, per coordinate after rounding) are one.
         name: how error messages call the mesh.
+        notes: given, a sentence is appended for each change to the surface beyond
+            merging points and dropping degenerate triangles (walls of touching
+            bodies dropped, edges they share taken apart).
 
     Raises:
         InputError: a vertex index out of range or a vertex that is not finite, no
@@ -195,13 +206,15 @@ def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-
     bad = ~np.isfinite(v).all(axis=1)
     if bad[np.unique(f)].any():
         raise InputError(f"{name} has {int(bad[np.unique(f)].sum())} vertices that are not finite numbers (NaN or inf); export it again")
-    mv, mf = _touching(*_merge(v, f, merge))
+    mv, mf, note = _touching(*_merge(v, f, merge))
     indexed = False
     if len(mf) and _edge_pairs(mf)[0] is None:  # closed only as indexed (a 3MF keeps points apart that touch)
         iv, i_f = _clean(v, f)
         indexed = bool(len(i_f)) and _edge_pairs(i_f)[0] is not None
         mv, mf = (iv, i_f) if indexed else (mv, mf)
     v, f = mv, mf
+    if note and not indexed and notes is not None:
+        notes.append(note)
     if not len(f):
         raise InputError(f"{name} holds no triangles (after dropping degenerate ones)")
     tri, same = _edge_pairs(f)

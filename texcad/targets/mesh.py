@@ -129,14 +129,19 @@ def load_closed(target: Any, *, crossing: bool = True) -> tuple[np.ndarray, np.n
     if len(f) == 0:
         raise InputError(f"{name} holds no triangles")
     n_in = len(f)
-    v, f, bodies = repair_closed(v, f, name=name)
+    notes: list = []
+    v, f, bodies = repair_closed(v, f, name=name, notes=notes)
     v, f, counted, specks = drop_specks(v, f, name)
     bodies = counted if specks else bodies
     if crossing:
         assert_uncrossed(v, f, name)
     info = {"input_triangles": int(n_in), "repaired_triangles": int(len(f)), "bodies": bodies}
+    if notes:  # the surface changed: said (specks enclose nothing, so they are only noted)
+        warnings.warn(TexcadWarning(f"{name} was repaired: {'; '.join(notes)}; check that the result is the part you meant"), stacklevel=3)
     if specks:
-        info["repaired"] = f"{specks} speck{'s' if specks > 1 else ''} dropped (shells enclosing under {SPECK:g} mm3)"
+        notes.append(f"{specks} speck{'s' if specks > 1 else ''} dropped (shells enclosing under {SPECK:g} mm3)")
+    if notes:
+        info["repaired"] = "; ".join(notes)
     return v, f, bodies, info
 
 
