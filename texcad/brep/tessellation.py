@@ -18,7 +18,7 @@ from .occt import explore
 __all__ = ["shape_to_mesh", "closed_shape_mesh", "part_tessellation", "FaceMesh", "PartMesh", "TESSELLATION"]
 
 
-def shape_to_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: float = 0.1) -> Mesh:
+def shape_to_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: float = 0.1, refine: bool = True) -> Mesh:
     """Tessellate a build123d/CadQuery/OCP shape into a closed :class:`Mesh`.
 
     Args:
@@ -26,6 +26,12 @@ def shape_to_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: flo
         tolerance: linear deflection in mm (max distance of the triangles from the
             true surface).
         angular_tolerance: angular deflection in radians.
+        refine: OCCT's ``ControlSurfaceDeflection``: refine each face's triangles
+            until their middles are within ``tolerance`` too. Off, a B-spline face is
+            meshed on its knots and the points OCCT's isolines need (a texture's
+            tiles, fitted to the relief between their knots: tens of times fewer
+            triangles and seconds, where refining takes minutes); analytic faces
+            are meshed the same either way.
 
     Raises:
         ParameterError: the object is not a shape.
@@ -33,6 +39,7 @@ def shape_to_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: flo
     """
     from OCP.BRep import BRep_Tool
     from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.IMeshTools import IMeshTools_Parameters
     from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
     from OCP.TopExp import TopExp_Explorer
     from OCP.TopLoc import TopLoc_Location
@@ -47,7 +54,10 @@ def shape_to_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: flo
             f"cannot use a {type(shape).__name__} as a base body; pass a build123d Part/Solid, "
             "a CadQuery Workplane/Shape, a texcad Mesh or a manifold3d Manifold"
         ) from None
-    BRepMesh_IncrementalMesh(topo, tolerance, False, angular_tolerance, True)
+    params = IMeshTools_Parameters()
+    params.Deflection, params.Angle, params.InParallel = tolerance, angular_tolerance, True
+    params.ControlSurfaceDeflection = refine
+    BRepMesh_IncrementalMesh(topo, params)
     verts: list[np.ndarray] = []
     tris: list[np.ndarray] = []
     offset = 0
@@ -147,8 +157,8 @@ def _face_triangles(face) -> "FaceMesh | None":
     return FaceMesh(face, pts, tri, uv, _face_kind(face))
 
 
-def closed_shape_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: float = 0.1) -> Mesh:
-    """:func:`shape_to_mesh` (``tolerance`` mm, ``angular_tolerance`` radians), or
+def closed_shape_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: float = 0.1, refine: bool = True) -> Mesh:
+    """:func:`shape_to_mesh` (``tolerance`` mm, ``angular_tolerance`` radians, ``refine``), or
     where that is not closed (OCCT's mesher leaves some faces of some files open, e.g.
     a cone bounded by one wire of 75 edges meshed as 12 triangles) the healed
     tessellation texcad textures parts with (:func:`part_tessellation` at
@@ -157,7 +167,7 @@ def closed_shape_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance:
     that stays open after healing comes back as OCCT meshed it."""
     from .occt import to_topods
 
-    mesh = shape_to_mesh(shape, tolerance=tolerance, angular_tolerance=angular_tolerance)
+    mesh = shape_to_mesh(shape, tolerance=tolerance, angular_tolerance=angular_tolerance, refine=refine)
     try:
         to_manifold(mesh)
         return mesh

@@ -187,8 +187,11 @@ class CheckReport:
 # Checking
 # ---------------------------------------------------------------------------------
 #: Chord (mm) and angle (radians) a STEP part is tessellated at to be checked (the
-#: angle as CAD viewers take it: at 0.1 rad OCCT makes a million triangles of a
-#: textured face's B-spline tiles, at 0.5 rad fewer than the texture's own mesh).
+#: angle as CAD viewers take it), without OCCT's refinement of each face's triangles
+#: (``refine=False``): a textured face's B-spline tiles are then meshed on their knots,
+#: fitted to the relief within the mesh's tolerance. Refined, a 40 x 30 mm knurled
+#: plate's STEP made a million triangles in minutes at 0.1 mm; CAD parts' faces
+#: (planes, cylinders, cones, their B-splines) mesh the same either way.
 STEP_CHORD = 0.01
 STEP_ANGLE = 0.5
 
@@ -198,7 +201,7 @@ def _items(part: Any) -> tuple[str, list[tuple[str, Mesh]], Heightmap | None]:
         from ..brep import closed_shape_mesh
         from ..io import read_step
 
-        mesh = closed_shape_mesh(read_step(part), tolerance=STEP_CHORD, angular_tolerance=STEP_ANGLE)
+        mesh = closed_shape_mesh(read_step(part), tolerance=STEP_CHORD, angular_tolerance=STEP_ANGLE, refine=False)
         return os.fspath(part), [(os.path.splitext(os.path.basename(part))[0], mesh)], None
     if isinstance(part, (str, os.PathLike)):
         return os.fspath(part), read_part(part), None
