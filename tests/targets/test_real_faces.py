@@ -66,6 +66,32 @@ def test_a_sheet_with_one_hole_is_flattened_not_refused_as_a_band(make):
     assert 0.05 * area < tx.volume - part.volume < 0.5 * area  # raised stones on those faces only
 
 
+def test_a_cone_ring_in_two_faces_is_a_band_like_the_one_face():
+    """A 45-degree cone ring split into two faces (as other CAD programs split
+    periodic faces) was flattened as a sheet (LSCM, a seam of cut dots): about the
+    origin its normals see its axis as much as any direction across it. It is a band,
+    seamless, its texture scale kept in the middle as on the one-face cone: the
+    around-scale's 5th and 95th percentiles within 0.1 of the one face's (ratio of
+    radii 2; laid at the widest rim they were 0.5 and 1.0)."""
+    import numpy as np
+    from build123d import Compound, Cone, Cylinder, GeomType, Keep, Plane, split
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Fuse
+
+    whole = Cone(20, 10, 10) - Cylinder(5, 10)
+    a, b = split(whole, bisect_by=Plane.XZ, keep=Keep.BOTH).solids()
+    op = BRepAlgoAPI_Fuse(a.wrapped, b.wrapped)
+    op.Build()
+    part = Compound(op.Shape()).solids()[0]
+    cones = list(part.faces().filter_by(GeomType.CONE))
+    assert len(cones) == 2
+    two = texcad.texture(part, cones, "builtin:dots", pitch=0.5, height=0.5)
+    one = texcad.texture(whole, whole.faces().filter_by(GeomType.CONE), "builtin:dots", pitch=0.5, height=0.5)
+    p2, p1 = two.info["faces"][0], one.info["faces"][0]
+    assert p2["parameterization"].startswith("band") and two.mesh.is_watertight
+    assert np.allclose(p2["distortion"]["y"][:2], p1["distortion"]["y"][:2], atol=0.1), (p2, p1)
+    assert np.isclose(two.volume - part.volume, one.volume - whole.volume, rtol=0.15)
+
+
 def test_a_band_around_an_axis_still_runs_around():
     """The four sides of a box are a band around z (wraps_around), a bent sheet is not."""
     import numpy as np

@@ -404,13 +404,16 @@ def band_coordinates(V: np.ndarray, F: np.ndarray, axis: np.ndarray, centre: np.
     method's profile arc length), y = height along the surface (mm).
 
     The cross-section is the band's longest boundary loop seen along the axis (a
-    polyline of the tessellation's own edge points); every vertex takes the arc
-    length of its nearest point on it (exact for prismatic bands); y is the height
-    along the surface (:func:`meridian_heights`: the meridian's arc length on a
-    surface of revolution, the height on a prismatic band).
+    polyline of the tessellation's own edge points); every vertex takes the share
+    ``phi`` of the way around of its nearest point on it (exact for prismatic
+    bands), times the band's mean perimeter (:func:`_mean_perimeter`: a cone band's
+    cross-sections grow from one rim to the other, and the texture keeps its scale
+    in the middle, not at the widest rim); y is the height along the surface
+    (:func:`meridian_heights`: the meridian's arc length on a surface of revolution,
+    the height on a prismatic band).
 
     Returns:
-        ``(XY, perimeter)``: ``(N, 2)`` mm and the section's perimeter in mm.
+        ``(XY, perimeter)``: ``(N, 2)`` mm and the mean perimeter in mm.
     """
     V = np.asarray(V, np.float64)
     a = axis / np.linalg.norm(axis)
@@ -442,7 +445,31 @@ def band_coordinates(V: np.ndarray, F: np.ndarray, axis: np.ndarray, centre: np.
         r = np.arange(len(j))
         best[k0 : k0 + 4096] = dist[r, j]
         x[k0 : k0 + 4096] = cum[j] + t[r, j] * seg[j]
-    return np.stack([x, meridian_heights(V, F, a, q @ a)], axis=1), perimeter
+    mean = _mean_perimeter(V, F, x / perimeter, perimeter)
+    return np.stack([x * (mean / perimeter), meridian_heights(V, F, a, q @ a)], axis=1), mean
+
+
+def _mean_perimeter(V: np.ndarray, F: np.ndarray, phi: np.ndarray, perimeter: float) -> float:
+    """The perimeter (mm) a band's texture is laid around at: the area-weighted
+    geometric mean of the local perimeter ``1 / |grad_T phi|`` (``phi`` the share of
+    the way around, unwrapped per triangle), so that the texture is stretched and
+    squeezed alike across the band: ``2 pi r`` at a mean radius on a cone band, the
+    cross-section's perimeter on a prismatic band; ``perimeter`` if there is no
+    such mean."""
+    p = phi[F]
+    wrap = p.max(axis=1) - p.min(axis=1) > 0.5
+    p = p + (wrap[:, None] & (p < 0.5))
+    P = V[F]
+    n = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
+    a2 = np.linalg.norm(n, axis=1)
+    e = np.stack([P[:, 2] - P[:, 1], P[:, 0] - P[:, 2], P[:, 1] - P[:, 0]], axis=1)
+    grad = np.einsum("ti,tik->tk", p, np.cross(n[:, None, :], e)) / np.maximum(a2, 1e-300)[:, None] ** 2
+    g = np.linalg.norm(grad, axis=1)
+    ok = (a2 > 0) & (g > 0) & np.isfinite(g)
+    if not ok.any():
+        return perimeter
+    mean = float(np.exp(np.sum(a2[ok] * -np.log(g[ok])) / np.sum(a2[ok])))
+    return mean if np.isfinite(mean) and mean > 0 else perimeter
 
 
 def meridian_heights(V: np.ndarray, F: np.ndarray, axis: np.ndarray, heights: np.ndarray) -> np.ndarray:

@@ -390,17 +390,32 @@ def _loop_turns(V2: np.ndarray, F: np.ndarray) -> np.ndarray:
     return np.bincount(lab, swept, k)[np.unique(lab)] / (2 * np.pi)
 
 
+#: Least spread of a band's unit normals across its axis (:func:`band_axis`; per unit
+#: area): ``sin^2(beta) / 2`` for normals at ``beta`` to the axis, 0.1 at 27 degrees.
+#: Rings flatter than that (a dished washer) are flattened as sheets with one hole.
+BAND_SPREAD = 0.1
 #: Largest length of the area-weighted normals' sum, as a share of their summed
 #: lengths, across the least-seen direction, of faces that run around (a band).
 WRAP_RESULTANT = 0.5
 
 
-def _least_seen(V: np.ndarray, F: np.ndarray) -> tuple:
+def _least_seen(V: np.ndarray, F: np.ndarray, about_mean: bool = False) -> tuple:
     """``(N, w, a)``: the faces' area-weighted normals ``N`` (``|N_T|`` twice the
-    area), the eigenvalues ``w`` (ascending) of ``sum_T N_T N_T^T`` and ``a``, the unit
-    direction they see least (its smallest eigenvector)."""
+    area ``A_T``), the eigenvalues ``w`` (ascending) of ``sum_T N_T N_T^T`` and ``a``,
+    the unit direction they see least (its smallest eigenvector). ``about_mean``: of
+    the unit normals' spread about their mean ``m``, ``sum_T A_T (n_T - m)(n_T - m)^T``
+    instead, whose ``a`` is the direction they vary least along: a cone band's
+    normals all lean along its axis by the same amount, so vary along it not at all
+    (about the origin, a 45-degree cone's axis is seen as much as any direction
+    across it)."""
     fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    w, vec = np.linalg.eigh(fn.T @ fn)
+    if not about_mean:
+        w, vec = np.linalg.eigh(fn.T @ fn)
+        return fn, w, vec[:, 0]
+    area = np.linalg.norm(fn, axis=1)
+    n = fn / np.maximum(area, 1e-300)[:, None]
+    d = n - (area @ n) / max(float(area.sum()), 1e-300)
+    w, vec = np.linalg.eigh((d * area[:, None]).T @ d / max(float(area.sum()), 1e-300))
     return fn, w, vec[:, 0]
 
 
@@ -431,18 +446,20 @@ def _band_axis_or_sheet(V: np.ndarray, F: np.ndarray) -> "np.ndarray | None":
 
 def band_axis(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """The axis a closed band of faces (an annulus) runs around: the direction ``a``
-    least seen by its area-weighted normals (the smallest eigenvector of
-    ``sum_T N_T N_T^T``, ``|N_T|`` twice the area), which must stand apart from the
-    other two (a tube, a vase, a cone band: ``lambda_1 < lambda_2 / 2``), with both
-    boundary loops winding once around it seen along it.
+    its unit normals vary least along (:func:`_least_seen` about their mean: the
+    smallest eigenvector of their area-weighted spread, per unit area), which must
+    stand apart from the other two (a tube, a vase, a cone band at any angle:
+    ``lambda_1 < lambda_2 / 2``), with the normals spread across it
+    (``lambda_2 >= BAND_SPREAD``: a flat or nearly flat ring is a sheet with one hole)
+    and both boundary loops winding once around it seen along it.
 
     Raises:
         GeometryError: no such axis (the faces bend around no one direction)."""
-    _, w, a = _least_seen(V, F)
+    _, w, a = _least_seen(V, F, about_mean=True)
     e1 = np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0])
     e1 /= np.linalg.norm(e1)
     turns = _loop_turns(V @ np.stack([e1, np.cross(a, e1)], axis=1), F)
-    if w[0] > 0.5 * w[1] or len(turns) != 2 or np.any(np.abs(np.abs(turns) - 1) > 0.1):
+    if w[0] > 0.5 * w[1] or w[1] < BAND_SPREAD or len(turns) != 2 or np.any(np.abs(np.abs(turns) - 1) > 0.1):
         raise GeometryError(
             "the faces form a closed band that does not run around one axis; texture them in two calls "
             "or as two selections that each form an open strip"
