@@ -8,6 +8,7 @@ valid closed solid within 0.1 % of the mesh (OCCT's adaptive integration), whose
 STEP reads back the same and meshes closed, and through which a 3 mm hole drilled
 gives a B-rep within 0.1 % of the same cut on the mesh."""
 
+import re
 import warnings
 from functools import lru_cache
 
@@ -243,12 +244,22 @@ def test_l_plate_fine_gets_a_brep():
     OCCT's fuse did not cut it (raised three times as high, still not: its crossing
     with the part lies past the fillet, on the side face, which is not in the fuse).
     texcad.brep.bands.patch_solid leaves the cells beside such a wall to the part's
-    face and builds the patch once more: one valid solid within 0.1 % of the mesh."""
+    face and builds the patch once more: one valid solid within 0.1 % of the mesh. A
+    TexcadWarning says how many cells, where (mm) and that the STL and 3MF keep them."""
+    from texcad.errors import TexcadWarning
+
     part, faces, _ = CASES["L plate (concave corner)"]()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         tx = texcad.texture(part, faces, "builtin:stones", height=0.6, pitch=0.125)
-    _assert_matches(flat_solids(tx.shape), tx.volume, tx.info.get("volume_slack", 0.0))
+    with pytest.warns(TexcadWarning, match="untextured in the B-rep") as told:  # the B-rep is made on first use
+        shape = flat_solids(tx.shape)
+    _assert_matches(shape, tx.volume, tx.info.get("volume_slack", 0.0))
+    (msg,) = [str(w.message) for w in told if "untextured in the B-rep" in str(w.message)]
+    m = re.search(r"(\d+) texture cells around \(([-\d.]+), ([-\d.]+), ([-\d.]+)\) mm", msg)
+    at = np.array([float(m.group(i)) for i in (2, 3, 4)])
+    assert 1 <= int(m.group(1)) <= 20 and "STL and 3MF keep" in msg
+    assert np.linalg.norm(at - (30.0, 0.0, 4.0)) < 1.5  # the outer corner, where the fillets' lower edges end
 
 
 def test_a_cut_that_divides_nothing_leaves_no_internal_edge():
