@@ -269,3 +269,43 @@ def test_staircase_walls_joined_keep_the_solid():
     chk = check_shape(joined)
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
     assert occt_volume(joined) == pytest.approx(occt_volume(shape), rel=1e-9)
+
+
+def test_merged_runs_start_at_the_same_grid_lines():
+    """Rows of 4-cell tiles that start at different columns (a patch's outline crosses
+    the grid in a staircase) are cut into merged runs at the same grid lines
+    (texcad.io.step_tiles._blocks), so that the rows' runs lie one above the other and
+    merge into one rectangle: without the blocks each row's runs start at its first
+    tile (column 8, 4 and 0 here) and none lines up."""
+    from texcad.io.step_tiles import _blocks, _chains
+
+    cols = {0: [8, 12, 16, 20, 24, 28, 32], 1: [4, 8, 12, 16, 20, 24, 28, 32], 2: [0, 4, 8, 12, 16, 20, 24, 28, 32]}
+    keys = [(r, c) for r, cs in cols.items() for c in cs]
+    right = {(r, c): (r, c + 4) for r, c in keys if (r, c + 4) in keys}
+    up = {(r, c): (r + 1, c) for r, c in keys if (r + 1, c) in keys}
+    start, size = {k: k[1] for k in keys}, {k: 4 for k in keys}
+    plain = _chains(right, size, 12)
+    aligned = _chains(right, size, 12, _blocks(keys, [right, up], start, size, 12))
+
+    def edges(runs):  # each row's runs: the columns they start at
+        return {r: sorted({run[0][1] for run in runs if run[0][0] == r}) for r in cols}
+
+    assert edges(plain) == {0: [8, 20, 32], 1: [4, 16, 28], 2: [0, 12, 24]}
+    assert edges(aligned) == {0: [8, 16, 28], 1: [4, 16, 28], 2: [0, 4, 16, 28]}  # cut at 4 (where most rows
+    # begin), 16, 28: the rows' runs from 16 on lie one above the other
+    assert all(sum(size[k] for k in run) <= 12 for run in aligned)
+
+
+def test_straight_pcurve_where_the_plain_rule_integrates_no_knot():
+    """OCCT's plain volume rule integrates along an iso-u tile side and, at each of its
+    points, along u from the tile's first knot to the side: a side needs its padded
+    pcurve only where either range holds a knot of the tile as written."""
+    from texcad.io.step_tiles import _kinked
+
+    one, two, four = np.array([0.0, 1.0]), np.array([0.0, 1.0, 2.0]), np.arange(5.0)
+    assert not _kinked(one, one, 1, 1.0, one)  # a one-cell tile's right side
+    assert not _kinked(two, four, 1, 0.0, four)  # its first side: the range along u is empty
+    assert not _kinked(two, four, 0, 2.0, two)  # along u: adds nothing
+    assert _kinked(two, one, 1, 2.0, one)  # across a knot in u
+    assert _kinked(one, two, 1, 1.0, two)  # along a knot in v
+    assert not _kinked(one, four, 1, 1.0, four[1:3])  # a part of the side within one span

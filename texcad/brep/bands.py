@@ -36,7 +36,8 @@ the fuse does not cut (along a fillet's edge tangent to the side face past the
 patch's outline, the wall crosses the part there, on a face not in the fuse: an L
 plate's outer corner) has the cells on both sides of it left to the part's face
 (the B-rep then differs from the mesh by their relief, a few cells), and the patch
-is built once more.
+is built once more; a :class:`~texcad.errors.TexcadWarning` says how many cells,
+where, and that the STL and 3MF keep their relief.
 
 A single planar face textured engraved or centred takes the same way
 (:func:`signed_plane_solid`): its mesh keeps the cut's floor out to the cells'
@@ -45,10 +46,12 @@ outline and steps up to the face there, and so do the tiles and walls.
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
 
+from ..errors import TexcadWarning
 from ..util.runs import runs_within
 from .occt import explore, face_in, general_fuse, to_topods
 from .gprop import polyline_pcurve, run_knots, split_at_knots
@@ -612,11 +615,29 @@ def patch_solid(shape: Any, faces: list, points: np.ndarray, normals: np.ndarray
     G, N, H, K = _layout(points, normals, heights, cells, wrap)
     out = _patch_over(topo, faces, (G, N, H), K, wrap, signed, chord, tile, fine)
     if isinstance(out, list):  # walls the fuse did not cut: the cells beside them left to the part's face, once
-        K = K.copy()
+        left = np.zeros_like(K)
         for rows, cols in out:  # one per wall not cut
-            K[_beside(rows, cols, K.shape, wrap)] = False
-        out = _patch_over(topo, faces, (G, N, H), K, wrap, signed, chord, tile, fine)
+            left[_beside(rows, cols, K.shape, wrap)] = True
+        left &= K
+        out = _patch_over(topo, faces, (G, N, H), K & ~left, wrap, signed, chord, tile, fine)
+        if not isinstance(out, list) and out is not None:
+            _warn_left_out(G, left)
     return None if isinstance(out, list) else out
+
+
+def _warn_left_out(G: np.ndarray, left: np.ndarray) -> None:
+    """A :class:`~texcad.errors.TexcadWarning` that the cells ``left`` (of the grid
+    ``G``, laid out by :func:`_layout`) are left to the part's face in the B-rep: how
+    many, and the centre of their centres in mm."""
+    r, c = np.nonzero(left)
+    at = (G[r, c] + G[r + 1, c] + G[r, c + 1] + G[r + 1, c + 1]).mean(axis=0) / 4.0
+    where = ", ".join(f"{v:.1f}" for v in at.tolist())
+    warnings.warn(
+        f"{len(r)} texture cells around ({where}) mm are left untextured in the B-rep (STEP): OCCT's fuse did not "
+        "cut a wall there (a fillet's edge tangent to the face below it); the STL and 3MF keep their relief",
+        TexcadWarning,
+        stacklevel=3,
+    )
 
 
 def _beside(rows: np.ndarray, cols: np.ndarray, shape: tuple, wrap: bool) -> tuple:
