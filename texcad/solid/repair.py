@@ -178,7 +178,8 @@ def flip_needles(v: np.ndarray, f: np.ndarray, passes: int = 32) -> tuple[np.nda
 
 def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-8, name: str = "the mesh") -> tuple[np.ndarray, np.ndarray, int]:
     """Closed, consistently wound, outward bodies from a triangle soup (module
-    docstring). Returns ``(vertices float64 (N, 3) mm, faces int64 (M, 3), bodies)``.
+    docstring). Returns ``(vertices float64 (N, 3) mm, faces int64 (M, 3), bodies)``,
+    ``bodies`` the outer shells (a cavity's wall is no body: the gate counts so).
 
     Args:
         vertices: ``(N, 3)`` mm. faces: ``(M, 3)`` vertex indices.
@@ -226,7 +227,7 @@ def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-
     f, _ = flip_needles(v, f)  # wound alike now: each needle's neighbour runs its long side the other way
     if indexed:
         v = pull_apart(v, f)
-    return v, f, int(body.max() + 1)
+    return v, f, int((~inward).sum())
 
 
 #: How far (mm) :func:`pull_apart` moves each copy of a point two walls share.
@@ -492,7 +493,7 @@ def _without_slivers(v: np.ndarray, f: np.ndarray, least: float, name: str):
     label, vol = _shell_volumes(v, f)
     keep = np.abs(vol) >= least
     if keep.all():
-        return v, f, int(len(vol))
+        return v, f, int((vol > 0).sum())
     return repair_closed(v, f[keep[label]], name=name)
 
 

@@ -129,9 +129,8 @@ def load_closed(target: Any, *, crossing: bool = True) -> tuple[np.ndarray, np.n
     if len(f) == 0:
         raise InputError(f"{name} holds no triangles")
     n_in = len(f)
-    v, f, bodies = repair_closed(v, f, name=name)
-    v, f, counted, specks = drop_specks(v, f, name)
-    bodies = counted if specks else bodies
+    v, f, _ = repair_closed(v, f, name=name)
+    v, f, bodies, specks = drop_specks(v, f, name)  # bodies: outer shells (a cavity is none)
     if crossing:
         assert_uncrossed(v, f, name)
     info = {"input_triangles": int(n_in), "repaired_triangles": int(len(f)), "bodies": bodies}
