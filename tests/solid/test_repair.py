@@ -172,6 +172,8 @@ def test_edges_too_short_after_the_union_are_collapsed(monkeypatch):
     v[top, :2] += 1e-6  # the spike's tip beside the bottom's grid vertex
     monkeypatch.setattr(repair, "MERGE", (1e-8,))
     monkeypatch.setattr(repair, "COLLAPSE", ())
+    assert repair.resolve_crossings(v, f)[2].bodies == 1  # merged as vertices closer than repair.NEAR
+    monkeypatch.setattr(repair, "NEAR", 0.0)  # the collapse's own test
     with pytest.raises(InputError, match=r"edges of .* mm, too short to texture"):
         repair.resolve_crossings(v, f)
     monkeypatch.setattr(repair, "COLLAPSE", (1e-5, 1e-4))

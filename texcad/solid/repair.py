@@ -9,7 +9,9 @@ What a downloaded STL/3MF/OBJ needs before it can be displaced, in order:
    flipped away (:func:`flip_needles`) and the walls pulled 2 um apart there
    (:func:`pull_apart`);
 2. triangles with a repeated vertex (after merging) or with the same three vertices
-   as an earlier one are dropped, and so are vertices no triangle uses;
+   as an earlier one are dropped, and so are vertices no triangle uses; in a closed
+   mesh, vertices closer than :data:`NEAR` are then merged too where it stays closed
+   with as many shells (:func:`_merge_near`: a needle's short side);
 3. closed: every undirected edge belongs to exactly two triangles. Where not, bodies
    exported touching each other (a shaft in its bore, a lid on its box) are tried:
    a wall two of them share face to face (the same triangles wound both ways) is
@@ -132,6 +134,35 @@ def _touching(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return (tv, tf) if len(tf) and _edge_pairs(tf)[0] is not None else (cv, cf)
 
 
+#: Vertices of a closed mesh closer than this (mm) are one where the mesh stays closed
+#: (:func:`_merge_near`): a texture grid puts points on a needle's two long sides that
+#: lie closer than a float32 step (7.6e-6 mm at 65 mm) near its tip and meet when
+#: written; PrusaSlicer's extruder_idler.obj has a short side of 7.9e-6 mm. Under half
+#: :data:`PULL`'s 2 um, so walls pulled apart stay apart.
+NEAR = 5e-4
+
+
+def _merge_near(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A closed mesh ``(v, f)`` with vertices closer than :data:`NEAR` merged (each
+    group of neighbours, transitively, to its first vertex; triangles left degenerate
+    dropped), if that leaves it closed with as many shells; else as it is."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(v).query_pairs(NEAR, output_type="ndarray")
+    if not len(pairs):
+        return v, f
+    n = len(v)
+    _, group = connected_components(coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)), directed=False)
+    first = np.full(int(group.max()) + 1, n, dtype=np.int64)
+    np.minimum.at(first, group, np.arange(n))
+    mv, mf = _clean(v, first[group][f])
+    if not len(mf) or _edge_pairs(mf)[0] is None or _shell_count(mf) != _shell_count(f):
+        return v, f
+    return mv, mf
+
+
 #: A triangle no higher than this over its longest side (mm) is a needle: its third
 #: point lies on that side (a T-junction stitched with a zero-area triangle).
 NEEDLE = 1e-6
@@ -197,6 +228,8 @@ def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-
     if bad[np.unique(f)].any():
         raise InputError(f"{name} has {int(bad[np.unique(f)].sum())} vertices that are not finite numbers (NaN or inf); export it again")
     mv, mf = _touching(*_merge(v, f, merge))
+    if len(mf) and _edge_pairs(mf)[0] is not None:
+        mv, mf = _merge_near(mv, mf)
     indexed = False
     if len(mf) and _edge_pairs(mf)[0] is None:  # closed only as indexed (a 3MF keeps points apart that touch)
         iv, i_f = _clean(v, f)
