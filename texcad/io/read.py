@@ -85,7 +85,7 @@ def _read_stl(path: Path) -> Mesh:
     return _read_ascii_stl(path, data.decode("ascii", errors="replace"))
 
 
-_VERTEX = re.compile(r"\bvertex\b([^\n]*)", re.IGNORECASE)
+_VERTEX = re.compile(r"\bvertex\b([^\n\r]*)", re.IGNORECASE)  # lines end in LF, CRLF or CR alone (classic Mac)
 
 
 def _read_ascii_stl(path: Path, text: str) -> Mesh:
