@@ -118,6 +118,8 @@ class Region:
             ``support``, ``seam``) and its state (``color``: extruder number).
         faces: ``paint``: ``(M,)`` bool, the painted faces of the mesh after
             :func:`resolve_paint` (set by it; not compared).
+        cavity: ``(M,)`` bool, the faces of the mesh that line a sealed cavity, in no
+            region (set by :func:`resolve_faces`; not compared).
     """
 
     kind: str = "all"
@@ -132,6 +134,7 @@ class Region:
     paint: str = "color"
     state: int = 1
     faces: Any = field(default=None, compare=False, repr=False)
+    cavity: Any = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.kind not in REGION_KINDS:
@@ -267,6 +270,8 @@ class Region:
             sel = np.ones(len(faces), dtype=bool) if (loose and self.kind in ("box", "sphere")) else ~sel
         if not self.bottom:
             sel &= ~bed_faces(vertices, faces, normals, build_dir, tolerance)
+        if self.cavity is not None and (ids is not None or len(self.cavity) == len(faces)):
+            sel &= ~(self.cavity if ids is None else self.cavity[ids])  # a sealed void's wall: never textured
         return sel
 
     def _painted(self, m: int, ids: "np.ndarray | None") -> np.ndarray:
@@ -326,9 +331,17 @@ def _directions() -> dict:
 
 def resolve_faces(vertices: np.ndarray, faces: np.ndarray, regions: "list[Region]") -> "list[Region]":
     """``regions`` with each ``face`` region's faces marked on the mesh
-    (:func:`flat_patch`); the others as they are."""
-    return [Region("face", direction=r.direction, bottom=r.bottom, invert=r.invert,
-                   faces=flat_patch(vertices, faces, parse_axis(r.direction))) if r.kind == "face" else r for r in regions]
+    (:func:`flat_patch`), and, where the mesh (closed, repaired) has sealed cavities,
+    their walls marked as in no region (``cavity``: nobody sees or touches them, and
+    relief raised into a narrow void turns it inside out)."""
+    from dataclasses import replace
+
+    from ..solid import cavity_faces
+
+    cav = cavity_faces(vertices, faces)
+    out = [Region("face", direction=r.direction, bottom=r.bottom, invert=r.invert,
+                  faces=flat_patch(vertices, faces, parse_axis(r.direction))) if r.kind == "face" else r for r in regions]
+    return [replace(r, cavity=cav) for r in out] if cav.any() else out
 
 
 def resolve_paint(target: Any, regions: "list[Region]") -> "tuple[Any, list[Region], PaintedTarget | None]":

@@ -44,7 +44,7 @@ import numpy as np
 from ..errors import InputError
 from .mesh import edge_report, edge_slot_pairs
 
-__all__ = ["repair_closed", "CrossingRepair", "resolve_crossings", "repair_crossings", "split_pinches", "split_edges", "flip_needles", "pull_apart", "drop_specks"]
+__all__ = ["repair_closed", "CrossingRepair", "resolve_crossings", "repair_crossings", "split_pinches", "split_edges", "flip_needles", "pull_apart", "drop_specks", "cavity_faces"]
 
 
 def _merge(v: np.ndarray, f: np.ndarray, merge: float) -> tuple[np.ndarray, np.ndarray]:
@@ -519,6 +519,13 @@ def drop_specks(v: np.ndarray, f: np.ndarray, name: str = "the mesh") -> tuple[n
         return v, f, int((vol > 0).sum()), 0
     rv, rf, bodies = repair_closed(v, f[~speck[label]], name=name)
     return rv, rf, bodies, int(speck.sum())
+
+
+def cavity_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``(M,)`` bool: the faces of a closed, repaired mesh (:func:`repair_closed`)
+    that line a sealed cavity (shells of negative signed volume, wound into the void)."""
+    label, vol = _shell_volumes(np.asarray(vertices, np.float64), np.asarray(faces, np.int64))
+    return (vol < 0)[label]
 
 
 def _without_slivers(v: np.ndarray, f: np.ndarray, least: float, name: str):

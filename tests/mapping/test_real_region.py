@@ -1,0 +1,34 @@
+"""Regions on meshes as other tools write them (session 10, real files)."""
+
+import numpy as np
+import trimesh
+
+import texcad
+from texcad.mapping.region import Region, resolve_faces
+from texcad.solid import cavity_faces
+
+
+def _hollow(inner=(1.4, 5.0, 6.0)):
+    """A 20 mm cube with a closed void (PrusaSlicer's extruder_idler.obj has two nut
+    pockets 1.4 mm wide sealed inside it)."""
+    outer, hole = trimesh.creation.box((20, 20, 20)), trimesh.creation.box(inner)
+    hole.invert()
+    return trimesh.util.concatenate([outer, hole])
+
+
+def test_a_closed_cavity_is_in_no_region():
+    """Nobody sees or touches a sealed void's wall: texturing it put relief into the
+    1.4 mm pocket, which turned inside out ('2 body(ies) lie inside another body')."""
+    m = _hollow()
+    v, f = np.asarray(m.vertices), np.asarray(m.faces)
+    cav = cavity_faces(v, f)
+    assert cav.sum() == 12 and not cav[:12].any()
+    fn = m.face_normals
+    for spec in ("all", "normal:+z:30", "box:-20,-20,-20,20,20,20", "not:normal:+z:30", "top"):
+        r = resolve_faces(v, f, [Region.parse(spec)])[0]
+        sel = r.select(v, f, fn, build_dir=np.array([0.0, 0, 1]), tolerance=0.01, ids=np.arange(len(f)))
+        assert not sel[cav].any(), spec
+    part = texcad.texture(m, "all", "builtin:stones", height=0.5, pitch=0.5)
+    body = trimesh.Trimesh(part.mesh.vertices, part.mesh.faces, process=False)
+    shells = sorted(s.volume for s in body.split(only_watertight=False))
+    assert len(shells) == 2 and abs(shells[0] + 1.4 * 5 * 6) < 1e-3  # the void as it was
