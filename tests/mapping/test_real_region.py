@@ -4,7 +4,7 @@ import numpy as np
 import trimesh
 
 import texcad
-from texcad.mapping.region import Region, resolve_faces
+from texcad.mapping.region import Region, mark_cavities, resolve_faces
 from texcad.solid import cavity_faces
 
 
@@ -25,10 +25,22 @@ def test_a_closed_cavity_is_in_no_region():
     assert cav.sum() == 12 and not cav[:12].any()
     fn = m.face_normals
     for spec in ("all", "normal:+z:30", "box:-20,-20,-20,20,20,20", "not:normal:+z:30", "top"):
-        r = resolve_faces(v, f, [Region.parse(spec)])[0]
+        r = mark_cavities(v, f, resolve_faces(v, f, [Region.parse(spec)]))[0]
         sel = r.select(v, f, fn, build_dir=np.array([0.0, 0, 1]), tolerance=0.01, ids=np.arange(len(f)))
         assert not sel[cav].any(), spec
     part = texcad.texture(m, "all", "builtin:stones", height=0.5, pitch=0.5)
     body = trimesh.Trimesh(part.mesh.vertices, part.mesh.faces, process=False)
     shells = sorted(s.volume for s in body.split(only_watertight=False))
     assert len(shells) == 2 and abs(shells[0] + 1.4 * 5 * 6) < 1e-3  # the void as it was
+
+
+def test_an_inside_out_mesh_lists_its_regions():
+    """texcad faces reads the mesh as it is (not repaired): an STL written inside out
+    lists its faces as before (no face taken for a cavity's)."""
+    from texcad.mapping.region import region_table
+    from texcad.solid import Mesh
+
+    b = trimesh.creation.box((20, 20, 20))
+    b.invert()
+    rows = {r["region"]: r for r in region_table(Mesh(np.asarray(b.vertices, np.float32), np.asarray(b.faces, np.uint32)))}
+    assert rows["normal:-z:45"]["faces"] == 2  # inside out: the top's normals point down

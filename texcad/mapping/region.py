@@ -119,7 +119,7 @@ class Region:
         faces: ``paint``: ``(M,)`` bool, the painted faces of the mesh after
             :func:`resolve_paint` (set by it; not compared).
         cavity: ``(M,)`` bool, the faces of the mesh that line a sealed cavity, in no
-            region (set by :func:`resolve_faces`; not compared).
+            region (set by :func:`mark_cavities`; not compared).
     """
 
     kind: str = "all"
@@ -331,17 +331,22 @@ def _directions() -> dict:
 
 def resolve_faces(vertices: np.ndarray, faces: np.ndarray, regions: "list[Region]") -> "list[Region]":
     """``regions`` with each ``face`` region's faces marked on the mesh
-    (:func:`flat_patch`), and, where the mesh (closed, repaired) has sealed cavities,
-    their walls marked as in no region (``cavity``: nobody sees or touches them, and
-    relief raised into a narrow void turns it inside out)."""
+    (:func:`flat_patch`); the others as they are."""
+    return [Region("face", direction=r.direction, bottom=r.bottom, invert=r.invert,
+                   faces=flat_patch(vertices, faces, parse_axis(r.direction))) if r.kind == "face" else r for r in regions]
+
+
+def mark_cavities(vertices: np.ndarray, faces: np.ndarray, regions: "list[Region]") -> "list[Region]":
+    """``regions`` with the walls of the sealed cavities of a closed, repaired mesh
+    (:func:`texcad.solid.repair_closed`: a cavity's wall faces into it) marked as in
+    none of them (``cavity``): nobody sees or touches them, and relief raised into a
+    narrow void turns it inside out. As they are when the mesh has no cavity."""
     from dataclasses import replace
 
     from ..solid import cavity_faces
 
     cav = cavity_faces(vertices, faces)
-    out = [Region("face", direction=r.direction, bottom=r.bottom, invert=r.invert,
-                  faces=flat_patch(vertices, faces, parse_axis(r.direction))) if r.kind == "face" else r for r in regions]
-    return [replace(r, cavity=cav) for r in out] if cav.any() else out
+    return [replace(r, cavity=cav) for r in regions] if cav.any() else list(regions)
 
 
 def resolve_paint(target: Any, regions: "list[Region]") -> "tuple[Any, list[Region], PaintedTarget | None]":
