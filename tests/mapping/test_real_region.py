@@ -44,3 +44,19 @@ def test_an_inside_out_mesh_lists_its_regions():
     b.invert()
     rows = {r["region"]: r for r in region_table(Mesh(np.asarray(b.vertices, np.float32), np.asarray(b.faces, np.uint32)))}
     assert rows["normal:-z:45"]["faces"] == 2  # inside out: the top's normals point down
+
+
+def test_a_region_is_named_as_the_user_wrote_it():
+    """'region 1 (Region(kind='normal', direction='+z', angle=60.0, lo=None, hi=None,
+    center=None, radius=None, bottom=False, invert=False, paint='color', state=1)) holds no
+    face' (a BambuStudio project's cone and cylinder): now 'region 1 (normal:-z:10)'."""
+    import pytest
+
+    from texcad.errors import ParameterError
+
+    specs = ["all", "all+bottom", "normal:+z:60", "normal:0,1,1:30", "box:0,0,0,1,2,3", "sphere:1,2,3,4", "top",
+             "bottom", "not:normal:+z:30", "paint:2", "paint:seam:2", "paint:fuzzy", "not:front"]
+    for spec in specs:
+        assert str(Region.parse(spec)) == spec and Region.parse(str(Region.parse(spec))) == Region.parse(spec)
+    with pytest.raises(ParameterError, match=r"region 1 \(normal:-z:10\) holds no face"):
+        texcad.texture(trimesh.creation.box((20, 20, 20)), "normal:-z:10", "builtin:dots", height=0.3, pitch=0.5)

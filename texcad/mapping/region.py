@@ -152,6 +152,23 @@ class Region:
         if self.kind == "sphere" and (self.center is None or self.radius is None or not self.radius > 0):
             raise ParameterError("a sphere region needs a center (x, y, z) and a positive radius in mm")
 
+    def __str__(self) -> str:
+        """The string form :meth:`parse` reads (``normal:+z:60``, ``not:top``...), as
+        messages name the region."""
+        g = lambda xs: ",".join(f"{float(x):g}" for x in xs)  # noqa: E731
+        if self.kind == "face":
+            body = next((w for w, d in _directions().items() if np.allclose(d, self.direction) and (w == "bottom") == self.bottom), "face")
+        elif self.kind == "normal":
+            d = self.direction if isinstance(self.direction, str) else g(self.direction)
+            body = f"normal:{d}:{float(self.angle):g}"
+        elif self.kind in ("box", "sphere"):
+            body = f"box:{g([*self.lo, *self.hi])}" if self.kind == "box" else f"sphere:{g([*self.center, self.radius])}"
+        elif self.kind == "paint":
+            body = _region_name(self)
+        else:
+            body = "all+bottom" if self.bottom else "all"
+        return f"not:{body}" if self.invert else body
+
     @classmethod
     def parse(cls, spec: "str | Region | None") -> "Region":
         """A region from its string form (module docstring), a Region, or None (all)."""
