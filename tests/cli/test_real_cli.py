@@ -32,3 +32,24 @@ def test_other_warnings_and_recorders_are_left_as_they_were():
             warnings.warn("z", TexcadWarning)
         assert [str(w.message) for w in seen] == ["z"]
     assert "TexcadWarning" in warnings.formatwarning(TexcadWarning("x"), TexcadWarning, "f.py", 1)
+
+
+def test_faces_of_a_mesh_describe_it_as_texture_reads_it(tmp_path):
+    """An STL written inside out (all normals inward): texcad faces said 'top' was at
+    z = -10 (the bottom, by the raw normals) while texcad texture --region top repairs
+    the winding first and textures the real top (session 10)."""
+    import trimesh
+
+    box = trimesh.creation.box((20, 20, 20))
+    box.invert()
+    box.export(tmp_path / "inv.stl")
+    r = subprocess.run([sys.executable, "-m", "texcad", "faces", str(tmp_path / "inv.stl")], capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    top = next(s for s in r.stdout.splitlines() if s.startswith("top "))
+    assert top.rstrip().endswith(" 10.000)"), r.stdout
+    (tmp_path / "open.stl").write_text("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+                                        "vertex 0 1 0\nendloop\nendfacet\nendsolid x\n")
+    r = subprocess.run([sys.executable, "-m", "texcad", "faces", str(tmp_path / "open.stl")], capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 0 and "triangles    1 of" in r.stdout, r.stderr  # an open mesh: listed as read

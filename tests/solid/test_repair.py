@@ -104,7 +104,7 @@ def test_a_cavity_faces_into_the_cavity_and_an_island_in_it_outward():
         fs.append(np.asarray(g.tri_verts).astype(np.int64) + off)
         off += len(vs[-1])
     rv, rf, bodies = repair_closed(np.concatenate(vs), np.concatenate(fs))
-    assert bodies == 3
+    assert bodies == 2  # the outer ball and the island: a cavity is no body
     tm = trimesh.Trimesh(rv, rf, process=False)
     assert tm.volume == pytest.approx(part.volume(), rel=1e-6)
     vols = sorted(b.volume for b in tm.split(only_watertight=False))
@@ -172,6 +172,8 @@ def test_edges_too_short_after_the_union_are_collapsed(monkeypatch):
     v[top, :2] += 1e-6  # the spike's tip beside the bottom's grid vertex
     monkeypatch.setattr(repair, "MERGE", (1e-8,))
     monkeypatch.setattr(repair, "COLLAPSE", ())
+    assert repair.resolve_crossings(v, f)[2].bodies == 1  # merged as vertices closer than repair.NEAR
+    monkeypatch.setattr(repair, "NEAR", 0.0)  # the collapse's own test
     with pytest.raises(InputError, match=r"edges of .* mm, too short to texture"):
         repair.resolve_crossings(v, f)
     monkeypatch.setattr(repair, "COLLAPSE", (1e-5, 1e-4))

@@ -16,3 +16,16 @@ def test_a_mesh_in_metres_is_refused_naming_the_scale(tmp_path):
         texcad.texture(tmp_path / "ball.obj", None, "builtin:stones")
     small = texcad.texture(trimesh.creation.box((2.0, 2.0, 2.0)), "all", "builtin:dots", height=0.2, pitch=0.25)
     assert small.mesh.is_watertight  # 2 mm spans 8 pitches: textured as before
+
+
+def test_a_hollow_mesh_is_textured(tmp_path):
+    """A closed part with an inner void (PrusaSlicer's extruder_idler.obj: two nut
+    pockets written as shells inside the part) failed the gate: 'it has 1 bodies where
+    the part has 3'. The void is kept, the part textured and one body."""
+    outer, hole = trimesh.creation.box((20, 20, 20)), trimesh.creation.box((4, 4, 4))
+    trimesh.util.concatenate([outer, hole]).export(tmp_path / "hollow.stl")
+    part = texcad.texture(tmp_path / "hollow.stl", "top", "builtin:dots", height=0.3, pitch=0.5)
+    body = trimesh.Trimesh(part.mesh.vertices, part.mesh.faces, process=False)
+    shells = sorted(s.volume for s in body.split(only_watertight=False))
+    assert len(shells) == 2 and abs(shells[0] + 64) < 1e-3 and body.volume > 8000 - 64
+

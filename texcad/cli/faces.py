@@ -193,6 +193,20 @@ def draw_faces(part: Any, path: str, *, width: int = 1200, view=(-1.0, 2.0, -1.2
     return drawn
 
 
+def _as_textured(part: str, load_mesh: Any) -> Any:
+    """The mesh as texturing reads it (repaired: merged, wound outward), so that the
+    regions listed are those ``texcad texture`` picks; as read if it cannot be repaired."""
+    from ..errors import InputError
+    from ..solid import Mesh
+    from ..targets.mesh import load_closed
+
+    try:
+        v, f, _, _ = load_closed(part, crossing=False)
+    except InputError:  # open or non-manifold: listed as it is (texture would refuse it, saying why)
+        return load_mesh(part)
+    return Mesh(v.astype(np.float32), f.astype(np.uint32))
+
+
 def _mesh_regions(args: argparse.Namespace) -> int:
     """A mesh has no faces to name: what each ``--region`` spec picks on it."""
     from ..errors import ParameterError
@@ -202,7 +216,7 @@ def _mesh_regions(args: argparse.Namespace) -> int:
     if args.png:
         raise ParameterError(f"--png draws a STEP part's face numbers; {args.part!r} is a mesh: draw it with texcad render")
     t0 = time.perf_counter()
-    mesh = load_mesh(args.part)
+    mesh = _as_textured(args.part, load_mesh)
     print(f"{'region':<14} {'faces':>9} {'area mm2':>12}  centre mm")
     for row in region_table(mesh):  # thirteen rows
         centre = _fmt(row["centre"]) if row["centre"] is not None else "-"

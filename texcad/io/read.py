@@ -85,7 +85,7 @@ def _read_stl(path: Path) -> Mesh:
     return _read_ascii_stl(path, data.decode("ascii", errors="replace"))
 
 
-_VERTEX = re.compile(r"\bvertex\b([^\n]*)", re.IGNORECASE)
+_VERTEX = re.compile(r"\bvertex\b([^\n\r]*)", re.IGNORECASE)  # lines end in LF, CRLF or CR alone (classic Mac)
 
 
 def _read_ascii_stl(path: Path, text: str) -> Mesh:
@@ -628,18 +628,25 @@ def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
                                      "export it again") from None
             return parts[part]
 
-        def walk(part: str, oid: str | None, tf: np.ndarray, depth: int) -> None:
+        subtypes = _part_subtypes(z)
+
+        def walk(part: str, oid: str | None, tf: np.ndarray, depth: int, top: str | None, got: list) -> None:
             table, scale = objects(part)
             if oid not in table or depth > 16:
                 raise InputError(f"3MF build refers to a missing or cyclic object {oid!r}")
             e = table[oid]
             if "mesh" in e:
-                out.extend(_placed(e, tf, scale, volumes.get(oid) if depth == 0 and part == target else None))
+                got.extend(_placed(e, tf, scale, volumes.get(oid) if depth == 0 and part == target else None,
+                                   subtypes.get((top, oid), "part")))
             for cid, ctf, cpart in e["components"]:
-                walk(cpart or part, cid, ctf @ tf, depth + 1)
+                walk(cpart or part, cid, ctf @ tf, depth + 1, top, got)
 
-        for oid, tf in items:  # per build item
-            walk(target, oid, tf, 0)
+        for oid, tf in items:  # per build item: its material, its negative volumes cut out
+            got: list = []
+            walk(target, oid, tf, 0, oid, got)
+            mat = [(n, m) for n, m, k in got if k == "part"]
+            neg = [m for _, m, k in got if k == "negative"]
+            out.extend(_cut(path, parts[target][0].get(oid, {}).get("name", str(oid)), mat, neg) if neg and mat else mat)
     if not out:
         raise InputError(f"{str(path)!r} holds no mesh objects")
     return out
@@ -683,20 +690,20 @@ def _model_objects(xml: "bytes | mmap.mmap", path: Path, part: str, known: dict)
     return objects, _unit_scale(xml, path)
 
 
-def _placed(e: dict, tf: np.ndarray, scale: float, parts: "list | None") -> list[tuple[str, Mesh]]:
+def _placed(e: dict, tf: np.ndarray, scale: float, parts: "list | None", kind: str = "part") -> list[tuple[str, Mesh, str]]:
     """An object's mesh moved by ``tf`` (4x4, row vectors) and scaled to mm: one
-    ``(name, Mesh)``, or one per part of a multi-part object (``parts``: name, first
-    and last triangle)."""
+    ``(name, Mesh, kind)``, or one per part of a multi-part object (``parts``: name,
+    first and last triangle, kind: :data:`VOLUME_KINDS`)."""
     v, t = e["mesh"]
     vv = v if np.array_equal(tf, np.eye(4)) else v @ tf[:3, :3] + tf[3, :3]
     vv = vv if scale == 1.0 else vv * scale
-    if parts and parts[-1][2] == len(t) - 1 and all(a <= b for _, a, b in parts):
+    if parts and parts[-1][2] == len(t) - 1 and all(p[1] <= p[2] for p in parts):
         out = []
-        for vname, first, last in parts:  # each part with its own vertices
+        for vname, first, last, vkind in parts:  # each part with its own vertices
             used, tt = np.unique(t[first : last + 1], return_inverse=True)
-            out.append((vname, Mesh(vv[used].astype(np.float32), tt.reshape(-1, 3).astype(np.uint32))))
+            out.append((vname, Mesh(vv[used].astype(np.float32), tt.reshape(-1, 3).astype(np.uint32)), vkind))
         return out
-    return [(e["name"], Mesh(vv.astype(np.float32), t.astype(np.uint32)))]
+    return [(e["name"], Mesh(vv.astype(np.float32), t.astype(np.uint32)), kind)]
 
 
 def _mesh_arrays(xml: bytes, span: tuple[int, int], oid: str, known: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -717,10 +724,20 @@ def _mesh_arrays(xml: bytes, span: tuple[int, int], oid: str, known: dict) -> tu
     return v, t
 
 
-def _slic3r_volumes(xml: bytes) -> dict[str, list[tuple[str, int, int]]]:
-    """``{object id: [(part name, first triangle, last triangle), ...]}`` from a
-    ``Metadata/Slic3r_PE_model.config`` (multi-part objects)."""
-    out: dict[str, list[tuple[str, int, int]]] = {}
+#: What a slicer volume is (PrusaSlicer's ``volume_type``, BambuStudio's and
+#: OrcaSlicer's part ``subtype``): material, a volume cut out of its object, or
+#: neither (a modifier, a support enforcer or blocker: settings, not material).
+#: Anything else is taken as material.
+VOLUME_KINDS = {"ParameterModifier": "setting", "SupportEnforcer": "setting", "SupportBlocker": "setting",
+                "modifier_part": "setting", "support_enforcer": "setting", "support_blocker": "setting",
+                "NegativeVolume": "negative", "negative_part": "negative"}
+
+
+def _slic3r_volumes(xml: bytes) -> dict[str, list[tuple[str, int, int, str]]]:
+    """``{object id: [(part name, first triangle, last triangle, kind), ...]}`` from a
+    ``Metadata/Slic3r_PE_model.config`` (multi-part objects; kind
+    :data:`VOLUME_KINDS`, ``"part"`` for material)."""
+    out: dict[str, list[tuple[str, int, int, str]]] = {}
     for head, body in _elements(xml, b"object"):
         oid = _attrs(head).get("id")
         parts = []
@@ -731,10 +748,48 @@ def _slic3r_volumes(xml: bytes) -> dict[str, list[tuple[str, int, int]]]:
             except ValueError:
                 continue
             m = re.search(rb'key="name"\s+value="([^"]*)"', vbody)
-            parts.append((_xml_unescape(m.group(1).decode()) if m else f"part {k + 1}", first, last))
+            t = re.search(rb'key="volume_type"\s+value="([^"]*)"', vbody)
+            kind = VOLUME_KINDS.get(t.group(1).decode() if t else "", "part")
+            parts.append((_xml_unescape(m.group(1).decode()) if m else f"part {k + 1}", first, last, kind))
         if oid is not None and parts:
             out[oid] = parts
     return out
+
+
+def _part_subtypes(z: zipfile.ZipFile) -> dict[tuple, str]:
+    """``{(build object id, part object id): kind}`` of the parts that are not
+    material (:data:`VOLUME_KINDS`) from BambuStudio's / OrcaSlicer's
+    ``Metadata/model_settings.config``."""
+    try:
+        cfg = z.read("Metadata/model_settings.config")
+    except KeyError:
+        return {}
+    out = {}
+    for head, body in _elements(cfg, b"object"):  # per object
+        oid = _attrs(head).get("id")
+        for ph in re.findall(rb"<part\b([^>]*)>", body):  # per part
+            pa = _attrs(ph)
+            kind = VOLUME_KINDS.get(pa.get("subtype", "normal_part"), "part")
+            if kind != "part":
+                out[(oid, pa.get("id"))] = kind
+    return out
+
+
+def _cut(path: Path, name: str, parts: list, negatives: list) -> list[tuple[str, Mesh]]:
+    """An object's material parts ``(name, Mesh)`` with its negative volumes cut out
+    (manifold3d), as the slicer prints them; parts cut away whole are dropped."""
+    from ..errors import GeometryError
+    from ..solid import from_manifold, to_manifold
+
+    try:
+        hole = to_manifold(negatives[0])
+        for m in negatives[1:]:
+            hole = hole + to_manifold(m)
+        out = [(n, from_manifold(to_manifold(m) - hole)) for n, m in parts]
+    except GeometryError as exc:
+        raise InputError(f"{str(path)!r}: object {name!r} has a negative volume, which texcad cuts out of it, but "
+                         f"{exc}; apply the cut in the slicer or CAD program and export the part again") from None
+    return [(n, m) for n, m in out if len(m.faces)]
 
 
 def read_part(path: str | os.PathLike) -> list[tuple[str, Mesh]]:
@@ -746,6 +801,9 @@ def read_part(path: str | os.PathLike) -> list[tuple[str, Mesh]]:
     ``transform`` attributes applied), named by its ``name`` attribute; a
     multi-part object (``Metadata/Slic3r_PE_model.config``, as
     :func:`texcad.io.write_3mf` and PrusaSlicer write) gives one mesh per part.
+    A slicer project's modifiers and support enforcers / blockers (PrusaSlicer's
+    volume types, BambuStudio's and OrcaSlicer's part subtypes) are left out and
+    its negative volumes cut out of their object (manifold3d), as the slicer prints it.
 
     Raises:
         InputError: missing, empty or unreadable file, or unknown suffix.

@@ -118,6 +118,8 @@ class Region:
             ``support``, ``seam``) and its state (``color``: extruder number).
         faces: ``paint``: ``(M,)`` bool, the painted faces of the mesh after
             :func:`resolve_paint` (set by it; not compared).
+        cavity: ``(M,)`` bool, the faces of the mesh that line a sealed cavity, in no
+            region (set by :func:`mark_cavities`; not compared).
     """
 
     kind: str = "all"
@@ -132,6 +134,7 @@ class Region:
     paint: str = "color"
     state: int = 1
     faces: Any = field(default=None, compare=False, repr=False)
+    cavity: Any = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.kind not in REGION_KINDS:
@@ -148,6 +151,23 @@ class Region:
                                  f"paint:support, paint:seam; got kind {self.paint!r}, state {self.state!r}")
         if self.kind == "sphere" and (self.center is None or self.radius is None or not self.radius > 0):
             raise ParameterError("a sphere region needs a center (x, y, z) and a positive radius in mm")
+
+    def __str__(self) -> str:
+        """The string form :meth:`parse` reads (``normal:+z:60``, ``not:top``...), as
+        messages name the region."""
+        g = lambda xs: ",".join(f"{float(x):g}" for x in xs)  # noqa: E731
+        if self.kind == "face":
+            body = next((w for w, d in _directions().items() if np.allclose(d, self.direction) and (w == "bottom") == self.bottom), "face")
+        elif self.kind == "normal":
+            d = self.direction if isinstance(self.direction, str) else g(self.direction)
+            body = f"normal:{d}:{float(self.angle):g}"
+        elif self.kind in ("box", "sphere"):
+            body = f"box:{g([*self.lo, *self.hi])}" if self.kind == "box" else f"sphere:{g([*self.center, self.radius])}"
+        elif self.kind == "paint":
+            body = _region_name(self)
+        else:
+            body = "all+bottom" if self.bottom else "all"
+        return f"not:{body}" if self.invert else body
 
     @classmethod
     def parse(cls, spec: "str | Region | None") -> "Region":
@@ -267,6 +287,8 @@ class Region:
             sel = np.ones(len(faces), dtype=bool) if (loose and self.kind in ("box", "sphere")) else ~sel
         if not self.bottom:
             sel &= ~bed_faces(vertices, faces, normals, build_dir, tolerance)
+        if self.cavity is not None and (ids is not None or len(self.cavity) == len(faces)):
+            sel &= ~(self.cavity if ids is None else self.cavity[ids])  # a sealed void's wall: never textured
         return sel
 
     def _painted(self, m: int, ids: "np.ndarray | None") -> np.ndarray:
@@ -329,6 +351,19 @@ def resolve_faces(vertices: np.ndarray, faces: np.ndarray, regions: "list[Region
     (:func:`flat_patch`); the others as they are."""
     return [Region("face", direction=r.direction, bottom=r.bottom, invert=r.invert,
                    faces=flat_patch(vertices, faces, parse_axis(r.direction))) if r.kind == "face" else r for r in regions]
+
+
+def mark_cavities(vertices: np.ndarray, faces: np.ndarray, regions: "list[Region]") -> "list[Region]":
+    """``regions`` with the walls of the sealed cavities of a closed, repaired mesh
+    (:func:`texcad.solid.repair_closed`: a cavity's wall faces into it) marked as in
+    none of them (``cavity``): nobody sees or touches them, and relief raised into a
+    narrow void turns it inside out. As they are when the mesh has no cavity."""
+    from dataclasses import replace
+
+    from ..solid import cavity_faces
+
+    cav = cavity_faces(vertices, faces)
+    return [replace(r, cavity=cav) for r in regions] if cav.any() else list(regions)
 
 
 def resolve_paint(target: Any, regions: "list[Region]") -> "tuple[Any, list[Region], PaintedTarget | None]":

@@ -41,7 +41,7 @@ from .rtin import (
     lean_grid,
 )
 from .intersect import box_cells, self_intersections
-from .repair import repair_closed
+from .repair import cavity_faces, repair_closed
 from .subdivide import (
     refine,
     tessellate,
@@ -85,6 +85,7 @@ __all__ = [
     'lean_grid',
     'self_intersections',
     'repair_closed',
+    'cavity_faces',
     'box_cells',
     'refine',
     'tessellate',

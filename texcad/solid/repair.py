@@ -9,7 +9,9 @@ What a downloaded STL/3MF/OBJ needs before it can be displaced, in order:
    flipped away (:func:`flip_needles`) and the walls pulled 2 um apart there
    (:func:`pull_apart`);
 2. triangles with a repeated vertex (after merging) or with the same three vertices
-   as an earlier one are dropped, and so are vertices no triangle uses;
+   as an earlier one are dropped, and so are vertices no triangle uses; in a closed
+   mesh, vertices closer than :data:`NEAR` are then merged too where it stays closed
+   with as many shells (:func:`_merge_near`: a needle's short side);
 3. closed: every undirected edge belongs to exactly two triangles. Where not, bodies
    exported touching each other (a shaft in its bore, a lid on its box) are tried:
    a wall two of them share face to face (the same triangles wound both ways) is
@@ -42,7 +44,7 @@ import numpy as np
 from ..errors import InputError
 from .mesh import edge_report, edge_slot_pairs
 
-__all__ = ["repair_closed", "CrossingRepair", "resolve_crossings", "repair_crossings", "split_pinches", "split_edges", "flip_needles", "pull_apart", "drop_specks"]
+__all__ = ["repair_closed", "CrossingRepair", "resolve_crossings", "repair_crossings", "split_pinches", "split_edges", "flip_needles", "pull_apart", "drop_specks", "cavity_faces"]
 
 
 def _merge(v: np.ndarray, f: np.ndarray, merge: float) -> tuple[np.ndarray, np.ndarray]:
@@ -139,6 +141,35 @@ def _touching(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, str
     return tv, tf, "; ".join(done)
 
 
+#: Vertices of a closed mesh closer than this (mm) are one where the mesh stays closed
+#: (:func:`_merge_near`): a texture grid puts points on a needle's two long sides that
+#: lie closer than a float32 step (7.6e-6 mm at 65 mm) near its tip and meet when
+#: written; PrusaSlicer's extruder_idler.obj has a short side of 7.9e-6 mm. Under half
+#: :data:`PULL`'s 2 um, so walls pulled apart stay apart.
+NEAR = 5e-4
+
+
+def _merge_near(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A closed mesh ``(v, f)`` with vertices closer than :data:`NEAR` merged (each
+    group of neighbours, transitively, to its first vertex; triangles left degenerate
+    dropped), if that leaves it closed with as many shells; else as it is."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(v).query_pairs(NEAR, output_type="ndarray")
+    if not len(pairs):
+        return v, f
+    n = len(v)
+    _, group = connected_components(coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)), directed=False)
+    first = np.full(int(group.max()) + 1, n, dtype=np.int64)
+    np.minimum.at(first, group, np.arange(n))
+    mv, mf = _clean(v, first[group][f])
+    if not len(mf) or _edge_pairs(mf)[0] is None or _shell_count(mf) != _shell_count(f):
+        return v, f
+    return mv, mf
+
+
 #: A triangle no higher than this over its longest side (mm) is a needle: its third
 #: point lies on that side (a T-junction stitched with a zero-area triangle).
 NEEDLE = 1e-6
@@ -186,7 +217,8 @@ def flip_needles(v: np.ndarray, f: np.ndarray, passes: int = 32) -> tuple[np.nda
 def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-8, name: str = "the mesh",
                   notes: list | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """Closed, consistently wound, outward bodies from a triangle soup (module
-    docstring). Returns ``(vertices float64 (N, 3) mm, faces int64 (M, 3), bodies)``.
+    docstring). Returns ``(vertices float64 (N, 3) mm, faces int64 (M, 3), bodies)``,
+    ``bodies`` the outer shells (a cavity's wall is no body: the gate counts so).
 
     Args:
         vertices: ``(N, 3)`` mm. faces: ``(M, 3)`` vertex indices.
@@ -207,6 +239,8 @@ def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-
     if bad[np.unique(f)].any():
         raise InputError(f"{name} has {int(bad[np.unique(f)].sum())} vertices that are not finite numbers (NaN or inf); export it again")
     mv, mf, note = _touching(*_merge(v, f, merge))
+    if len(mf) and _edge_pairs(mf)[0] is not None:
+        mv, mf = _merge_near(mv, mf)
     indexed = False
     if len(mf) and _edge_pairs(mf)[0] is None:  # closed only as indexed (a 3MF keeps points apart that touch)
         iv, i_f = _clean(v, f)
@@ -239,7 +273,7 @@ def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-
     f, _ = flip_needles(v, f)  # wound alike now: each needle's neighbour runs its long side the other way
     if indexed:
         v = pull_apart(v, f)
-    return v, f, int(body.max() + 1)
+    return v, f, int((~inward).sum())
 
 
 #: How far (mm) :func:`pull_apart` moves each copy of a point two walls share.
@@ -500,12 +534,19 @@ def drop_specks(v: np.ndarray, f: np.ndarray, name: str = "the mesh") -> tuple[n
     return rv, rf, bodies, int(speck.sum())
 
 
+def cavity_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``(M,)`` bool: the faces of a closed, repaired mesh (:func:`repair_closed`)
+    that line a sealed cavity (shells of negative signed volume, wound into the void)."""
+    label, vol = _shell_volumes(np.asarray(vertices, np.float64), np.asarray(faces, np.int64))
+    return (vol < 0)[label]
+
+
 def _without_slivers(v: np.ndarray, f: np.ndarray, least: float, name: str):
     """``(v, f, bodies)`` without the shells that enclose less than ``least`` mm^3."""
     label, vol = _shell_volumes(v, f)
     keep = np.abs(vol) >= least
     if keep.all():
-        return v, f, int(len(vol))
+        return v, f, int((vol > 0).sum())
     return repair_closed(v, f[keep[label]], name=name)
 
 

@@ -64,7 +64,7 @@ import numpy as np
 
 from ..errors import GeometryError, InputError, ParameterError, ResourceError, TexcadWarning
 from ..mapping.projection import PROJECTIONS, Projection, TileSampler, parse_axis, sample_heights
-from ..mapping.region import Region, resolve_faces, resolve_paint, zone_layers
+from ..mapping.region import Region, mark_cavities, resolve_faces, resolve_paint, zone_layers
 from ..printability import build_directions, check_critical_angle
 from ..printability.relief import limit_relief
 from ..sources.mask import mask_sampler
@@ -130,9 +130,8 @@ def load_closed(target: Any, *, crossing: bool = True) -> tuple[np.ndarray, np.n
         raise InputError(f"{name} holds no triangles")
     n_in = len(f)
     notes: list = []
-    v, f, bodies = repair_closed(v, f, name=name, notes=notes)
-    v, f, counted, specks = drop_specks(v, f, name)
-    bodies = counted if specks else bodies
+    v, f, _ = repair_closed(v, f, name=name, notes=notes)
+    v, f, bodies, specks = drop_specks(v, f, name)  # bodies: outer shells (a cavity is none)
     if crossing:
         assert_uncrossed(v, f, name)
     info = {"input_triangles": int(n_in), "repaired_triangles": int(len(f)), "bodies": bodies}
@@ -771,6 +770,7 @@ class MeshAdapter(Adapter):
         if painted is None:  # small self-intersections resolved (issue 27); paint follows face numbers: not re-meshed
             v, f, bodies = repair_crossings(v, f, bodies, info, _name(target))
         regions = resolve_faces(v, f, [layer.region for layer in layers])  # direction words: flat patches of this mesh
+        regions = mark_cavities(v, f, regions)  # a sealed void's wall is in no region
         layers = tuple(replace(layer, region=r) for layer, r in zip(layers, regions))
         if painted is not None or isinstance(where, dict):  # zones: their 3MF parts named by region and texture
             info["zones"] = [_zone_name(r, t) for r, t, _ in raw]
