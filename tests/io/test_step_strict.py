@@ -133,3 +133,22 @@ def test_an_unset_name_does_not_refuse_the_part(good, tmp_path):
     shape = read_step(tmp_path / "unset.step")
     (tmp_path / "good.step").write_text(good)
     assert occt_volume(shape) == pytest.approx(occt_volume(read_step(tmp_path / "good.step")), rel=1e-12)
+
+
+def test_header_names_at_fault_do_not_refuse_the_part_but_a_shape_representation_does(good, tmp_path):
+    """truck (a Rust CAD kernel) writes the header's author and organization as
+    nested lists, which OCCT reports as "not a quoted String": no shape depends on
+    them, so the part is read. A shape representation whose context is not defined is
+    at fault in the shape itself (it matched PRESENTATION and was let through)."""
+    from texcad.io import read_step
+
+    header = good.replace("(''),(''),", "(('')),(('')),", 1)
+    assert header != good
+    (tmp_path / "header.step").write_text(header)
+    assert not read_step(tmp_path / "header.step").IsNull()
+    rep = _line(good, "#10 = ADVANCED_BREP_SHAPE_REPRESENTATION")
+    broken = good.replace(rep, re.sub(r"#\d+\);$", "#999999);", rep))
+    assert broken != good
+    (tmp_path / "context.step").write_text(broken)
+    with pytest.raises(InputError, match=r"ADVANCED_BREP|#10 .*cannot be read"):
+        read_step(tmp_path / "context.step")

@@ -221,7 +221,7 @@ def read_step(path: str | os.PathLike):
         status = reader.ReadFile(p)
     if status != IFSelect_RetDone or reader.StepModel() is None:
         raise InputError(_syntax_message(p, log.text))
-    fault = _first_fault(reader, p) or _text_fault(p)
+    fault = _text_fault(p) or _first_fault(reader, p)  # the text check names a damaged pcurve more exactly
     if fault:
         raise InputError(fault)
     with _Quiet():
@@ -373,7 +373,9 @@ def _first_fault(reader, p: str) -> str | None:
         checks.Next()
     if not faults:
         return None
-    general = faults.pop(0, [])
+    general = [g for g in faults.pop(0, []) if not _HEADER_FAULT.search(g)]  # the header's names carry no shape
+    if not faults and not general:
+        return None
     if not faults:  # a syntax error the parser read past
         found = next((m for m in map(re.compile(r"Line (\d+):\s*(.*)").search, general) if m), None)
         where = f"a syntax error at line {found.group(1)}: {found.group(2).strip()}" if found else f"a fault: {general[0]}"
@@ -489,7 +491,12 @@ def _text_fault(p: str) -> str | None:
 #: data): a fault in one of them is left to OCCT, which reads the shape without it
 #: (CAD programs write many of them; real files must not be refused for one).
 _NAME_FAULT = re.compile(r"\((?:\w+\.)?(?:name|description)\) not a quoted String")  # a label left unset ($): Fusion 360
-_METADATA = re.compile(r"STYLE|COLOUR|PRESENTATION|DRAUGHTING|ANNOTATION|PROPERTY|DOCUMENT|APPROVAL|PERSON|"
+#: A fault in the header's FILE_NAME / FILE_DESCRIPTION fields (truck writes its
+#: author and organization as nested lists): no shape depends on them.
+_HEADER_FAULT = re.compile(r"\((?:author|organization|originating_system|authorization|preprocessor_version|"
+                           r"time_stamp|implementation_level)\) not a quoted String")
+#: Entities that carry no shape; PRESENTATION not after RE (a shape REPRESENTATION carries one).
+_METADATA = re.compile(r"STYLE|COLOUR|(?<!RE)PRESENTATION|DRAUGHTING|ANNOTATION|PROPERTY|DOCUMENT|APPROVAL|PERSON|"
                        r"ORGANIZATION|DATE|TIME|SECURITY|CLASSIFICATION|PRODUCT|APPLICATION|DESCRIPTIVE|LAYER|"
                        r"INVISIBILITY|TEXT|FONT|OVER_RIDING|CONTEXT_DEPENDENT|MEASURE_REPRESENTATION_ITEM|VALUE_REPRESENTATION_ITEM")
 
