@@ -46,6 +46,21 @@ def test_an_inside_out_mesh_lists_its_regions():
     assert rows["normal:-z:45"]["faces"] == 2  # inside out: the top's normals point down
 
 
+def test_the_region_table_of_a_repaired_mesh_leaves_its_cavity_out():
+    """texcad faces on a hollow mesh (repaired, as texturing reads it) counts the
+    faces texturing would take: not the void's walls."""
+    from texcad.mapping.region import region_table
+    from texcad.solid import Mesh, repair_closed
+
+    v, f, _ = repair_closed(*(np.asarray(a) for a in (_hollow().vertices, _hollow().faces)))
+    mesh = Mesh(v.astype(np.float32), f.astype(np.uint32))
+    rows = {r["region"]: r for r in region_table(mesh, repaired=True)}
+    raw = {r["region"]: r for r in region_table(mesh)}
+    assert rows["not-bottom"]["faces"] == 10 and raw["not-bottom"]["faces"] > 10
+    assert rows["not-bottom"]["area"] == 5 * 400
+    assert rows["normal:+z:45"]["faces"] == 2 and raw["normal:+z:45"]["faces"] == 4  # the void's floor faces up
+
+
 def test_a_region_is_named_as_the_user_wrote_it():
     """'region 1 (Region(kind='normal', direction='+z', angle=60.0, lo=None, hi=None,
     center=None, radius=None, bottom=False, invert=False, paint='color', state=1)) holds no

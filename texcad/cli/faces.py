@@ -193,9 +193,10 @@ def draw_faces(part: Any, path: str, *, width: int = 1200, view=(-1.0, 2.0, -1.2
     return drawn
 
 
-def _as_textured(part: str, load_mesh: Any) -> Any:
-    """The mesh as texturing reads it (repaired: merged, wound outward), so that the
-    regions listed are those ``texcad texture`` picks; as read if it cannot be repaired."""
+def _as_textured(part: str, load_mesh: Any) -> tuple[Any, bool]:
+    """``(mesh, repaired)``: the mesh as texturing reads it (repaired: merged, wound
+    outward), so that the regions listed are those ``texcad texture`` picks; as read
+    (``repaired`` False) if it cannot be repaired."""
     from ..errors import InputError
     from ..solid import Mesh
     from ..targets.mesh import load_closed
@@ -203,8 +204,8 @@ def _as_textured(part: str, load_mesh: Any) -> Any:
     try:
         v, f, _, _ = load_closed(part, crossing=False)
     except InputError:  # open or non-manifold: listed as it is (texture would refuse it, saying why)
-        return load_mesh(part)
-    return Mesh(v.astype(np.float32), f.astype(np.uint32))
+        return load_mesh(part), False
+    return Mesh(v.astype(np.float32), f.astype(np.uint32)), True
 
 
 def _mesh_regions(args: argparse.Namespace) -> int:
@@ -216,9 +217,9 @@ def _mesh_regions(args: argparse.Namespace) -> int:
     if args.png:
         raise ParameterError(f"--png draws a STEP part's face numbers; {args.part!r} is a mesh: draw it with texcad render")
     t0 = time.perf_counter()
-    mesh = _as_textured(args.part, load_mesh)
+    mesh, repaired = _as_textured(args.part, load_mesh)
     print(f"{'region':<14} {'faces':>9} {'area mm2':>12}  centre mm")
-    for row in region_table(mesh):  # thirteen rows
+    for row in region_table(mesh, repaired=repaired):  # thirteen rows
         centre = _fmt(row["centre"]) if row["centre"] is not None else "-"
         print(f"{row['region']:<14} {row['faces']:>9} {row['area']:>12.3f}  {centre}")
     print(f"triangles    {len(mesh.faces)} of {args.part}, printed along +z (texcad texture PART --region SPEC; "

@@ -458,12 +458,13 @@ LISTED_REGIONS = ("not-bottom", "top", "bottom", "front", "back", "left", "right
                   "normal:+z:45", "normal:-z:45", "normal:+x:45", "normal:-x:45", "normal:+y:45", "normal:-y:45")
 
 
-def region_table(mesh: Any, *, tolerance: float = 0.01) -> list[dict]:
+def region_table(mesh: Any, *, tolerance: float = 0.01, repaired: bool = False) -> list[dict]:
     """What each ``--region`` spec of :data:`LISTED_REGIONS` picks on a
     :class:`~texcad.solid.Mesh` printed along +z (``tolerance`` mm: the bed face's,
     :func:`bed_faces`): one dict per spec with ``region``, ``faces`` (count), ``area``
     (mm2) and ``centre`` (mm, the area-weighted centroid of its faces; None when it
-    picks none)."""
+    picks none). ``repaired`` (:func:`texcad.solid.repair_closed`'s output): a sealed
+    cavity's walls are in no region, as texturing takes them (:func:`mark_cavities`)."""
     from ..solid import face_normals
 
     v, f = mesh.vertices.astype(np.float64), np.asarray(mesh.faces, np.int64)
@@ -471,6 +472,7 @@ def region_table(mesh: Any, *, tolerance: float = 0.01) -> list[dict]:
     rows = []
     for spec in LISTED_REGIONS:  # thirteen specs, each vectorized over the faces
         (region,) = resolve_faces(v, f, [Region.parse(spec)])
+        (region,) = mark_cavities(v, f, [region]) if repaired else (region,)
         sel = region.select(v, f, normals, build_dir=np.array([0.0, 0.0, 1.0]), tolerance=tolerance)
         a = float(area[sel].sum())
         rows.append({"region": spec, "faces": int(sel.sum()), "area": a,
