@@ -320,10 +320,12 @@ def test_l_plate_step_at_the_tolerance_meshes_closed(tmp_path):
     of the mesh, stays valid once OCCT has meshed it and meshes closed. The section
     edges along a wall are fitted polylines, joined along it; their tolerance covers
     their pcurves' images on the tiles as written, rounded to 3 decimals
-    (texcad.io.step_tiles._fitted_traces). It did not: along the fillet of the y = 0
-    edge a joined trace passes 0.03 mm below the wall's top, OCCT's reader re-made
-    its pcurve on the wall across the top, split the wall in three, and the mesh had
-    a hole (BRepCheck: an invalid polygon on the triangulation)."""
+    (texcad.io.step_tiles._fitted_traces), and so does the file's uncertainty (the
+    mean of the tolerances: OCCT's reader's precision). It did not (2e-4 mm): along
+    the fillet of the y = 0 edge a joined trace passes 0.03 mm below the wall's top,
+    OCCT's reader re-made its pcurve on the wall across the top, split the wall in
+    three, and the mesh had a hole (BRepCheck: an invalid polygon on the
+    triangulation)."""
     part, faces, _ = CASES["L plate (concave corner)"]()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

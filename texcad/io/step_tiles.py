@@ -1332,9 +1332,12 @@ def _fitted_traces(b, shape, tol: float, rounding: float = 0.0):
     the 3-D polyline and its pcurves' images (at most :data:`RIM_PCURVE` times
     ``tol``; else the edge stays as it is) on the tiles as written: their poles
     rounded by up to ``rounding`` mm (:func:`decimals_for`) move the images as far.
-    Uncovered, OCCT's reader re-made the pcurve of a joined trace along a wall a few
-    hundredths of a mm high (an L plate's fillet at 0.25 mm, issue 28) across the
-    wall's top, split the wall there and its mesher left a hole. A short trace keeps
+    STEP keeps no edge tolerance: OCCT's writer puts the mean of the shape's
+    tolerances in the file's uncertainty, which its reader takes as its precision.
+    Without the rounding, an L plate at 0.25 mm (issue 28) was written with 2e-4 mm
+    (with it 5e-4 mm; 3e-4 mm already did), and OCCT's reader re-made the pcurve of a
+    trace joined along a wall a few hundredths of a mm high across the wall's top,
+    split the wall there and its mesher left a hole. A short trace keeps
     a few points instead of OCCT's tens of poles in three curves. Returns the edges
     made polylines (a
     ``TopTools_IndexedMapOfShape``): the tiles' poles around them keep the tiles'
