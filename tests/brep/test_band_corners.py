@@ -312,3 +312,26 @@ def test_a_cut_that_divides_nothing_leaves_no_internal_edge():
     assert len(_raw(clean)) == 2 and check_shape(clean)["valid"]
     assert area(clean) == pytest.approx(area(face), rel=1e-12)
     assert _without_internal(clean) is clean
+
+
+def test_l_plate_step_at_the_tolerance_meshes_closed(tmp_path):
+    """The L plate at 0.25 mm with the ``bench_step.py --sizes`` rows' texture (stones
+    0.6 mm): its STEP at the mesh's tolerance reads back one valid solid within 0.1 %
+    of the mesh, stays valid once OCCT has meshed it and meshes closed. The section
+    edges along a wall are fitted polylines, joined along it; their tolerance covers
+    their pcurves' images on the tiles as written, rounded to 3 decimals
+    (texcad.io.step_tiles._fitted_traces), and so does the file's uncertainty (the
+    mean of the tolerances: OCCT's reader's precision). It did not (2e-4 mm): along
+    the fillet of the y = 0 edge a joined trace passes 0.03 mm below the wall's top,
+    OCCT's reader re-made its pcurve on the wall across the top, split the wall in
+    three, and the mesh had a hole (BRepCheck: an invalid polygon on the
+    triangulation)."""
+    part, faces, _ = CASES["L plate (concave corner)"]()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tx = texcad.texture(part, faces, "builtin:stones", height=0.6, pitch=0.25)
+        tx.export(tmp_path / "lplate.step")
+    back = texcad.io.read_step(tmp_path / "lplate.step")
+    _assert_matches(back, tx.volume, tx.info.get("volume_slack", 0.0))
+    assert shape_to_mesh(back, tolerance=0.1, angular_tolerance=0.5).is_watertight
+    assert check_shape(back)["valid"]  # meshed: its polygons on the triangulation are valid too

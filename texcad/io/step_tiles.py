@@ -1058,7 +1058,7 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
         copy = _joined_walls(_merged(_merged(copy, MERGED), MERGED, trimmed=True))
     _segments(BRep_Builder(), copy)
     if not tessellate and tolerance > 0:
-        traced = _fitted_traces(BRep_Builder(), copy, RIM_SHARE * tolerance)
+        traced = _fitted_traces(BRep_Builder(), copy, RIM_SHARE * tolerance, decimals_for(tolerance)[1])
         copy = _fused_sides(copy, traced)
     order, tiles = _tiles_of(copy)
     if tessellate and (len(order) != len(order0) or [t[0] for t in tiles] != [t[0] for t in tiles0]):
@@ -1322,7 +1322,7 @@ RIM_PCURVE = 0.5
 TRACE_DECIMALS = 5
 
 
-def _fitted_traces(b, shape, tol: float):
+def _fitted_traces(b, shape, tol: float, rounding: float = 0.0):
     """Each edge of a texture tile that a tool's surface traced (OCCT's intersection
     curves around a hole drilled through the texture: B-splines of degree 3-8 with
     tens of poles, in 3-D and on both faces) becomes a polyline through points of
@@ -1330,8 +1330,16 @@ def _fitted_traces(b, shape, tol: float):
     pcurves the polylines through the same points' parameters on each face, at the
     same parameters. The edge's tolerance then covers the largest distance between
     the 3-D polyline and its pcurves' images (at most :data:`RIM_PCURVE` times
-    ``tol``; else the edge stays as it is). A short trace keeps a few points instead
-    of OCCT's tens of poles in three curves. Returns the edges made polylines (a
+    ``tol``; else the edge stays as it is) on the tiles as written: their poles
+    rounded by up to ``rounding`` mm (:func:`decimals_for`) move the images as far.
+    STEP keeps no edge tolerance: OCCT's writer puts the mean of the shape's
+    tolerances in the file's uncertainty, which its reader takes as its precision.
+    Without the rounding, an L plate at 0.25 mm (issue 28) was written with 2e-4 mm
+    (with it 5e-4 mm; 3e-4 mm already did), and OCCT's reader re-made the pcurve of a
+    trace joined along a wall a few hundredths of a mm high across the wall's top,
+    split the wall there and its mesher left a hole. A short trace keeps
+    a few points instead of OCCT's tens of poles in three curves. Returns the edges
+    made polylines (a
     ``TopTools_IndexedMapOfShape``): the tiles' poles around them keep the tiles'
     decimals (:func:`_outer`)."""
     from OCP.BRep import BRep_Tool
@@ -1362,7 +1370,7 @@ def _fitted_traces(b, shape, tol: float):
             continue
         t, p, uvs, gap = fit
         p[1:-1], uvs = np.round(p[1:-1], TRACE_DECIMALS), [np.r_[q[:1], np.round(q[1:-1], KNOT_DECIMALS - 3), q[-1:]] for q in uvs]
-        etol = max(BRep_Tool.Tolerance_s(edge), 1.5 * gap + 1e-7)
+        etol = max(BRep_Tool.Tolerance_s(edge), 1.5 * gap + rounding + 1e-7)  # the images on the rounded tiles
         b.UpdateEdge(edge, _polyline3d(p, t), TopLoc_Location(), etol)
         for f, uv in zip(faces, uvs):  # one per face of the edge (two)
             b.UpdateEdge(edge, _polyline2d(uv, t), f, etol)
