@@ -230,6 +230,20 @@ def test_corner_step_at_the_tolerance_meshes_closed(tmp_path):
     assert shape_to_mesh(back, tolerance=0.1, angular_tolerance=0.5).is_watertight
 
 
+def _step_back(case: str, tmp_path):
+    """``(tx, back)``: the case textured as the ``bench_step.py --sizes`` rows (stones
+    0.6 mm) at 0.25 mm, its STEP at the mesh's tolerance re-read, one valid solid
+    within 0.1 % of the mesh."""
+    part, faces, _ = CASES[case]()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tx = texcad.texture(part, faces, "builtin:stones", height=0.6, pitch=0.25)
+        tx.export(tmp_path / "part.step")
+    back = texcad.io.read_step(tmp_path / "part.step")
+    _assert_matches(back, tx.volume, tx.info.get("volume_slack", 0.0))
+    return tx, back
+
+
 def test_cap_step_at_the_tolerance_plain_volume(tmp_path):
     """The cap and fillet at 0.25 mm with the ``bench_step.py --sizes`` rows' texture:
     its STEP at the mesh's tolerance reads back within 0.1 % of the mesh in OCCT's
@@ -237,13 +251,7 @@ def test_cap_step_at_the_tolerance_plain_volume(tmp_path):
     polyline; joined along a whole 24-cell wall, the rule's 61 points along it on the
     torus missed its kinks and read the STEP 0.66 % high (texcad.io.step_tiles:
     TRACE_SPANS)."""
-    part, faces, _ = CASES["cylinder cap and fillet"]()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        tx = texcad.texture(part, faces, "builtin:stones", height=0.6, pitch=0.25)
-    tx.export(tmp_path / "cap.step")
-    back = texcad.io.read_step(tmp_path / "cap.step")
-    _assert_matches(back, tx.volume, tx.info.get("volume_slack", 0.0))
+    tx, back = _step_back("cylinder cap and fillet", tmp_path)
     assert abs(_plain(back) - tx.volume) <= 1e-3 * tx.volume + tx.info.get("volume_slack", 0.0)
 
 
@@ -326,12 +334,6 @@ def test_l_plate_step_at_the_tolerance_meshes_closed(tmp_path):
     OCCT's reader re-made its pcurve on the wall across the top, split the wall in
     three, and the mesh had a hole (BRepCheck: an invalid polygon on the
     triangulation)."""
-    part, faces, _ = CASES["L plate (concave corner)"]()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        tx = texcad.texture(part, faces, "builtin:stones", height=0.6, pitch=0.25)
-        tx.export(tmp_path / "lplate.step")
-    back = texcad.io.read_step(tmp_path / "lplate.step")
-    _assert_matches(back, tx.volume, tx.info.get("volume_slack", 0.0))
+    tx, back = _step_back("L plate (concave corner)", tmp_path)
     assert shape_to_mesh(back, tolerance=0.1, angular_tolerance=0.5).is_watertight
     assert check_shape(back)["valid"]  # meshed: its polygons on the triangulation are valid too
