@@ -316,7 +316,7 @@ def test_manifold_flag_agrees_with_manifold3d():
 
 
 def test_check_reads_a_step_part_and_texture_takes_its_path(tmp_path):
-    """``texcad check part.step`` tessellates the part (0.01 mm): watertight, its
+    """``texcad check part.step`` tessellates the part (0.02 mm): watertight, its
     volume within 0.1 %; ``texcad.texture("part.step", ...)`` reads it as the CLI does."""
     from build123d import Box, Cylinder, export_step
 
@@ -331,9 +331,9 @@ def test_check_reads_a_step_part_and_texture_takes_its_path(tmp_path):
 
 def test_check_meshes_a_textured_step_on_its_tiles(tmp_path):
     """``texcad check`` on texcad's own STEP: OCCT meshes the texture's B-spline tiles
-    on their knots (no refinement: refined, a small knurled plate took minutes and a
-    million triangles), closed, about as many triangles as texcad's mesh and the
-    same volume within 0.1 %."""
+    by distance, not by the angle between normals (by angle, a small knurled plate
+    took minutes and over a million triangles: its tiles kink at every knot), closed,
+    under 100 times texcad's lean mesh's triangles and the same volume within 0.1 %."""
     from build123d import Axis, Box
 
     box = Box(30, 20, 6)
@@ -341,5 +341,5 @@ def test_check_meshes_a_textured_step_on_its_tiles(tmp_path):
     tx.export(tmp_path / "t.step")
     rep = check(tmp_path / "t.step")
     assert rep.watertight and rep.manifold and rep.shells == 1
-    assert rep.triangles < 3 * tx.mesh.num_triangles, (rep.triangles, tx.mesh.num_triangles)
+    assert rep.triangles < 100 * tx.mesh.num_triangles, (rep.triangles, tx.mesh.num_triangles)
     assert rep.volume_mm3 == pytest.approx(tx.volume, rel=1e-3)

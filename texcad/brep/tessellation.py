@@ -26,12 +26,12 @@ def shape_to_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: flo
         tolerance: linear deflection in mm (max distance of the triangles from the
             true surface).
         angular_tolerance: angular deflection in radians.
-        refine: OCCT's ``ControlSurfaceDeflection``: refine each face's triangles
-            until their middles are within ``tolerance`` too. Off, a B-spline face is
-            meshed on its knots and the points OCCT's isolines need (a texture's
-            tiles, fitted to the relief between their knots: tens of times fewer
-            triangles and seconds, where refining takes minutes); analytic faces
-            are meshed the same either way.
+        refine: OCCT's check of the angle between the normals at a link's ends
+            (``AngleInterior``). Off, faces are refined by distance alone (their
+            triangles' middles within ``tolerance``): a texture's degree-1 tiles
+            kink at every knot, where no link satisfies the angle, and refining
+            them down to OCCT's least size took minutes and millions of triangles;
+            analytic faces are meshed the same either way.
 
     Raises:
         ParameterError: the object is not a shape.
@@ -56,7 +56,8 @@ def shape_to_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: flo
         ) from None
     params = IMeshTools_Parameters()
     params.Deflection, params.Angle, params.InParallel = tolerance, angular_tolerance, True
-    params.ControlSurfaceDeflection = refine
+    if not refine:
+        params.AngleInterior = np.pi  # no link's normals are further apart: distance alone refines
     BRepMesh_IncrementalMesh(topo, params)
     verts: list[np.ndarray] = []
     tris: list[np.ndarray] = []

@@ -39,7 +39,7 @@ def add(sub: argparse._SubParsersAction) -> None:
         ),
     )
     c.add_argument("part", metavar="PART", help="part to check: .stl (binary or ASCII), .3mf, .obj or .step "
-                   "(tessellated to 0.01 mm)")
+                   "(tessellated to 0.02 mm)")
     c.add_argument(
         "--build-dir",
         default="0,0,1",
