@@ -300,23 +300,18 @@ def _chains(nxt: dict, size: dict, cells: int, block: dict | None = None) -> lis
 
 
 def _linked(keys: list, links: list) -> list:
-    """The keys in groups joined by the ``links`` (dicts key -> key), directly or not;
-    each group in the keys' order."""
-    parent = {a: a for a in keys}
+    """The keys in groups joined by the ``links`` (dicts key -> key), directly or not
+    (scipy's connected components); each group in the keys' order."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
 
-    def root(a):  # one per step up (union-find)
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-
-    for one in links:  # right, then up
-        for a, b in one.items():  # one per link
-            if a in parent and b in parent:
-                parent[root(a)] = root(b)
+    at = {a: i for i, a in enumerate(keys)}
+    pairs = np.array([(at[a], at[b]) for one in links for a, b in one.items() if a in at and b in at], np.int64).reshape(-1, 2)
+    n = len(keys)
+    _, label = connected_components(coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)), directed=False)
     members: dict = {}
-    for a in keys:  # one per key
-        members.setdefault(root(a), []).append(a)
+    for a, k in zip(keys, label.tolist()):  # one per key
+        members.setdefault(k, []).append(a)
     return list(members.values())
 
 

@@ -462,9 +462,8 @@ def _mean_perimeter(V: np.ndarray, F: np.ndarray, phi: np.ndarray, perimeter: fl
     P = V[F]
     n = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
     a2 = np.linalg.norm(n, axis=1)
-    e = np.stack([P[:, 2] - P[:, 1], P[:, 0] - P[:, 2], P[:, 1] - P[:, 0]], axis=1)
-    grad = np.einsum("ti,tik->tk", p, np.cross(n[:, None, :], e)) / np.maximum(a2, 1e-300)[:, None] ** 2
-    g = np.linalg.norm(grad, axis=1)
+    safe = np.maximum(a2, 1e-300)
+    g = np.linalg.norm(np.einsum("ti,tik->tk", p, _corner_gradients(P, n / safe[:, None], safe)), axis=1)
     ok = (a2 > 0) & (g > 0) & np.isfinite(g)
     if not ok.any():
         return perimeter
@@ -502,9 +501,8 @@ def meridian_heights(V: np.ndarray, F: np.ndarray, axis: np.ndarray, heights: np
         return heights
     t = a - tilt[:, None] * n
     t /= np.maximum(np.linalg.norm(t, axis=1), 1e-12)[:, None]
-    Fk, Pk, area = F[ok], P[ok], 0.5 * twice[ok]
-    edges = np.stack([Pk[:, 2] - Pk[:, 1], Pk[:, 0] - Pk[:, 2], Pk[:, 1] - Pk[:, 0]], axis=1)  # opposite corner i
-    g = np.cross(n[:, None, :], edges) / (2.0 * area)[:, None, None]  # (T, 3 corners, 3 coords)
+    Fk, area = F[ok], 0.5 * twice[ok]
+    g = _corner_gradients(P[ok], n, twice[ok])  # (T, 3 corners, 3 coords)
     rows = (3 * np.arange(len(Fk)))[:, None, None] + np.arange(3)[None, None, :]  # gradient row per coordinate
     G = coo_matrix((g.ravel(), (np.broadcast_to(rows, g.shape).ravel(), np.repeat(Fk, 3, axis=1).ravel())),
                    shape=(3 * len(Fk), len(V))).tocsr()
@@ -513,6 +511,14 @@ def meridian_heights(V: np.ndarray, F: np.ndarray, axis: np.ndarray, heights: np
     rhs = G.T @ (w * t.ravel())
     y = spsolve(L + 1e-10 * float(L.diagonal().mean()) * identity(len(V), format="csc"), rhs)
     return y - y.mean() + float(np.mean(heights))
+
+
+def _corner_gradients(P: np.ndarray, n: np.ndarray, twice: np.ndarray) -> np.ndarray:
+    """``(T, 3, 3)`` the surface gradient of each corner's hat function on the
+    triangles ``P`` ``(T, 3, 3)`` (unit normals ``n``, ``twice`` their areas):
+    ``grad_T y = sum_i y_i (n x e_i) / 2 A_T``, ``e_i`` the edge opposite corner ``i``."""
+    edges = np.stack([P[:, 2] - P[:, 1], P[:, 0] - P[:, 2], P[:, 1] - P[:, 0]], axis=1)  # opposite corner i
+    return np.cross(n[:, None, :], edges) / twice[:, None, None]
 
 
 def cell_mask(keep: np.ndarray, wrap_y: bool) -> np.ndarray:

@@ -239,10 +239,11 @@ def repair_closed(vertices: np.ndarray, faces: np.ndarray, *, merge: float = 1e-
     if bad[np.unique(f)].any():
         raise InputError(f"{name} has {int(bad[np.unique(f)].sum())} vertices that are not finite numbers (NaN or inf); export it again")
     mv, mf, note = _touching(*_merge(v, f, merge))
-    if len(mf) and _edge_pairs(mf)[0] is not None:
-        mv, mf = _merge_near(mv, mf)
+    closed = bool(len(mf)) and _edge_pairs(mf)[0] is not None
+    if closed:
+        mv, mf = _merge_near(mv, mf)  # stays closed (or is left as it was)
     indexed = False
-    if len(mf) and _edge_pairs(mf)[0] is None:  # closed only as indexed (a 3MF keeps points apart that touch)
+    if len(mf) and not closed:  # closed only as indexed (a 3MF keeps points apart that touch)
         iv, i_f = _clean(v, f)
         indexed = bool(len(i_f)) and _edge_pairs(i_f)[0] is not None
         mv, mf = (iv, i_f) if indexed else (mv, mf)
