@@ -339,3 +339,58 @@ def test_instances_of_a_painted_object(tmp_path):
     f0, f1 = p.faces[a0:b0], p.faces[a1:b1]
     assert np.allclose(p.vertices[f1].reshape(-1, 3).max(axis=0) - p.vertices[f0].reshape(-1, 3).max(axis=0), [60, 0, 0], atol=1e-4)
     assert p.vertices[f0].reshape(-1, 3).max(axis=0)[1] > 15.5  # the knurl on both
+
+
+def _with_negative(path, dialect):
+    """A 20 mm cube painted 2 on its top, whose object also holds a 5 x 5 mm negative
+    volume through its corner (PrusaSlicer: a volume of the object's mesh; BambuStudio:
+    a part of subtype negative_part), as the slicers save them."""
+    import trimesh
+
+    cube = trimesh.creation.box(bounds=np.array([[0, 0, 0], [20, 20, 20]], float))
+    neg = trimesh.creation.box(bounds=np.array([[-5, -5, -5], [5, 5, 25]], float))
+    top = encode_states((cube.face_normals[:, 2] > 0.9).astype(int) * 2)
+    cv, cf, nv, nf = (np.asarray(a) for a in (cube.vertices, cube.faces, neg.vertices, neg.faces))
+    if dialect == "prusa":
+        write_painted_3mf(path, [("cube", np.concatenate([cv, nv]), np.concatenate([cf, nf + len(cv)]), {"color": top + [""] * len(nf)}, None)])
+        cfg = ('<config><object id="1" instances_count="1"><volume firstid="0" lastid="11"><metadata type="volume" key="volume_type" '
+               'value="ModelPart"/></volume><volume firstid="12" lastid="23"><metadata type="volume" key="volume_type" '
+               'value="NegativeVolume"/></volume></object></config>')
+        with zipfile.ZipFile(path, "a") as z:
+            z.writestr("Metadata/Slic3r_PE_model.config", cfg)
+        return
+    write_painted_3mf(path, [("cube", cv, cf, {"color": top}, None), ("neg", nv, nf, {}, None)], dialect="bambu")
+    with zipfile.ZipFile(path) as z:
+        entries = {n: z.read(n) for n in z.namelist()}
+    model = entries["3D/3dmodel.model"].decode()
+    model = re.sub(r'<object id="4".*?</object>', "", model, flags=re.S).replace('<item objectid="4"', '<item objectid="0"')
+    model = re.sub(r'<item objectid="0"[^>]*/>', "", model)
+    entries["3D/3dmodel.model"] = model.replace("</components>", '<component p:path="/3D/Objects/object_3.model" objectid="3"/></components>', 1).encode()
+    entries["Metadata/model_settings.config"] = (b'<?xml version="1.0" encoding="UTF-8"?>\n<config><object id="2"><part id="1" subtype="normal_part"/>'
+                                                 b'<part id="3" subtype="negative_part"/></object></config>\n')
+    with zipfile.ZipFile(path, "w") as z:
+        for n, data in entries.items():
+            z.writestr(n, data)
+
+
+@pytest.mark.parametrize("dialect", ["prusa", "bambu"])
+def test_a_painted_object_keeps_its_negative_volume_cut(tmp_path, dialect):
+    """The slicer cuts a negative volume out of its object; texturing the paint put the
+    cut corner back (8065 mm3 where the project prints 7500) and wrote no cut."""
+    import trimesh
+
+    from texcad.mapping.region import resolve_paint
+
+    src = tmp_path / "neg.3mf"
+    _with_negative(src, dialect)
+    assert texcad.check(src).volume_mm3 == pytest.approx(7500, abs=1e-2)
+    mesh, (region,), _ = resolve_paint(src, [Region.parse("paint:2")])
+    body = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    assert body.is_watertight and body.volume == pytest.approx(7500, abs=1e-2)
+    assert body.area_faces[region.faces].sum() == pytest.approx(400 - 25, abs=1e-6)  # the top less the corner, painted
+    assert np.allclose(mesh.vertices[mesh.faces[region.faces]][..., 2], 20)
+    tx = texcad.texture(src, "paint:2", "builtin:diamond_knurl", height=0.5, pitch=0.5)
+    out = tmp_path / "out.3mf"
+    tx.export(out)
+    lo, hi = 7500 + 375 * 0.05, 7500 + 375 * 0.5  # the relief adds between a tenth and all of its height over the top
+    assert lo < tx.volume < hi and lo < texcad.check(out).volume_mm3 < hi

@@ -75,3 +75,17 @@ def test_a_region_is_named_as_the_user_wrote_it():
         assert str(Region.parse(spec)) == spec and Region.parse(str(Region.parse(spec))) == Region.parse(spec)
     with pytest.raises(ParameterError, match=r"region 1 \(normal:-z:10\) holds no face"):
         texcad.texture(trimesh.creation.box((20, 20, 20)), "normal:-z:10", "builtin:dots", height=0.3, pitch=0.5)
+
+
+def test_a_cavity_mask_of_another_mesh_is_refused():
+    """A region whose cavity was marked on another mesh, asked about faces without
+    their ids, says so instead of texturing the cavity's walls."""
+    import pytest
+
+    from texcad.errors import ParameterError
+
+    m = _hollow()
+    v, f = np.asarray(m.vertices), np.asarray(m.faces)
+    r = mark_cavities(v, f, resolve_faces(v, f, [Region.parse("all")]))[0]
+    with pytest.raises(ParameterError, match="cavity marks 24 faces but the mesh has 12"):
+        r.select(v, f[:12], m.face_normals[:12], build_dir=np.array([0.0, 0, 1]), tolerance=0.01)

@@ -362,6 +362,9 @@ class Project:
         dialect: ``"prusa"`` (``slic3rpe:`` attributes) or ``"bambu"`` (``paint_*``),
             ``""`` without paint.
         path: the file read.
+        negatives: ``(build item index, vertices (n, 3) mm, faces (m, 3))`` per
+            negative volume (PrusaSlicer) or negative part (BambuStudio), in the
+            build's frame: what the slicer cuts out of that item's object.
     """
 
     vertices: np.ndarray
@@ -371,6 +374,7 @@ class Project:
     dialect: str
     path: str
     items: tuple = ()
+    negatives: tuple = ()
 
     def states(self, kind: str = "color") -> list[int]:
         """The painted states of ``kind`` (sorted, 0 left out)."""
@@ -428,39 +432,24 @@ def _model_objects(xml: bytes, where: str) -> dict:
     return out
 
 
-def _not_model_parts(z: zipfile.ZipFile, names: set) -> tuple[dict, set]:
-    """What is not part of an object's surface: PrusaSlicer's volumes of another
-    type (modifiers, negative volumes, support enforcers / blockers) as ``{object id:
-    [(first, last triangle)]}``, and BambuStudio's parts of another subtype as
-    ``{(object id, part id)}``."""
-    ranges: dict = {}
-    others: set = set()
-    if "Metadata/Slic3r_PE_model.config" in names:
-        cfg = z.read("Metadata/Slic3r_PE_model.config")
-        for head, body in re.findall(rb"<object\b([^>]*)>(.*?)</object>", cfg, flags=re.S):  # per object
-            oid = _attrs(head).get("id")
-            for vh, vb in re.findall(rb"<volume\b([^>]*)>(.*?)</volume>", body, flags=re.S):  # per volume
-                t = re.search(rb'key="volume_type"\s+value="([^"]*)"', vb)
-                va = _attrs(vh)
-                if t and t.group(1) != b"ModelPart" and "firstid" in va and "lastid" in va:
-                    ranges.setdefault(oid, []).append((int(va["firstid"]), int(va["lastid"])))
-    if "Metadata/model_settings.config" in names:
-        cfg = z.read("Metadata/model_settings.config")
-        for head, body in re.findall(rb"<object\b([^>]*)>(.*?)</object>", cfg, flags=re.S):  # per object
-            oid = _attrs(head).get("id")
-            for ph in re.findall(rb"<part\b([^>]*)>", body):  # per part
-                pa = _attrs(ph)
-                if pa.get("subtype", "normal_part") != "normal_part":
-                    others.add((oid, pa.get("id")))
-    return ranges, others
+def _not_model_parts(z: zipfile.ZipFile, names: set) -> tuple[dict, dict]:
+    """What is not part of an object's surface (:data:`texcad.io.read.VOLUME_KINDS`):
+    PrusaSlicer's volumes of another type (modifiers, negative volumes, support
+    enforcers / blockers) as ``{object id: [(first, last triangle, kind)]}``, and
+    BambuStudio's parts of another subtype as ``{(object id, part id): kind}``."""
+    from .read import _part_subtypes, _slic3r_volumes
+
+    vols = _slic3r_volumes(z.read(_PE_CONFIG)) if _PE_CONFIG in names else {}
+    ranges = {oid: [(a, b, kind) for _, a, b, kind in parts if kind != "part"] for oid, parts in vols.items()}
+    return {oid: r for oid, r in ranges.items() if r}, _part_subtypes(z)
 
 
 def read_project(path: "str | os.PathLike") -> Project:
     """Read a 3MF project's meshes and paint (PrusaSlicer, OrcaSlicer, BambuStudio):
     build items, components (also in other model parts, ``p:path``) and transforms
-    applied, the model's unit made mm; modifiers, negative volumes and support
-    enforcers / blockers (PrusaSlicer volume types, BambuStudio part subtypes) left
-    out.
+    applied, the model's unit made mm; modifiers and support enforcers / blockers
+    (PrusaSlicer volume types, BambuStudio part subtypes) left out, negative volumes
+    kept apart (:attr:`Project.negatives`: the slicer cuts them out of their object).
 
     Raises:
         InputError: not a 3MF, no model, a damaged mesh or a cyclic component.
@@ -496,7 +485,7 @@ def read_project(path: "str | os.PathLike") -> Project:
         ranges, others = _not_model_parts(z, names)
         xml = z.read(root)
         items = [(_attrs(i).get("objectid"), _matrix(_attrs(i).get("transform"))) for i in _ITEM.findall(xml[xml.rfind(b"<build"):])]
-        verts, faces, paint, parts, off = [], [], {}, [], 0
+        verts, faces, paint, parts, off, negatives = [], [], {}, [], 0, []
         dialect = ""
 
         def walk(part: str, oid: str, tf: np.ndarray, top: tuple, depth: int) -> None:
@@ -505,12 +494,17 @@ def read_project(path: "str | os.PathLike") -> Project:
             if oid not in table or depth > 16:
                 raise InputError(f"{str(p)!r}: the build refers to a missing or cyclic object {oid!r}")
             e = table[oid]
-            if e["mesh"] is not None and (items[top[0]][0], oid) not in others:
+            kind = others.get((items[top[0]][0], oid), "part")
+            if e["mesh"] is not None and kind == "negative":  # BambuStudio: a part cut out of its object
+                negatives.append((top[0], (e["mesh"][0] * sc) @ tf[:3, :3] + tf[3, :3], e["mesh"][1]))
+            elif e["mesh"] is not None and kind == "part":
                 v, f, pt = e["mesh"]
                 if depth == 0 and oid in ranges:  # modifiers and the like are not the part's surface
                     keep = np.ones(len(f), dtype=bool)
-                    for a, b in ranges[oid]:
+                    for a, b, what in ranges[oid]:
                         keep[a : b + 1] = False
+                        if what == "negative":  # PrusaSlicer: a volume cut out of its object
+                            negatives.append((top[0], (v * sc) @ tf[:3, :3] + tf[3, :3], f[a : b + 1]))
                     f, pt = f[keep], {k: ([x for x, q in zip(val, keep) if q] if k != "_dialect" else val) for k, val in pt.items()}
                 vv = (v * sc) @ tf[:3, :3] + tf[3, :3]
                 verts.append(vv)
@@ -530,7 +524,8 @@ def read_project(path: "str | os.PathLike") -> Project:
             walk(root, oid, tf, (k, objs.get(oid, {}).get("name", str(oid))), 0)
     if not faces:
         raise InputError(f"{str(p)!r} holds no mesh objects in its build")
-    return Project(np.concatenate(verts), np.concatenate(faces), paint, tuple(parts), dialect, str(p), tuple(items))
+    return Project(np.concatenate(verts), np.concatenate(faces), paint, tuple(parts), dialect, str(p), tuple(items),
+                   tuple(negatives))
 
 
 # --- splitting painted triangles into their sub-triangles, conforming ---

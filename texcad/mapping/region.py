@@ -287,8 +287,11 @@ class Region:
             sel = np.ones(len(faces), dtype=bool) if (loose and self.kind in ("box", "sphere")) else ~sel
         if not self.bottom:
             sel &= ~bed_faces(vertices, faces, normals, build_dir, tolerance)
-        if self.cavity is not None and (ids is not None or len(self.cavity) == len(faces)):
-            sel &= ~(self.cavity if ids is None else self.cavity[ids])  # a sealed void's wall: never textured
+        if self.cavity is not None:  # a sealed void's wall: never textured
+            if ids is None and len(self.cavity) != len(faces):
+                raise ParameterError(f"a region's cavity marks {len(self.cavity)} faces but the mesh has {len(faces)}: "
+                                     "pass ids (each face's face of the mesh the region was resolved on)")
+            sel &= ~(self.cavity if ids is None else self.cavity[ids])
         return sel
 
     def _painted(self, m: int, ids: "np.ndarray | None") -> np.ndarray:
@@ -416,10 +419,46 @@ def resolve_paint(target: Any, regions: "list[Region]") -> "tuple[Any, list[Regi
     v32 = v.astype(np.float32).astype(np.float64)
     v2, f2, _ = repair_closed(v32, f, name=name)
     state2 = _match_faces(v32, f, v2, f2, state)
+    v2, f2, state2 = _cut_negatives(project, items, v2, f2, state2, name)
     mesh = Mesh(v2, f2)
     out = [Region("paint", paint=r.paint, state=r.state, bottom=r.bottom, invert=r.invert, faces=state2 == r.state)
            if r.kind == "paint" else r for r in regions]
     return mesh, out, PaintedTarget(mesh, state2, kind, project, tuple(int(i) for i in items))
+
+
+def _cut_negatives(project: Any, items: np.ndarray, v: np.ndarray, f: np.ndarray, state: np.ndarray, name: str):
+    """The painted objects as the slicer prints them: the negative volumes of build
+    ``items`` (:attr:`texcad.io.paint.Project.negatives`) cut out (manifold3d), every
+    face keeping its paint ``state`` through manifold3d's face ids, the cut's new walls
+    unpainted (0). Returns ``(v, f, state)``; as they are without negative volumes.
+
+    Raises:
+        InputError: a negative volume that is not a closed solid, or a cut that fails."""
+    import manifold3d as m3d
+
+    from ..errors import GeometryError
+    from ..solid import Mesh, to_manifold
+
+    negs = [Mesh(nv.astype(np.float32), np.asarray(nf, np.uint32)) for k, nv, nf in project.negatives if k in set(items.tolist())]
+    if not negs:
+        return v, f, state
+    oid = int(m3d.Manifold.reserve_ids(1))
+    body = m3d.Manifold(m3d.Mesh(vert_properties=np.ascontiguousarray(v, np.float32), tri_verts=np.ascontiguousarray(f, np.uint32),
+                                 run_index=np.array([0, 3 * len(f)], np.uint32), run_original_id=np.array([oid], np.uint32),
+                                 face_id=np.arange(len(f), dtype=np.uint32)))
+    try:
+        cut = body - m3d.Manifold.batch_boolean([to_manifold(m) for m in negs], m3d.OpType.Add)
+    except GeometryError as exc:
+        raise InputError(f"{name}: a negative volume of the painted object is not a closed solid ({exc}); apply the cut "
+                         "in the slicer or CAD program, or mend the volume, and save the project again") from None
+    if body.status() != m3d.Error.NoError or cut.status() != m3d.Error.NoError or cut.is_empty():
+        raise InputError(f"{name}: cutting the painted object's negative volumes out of it failed or left nothing "
+                         f"(manifold3d: {cut.status().name}); apply the cut in the slicer and save the project again")
+    gl = cut.to_mesh()
+    runs = np.repeat(np.asarray(gl.run_original_id, np.int64), np.diff(np.asarray(gl.run_index, np.int64)) // 3)
+    ids = np.asarray(gl.face_id, np.int64)
+    out = np.where(runs == oid, state[np.where(runs == oid, ids, 0)], 0)
+    return np.asarray(gl.vert_properties, np.float64)[:, :3], np.asarray(gl.tri_verts, np.int64), out
 
 
 def _match_faces(v, f, v2, f2, values):
