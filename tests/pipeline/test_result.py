@@ -37,3 +37,21 @@ def test_brep_without_the_texture_is_refused(monkeypatch):
     monkeypatch.setattr(Textured, "brep", lambda self: to_topods(post))
     with pytest.raises(GeometryError, match=r"encloses \+0\.00 mm3 beyond the part but the texture's integral is \+\d"):
         tx.shape
+
+
+def test_an_occt_failure_in_the_brep_is_a_geometry_error(monkeypatch):
+    """OCCT's exceptions (OCP's Standard_* classes) raised while the B-rep is built
+    reached the user as they were; they are a GeometryError naming the mesh outputs,
+    as every other refusal."""
+    from build123d import Axis, Box
+    from OCP.Standard import Standard_ConstructionError
+
+    box = Box(10, 10, 4)
+    tx = texcad.texture(box, box.faces().sort_by(Axis.Z)[-1], "builtin:stones", height=0.5, pitch=1.0)
+
+    def fails(*args, **kwargs):
+        raise Standard_ConstructionError("BSpline curve: Knots interval values too close")
+
+    monkeypatch.setattr(tx.stages.adapter, "brep", fails)
+    with pytest.raises(GeometryError, match="OCCT failed .*Knots interval values too close.*write STL or 3MF"):
+        tx.shape

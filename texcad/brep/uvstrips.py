@@ -115,6 +115,8 @@ def _remapped(t0, t1, p0, p1, u, v, uk, vk):
     own ``(u, v)``: a broken line with a corner where it crosses a grid line."""
     axis = 0 if abs(p1[0] - p0[0]) > abs(p1[1] - p0[1]) else 1
     ts = np.concatenate([[t0], _params(t0, t1, p0, p1, axis, u if axis == 0 else v), [t1]])
+    ts = ts[np.r_[True, np.diff(ts) > 1e-9 * abs(t1 - t0)]]  # a grid line a hair from a point: no span OCCT refuses
+    ts[-1] = t1  # the end kept where a grid line a hair before it took its place
     q = p0[None, :] + ((ts - t0) / (t1 - t0))[:, None] * (p1 - p0)[None, :]
     pts = np.stack([np.interp(q[:, 0], u, uk), np.interp(q[:, 1], v, vk)], axis=-1)
     return polyline_pcurve(pts, ts)

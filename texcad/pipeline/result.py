@@ -10,6 +10,8 @@ STL and 3MF users never wait for a B-rep. Results of CAD operations
 
 from __future__ import annotations
 
+import contextlib
+
 import os
 from pathlib import Path
 from typing import Any, Callable
@@ -59,6 +61,20 @@ def checked_brep(shape: Any, bodies: int, mesh: Mesh, slack: float = 0.0) -> tup
             "the meshes are fine: write STL or 3MF"
         )
     return shape, vb
+
+
+@contextlib.contextmanager
+def _occt_failures(kind: str):
+    """An exception OCCT raises while the B-rep is built (OCP's ``Standard_*``
+    classes, which share no base class) as the :class:`GeometryError` every other
+    refusal is: it names the failure and the mesh outputs."""
+    try:
+        yield
+    except Exception as exc:
+        if not type(exc).__module__.startswith("OCP"):
+            raise
+        raise GeometryError(f"OCCT failed while building this {kind} result's B-rep ({type(exc).__name__}: "
+                            f"{str(exc) or 'no message'}), so no B-rep is given; the mesh is fine: write STL or 3MF") from None
 
 
 def texture_in_brep(vb: float, stages: Stages) -> None:
@@ -244,11 +260,13 @@ class Textured:
                 if make is None:
                     raise GeometryError(f"this {self.kind} result has no B-rep ({self.info.get('no_brep', 'made from a mesh')}); "
                                         "write STL or 3MF instead")
-                self._shape = make()
+                with _occt_failures(self.kind):
+                    self._shape = make()
             else:
                 st = self.stages
                 slack = float(self.info.get("volume_slack", 0.0))
-                shape, vb = checked_brep(self.brep(), st.placement.bodies, st.fused.mesh, slack)
+                with _occt_failures(self.kind):
+                    shape, vb = checked_brep(self.brep(), st.placement.bodies, st.fused.mesh, slack)
                 texture_in_brep(vb, st)
                 self._shape, self._brep_volume = shape, vb
                 self.info["brep_volume"] = self._brep_volume
