@@ -115,13 +115,13 @@ def _kind(kind):
         return part, part.faces().filter_by(GeomType.CYLINDER)[0], Rot(90, 0, 0) * Cylinder(1.5, 40), mode or "raised"
     if base == "cone":
         part = Cone(10, 6, 12)
-        return part, part.faces().filter_by(GeomType.CONE)[0], across, "raised"
+        return part, part.faces().filter_by(GeomType.CONE)[0], across, mode or "raised"
     if base == "sphere":
         part = Sphere(10)
-        return part, part.faces()[0], across, "raised"
+        return part, part.faces()[0], across, mode or "raised"
     if base == "torus":
         part = Torus(12, 4)
-        return part, part.faces()[0], Pos(0, 12, 0) * Cylinder(1.5, 30), "raised"
+        return part, part.faces()[0], Pos(0, 12, 0) * Cylinder(1.5, 30), mode or "raised"
     part, face = _revolved() if base == "revolved" else _bspline()
     return part, face, (Pos(0, 0, 6) * across if base == "revolved" else Cylinder(1.5, 30)), "raised"
 
@@ -169,7 +169,7 @@ def _occt_meshes_closed(shape) -> bool:
 
 
 KINDS = ["plane", "cylinder", "partial", "cone", "sphere", "torus", "revolved", "bspline", "plane_engraved", "plane_centred",
-         "cylinder_engraved", "cylinder_centred"]
+         "cylinder_engraved", "cylinder_centred", "torus_engraved", "sphere_engraved", "cone_centred"]
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")

@@ -124,8 +124,13 @@ def _poles(face, item: dict):
     if rows.sum() < 1 or cols.sum() < 1 or not valid.any():
         raise GeometryError(_uncovered(fwd, (u0, u1, v0, v1), int((~valid).sum()), int(valid.size)))
     h = item["heights"][np.ix_(rows, cols)]  # signed (engraved, centred) or raised (its dip under the face cut off)
+    P, N = item["points"][np.ix_(rows, cols)], item["normals"][np.ix_(rows, cols)]
     if not item.get("signed"):  # raised: where it dips under the face the mesh is the part's tessellation
-        h = np.maximum(h, 0.0) + _mesh_lift(face, item["points"][np.ix_(rows, cols)], item["normals"][np.ix_(rows, cols)], h, valid)
+        h = np.maximum(h, 0.0) + _mesh_lift(face, P, N, h, valid)
+    elif item.get("cells") is not None:  # engraved: where no cutter cell reaches, the mesh is the part's tessellation
+        bare = _bare_cells(item["cells"], np.flatnonzero(rows), np.flatnonzero(cols))
+        h = np.where(_corners_of(~bare), h, 0.0)
+        h = h + _mesh_lift(face, P, N, h, valid, bare)
     h = np.where(valid, h, 0.0)
     inner = item["points"][np.ix_(rows, cols)] + h[..., None] * item["normals"][np.ix_(rows, cols)]
     u = np.concatenate([[u0], ur[rows], [u1]])
@@ -151,9 +156,32 @@ def _poles(face, item: dict):
 GAP_SAMPLES = (0.25, 0.75)
 
 
-def _mesh_lift(face, P: np.ndarray, N: np.ndarray, h: np.ndarray, valid: np.ndarray) -> np.ndarray:
+def _bare_cells(cells: np.ndarray, ri: np.ndarray, ci: np.ndarray) -> np.ndarray:
+    """``(len(ri) - 1, len(ci) - 1)`` bool: the cells between the grid rows ``ri`` and
+    columns ``ci`` (increasing indices) that the mesh's cutter leaves bare: not among
+    the grid's meshed ``cells`` (``(R, C - 1)`` when the rows wrap, else ``(R - 1, C -
+    1)``), or spanning rows or columns that are not neighbours."""
+    a, b = ri[:-1, None], ci[None, :-1]
+    ok = ((ri[1:] - ri[:-1]) == 1)[:, None] & ((ci[1:] - ci[:-1]) == 1)[None, :]
+    return ~(ok & cells[np.minimum(a, len(cells) - 1), np.minimum(b, cells.shape[1] - 1)])
+
+
+def _corners_of(cells: np.ndarray) -> np.ndarray:
+    """``(R, C)`` bool: the grid points that are a corner of at least one of the
+    ``(R - 1, C - 1)`` ``cells``."""
+    out = np.zeros((cells.shape[0] + 1, cells.shape[1] + 1), dtype=bool)
+    for a, b in ((slice(None, -1), slice(None, -1)), (slice(1, None), slice(None, -1)), (slice(None, -1), slice(1, None)),
+                 (slice(1, None), slice(1, None))):  # fmt: skip
+        out[a, b] |= cells
+    return out
+
+
+def _mesh_lift(face, P: np.ndarray, N: np.ndarray, h: np.ndarray, valid: np.ndarray, bare: "np.ndarray | None" = None) -> np.ndarray:
     """``(R, C)`` mm to add to a raised relief's heights (``max(h, 0)``) so that the
-    B-rep follows texcad's mesh where the relief dips under the face.
+    B-rep follows texcad's mesh where the relief dips under the face, or, given
+    ``bare`` (``(R - 1, C - 1)`` bool), to an engraved relief's (0 at the points of
+    no cut cell) over the cells its cutter leaves bare (a torus's band along its
+    seam in ``v``: the B-rep lay 0.02 mm under the mesh there, -0.16 %).
 
     texcad's mesh is the union of the relief's slab (through ``P + h N``: grid
     points ``P`` on the face, mm, unit normals ``N``) with the part's own
@@ -172,6 +200,8 @@ def _mesh_lift(face, P: np.ndarray, N: np.ndarray, h: np.ndarray, valid: np.ndar
     whole = valid[:-1, :-1] & valid[1:, :-1] & valid[:-1, 1:] & valid[1:, 1:]
     top = np.where(valid, h, np.inf)
     low = whole & (np.maximum(np.maximum(top[:-1, :-1], top[1:, :-1]), np.maximum(top[:-1, 1:], top[1:, 1:])) < 0.0)
+    if bare is not None:  # signed reliefs: the cells the cutter leaves bare, given
+        low = whole & bare
     lift = np.zeros(h.shape)
     if tess is None or not low.any():
         return lift

@@ -511,7 +511,8 @@ def _brep(topo: Any, patches: tuple, no_brep: str, rotation: float, fine: Any = 
         ut, vt, closed = r.tables
         g = r.grid
         items.append({"face": r.face, "points": g.points, "normals": g.normals, "heights": r.brep_top, "signed": r.signed,
-                      "valid": g.valid, "xs": g.xs, "ys": g.ys, "u_table": ut, "v_table": vt, "closed_u": bool(closed)})
+                      "valid": g.valid, "xs": g.xs, "ys": g.ys, "u_table": ut, "v_table": vt, "closed_u": bool(closed),
+                      "cells": r.cells if r.info.get("mode") == "engraved" else None})  # the cutter's cells
     try:
         shape = uv_textured_solid(topo, items) if items else topo
         for r in planes:  # one per planar face
