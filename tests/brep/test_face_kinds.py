@@ -278,6 +278,23 @@ def test_chained_result_has_a_brep():
     assert check_shape(chained.shape)["faces"] > check_shape(tx.shape)["faces"]  # and on the B-rep
 
 
+def test_chained_result_drilled_replays_on_the_earlier_b_rep():
+    """A hole through the second texture of a chained result: the operation is made
+    on the B-rep that texture was put on (the earlier result's, with its texture),
+    not on the plain part, whose replay lost the first texture (-0.44 %) so that only
+    OCCT's cut of the textured B-rep was left (+0.097 %, at the edge of the check)."""
+    from build123d import Axis, Cylinder, GeomType, Rot
+
+    part = Cylinder(8, 20)
+    first = texcad.texture(part, part.faces().sort_by(Axis.Z)[-1], "builtin:diamond_knurl", height=0.4, pitch=0.5)
+    chained = texcad.texture(first, part.faces().filter_by(GeomType.CYLINDER)[0], "builtin:stones", height=0.4, pitch=0.5)
+    cut = chained - Rot(90, 0, 0) * Cylinder(1.5, 40)
+    assert cut.volume < chained.volume - 20
+    chk = check_shape(cut.shape)
+    assert chk["valid"] and chk["solids"] == 1
+    assert abs(occt_volume(cut.shape) - cut.volume) <= 3e-4 * cut.volume
+
+
 def test_uncovered_face_names_itself():
     """A face no texture grid point lies on gets no B-rep: the error names the face
     (its kind, centre, (u, v) rectangle), how much is off it, and STL/3MF (a face

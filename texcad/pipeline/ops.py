@@ -154,9 +154,11 @@ def _history(part: Any) -> dict:
         o, ex, ey, pitch = info["fine_frame"]
         frame = (np.asarray(o), np.asarray(ex), np.asarray(ey), float(pitch))
     make = part.brep if frame is not None else None
-    uv = uv_face_pairs(part.base_shape, unplaced) if make is None and part.base_shape is not None else None
+    on = part.stages.adapter.textured_on(part.stages)  # chained: the earlier result's B-rep
+    uv = uv_face_pairs(on, unplaced) if make is None and on is not None else None
     return {"make": make, "shape": unplaced, "steps": [], "to_world": np.eye(3, 4), "frame": frame, "base": part.base_shape,
-            "offset": _offset(part, shape), "uv": uv, "patches": _patches(part) if make is None and uv is None else None}
+            "uv_base": on, "offset": _offset(part, shape), "uv": uv,
+            "patches": _patches(part) if make is None and uv is None else None}
 
 
 def _patches(part: Any) -> list | None:
@@ -241,7 +243,7 @@ def _uv_replay(hist: dict):
     operations on the plain part, each textured face followed through OCCT's history
     (``Modified``, ``IsDeleted``), and the texture put again on what is left of it
     (:func:`texcad.brep.uvfaces.uv_retextured_solid`: a hole's wall stays plain)."""
-    shape, pieces = _followed(hist["base"], [[face] for face, _, _ in hist["uv"]], hist["steps"])
+    shape, pieces = _followed(hist.get("uv_base", hist["base"]), [[face] for face, _, _ in hist["uv"]], hist["steps"])
     return uv_retextured_solid(shape, [(p, tex, grid) for p, (_, tex, grid) in zip(pieces, hist["uv"])])
 
 

@@ -85,6 +85,11 @@ class Adapter:
         regions to tile finely (CAD operations). Raises GeometryError where there is none."""
         raise GeometryError(f"{self.label} has no B-rep; write STL or 3MF instead")
 
+    def textured_on(self, stages: Stages) -> Any:
+        """The B-rep this result's texture was put on (CAD operations replay on it,
+        :mod:`texcad.pipeline.ops`): the untextured part, or None."""
+        return stages.placement.topo
+
     def fine_frame(self, stages: Stages) -> Any:
         """The frame in which CAD operations ask for fine tiles (see
         :mod:`texcad.pipeline.ops`), or None."""

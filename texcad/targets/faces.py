@@ -46,6 +46,7 @@ general fuse (:func:`texcad.brep.bands.patch_solid`).
 from __future__ import annotations
 
 import warnings
+import weakref
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -346,6 +347,12 @@ class FacesAdapter(Adapter):
             base = chained_base(stages.placement.previous)
         return _brep(base, stages.fused.data.patches, no_brep, float(stages.options.rotation), fine, stages.placement.data.mesh)
 
+    def textured_on(self, stages: Stages) -> Any:
+        """The untextured part, or, chained, the earlier result's B-rep (the same
+        object :meth:`brep` puts this texture on, :func:`chained_base`)."""
+        prev = stages.placement.previous
+        return stages.placement.topo if prev is None else chained_base(prev)
+
     def fine_frame(self, stages: Stages) -> Any:
         """A lone planar face: its frame and pitch ``(origin, xdir, ydir, pitch)`` mm."""
         ff = stages.fused.info.get("fine_frame")
@@ -360,18 +367,29 @@ class FacesAdapter(Adapter):
 #: triangle of a tessellated cylinder becomes 4^8 triangles; a sphere on a 40 mm
 
 
+#: The B-rep of each earlier result a chained texture is put on, by ``id`` of its
+#: stages, while those stages live (:func:`chained_base`).
+_CHAINED: dict = {}
+
+
 def chained_base(previous: Stages) -> Any:
     """The B-rep a chained texture is put on: the earlier result's (made by its own
-    adapter, itself chained or not). Its untextured faces are the part's own (the
-    same OCCT faces), so the faces selected on the part are found in it.
+    adapter, itself chained or not; made once, so that the texture's B-rep and a CAD
+    operation's replay, :meth:`FacesAdapter.textured_on`, hold the same OCCT faces).
+    Its untextured faces are the part's own (the same OCCT faces), so the faces
+    selected on the part are found in it.
 
     Raises:
         GeometryError: the earlier result has no B-rep (the message says why).
     """
-    try:
-        return previous.adapter.brep(previous)
-    except GeometryError as e:
-        raise GeometryError(f"this result textures a face of an earlier textured result (chained), whose B-rep failed: {e}") from None
+    key = id(previous)
+    if key not in _CHAINED:
+        try:
+            _CHAINED[key] = previous.adapter.brep(previous)
+        except GeometryError as e:
+            raise GeometryError(f"this result textures a face of an earlier textured result (chained), whose B-rep failed: {e}") from None
+        weakref.finalize(previous, _CHAINED.pop, key, None)
+    return _CHAINED[key]
 
 
 def _warn(reliefs: list) -> None:
