@@ -834,11 +834,13 @@ def _obj_error(path: Path, lines: list[str], k: int, what: str) -> InputError:
 
 def _read_obj(path: Path) -> Mesh:
     """A Wavefront OBJ's ``v`` and ``f`` lines (every group and object merged;
-    polygons fanned into triangles; ``v/vt/vn`` and negative, relative indices
+    polygons split into triangles (:func:`_polygon_triangles`; a face line may be
+    continued with a backslash); ``v/vt/vn`` and negative, relative indices
     taken), in the file's units taken as mm. Strict: a malformed or non-finite
     number or an index that names no vertex is an InputError naming the line."""
     text = path.read_bytes().decode("utf-8", errors="replace")
-    lines = text.replace("\\\n", " ").splitlines()
+    # a backslash at a line's end continues it (Blender, 3ds Max), whatever the line ends (CR LF, CR)
+    lines = re.sub(r"\\[ \t]*(?:\r\n|\r|\n)", " ", text).splitlines()
     head = [ln[:2] for ln in lines]  # one pass per line in C: the record kinds
     vk = [k for k, h in enumerate(head) if h == "v " or h == "v\t"]
     fk = [k for k, h in enumerate(head) if h == "f " or h == "f\t"]
@@ -872,13 +874,61 @@ def _read_obj(path: Path) -> Mesh:
     if wrong.any():
         at = int(np.repeat(np.arange(len(fk)), size)[int(np.flatnonzero(wrong)[0])])
         raise _obj_error(path, lines, fk[at], f"a vertex index outside 1..{len(v)}")
+    return Mesh(v.astype(np.float32), _polygon_triangles(v, idx, size).astype(np.uint32))
+
+
+def _polygon_triangles(v: np.ndarray, idx: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """``(T, 3)`` triangles of the polygons ``idx`` (their vertex indices one after
+    another, ``size`` each) on the points ``v`` (mm): a convex polygon fanned from its
+    first vertex; a concave one (a wall with a notch, written as one 11-gon) or one with
+    a straight corner (a rectangle with its sides' midpoints) split by ear clipping in
+    its plane (manifold3d's ``triangulate``), in its winding. A fan of a concave
+    polygon covers area outside it; across a straight corner it makes a triangle of
+    no area and an edge that skips the midpoint its neighbour has (an open seam)."""
     start = np.cumsum(size) - size  # fans: (first, k, k + 1) for k in 1 .. n - 2
     ntri = size - 2
-    owner = np.repeat(np.arange(len(fk)), ntri)
+    owner = np.repeat(np.arange(len(size)), ntri)
     k = np.arange(int(ntri.sum())) - np.repeat(np.cumsum(ntri) - ntri, ntri) + 1
     first = start[owner]
     faces = np.stack([idx[first], idx[first + k], idx[first + k + 1]], axis=1)
-    return Mesh(v.astype(np.float32), faces.astype(np.uint32))
+    slot = np.cumsum(ntri) - ntri  # each polygon's first triangle
+    for i in np.flatnonzero(_bent(v, idx, start, size)):  # a loop per polygon that is not strictly convex (few)
+        ring = idx[start[i]:start[i] + size[i]]
+        tri = _ear_clip(v[ring])
+        if len(tri) == size[i] - 2:  # a simple polygon: as many triangles as the fan, in its place
+            faces[slot[i]:slot[i] + size[i] - 2] = ring[tri]
+    return faces
+
+
+def _bent(v: np.ndarray, idx: np.ndarray, start: np.ndarray, size: np.ndarray, block: int = 1 << 18) -> np.ndarray:
+    """``(P,)`` bool: the polygons of ``v`` (mm) with a corner that does not turn with
+    their winding (about their Newell normal, by more than 1e-6 of its edges' lengths:
+    concave or straight), polygons of one size at a time, ``block`` at once."""
+    out = np.zeros(len(size), dtype=bool)
+    for n in np.unique(size[size > 3]):
+        for part in np.array_split(np.flatnonzero(size == n), max(1, -(-int(np.sum(size == n)) // block))):
+            p = v[idx[start[part][:, None] + np.arange(n)]]  # (P, n, 3) mm
+            e = np.roll(p, -1, axis=1) - p
+            normal = np.cross(p, np.roll(p, -1, axis=1)).sum(axis=1)  # Newell: twice the area vector
+            turn = np.einsum("pni,pi->pn", np.cross(e, np.roll(e, -1, axis=1)), normal)
+            length = np.linalg.norm(e, axis=2)
+            scale = length * np.roll(length, -1, axis=1) * np.linalg.norm(normal, axis=1)[:, None]
+            out[part] = (turn <= 1e-6 * scale).any(axis=1)
+    return out
+
+
+def _ear_clip(p: np.ndarray) -> np.ndarray:
+    """``(T, 3)`` indices into the polygon ``p`` ``(n, 3)`` mm: its triangles, made in
+    its plane (the Newell normal's) by manifold3d's ear clipping, wound as ``p``."""
+    import manifold3d as m3d
+
+    normal = np.cross(p, np.roll(p, -1, axis=0)).sum(axis=0)
+    normal /= np.linalg.norm(normal)
+    u = np.cross(normal, np.eye(3)[int(np.argmin(np.abs(normal)))])
+    u /= np.linalg.norm(u)
+    w = np.cross(normal, u)  # (u, w, normal) right-handed: the polygon runs counter-clockwise in (u, w)
+    flat = np.stack([p @ u, p @ w], axis=1)
+    return np.asarray(m3d.triangulate([flat]), dtype=np.int64).reshape(-1, 3)
 
 
 def read_mesh(path: str | os.PathLike) -> Mesh:
