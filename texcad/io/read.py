@@ -25,7 +25,7 @@ from ..errors import InputError, TexcadError
 from ..util import threads
 from ..solid import Mesh
 
-__all__ = ["read_part", "read_mesh", "load_mesh", "UNITS_MM"]
+__all__ = ["read_part", "read_mesh", "load_mesh", "unreadable", "UNITS_MM"]
 
 #: mm per unit of the 3MF ``unit`` attribute (3MF core specification, 2.1).
 UNITS_MM = {"micron": 0.001, "millimeter": 1.0, "centimeter": 10.0, "inch": 25.4, "foot": 304.8, "meter": 1000.0}
@@ -825,7 +825,16 @@ def read_part(path: str | os.PathLike) -> list[tuple[str, Mesh]]:
             raise
         except (zipfile.BadZipFile, zlib.error, EOFError, OSError, RuntimeError, NotImplementedError, ValueError, IndexError) as exc:
             raise InputError(f"{str(p)!r}: the 3MF package is damaged ({type(exc).__name__}: {exc}); export it again") from None
-    raise InputError(f"cannot check {str(p)!r}: texcad reads .stl, .3mf and .obj parts")
+    raise unreadable(p)
+
+
+def unreadable(path: str | os.PathLike) -> InputError:
+    """The InputError for a part in a format texcad does not read (a PLY, OFF, GLB...),
+    naming its suffix, the formats texcad reads and how to get one."""
+    p = Path(path)
+    what = f"{p.suffix!r} files" if p.suffix else "files without a suffix"
+    return InputError(f"{str(p)!r}: texcad reads .stl, .3mf and .obj meshes and .step / .stp CAD parts, not "
+                      f"{what}; convert it to STL or 3MF first (MeshLab, Blender or trimesh write them)")
 
 
 def _obj_error(path: Path, lines: list[str], k: int, what: str) -> InputError:
