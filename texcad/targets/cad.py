@@ -236,13 +236,24 @@ def face_list(faces: Any) -> list:
     return items
 
 
+def _no_solid(target: Any, topo: Any) -> str:
+    """What a part with no solid holds (a STEP surface model: faces in an open
+    shell) and what to do."""
+    from OCP.TopAbs import TopAbs_FACE
+
+    n = len(explore(topo, TopAbs_FACE))
+    held = f"{n} face(s) but no closed body: a surface" if n else "no faces"
+    return (f"the {type(target).__name__} holds no solid to texture ({held}); pass a solid part: export the body as a "
+            "solid, or close or thicken the surface in the CAD program first")
+
+
 def _chain(target: Any) -> tuple[Any, Any, tuple]:
     """``(topo, previous stages, faces done)`` of a target that may be an earlier result."""
     stages = getattr(target, "stages", None)
     if not isinstance(stages, Stages):
         topo = to_topods(target)
         if not solids_of(topo):
-            raise ParameterError(f"the {type(target).__name__} holds no solid to texture; pass a solid part")
+            raise ParameterError(_no_solid(target, topo))
         return topo, None, ()
     pl = stages.placement
     if pl.topo is None or not getattr(target, "is_unmoved", True):
