@@ -247,6 +247,32 @@ def _no_solid(target: Any, topo: Any) -> str:
             "solid, or close or thicken the surface in the CAD program first")
 
 
+def _solids_only(topo: Any) -> Any:
+    """``topo`` without its faces that belong to no solid (a STEP's surface model
+    beside the body, OCCT's trj6_c1-ug-214.stp: they enclose no volume, and left in,
+    the part's tessellation is open along them and the part refused), with a
+    warning; ``topo`` itself when every face is a solid's."""
+    import warnings
+
+    from OCP.BRep import BRep_Builder
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS_Compound
+
+    from ..errors import TexcadWarning
+
+    solids = solids_of(topo)
+    loose = len(explore(topo, TopAbs_FACE)) - sum(len(explore(s, TopAbs_FACE)) for s in solids)
+    if loose <= 0:
+        return topo
+    warnings.warn(f"{loose} face(s) of the part belong to no solid (a surface beside the body, enclosing no volume): "
+                  "left out of the textured part", TexcadWarning, stacklevel=2)
+    out, builder = TopoDS_Compound(), BRep_Builder()
+    builder.MakeCompound(out)
+    for solid in solids:  # per solid
+        builder.Add(out, solid)
+    return out
+
+
 def _chain(target: Any) -> tuple[Any, Any, tuple]:
     """``(topo, previous stages, faces done)`` of a target that may be an earlier result."""
     stages = getattr(target, "stages", None)
@@ -254,7 +280,7 @@ def _chain(target: Any) -> tuple[Any, Any, tuple]:
         topo = to_topods(target)
         if not solids_of(topo):
             raise ParameterError(_no_solid(target, topo))
-        return topo, None, ()
+        return _solids_only(topo), None, ()
     pl = stages.placement
     if pl.topo is None or not getattr(target, "is_unmoved", True):
         raise ParameterError(
