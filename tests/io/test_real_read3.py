@@ -1,9 +1,14 @@
 """Mesh files as other tools write them (session 11, third round of real files)."""
 
+import zipfile
+
 import numpy as np
+import pytest
 import trimesh
 
 import texcad
+from texcad.errors import InputError
+from texcad.io import read_part
 from texcad.io.read import read_mesh
 
 L = [(20, 0), (20, 8), (8, 8), (8, 20), (0, 20), (0, 0)]  # mm, concave at (8, 8); a fan from (20, 0) leaves it
@@ -61,3 +66,56 @@ def test_straight_corners_give_no_empty_triangles(tmp_path):
     assert _areas(m).min() > 1.0
     body = trimesh.Trimesh(m.vertices, m.faces)
     assert body.is_watertight and abs(body.volume - 500.0) < 1e-6
+
+
+CORE = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
+BEAMS = "http://schemas.microsoft.com/3dmanufacturing/beamlattice/2017/02"
+SLICES = "http://schemas.microsoft.com/3dmanufacturing/slice/2015/07"
+MATERIALS = "http://schemas.microsoft.com/3dmanufacturing/material/2015/02"
+
+
+def _box_3mf(path, head="", obj="", extra=""):
+    """A 3MF of a 20 mm box (lib3mf's test files' layout), with ``head`` on <model>,
+    ``obj`` on <object> and ``extra`` inside <mesh> after the triangles."""
+    b = trimesh.creation.box((20.0, 20.0, 20.0))
+    vs = "".join(f'<vertex x="{x:g}" y="{y:g}" z="{z:g}"/>' for x, y, z in b.vertices)
+    ts = "".join(f'<triangle v1="{i}" v2="{j}" v3="{k}"/>' for i, j, k in b.faces)
+    model = (f'<?xml version="1.0"?><model unit="millimeter" xmlns="{CORE}" {head}><resources>'
+             f'<object id="1" name="Box" type="model" {obj}><mesh><vertices>{vs}</vertices><triangles>{ts}</triangles>'
+             f'{extra}</mesh></object></resources><build><item objectid="1"/></build></model>')
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("3D/3dmodel.model", model)
+    return path
+
+
+@pytest.mark.parametrize("head, needs", [
+    (f'xmlns:b="{BEAMS}" requiredextensions="b"', "beamlattice"),
+    ('xmlns:us="http://example.com/unknown/2999/12" requiredextensions="us"', "unknown/2999/12"),
+])
+def test_a_3mf_that_requires_an_extension_texcad_does_not_read_is_refused(tmp_path, head, needs):
+    """lib3mf's RequiredExtensions/Unsupported.3mf requires a beam lattice and an
+    unknown extension; SphereInACage.3mf the implicit extension. texcad read their
+    triangles as the whole part (or said 'holds no mesh objects'): the producer says
+    the shape needs the extension, so the file is refused naming it."""
+    with pytest.raises(InputError, match=f"requires the 3MF extension.*{needs}.*does not read"):
+        read_part(_box_3mf(tmp_path / "x.3mf", head))
+
+
+def test_a_slice_stand_in_and_a_beam_lattice_are_refused(tmp_path):
+    """lib3mf's MultiSliceStack_OneFile.3mf and PS_505_02_non_planar_transform.3mf: the
+    objects are slice stacks, their meshes marked meshresolution="lowres" (stand-ins);
+    BeamLattice/Box_Simple.3mf: beams of 10 mm radius along the box's edges, the
+    extension not declared required. Each was read as a plain box."""
+    lowres = _box_3mf(tmp_path / "s.3mf", f'xmlns:s="{SLICES}" requiredextensions="s"', 's:meshresolution="lowres" s:slicestackid="3"')
+    with pytest.raises(InputError, match="given by slices.*low-resolution stand-in"):
+        read_part(lowres)
+    beams = '<b:beamlattice radius="10" minlength="0.01"><b:beams><b:beam v1="0" v2="1"/></b:beams></b:beamlattice>'
+    with pytest.raises(InputError, match="beam lattice"):
+        read_part(_box_3mf(tmp_path / "b.3mf", f'xmlns:b="{BEAMS}"', "", beams))
+
+
+def test_shape_neutral_extensions_are_read(tmp_path):
+    """Materials, production and slices (on an object with its full mesh) are read as before."""
+    head = f'xmlns:m="{MATERIALS}" xmlns:s="{SLICES}" requiredextensions="m s"'
+    (name, mesh), = read_part(_box_3mf(tmp_path / "m.3mf", head))
+    assert name == "Box" and len(mesh.faces) == 12

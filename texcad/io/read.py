@@ -672,12 +672,14 @@ def _model_objects(xml: "bytes | mmap.mmap", path: Path, part: str, known: dict)
         raise InputError(f"{str(path)!r}: its 3D model ({part}) ends before </model>: the XML is cut short; export it again")
     if xml.find(b"<model") < 0:
         raise InputError(f"{str(path)!r}: its 3D model ({part}) holds no <model> element; export it again")
+    _required_extensions(xml, path, part)
     objects: dict[str, dict[str, Any]] = {}
     for h0, h1, b0, b1 in _spans(xml, b"object", known=known):  # per object
         a = _attrs(xml[h0:h1])
         oid = a.get("id")
         if oid is None:
             continue
+        _whole_geometry(xml, path, a, (b0, b1))
         entry: dict[str, Any] = {"name": _xml_unescape(a.get("name", f"object {oid}"))}
         rest = xml[b0:b1] if xml.find(b"<mesh", b0, b1) < 0 else b""
         for _, _, m0, m1 in _spans(xml, b"mesh", b0, b1, last=True):  # its mesh, if any
@@ -688,6 +690,50 @@ def _model_objects(xml: "bytes | mmap.mmap", path: Path, part: str, known: dict)
                                for c in comps]  # fmt: skip
         objects[oid] = entry
     return objects, _unit_scale(xml, path)
+
+
+#: 3MF extensions whose content texcad reads or may leave aside without changing the
+#: part's shape: materials and colours, production (components in other model parts,
+#: UUIDs), slices (an object whose mesh is only a stand-in for them is refused by
+#: :func:`_whole_geometry`) and triangle sets.
+SHAPE_NEUTRAL_EXTENSIONS = frozenset({
+    "http://schemas.microsoft.com/3dmanufacturing/material/2015/02",
+    "http://schemas.microsoft.com/3dmanufacturing/production/2015/06",
+    "http://schemas.microsoft.com/3dmanufacturing/slice/2015/07",
+    "http://schemas.microsoft.com/3dmanufacturing/trianglesets/2021/07",
+})
+
+
+def _required_extensions(xml: "bytes | mmap.mmap", path: Path, part: str) -> None:
+    """InputError where a model part's ``requiredextensions`` names an extension
+    outside :data:`SHAPE_NEUTRAL_EXTENSIONS` (beam lattices, booleans, displacement,
+    volumetric or one texcad does not know): its producer says the part's shape needs
+    it, so the triangles alone are not the part (3MF core specification, 2.3.1)."""
+    start = xml.find(b"<model")
+    head = bytes(xml[start:xml.find(b">", start) + 1])
+    spaces = {k.decode(): v.decode() for k, v in re.findall(rb'xmlns:([\w.-]+)\s*=\s*"([^"]*)"', head)}
+    wanted = re.search(rb'requiredextensions\s*=\s*"([^"]*)"', head)
+    unread = [spaces.get(p, p) for p in (wanted.group(1).decode().split() if wanted else ())]
+    unread = [u for u in unread if u not in SHAPE_NEUTRAL_EXTENSIONS]
+    if unread:
+        raise InputError(f"{str(path)!r} ({part}) requires the 3MF extension(s) {', '.join(unread)}, which texcad does "
+                         "not read: its triangles alone are not the part. Export the part as plain triangle meshes "
+                         "(STL or a 3MF without these extensions)")
+
+
+def _whole_geometry(xml: "bytes | mmap.mmap", path: Path, attrs: dict, span: tuple[int, int]) -> None:
+    """InputError for an object (its attributes, its element's byte span) whose
+    triangles are not its whole shape: a slice extension object whose mesh is a
+    low-resolution stand-in for its slices (``meshresolution="lowres"``), or a mesh
+    with a beam lattice (beams of some radius along its edges)."""
+    name = attrs.get("name", attrs.get("id"))
+    if any(k.endswith("meshresolution") and v == "lowres" for k, v in attrs.items()):
+        raise InputError(f"{str(path)!r}: object {name!r} is given by slices, its mesh only a low-resolution stand-in; "
+                         "texcad reads triangle meshes: export the part as a full-resolution mesh (STL or 3MF)")
+    end = xml.rfind(b"</triangles>", span[0], span[1])
+    if end >= 0 and re.search(rb"<(?:[\w.-]+:)?beamlattice\b", bytes(xml[end:span[1]])):
+        raise InputError(f"{str(path)!r}: object {name!r} has a beam lattice (beams along its edges), which texcad does "
+                         "not read; export the part as a triangle mesh with its beams meshed")
 
 
 def _placed(e: dict, tf: np.ndarray, scale: float, parts: "list | None", kind: str = "part") -> list[tuple[str, Mesh, str]]:
