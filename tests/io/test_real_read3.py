@@ -119,3 +119,20 @@ def test_shape_neutral_extensions_are_read(tmp_path):
     head = f'xmlns:m="{MATERIALS}" xmlns:s="{SLICES}" requiredextensions="m s"'
     (name, mesh), = read_part(_box_3mf(tmp_path / "m.3mf", head))
     assert name == "Box" and len(mesh.faces) == 12
+
+
+def test_a_mirrored_build_item_keeps_its_triangles_outward(tmp_path):
+    """A build item mirrored by its transform (negative determinant, as lib3mf's
+    displacement_mirrored_build_item.3mf places its part): read with the winding as
+    written, the box was inside out, and texcad check said 'manifold NO' and -1000 mm3.
+    The winding is reversed with the mirror: +1000 mm3, outward."""
+    path = _box_3mf(tmp_path / "m.3mf")
+    with zipfile.ZipFile(path) as z:
+        model = z.read("3D/3dmodel.model").decode()
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("3D/3dmodel.model", model.replace('<item objectid="1"/>', '<item objectid="1" transform="-0.5 0 0 0 1 0 0 0 1 50 0 0"/>'))
+    (_, mesh), = read_part(path)
+    body = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    assert abs(body.volume - 4000.0) < 1e-3 and body.is_winding_consistent
+    assert np.isclose(body.bounds[:, 0], [45.0, 55.0]).all()
+    assert texcad.check(path).manifold

@@ -739,9 +739,12 @@ def _whole_geometry(xml: "bytes | mmap.mmap", path: Path, attrs: dict, span: tup
 def _placed(e: dict, tf: np.ndarray, scale: float, parts: "list | None", kind: str = "part") -> list[tuple[str, Mesh, str]]:
     """An object's mesh moved by ``tf`` (4x4, row vectors) and scaled to mm: one
     ``(name, Mesh, kind)``, or one per part of a multi-part object (``parts``: name,
-    first and last triangle, kind: :data:`VOLUME_KINDS`)."""
+    first and last triangle, kind: :data:`VOLUME_KINDS`). A mirroring ``tf``
+    (negative determinant) reverses the triangles' winding, as the 3MF core
+    specification asks of consumers (else the mesh is inside out, its volume negative)."""
     v, t = e["mesh"]
     vv = v if np.array_equal(tf, np.eye(4)) else v @ tf[:3, :3] + tf[3, :3]
+    t = t[:, [0, 2, 1]] if np.linalg.det(tf[:3, :3]) < 0 else t  # the first corner kept: triangle ids and corners as written
     vv = vv if scale == 1.0 else vv * scale
     if parts and parts[-1][2] == len(t) - 1 and all(p[1] <= p[2] for p in parts):
         out = []
