@@ -1,6 +1,7 @@
 """Meshes as other tools write them (session 11, third round of real files)."""
 
 import numpy as np
+import pytest
 import trimesh
 
 import texcad
@@ -43,3 +44,22 @@ def test_a_textured_bed_face_is_not_held():
     tx = texcad.texture(_chamfered_plate(), "all+bottom", "builtin:diamond_knurl", height=0.5, pitch=0.7)
     assert tx.info["bed_held"] == 0
     assert tx.mesh.vertices[:, 2].min() < -0.3
+
+
+def test_a_mesh_made_in_blocks_stays_above_its_bed_face(monkeypatch):
+    """The same hold where the job is made in blocks (texcad.targets.tiled_mesh): the
+    same triangles as the whole mesh's, the bed face the lowest."""
+    from texcad.targets import mesh as mesh_target
+    from texcad.targets import tiled_mesh
+
+    plate = _chamfered_plate(w=16.0, t=4.0, run=3.0, rise=0.4)
+    kw = dict(height=0.5, pitch=0.5, tolerance=0)
+    flat = texcad.texture(plate, None, "builtin:diamond_knurl", **kw)
+    with monkeypatch.context() as m:
+        m.setattr(mesh_target, "untiled_bytes", lambda triangles: 1e18)
+        m.setattr(tiled_mesh, "_block_triangles", lambda coarse, pitch, *per: 3000)
+        tx = texcad.texture(plate, None, "builtin:diamond_knurl", **kw)
+    assert tx.info["fuse"] == "tiled" and tx.info["blocks"] >= 3
+    whole = tx.mesh.to_mesh()
+    assert whole.vertices[:, 2].min() >= -1e-5 and flat.mesh.vertices[:, 2].min() >= -1e-5
+    assert whole.volume == pytest.approx(flat.mesh.volume, rel=1e-9)

@@ -67,7 +67,7 @@ import numpy as np
 
 from ..errors import GeometryError, InputError, ParameterError, ResourceError, TexcadWarning
 from ..mapping.projection import PROJECTIONS, Projection, TileSampler, parse_axis, sample_heights
-from ..mapping.region import Region, bed_faces, mark_cavities, resolve_faces, resolve_paint, zone_layers
+from ..mapping.region import Region, bed_faces, hold_above, mark_cavities, resolve_faces, resolve_paint, zone_layers
 from ..printability import build_directions, check_critical_angle
 from ..printability.relief import limit_relief
 from ..sources.mask import mask_sampler
@@ -974,12 +974,7 @@ def keep_bed(v: np.ndarray, f: np.ndarray, normals: np.ndarray, d: np.ndarray, d
     bed = bed_faces(v, f, face_normals(v, f)[0], up, tol)
     if not bed.any() or np.any([m[bed].any() for m in masks]):
         return d, 0
-    h = v @ up
-    above = h - h.min()  # mm over the bed plane, >= 0
-    nu = normals @ up  # how far one mm of displacement moves a vertex up (the offset directions are mitred)
-    down = np.where(nu < 0, above / np.where(nu < 0, -nu, 1.0), np.inf)  # the most a vertex may move out, mm
-    up_ = np.where(nu > 0, -above / np.where(nu > 0, nu, 1.0), -np.inf)  # the most it may move in (negative)
-    held = np.clip(d, up_, down)
+    held = hold_above(v, normals, d, up, float((v @ up).min()))
     return held, int(np.count_nonzero(held != d))
 
 
