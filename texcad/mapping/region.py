@@ -125,7 +125,6 @@ def hold_above(v: np.ndarray, normals: np.ndarray, d: np.ndarray, up: np.ndarray
     return np.clip(d, into, out)
 
 
-
 @dataclass(frozen=True)
 class Region:
     """A set of faces to texture (module docstring). Lengths mm, angles degrees.
