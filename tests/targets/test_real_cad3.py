@@ -31,3 +31,12 @@ def test_a_surface_beside_the_solid_is_left_out():
     assert len(tx.part.solids()) == 1 and tx.part.is_valid
     assert 4000.0 < tx.part.volume < 4000.0 + 20 * 20 * 0.5
     assert tx.part.bounding_box().max.Z < 11.0  # the sheet at z = 30 is not in the result
+
+
+def test_the_surface_beside_the_solid_is_not_textured():
+    """Picking trj6_c1-ug-214.stp's loose face (face 6, solid -1 in texcad faces) said
+    'a face is not a face of this part'; it now says the face belongs to no solid."""
+    sheet = Pos(0, 0, 30) * Face(Rectangle(20, 20).wire())
+    part = Compound([Box(20, 20, 10), sheet])
+    with pytest.warns(TexcadWarning), pytest.raises(ParameterError, match="belongs to no solid"):
+        texcad.texture(part, part.faces().sort_by(Axis.Z)[-1], "builtin:dots", height=0.5, pitch=0.5)

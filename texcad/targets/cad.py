@@ -339,6 +339,9 @@ def cad_part(target: Any, where: Any) -> CadPart:
                 "a face is neither a face of the textured result's part nor one its texture left plain (a tile of "
                 "a texture is textured already); select a plain face from result.part or from the base part"
             )
+        if hit is None and any(f.IsSame(g) for g in explore(to_topods(target), TopAbs_FACE)):
+            raise ParameterError("a selected face belongs to no solid of the part (a surface beside the body, left "
+                                 "out); select a face of a solid (texcad faces PART.step lists each face's solid)")
         if hit is None:
             raise ParameterError(
                 "a face is not a face of this part; select it from the part itself, e.g. "
