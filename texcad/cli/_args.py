@@ -124,3 +124,22 @@ def zone_spec(text: str) -> tuple:
         except ValueError:
             opts[key] = value
     return sels, (parts[1].strip() or None), opts
+
+
+def step_part(path: str) -> None:
+    """Refuse a part that is neither a mesh texcad reads nor a STEP file (a PLY, OFF,
+    GLB...) with an InputError naming the formats texcad reads; a missing part is
+    told so. A STEP file is known by its suffix (.step, .stp) or its first line."""
+    from pathlib import Path
+
+    from ..errors import InputError
+    from ..io.read import unreadable
+
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"part {path!r} does not exist; check the path")
+    if p.suffix.lower() in (".step", ".stp"):
+        return
+    with open(p, "rb") as fh:
+        if not fh.read(4096).lstrip().startswith(b"ISO-10303-21"):
+            raise unreadable(p)

@@ -231,16 +231,14 @@ def _mesh_regions(args: argparse.Namespace) -> int:
 def run(args: argparse.Namespace) -> int:
     from build123d import Compound
 
-    from ..errors import ParameterError
     from ..io import read_step
+    from ._args import step_part
     from ._outputs import check_outputs
 
     suffix = Path(args.part).suffix.lower()
     if suffix in (".stl", ".3mf", ".obj"):
         return _mesh_regions(args)
-    if suffix not in (".step", ".stp"):
-        raise ParameterError(f"texcad faces lists the faces of a STEP part or the regions of an STL/3MF/OBJ mesh, "
-                             f"not of {args.part!r}")
+    step_part(args.part)  # a PLY, OFF, GLB...: refused naming the formats texcad reads
     if args.png:
         check_outputs([args.png], (".png",))
     t0 = time.perf_counter()

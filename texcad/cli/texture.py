@@ -26,7 +26,7 @@ import warnings
 from pathlib import Path
 
 from ..options import DEFAULTS
-from ._args import add_orientation, add_tolerance, limits_line, positive_float, zone_spec
+from ._args import add_orientation, add_tolerance, limits_line, positive_float, step_part, zone_spec
 from ._outputs import check_outputs, write_outputs
 from ._texture_mesh import MESH_SUFFIXES, add_mesh_arguments, run_mesh
 
@@ -62,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
                                  "--region REGION@TEXTURE[@MODE] (repeatable)")
         return run_mesh(args)
 
+    step_part(args.part)  # a PLY, OFF, GLB...: refused naming the formats texcad reads
     for flag, given in (("--region", args.region), ("--union", args.union), ("--size", args.size)):  # mesh options: refused
         if given:
             raise ParameterError(f"{flag} applies to mesh parts (.stl, .3mf, .obj), not to the STEP part {args.part!r}; "

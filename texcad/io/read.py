@@ -25,7 +25,7 @@ from ..errors import InputError, TexcadError
 from ..util import threads
 from ..solid import Mesh
 
-__all__ = ["read_part", "read_mesh", "load_mesh", "UNITS_MM"]
+__all__ = ["read_part", "read_mesh", "load_mesh", "unreadable", "UNITS_MM"]
 
 #: mm per unit of the 3MF ``unit`` attribute (3MF core specification, 2.1).
 UNITS_MM = {"micron": 0.001, "millimeter": 1.0, "centimeter": 10.0, "inch": 25.4, "foot": 304.8, "meter": 1000.0}
@@ -672,12 +672,14 @@ def _model_objects(xml: "bytes | mmap.mmap", path: Path, part: str, known: dict)
         raise InputError(f"{str(path)!r}: its 3D model ({part}) ends before </model>: the XML is cut short; export it again")
     if xml.find(b"<model") < 0:
         raise InputError(f"{str(path)!r}: its 3D model ({part}) holds no <model> element; export it again")
+    _required_extensions(xml, path, part)
     objects: dict[str, dict[str, Any]] = {}
     for h0, h1, b0, b1 in _spans(xml, b"object", known=known):  # per object
         a = _attrs(xml[h0:h1])
         oid = a.get("id")
         if oid is None:
             continue
+        _whole_geometry(xml, path, a, (b0, b1))
         entry: dict[str, Any] = {"name": _xml_unescape(a.get("name", f"object {oid}"))}
         rest = xml[b0:b1] if xml.find(b"<mesh", b0, b1) < 0 else b""
         for _, _, m0, m1 in _spans(xml, b"mesh", b0, b1, last=True):  # its mesh, if any
@@ -690,12 +692,59 @@ def _model_objects(xml: "bytes | mmap.mmap", path: Path, part: str, known: dict)
     return objects, _unit_scale(xml, path)
 
 
+#: 3MF extensions whose content texcad reads or may leave aside without changing the
+#: part's shape: materials and colours, production (components in other model parts,
+#: UUIDs), slices (an object whose mesh is only a stand-in for them is refused by
+#: :func:`_whole_geometry`) and triangle sets.
+SHAPE_NEUTRAL_EXTENSIONS = frozenset({
+    "http://schemas.microsoft.com/3dmanufacturing/material/2015/02",
+    "http://schemas.microsoft.com/3dmanufacturing/production/2015/06",
+    "http://schemas.microsoft.com/3dmanufacturing/slice/2015/07",
+    "http://schemas.microsoft.com/3dmanufacturing/trianglesets/2021/07",
+})
+
+
+def _required_extensions(xml: "bytes | mmap.mmap", path: Path, part: str) -> None:
+    """InputError where a model part's ``requiredextensions`` names an extension
+    outside :data:`SHAPE_NEUTRAL_EXTENSIONS` (beam lattices, booleans, displacement,
+    volumetric or one texcad does not know): its producer says the part's shape needs
+    it, so the triangles alone are not the part (3MF core specification, 2.3.1)."""
+    start = xml.find(b"<model")
+    head = bytes(xml[start:xml.find(b">", start) + 1])
+    spaces = {k.decode(): v.decode() for k, v in re.findall(rb'xmlns:([\w.-]+)\s*=\s*"([^"]*)"', head)}
+    wanted = re.search(rb'requiredextensions\s*=\s*"([^"]*)"', head)
+    unread = [spaces.get(p, p) for p in (wanted.group(1).decode().split() if wanted else ())]
+    unread = [u for u in unread if u not in SHAPE_NEUTRAL_EXTENSIONS]
+    if unread:
+        raise InputError(f"{str(path)!r} ({part}) requires the 3MF extension(s) {', '.join(unread)}, which texcad does "
+                         "not read: its triangles alone are not the part. Export the part as plain triangle meshes "
+                         "(STL or a 3MF without these extensions)")
+
+
+def _whole_geometry(xml: "bytes | mmap.mmap", path: Path, attrs: dict, span: tuple[int, int]) -> None:
+    """InputError for an object (its attributes, its element's byte span) whose
+    triangles are not its whole shape: a slice extension object whose mesh is a
+    low-resolution stand-in for its slices (``meshresolution="lowres"``), or a mesh
+    with a beam lattice (beams of some radius along its edges)."""
+    name = attrs.get("name", attrs.get("id"))
+    if any(k.endswith("meshresolution") and v == "lowres" for k, v in attrs.items()):
+        raise InputError(f"{str(path)!r}: object {name!r} is given by slices, its mesh only a low-resolution stand-in; "
+                         "texcad reads triangle meshes: export the part as a full-resolution mesh (STL or 3MF)")
+    end = xml.rfind(b"</triangles>", span[0], span[1])
+    if end >= 0 and re.search(rb"<(?:[\w.-]+:)?beamlattice\b", bytes(xml[end:span[1]])):
+        raise InputError(f"{str(path)!r}: object {name!r} has a beam lattice (beams along its edges), which texcad does "
+                         "not read; export the part as a triangle mesh with its beams meshed")
+
+
 def _placed(e: dict, tf: np.ndarray, scale: float, parts: "list | None", kind: str = "part") -> list[tuple[str, Mesh, str]]:
     """An object's mesh moved by ``tf`` (4x4, row vectors) and scaled to mm: one
     ``(name, Mesh, kind)``, or one per part of a multi-part object (``parts``: name,
-    first and last triangle, kind: :data:`VOLUME_KINDS`)."""
+    first and last triangle, kind: :data:`VOLUME_KINDS`). A mirroring ``tf``
+    (negative determinant) reverses the triangles' winding, as the 3MF core
+    specification asks of consumers (else the mesh is inside out, its volume negative)."""
     v, t = e["mesh"]
     vv = v if np.array_equal(tf, np.eye(4)) else v @ tf[:3, :3] + tf[3, :3]
+    t = t[:, [0, 2, 1]] if np.linalg.det(tf[:3, :3]) < 0 else t  # the first corner kept: triangle ids and corners as written
     vv = vv if scale == 1.0 else vv * scale
     if parts and parts[-1][2] == len(t) - 1 and all(p[1] <= p[2] for p in parts):
         out = []
@@ -825,7 +874,16 @@ def read_part(path: str | os.PathLike) -> list[tuple[str, Mesh]]:
             raise
         except (zipfile.BadZipFile, zlib.error, EOFError, OSError, RuntimeError, NotImplementedError, ValueError, IndexError) as exc:
             raise InputError(f"{str(p)!r}: the 3MF package is damaged ({type(exc).__name__}: {exc}); export it again") from None
-    raise InputError(f"cannot check {str(p)!r}: texcad reads .stl, .3mf and .obj parts")
+    raise unreadable(p)
+
+
+def unreadable(path: str | os.PathLike) -> InputError:
+    """The InputError for a part in a format texcad does not read (a PLY, OFF, GLB...),
+    naming its suffix, the formats texcad reads and how to get one."""
+    p = Path(path)
+    what = f"{p.suffix!r} files" if p.suffix else "files without a suffix"
+    return InputError(f"{str(p)!r}: texcad reads .stl, .3mf and .obj meshes and .step / .stp CAD parts, not "
+                      f"{what}; convert it to STL or 3MF first (MeshLab, Blender or trimesh write them)")
 
 
 def _obj_error(path: Path, lines: list[str], k: int, what: str) -> InputError:
@@ -834,11 +892,13 @@ def _obj_error(path: Path, lines: list[str], k: int, what: str) -> InputError:
 
 def _read_obj(path: Path) -> Mesh:
     """A Wavefront OBJ's ``v`` and ``f`` lines (every group and object merged;
-    polygons fanned into triangles; ``v/vt/vn`` and negative, relative indices
+    polygons split into triangles (:func:`_polygon_triangles`; a face line may be
+    continued with a backslash); ``v/vt/vn`` and negative, relative indices
     taken), in the file's units taken as mm. Strict: a malformed or non-finite
     number or an index that names no vertex is an InputError naming the line."""
     text = path.read_bytes().decode("utf-8", errors="replace")
-    lines = text.replace("\\\n", " ").splitlines()
+    # a backslash at a line's end continues it (Blender, 3ds Max), whatever the line ends (CR LF, CR)
+    lines = re.sub(r"\\[ \t]*(?:\r\n|\r|\n)", " ", text).splitlines()
     head = [ln[:2] for ln in lines]  # one pass per line in C: the record kinds
     vk = [k for k, h in enumerate(head) if h == "v " or h == "v\t"]
     fk = [k for k, h in enumerate(head) if h == "f " or h == "f\t"]
@@ -872,13 +932,61 @@ def _read_obj(path: Path) -> Mesh:
     if wrong.any():
         at = int(np.repeat(np.arange(len(fk)), size)[int(np.flatnonzero(wrong)[0])])
         raise _obj_error(path, lines, fk[at], f"a vertex index outside 1..{len(v)}")
+    return Mesh(v.astype(np.float32), _polygon_triangles(v, idx, size).astype(np.uint32))
+
+
+def _polygon_triangles(v: np.ndarray, idx: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """``(T, 3)`` triangles of the polygons ``idx`` (their vertex indices one after
+    another, ``size`` each) on the points ``v`` (mm): a convex polygon fanned from its
+    first vertex; a concave one (a wall with a notch, written as one 11-gon) or one with
+    a straight corner (a rectangle with its sides' midpoints) split by ear clipping in
+    its plane (manifold3d's ``triangulate``), in its winding. A fan of a concave
+    polygon covers area outside it; across a straight corner it makes a triangle of
+    no area and an edge that skips the midpoint its neighbour has (an open seam)."""
     start = np.cumsum(size) - size  # fans: (first, k, k + 1) for k in 1 .. n - 2
     ntri = size - 2
-    owner = np.repeat(np.arange(len(fk)), ntri)
+    owner = np.repeat(np.arange(len(size)), ntri)
     k = np.arange(int(ntri.sum())) - np.repeat(np.cumsum(ntri) - ntri, ntri) + 1
     first = start[owner]
     faces = np.stack([idx[first], idx[first + k], idx[first + k + 1]], axis=1)
-    return Mesh(v.astype(np.float32), faces.astype(np.uint32))
+    slot = np.cumsum(ntri) - ntri  # each polygon's first triangle
+    for i in np.flatnonzero(_bent(v, idx, start, size)):  # a loop per polygon that is not strictly convex (few)
+        ring = idx[start[i]:start[i] + size[i]]
+        tri = _ear_clip(v[ring])
+        if len(tri) == size[i] - 2:  # a simple polygon: as many triangles as the fan, in its place
+            faces[slot[i]:slot[i] + size[i] - 2] = ring[tri]
+    return faces
+
+
+def _bent(v: np.ndarray, idx: np.ndarray, start: np.ndarray, size: np.ndarray, block: int = 1 << 18) -> np.ndarray:
+    """``(P,)`` bool: the polygons of ``v`` (mm) with a corner that does not turn with
+    their winding (about their Newell normal, by more than 1e-6 of its edges' lengths:
+    concave or straight), polygons of one size at a time, ``block`` at once."""
+    out = np.zeros(len(size), dtype=bool)
+    for n in np.unique(size[size > 3]):
+        for part in np.array_split(np.flatnonzero(size == n), max(1, -(-int(np.sum(size == n)) // block))):
+            p = v[idx[start[part][:, None] + np.arange(n)]]  # (P, n, 3) mm
+            e = np.roll(p, -1, axis=1) - p
+            normal = np.cross(p, np.roll(p, -1, axis=1)).sum(axis=1)  # Newell: twice the area vector
+            turn = np.einsum("pni,pi->pn", np.cross(e, np.roll(e, -1, axis=1)), normal)
+            length = np.linalg.norm(e, axis=2)
+            scale = length * np.roll(length, -1, axis=1) * np.linalg.norm(normal, axis=1)[:, None]
+            out[part] = (turn <= 1e-6 * scale).any(axis=1)
+    return out
+
+
+def _ear_clip(p: np.ndarray) -> np.ndarray:
+    """``(T, 3)`` indices into the polygon ``p`` ``(n, 3)`` mm: its triangles, made in
+    its plane (the Newell normal's) by manifold3d's ear clipping, wound as ``p``."""
+    import manifold3d as m3d
+
+    normal = np.cross(p, np.roll(p, -1, axis=0)).sum(axis=0)
+    normal /= np.linalg.norm(normal)
+    u = np.cross(normal, np.eye(3)[int(np.argmin(np.abs(normal)))])
+    u /= np.linalg.norm(u)
+    w = np.cross(normal, u)  # (u, w, normal) right-handed: the polygon runs counter-clockwise in (u, w)
+    flat = np.stack([p @ u, p @ w], axis=1)
+    return np.asarray(m3d.triangulate([flat]), dtype=np.int64).reshape(-1, 3)
 
 
 def read_mesh(path: str | os.PathLike) -> Mesh:

@@ -46,7 +46,7 @@ from ..errors import InputError, ParameterError
 from .projection import parse_axis
 from ..io.paint import PAINT_KINDS
 
-__all__ = ["Region", "REGION_KINDS", "bed_faces", "flat_patch", "resolve_faces", "resolve_paint", "zone_layers", "PaintedTarget", "region_table"]
+__all__ = ["Region", "REGION_KINDS", "bed_faces", "bed_plane", "hold_above", "flat_patch", "resolve_faces", "resolve_paint", "zone_layers", "PaintedTarget", "region_table"]
 
 REGION_KINDS = ("all", "normal", "box", "sphere", "paint", "face")
 #: Largest angle between a ``face`` region's direction and its faces' normals, degrees
@@ -100,6 +100,29 @@ def bed_faces(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray, buil
     low = float(h.min()) if len(h) else 0.0
     down = normals @ -build_dir >= np.cos(np.radians(1.0))
     return down & np.all(h[faces] <= low + tolerance, axis=1)
+
+
+def bed_plane(v: np.ndarray, f: np.ndarray, fn: np.ndarray, dirs: Any, regions: Sequence, tol: float) -> "tuple | None":
+    """``(up, level)``: the build direction (unit, ``dirs[0]`` else +z) and the height
+    (mm along it) of the bed plane a mesh ``(v, f)`` (mm, face normals ``fn``) stands
+    on when it has a bed face (``tol`` mm) that none of the ``regions`` textures (none
+    says ``bottom``), else None (:func:`texcad.targets.mesh.keep_bed` for a mesh made
+    in blocks)."""
+    up = np.asarray(dirs[0] if dirs is not None else (0.0, 0.0, 1.0), dtype=np.float64)
+    up = up / np.linalg.norm(up)
+    if any(getattr(r, "bottom", False) for r in regions) or not bed_faces(v, f, fn, up, tol).any():
+        return None
+    return up, float((v @ up).min())
+
+
+def hold_above(v: np.ndarray, normals: np.ndarray, d: np.ndarray, up: np.ndarray, level: float) -> np.ndarray:
+    """The displacements ``d`` (mm, of the points ``v`` along ``normals``) capped so
+    that no point moves under the plane ``level`` mm along the unit ``up``."""
+    above = np.maximum(v @ up - level, 0.0)  # mm over the plane
+    nu = normals @ up  # how far one mm of displacement moves a point up (the offset directions are mitred)
+    out = np.where(nu < 0, above / np.where(nu < 0, -nu, 1.0), np.inf)  # the most a point may move out, mm
+    into = np.where(nu > 0, -above / np.where(nu > 0, nu, 1.0), -np.inf)  # the most it may move in (negative)
+    return np.clip(d, into, out)
 
 
 @dataclass(frozen=True)

@@ -236,14 +236,51 @@ def face_list(faces: Any) -> list:
     return items
 
 
+def _no_solid(target: Any, topo: Any) -> str:
+    """What a part with no solid holds (a STEP surface model: faces in an open
+    shell) and what to do."""
+    from OCP.TopAbs import TopAbs_FACE
+
+    n = len(explore(topo, TopAbs_FACE))
+    held = f"{n} face(s) but no closed body: a surface" if n else "no faces"
+    return (f"the {type(target).__name__} holds no solid to texture ({held}); pass a solid part: export the body as a "
+            "solid, or close or thicken the surface in the CAD program first")
+
+
+def _solids_only(topo: Any) -> Any:
+    """``topo`` without its faces that belong to no solid (a STEP's surface model
+    beside the body, OCCT's trj6_c1-ug-214.stp: they enclose no volume, and left in,
+    the part's tessellation is open along them and the part refused), with a
+    warning; ``topo`` itself when every face is a solid's."""
+    import warnings
+
+    from OCP.BRep import BRep_Builder
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS_Compound
+
+    from ..errors import TexcadWarning
+
+    solids = solids_of(topo)
+    loose = len(explore(topo, TopAbs_FACE)) - sum(len(explore(s, TopAbs_FACE)) for s in solids)
+    if loose <= 0:
+        return topo
+    warnings.warn(f"{loose} face(s) of the part belong to no solid (a surface beside the body, enclosing no volume): "
+                  "left out of the textured part", TexcadWarning, stacklevel=2)
+    out, builder = TopoDS_Compound(), BRep_Builder()
+    builder.MakeCompound(out)
+    for solid in solids:  # per solid
+        builder.Add(out, solid)
+    return out
+
+
 def _chain(target: Any) -> tuple[Any, Any, tuple]:
     """``(topo, previous stages, faces done)`` of a target that may be an earlier result."""
     stages = getattr(target, "stages", None)
     if not isinstance(stages, Stages):
         topo = to_topods(target)
         if not solids_of(topo):
-            raise ParameterError(f"the {type(target).__name__} holds no solid to texture; pass a solid part")
-        return topo, None, ()
+            raise ParameterError(_no_solid(target, topo))
+        return _solids_only(topo), None, ()
     pl = stages.placement
     if pl.topo is None or not getattr(target, "is_unmoved", True):
         raise ParameterError(
@@ -302,6 +339,9 @@ def cad_part(target: Any, where: Any) -> CadPart:
                 "a face is neither a face of the textured result's part nor one its texture left plain (a tile of "
                 "a texture is textured already); select a plain face from result.part or from the base part"
             )
+        if hit is None and any(f.IsSame(g) for g in explore(to_topods(target), TopAbs_FACE)):
+            raise ParameterError("a selected face belongs to no solid of the part (a surface beside the body, left "
+                                 "out); select a face of a solid (texcad faces PART.step lists each face's solid)")
         if hit is None:
             raise ParameterError(
                 "a face is not a face of this part; select it from the part itself, e.g. "

@@ -25,6 +25,9 @@ The job, for each texture *layer* ``(region, texture, options)``:
    ``d = g (min(h, R) - c R)`` with ``c = 0`` raised (outward), ``c = 1`` engraved
    (inward: the texture's top is the original surface, so the outer envelope is
    kept) and ``c = 1/2`` centred, ``g in [0, 1]`` the depth gradient along an axis;
+   where the part stands on an untextured bed face, no vertex moves past the bed's
+   plane (:func:`keep_bed`: a fillet beside the bed face would otherwise carry crests
+   under it);
 6. limit: no displaced face may overhang for ``build_dir`` nor fold over
    (:func:`texcad.printability.limit_relief`);
 7. check: the result is closed and oriented (every directed edge once, and its
@@ -64,7 +67,7 @@ import numpy as np
 
 from ..errors import GeometryError, InputError, ParameterError, ResourceError, TexcadWarning
 from ..mapping.projection import PROJECTIONS, Projection, TileSampler, parse_axis, sample_heights
-from ..mapping.region import Region, mark_cavities, resolve_faces, resolve_paint, zone_layers
+from ..mapping.region import Region, bed_faces, hold_above, mark_cavities, resolve_faces, resolve_paint, zone_layers
 from ..printability import build_directions, check_critical_angle
 from ..printability.relief import limit_relief
 from ..sources.mask import mask_sampler
@@ -940,6 +943,7 @@ def _displace(layers, v, f, info, dirs, crit, tolerance, progress):
         max_error = 0.0  # the pitch grid itself: the samples are its vertices
     d = np.sum([p[0] for p in parts], axis=0)
     b = np.sum([p[1] for p in parts], axis=0)
+    d, info["bed_held"] = keep_bed(v, f, normals, d, dirs, masks, tol)
     progress(0.6, "limiting overhangs")
     d2, limit = limit_relief(v, f, normals, d, build_dir=dirs, critical_angle=crit)
     if limit.folded_faces:
@@ -950,6 +954,28 @@ def _displace(layers, v, f, info, dirs, crit, tolerance, progress):
                 no_brep="a mesh has no B-rep: it is textured as a mesh", region_faces=[int(m.sum()) for m in masks])
     region = np.any(masks, axis=0)
     return MeshRelief(v, f, normals, d2, b, tuple(parts), region), d, limit, max_error
+
+
+def keep_bed(v: np.ndarray, f: np.ndarray, normals: np.ndarray, d: np.ndarray, dirs: Any, masks: list,
+             tol: float) -> tuple[np.ndarray, int]:
+    """``(d, held)``: the displacements ``d`` (mm, along ``normals``) capped so that no
+    vertex of ``(v, f)`` (mm) moves past the plane of the part's lowest point along the
+    build direction (``dirs[0]``, else +z), and how many vertices were held there.
+
+    Only where the part stands on a bed face (:func:`texcad.mapping.bed_faces`,
+    ``tol`` mm) that no layer's mask (``masks``, per face) textures: a raised texture on
+    a fillet or chamfer beside that face would otherwise reach under it, and the part
+    would stand on the texture's crests instead (a plate's rounded bottom edge, 0.2 mm
+    under its bed face at 0.5 mm of relief). Where the bed face is textured, ``d`` is
+    returned as it is.
+    """
+    up = np.asarray(dirs[0] if dirs is not None else (0.0, 0.0, 1.0), dtype=np.float64)
+    up = up / np.linalg.norm(up)
+    bed = bed_faces(v, f, face_normals(v, f)[0], up, tol)
+    if not bed.any() or np.any([m[bed].any() for m in masks]):
+        return d, 0
+    held = hold_above(v, normals, d, up, float((v @ up).min()))
+    return held, int(np.count_nonzero(held != d))
 
 
 def _separate_bodies(v: np.ndarray, f: np.ndarray, bodies: int, info: dict, name: str, union: bool):

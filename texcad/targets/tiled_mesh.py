@@ -121,6 +121,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import GeometryError, ParameterError, ResourceError, TexcadWarning
+from ..mapping.region import bed_plane, hold_above
 from ..printability.relief import limit_relief
 from ..solid.subdivide import coarsen, edge_counts, face_normals, offset_directions, tessellate, vertex_normals
 from ..util import Progress, available_memory, finest_pitch, report, split_rows
@@ -185,6 +186,8 @@ class MeshPlan:
             refinement's; more where that coarse mesh would not fit).
         dirs: ``(K, 3)`` float64 unit build directions, or None (folds only);
             crit: the critical angle, degrees (the overhang limiter's).
+        bed: ``(up, level)``: the plane (unit direction, mm) of the untextured bed face
+            no point may move under (:func:`texcad.mapping.region.bed_plane`), or None.
     """
 
     v: np.ndarray
@@ -204,6 +207,7 @@ class MeshPlan:
     factor: float = 3.0
     dirs: Any = None
     crit: float = 45.0
+    bed: Any = None
 
     @property
     def pitch(self) -> float:
@@ -275,7 +279,7 @@ def mesh_plan(layers: tuple, v: np.ndarray, f: np.ndarray, tol: float, refined: 
                                                        int((lev * lev).sum())))
     reach = 3.0 * sum(float(layer.height) for layer in layers) + 0.01
     plan = MeshPlan(cv, cf, fn[ids], ids, counts, keys, body, blocks, layers, tol, cv[np.argmin(cv[:, 2])],
-                    (), reach, float(fits), factor, dirs, float(crit))
+                    (), reach, float(fits), factor, dirs, float(crit), bed_plane(cv, cf, fn[ids], dirs, [layer.region for layer in layers], tol))
     return _first_pass(plan, progress)
 
 
@@ -637,6 +641,8 @@ def _displace(plan: MeshPlan, b: FineBlock, pins: tuple, kept: "tuple | None" = 
     used = np.zeros(len(b.v), dtype=bool)
     used[b.f[faces].ravel()] = True
     d, mask = _relief(plan, b, used, unit)
+    if plan.bed is not None:  # no crest under the untextured bed face (texcad.targets.mesh.keep_bed)
+        d = hold_above(b.v, dirs, d, *plan.bed)
     keys = _keys(plan, b)
     hit, at = _lookup(pins, keys, used)
     d[hit] = pins[1][at[hit]]
