@@ -46,6 +46,8 @@ MOST_PIECES = 24
 #: ``texcad.io.step_tiles.THIN_ORDER`` (8) points integrates: its straight pcurves on
 #: two pieces at most keep OCCT's rule at ``max(8, 4 pieces) = 8`` points.
 FEW_PIECES = 2
+#: Decimals (mm) of a joined edge's parameters (:func:`_placed`), its knots in the STEP.
+PARAM_DECIMALS = 6
 #: Relative tolerance of "straight" (a curve linear in its parameter between two
 #: breaks) and of two points being the same break.
 _EPS = 1e-9
@@ -261,6 +263,9 @@ def _placed(p: np.ndarray, big: int, points: int) -> tuple[np.ndarray, np.ndarra
     each = np.floor(share).astype(np.int64)
     each[np.argsort(-(share - each), kind="stable")[: big - m - int(each.sum())]] += 1
     sub = gauss_knots(0.0, total, big, points)
+    short = np.round(sub, PARAM_DECIMALS)  # (the knots written shorter: 1e-6 mm moves no Gauss node past a break)
+    if (np.diff(short) > 0).all():
+        sub = short
     return sub[np.r_[0, np.cumsum(1 + each)]], sub
 
 
@@ -286,8 +291,9 @@ def _rule(faces: list, qs: list, knots: list, m: int) -> tuple[int, int]:
     """``(spans, points)``: the spans of the pcurves on the faces whose ``v`` changes
     along a joined edge of ``m`` pieces (:func:`_rises`), and the Gauss points OCCT's
     plain rule then takes along it (0: on neither face). 61 points (16 spans at
-    least) where a tile's ``u`` knots lie inside the range the rule integrates across
-    (placed for 61 points, :mod:`texcad.brep.gprop`), or the two faces would take
+    least, unless the tile's own 16 ``v`` spans give 61) where a tile's ``u`` knots
+    lie inside the range the rule integrates across (placed for 61 points,
+    :mod:`texcad.brep.gprop`), or the two faces would take
     different rules; else the one face's own rule on ``m`` spans."""
     from ..brep.gprop import GAUSS_POINTS, PAD_SPANS
 
@@ -295,8 +301,8 @@ def _rule(faces: list, qs: list, knots: list, m: int) -> tuple[int, int]:
     for f, q, kn in zip(faces, qs, knots):  # its two faces
         if not _rises(q, f):
             continue
-        if kn is not None and ((kn[0] > kn[0][0]) & (kn[0] < q[:, 0].max())).any():
-            return max(m, PAD_SPANS), GAUSS_POINTS
+        if kn is not None and ((kn[0] > kn[0][0]) & (kn[0] < q[:, 0].max())).any():  # (16 v spans give 61 already)
+            return (m if _v_order(f, kn) >= GAUSS_POINTS else max(m, PAD_SPANS)), GAUSS_POINTS
         orders.append(min(max(4 * m, _v_order(f, kn)), GAUSS_POINTS))
     if not orders:
         return m, 0
