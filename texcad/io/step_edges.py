@@ -70,7 +70,7 @@ def _breaks(curve, first: float, last: float) -> np.ndarray | None:
         eps = _EPS * (1.0 + abs(first) + abs(last))
         return np.r_[first, k[(k > first + eps) & (k < last - eps)], last]
     t = np.linspace(first, last, 2 * curve.NbPoles() + 1)
-    p = np.array([curve.Value(a).Coord() for a in t.tolist()])  # per sample (about 20)
+    p = np.array([curve.Value(a).Coord() for a in t.tolist()])  # per sample (about 20: an 11-pole raised line)
     line = p[0] + (p[-1] - p[0]) * ((t - first) / (last - first))[:, None]
     if np.abs(p - line).max() > _EPS * (1.0 + np.abs(p).max()):
         return None
@@ -111,8 +111,8 @@ def _sampled(edge, faces: list):
     return t, vals[0], vals[1:]
 
 
-def _linked(shape) -> tuple[list, Any]:
-    """``(chains, fmap)``: runs ``[[(edge, forward), ...], [face, face]]`` of two or
+def _linked(shape) -> list:
+    """Runs ``([(edge, forward), ...], [face, face])`` of two or
     more edges end to end between the same two faces, each vertex between them
     used by those two edges only (a closed loop of them is left one edge short);
     ``forward``: the edge's parameter runs along the run."""
@@ -167,7 +167,7 @@ def _linked(shape) -> tuple[list, Any]:
         if len(run) > 1:
             faces = [TopoDS.Face_s(fmap.FindKey(i)) for i in pair[start]]
             chains.append(([(TopoDS.Edge_s(ef.FindKey(j).Oriented(TopAbs_FORWARD)), f) for j, f in run], faces))
-    return chains, fmap
+    return chains
 
 
 def _joined(chain: list, faces: list):
@@ -372,11 +372,10 @@ def joined_edges(shape, knots_of: Callable[[Any], "tuple | None"]):
     between breaks stay as they are."""
     from OCP.BRep import BRep_Builder
     from OCP.BRepTools import BRepTools_ReShape
-    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
 
     from ..brep.gprop import GAUSS_POINTS
 
-    chains, _ = _linked(shape)
+    chains = _linked(shape)
     b, reshape, done = BRep_Builder(), BRepTools_ReShape(), False
     for chain, faces in chains:  # one per run (hundreds)
         got = _joined(chain, faces)
@@ -404,5 +403,4 @@ def joined_edges(shape, knots_of: Callable[[Any], "tuple | None"]):
             for e, _ in part[1:]:  # one per edge the run drops
                 reshape.Remove(e)
             done = True
-    del TopAbs_FORWARD, TopAbs_REVERSED
     return reshape.Apply(shape) if done else shape
