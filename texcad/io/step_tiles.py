@@ -62,6 +62,7 @@ import numpy as np
 from ..brep import TILE, surface_grid, tile_grid
 from ..brep.occt import explore
 from ..util.runs import runs_within
+from .step_edges import joined_edges, polyline3d as _polyline3d
 
 __all__ = ["tiled_step_text"]
 
@@ -1078,7 +1079,12 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
         outer = [o[np.ix_(r, c)] | line for o, (_, _, _, r, c, line) in zip(outer, red)]
         written = [(g, u, v) for g, u, v, _, _, _ in red]
     _line_pcurves(b, tiles, sides, grids, written)
-    grids = written
+    full, grids = grids, written
+    if tolerance > 0 and not tessellate:
+        got = _edges_written_fewer(b, copy, tiles, sides, full, grids, outer)
+        if got is None:
+            return None
+        copy, tiles, grids, outer = got
     if inner < 8:  # poles a few rounding steps from a neighbour keep 8 decimals (else a sliver collapses)
         outer = [o | _thin(g, THIN * 10.0**-inner) for o, (g, _, _) in zip(outer, grids)]
     try:
@@ -1088,6 +1094,159 @@ def tiled_step_text(topo: Any, occt_write, *, tessellate: bool = True, tolerance
         return None
     data = occt_write(copy)
     return _complete(data, len(order), tiles, grids, meshed, outer, inner)
+
+
+def _edges_written_fewer(b, shape, tiles: list, sides: list, full: list, written: list, outer: list):
+    """``(shape, tiles, written, outer)`` with thin tiles' ``u`` knots placed for
+    fewer Gauss points (:func:`_replaced_knots`), tiles mirrored where that puts fewer
+    edges on their high-``u`` side (:func:`_flipped_tiles`) and the runs of edges
+    between the same two faces joined (:func:`_joined_runs`); None where the faces
+    did not stay the same in the same order (the caller uses OCCT's writer)."""
+
+    def same(new):
+        got = _tiles_of(new)[1]
+        return got if [t[0] for t in got] == [t[0] for t in tiles] else None
+
+    written, thin = _replaced_knots(b, tiles, sides, written)
+    shape, written, outer = _flipped_tiles(b, shape, tiles, sides, full, written, outer, thin)
+    tiles = same(shape)
+    if tiles is None:
+        return None
+    shape = _joined_runs(shape, tiles, written, full, thin)
+    tiles = same(shape)
+    return None if tiles is None else (shape, tiles, written, outer)
+
+
+def _flipped_tiles(b, shape, tiles: list, sides: list, full: list, written: list, outer: list, thin: set):
+    """``(shape, written, outer)`` with each whole tile (not a wall) that has more
+    edges on its high-``u`` side than on its low-``u`` one mirrored along ``u``
+    (``u -> u0 + u1 - u``: its written grid's columns reversed, its pcurves mirrored,
+    the face reversed in its shell: the same solid). OCCT's plain volume rule
+    integrates a face from its lowest ``u`` (:mod:`texcad.brep.gprop`): each edge on
+    the high side gets a pcurve of 61 Gauss points (:func:`_line_pcurves`: 11 or 17
+    poles), each on the low side a ``LINE``; along a patch's staircase a tile meets
+    the wall or the teeth beside it in many edges on one side and its neighbour in
+    one on the other. ``full``/``written``: ``(grid, u, v)`` per tile before and
+    after :func:`_reduced`; ``outer``: their poles kept with 8 decimals; ``thin``:
+    tiles :func:`_replaced_knots` placed for fewer points (left as they are)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepTools import BRepTools_ReShape
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.gp import gp_Ax2d, gp_Dir2d, gp_Pnt2d
+    from OCP.TopLoc import TopLoc_Location
+
+    from ..brep.solids import grid_surface
+
+    reshape, written, outer, done = BRepTools_ReShape(), list(written), list(outer), False
+    for k, ((_, face, _), tile, (g, u, v), (gw, wu, wv)) in enumerate(zip(tiles, sides, full, written)):  # one per tile
+        lo = [(e, sd) for e, _, sd, _, _ in tile if sd is not None and sd[0] == 1 and sd[1] == 0]
+        hi = [(e, sd) for e, _, sd, _, _ in tile if sd is not None and sd[0] == 1 and sd[1] == len(u) - 1]
+        if len(wu) < 3 or len(hi) <= len(lo) or k in thin or _is_wall(g, u, v) or not _whole(face, u, v):
+            continue
+        if any(abs(BRep_Tool.Range_s(e)[0] - v[sd[2]]) > 1e-9 or abs(BRep_Tool.Range_s(e)[1] - v[sd[3]]) > 1e-9 for e, sd in lo):
+            continue  # (a low side not parametrised as the grid)
+        axis = gp_Ax2d(gp_Pnt2d(0.5 * (u[0] + u[-1]), 0.0), gp_Dir2d(0.0, 1.0))
+        new_pc = {}
+        for e, _, sd, _, _ in tile:  # one per edge: mirrored
+            new_pc[e] = BRep_Tool.CurveOnSurface_s(e, face, 0.0, 0.0).Mirrored(axis)
+        for e, sd in hi:  # the new low side: straight lines (the rule adds nothing there)
+            new_pc[e] = Geom2d_Line(gp_Pnt2d(float(u[0]), 0.0), gp_Dir2d(0.0, 1.0))
+        for e, sd in lo:  # the new high side: 61 points where the rule needs them (as _line_pcurves)
+            t = v[sd[2] : sd[3] + 1]
+            part = sd[2] > 0 or sd[3] < len(v) - 1
+            if 2 * 2 * (len(wv) - 1) < GAUSS_ORDER or part:
+                new_pc[e] = _rising(t, wv, (float(u[-1]), None))
+            else:
+                new_pc[e] = Geom2d_Line(gp_Pnt2d(float(u[-1]), 0.0), gp_Dir2d(0.0, 1.0))
+        mu = wu[0] + wu[-1] - wu[::-1]
+        mu[0], mu[-1] = wu[0], wu[-1]
+        written[k] = (gw[:, ::-1].copy(), mu, wv)
+        outer[k] = outer[k][:, ::-1].copy()
+        tols = {e: BRep_Tool.Tolerance_s(e) for e in new_pc}
+        b.UpdateFace(face, grid_surface(written[k][0], mu, wv), TopLoc_Location(), BRep_Tool.Tolerance_s(face))
+        for e, pc in new_pc.items():  # one per edge of the tile
+            b.UpdateEdge(e, pc, face, tols[e])
+        reshape.Replace(face, face.Reversed())
+        done = True
+    return (reshape.Apply(shape) if done else shape), written, outer
+
+
+#: Gauss points OCCT's plain rule takes across a tile of one ``v`` span whose edges
+#: have straight pcurves (``BRepGProp_Face``: ``max(8, ...)``): :func:`_replaced_knots`
+#: places such a tile's ``u`` knots for them.
+THIN_ORDER = 8
+
+
+def _replaced_knots(b, tiles: list, sides: list, written: list) -> tuple[list, set]:
+    """``(written, thin)``: each whole tile of one ``v`` span and 2 to
+    :data:`THIN_ORDER` ``u`` spans as written (a thin tile along a patch's staircase)
+    with its ``u`` knots placed for the :data:`THIN_ORDER`-point rule OCCT's plain
+    volume integration then takes across it (:func:`texcad.brep.gprop.gauss_knots`;
+    the poles as they are: the same surface, its parameter mapped by a broken line
+    ``phi``), its high-``u`` side a ``LINE`` instead of 61 points' pcurve (11 or 17
+    poles, :func:`_line_pcurves`), each edge along ``u`` the broken line ``(phi(t),
+    v)`` through its grid lines; ``thin``: their indices. A tile with any other edge
+    stays as it is."""
+    from OCP.BRep import BRep_Tool
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.gp import gp_Dir2d, gp_Pnt2d
+    from OCP.TopLoc import TopLoc_Location
+
+    from ..brep.gprop import gauss_knots, polyline_pcurve
+    from ..brep.solids import grid_surface
+
+    written, thin = list(written), set()
+    for k, ((_, face, _), tile, (gw, wu, wv)) in enumerate(zip(tiles, sides, written)):  # one per tile
+        if len(wv) != 2 or not 3 <= len(wu) <= THIN_ORDER + 1 or _is_wall(gw, wu, wv):
+            continue
+        new_u = gauss_knots(float(wu[0]), float(wu[-1]), len(wu) - 1, THIN_ORDER)
+        isos = [(e, _iso(e, face)) for e, _, _, _, _ in tile]
+        if any(iso is None or (iso[0] == 0 and iso[1] not in (float(round(wu[0], 12)), float(round(wu[-1], 12)))) for _, iso in isos):
+            continue  # (an edge off the tile's sides)
+        new_pc = {}
+        for e, (axis, value) in isos:  # one per edge
+            if axis == 0:  # along v at u0 or u1: a line (the map keeps the ends)
+                new_pc[e] = Geom2d_Line(gp_Pnt2d(value, 0.0), gp_Dir2d(0.0, 1.0))
+                continue
+            first, last = BRep_Tool.Range_s(e)
+            t = np.r_[first, wu[(wu > first + 1e-9) & (wu < last - 1e-9)], last]
+            new_pc[e] = polyline_pcurve(np.stack([np.interp(t, wu, new_u), np.full(len(t), value)], axis=1), t, pad=False)
+        written[k] = (gw, new_u, wv)
+        tols = {e: BRep_Tool.Tolerance_s(e) for e in new_pc}
+        b.UpdateFace(face, grid_surface(gw, new_u, wv), TopLoc_Location(), BRep_Tool.Tolerance_s(face))
+        for e, pc in new_pc.items():  # one per edge of the tile
+            b.UpdateEdge(e, pc, face, tols[e])
+        thin.add(k)
+    return written, thin
+
+
+def _rising(t: np.ndarray, own: np.ndarray, fixed: tuple):
+    """The straight iso-u pcurve along a tile side on which OCCT's plain rule takes
+    61 points (``t``: the side's grid lines, ``own``: the tile's written knots along
+    it; ``fixed`` as in :func:`_padded`): :func:`_padded` where it gives 16 spans or
+    raises the line, else the line raised on the tile's own knots."""
+    mine = np.isin(t, own)
+    mine[[0, -1]] = True
+    if len(t) - 1 > PAD_SPANS or mine.sum() - 1 <= RAISED_SPANS:
+        return _padded(t, own, fixed)
+    k = t[mine]
+    return _raised_line(k, fixed, max(1, int(np.ceil(GAUSS_ORDER / (2.0 * (len(k) - 1)))) - 1))
+
+
+def _joined_runs(shape, tiles: list, grids: list, full: list, thin: set):
+    """``shape`` with its runs of edges between the same two faces joined
+    (:func:`texcad.io.step_edges.joined_edges`), the tiles' knots as written
+    (``grids``: ``(grid, u, v)`` per tile of ``tiles``; ``full``: before
+    :func:`_reduced`, which tells a patch's walls, :func:`_is_wall`; ``thin``: the
+    tiles whose ``u`` knots are placed for :data:`THIN_ORDER` points)."""
+    mine = _tile_map(tiles)
+    walls = [_is_wall(*g) for g in full]
+
+    def knots_of(face):
+        i = mine.FindIndex(face) - 1
+        return None if i < 0 else (grids[i][1], grids[i][2], walls[i], THIN_ORDER if i in thin else GAUSS_ORDER)
+
+    return joined_edges(shape, knots_of)
 
 
 #: Most grid cells a wall :func:`_joined_walls` makes runs along (as many as a strip,
@@ -1445,21 +1604,6 @@ def _chords(p: np.ndarray, t: np.ndarray, tol: float) -> np.ndarray:
         at = int(j[holds[-1]]) if len(holds) else at + 1
         kept.append(at)
     return np.asarray(kept)
-
-
-def _polyline3d(p: np.ndarray, t: np.ndarray):
-    """The degree-1 ``Geom_BSplineCurve`` through ``p`` ``(k, 3)`` mm at ``t`` ``(k,)``."""
-    from OCP.Geom import Geom_BSplineCurve
-    from OCP.TColgp import TColgp_Array1OfPnt
-    from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
-    from OCP.gp import gp_Pnt
-
-    poles, knots, mults = TColgp_Array1OfPnt(1, len(t)), TColStd_Array1OfReal(1, len(t)), TColStd_Array1OfInteger(1, len(t))
-    for i, (a, q) in enumerate(zip(t.tolist(), p.tolist()), 1):  # per kept point (a few)
-        poles.SetValue(i, gp_Pnt(*q))
-        knots.SetValue(i, a)
-        mults.SetValue(i, 2 if i in (1, len(t)) else 1)
-    return Geom_BSplineCurve(poles, knots, mults, 1)
 
 
 def _polyline2d(q: np.ndarray, t: np.ndarray):
