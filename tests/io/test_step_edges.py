@@ -112,3 +112,21 @@ def test_corner_patch_step_joined(tmp_path, monkeypatch):
     tx.export(tmp_path / "apart.step")
     assert (tmp_path / "apart.step").stat().st_size >= 1.05 * size
     assert 2 * _runs_left(back) <= _runs_left(texcad.io.read_step(tmp_path / "apart.step"))
+
+
+def test_faces_with_a_seam_keep_their_edges():
+    """A drilled hole's wall has a seam: runs along its rim stay unjoined (joined, the
+    wall of the demo plate's 8 mm hole re-read invalid from its STEP)."""
+    from build123d import Box, Cylinder, GeomType
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    from texcad.io.step_edges import _linked, _seamed
+
+    part = Box(20, 20, 5) - Cylinder(4, 10)
+    fmap = TopTools_IndexedMapOfShape()
+    TopExp.MapShapes_s(part.wrapped, TopAbs_FACE, fmap)
+    wall = part.faces().filter_by(GeomType.CYLINDER)[0].wrapped
+    assert _seamed(part.wrapped, fmap) == {fmap.FindIndex(wall)}
+    assert not any(f.IsSame(wall) for _, faces in _linked(part.wrapped) for f in faces)

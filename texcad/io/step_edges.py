@@ -111,6 +111,24 @@ def _sampled(edge, faces: list):
     return t, vals[0], vals[1:]
 
 
+def _seamed(shape, fmap) -> set:
+    """Indices in ``fmap`` of the faces of ``shape`` that have a seam (an edge used
+    twice by the face: a drilled hole's wall): their edges are not joined (joined
+    along a hole's rim, the wall of the demo plate's 8 mm hole re-read invalid)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+
+    from ..brep.occt import explore
+
+    out = set()
+    for f in explore(shape, TopAbs_FACE):  # one per face
+        face = TopoDS.Face_s(f)
+        if any(BRep_Tool.IsClosed_s(TopoDS.Edge_s(e), face) for e in explore(face, TopAbs_EDGE)):
+            out.add(fmap.FindIndex(face))
+    return out
+
+
 def _linked(shape) -> list:
     """Runs ``([(edge, forward), ...], [face, face])`` of two or
     more edges end to end between the same two faces, each vertex between them
@@ -129,11 +147,12 @@ def _linked(shape) -> list:
     ve = TopTools_IndexedDataMapOfShapeListOfShape()
     TopExp.MapShapesAndUniqueAncestors_s(shape, TopAbs_VERTEX, TopAbs_EDGE, ve)
     pair, ends = {}, {}
+    seamed = _seamed(shape, fmap)
     for k in range(1, ef.Extent() + 1):  # one per edge
         e = TopoDS.Edge_s(ef.FindKey(k).Oriented(TopAbs_FORWARD))
         fs = [TopoDS.Face_s(f) for f in ef.FindFromIndex(k)]
         if (len(fs) != 2 or fs[0].IsSame(fs[1]) or BRep_Tool.Degenerated_s(e) or not e.Location().IsIdentity()
-                or any(BRep_Tool.IsClosed_s(e, f) or not f.Location().IsIdentity() for f in fs)):  # fmt: skip
+                or any(BRep_Tool.IsClosed_s(e, f) or not f.Location().IsIdentity() or fmap.FindIndex(f) in seamed for f in fs)):  # fmt: skip
             continue
         a, z = ve.FindIndex(TopExp.FirstVertex_s(e)), ve.FindIndex(TopExp.LastVertex_s(e))
         if a != z:
