@@ -108,3 +108,28 @@ def test_closed_shape_mesh_heals_an_open_tessellation():
     assert healed.is_watertight and healed.volume == pytest.approx(1000.0, rel=1e-9)
     whole = Box(10, 10, 10)
     assert np.array_equal(closed_shape_mesh(whole).faces, shape_to_mesh(whole).faces)
+
+
+def test_bulk_read_of_occt_triangles_matches_node_by_node():
+    """shape_to_mesh reads OCCT's triangles through its STL writer: the same
+    triangles, corner for corner (float32), as OCP's node-by-node access."""
+    import numpy as np
+    from build123d import Box, Cylinder
+
+    from texcad.brep import shape_to_mesh
+    from texcad.brep.tessellation import _node_corners, _stl_corners
+
+    part = Box(20, 20, 8) - Cylinder(4, 10)
+    shape_to_mesh(part, tolerance=0.01)  # meshes the faces
+    (a, fa), (b, fb) = _stl_corners(part.wrapped), _node_corners(part.wrapped)
+    assert len(fa) == len(fb) > 0
+    ta, tb = a[fa].astype(np.float32).astype(np.float64), b[fb].astype(np.float32).astype(np.float64)
+
+    def canon(t):  # each triangle's corners in order, the triangles sorted: the same set
+        rows = np.sort(t.reshape(len(t), 3, 3).view([("x", "f8"), ("y", "f8"), ("z", "f8")]).ravel().reshape(-1, 3), axis=1)
+        flat = rows.view("f8").reshape(len(t), 9)
+        return flat[np.lexsort(flat.T[::-1])]
+
+    assert np.array_equal(canon(ta), canon(tb))
+    signed = lambda t: np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])).sum() / 6  # outward alike
+    assert signed(ta) == pytest.approx(signed(tb), rel=1e-9) and signed(ta) > 0

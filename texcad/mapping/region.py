@@ -462,7 +462,8 @@ def _cut_negatives(project: Any, items: np.ndarray, v: np.ndarray, f: np.ndarray
     from ..errors import GeometryError
     from ..solid import Mesh, to_manifold
 
-    negs = [Mesh(nv.astype(np.float32), np.asarray(nf, np.uint32)) for k, nv, nf in project.negatives if k in set(items.tolist())]
+    kept = set(items.tolist())
+    negs = [Mesh(nv.astype(np.float32), np.asarray(nf, np.uint32)) for k, nv, nf in project.negatives if k in kept]
     if not negs:
         return v, f, state
     oid = int(m3d.Manifold.reserve_ids(1))
