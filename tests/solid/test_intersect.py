@@ -70,3 +70,34 @@ def test_a_textured_mesh_does_not_cross():
     m = r.mesh
     assert m.num_triangles > 20_000
     assert len(self_intersections(m.vertices, m.faces)) == 0
+
+
+def test_a_fine_body_beside_a_coarse_one_stays_linear():
+    """A 1 mm sphere of 20 k triangles inside a 40 mm one of 80 k: in one grid sized by
+    the median triangle the small sphere fills a few cells, whose pairs grow with the
+    square of its triangles (2.0 GB, 18 s before); each size class in its own grid
+    keeps the broad phase linear."""
+    import tracemalloc
+
+    m = trimesh.util.concatenate([trimesh.creation.icosphere(6, radius=20.0), trimesh.creation.icosphere(5, radius=0.5)])
+    tracemalloc.start()
+    try:
+        pairs = self_intersections(m.vertices, m.faces)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert len(pairs) == 0
+    assert peak < 400e6, f"{peak / 1e6:.0f} MB"
+
+
+def test_chunks_find_the_same_crossings(monkeypatch):
+    """Pairs formed a few at a time (a pair may come in two chunks) give the same
+    crossings as all at once."""
+    import texcad.solid.intersect as si
+
+    tm = trimesh.util.concatenate([_two_boxes(), _folded_box()])
+    tm.vertices[len(_two_boxes().vertices) :] += (0.5, 0.2, 0.1)
+    whole = si._self_intersections(np.asarray(tm.vertices, float), np.asarray(tm.faces, np.int64), 20_000_000)
+    monkeypatch.setattr(si, "PAIR_CHUNK", 7)
+    chunked = si._self_intersections(np.asarray(tm.vertices, float), np.asarray(tm.faces, np.int64), 20_000_000)
+    assert len(whole) > 10 and np.array_equal(whole, chunked)

@@ -4,13 +4,16 @@ A closed mesh whose surface crosses itself (two overlapping bodies written as on
 "closed" mesh, a fold) encloses no well-defined solid: displacing it or fusing it gives
 garbage. The test, all in numpy:
 
-1. *broad phase*: every triangle goes into the cells of a uniform grid (cell about
-   twice the median triangle size) that its axis-aligned box overlaps and that it may
-   meet (a ball test against its plane and its edges' side planes, so a long diagonal
-   sliver does not fill its whole box); triangles that share a cell and whose boxes
-   overlap are candidate pairs, each pair counted once (duplicates from the several
-   cells two triangles share dropped; issue 27: keeping a pair only in the cell of
-   its boxes' lowest common corner lost the pairs the ball test left out there);
+1. *broad phase*: uniform grids, one per size class of triangles (cells halving from
+   about twice the median triangle size down to the finest triangles'): each triangle
+   goes into the cells of its class's grid that its axis-aligned box overlaps, a
+   triangle of the coarsest class only into those it may meet (a ball test against
+   its plane and its edges' side planes, so a long diagonal sliver does not fill its
+   whole box); it meets the triangles of coarser classes in their grids, where its
+   box spans at most two cells per axis. Triangles that share a cell and whose boxes
+   overlap are candidate pairs, each counted once per chunk of pairs (issue 27:
+   keeping a pair only in the cell of its boxes' lowest common corner lost the pairs
+   the ball test left out there);
 2. pairs that share a vertex are left out (neighbours touch by construction);
 3. *narrow phase*: two triangles cross when an edge of one passes through the inside
    of the other (Moller-Trumbore, all pairs and their six edges at once); touching
@@ -23,6 +26,7 @@ bodies that overlap in volume always also cross somewhere.
 from __future__ import annotations
 
 import hashlib
+from typing import Iterator
 
 import numpy as np
 
@@ -37,6 +41,11 @@ EPS = 1e-9
 #: double (3DBenchy's bridge roof, 24556 triangles of which a few are 9 mm wide over
 #: 0.13 mm cells, had 287 per triangle and took 27 s; with cells 4 x as wide, 11, 3 s).
 CELLS_PER_TRIANGLE = 32
+#: Grids finer than the coarsest, at most (cells halving each): triangles down to
+#: 1/64 of the median size get cells of their own size.
+LEVELS = 6
+#: Pairs of grid entries formed at once (memory: about 100 bytes each).
+PAIR_CHUNK = 4_000_000
 
 
 def _touches(tri: np.ndarray, t: np.ndarray, centre: np.ndarray, r: float) -> np.ndarray:
@@ -67,43 +76,99 @@ def box_cells(c0: np.ndarray, c1: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
     return owner, c0[owner, 0] + k % sx, c0[owner, 1] + (k // sx) % sy, c0[owner, 2] + k // (sx * sy)
 
 
-def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, cell: float, budget: int, tri: np.ndarray) -> np.ndarray:
-    """``(P, 2)`` pairs ``a < b`` of triangles that meet a common grid cell, boxes
-    overlapping."""
-    c0 = np.floor((lo - colmin(lo)) / cell).astype(np.int64)
-    c1 = np.floor((hi - colmin(lo)) / cell).astype(np.int64)
-    span = c1 - c0 + 1
-    ncell = span[:, 0] * span[:, 1] * span[:, 2]
-    if ncell.sum() > min(budget, CELLS_PER_TRIANGLE * len(lo)):  # a few huge triangles fill most cells: coarser cells
-        return _candidate_pairs(lo, hi, cell * 2.0, budget, tri)
+def _levels(size: np.ndarray, top: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(level (K,), cells (J + 1,))``: the broad phase's grids, cells of
+    ``top / 2^(J - j)`` mm, and each triangle's: the finest whose cell is at least
+    the triangle's box size (at most :data:`LEVELS` grids below ``top``; bigger
+    triangles go to ``top``), so that a cell holds a few triangles of its own size
+    wherever the mesh is fine or coarse."""
+    small = float(np.percentile(size, 1)) if len(size) else top
+    J = int(np.clip(np.ceil(np.log2(top / max(small, top * 2.0**-LEVELS))), 0, LEVELS))
+    cells = top / 2.0 ** (J - np.arange(J + 1))
+    level = np.clip(np.ceil(np.log2(np.maximum(size, 1e-300) / cells[0])), 0, J).astype(np.int64)
+    return level, cells
+
+
+def _grid_entries(lo, hi, idx, origin, cell, dim, tri=None) -> tuple[np.ndarray, np.ndarray, int]:
+    """``(owner, key, entries)``: every cell of the grid of ``cell`` mm (from
+    ``origin``, ``dim`` cells per axis) that the box of each triangle ``idx`` overlaps,
+    one per (triangle, cell), ``key`` the cell's number (x fastest); ``entries``:
+    their count. With ``tri``, a triangle spanning several cells keeps only those it
+    may meet (:func:`_touches`)."""
+    c0 = np.floor((lo[idx] - origin) / cell).astype(np.int64)
+    c1 = np.floor((hi[idx] - origin) / cell).astype(np.int64)
     owner, ix, iy, iz = box_cells(c0, c1)
-    big = np.flatnonzero(ncell[owner] > 1)  # a triangle in several cells: only those it may meet
-    centre = colmin(lo) + (np.stack([ix[big], iy[big], iz[big]], 1) + 0.5) * cell
-    keep = np.ones(len(owner), dtype=bool)
-    keep[big] = _touches(tri, owner[big], centre, 0.5 * np.sqrt(3.0) * cell)
-    owner, ix, iy, iz = owner[keep], ix[keep], iy[keep], iz[keep]
-    dim = c1.max(axis=0) + 1
-    key = ix + dim[0] * (iy + dim[1] * iz)
-    order = argsort_ints(key)
-    key, owner = key[order], owner[order]
+    entries = len(owner)
+    if tri is not None:
+        span = c1 - c0 + 1
+        many = np.flatnonzero(span[owner].prod(axis=1) > 1)
+        centre = origin + (np.stack([ix[many], iy[many], iz[many]], 1) + 0.5) * cell
+        keep = np.ones(len(owner), dtype=bool)
+        keep[many] = _touches(tri, idx[owner[many]], centre, 0.5 * np.sqrt(3.0) * cell)
+        owner, ix, iy, iz = owner[keep], ix[keep], iy[keep], iz[keep]
+    return idx[owner], ix + dim[0] * (iy + dim[1] * iz), entries
+
+
+def _cell_pairs(key: np.ndarray, query: np.ndarray, owner: np.ndarray) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Pairs of entries in the same cell, ``(owner a, owner b)`` in chunks of about
+    :data:`PAIR_CHUNK`: every two members (``query`` False) once, and every query
+    with every member."""
+    order = argsort_ints(key * 2 + query)  # in each cell its members first
+    key, query, owner = key[order], query[order], owner[order]
     start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
     size = np.diff(np.r_[start, len(key)])
-    end = np.repeat(start + size, size)  # one past each entry's group
+    gs = np.repeat(start, size)
+    gm = np.repeat(np.add.reduceat((~query).astype(np.int64), start), size) if len(key) else gs
     pos = np.arange(len(key))
-    cnt = end - pos - 1
-    a = np.repeat(pos, cnt)
-    b = a + 1 + np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    ta, tb = owner[a], owner[b]
+    first = np.where(query, gs, pos + 1)  # a member pairs with the members after it
+    cnt = np.maximum(np.where(query, gm, gs + gm - pos - 1), 0)
+    total = np.cumsum(cnt)
+    cuts = np.searchsorted(total, np.arange(PAIR_CHUNK, int(total[-1]) if len(total) else 0, PAIR_CHUNK))
+    for p0, p1 in zip(np.r_[0, cuts], np.r_[cuts, len(key)]):  # per chunk of entries
+        c = cnt[p0:p1]
+        a = np.repeat(pos[p0:p1], c)
+        b = np.repeat(first[p0:p1], c) + np.arange(int(c.sum())) - np.repeat(np.cumsum(c) - c, c)
+        yield owner[a], owner[b]
+
+
+def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, cell: float, budget: int, tri: np.ndarray) -> Iterator[np.ndarray]:
+    """``(P, 2)`` pairs ``a < b`` of triangles that meet a common grid cell, boxes
+    overlapping, in chunks (a pair found in cells of two chunks comes twice).
+
+    Each triangle sits in the grid of its level (:func:`_levels`); a triangle of the
+    coarsest level only in the cells it may meet (:func:`_touches`). A triangle looks
+    for partners of coarser levels in their grids, where its box spans at most two
+    cells per axis. So the pairs grow with the triangles, not with their squares in
+    the cells where a fine mesh meets a coarse one (a painted seam's 0.03 mm
+    triangles in one grid of 0.34 mm cells: 377 M pairs of entries)."""
+    origin, far = colmin(lo), colmax(hi)
+    level, cells = _levels(rowmax(hi - lo), cell)
+    for j in range(len(cells) - 1, -1, -1):  # per grid, coarsest first
+        dim = np.floor((far - origin) / cells[j]).astype(np.int64) + 1
+        mine, finer = np.flatnonzero(level == j), np.flatnonzero(level < j)
+        top = j == len(cells) - 1
+        owner, key, n = _grid_entries(lo, hi, mine, origin, cells[j], dim, tri if top else None)
+        if top and n > min(budget, CELLS_PER_TRIANGLE * len(lo)):  # a few huge triangles fill most cells: coarser cells
+            yield from _candidate_pairs(lo, hi, cell * 2.0, budget, tri)
+            return
+        q_owner, q_key, _ = _grid_entries(lo, hi, finer, origin, cells[j], dim)
+        query = np.r_[np.zeros(len(key), dtype=bool), np.ones(len(q_key), dtype=bool)]
+        for ta, tb in _cell_pairs(np.r_[key, q_key], query, np.r_[owner, q_owner]):  # per chunk
+            yield _overlapping(lo, hi, ta, tb)
+
+
+def _overlapping(lo: np.ndarray, hi: np.ndarray, ta: np.ndarray, tb: np.ndarray) -> np.ndarray:
+    """``(P, 2)`` the pairs ``(min, max)`` of ``ta``, ``tb`` whose boxes overlap, each
+    once (a sort and a look at neighbours: np.unique hashes, 10x slower on millions
+    of keys)."""
     for lk, hk in zip(lo.T, hi.T):  # per axis: the boxes overlap along it
         lk, hk = np.ascontiguousarray(lk), np.ascontiguousarray(hk)
         ok = (lk[ta] <= hk[tb]) & (lk[tb] <= hk[ta])
         ta, tb = ta[ok], tb[ok]
-    # each pair once, whichever cells it shares: a pair may be dropped from the cell of
-    # its boxes' lowest common corner by the ball test and kept only in others
-    # (a sort and a look at neighbours: np.unique hashes, 10x slower on millions of keys)
-    pair = np.sort(np.minimum(ta, tb) * len(lo) + np.maximum(ta, tb))
+    n = len(lo)
+    pair = np.sort(np.minimum(ta, tb) * n + np.maximum(ta, tb))
     pair = pair[np.concatenate([[True], pair[1:] != pair[:-1]])] if len(pair) else pair
-    return np.stack([pair // len(lo), pair % len(lo)], 1)
+    return np.stack([pair // n, pair % n], 1)
 
 
 def _edges_cross(p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -169,15 +234,15 @@ def _self_intersections(v: np.ndarray, f: np.ndarray, budget: int) -> np.ndarray
     size = float(np.median(rowmax(hi - lo)))
     extent = float((colmax(hi) - colmin(lo)).max())
     cell = max(2.0 * size, extent / 512.0, 1e-9)
-    pairs = _candidate_pairs(lo, hi, cell, budget, tri)
-    fa, fb = f[pairs[:, 0]], f[pairs[:, 1]]
-    share = np.zeros(len(pairs), dtype=bool)
-    for i in range(3):  # per corner pair
-        for j in range(3):
-            share |= fa[:, i] == fb[:, j]
-    pairs = pairs[~share]
-    if not len(pairs):
-        return pairs
-    pa, pb = tri[pairs[:, 0]], tri[pairs[:, 1]]
-    cross = pairs[_edges_cross(pa, pb) | _edges_cross(pb, pa)]
+    found = [np.zeros((0, 2), dtype=np.int64)]
+    for pairs in _candidate_pairs(lo, hi, cell, budget, tri):  # per chunk
+        fa, fb = f[pairs[:, 0]], f[pairs[:, 1]]
+        share = np.zeros(len(pairs), dtype=bool)
+        for i in range(3):  # per corner pair
+            for j in range(3):
+                share |= fa[:, i] == fb[:, j]
+        pairs = pairs[~share]
+        pa, pb = tri[pairs[:, 0]], tri[pairs[:, 1]]
+        found.append(pairs[_edges_cross(pa, pb) | _edges_cross(pb, pa)])
+    cross = np.unique(np.concatenate(found), axis=0)
     return cross[np.lexsort((cross[:, 1], cross[:, 0]))]
