@@ -208,3 +208,23 @@ def test_upright_plate_slices_without_the_seam_pass(tmp_path):
     tp = texcad.pipeline.textured_plate(texcad.builtin("stones", size=(20, 20), pitch=0.25, height=1.0), size=(20, 20), thickness=4, build_dir=d)
     a, b = _plain_and_laid_out(tp.mesh, tmp_path, build_dir=d)
     assert b.cpu_seconds < 0.6 * a.cpu_seconds, (a.cpu_seconds, b.cpu_seconds)
+
+
+def test_a_cut_that_does_not_hold_the_mesh_is_not_written(monkeypatch):
+    """The cut is an optimisation: parts that are not closed, or do not hold the
+    mesh's volume together (a split gone wrong), leave the mesh whole."""
+    import texcad.solid as solid
+    from texcad.solid import Mesh
+
+    tp = _stones(30.0)
+    assert slicer_layout(tp.mesh, min_work=0).cut is not None
+    real = solid.from_manifold
+
+    def shrunk(man):  # a part 1 % smaller: still closed, the wrong solid
+        m = real(man)
+        c = m.vertices.mean(axis=0)
+        return Mesh(c + 0.99 * (m.vertices - c), m.faces)
+
+    monkeypatch.setattr(solid, "from_manifold", shrunk)
+    lay = slicer_layout(tp.mesh, min_work=0)
+    assert lay.cut is None and lay.parts == (("part", tp.mesh),)

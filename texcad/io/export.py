@@ -933,7 +933,19 @@ def slicer_layout(
     if above.is_empty() or below.is_empty():
         return SlicerLayout(((name, mesh),), settings)
     parts = ((name, from_manifold(below)), (f"{name} above {cut:g} mm", from_manifold(above)))
+    if not _cut_holds(mesh, parts[0][1], parts[1][1]):  # an optimisation only: never a different solid
+        return SlicerLayout(((name, mesh),), settings)
     return SlicerLayout(parts, settings, ({}, {"extra_perimeters": 0}), cut)
+
+
+def _cut_holds(mesh: Mesh, below: Mesh, above: Mesh) -> bool:
+    """The two parts of a cut are closed and hold the mesh's volume together (within
+    a millionth): the solid every slicer
+    prints from them is the mesh's."""
+    if not (below.is_watertight and above.is_watertight):
+        return False
+    whole = float(mesh.volume)
+    return abs(float(below.volume) + float(above.volume) - whole) <= 1e-6 * abs(whole)
 
 
 def _zip_info(arcname: str) -> zipfile.ZipInfo:
