@@ -41,12 +41,14 @@ def _gradient(text: str) -> tuple:
     return g[:3], g[3:]
 
 
-def _faces(part, selectors: list) -> list:
+def _faces(part, selectors: list, path: str) -> list:
     """The faces the ``--face`` selectors name (:func:`texcad.brep.selectors.faces_named`),
     each once. In an assembly the solid that owns them is textured and the others are
     kept (texcad's driver: :mod:`texcad.targets.assembly`)."""
     from ..brep.selectors import faces_named
+    from ..targets.cad import require_solid
 
+    require_solid(part, f"the STEP file {path!r}")  # a surface model: say so, not that a selector matched no face of its open shell
     faces: list = []
     for which in selectors:  # per --face
         faces += [f for f in faces_named(part, which) if not any(f.is_same(g) for g in faces)]
@@ -81,8 +83,8 @@ def run(args: argparse.Namespace) -> int:
     if zones and args.face:
         raise ParameterError("give faces with --face or with --zone, not both (each --zone names its own faces)")
     selectors = [s for sels, _, _ in zones for s in sels] if zones else (args.face or ["top"])
-    faces = _faces(part, selectors)
-    where = [(_faces(part, sels), tex, opts) for sels, tex, opts in zones] if zones else (faces[0] if len(faces) == 1 else faces)
+    faces = _faces(part, selectors, args.part)
+    where = [(_faces(part, sels, args.part), tex, opts) for sels, tex, opts in zones] if zones else (faces[0] if len(faces) == 1 else faces)
     with warnings.catch_warnings():
         if args.quiet:
             warnings.simplefilter("ignore", TexcadWarning)
