@@ -120,13 +120,25 @@ def _summary(args: argparse.Namespace, tx, selectors: list, faces: list, t0: flo
     print(f"triangles    {m.num_triangles}, watertight {m.is_watertight}")
     if tx.max_error is not None:
         print(f"max error    {tx.max_error:.4f} mm at the pixel centres (tolerance {args.tolerance:g} mm)")
-    whole = f" (solid {tx.info['solid']}; all solids {tx.assembly_mesh.volume:.1f} mm3)" if "solid" in tx.info else ""
+    whole = f" (solid {tx.info['solid']}; all solids {_printed(tx)})" if "solid" in tx.info else ""
     print(f"volume       {m.volume:.1f} mm3{whole}")
     line = limits_line(tx.limits)
     if line:
         print(line)
     print(f"seconds      {time.perf_counter() - t0:.2f}")
     print(f"wrote        {', '.join(args.out)}")
+
+
+def _printed(tx) -> str:
+    """An assembly's printed volume (the union the STL holds: not the solids' sum
+    where they overlap) and what of the texture lies inside other solids."""
+    parts = [f"{tx.printed_mesh.volume:.1f} mm3 as printed"]
+    total = sum(float(m.volume) for m in tx.bodies)
+    if total - tx.printed_mesh.volume > 1e-6 * total:
+        parts.append(f"their union: they share {total - tx.printed_mesh.volume:.1f} mm3")
+    if abs(tx.info.get("buried_mm3", 0.0)) > 0.0:
+        parts.append(f"{abs(tx.info['buried_mm3']):.1f} mm3 of the texture inside other solids")
+    return ", ".join(parts)
 
 
 def add(sub: argparse._SubParsersAction) -> None:

@@ -221,6 +221,15 @@ def _items(part: Any) -> tuple[str, list[tuple[str, Mesh]], Heightmap | None]:
     return "<meshes>", items, None
 
 
+def _textured_items(part: Any) -> tuple[str, list[tuple[str, Mesh]], Heightmap | None]:
+    """A texture() result: the fused mesh it prints from (an assembly's: all its
+    bodies as printed, their union where they meet). Its texture faces are those on
+    the texture's surface and not on the base's (re-uniting the two touching bodies
+    would only add rounding slivers along their contact)."""
+    printed = getattr(part, "printed_mesh", None)
+    return "<textured part>", [("part", part.mesh if printed is None else printed)], part.heightmap
+
+
 def _is_textured(part: Any) -> bool:
     """A :func:`texcad.texture` result (fused mesh plus base and texture meshes)."""
     if isinstance(part, (str, os.PathLike, Mesh, list, tuple)):
@@ -435,13 +444,7 @@ def check(
     if nozzle is not None and not (np.isfinite(float(nozzle)) and float(nozzle) > 0):
         raise ParameterError(f"nozzle must be a positive width in mm (e.g. 0.4), got {nozzle!r}")
     textured_part = _is_textured(part)
-    if textured_part:
-        # A texture() result: check the fused mesh it prints from. Its texture faces
-        # are those on the texture's surface and not on the base's (re-uniting the two
-        # touching bodies would only add rounding slivers along their contact).
-        source, items, hm_from_part = "<textured part>", [("part", part.mesh)], part.heightmap
-    else:
-        source, items, hm_from_part = _items(part)
+    source, items, hm_from_part = _textured_items(part) if textured_part else _items(part)
     heightmap = heightmap if heightmap is not None else hm_from_part
     notes: list[str] = []
     with ThreadPoolExecutor(min(2, threads())) as pool, one_blas_thread():  # independent measures side by side (numpy releases the GIL)
@@ -459,7 +462,7 @@ def check(
         volume_f = pool.submit(lambda: (float(mesh.volume), mesh.bounds))
         shells_f = pool.submit(shells, mesh.faces, len(mesh.vertices))
         manif = manif or [pool.submit(_closed_manifold, items[0][1]).result()]
-        manif = _gate_shells(items, manif, notes)
+        manif, shared = _gate_shells(items, manif, notes)
         # manifold3d accepts only closed, consistently oriented 2-manifolds (every edge
         # shared by exactly two faces, opposite ways): those are watertight; the others
         # are counted edge by edge.
@@ -467,6 +470,9 @@ def check(
         over = over_f.result()
         area = _areas_of(mesh, over if texture_mask is None else over | texture_mask)
         volume, (lo, hi) = volume_f.result()
+    if shared > 0.0 and len(items) == 1:  # overlapping bodies: a slicer prints their union, not the shells' sum
+        notes.append(f"volume: the bodies' union, as a slicer prints them (the shells' sum is {volume:.1f} mm3)")
+        volume -= shared
     if texture_mask is None:
         notes.append("the input does not say which faces are texture (use a texcad 3MF with a 'texture' object); whole-part numbers only")
     rep = CheckReport(
@@ -497,16 +503,19 @@ def check(
     return rep
 
 
-def _gate_shells(items: list, manif: list, notes: list[str]) -> list[bool]:
+def _gate_shells(items: list, manif: list, notes: list[str]) -> tuple[list[bool], float]:
     """The gate's own shell checks, object by object (:func:`texcad.report.gate.shell_report`):
-    no inside-out shell, no body in or across another; a note names each problem."""
-    out = []
+    no inside-out shell, no body in or across another; a note names each problem.
+    Returns each object's verdict and the volume its bodies share, mm^3, summed."""
+    out, shared = [], 0.0
     for (name, m), ok in zip(items, manif):  # per object
-        problem = shell_report(m, by_position=False).problem() if ok else ""  # as the file's reader read it
+        rep = shell_report(m, by_position=False) if ok else None  # as the file's reader read it
+        problem = rep.problem() if rep is not None else ""
         if problem:
             notes.append(f"{name}: {problem}")
+        shared += rep.overlap_mm3 if rep is not None else 0.0
         out.append(ok and not problem)
-    return out
+    return out, shared
 
 
 def _areas_of(mesh: Mesh, which: np.ndarray) -> np.ndarray:

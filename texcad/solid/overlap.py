@@ -40,7 +40,8 @@ import numpy as np
 
 from .mesh import edge_slot_pairs
 
-__all__ = ["Overlap", "BodySplit", "split_bodies", "overlapping_bodies", "union_bodies", "describe_overlaps"]
+__all__ = ["Overlap", "BodySplit", "split_bodies", "overlapping_bodies", "union_bodies", "describe_overlaps",
+           "volume_inside", "union_volume"]
 
 #: Relative volume tolerance of the overlap test (of the smaller body's volume).
 REL_VOLUME = 1e-6
@@ -265,6 +266,40 @@ def union_bodies(vertices: np.ndarray, faces: np.ndarray, *, split: BodySplit | 
     note = (f"united {len(split.solids)} bodies into {after} ({shared:.1f} mm3 shared; "
             f"volume {u.volume():.1f} mm3)")
     return uv, uf, note
+
+
+def _solids_of(meshes) -> list:
+    """manifold3d Manifolds of closed :class:`~texcad.solid.Mesh` es (checked: a mesh
+    manifold3d refuses raises GeometryError, :func:`texcad.solid.to_manifold`)."""
+    from .boolean import to_manifold
+
+    return [to_manifold(m) for m in meshes]
+
+
+def union_volume(meshes) -> float:
+    """mm3 enclosed by the union of the closed meshes ``meshes`` (manifold3d), 0 for none."""
+    import manifold3d as m3d
+
+    solids = _solids_of(meshes)
+    if not solids:
+        return 0.0
+    return float((m3d.Manifold.batch_boolean(solids, m3d.OpType.Add) if len(solids) > 1 else solids[0]).volume())
+
+
+def volume_inside(body, others) -> float:
+    """mm3 of the closed mesh ``body`` that lies inside the union of the closed meshes
+    ``others`` (manifold3d ``body ^ (o1 + o2 + ...)``); 0 where their boxes do not meet
+    (no boolean is made then)."""
+    import manifold3d as m3d
+
+    lo, hi = np.asarray(body.vertices, np.float64).min(axis=0), np.asarray(body.vertices, np.float64).max(axis=0)
+    near = [o for o in others if len(o.vertices) and np.all(np.asarray(o.vertices, np.float64).min(axis=0) <= hi)
+            and np.all(np.asarray(o.vertices, np.float64).max(axis=0) >= lo)]  # per other body: its box
+    if not near:
+        return 0.0
+    solids = _solids_of(near)
+    union = m3d.Manifold.batch_boolean(solids, m3d.OpType.Add) if len(solids) > 1 else solids[0]
+    return float((_solids_of([body])[0] ^ union).volume())
 
 
 def _touch_gap(v: np.ndarray) -> float:
