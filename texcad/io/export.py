@@ -25,6 +25,7 @@ from ..solid import Mesh
 __all__ = [
     "write_stl",
     "write_3mf",
+    "write_3mf_items",
     "export",
     "slicer_settings",
     "cura_settings",
@@ -402,6 +403,47 @@ def write_3mf(
             _write_streamed(z, _zip_info("3D/3dmodel.model"), model, bound)
             if config is not None:
                 z.writestr(_zip_info(SLIC3R_CONFIG), config, compresslevel=1)
+
+
+def write_3mf_items(objects: Sequence[tuple[str, Mesh, Any]], path: str | os.PathLike) -> None:
+    """Write a 3MF of several objects, one build item each, as a 3MF of several
+    build items is laid out by PrusaSlicer and lib3mf: each ``<object>`` holds its
+    mesh in its own frame and its ``<item>`` places it with a ``transform``, so that a
+    slicer loads as many objects, each where the item puts it, and can arrange them.
+
+    Args:
+        objects: ``(name, mesh, transform)`` per object: the watertight mesh where it
+            is (mm) and the item's ``(4, 4)`` matrix (row vectors, ``p' = p M``, mm) or
+            None (the identity). The object's vertices are the mesh's moved by the
+            inverse of ``transform`` (winding reversed where it mirrors, as a reader
+            reverses it back), so the item puts them where they are now.
+        path: output ``.3mf`` file (atomic: a failure leaves no file).
+    """
+    if not objects:
+        raise ParameterError("write_3mf_items needs at least one (name, mesh, transform) object")
+    pieces, items, bound = [], [], 0
+    for k, (name, mesh, tf) in enumerate(objects, start=1):  # per object
+        _require_watertight(mesh, path)
+        m = np.eye(4) if tf is None else np.asarray(tf, dtype=np.float64).reshape(4, 4)
+        v = mesh.vertices.astype(np.float64)
+        local = v if np.allclose(m, np.eye(4)) else (np.c_[v, np.ones(len(v))] @ np.linalg.inv(m))[:, :3]
+        faces = mesh.faces[:, [0, 2, 1]] if np.linalg.det(m[:3, :3]) < 0 else mesh.faces
+        bits = _grid_bits(local)
+        part = Mesh(_on_grid(local, bits), faces)
+        pieces.append(_object_parts(k, _xml_escape(str(name)), part, b"", bits))
+        bound += _size_bound(part) + len(str(name).encode()) + 256
+        text = " ".join(_number(float(x)) for x in m[:, :3].ravel())
+        items.append(f'<item objectid="{k}"' + ("" if tf is None else f' transform="{text}"') + "/>")
+    head = (b'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xml:lang="en-US" '
+            b'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02">\n'
+            b'<metadata name="Application">texcad</metadata>\n<resources>\n')
+    tail = ("</resources>\n<build>" + "".join(items) + "</build>\n</model>\n").encode()
+    model = itertools.chain([head], *pieces, [tail])
+    with atomic_path(path) as tmp:
+        with zipfile.ZipFile(tmp, "w") as z:
+            for arcname, data in (("[Content_Types].xml", _CT), ("_rels/.rels", _RELS)):
+                z.writestr(_zip_info(arcname), data, compresslevel=1)
+            _write_streamed(z, _zip_info("3D/3dmodel.model"), model, bound + len(head) + len(tail))
 
 
 #: The XML namespace of Cura's 3MF metadata (Cura's and libSavitar's ``cura`` prefix).

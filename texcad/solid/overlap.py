@@ -41,7 +41,7 @@ import numpy as np
 from .mesh import edge_slot_pairs
 
 __all__ = ["Overlap", "BodySplit", "split_bodies", "overlapping_bodies", "union_bodies", "describe_overlaps",
-           "volume_inside", "union_volume"]
+           "volume_inside", "union_volume", "body_owners"]
 
 #: Relative volume tolerance of the overlap test (of the smaller body's volume).
 REL_VOLUME = 1e-6
@@ -300,6 +300,35 @@ def volume_inside(body, others) -> float:
     solids = _solids_of(near)
     union = m3d.Manifold.batch_boolean(solids, m3d.OpType.Add) if len(solids) > 1 else solids[0]
     return float((_solids_of([body])[0] ^ union).volume())
+
+
+def body_owners(vertices: np.ndarray, faces: np.ndarray, groups, *, split: "BodySplit | None" = None) -> tuple[BodySplit, np.ndarray]:
+    """Which group of closed meshes (``groups``: a list of lists of meshes, e.g. a
+    3MF's build items) each body of the closed mesh ``(vertices, faces)`` grew from:
+    the group it shares the most volume with (manifold3d ``body ^ mesh``, only where
+    their boxes meet).
+
+    Returns:
+        ``(split, owner)``: the bodies (:func:`split_bodies`) and ``(B,)`` int64 the
+        group of each body, -1 where it shares no volume with any group, -2 where it
+        shares more than 1e-6 of its volume with two groups (they were united).
+    """
+    v = np.asarray(vertices, np.float64)
+    split = split or split_bodies(v, faces)
+    shared = np.zeros((len(split.solids), len(groups)))
+    for g, meshes in enumerate(groups):  # per group: its bodies against the ones whose boxes meet theirs
+        for m in meshes:  # per mesh of the group
+            lo, hi = np.asarray(m.vertices, np.float64).min(axis=0), np.asarray(m.vertices, np.float64).max(axis=0)
+            man = None
+            for b, body in enumerate(split.solids):  # per body
+                blo, bhi = np.asarray(body.bounding_box()[:3]), np.asarray(body.bounding_box()[3:])
+                if np.all(blo <= hi) and np.all(bhi >= lo):
+                    man = man if man is not None else _solids_of([m])[0]
+                    shared[b, g] += (body ^ man).volume()
+    owner = np.where(shared.max(axis=1) > 0, shared.argmax(axis=1), -1) if len(groups) else np.full(len(split.solids), -1)
+    rel = shared / np.maximum(np.asarray([s.volume() for s in split.solids]), 1e-12)[:, None]
+    owner[(rel > 1e-6).sum(axis=1) > 1] = -2
+    return split, owner.astype(np.int64)
 
 
 def _touch_gap(v: np.ndarray) -> float:

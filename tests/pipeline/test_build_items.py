@@ -1,0 +1,65 @@
+"""A 3MF of several build items is written back as as many objects, each placed by
+its item's transform (session 12): texcad wrote nine 20 x 20 x 10 mm boxes, nine build
+items in, as one object of nine bodies, which a slicer cannot arrange."""
+
+from __future__ import annotations
+
+import re
+import zipfile
+
+import numpy as np
+import pytest
+
+import texcad
+
+trimesh = pytest.importorskip("trimesh")
+
+
+@pytest.fixture(scope="module")
+def nine(tmp_path_factory):
+    """Nine boxes as trimesh writes a scene: one object and one build item each, the
+    item's transform placing it (the fifth turned 30 degrees about z)."""
+    scene = trimesh.Scene()
+    for i in range(9):  # per box
+        t = trimesh.transformations.translation_matrix((30.0 * (i % 3), 30.0 * (i // 3), 5.0))
+        if i == 4:
+            t = t @ trimesh.transformations.rotation_matrix(np.radians(30.0), (0, 0, 1))
+        scene.add_geometry(trimesh.creation.box(extents=(20, 20, 10)), node_name=f"box{i}", transform=t)
+    path = tmp_path_factory.mktemp("items") / "nine.3mf"
+    scene.export(path)
+    return path
+
+
+def _items(path):
+    xml = zipfile.ZipFile(path).read("3D/3dmodel.model").decode()
+    return re.findall(r"<object\b", xml), re.findall(r"<item\b[^>]*>", xml)
+
+
+def test_each_build_item_is_its_own_object(nine, tmp_path):
+    tx = texcad.texture(nine, "not-bottom", "builtin:stones", height=1.0, pitch=1.0)
+    out = tmp_path / "out.3mf"
+    tx.export(out)
+    objects, items = _items(out)
+    assert len(objects) == 9 and len(items) == 9  # was 1 and 1
+    from texcad.io.read import build_items
+
+    before, after = build_items(nine), build_items(out)
+    for (_, tf0, m0), (_, tf1, m1) in zip(before, after):  # per item: its transform kept, its body textured
+        assert np.allclose(tf0, tf1, atol=1e-9)
+        assert len(m1) == 1 and m1[0].is_watertight and 4000.0 < m1[0].volume < 4000.0 + 20 * 20 * 1.0 + 4 * 20 * 10 * 1.0
+        lo0, hi0 = m0[0].vertices.min(axis=0), m0[0].vertices.max(axis=0)
+        lo1, hi1 = m1[0].vertices.min(axis=0), m1[0].vertices.max(axis=0)
+        assert np.allclose((lo0 + hi0)[:2] / 2, (lo1 + hi1)[:2] / 2, atol=0.6) and abs(lo1[2] - lo0[2]) < 1e-4  # on the bed
+    assert sum(m.volume for _, _, ms in after for m in ms) == pytest.approx(tx.mesh.volume, rel=1e-6)
+    scene = trimesh.load(out)  # another reader: nine geometries
+    assert len(scene.geometry) == 9
+
+
+def test_one_item_stays_one_object(tmp_path):
+    box = trimesh.creation.box(extents=(20, 20, 10))
+    src = tmp_path / "one.3mf"
+    box.export(src)
+    out = tmp_path / "out.3mf"
+    texcad.texture(src, "not-bottom", "builtin:stones", height=1.0, pitch=1.0).export(out)
+    objects, items = _items(out)
+    assert len(objects) == 1 and len(items) == 1
