@@ -41,7 +41,7 @@ import numpy as np
 from .mesh import edge_slot_pairs
 
 __all__ = ["Overlap", "BodySplit", "split_bodies", "overlapping_bodies", "union_bodies", "describe_overlaps",
-           "volume_inside", "union_volume", "body_owners"]
+           "volume_inside", "union_volume", "body_owners", "close_bodies"]
 
 #: Relative volume tolerance of the overlap test (of the smaller body's volume).
 REL_VOLUME = 1e-6
@@ -329,6 +329,22 @@ def body_owners(vertices: np.ndarray, faces: np.ndarray, groups, *, split: "Body
     rel = shared / np.maximum(np.asarray([s.volume() for s in split.solids]), 1e-12)[:, None]
     owner[(rel > 1e-6).sum(axis=1) > 1] = -2
     return split, owner.astype(np.int64)
+
+
+def close_bodies(vertices: np.ndarray, faces: np.ndarray, gap: float) -> list[tuple[int, int, float]]:
+    """``(a, b, distance)`` for the bodies ``a < b`` (numbered from 0 as
+    :func:`split_bodies` finds them) of the closed mesh that lie less than ``gap`` mm
+    apart, their distance in mm (manifold3d ``min_gap``; boxes first)."""
+    split = split_bodies(np.asarray(vertices, np.float64), faces)
+    if len(split.solids) < 2:
+        return []
+    boxes = np.array([s.bounding_box() for s in split.solids], dtype=np.float64)
+    out = []
+    for a, b in _box_pairs(boxes[:, :3], boxes[:, 3:], gap):  # per pair of boxes within the gap
+        d = float(split.solids[a].min_gap(split.solids[b], gap))
+        if d < gap:
+            out.append((int(a), int(b), d))
+    return out
 
 
 def _touch_gap(v: np.ndarray) -> float:
