@@ -63,3 +63,19 @@ def test_one_item_stays_one_object(tmp_path):
     texcad.texture(src, "not-bottom", "builtin:stones", height=1.0, pitch=1.0).export(out)
     objects, items = _items(out)
     assert len(objects) == 1 and len(items) == 1
+
+
+def test_items_are_turned_for_the_build_direction_with_their_settings(nine, tmp_path):
+    """With a build direction every item is turned with the rest and all rest on the
+    bed together; each object gets the slicer settings one object gets."""
+    from texcad.io.read import build_items
+
+    out = tmp_path / "down.3mf"
+    texcad.texture(nine, "not-bottom", "builtin:stones", height=1.0, pitch=1.0, build_dir="-z").export(out)
+    items = build_items(out)
+    assert len(items) == 9
+    low = min(float(m.vertices[:, 2].min()) for _, _, ms in items for m in ms)
+    assert abs(low) < 1e-4  # the lowest point on the bed
+    assert all(np.allclose(tf[:3, :3], np.diag([1.0, -1.0, -1.0])) for _, tf, _ in items)  # -z turned up
+    config = zipfile.ZipFile(out).read("Metadata/Slic3r_PE_model.config").decode()
+    assert config.count("<object id=") == 9 and config.count('key="seam_position"') == 9

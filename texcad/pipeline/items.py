@@ -59,8 +59,10 @@ def item_bodies(textured: Any, items: list) -> "list[tuple[str, Any, Any]] | Non
 def write_build_items(textured: Any, path: Any) -> bool:
     """Write ``textured`` (a mesh result whose part was a 3MF, ``info["source_3mf"]``)
     as one object per build item of that 3MF (:func:`item_bodies`,
-    :func:`texcad.io.write_3mf_items`). False (nothing written) where the 3MF has one
+    :func:`texcad.io.write_3mf_items`), each with the slicer settings
+    :func:`texcad.io.export` writes for one object, turned for the build direction. False (nothing written) where the 3MF has one
     item or its bodies cannot be told apart."""
+    from ..io import cura_settings, slicer_settings
     from ..io.export import write_3mf_items
     from ..io.read import build_items
 
@@ -71,5 +73,8 @@ def write_build_items(textured: Any, path: Any) -> bool:
     objects = item_bodies(textured, items)
     if objects is None:
         return False
-    write_3mf_items(objects, path)
+    d = textured.stages.options.directions
+    up = None if d is None else d[0]
+    write_3mf_items(objects, path, build_dir=up, settings=[slicer_settings(m, up) for _, m, _ in objects],
+                    cura_settings=[cura_settings(m, up) for _, m, _ in objects])  # per object, as export writes one
     return True
