@@ -76,6 +76,7 @@ def test_items_are_turned_for_the_build_direction_with_their_settings(nine, tmp_
     assert len(items) == 9
     low = min(float(m.vertices[:, 2].min()) for _, _, ms in items for m in ms)
     assert abs(low) < 1e-4  # the lowest point on the bed
-    assert all(np.allclose(tf[:3, :3], np.diag([1.0, -1.0, -1.0])) for _, tf, _ in items)  # -z turned up
+    turn = np.diag([1.0, -1.0, -1.0])  # -z turned up
+    assert all(np.allclose(tf[:3, :3], tf0[:3, :3] @ turn) for (_, tf, _), (_, tf0, _) in zip(items, build_items(nine)))
     config = zipfile.ZipFile(out).read("Metadata/Slic3r_PE_model.config").decode()
     assert config.count("<object id=") == 9 and config.count('key="seam_position"') == 9
