@@ -60,8 +60,10 @@ def write_build_items(textured: Any, path: Any) -> bool:
     """Write ``textured`` (a mesh result whose part was a 3MF, ``info["source_3mf"]``)
     as one object per build item of that 3MF (:func:`item_bodies`,
     :func:`texcad.io.write_3mf_items`), each with the slicer settings
-    :func:`texcad.io.export` writes for one object, turned for the build direction. False (nothing written) where the 3MF has one
-    item or its bodies cannot be told apart."""
+    :func:`texcad.io.export` writes for one object, turned for the build direction.
+    False (nothing written) where the 3MF has one item, its bodies cannot be told
+    apart, or the mesh is kept in tiles (warned)."""
+    from ..errors import TexcadWarning
     from ..io import cura_settings, slicer_settings
     from ..io.export import write_3mf_items
     from ..io.read import build_items
@@ -69,6 +71,10 @@ def write_build_items(textured: Any, path: Any) -> bool:
     source = textured.info.get("source_3mf")
     items = build_items(source) if source else []
     if len(items) < 2:
+        return False
+    if callable(getattr(textured.stages.fused.mesh, "write", None)):  # kept in tiles: streamed whole, never gathered
+        warnings.warn(f"the 3MF's {len(items)} build items are written as one object: the textured mesh is kept in "
+                      "tiles (too large to split by item in memory)", TexcadWarning, stacklevel=3)
         return False
     objects = item_bodies(textured, items)
     if objects is None:
