@@ -80,3 +80,23 @@ def test_items_are_turned_for_the_build_direction_with_their_settings(nine, tmp_
     assert all(np.allclose(tf[:3, :3], tf0[:3, :3] @ turn) for (_, tf, _), (_, tf0, _) in zip(items, build_items(nine)))
     config = zipfile.ZipFile(out).read("Metadata/Slic3r_PE_model.config").decode()
     assert config.count("<object id=") == 9 and config.count('key="seam_position"') == 9
+
+
+def test_items_united_by_union_are_one_object(tmp_path):
+    """Two build items that overlap, textured with union=True: one body grew from
+    both, so they are written as one object, said in a warning."""
+    a = trimesh.creation.box(extents=(60, 40, 20))
+    a.apply_translation((30, 20, 10))
+    b = trimesh.creation.box(extents=(30, 30, 30))
+    b.apply_translation((65, 25, 15))
+    scene = trimesh.Scene()
+    scene.add_geometry(a, node_name="a")
+    scene.add_geometry(b, node_name="b")
+    src, out = tmp_path / "two.3mf", tmp_path / "out.3mf"
+    scene.export(src)
+    tx = texcad.texture(src, "not-bottom", "builtin:stones", height=1.0, pitch=1.0, union=True)
+    with pytest.warns(texcad.TexcadWarning, match=r"grew from more than one of the 3MF's 2 build items"):
+        tx.export(out)
+    objects, items = _items(out)
+    assert len(objects) == 1 and len(items) == 1
+    assert texcad.io.read_mesh(out).volume == pytest.approx(tx.mesh.volume, rel=1e-6)
