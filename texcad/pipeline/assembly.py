@@ -151,19 +151,21 @@ def check_printed(printed: Any, textured: Any, others: Sequence[Any], *, slack: 
     """Check an assembly's printed mesh (``printed``: the union of the bodies where
     they meet) against its bodies: it must enclose ``vol(A) + vol(O) - vol(A ^ O)``
     mm^3, ``A`` the textured solid's mesh and ``O`` the union of the ``others``,
-    within ``slack`` mm^3 (the gate's) plus 1e-6 of the volume (the union snaps bodies a
+    within ``slack`` mm^3 (the gate's) plus 1e-6 of the volume and the textured solid's
+    area times :data:`texcad.solid.overlap.CONTACT_GAP` (the union snaps bodies a
     micrometre apart onto each other).
 
     Raises:
         GeometryError: naming both volumes: the union lost or doubled a body or texture.
     """
     from ..errors import GeometryError
-    from ..solid.overlap import union_volume, volume_inside
+    from ..solid.overlap import CONTACT_GAP, union_volume, volume_inside
 
     if not others:
         return
     want = float(textured.volume) + union_volume(others) - volume_inside(textured, others)
     got = float(printed.volume)
+    slack = slack + CONTACT_GAP * float(textured.area)
     if abs(got - want) > slack + 1e-6 * abs(want) + 1e-6:
         raise GeometryError(
             f"the assembly's bodies united for the STL enclose {got:.1f} mm3 but the textured solid and the others "
