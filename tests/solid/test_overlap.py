@@ -128,7 +128,8 @@ def test_bodies_closer_than_the_texture_fail_the_gate_saying_why(tmp_path):
     stl = tmp_path / "near.stl"
     boxes = [trimesh.creation.box((10, 10, 10)), trimesh.creation.box((10, 10, 10)).apply_translation((10.2, 0, 0))]
     trimesh.util.concatenate(boxes).export(stl)
-    with pytest.raises(texcad.GeometryError, match=r"overlap by .*closer than the texture's height.*further apart"):
+    with pytest.raises(texcad.GeometryError, match=r"overlap by .*bodies 1 and 2 lie 0\.20 mm apart, closer "
+                                                  r"than their textures reach.*move the bodies apart"):
         texcad.texture(str(stl), "all", "builtin:ridges", height=0.5, pitch=0.5, border=0.0)
 
 

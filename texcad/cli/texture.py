@@ -41,12 +41,14 @@ def _gradient(text: str) -> tuple:
     return g[:3], g[3:]
 
 
-def _faces(part, selectors: list) -> list:
+def _faces(part, selectors: list, path: str) -> list:
     """The faces the ``--face`` selectors name (:func:`texcad.brep.selectors.faces_named`),
     each once. In an assembly the solid that owns them is textured and the others are
     kept (texcad's driver: :mod:`texcad.targets.assembly`)."""
     from ..brep.selectors import faces_named
+    from ..targets.cad import require_solid
 
+    require_solid(part, f"the STEP file {path!r}")  # a surface model: say so, not that a selector matched no face of its open shell
     faces: list = []
     for which in selectors:  # per --face
         faces += [f for f in faces_named(part, which) if not any(f.is_same(g) for g in faces)]
@@ -81,8 +83,8 @@ def run(args: argparse.Namespace) -> int:
     if zones and args.face:
         raise ParameterError("give faces with --face or with --zone, not both (each --zone names its own faces)")
     selectors = [s for sels, _, _ in zones for s in sels] if zones else (args.face or ["top"])
-    faces = _faces(part, selectors)
-    where = [(_faces(part, sels), tex, opts) for sels, tex, opts in zones] if zones else (faces[0] if len(faces) == 1 else faces)
+    faces = _faces(part, selectors, args.part)
+    where = [(_faces(part, sels, args.part), tex, opts) for sels, tex, opts in zones] if zones else (faces[0] if len(faces) == 1 else faces)
     with warnings.catch_warnings():
         if args.quiet:
             warnings.simplefilter("ignore", TexcadWarning)
@@ -118,13 +120,25 @@ def _summary(args: argparse.Namespace, tx, selectors: list, faces: list, t0: flo
     print(f"triangles    {m.num_triangles}, watertight {m.is_watertight}")
     if tx.max_error is not None:
         print(f"max error    {tx.max_error:.4f} mm at the pixel centres (tolerance {args.tolerance:g} mm)")
-    whole = f" (solid {tx.info['solid']}; all solids {tx.assembly_mesh.volume:.1f} mm3)" if "solid" in tx.info else ""
+    whole = f" (solid {tx.info['solid']}; all solids {_printed(tx)})" if "solid" in tx.info else ""
     print(f"volume       {m.volume:.1f} mm3{whole}")
     line = limits_line(tx.limits)
     if line:
         print(line)
     print(f"seconds      {time.perf_counter() - t0:.2f}")
     print(f"wrote        {', '.join(args.out)}")
+
+
+def _printed(tx) -> str:
+    """An assembly's printed volume (the union the STL holds: not the solids' sum
+    where they overlap) and what of the texture lies inside other solids."""
+    parts = [f"{tx.printed_mesh.volume:.1f} mm3 as printed"]
+    total = sum(float(m.volume) for m in tx.bodies)
+    if total - tx.printed_mesh.volume > 1e-6 * total:
+        parts.append(f"their union: they share {total - tx.printed_mesh.volume:.1f} mm3")
+    if abs(tx.info.get("buried_mm3", 0.0)) > 0.0:
+        parts.append(f"{abs(tx.info['buried_mm3']):.1f} mm3 of the texture inside other solids")
+    return ", ".join(parts)
 
 
 def add(sub: argparse._SubParsersAction) -> None:

@@ -25,6 +25,7 @@ from ..solid import Mesh
 __all__ = [
     "write_stl",
     "write_3mf",
+    "write_3mf_items",
     "export",
     "slicer_settings",
     "cura_settings",
@@ -402,6 +403,85 @@ def write_3mf(
             _write_streamed(z, _zip_info("3D/3dmodel.model"), model, bound)
             if config is not None:
                 z.writestr(_zip_info(SLIC3R_CONFIG), config, compresslevel=1)
+
+
+def write_3mf_items(objects: Sequence[tuple[str, Mesh, Any]], path: str | os.PathLike, *, build_dir=None,
+                    settings: "Sequence[Mapping[str, Any]] | None" = None,
+                    cura_settings: "Sequence[Mapping[str, Any]] | None" = None) -> None:
+    """Write a 3MF of several objects, one build item each, as a 3MF of several
+    build items is laid out by PrusaSlicer and lib3mf: each ``<object>`` holds its
+    mesh in its own frame and its ``<item>`` places it with a ``transform``, so that a
+    slicer loads as many objects, each where the item puts it, and can arrange them.
+
+    Args:
+        objects: ``(name, mesh, transform)`` per object: the watertight mesh where it
+            is (mm) and the item's ``(4, 4)`` matrix (row vectors, ``p' = p M``, mm) or
+            None (the identity). The object's vertices are the mesh's moved by the
+            inverse of ``transform`` (winding reversed where it mirrors, as a reader
+            reverses it back), so the item puts them where they are now.
+        path: output ``.3mf`` file (atomic: a failure leaves no file).
+        build_dir: the parts' print orientation (as :func:`write_3mf`): every item's
+            transform is followed by the turn that points it up, all lifted together
+            so that the lowest point rests on z = 0. None: as they are.
+        settings, cura_settings: per object, PrusaSlicer's and Cura's per-object
+            settings (as :func:`write_3mf` writes them for one object), or None.
+    """
+    if not objects:
+        raise ParameterError("write_3mf_items needs at least one (name, mesh, transform) object")
+    turn = _print_turn([m for _, m, _ in objects], build_dir)
+    pieces, items, bound = [], [], 0
+    for k, (name, mesh, tf) in enumerate(objects, start=1):  # per object
+        _require_watertight(mesh, path)
+        m = np.eye(4) if tf is None else np.asarray(tf, dtype=np.float64).reshape(4, 4)
+        v = mesh.vertices.astype(np.float64)
+        local = v if np.allclose(m, np.eye(4)) else (np.c_[v, np.ones(len(v))] @ np.linalg.inv(m))[:, :3]
+        faces = mesh.faces[:, [0, 2, 1]] if np.linalg.det(m[:3, :3]) < 0 else mesh.faces
+        bits = _grid_bits(local)
+        part = Mesh(_on_grid(local, bits), faces)
+        meta = _cura_metadata(cura_settings[k - 1] if cura_settings else None)
+        pieces.append(_object_parts(k, _xml_escape(str(name)), part, meta, bits))
+        bound += _size_bound(part) + len(str(name).encode()) + len(meta) + 256
+        placed = m if turn is None else m @ turn
+        text = " ".join(_number(float(x)) for x in placed[:, :3].ravel())
+        items.append(f'<item objectid="{k}"' + ("" if tf is None and turn is None else f' transform="{text}"') + "/>")
+    cura = f' xmlns:cura="{CURA_NAMESPACE}"' if cura_settings and any(cura_settings) else ""
+    head = ('<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xml:lang="en-US" '
+            f'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"{cura}>\n'
+            '<metadata name="Application">texcad</metadata>\n<resources>\n').encode()
+    tail = ("</resources>\n<build>" + "".join(items) + "</build>\n</model>\n").encode()
+    model = itertools.chain([head], *pieces, [tail])
+    config = _items_config(objects, settings) if settings and any(settings) else None
+    with atomic_path(path) as tmp:
+        with zipfile.ZipFile(tmp, "w") as z:
+            for arcname, data in (("[Content_Types].xml", _CT), ("_rels/.rels", _RELS)):
+                z.writestr(_zip_info(arcname), data, compresslevel=1)
+            _write_streamed(z, _zip_info("3D/3dmodel.model"), model, bound + len(head) + len(tail))
+            if config is not None:
+                z.writestr(_zip_info(SLIC3R_CONFIG), config, compresslevel=1)
+
+
+def _print_turn(meshes: Sequence[Mesh], build_dir) -> "np.ndarray | None":
+    """The ``(4, 4)`` row-vector matrix that turns ``build_dir`` to +z and lifts the
+    lowest point of all ``meshes`` (where they are) to z = 0; None without ``build_dir``."""
+    if build_dir is None:
+        return None
+    from ..util import rotation_to_z
+
+    R = rotation_to_z(np.asarray(build_dir, dtype=np.float64).reshape(-1, 3)[0])
+    z0 = min(float((m.vertices.astype(np.float64) @ R[2]).min()) for m in meshes if len(m.vertices))
+    turn = np.eye(4)
+    turn[:3, :3], turn[3, 2] = R.T, -z0
+    return turn
+
+
+def _items_config(objects: Sequence[tuple[str, Mesh, Any]], settings: Sequence[Mapping[str, Any]]) -> bytes:
+    """``Metadata/Slic3r_PE_model.config`` of one-part objects ``1..n``: each one's
+    name, its ``settings`` and its one ``<volume>``."""
+    rows = "".join(
+        f' <object id="{k}" instances_count="1">\n  <metadata type="object" key="name" value="{_xml_escape(str(n))}"/>\n'
+        f'{_metadata("object", settings[k - 1], "  ")}{_one_volume(str(n), len(m.faces))} </object>\n'
+        for k, (n, m, _) in enumerate(objects, start=1))
+    return f'<?xml version="1.0" encoding="UTF-8"?>\n<config>\n{rows}</config>\n'.encode()
 
 
 #: The XML namespace of Cura's 3MF metadata (Cura's and libSavitar's ``cura`` prefix).

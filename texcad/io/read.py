@@ -25,7 +25,7 @@ from ..errors import InputError, TexcadError
 from ..util import threads
 from ..solid import Mesh
 
-__all__ = ["read_part", "read_mesh", "load_mesh", "unreadable", "UNITS_MM"]
+__all__ = ["read_part", "read_mesh", "load_mesh", "unreadable", "UNITS_MM", "build_items"]
 
 #: mm per unit of the 3MF ``unit`` attribute (3MF core specification, 2.1).
 UNITS_MM = {"micron": 0.001, "millimeter": 1.0, "centimeter": 10.0, "inch": 25.4, "foot": 304.8, "meter": 1000.0}
@@ -586,11 +586,12 @@ def _stream_column(src: _Inflating, a: np.ndarray, words: np.ndarray, where: tup
         s = e
 
 
-def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
+def _read_3mf(path: Path, record: "list | None" = None) -> list[tuple[str, Mesh]]:
     """The meshes a 3MF's build reaches (:func:`read_part`): the root model streamed
     (:class:`_Inflating`), other model parts (3MF production extension: components
     with ``p:path``, as BambuStudio and OrcaSlicer write) read when a component names
-    them."""
+    them. ``record``: a list that gets ``(name, transform, count)`` per build item (its
+    meshes are the next ``count`` of the list returned)."""
     try:
         z = zipfile.ZipFile(path)
     except zipfile.BadZipFile:
@@ -646,7 +647,11 @@ def _read_3mf(path: Path) -> list[tuple[str, Mesh]]:
             walk(target, oid, tf, 0, oid, got)
             mat = [(n, m) for n, m, k in got if k == "part"]
             neg = [m for _, m, k in got if k == "negative"]
+            before = len(out)
             out.extend(_cut(path, parts[target][0].get(oid, {}).get("name", str(oid)), mat, neg) if neg and mat else mat)
+            if record is not None:
+                scale = parts[target][1]
+                record.append((parts[target][0].get(oid, {}).get("name") or f"object {oid}", tf, scale, len(out) - before))
     if not out:
         raise InputError(f"{str(path)!r} holds no mesh objects")
     return out
@@ -868,13 +873,43 @@ def read_part(path: str | os.PathLike) -> list[tuple[str, Mesh]]:
     if suffix == ".obj":
         return [(p.stem, _read_obj(p))]
     if suffix == ".3mf":
-        try:
-            return _read_3mf(p)
-        except TexcadError:
-            raise
-        except (zipfile.BadZipFile, zlib.error, EOFError, OSError, RuntimeError, NotImplementedError, ValueError, IndexError) as exc:
-            raise InputError(f"{str(p)!r}: the 3MF package is damaged ({type(exc).__name__}: {exc}); export it again") from None
+        return _guarded_3mf(p)
     raise unreadable(p)
+
+
+def _guarded_3mf(p: Path, record: "list | None" = None) -> list[tuple[str, Mesh]]:
+    """:func:`_read_3mf`, a damaged package's failure told as an InputError."""
+    try:
+        return _read_3mf(p, record)
+    except TexcadError:
+        raise
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, RuntimeError, NotImplementedError, ValueError, IndexError) as exc:
+        raise InputError(f"{str(p)!r}: the 3MF package is damaged ({type(exc).__name__}: {exc}); export it again") from None
+
+
+def build_items(path: str | os.PathLike) -> list[tuple[str, np.ndarray, tuple]]:
+    """A 3MF's build items, in order: ``(name, transform, meshes)`` with ``transform``
+    the item's ``(4, 4)`` matrix (row vectors, ``p' = p M``, mm: the file's unit
+    applied to its translation) and ``meshes`` what :func:`read_part` gives for the
+    item (placed: the transform applied). A slicer arranges the items apart.
+
+    Raises:
+        InputError: as :func:`read_part`; a file that is not a 3MF.
+    """
+    p = Path(path)
+    if p.suffix.lower() != ".3mf":
+        raise InputError(f"{str(p)!r} is not a 3MF; build items are a 3MF's")
+    if not p.is_file() or p.stat().st_size == 0:
+        read_part(p)  # missing or empty: its message
+    record: list = []
+    meshes = _guarded_3mf(p, record)
+    out, at = [], 0
+    for name, tf, scale, count in record:  # per build item
+        m = np.array(tf, dtype=np.float64)
+        m[3, :3] *= scale
+        out.append((name, m, tuple(mesh for _, mesh in meshes[at : at + count])))
+        at += count
+    return out
 
 
 def unreadable(path: str | os.PathLike) -> InputError:

@@ -12,7 +12,7 @@ from ..brep.assembly import all_bodies, body_names
 from ..targets.assembly import AssemblySplit
 from .result import Textured
 
-__all__ = ["AssemblyTextured", "assembly_result", "write_assembly", "one_mesh"]
+__all__ = ["AssemblyTextured", "assembly_result", "write_assembly", "one_mesh", "check_printed"]
 
 
 def write_assembly(textured: Any, index: int, others: Sequence[Any], other_meshes: Sequence[Any], path: Any, *,
@@ -41,7 +41,8 @@ def write_assembly(textured: Any, index: int, others: Sequence[Any], other_meshe
 
         write_step(compound([to_topods(textured.shape)] + [to_topods(s) for s in others]), p, name=name or p.stem)
         return p
-    return export(one_mesh(all_bodies(textured.mesh, other_meshes)), p, name=name)
+    printed = getattr(textured, "printed_mesh", None)  # an AssemblyTextured's, made and checked once
+    return export(printed if printed is not None else one_mesh(all_bodies(textured.mesh, other_meshes)), p, name=name)
 
 
 def one_mesh(mesh: Any):
@@ -108,6 +109,26 @@ class AssemblyTextured(Textured):
         :func:`one_mesh` of it: their union where they meet)."""
         return all_bodies(self.mesh, self.other_meshes)
 
+    @functools.cached_property
+    def printed_mesh(self):
+        """All bodies as the STL holds them and a slicer prints them: as they are
+        where they lie apart, their union where they meet (:func:`one_mesh`, with its
+        warning), its volume checked against the bodies' (:func:`check_printed`).
+        ``printed_mesh.volume`` is the assembly's printed volume, mm^3 (not the sum of
+        the solids' volumes where they overlap)."""
+        mesh = one_mesh(self.assembly_mesh)
+        check_printed(mesh, self.mesh, self.other_meshes, slack=float(self.gate.volume_slack or 0.0))
+        return mesh
+
+    @functools.cached_property
+    def buried_mm3(self) -> float:
+        """mm^3 of the texture that lies inside the other solids, so is not printed:
+        the textured solid's volume inside them less the plain solid's (negative for an
+        engraving that another solid fills); 0 when the solids lie apart."""
+        from ..solid.overlap import volume_inside
+
+        return volume_inside(self.mesh, self.other_meshes) - volume_inside(self.base_mesh, self.other_meshes)
+
     def export(self, path: Any, *, separate_texture: bool = False, name: "str | None" = None):
         """Write the textured solid with the others as separate bodies (:func:`write_assembly`)."""
         return write_assembly(self, self.solid_index, self.others, self.other_meshes, path,
@@ -126,6 +147,32 @@ class AssemblyTextured(Textured):
         return f"{Textured.__repr__(self)[:-1]}, solid {self.solid_index} of {len(self.others) + 1})"
 
 
+def check_printed(printed: Any, textured: Any, others: Sequence[Any], *, slack: float = 0.0) -> None:
+    """Check an assembly's printed mesh (``printed``: the union of the bodies where
+    they meet) against its bodies: it must enclose ``vol(A) + vol(O) - vol(A ^ O)``
+    mm^3, ``A`` the textured solid's mesh and ``O`` the union of the ``others``,
+    within ``slack`` mm^3 (the gate's) plus 1e-6 of the volume and the textured solid's
+    area times :data:`texcad.solid.overlap.CONTACT_GAP` (the union snaps bodies a
+    micrometre apart onto each other).
+
+    Raises:
+        GeometryError: naming both volumes: the union lost or doubled a body or texture.
+    """
+    from ..errors import GeometryError
+    from ..solid.overlap import CONTACT_GAP, union_volume, volume_inside
+
+    if not others:
+        return
+    want = float(textured.volume) + union_volume(others) - volume_inside(textured, others)
+    got = float(printed.volume)
+    slack = slack + CONTACT_GAP * float(textured.area)
+    if abs(got - want) > slack + 1e-6 * abs(want) + 1e-6:
+        raise GeometryError(
+            f"the assembly's bodies united for the STL enclose {got:.1f} mm3 but the textured solid and the others "
+            f"give {want:.1f} mm3 (accepted difference {slack:.2f} mm3): the union lost or doubled part of them; "
+            "write 3MF or STEP (bodies kept apart), or move the solids apart, and please report this")
+
+
 def _renumbered(items: list, numbers: tuple) -> list:
     """``items`` (dicts of a result's info) with each ``"faces"`` list of face indices
     of the solid mapped through ``numbers`` (new dicts; the rest as they are)."""
@@ -138,5 +185,20 @@ def assembly_result(textured: Textured, split: AssemblySplit, *, tolerance: floa
     made the result of the whole assembly: ``info["solid"]`` is the solid textured,
     ``info["solids"]`` their number; ``others`` / ``other_meshes`` the other solids
     as they were; ``bodies`` every body's mesh; ``export`` writes all of them as
-    separate bodies (:func:`write_assembly`)."""
-    return AssemblyTextured(textured, split, tolerance)
+    separate bodies (:func:`write_assembly`). Where more than 1 % of the texture lies
+    inside the other solids (a textured face partly covered by another solid) a
+    TexcadWarning says how much (``buried_mm3``): that part is not printed."""
+    import warnings
+
+    from ..errors import TexcadWarning
+
+    out = AssemblyTextured(textured, split, tolerance)
+    change = float(out.mesh.volume) - float(out.base_mesh.volume)
+    buried = out.buried_mm3 if abs(change) > 0 else 0.0
+    if abs(buried) > 0.01 * abs(change):
+        what = "lies inside" if buried > 0 else "is engraved where"
+        warnings.warn(f"{abs(buried):.1f} mm3 of the texture ({100 * abs(buried / change):.0f} % of its {abs(change):.1f} mm3) "
+                      f"{what} the other solid(s) of the assembly, so it is not printed (the STL holds their union): "
+                      "texture a face no other solid covers, or move the solids apart", TexcadWarning, stacklevel=3)
+    out.info["buried_mm3"] = buried
+    return out

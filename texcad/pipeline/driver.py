@@ -17,8 +17,10 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from ..contracts import Stages
-from ..errors import ParameterError
+from ..errors import GeometryError, ParameterError
 from ..options import Options
 from ..report.gate import gate
 from ..solid import Mesh
@@ -31,6 +33,28 @@ from .assembly import assembly_result
 from .result import Textured
 
 __all__ = ["run"]
+
+
+def _bodies_met(exc: Exception, placement: Any, ex: Any, options: Any) -> Exception:
+    """The gate's failure ``exc`` on a part of several bodies whose shells now meet,
+    told with the input bodies that lie closer than their textures reach (twice the
+    height: a texture on each facing face), mm; ``exc`` itself otherwise."""
+    from ..solid.overlap import close_bodies
+
+    text = str(exc)
+    if placement.bodies < 2 or ex.height <= 0 or not any(w in text for w in ("inside another body", "overlap")):
+        return exc
+    base = placement.base
+    near = close_bodies(np.asarray(base.vertices), np.asarray(base.faces, np.int64), 2.0 * ex.height)
+    if not near:
+        return exc
+    pairs = ", ".join(f"bodies {a + 1} and {b + 1} lie {d:.2f} mm apart" for a, b, d in near[:3])
+    union = " (--union unites only bodies that overlap or touch)" if options.union else ""
+    problem = text.split("; ")[0]
+    return GeometryError(
+        f"{problem}: in the input {pairs}{' ...' if len(near) > 3 else ''}, closer than their textures reach "
+        f"(2 x {ex.height:.2f} mm), so the textures met{union}; leave their facing faces out of the region, use a "
+        f"height under {min(d for _, _, d in near) / 2:.2f} mm, or move the bodies apart")
 
 
 def _refused(target: Any, where: Any) -> ParameterError:
@@ -81,7 +105,10 @@ def run(target: Any, where: Any, texture: Any, options: Options) -> Textured:
             options.report(0.92, "checking the result (texcad's gate)")
             ex = adapter.expectation(placement, relief, fused)
             # a mesh kept in tiles (a plate too large for memory, texcad.pipeline.tiled) is gated tile by tile
-            report = gate(fused.mesh, ex) if isinstance(fused.mesh, Mesh) else fused.mesh.gate(ex)
+            try:
+                report = gate(fused.mesh, ex) if isinstance(fused.mesh, Mesh) else fused.mesh.gate(ex)
+            except GeometryError as exc:
+                raise _bodies_met(exc, placement, ex, options) from None
             options.report(1.0, "textured")
             return Textured(Stages(adapter, options, placement, relief, fused, report))
     if declined is not None:  # every adapter that took the target declined it on a closer look

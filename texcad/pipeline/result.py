@@ -395,6 +395,12 @@ class Textured:
             write_3mf([("base", self.base_mesh)] + list(zip(names, layers)), p, name=name or p.stem,
                       build_dir=up, settings=slicer_settings(self.mesh, up), cura_settings=cura_settings(self.mesh, up))  # as printed
             return p
+        if p.suffix.lower() == ".3mf" and not separate_texture and self.kind == "mesh" and self._derived is None \
+                and self.is_unmoved and self.info.get("source_3mf"):
+            from .items import write_build_items
+
+            if write_build_items(self, p):  # a 3MF of several build items: one object per item, placed as it was
+                return p
         write = getattr(self._mesh, "write", None) if self._derived is None and self.is_unmoved else None
         if write is not None and not separate_texture and p.suffix.lower() in (".stl", ".3mf"):
             write(p, **({} if p.suffix.lower() == ".stl" else self._streamed_3mf(name or p.stem)))  # kept in tiles: streamed

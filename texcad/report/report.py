@@ -197,12 +197,21 @@ STEP_CHORD = 0.02
 STEP_ANGLE = 0.5
 
 
-def _items(part: Any) -> tuple[str, list[tuple[str, Mesh]], Heightmap | None]:
+def _items(part: Any, exact: "dict | None" = None) -> tuple[str, list[tuple[str, Mesh]], Heightmap | None]:
+    """``(source, [(name, mesh)], heightmap)`` of what check() is given; for a STEP
+    part ``exact["volume"]`` is set to its B-rep's own volume, mm^3 (:func:`texcad.brep.volume`:
+    OCCT's tessellation here, at :data:`STEP_CHORD` / :data:`STEP_ANGLE`, is a few
+    tenths of a percent short on curved faces), where it holds a solid."""
     if isinstance(part, (str, os.PathLike)) and os.fspath(part).lower().endswith((".step", ".stp")):
-        from ..brep import closed_shape_mesh
+        from ..brep import closed_shape_mesh, solids_of, to_topods, volume
         from ..io import read_step
 
-        mesh = closed_shape_mesh(read_step(part), tolerance=STEP_CHORD, angular_tolerance=STEP_ANGLE, refine=False)
+        shape = read_step(part)
+        mesh = closed_shape_mesh(shape, tolerance=STEP_CHORD, angular_tolerance=STEP_ANGLE, refine=False)
+        if exact is not None and solids_of(to_topods(shape)):
+            exact["volume"] = float(volume(shape))
+        elif exact is not None:
+            exact["surface"] = True
         return os.fspath(part), [(os.path.splitext(os.path.basename(part))[0], mesh)], None
     if isinstance(part, (str, os.PathLike)):
         return os.fspath(part), read_part(part), None
@@ -219,6 +228,15 @@ def _items(part: Any) -> tuple[str, list[tuple[str, Mesh]], Heightmap | None]:
             f"check() takes a .stl/.3mf path, a Mesh, a TexturedPart or a list of (name, Mesh); got {type(part).__name__}"
         )
     return "<meshes>", items, None
+
+
+def _textured_items(part: Any) -> tuple[str, list[tuple[str, Mesh]], Heightmap | None]:
+    """A texture() result: the fused mesh it prints from (an assembly's: all its
+    bodies as printed, their union where they meet). Its texture faces are those on
+    the texture's surface and not on the base's (re-uniting the two touching bodies
+    would only add rounding slivers along their contact)."""
+    printed = getattr(part, "printed_mesh", None)
+    return "<textured part>", [("part", part.mesh if printed is None else printed)], part.heightmap
 
 
 def _is_textured(part: Any) -> bool:
@@ -435,13 +453,8 @@ def check(
     if nozzle is not None and not (np.isfinite(float(nozzle)) and float(nozzle) > 0):
         raise ParameterError(f"nozzle must be a positive width in mm (e.g. 0.4), got {nozzle!r}")
     textured_part = _is_textured(part)
-    if textured_part:
-        # A texture() result: check the fused mesh it prints from. Its texture faces
-        # are those on the texture's surface and not on the base's (re-uniting the two
-        # touching bodies would only add rounding slivers along their contact).
-        source, items, hm_from_part = "<textured part>", [("part", part.mesh)], part.heightmap
-    else:
-        source, items, hm_from_part = _items(part)
+    exact: dict = {}
+    source, items, hm_from_part = _textured_items(part) if textured_part else _items(part, exact)
     heightmap = heightmap if heightmap is not None else hm_from_part
     notes: list[str] = []
     with ThreadPoolExecutor(min(2, threads())) as pool, one_blas_thread():  # independent measures side by side (numpy releases the GIL)
@@ -459,7 +472,7 @@ def check(
         volume_f = pool.submit(lambda: (float(mesh.volume), mesh.bounds))
         shells_f = pool.submit(shells, mesh.faces, len(mesh.vertices))
         manif = manif or [pool.submit(_closed_manifold, items[0][1]).result()]
-        manif = _gate_shells(items, manif, notes)
+        manif, shared = _gate_shells(items, manif, notes)
         # manifold3d accepts only closed, consistently oriented 2-manifolds (every edge
         # shared by exactly two faces, opposite ways): those are watertight; the others
         # are counted edge by edge.
@@ -467,6 +480,12 @@ def check(
         over = over_f.result()
         area = _areas_of(mesh, over if texture_mask is None else over | texture_mask)
         volume, (lo, hi) = volume_f.result()
+    volume = _exact_volume(volume, exact.get("volume"), notes)
+    if exact.get("surface"):
+        notes.append("the STEP holds no solid (faces with no closed body: a surface); close or thicken it to print it")
+    if shared > 0.0 and len(items) == 1:  # overlapping bodies: a slicer prints their union, not the shells' sum
+        notes.append(f"volume: the bodies' union, as a slicer prints them (the shells' sum is {volume:.1f} mm3)")
+        volume -= shared
     if texture_mask is None:
         notes.append("the input does not say which faces are texture (use a texcad 3MF with a 'texture' object); whole-part numbers only")
     rep = CheckReport(
@@ -497,16 +516,30 @@ def check(
     return rep
 
 
-def _gate_shells(items: list, manif: list, notes: list[str]) -> list[bool]:
+def _exact_volume(meshed: float, exact: "float | None", notes: list[str]) -> float:
+    """A STEP part's volume: its B-rep's own, ``exact`` mm^3, where known (a note gives
+    the tessellation's where it is more than 0.1 % off), else the mesh's."""
+    if exact is None:
+        return meshed
+    if abs(meshed - exact) > 1e-3 * abs(exact):
+        notes.append(f"volume: the B-rep's own; the tessellation checked here encloses {meshed:.1f} mm3 "
+                     f"({100 * (meshed - exact) / exact:+.2f} %)")
+    return exact
+
+
+def _gate_shells(items: list, manif: list, notes: list[str]) -> tuple[list[bool], float]:
     """The gate's own shell checks, object by object (:func:`texcad.report.gate.shell_report`):
-    no inside-out shell, no body in or across another; a note names each problem."""
-    out = []
+    no inside-out shell, no body in or across another; a note names each problem.
+    Returns each object's verdict and the volume its bodies share, mm^3, summed."""
+    out, shared = [], 0.0
     for (name, m), ok in zip(items, manif):  # per object
-        problem = shell_report(m, by_position=False).problem() if ok else ""  # as the file's reader read it
+        rep = shell_report(m, by_position=False) if ok else None  # as the file's reader read it
+        problem = rep.problem() if rep is not None else ""
         if problem:
             notes.append(f"{name}: {problem}")
+        shared += rep.overlap_mm3 if rep is not None else 0.0
         out.append(ok and not problem)
-    return out
+    return out, shared
 
 
 def _areas_of(mesh: Mesh, which: np.ndarray) -> np.ndarray:

@@ -40,7 +40,8 @@ import numpy as np
 
 from .mesh import edge_slot_pairs
 
-__all__ = ["Overlap", "BodySplit", "split_bodies", "overlapping_bodies", "union_bodies", "describe_overlaps"]
+__all__ = ["Overlap", "BodySplit", "split_bodies", "overlapping_bodies", "union_bodies", "describe_overlaps",
+           "volume_inside", "union_volume", "body_owners", "close_bodies"]
 
 #: Relative volume tolerance of the overlap test (of the smaller body's volume).
 REL_VOLUME = 1e-6
@@ -265,6 +266,85 @@ def union_bodies(vertices: np.ndarray, faces: np.ndarray, *, split: BodySplit | 
     note = (f"united {len(split.solids)} bodies into {after} ({shared:.1f} mm3 shared; "
             f"volume {u.volume():.1f} mm3)")
     return uv, uf, note
+
+
+def _solids_of(meshes) -> list:
+    """manifold3d Manifolds of closed :class:`~texcad.solid.Mesh` es (checked: a mesh
+    manifold3d refuses raises GeometryError, :func:`texcad.solid.to_manifold`)."""
+    from .boolean import to_manifold
+
+    return [to_manifold(m) for m in meshes]
+
+
+def union_volume(meshes) -> float:
+    """mm3 enclosed by the union of the closed meshes ``meshes`` (manifold3d), 0 for none."""
+    import manifold3d as m3d
+
+    solids = _solids_of(meshes)
+    if not solids:
+        return 0.0
+    return float((m3d.Manifold.batch_boolean(solids, m3d.OpType.Add) if len(solids) > 1 else solids[0]).volume())
+
+
+def volume_inside(body, others) -> float:
+    """mm3 of the closed mesh ``body`` that lies inside the union of the closed meshes
+    ``others`` (manifold3d ``body ^ (o1 + o2 + ...)``); 0 where their boxes do not meet
+    (no boolean is made then)."""
+    import manifold3d as m3d
+
+    lo, hi = np.asarray(body.vertices, np.float64).min(axis=0), np.asarray(body.vertices, np.float64).max(axis=0)
+    near = [o for o in others if len(o.vertices) and np.all(np.asarray(o.vertices, np.float64).min(axis=0) <= hi)
+            and np.all(np.asarray(o.vertices, np.float64).max(axis=0) >= lo)]  # per other body: its box
+    if not near:
+        return 0.0
+    solids = _solids_of(near)
+    union = m3d.Manifold.batch_boolean(solids, m3d.OpType.Add) if len(solids) > 1 else solids[0]
+    return float((_solids_of([body])[0] ^ union).volume())
+
+
+def body_owners(vertices: np.ndarray, faces: np.ndarray, groups, *, split: "BodySplit | None" = None) -> tuple[BodySplit, np.ndarray]:
+    """Which group of closed meshes (``groups``: a list of lists of meshes, e.g. a
+    3MF's build items) each body of the closed mesh ``(vertices, faces)`` grew from:
+    the group it shares the most volume with (manifold3d ``body ^ mesh``, only where
+    their boxes meet).
+
+    Returns:
+        ``(split, owner)``: the bodies (:func:`split_bodies`) and ``(B,)`` int64 the
+        group of each body, -1 where it shares no volume with any group, -2 where it
+        shares more than 1e-6 of its volume with two groups (they were united).
+    """
+    v = np.asarray(vertices, np.float64)
+    split = split or split_bodies(v, faces)
+    shared = np.zeros((len(split.solids), len(groups)))
+    for g, meshes in enumerate(groups):  # per group: its bodies against the ones whose boxes meet theirs
+        for m in meshes:  # per mesh of the group
+            lo, hi = np.asarray(m.vertices, np.float64).min(axis=0), np.asarray(m.vertices, np.float64).max(axis=0)
+            man = None
+            for b, body in enumerate(split.solids):  # per body
+                blo, bhi = np.asarray(body.bounding_box()[:3]), np.asarray(body.bounding_box()[3:])
+                if np.all(blo <= hi) and np.all(bhi >= lo):
+                    man = man if man is not None else _solids_of([m])[0]
+                    shared[b, g] += (body ^ man).volume()
+    owner = np.where(shared.max(axis=1) > 0, shared.argmax(axis=1), -1) if len(groups) else np.full(len(split.solids), -1)
+    rel = shared / np.maximum(np.asarray([s.volume() for s in split.solids]), 1e-12)[:, None]
+    owner[(rel > 1e-6).sum(axis=1) > 1] = -2
+    return split, owner.astype(np.int64)
+
+
+def close_bodies(vertices: np.ndarray, faces: np.ndarray, gap: float) -> list[tuple[int, int, float]]:
+    """``(a, b, distance)`` for the bodies ``a < b`` (numbered from 0 as
+    :func:`split_bodies` finds them) of the closed mesh that lie less than ``gap`` mm
+    apart, their distance in mm (manifold3d ``min_gap``; boxes first)."""
+    split = split_bodies(np.asarray(vertices, np.float64), faces)
+    if len(split.solids) < 2:
+        return []
+    boxes = np.array([s.bounding_box() for s in split.solids], dtype=np.float64)
+    out = []
+    for a, b in _box_pairs(boxes[:, :3], boxes[:, 3:], gap):  # per pair of boxes within the gap
+        d = float(split.solids[a].min_gap(split.solids[b], gap))
+        if d < gap:
+            out.append((int(a), int(b), d))
+    return out
 
 
 def _touch_gap(v: np.ndarray) -> float:

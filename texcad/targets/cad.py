@@ -17,7 +17,7 @@ from ..brep import PartMesh, explore, part_tessellation, solids_of, to_topods
 from ..contracts import Stages
 from ..errors import GeometryError, ParameterError
 
-__all__ = ["named_where", "selected_faces", "CadPart", "CadZone", "ZONE_OPTIONS", "cad_part", "cad_zones", "face_list", "is_cad_target", "is_zones",
+__all__ = ["named_where", "require_solid", "selected_faces", "CadPart", "CadZone", "ZONE_OPTIONS", "cad_part", "cad_zones", "face_list", "is_cad_target", "is_zones",
            "zone_options", "FACE_NUMBERS", "face_numbers"]
 
 #: The options a zone of a CAD part may set for itself (the rest are the call's: one
@@ -180,6 +180,7 @@ def named_where(target: Any, where: Any) -> Any:
     scope = _named_scope(target) if isinstance(where, (str, list, tuple)) or _index(where) else None
     if scope is None:
         return where
+    require_solid(scope)  # a surface's first error is that it holds no solid, not that "top" names no face
     from ..brep.selectors import faces_named
 
     def named(w: Any) -> bool:
@@ -236,14 +237,28 @@ def face_list(faces: Any) -> list:
     return items
 
 
-def _no_solid(target: Any, topo: Any) -> str:
-    """What a part with no solid holds (a STEP surface model: faces in an open
-    shell) and what to do."""
+def require_solid(part: Any, name: "str | None" = None) -> None:
+    """Refuse a CAD part (build123d / CadQuery / OCP shape) that holds no solid (a
+    STEP surface model: faces in an open shell) before its faces are selected, so the
+    error names that, not a face selector the open shell happens not to match.
+
+    Raises:
+        ParameterError: the part (called ``name``, e.g. its file, where given) holds no
+            solid, saying what it holds and what to do.
+    """
+    topo = to_topods(part)
+    if not solids_of(topo):
+        raise ParameterError(_no_solid(part, topo, name))
+
+
+def _no_solid(target: Any, topo: Any, name: "str | None" = None) -> str:
+    """What a part (``name``, or its type) with no solid holds (a STEP surface model:
+    faces in an open shell) and what to do."""
     from OCP.TopAbs import TopAbs_FACE
 
     n = len(explore(topo, TopAbs_FACE))
     held = f"{n} face(s) but no closed body: a surface" if n else "no faces"
-    return (f"the {type(target).__name__} holds no solid to texture ({held}); pass a solid part: export the body as a "
+    return (f"{name or 'the ' + type(target).__name__} holds no solid to texture ({held}); pass a solid part: export the body as a "
             "solid, or close or thicken the surface in the CAD program first")
 
 

@@ -781,6 +781,8 @@ class MeshAdapter(Adapter):
             info["paint"] = {"kind": painted.kind, "project": painted.project.path, "dialect": painted.project.dialect,
                              "items": painted.items,
                              "extruders": [r.state if r.kind == "paint" and r.paint == "color" else None for r in regions]}
+        if isinstance(target, (str, os.PathLike)) and os.fspath(target).lower().endswith(".3mf") and painted is None:
+            info["source_3mf"] = os.fspath(target)  # written back one object per build item (texcad.pipeline.items)
         base = Mesh(v.astype(np.float32), f.astype(np.uint32))
         return Placement("mesh", base, bodies, None, data=MeshPlace(v, f, layers, _name(target), info))
 
