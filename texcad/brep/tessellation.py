@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import GeometryError, ParameterError
 from ..solid import Mesh, to_manifold
+from ..solid.weld import grid_ids
 from .occt import explore
 
 __all__ = ["shape_to_mesh", "closed_shape_mesh", "part_tessellation", "FaceMesh", "PartMesh", "TESSELLATION"]
@@ -59,7 +60,7 @@ def shape_to_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: flo
         raise GeometryError("the base shape has no faces to tessellate; is it an empty or 2-D shape?")
     v, f = got
     # Faces are tessellated separately: weld the copies of shared edge vertices.
-    _, inv = np.unique(np.round(v / (tolerance * 1e-3)).astype(np.int64), axis=0, return_inverse=True)
+    inv = grid_ids(v, tolerance * 1e-3)  # np.unique's numbers (axis=0), one int64 sort key
     first = np.full(inv.max() + 1, -1, dtype=np.int64)
     first[inv[::-1]] = np.arange(len(v))[::-1]
     f = inv.ravel()[f]
@@ -393,8 +394,9 @@ def _weld(fms: list, weld: float) -> PartMesh:
         raise GeometryError("the part has no faces to tessellate")
     v = np.concatenate(verts)
     f = np.concatenate(tris)
-    _, first, inv = np.unique(np.round(v / weld).astype(np.int64), axis=0, return_index=True, return_inverse=True)
-    inv = inv.ravel()
+    inv = grid_ids(v, weld)  # np.unique's numbers (axis=0), one int64 sort key
+    first = np.full(inv.max() + 1, -1, dtype=np.int64)
+    first[inv[::-1]] = np.arange(len(v))[::-1]  # each point's first copy
     f = inv[f]
     keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
     return PartMesh(fms, Mesh(v[first].astype(np.float32), f[keep].astype(np.uint32)), np.concatenate(fid)[keep])
