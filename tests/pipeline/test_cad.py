@@ -262,10 +262,13 @@ def test_render_and_cli_render(made, tmp_path):
 def test_show_sends_texcads_mesh(made, monkeypatch):
     """``show()`` hands the viewer texcad's mesh (a triangulation-only face), which
     the viewer's own tessellation pipeline passes through unchanged."""
+    import warnings
+
     ocp_vscode = pytest.importorskip("ocp_vscode")
     from OCP.BRep import BRep_Tool
     from OCP.TopLoc import TopLoc_Location
 
+    monkeypatch.setattr(warnings, "formatwarning", warnings.formatwarning)  # the viewer's converter replaces it
     sent = {}
     monkeypatch.setattr(ocp_vscode, "show", lambda *objs, **kw: sent.setdefault("objs", objs))
     _, tx, _ = made["build123d", "plate"]
@@ -279,6 +282,23 @@ def test_show_sends_texcads_mesh(made, monkeypatch):
     verts = np.concatenate([np.asarray(i["vertices"]).reshape(-1, 3) for i in instances if "vertices" in i])
     assert len(verts) == 3 * tx.mesh.num_triangles
     assert np.allclose(verts.min(axis=0), tx.mesh.bounds[0], atol=1e-3)
+
+
+def test_show_leaves_the_warning_format_as_it_was(made, monkeypatch):
+    """The viewer (ocp_vscode, ocp_viewer_core) sets its own one-line warning format
+    for the whole process when it shows a part; texcad.show puts the caller's back."""
+    import warnings
+
+    ocp_vscode = pytest.importorskip("ocp_vscode")
+    before = warnings.formatwarning
+    monkeypatch.setattr(warnings, "formatwarning", before)
+
+    def viewer(*objs, **kw):
+        warnings.formatwarning = lambda *a, **k: "one line\n"
+
+    monkeypatch.setattr(ocp_vscode, "show", viewer)
+    texcad.show(made["build123d", "plate"][1])
+    assert warnings.formatwarning is before
 
 
 def test_cli_texture_step_part(tmp_path):

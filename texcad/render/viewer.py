@@ -121,4 +121,10 @@ def show(obj: Any, **kwargs: Any) -> Any:
         import ocp_vscode
     except ImportError:
         raise ResourceError("the OCP CAD viewer is not installed; pip install ocp_vscode") from None
-    return ocp_vscode.show(display_shape(obj), **kwargs)
+    import warnings
+
+    formatted = warnings.formatwarning  # the viewer sets its own for the whole process: put back
+    try:
+        return ocp_vscode.show(display_shape(obj), **kwargs)
+    finally:
+        warnings.formatwarning = formatted
