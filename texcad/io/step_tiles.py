@@ -62,7 +62,7 @@ import numpy as np
 from ..brep import TILE, surface_grid, tile_grid
 from ..brep.occt import explore
 from ..util.runs import runs_within
-from .step_edges import joined_edges, polyline3d as _polyline3d
+from .step_edges import joined_edges, lined_edges, polyline3d as _polyline3d
 
 __all__ = ["tiled_step_text"]
 
@@ -1112,7 +1112,7 @@ def _edges_written_fewer(b, shape, tiles: list, sides: list, full: list, written
     tiles = same(shape)
     if tiles is None:
         return None
-    shape = _joined_runs(shape, tiles, written, full, thin)
+    shape = lined_edges(_joined_runs(shape, tiles, written, full, thin))
     tiles = same(shape)
     return None if tiles is None else (shape, tiles, written, outer)
 
