@@ -2509,7 +2509,47 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list,
     one = "#%d=CARTESIAN_POINT('',(%s));"  # four to a line (lines of ~200 characters)
     points = (((one * 4 + "\n") * (n_emit // 4)) + one * (n_emit % 4) + "\n") % tuple(inter)
     head, end = data[: data.index(b"\nDATA;") + 7], data.rindex(b"ENDSEC;")
-    return b"".join([head, rest, points.encode("ascii"), data[end:]])
+    return b"".join([head, _dense(rest + points.encode("ascii")), data[end:]])
+
+
+_TOKEN = re.compile(rb"'(?:[^']|'')*'|#(\d+)(=?)")  # a string (skipped), or an entity's id: defined (=) or referred to
+#: Characters a line of :func:`_dense` holds at most (entities end to end; a longer entity on its own).
+LINE = 200
+
+
+def _dense(body: bytes) -> bytes:
+    """A STEP DATA section's entities renumbered by how often they are referred to
+    (the most referred first: a pole that four tiles, two edges and a vertex use gets
+    the shortest id; ties in the order they were), written end to end in lines of at
+    most :data:`LINE` characters (a line break only after an entity's ``;``, which
+    STEP does not need between entities). The ids are the same set ``1..n``; strings
+    are left as they are."""
+    found = [(m.start(1), m.end(1), int(m.group(1)), bool(m.group(2))) for m in _TOKEN.finditer(body) if m.group(1)]
+    if not found:
+        return body
+    at = np.array(found, np.int64)
+    ids = at[:, 2]
+    top = int(ids.max()) + 1
+    uses = np.bincount(ids[at[:, 3] == 0], minlength=top)
+    defined = np.zeros(top, bool)
+    defined[ids[at[:, 3] == 1]] = True
+    old = np.flatnonzero(defined)
+    new = np.zeros(top, np.int64)
+    new[old[np.argsort(-uses[old], kind="stable")]] = np.arange(1, len(old) + 1)
+    if (new[ids] == 0).any():
+        return body  # a reference to no entity: leave the text as it is
+    pieces = [b""] * (2 * len(found) + 1)
+    pieces[0::2] = [body[a:z] for a, z in zip(np.r_[0, at[:, 1]].tolist(), np.r_[at[:, 0], len(body)].tolist())]
+    pieces[1::2] = [b"%d" % x for x in new[ids].tolist()]  # per number (every entity's id and reference)
+    out, width = [], 0
+    for line in b"".join(pieces).rstrip(b"\n").split(b"\n"):  # per line (one per entity, four points to one)
+        if out and out[-1].endswith(b";") and width + len(line) <= LINE:
+            out[-1] += line
+            width += len(line)
+        else:
+            out.append(line)
+            width = len(line)
+    return b"\n".join(out) + b"\n"
 
 
 #: Entity types written once when two are the same (geometry, no topology): OCCT
