@@ -2512,7 +2512,7 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list,
     return b"".join([head, _dense(rest + points.encode("ascii")), data[end:]])
 
 
-_TOKEN = re.compile(rb"'(?:[^']|'')*'|#(\d+)(=?)")  # a string (skipped), or an entity's id: defined (=) or referred to
+_NUMBER = re.compile(rb"(?<=#)(\d+)")  # an entity's id after its '#': defined (followed by '=') or referred to
 #: Characters a line of :func:`_dense` holds at most (entities end to end; a longer entity on its own).
 LINE = 200
 
@@ -2522,25 +2522,25 @@ def _dense(body: bytes) -> bytes:
     (the most referred first: a pole that four tiles, two edges and a vertex use gets
     the shortest id; ties in the order they were), written end to end in lines of at
     most :data:`LINE` characters (a line break only after an entity's ``;``, which
-    STEP does not need between entities). The ids are the same set ``1..n``; strings
-    are left as they are."""
-    found = [(m.start(1), m.end(1), int(m.group(1)), bool(m.group(2))) for m in _TOKEN.finditer(body) if m.group(1)]
-    if not found:
+    STEP does not need between entities). The ids are the same set ``1..n``; a ``#``
+    inside a string (an odd number of quotes before it) is left as it is."""
+    pieces = _NUMBER.split(body)  # text, number, text, ..., text
+    texts, nums = pieces[0::2], pieces[1::2]
+    if not nums:
         return body
-    at = np.array(found, np.int64)
-    ids = at[:, 2]
+    real = np.cumsum([t.count(b"'") for t in texts[:-1]]) % 2 == 0  # per number: outside a string
+    ids = np.where(real, np.array(nums).astype(np.int64), 0)
+    is_def = real & np.array([t[:1] == b"=" for t in texts[1:]])
     top = int(ids.max()) + 1
-    uses = np.bincount(ids[at[:, 3] == 0], minlength=top)
+    uses = np.bincount(ids[real & ~is_def], minlength=top)
     defined = np.zeros(top, bool)
-    defined[ids[at[:, 3] == 1]] = True
+    defined[ids[is_def]] = True
     old = np.flatnonzero(defined)
     new = np.zeros(top, np.int64)
     new[old[np.argsort(-uses[old], kind="stable")]] = np.arange(1, len(old) + 1)
-    if (new[ids] == 0).any():
+    if (new[ids[real]] == 0).any():
         return body  # a reference to no entity: leave the text as it is
-    pieces = [b""] * (2 * len(found) + 1)
-    pieces[0::2] = [body[a:z] for a, z in zip(np.r_[0, at[:, 1]].tolist(), np.r_[at[:, 0], len(body)].tolist())]
-    pieces[1::2] = [b"%d" % x for x in new[ids].tolist()]  # per number (every entity's id and reference)
+    pieces[1::2] = [b"%d" % x if r else n for x, r, n in zip(new[ids].tolist(), real.tolist(), nums)]  # per number
     out, width = [], 0
     for line in b"".join(pieces).rstrip(b"\n").split(b"\n"):  # per line (one per entity, four points to one)
         if out and out[-1].endswith(b";") and width + len(line) <= LINE:
