@@ -27,6 +27,13 @@ whose weights add up to its length, and the pcurve on a face whose ``v`` changes
 along it padded to :data:`~texcad.brep.gprop.PAD_SPANS` spans (``n = 61``, the
 rule texcad places its tiles' knots for). A run keeps at most :data:`MOST_PIECES`
 pieces (each then holds two nodes or more).
+
+:func:`lined_edges` then gives each edge along which neither face's rule
+integrates (its pcurves keep their ``v``, or lie at the face's lowest ``u``: the
+rule adds nothing there whatever the parameter) the running coordinate of its pcurve
+on one face as its parameter, where that pcurve is an iso line: that pcurve, and the
+other where it runs as fast, is a ``LINE`` instead of a broken line through a point
+per break (on the mitre of ``bench_step.py --sizes`` 280 such pcurves, 127 kB).
 """
 
 from __future__ import annotations
@@ -470,11 +477,13 @@ def _lined(b, edge, faces: list):
 
     from ..brep.gprop import polyline_pcurve
 
+    lines = sum(isinstance(BRep_Tool.CurveOnSurface_s(edge, f, 0.0, 0.0), Geom2d_Line) for f in faces)
+    if lines == len(faces):
+        return None  # lines already (most edges: nothing to sample)
     got = _sampled(edge, faces)
     if got is None or any(_rises(q, f) for q, f in zip(got[2], faces)):
         return None
     t, p, qs = got
-    lines = sum(isinstance(BRep_Tool.CurveOnSurface_s(edge, f, 0.0, 0.0), Geom2d_Line) for f in faces)
     best = None
     for q in qs:  # one per face: its running coordinate as the parameter
         iso = _iso_param(q)

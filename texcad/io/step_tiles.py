@@ -38,7 +38,9 @@ with numpy:
   (OCCT writes a 2-D context, a direction and a vector for every pcurve), their
   points with at most 9 decimals, knots and 2-D points rounded to
   :data:`KNOT_DECIMALS` (:func:`_short`, :func:`_knots`), and everything
-  numbered densely from ``#1`` (:func:`_renumbered`), the poles last;
+  numbered densely from ``#1`` (:func:`_renumbered`), the poles last, then numbered
+  again by how often each is referred to and written end to end in lines of 200
+  characters (:func:`_dense`);
 * with ``tessellate`` each tile that carries its triangulation (texcad's mesh: two
   triangles per grid cell) also gets a ``COMPLEX_TRIANGULATED_FACE`` linked to its
   ``ADVANCED_FACE`` (AP242), with its nodes (``COORDINATES_LIST``, the same numbers as
