@@ -309,3 +309,22 @@ def test_straight_pcurve_where_the_plain_rule_integrates_no_knot():
     assert _kinked(two, one, 1, 2.0, one)  # across a knot in u
     assert _kinked(one, two, 1, 1.0, two)  # along a knot in v
     assert not _kinked(one, four, 1, 1.0, four[1:3])  # a part of the side within one span
+
+
+def test_dense_numbers_the_most_referred_first():
+    """The DATA section renumbered by how often each entity is referred to (texcad.io.
+    step_tiles._dense): the point four entities use gets #1, ties keep their order,
+    the ids stay 1..n, a string with '#' and ';' in it is left alone, and the
+    entities run end to end in lines of at most LINE characters, broken only after
+    an entity's ';'."""
+    from texcad.io.step_tiles import LINE, _dense
+
+    body = (b"#7=PRODUCT('part #3; left','',(#9));\n#8=VECTOR('',#9,1.);\n#9=CARTESIAN_POINT('',(0.,0.,0.));\n"
+            b"#10=EDGE_LOOP('',(#9,#9,#8));\n#11=CARTESIAN_POINT('',(1.,2.,3.));\n")
+    out = _dense(body)
+    assert out == (b"#3=PRODUCT('part #3; left','',(#1));#2=VECTOR('',#1,1.);#1=CARTESIAN_POINT('',(0.,0.,0.));"
+                   b"#4=EDGE_LOOP('',(#1,#1,#2));#5=CARTESIAN_POINT('',(1.,2.,3.));\n")
+    many = b"".join(b"#%d=CARTESIAN_POINT('',(%d.,0.,0.));\n" % (i, i) for i in range(1, 200))
+    lines = _dense(many).split(b"\n")[:-1]
+    assert all(len(line) <= LINE and line.endswith(b";") for line in lines) and len(lines) <= 50
+    assert sorted(int(x) for x in re.findall(rb"#(\d+)=", _dense(many))) == list(range(1, 200))

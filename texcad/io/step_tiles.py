@@ -38,7 +38,9 @@ with numpy:
   (OCCT writes a 2-D context, a direction and a vector for every pcurve), their
   points with at most 9 decimals, knots and 2-D points rounded to
   :data:`KNOT_DECIMALS` (:func:`_short`, :func:`_knots`), and everything
-  numbered densely from ``#1`` (:func:`_renumbered`), the poles last;
+  numbered densely from ``#1`` (:func:`_renumbered`), the poles last, then numbered
+  again by how often each is referred to and written end to end in lines of 200
+  characters (:func:`_dense`);
 * with ``tessellate`` each tile that carries its triangulation (texcad's mesh: two
   triangles per grid cell) also gets a ``COMPLEX_TRIANGULATED_FACE`` linked to its
   ``ADVANCED_FACE`` (AP242), with its nodes (``COORDINATES_LIST``, the same numbers as
@@ -62,7 +64,7 @@ import numpy as np
 from ..brep import TILE, surface_grid, tile_grid
 from ..brep.occt import explore
 from ..util.runs import runs_within
-from .step_edges import joined_edges, polyline3d as _polyline3d
+from .step_edges import joined_edges, lined_edges, polyline3d as _polyline3d
 
 __all__ = ["tiled_step_text"]
 
@@ -1112,7 +1114,7 @@ def _edges_written_fewer(b, shape, tiles: list, sides: list, full: list, written
     tiles = same(shape)
     if tiles is None:
         return None
-    shape = _joined_runs(shape, tiles, written, full, thin)
+    shape = lined_edges(_joined_runs(shape, tiles, written, full, thin))
     tiles = same(shape)
     return None if tiles is None else (shape, tiles, written, outer)
 
@@ -2509,7 +2511,47 @@ def _complete(data: bytes, n_faces: int, tiles: list, grids: list, meshed: list,
     one = "#%d=CARTESIAN_POINT('',(%s));"  # four to a line (lines of ~200 characters)
     points = (((one * 4 + "\n") * (n_emit // 4)) + one * (n_emit % 4) + "\n") % tuple(inter)
     head, end = data[: data.index(b"\nDATA;") + 7], data.rindex(b"ENDSEC;")
-    return b"".join([head, rest, points.encode("ascii"), data[end:]])
+    return b"".join([head, _dense(rest + points.encode("ascii")), data[end:]])
+
+
+_NUMBER = re.compile(rb"(?<=#)(\d+)")  # an entity's id after its '#': defined (followed by '=') or referred to
+#: Characters a line of :func:`_dense` holds at most (entities end to end; a longer entity on its own).
+LINE = 200
+
+
+def _dense(body: bytes) -> bytes:
+    """A STEP DATA section's entities renumbered by how often they are referred to
+    (the most referred first: a pole that four tiles, two edges and a vertex use gets
+    the shortest id; ties in the order they were), written end to end in lines of at
+    most :data:`LINE` characters (a line break only after an entity's ``;``, which
+    STEP does not need between entities). The ids are the same set ``1..n``; a ``#``
+    inside a string (an odd number of quotes before it) is left as it is."""
+    pieces = _NUMBER.split(body)  # text, number, text, ..., text
+    texts, nums = pieces[0::2], pieces[1::2]
+    if not nums:
+        return body
+    real = np.cumsum([t.count(b"'") for t in texts[:-1]]) % 2 == 0  # per number: outside a string
+    ids = np.where(real, np.array(nums).astype(np.int64), 0)
+    is_def = real & np.array([t[:1] == b"=" for t in texts[1:]])
+    top = int(ids.max()) + 1
+    uses = np.bincount(ids[real & ~is_def], minlength=top)
+    defined = np.zeros(top, bool)
+    defined[ids[is_def]] = True
+    old = np.flatnonzero(defined)
+    new = np.zeros(top, np.int64)
+    new[old[np.argsort(-uses[old], kind="stable")]] = np.arange(1, len(old) + 1)
+    if (new[ids[real]] == 0).any():
+        return body  # a reference to no entity: leave the text as it is
+    pieces[1::2] = [b"%d" % x if r else n for x, r, n in zip(new[ids].tolist(), real.tolist(), nums)]  # per number
+    out, width = [], 0
+    for line in b"".join(pieces).rstrip(b"\n").split(b"\n"):  # per line (one per entity, four points to one)
+        if out and out[-1].endswith(b";") and width + len(line) <= LINE:
+            out[-1] += line
+            width += len(line)
+        else:
+            out.append(line)
+            width = len(line)
+    return b"\n".join(out) + b"\n"
 
 
 #: Entity types written once when two are the same (geometry, no topology): OCCT
