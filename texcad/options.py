@@ -115,8 +115,9 @@ class Options:
             from the build plate (45).
         gradient: ``((x0, y0, z0), (x1, y1, z1))`` (or the six numbers flat) mm: full height at the first
             point, none at the second; or None.
-        rotation: turns the texture about the face normal (planar faces) or the
-            projection axis (meshes), degrees (0).
+        rotation: turns the texture about the face normal (planar faces), the
+            projection axis (meshes) or within a flattened patch of several faces
+            (whose x lies along its outline's edges, else its long axis), degrees (0).
         max_memory: bound on the job's memory, bytes, or None (what the machine has).
         client: a ``dask.distributed.Client`` or a scheduler address
             (``"tcp://HOST:PORT"``): a part made in tiles or blocks (a plate, a mesh

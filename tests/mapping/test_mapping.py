@@ -622,3 +622,35 @@ def test_cli_make_bad_values_exit_2_without_a_file(tmp_path, capsys):
     assert main(argv) == 2
     assert "texcad: error: arc angle must be in (0, 360) degrees, got 400.0" in capsys.readouterr().err
     assert not list(tmp_path.iterdir())
+
+
+def test_a_flattened_box_top_is_squared_with_its_edges():
+    """LSCM pins its flattening by two boundary points, so the texture's grid lay at
+    whatever angle the patch's principal axis took (about 30 degrees to a box's edges
+    on an L-shaped patch or a top and two fillets: a staircase of cells along the whole outline). Where the
+    outline's edges run along two perpendicular directions the texture's x is turned
+    along them (texcad.mapping.param._outline_turn); a round outline keeps its long
+    axis along x."""
+    import igl
+    import trimesh
+
+    from texcad.mapping import lscm_coordinates
+
+    man = m3d.Manifold.cube((30, 12, 1)) + m3d.Manifold.cube((12, 30, 1))  # an L, 12 mm arms
+    mg = man.to_mesh()
+    ell = trimesh.Trimesh(np.asarray(mg.vert_properties)[:, :3], np.asarray(mg.tri_verts)).subdivide().subdivide()
+    top = ell.faces[ell.face_normals[:, 2] > 0.9]
+    used, F = np.unique(top, return_inverse=True)
+    V = np.asarray(ell.vertices)[used]
+    F = F.reshape(-1, 3)
+    XY = lscm_coordinates(V, F)  # principal axis: the L's diagonal, 45 degrees to its edges
+    loop = igl.boundary_loop(F)
+    e = XY[np.roll(loop, -1)] - XY[loop]
+    along = np.minimum(np.abs(e[:, 0]), np.abs(e[:, 1])) / np.hypot(e[:, 0], e[:, 1])
+    assert along.max() < 1e-6  # every outline edge along x or y
+    assert np.ptp(XY[:, 0]) == pytest.approx(30.0, rel=1e-6) and np.ptp(XY[:, 1]) == pytest.approx(30.0, rel=1e-6)
+    disk = trimesh.creation.cylinder(radius=10, height=1, sections=64)
+    top = disk.faces[disk.face_normals[:, 2] > 0.9]
+    used, F = np.unique(top, return_inverse=True)
+    XY = lscm_coordinates(np.asarray(disk.vertices)[used], F.reshape(-1, 3))
+    assert np.ptp(XY[:, 0]) == pytest.approx(20.0, rel=0.01)  # no square outline: the long axis, as before

@@ -360,8 +360,9 @@ def metric_tables(grid_pts: np.ndarray, us: np.ndarray, vs: np.ndarray):
 
 def lscm_coordinates(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """Least-squares conformal flattening (libigl ``lscm``) of a disk-like mesh,
-    scaled so that the flattened area equals the 3-D area (mm), rotated so that its
-    principal axis lies along x.
+    scaled so that the flattened area equals the 3-D area (mm), turned so that x lies
+    along the outline's edges where they run along two perpendicular directions (a
+    box's top and fillets), else along the principal axis (:func:`_outline_turn`).
 
     Raises:
         GeometryError: the mesh has no boundary (a closed surface) or the flattening
@@ -392,10 +393,34 @@ def lscm_coordinates(V: np.ndarray, F: np.ndarray) -> np.ndarray:
         raise GeometryError("the conformal flattening of the faces is degenerate")
     uv *= np.sqrt(a3 / a2s.sum())
     c = uv - uv.mean(axis=0)
-    w, vec = np.linalg.eigh(c.T @ c)
+    return c @ _outline_turn(c, loop).T
+
+
+#: How far the outline's edges must agree on one direction (modulo 90 degrees) for
+#: :func:`_outline_turn` to square the texture with them: the length-weighted mean
+#: resultant of their directions times 4 (1: all along two perpendicular directions).
+OUTLINE_SQUARE = 0.5
+
+
+def _outline_turn(c: np.ndarray, loop: np.ndarray) -> np.ndarray:
+    """The rotation ``(2, 2)`` that turns flattened coordinates ``c`` (N, 2) mm so that
+    the texture's x lies along the outline's own edges where they mostly run along two
+    perpendicular directions (a box's top and fillets: its edges), else along the
+    principal axis. With ``theta_i`` the direction of outline edge ``i`` (``loop``:
+    the boundary's vertices in order) and ``L_i`` its length,
+    ``z = sum L_i exp(4 i theta_i) / sum L_i``; where ``|z|`` reaches
+    :data:`OUTLINE_SQUARE` x is turned to ``arg(z) / 4`` plus the multiple of 90
+    degrees nearest the principal axis (the long side stays along x)."""
+    _, vec = np.linalg.eigh(c.T @ c)
     main = vec[:, 1]
-    rot = np.array([[main[0], main[1]], [-main[1], main[0]]])
-    return c @ rot.T
+    e = c[np.roll(loop, -1)] - c[loop]
+    length = np.hypot(e[:, 0], e[:, 1])
+    z = np.sum(length * np.exp(4j * np.arctan2(e[:, 1], e[:, 0]))) / max(float(length.sum()), 1e-300)
+    if abs(z) >= OUTLINE_SQUARE:
+        square = float(np.angle(z)) / 4.0
+        a = square + np.pi / 2 * round((float(np.arctan2(main[1], main[0])) - square) / (np.pi / 2))
+        main = np.array([np.cos(a), np.sin(a)])
+    return np.array([[main[0], main[1]], [-main[1], main[0]]])
 
 
 def band_coordinates(V: np.ndarray, F: np.ndarray, axis: np.ndarray, centre: np.ndarray) -> tuple[np.ndarray, float]:
