@@ -87,8 +87,6 @@ def test_corner_patch_step_joined(tmp_path, monkeypatch):
     plain rules, meshes closed, at most 2x its binary STL; without the runs joined it
     is 9 % larger (5 % at least), with twice as many vertices between two edges of the same two
     faces or more."""
-    from OCP.BRepGProp import BRepGProp
-    from OCP.GProp import GProp_GProps
 
     from texcad.io import step_tiles
 
@@ -100,14 +98,7 @@ def test_corner_patch_step_joined(tmp_path, monkeypatch):
     tx.export(tmp_path / "cap.stl")
     size = (tmp_path / "cap.step").stat().st_size
     assert size <= 2.0 * (tmp_path / "cap.stl").stat().st_size
-    back = texcad.io.read_step(tmp_path / "cap.step")
-    chk = check_shape(back)
-    assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
-    room = 1e-3 * tx.volume + tx.info.get("volume_slack", 0.0)
-    props = GProp_GProps()
-    BRepGProp.VolumeProperties_s(back, props)
-    assert abs(occt_volume(back) - tx.volume) <= room and abs(props.Mass() - tx.volume) <= room
-    assert shape_to_mesh(back, tolerance=0.1, angular_tolerance=0.5).is_watertight
+    back = _assert_reads_back_whole(tmp_path / "cap.step", tx)
     monkeypatch.setattr(step_tiles, "joined_edges", lambda shape, knots_of: shape)
     tx.export(tmp_path / "apart.step")
     assert (tmp_path / "apart.step").stat().st_size >= 1.05 * size
@@ -158,8 +149,6 @@ def test_free_edges_become_lines(tmp_path, monkeypatch):
     smaller, and re-reads as the same valid solid (both of OCCT's rules within 0.1 %,
     meshed closed)."""
     from build123d import Box, GeomType, fillet
-    from OCP.BRepGProp import BRepGProp
-    from OCP.GProp import GProp_GProps
 
     from texcad.io import step_tiles
 
@@ -169,7 +158,22 @@ def test_free_edges_become_lines(tmp_path, monkeypatch):
         warnings.simplefilter("ignore")
         tx = texcad.texture(part, faces, "builtin:stones", height=0.6, pitch=0.5)
     tx.export(tmp_path / "lined.step")
-    back = texcad.io.read_step(tmp_path / "lined.step")
+    _assert_reads_back_whole(tmp_path / "lined.step", tx)
+    monkeypatch.setattr(step_tiles, "lined_edges", lambda shape: shape)
+    tx.export(tmp_path / "broken.step")
+    lined, broken = (tmp_path / "lined.step").read_bytes(), (tmp_path / "broken.step").read_bytes()
+    assert len(broken) >= 1.015 * len(lined)  # 563.6 kB / 552.9 kB
+    assert broken.count(b"B_SPLINE_CURVE_WITH_KNOTS") >= lined.count(b"B_SPLINE_CURVE_WITH_KNOTS") + 25  # 934 / 898
+
+
+def _assert_reads_back_whole(path, tx):
+    """The STEP at ``path`` reads back one valid closed solid whose OCCT volume, by
+    the adaptive and the plain rule, is the mesh's within 0.1 % (and the gate's
+    slack), and that OCCT meshes closed at 0.1 mm / 0.5 rad."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    back = texcad.io.read_step(path)
     chk = check_shape(back)
     assert chk["valid"] and chk["solids"] == 1 and chk["closed"]
     room = 1e-3 * tx.volume + tx.info.get("volume_slack", 0.0)
@@ -177,8 +181,4 @@ def test_free_edges_become_lines(tmp_path, monkeypatch):
     BRepGProp.VolumeProperties_s(back, props)
     assert abs(occt_volume(back) - tx.volume) <= room and abs(props.Mass() - tx.volume) <= room
     assert shape_to_mesh(back, tolerance=0.1, angular_tolerance=0.5).is_watertight
-    monkeypatch.setattr(step_tiles, "lined_edges", lambda shape: shape)
-    tx.export(tmp_path / "broken.step")
-    lined, broken = (tmp_path / "lined.step").read_bytes(), (tmp_path / "broken.step").read_bytes()
-    assert len(broken) >= 1.015 * len(lined)  # 563.6 kB / 552.9 kB
-    assert broken.count(b"B_SPLINE_CURVE_WITH_KNOTS") >= lined.count(b"B_SPLINE_CURVE_WITH_KNOTS") + 25  # 934 / 898
+    return back
