@@ -2100,6 +2100,18 @@ def textured_extrusion_solid(shape: Any, face: Any, top: np.ndarray, bottom: np.
 OCCT_EPS = 1e-4
 
 
+def plain_volume(shape: Any) -> float:
+    """Volume in mm^3 by OCCT's plain integration, ``BRepGProp::VolumeProperties``
+    without a tolerance: a fixed Gauss rule per face, what build123d's ``.volume`` and
+    FreeCAD give (exact where the knots are placed for it, :mod:`texcad.brep.gprop`)."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    props = GProp_GProps()
+    BRepGProp.VolumeProperties_s(to_topods(shape), props)
+    return float(props.Mass())
+
+
 def occt_volume(shape: Any, eps: float = OCCT_EPS) -> float:
     """Volume in mm^3 by OCCT's own integrator: ``BRepGProp::VolumeProperties(shape,
     props, eps, OnlyClosed=True)``, adaptive Gauss integration to the relative error

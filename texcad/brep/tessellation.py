@@ -60,12 +60,20 @@ def shape_to_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance: flo
         raise GeometryError("the base shape has no faces to tessellate; is it an empty or 2-D shape?")
     v, f = got
     # Faces are tessellated separately: weld the copies of shared edge vertices.
-    inv = grid_ids(v, tolerance * 1e-3)  # np.unique's numbers (axis=0), one int64 sort key
-    first = np.full(inv.max() + 1, -1, dtype=np.int64)
-    first[inv[::-1]] = np.arange(len(v))[::-1]
-    f = inv.ravel()[f]
+    inv, first = _welded(v, tolerance * 1e-3)
+    f = inv[f]
     keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
     return Mesh(v[first], f[keep])
+
+
+def _welded(v: np.ndarray, quantum: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(ids (N,), first (K,))``: the points ``v`` (mm) that round to one point of the
+    grid of ``quantum`` mm numbered as one (:func:`texcad.solid.weld.grid_ids`, as
+    ``np.unique(..., axis=0)`` numbers them), and each number's first point."""
+    inv = grid_ids(v, quantum)
+    first = np.full(int(inv.max()) + 1 if len(inv) else 0, -1, dtype=np.int64)
+    first[inv[::-1]] = np.arange(len(v))[::-1]
+    return inv, first
 
 
 def _stl_corners(topo: Any) -> "tuple[np.ndarray, np.ndarray] | None":
@@ -394,9 +402,7 @@ def _weld(fms: list, weld: float) -> PartMesh:
         raise GeometryError("the part has no faces to tessellate")
     v = np.concatenate(verts)
     f = np.concatenate(tris)
-    inv = grid_ids(v, weld)  # np.unique's numbers (axis=0), one int64 sort key
-    first = np.full(inv.max() + 1, -1, dtype=np.int64)
-    first[inv[::-1]] = np.arange(len(v))[::-1]  # each point's first copy
+    inv, first = _welded(v, weld)
     f = inv[f]
     keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
     return PartMesh(fms, Mesh(v[first].astype(np.float32), f[keep].astype(np.uint32)), np.concatenate(fid)[keep])

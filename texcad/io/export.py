@@ -396,13 +396,7 @@ def write_3mf(
     tail = b"</resources>\n<build>" + item + b"</build>\n</model>\n"
     model = itertools.chain([head], _object_parts(1, label, part, meta, bits), [tail])
     bound = len(head) + len(tail) + len(label.encode()) + len(meta) + 128 + _size_bound(part)
-    with atomic_path(path) as tmp:
-        with zipfile.ZipFile(tmp, "w") as z:
-            for arcname, data in (("[Content_Types].xml", _CT), ("_rels/.rels", _RELS)):
-                z.writestr(_zip_info(arcname), data, compresslevel=1)
-            _write_streamed(z, _zip_info("3D/3dmodel.model"), model, bound)
-            if config is not None:
-                z.writestr(_zip_info(SLIC3R_CONFIG), config, compresslevel=1)
+    _write_package(path, model, bound, config)
 
 
 def write_3mf_items(objects: Sequence[tuple[str, Mesh, Any]], path: str | os.PathLike, *, build_dir=None,
@@ -442,8 +436,7 @@ def write_3mf_items(objects: Sequence[tuple[str, Mesh, Any]], path: str | os.Pat
         pieces.append(_object_parts(k, _xml_escape(str(name)), part, meta, bits))
         bound += _size_bound(part) + len(str(name).encode()) + len(meta) + 256
         placed = m if turn is None else m @ turn
-        text = " ".join(_number(float(x)) for x in placed[:, :3].ravel())
-        items.append(f'<item objectid="{k}"' + ("" if tf is None and turn is None else f' transform="{text}"') + "/>")
+        items.append(f'<item objectid="{k}"' + ("" if tf is None and turn is None else f' transform="{_matrix_text(placed)}"') + "/>")
     cura = f' xmlns:cura="{CURA_NAMESPACE}"' if cura_settings and any(cura_settings) else ""
     head = ('<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xml:lang="en-US" '
             f'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"{cura}>\n'
@@ -451,11 +444,18 @@ def write_3mf_items(objects: Sequence[tuple[str, Mesh, Any]], path: str | os.Pat
     tail = ("</resources>\n<build>" + "".join(items) + "</build>\n</model>\n").encode()
     model = itertools.chain([head], *pieces, [tail])
     config = _items_config(objects, settings) if settings and any(settings) else None
+    _write_package(path, model, bound + len(head) + len(tail), config)
+
+
+def _write_package(path: str | os.PathLike, model: Iterable[bytes], bound: int, config: "bytes | None") -> None:
+    """The 3MF zip at ``path`` (atomic): its content types and relationships, the
+    model streamed from ``model`` (pieces of bytes, at most ``bound`` of them in all)
+    and PrusaSlicer's config where there is one."""
     with atomic_path(path) as tmp:
         with zipfile.ZipFile(tmp, "w") as z:
             for arcname, data in (("[Content_Types].xml", _CT), ("_rels/.rels", _RELS)):
                 z.writestr(_zip_info(arcname), data, compresslevel=1)
-            _write_streamed(z, _zip_info("3D/3dmodel.model"), model, bound + len(head) + len(tail))
+            _write_streamed(z, _zip_info("3D/3dmodel.model"), model, bound)
             if config is not None:
                 z.writestr(_zip_info(SLIC3R_CONFIG), config, compresslevel=1)
 
@@ -468,7 +468,7 @@ def _print_turn(meshes: Sequence[Mesh], build_dir) -> "np.ndarray | None":
     from ..util import rotation_to_z
 
     R = rotation_to_z(np.asarray(build_dir, dtype=np.float64).reshape(-1, 3)[0])
-    z0 = min(float((m.vertices.astype(np.float64) @ R[2]).min()) for m in meshes if len(m.vertices))
+    z0 = min((float((m.vertices.astype(np.float64) @ R[2]).min()) for m in meshes if len(m.vertices)), default=0.0)
     turn = np.eye(4)
     turn[:3, :3], turn[3, 2] = R.T, -z0
     return turn
@@ -508,18 +508,19 @@ def _cura_value(v: Any) -> str:
 
 def _print_transform(mesh: Mesh, build_dir) -> str:
     """3MF item transform (``m00 .. m32``, row vectors: ``p' = p M``) that turns
-    ``build_dir`` to +z and puts the lowest point on z = 0."""
-    from ..util import rotation_to_z  # as texcad.printability.print_rotation
-
-    R = rotation_to_z(np.asarray(build_dir, dtype=np.float64).reshape(-1, 3)[0])
-    z0 = float((mesh.vertices.astype(np.float64) @ R[2]).min()) if len(mesh.vertices) else 0.0
-    return _transform(R, z0)
+    ``build_dir`` to +z and puts the lowest point on z = 0 (:func:`_print_turn`)."""
+    return _matrix_text(_print_turn([mesh], build_dir))
 
 
 def _transform(R: np.ndarray, z0: float) -> str:
     """The 3MF item transform of the rotation ``R`` (rows: the new axes) that lifts
     the rotated lowest point ``z0`` (mm) to z = 0."""
-    M = np.vstack([R.T, [0.0, 0.0, -z0]])
+    return _matrix_text(np.vstack([np.c_[R.T, np.zeros(3)], [0.0, 0.0, -z0, 1.0]]))
+
+
+def _matrix_text(M: np.ndarray) -> str:
+    """A ``(4, 4)`` row-vector matrix as a 3MF ``transform`` (its first three columns)."""
+    M = np.array(M[:, :3], dtype=np.float64)
     M[np.abs(M) < 1e-15] = 0.0
     return " ".join(_number(float(x)) for x in M.ravel())
 

@@ -358,11 +358,12 @@ def metric_tables(grid_pts: np.ndarray, us: np.ndarray, vs: np.ndarray):
     return (us, Y), (vs, X)
 
 
-def lscm_coordinates(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+def lscm_coordinates(V: np.ndarray, F: np.ndarray, rotation: float = 0.0) -> np.ndarray:
     """Least-squares conformal flattening (libigl ``lscm``) of a disk-like mesh,
     scaled so that the flattened area equals the 3-D area (mm), turned so that x lies
     along the outline's edges where they run along two perpendicular directions (a
-    box's top and fillets), else along the principal axis (:func:`_outline_turn`).
+    box's top and fillets), else along the principal axis (:func:`_outline_turn`),
+    then by ``rotation`` degrees (as a plane's frame, :func:`texcad.brep.frames.plane_frame`).
 
     Raises:
         GeometryError: the mesh has no boundary (a closed surface) or the flattening
@@ -393,7 +394,11 @@ def lscm_coordinates(V: np.ndarray, F: np.ndarray) -> np.ndarray:
         raise GeometryError("the conformal flattening of the faces is degenerate")
     uv *= np.sqrt(a3 / a2s.sum())
     c = uv - uv.mean(axis=0)
-    return c @ _outline_turn(c, loop).T
+    turn = _outline_turn(c, loop)
+    if rotation:
+        a = np.radians(float(rotation))
+        turn = np.array([[np.cos(a), np.sin(a)], [-np.sin(a), np.cos(a)]]) @ turn
+    return c @ turn.T
 
 
 #: How far the outline's edges must agree on one direction (modulo 90 degrees) for

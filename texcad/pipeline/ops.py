@@ -455,14 +455,10 @@ def _plain_rule_note(shape, vb: float, vm: float, offset: float, op: str, face: 
     its volume read that way is not, and the user is told so."""
     import warnings
 
-    from OCP.BRepGProp import BRepGProp
-    from OCP.GProp import GProp_GProps
-
+    from ..brep import plain_volume
     from ..errors import TexcadWarning
 
-    props = GProp_GProps()
-    BRepGProp.VolumeProperties_s(to_topods(shape), props)
-    off = (props.Mass() - offset) / vm - 1.0
+    off = (plain_volume(shape) - offset) / vm - 1.0
     if abs(off) > OP_VOLUME_TOLERANCE:
         warnings.warn(
             f"the {op}'s B-rep{face} encloses the mesh's volume ({vb:.1f} against {vm:.1f} mm3), but OCCT's plain volume "

@@ -503,11 +503,7 @@ def patch_param(pm: PartMesh, patch: list, tile: "tuple | None", rotation: float
         period = perim if tile is None else max(1, round(perim / tile[1])) * tile[1]
         XY = np.stack([XY[:, 1], XY[:, 0] * (period / perim)], axis=1)
         return PatchParam(V, F, XY, period, "band: cross-section arc length around, height along the surface")
-    XY = lscm_coordinates(V, F)
-    if rotation:  # turned by `rotation` degrees, as a plane's frame (texcad.brep.frames.plane_frame)
-        a = np.radians(float(rotation))
-        XY = XY @ np.array([[np.cos(a), np.sin(a)], [-np.sin(a), np.cos(a)]]).T
-    return PatchParam(V, F, XY, None, "conformal flattening (LSCM)")
+    return PatchParam(V, F, lscm_coordinates(V, F, rotation), None, "conformal flattening (LSCM)")
 
 
 # ------------------------------------------------------------------------------------------
