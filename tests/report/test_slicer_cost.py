@@ -184,6 +184,47 @@ def _plain_and_laid_out(mesh, tmp_path, build_dir=(0.0, 0.0, 1.0)):
     return a, b
 
 
+@prusa
+def test_a_cut_plate_prints_the_same_texture(tmp_path, monkeypatch):
+    """A 30 mm stones plate (0.5 mm pitch) cut where its islands crowd (the cut made
+    however small the saving, ``min_work=0``), at PrusaSlicer's defaults, against
+    the same mesh as a plain 3MF: the same layers, the outer walls (the texture as
+    printed, ``OUTER_WALLS``) within a nozzle width on every layer (specks left out;
+    0.28 mm measured, where Arachne routes a one-line wall in a sliver at the plate's
+    edge another way, about 0.03 mm elsewhere) and the same path length within 1 %.
+    Inner paths are not held here: next to a cut PrusaSlicer can lay an island's
+    solid infill a line further on, as it does when the plain mesh moves by a
+    micrometre (docs/benchmarks/slicer_cost.md)."""
+    from functools import partial
+
+    import texcad.io
+
+    tp = _stones(30.0)
+    monkeypatch.setattr(texcad.io, "slicer_layout", partial(slicer_layout, min_work=0))
+    a = slicer.slice_mesh(tp.mesh, keep=tmp_path / "plain.gcode", file="3mf", layout=False)
+    b = slicer.slice_mesh(tp.mesh, keep=tmp_path / "cut.gcode", file="3mf")
+    assert a.returncode == 0 and b.returncode == 0, (a.log, b.log)
+    assert slicer_layout(tp.mesh, min_work=0).cut is not None
+    walls = [slicer.read_toolpaths(tmp_path / f"{n}.gcode", only=slicer.OUTER_WALLS) for n in ("plain", "cut")]
+    assert np.array_equal(walls[0].z, walls[1].z)
+    moved = slicer.toolpath_deviation(*(w.without_specks(NOZZLE) for w in walls))
+    assert moved.max() <= NOZZLE, moved
+    ta, tb = (slicer.read_toolpaths(tmp_path / f"{n}.gcode") for n in ("plain", "cut"))
+    assert tb.lengths.sum() == pytest.approx(ta.lengths.sum(), rel=0.01)
+
+
+def test_outer_walls_are_read_alone(tmp_path):
+    """``only=OUTER_WALLS`` keeps PrusaSlicer's external perimeters and CuraEngine's
+    outer wall and leaves out inner perimeters and infill."""
+    sq = lambda x0: "".join(f"G1 X{x0 + x:.3f} Y{y:.3f} E0.1\n" for x, y in ((10, 0), (10, 10), (0, 10), (0, 0)))
+    text = (";LAYER_CHANGE\nG1 Z0.2\nG1 X0 Y0\n;TYPE:External perimeter\n" + sq(0.0) + ";TYPE:Perimeter\n" + sq(20.0)
+            + ";TYPE:WALL-OUTER\n" + sq(40.0) + ";TYPE:Solid infill\n" + sq(60.0))
+    (tmp_path / "a.gcode").write_text(text)
+    t = slicer.read_toolpaths(tmp_path / "a.gcode", only=slicer.OUTER_WALLS)
+    assert np.allclose(t.lengths, [40.0 + 60.0])  # each square's moves, from where the one before ended
+    assert np.allclose(slicer.read_toolpaths(tmp_path / "a.gcode").lengths, [40.0 + 3 * 60.0])
+
+
 def test_specks_are_the_short_unbroken_extrusions(tmp_path):
     """A 10 mm square and, after a travel, a 0.1 mm square: without specks of 0.4 mm
     only the big one is left."""

@@ -45,6 +45,7 @@ __all__ = [
     "toolpath_deviation",
     "SLICERS",
     "SUPPORT_TYPES",
+    "OUTER_WALLS",
     "CURA_DEFINITION",
 ]
 
@@ -52,6 +53,11 @@ __all__ = [
 SLICERS = ("prusaslicer", "curaengine")
 #: The ``;TYPE:`` sections PrusaSlicer and CuraEngine write for support material.
 SUPPORT_TYPES = ("Support material", "Support material interface", "SUPPORT", "SUPPORT-INTERFACE")
+#: ``;TYPE:`` sections that print a part's outer surface, the texture itself:
+#: PrusaSlicer's external perimeters (an external perimeter that overhangs is typed
+#: an overhang perimeter) and CuraEngine's outer wall. Perimeters inside them and
+#: infill print the part's inside.
+OUTER_WALLS = ("External perimeter", "Overhang perimeter", "WALL-OUTER")
 BED_CENTRE = (100.0, 100.0)  # the default bed of both: 0..200 mm in x and y
 #: CuraEngine's machine definition (all the settings it reads, flattened).
 CURA_DEFINITION = Path(__file__).with_name("cura_fdm.def.json")
@@ -266,15 +272,18 @@ class Toolpaths:
         return self.layer[owner], self.start[owner] + seg[owner] * t[:, None]
 
 
-def read_toolpaths(path: str | os.PathLike, *, exclude=SUPPORT_TYPES) -> Toolpaths:
+def read_toolpaths(path: str | os.PathLike, *, exclude=SUPPORT_TYPES, only=None) -> Toolpaths:
     """The extrusion segments of a G-code (relative E) by layer, leaving out the
     ``;TYPE:`` sections named in ``exclude`` (support by default: what prints the
-    part). Layers are told apart by their z (mm, rounded to 1 um)."""
+    part) and, given ``only`` (e.g. :data:`OUTER_WALLS`), every section not named
+    there. Layers are told apart by their z (mm, rounded to 1 um)."""
     moves = _moves(_gcode_bytes(path))
     if moves is None:
         return Toolpaths(np.zeros(0), np.zeros(0, np.int64), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0, np.int64))
     xyz, seg, extruding, kind, names = moves
-    keep = extruding & ~np.isin(np.array(names, dtype=object), tuple(exclude))[kind]
+    named = np.array(names, dtype=object)
+    wanted = ~np.isin(named, tuple(exclude)) & (np.isin(named, tuple(only)) if only is not None else True)
+    keep = extruding & wanted[kind]
     keep[0] = False  # a segment needs the move before it
     i = np.flatnonzero(keep)
     z, layer = np.unique(np.round(xyz[i, 2], 3), return_inverse=True)
@@ -287,8 +296,9 @@ def toolpath_deviation(a: Toolpaths, b: Toolpaths, *, step: float = 0.05) -> np.
     G-codes of the same part: the farthest any point of one layer's paths lies
     from the other's paths at the same height (inf for a layer only one of them
     prints). Paths are sampled every ``step`` mm, so the figure is exact to within
-    ``step / 2``. Returns ``(L,)`` float64 over the union of both layer heights
-    (ascending)."""
+    ``step / 2``; 0 for a layer where neither prints a path (both left out, e.g.
+    by :meth:`Toolpaths.without_specks`). Returns ``(L,)`` float64 over the union of
+    both layer heights (ascending)."""
     from scipy.spatial import cKDTree
 
     z = np.union1d(a.z, b.z)
@@ -302,6 +312,8 @@ def toolpath_deviation(a: Toolpaths, b: Toolpaths, *, step: float = 0.05) -> np.
         p, q = pa[oa[ca[k] : ca[k + 1]]], pb[ob[cb[k] : cb[k + 1]]]
         if len(p) and len(q):
             out[k] = max(cKDTree(q).query(p)[0].max(), cKDTree(p).query(q)[0].max())
+        elif not len(p) and not len(q):  # a layer neither prints (e.g. only specks left out)
+            out[k] = 0.0
     return out
 
 
