@@ -188,3 +188,27 @@ def test_prusaslicer_loads_nine_objects_of_base_and_texture(separate, tmp_path):
             assert np.allclose(a.vertices.min(axis=0), b.vertices.min(axis=0), atol=1e-4)
             assert np.allclose(a.vertices.max(axis=0), b.vertices.max(axis=0), atol=1e-4)
             assert b.volume == pytest.approx(a.volume, rel=1e-6)
+
+
+def test_separate_texture_of_an_item_inside_another_items_box(tmp_path):
+    """A box standing in a ring's hole (two build items, the box within the ring's
+    bounding box): each part's bodies go to the item that holds them by shared
+    volume, not by box, so each item gets its own base and texture."""
+    from texcad.io.read import build_items
+
+    scene = trimesh.Scene()
+    scene.add_geometry(trimesh.creation.annulus(r_min=15, r_max=20, height=8, sections=48), node_name="ring",
+                       transform=trimesh.transformations.translation_matrix((0, 0, 4)))
+    scene.add_geometry(trimesh.creation.box(extents=(10, 10, 6)), node_name="core",
+                       transform=trimesh.transformations.translation_matrix((0, 0, 3)))
+    src, plain, out = tmp_path / "ring.3mf", tmp_path / "plain.3mf", tmp_path / "separate.3mf"
+    scene.export(src)
+    tx = texcad.texture(src, "not-bottom", "builtin:stones", height=1.0, pitch=1.0)
+    tx.export(plain)
+    tx.export(out, separate_texture=True)
+    objects, items = _items(out)
+    assert len(objects) == 2 and len(items) == 2 and _volume_names(out) == [["base", "texture 1"]] * 2  # was 1 and 1
+    for (_, _, parts), (_, _, (printed,)), box in zip(build_items(out), build_items(plain), (False, True)):  # ring, box
+        assert all(m.is_watertight and m.volume > 0 for m in parts)
+        assert sum(m.volume for m in parts) == pytest.approx(printed.volume, rel=1e-6)
+        assert bool(np.ptp(parts[0].vertices[:, 0]) < 12.0) is box  # the box's base is the box's, the ring's the ring's

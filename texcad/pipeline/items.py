@@ -75,11 +75,10 @@ def item_parts(objects: list, parts: list, items: list) -> list:
     the closed ``parts`` (``(part name, mesh)``, mm, which together make the
     textured mesh: the base first, then the texture layers): ``(name, [(part name,
     piece), ...], transform)`` per item. Each body of a part goes to the item whose
-    textured bodies hold it (:func:`texcad.solid.overlap.body_owners`); each piece is
-    gated alone (closed, outward, no bodies overlapping:
-    :func:`texcad.report.gate.gate_shells`); an item's base holds as many bodies as
-    the item had; a part with nothing on an item (a texture left off it) is
-    left out of its object.
+    textured bodies hold it (:func:`_holders`); each piece is gated alone (closed,
+    outward, no bodies overlapping: :func:`texcad.report.gate.gate_shells`); an
+    item's base holds as many bodies as the item had; a part with nothing on an item
+    (a texture left off it) is left out of its object.
 
     Raises:
         GeometryError: a body of a part lies in no item's textured bodies or in two,
@@ -87,13 +86,11 @@ def item_parts(objects: list, parts: list, items: list) -> list:
     """
     from ..errors import GeometryError
     from ..report.gate import gate_shells
-    from ..solid.overlap import body_owners
 
-    groups = [[m] for _, m, _ in objects]
     pieces: list = [[] for _ in objects]
     for j, (pname, mesh) in enumerate(parts):  # per part: the base, each texture layer
         v, f = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
-        split, owner = body_owners(v, f, groups)
+        split, owner = _holders(v, f, [m for _, m, _ in objects])
         if np.any(owner < 0):
             raise GeometryError(f"{int(np.sum(owner < 0))} bod(ies) of the {pname!r} part lie in none or in several of "
                                 f"the {len(objects)} build items' textured bodies; write without separate_texture, and "
@@ -113,6 +110,33 @@ def item_parts(objects: list, parts: list, items: list) -> list:
             raise GeometryError(f"build item {k} ({name!r}) got no {parts[0][0]!r} part; write without separate_texture, "
                                 "and please report this")
     return [(name, ps, tf) for (name, _, tf), ps in zip(objects, pieces)]
+
+
+#: mm: how far a part's body may reach out of the box of the textured bodies that hold it
+#: (:func:`_holders`): they share their outer surface, written in float32.
+BOX_SLACK = 1e-3
+
+
+def _holders(v: np.ndarray, f: np.ndarray, meshes: list) -> tuple:
+    """``(split, owner)``: the bodies of the closed mesh ``(v, f)``
+    (:func:`texcad.solid.overlap.split_bodies`), each lying inside one of ``meshes``,
+    and which: the only one whose box holds the body's box (within
+    :data:`BOX_SLACK` mm), or, where several do, the one it shares the most volume with
+    (:func:`texcad.solid.overlap.body_owners`: manifold3d intersections, slow where
+    the surfaces coincide, as a texture's outer face and the textured mesh's do);
+    -1 where it lies in none, -2 in two."""
+    from ..solid.overlap import body_owners, split_bodies
+
+    split = split_bodies(v, f)
+    box = np.array([s.bounding_box() for s in split.solids], dtype=np.float64).reshape(-1, 6)
+    held = np.stack([np.all(box[:, :3] >= np.asarray(m.vertices, np.float64).min(axis=0) - BOX_SLACK, axis=1)
+                     & np.all(box[:, 3:] <= np.asarray(m.vertices, np.float64).max(axis=0) + BOX_SLACK, axis=1)
+                     for m in meshes], axis=1)
+    count = held.sum(axis=1)
+    owner = np.where(count == 1, held.argmax(axis=1), -1).astype(np.int64)
+    if np.any(count > 1):  # a box within several boxes: by shared volume
+        owner[count > 1] = body_owners(v, f, [[m] for m in meshes], split=split)[1][count > 1]
+    return split, owner
 
 
 def write_build_items(textured: Any, path: Any, parts: "list | None" = None) -> bool:
