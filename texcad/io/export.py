@@ -380,18 +380,7 @@ def write_3mf(
     bits = _grid_bits(part.vertices)
     part = Mesh(_on_grid(part.vertices, bits), part.faces)  # moves each coordinate by at most 2^-(bits + 1) mm
     meta = _cura_metadata(cura_settings)
-    head = (
-        b'<?xml version="1.0" encoding="UTF-8"?>\n'
-        b'<model unit="millimeter" xml:lang="en-US" '
-        b'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"'
-        + (f' xmlns:cura="{CURA_NAMESPACE}"'.encode() if meta else b"")
-        + b'>\n<metadata name="Application">texcad</metadata>\n'
-        # PrusaSlicer bakes a build item's transform into the first part of an object from
-        # a 3MF without this, and leaves the other parts where they are (_3MF_Importer::
-        # _generate_volumes, 2.5 and later): with it the transform stays the instance's
-        + (b'<metadata name="slic3rpe:Version3mf">1</metadata>\n' if len(items) > 1 else b"")
-        + b"<resources>\n"
-    )
+    head = _model_head(bool(meta), len(items) > 1)
     item = b'<item objectid="1"/>' if build_dir is None else f'<item objectid="1" transform="{_print_transform(part, build_dir)}"/>'.encode()
     tail = b"</resources>\n<build>" + item + b"</build>\n</model>\n"
     model = itertools.chain([head], _object_parts(1, label, part, meta, bits), [tail])
@@ -399,8 +388,8 @@ def write_3mf(
     _write_package(path, model, bound, config)
 
 
-def write_3mf_items(objects: Sequence[tuple[str, Mesh, Any]], path: str | os.PathLike, *, build_dir=None,
-                    settings: "Sequence[Mapping[str, Any]] | None" = None,
+def write_3mf_items(objects: Sequence[tuple[str, "Mesh | Sequence[tuple[str, Mesh]]", Any]], path: str | os.PathLike, *,
+                    build_dir=None, settings: "Sequence[Mapping[str, Any]] | None" = None,
                     cura_settings: "Sequence[Mapping[str, Any]] | None" = None) -> None:
     """Write a 3MF of several objects, one build item each, as a 3MF of several
     build items is laid out by PrusaSlicer and lib3mf: each ``<object>`` holds its
@@ -409,10 +398,15 @@ def write_3mf_items(objects: Sequence[tuple[str, Mesh, Any]], path: str | os.Pat
 
     Args:
         objects: ``(name, mesh, transform)`` per object: the watertight mesh where it
-            is (mm) and the item's ``(4, 4)`` matrix (row vectors, ``p' = p M``, mm) or
-            None (the identity). The object's vertices are the mesh's moved by the
-            inverse of ``transform`` (winding reversed where it mirrors, as a reader
-            reverses it back), so the item puts them where they are now.
+            is (mm), or a list of ``(part name, mesh)`` watertight parts (e.g. the
+            item's base and texture) written as one object of several parts as
+            :func:`write_3mf` writes them (its mesh the parts' triangles in turn,
+            ``Metadata/Slic3r_PE_model.config`` naming each part's range,
+            ``slic3rpe:Version3mf`` so that PrusaSlicer moves every part with the
+            item); and the item's ``(4, 4)`` matrix (row vectors, ``p' = p M``,
+            mm) or None (the identity). The object's vertices are the mesh's moved
+            by the inverse of ``transform`` (winding reversed where it mirrors, as a
+            reader reverses it back), so the item puts them where they are now.
         path: output ``.3mf`` file (atomic: a failure leaves no file).
         build_dir: the parts' print orientation (as :func:`write_3mf`): every item's
             transform is followed by the turn that points it up, all lifted together
@@ -422,29 +416,60 @@ def write_3mf_items(objects: Sequence[tuple[str, Mesh, Any]], path: str | os.Pat
     """
     if not objects:
         raise ParameterError("write_3mf_items needs at least one (name, mesh, transform) object")
-    turn = _print_turn([m for _, m, _ in objects], build_dir)
+    parts = [[(str(name), mesh)] if isinstance(mesh, Mesh) else [(str(n), m) for n, m in mesh] for name, mesh, _ in objects]
+    for (name, _, _), ps in zip(objects, parts):  # per object
+        if not ps:
+            raise ParameterError(f"write_3mf_items: object {name!r} has no part; give it a mesh or (name, mesh) parts")
+        for _, m in ps:
+            _require_watertight(m, path)
+    turn = _print_turn([m for ps in parts for _, m in ps], build_dir)
     pieces, items, bound = [], [], 0
-    for k, (name, mesh, tf) in enumerate(objects, start=1):  # per object
-        _require_watertight(mesh, path)
+    for k, ((name, _, tf), ps) in enumerate(zip(objects, parts), start=1):  # per object
         m = np.eye(4) if tf is None else np.asarray(tf, dtype=np.float64).reshape(4, 4)
-        v = mesh.vertices.astype(np.float64)
-        local = v if np.allclose(m, np.eye(4)) else (np.c_[v, np.ones(len(v))] @ np.linalg.inv(m))[:, :3]
-        faces = mesh.faces[:, [0, 2, 1]] if np.linalg.det(m[:3, :3]) < 0 else mesh.faces
-        bits = _grid_bits(local)
-        part = Mesh(_on_grid(local, bits), faces)
+        part, bits = _in_item(_joined(ps), m)
         meta = _cura_metadata(cura_settings[k - 1] if cura_settings else None)
         pieces.append(_object_parts(k, _xml_escape(str(name)), part, meta, bits))
         bound += _size_bound(part) + len(str(name).encode()) + len(meta) + 256
         placed = m if turn is None else m @ turn
         items.append(f'<item objectid="{k}"' + ("" if tf is None and turn is None else f' transform="{_matrix_text(placed)}"') + "/>")
-    cura = f' xmlns:cura="{CURA_NAMESPACE}"' if cura_settings and any(cura_settings) else ""
-    head = ('<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xml:lang="en-US" '
-            f'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"{cura}>\n'
-            '<metadata name="Application">texcad</metadata>\n<resources>\n').encode()
+    several = any(len(ps) > 1 for ps in parts)
+    head = _model_head(bool(cura_settings and any(cura_settings)), several)
     tail = ("</resources>\n<build>" + "".join(items) + "</build>\n</model>\n").encode()
     model = itertools.chain([head], *pieces, [tail])
-    config = _items_config(objects, settings) if settings and any(settings) else None
+    config = None
+    if several or (settings and any(settings)):  # every object listed names its parts (PrusaSlicer loads none otherwise)
+        config = _config([_config_object(k, str(name), settings[k - 1] if settings else None,
+                                         _volumes([(n, len(m.faces)) for n, m in ps]))
+                          for k, ((name, _, _), ps) in enumerate(zip(objects, parts), start=1)])
     _write_package(path, model, bound + len(head) + len(tail), config)
+
+
+def _in_item(mesh: Mesh, m: np.ndarray) -> tuple[Mesh, int]:
+    """``(mesh in the frame of the build item whose (4, 4) row-vector transform is m, on
+    the grid of :func:`_grid_bits`; those bits)``: the vertices moved by the inverse of
+    ``m``, the winding reversed where ``m`` mirrors (a reader reverses it back)."""
+    v = mesh.vertices.astype(np.float64)
+    local = v if np.allclose(m, np.eye(4)) else (np.c_[v, np.ones(len(v))] @ np.linalg.inv(m))[:, :3]
+    faces = mesh.faces[:, [0, 2, 1]] if np.linalg.det(m[:3, :3]) < 0 else mesh.faces
+    bits = _grid_bits(local)
+    return Mesh(_on_grid(local, bits), faces), bits
+
+
+def _model_head(cura: bool, parts: bool) -> bytes:
+    """The 3MF model's head up to ``<resources>``: Cura's namespace where ``cura``
+    metadata follows, and ``slic3rpe:Version3mf`` where an object has several ``parts``."""
+    return (
+        b'<?xml version="1.0" encoding="UTF-8"?>\n'
+        b'<model unit="millimeter" xml:lang="en-US" '
+        b'xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"'
+        + (f' xmlns:cura="{CURA_NAMESPACE}"'.encode() if cura else b"")
+        + b'>\n<metadata name="Application">texcad</metadata>\n'
+        # PrusaSlicer bakes a build item's transform into the first part of an object from
+        # a 3MF without this, and leaves the other parts where they are (_3MF_Importer::
+        # _generate_volumes, 2.5 and later): with it the transform stays the instance's
+        + (b'<metadata name="slic3rpe:Version3mf">1</metadata>\n' if parts else b"")
+        + b"<resources>\n"
+    )
 
 
 def _write_package(path: str | os.PathLike, model: Iterable[bytes], bound: int, config: "bytes | None") -> None:
@@ -472,16 +497,6 @@ def _print_turn(meshes: Sequence[Mesh], build_dir) -> "np.ndarray | None":
     turn = np.eye(4)
     turn[:3, :3], turn[3, 2] = R.T, -z0
     return turn
-
-
-def _items_config(objects: Sequence[tuple[str, Mesh, Any]], settings: Sequence[Mapping[str, Any]]) -> bytes:
-    """``Metadata/Slic3r_PE_model.config`` of one-part objects ``1..n``: each one's
-    name, its ``settings`` and its one ``<volume>``."""
-    rows = "".join(
-        f' <object id="{k}" instances_count="1">\n  <metadata type="object" key="name" value="{_xml_escape(str(n))}"/>\n'
-        f'{_metadata("object", settings[k - 1], "  ")}{_one_volume(str(n), len(m.faces))} </object>\n'
-        for k, (n, m, _) in enumerate(objects, start=1))
-    return f'<?xml version="1.0" encoding="UTF-8"?>\n<config>\n{rows}</config>\n'.encode()
 
 
 #: The XML namespace of Cura's 3MF metadata (Cura's and libSavitar's ``cura`` prefix).
@@ -535,40 +550,63 @@ def _number(x: float) -> str:
 def _merged(
     items: list[tuple[str, Mesh]], name: str, settings: Mapping[str, Any] | None = None, part_settings=None
 ) -> tuple[str, Mesh, bytes]:
-    """Parts as one object: (escaped name, the parts' meshes one after the other,
-    ``Metadata/Slic3r_PE_model.config`` naming each part's triangle range, with the
-    object's ``settings`` and each part's ``part_settings`` as their metadata)."""
-    v_off = np.cumsum([0] + [len(m.vertices) for _, m in items])
-    t_off = np.cumsum([0] + [len(m.faces) for _, m in items])
-    merged = Mesh(
-        np.concatenate([m.vertices for _, m in items]),
-        np.concatenate([m.faces.astype(np.int64) + int(o) for (_, m), o in zip(items, v_off)]),
+    """Parts as one object: (escaped name, the parts' meshes one after the other
+    (:func:`_joined`), ``Metadata/Slic3r_PE_model.config`` naming each part's triangle
+    range, with the object's ``settings`` and each part's ``part_settings`` as their
+    metadata)."""
+    vols = _volumes([(n, len(m.faces)) for n, m in items], part_settings)
+    return _xml_escape(name), _joined(items), _slic3r_config(name, settings, vols)
+
+
+def _joined(parts: Sequence[tuple[str, Mesh]]) -> Mesh:
+    """The ``(name, mesh)`` parts' meshes one after the other in one mesh (each part
+    keeps its own vertices, so each stays a closed shell); the mesh itself for one part."""
+    if len(parts) == 1:
+        return parts[0][1]
+    v_off = np.cumsum([0] + [len(m.vertices) for _, m in parts])
+    return Mesh(
+        np.concatenate([m.vertices for _, m in parts]),
+        np.concatenate([m.faces.astype(np.int64) + int(o) for (_, m), o in zip(parts, v_off)]),
     )
-    vols = "".join(
+
+
+def _volumes(parts: Sequence[tuple[str, int]], part_settings=None) -> str:
+    """The ``<volume>`` elements of an object's ``(name, triangles)`` parts in
+    ``Metadata/Slic3r_PE_model.config``: each part's triangle range in the object's
+    mesh (the parts one after the other), its name and its ``part_settings``."""
+    t_off = np.cumsum([0] + [t for _, t in parts])
+    return "".join(
         f'  <volume firstid="{int(t_off[i])}" lastid="{int(t_off[i + 1]) - 1}">\n'
         f'   <metadata type="volume" key="name" value="{_xml_escape(n)}"/>\n'
         '   <metadata type="volume" key="volume_type" value="ModelPart"/>\n'
         f"{_metadata('volume', part_settings[i] if part_settings else None, '   ')}"
         "  </volume>\n"
-        for i, (n, _) in enumerate(items)
+        for i, (n, _) in enumerate(parts)
     )
-    return _xml_escape(name), merged, _slic3r_config(name, settings, vols)
 
 
 def _slic3r_config(name: str, settings: Mapping[str, Any] | None, volumes: str) -> bytes:
     """``Metadata/Slic3r_PE_model.config`` of object 1: its name, its ``settings`` and
     its ``<volume>`` elements (the parts' triangle ranges)."""
-    meta = _metadata("object", settings, "  ")
-    return (
-        '<?xml version="1.0" encoding="UTF-8"?>\n<config>\n <object id="1" instances_count="1">\n'
-        f'  <metadata type="object" key="name" value="{_xml_escape(name)}"/>\n{meta}{volumes} </object>\n</config>\n'
-    ).encode()
+    return _config([_config_object(1, name, settings, volumes)])
+
+
+def _config(objects: Sequence[str]) -> bytes:
+    """``Metadata/Slic3r_PE_model.config`` of the ``<object>`` elements ``objects``
+    (:func:`_config_object`)."""
+    return ('<?xml version="1.0" encoding="UTF-8"?>\n<config>\n' + "".join(objects) + "</config>\n").encode()
+
+
+def _config_object(k: int, name: str, settings: Mapping[str, Any] | None, volumes: str) -> str:
+    """Object ``k``'s ``<object>`` element in ``Metadata/Slic3r_PE_model.config``: its
+    name, its ``settings`` and its ``<volume>`` elements (:func:`_volumes`)."""
+    return (f' <object id="{k}" instances_count="1">\n  <metadata type="object" key="name" value="{_xml_escape(name)}"/>\n'
+            f'{_metadata("object", settings, "  ")}{volumes} </object>\n')
 
 
 def _one_volume(name: str, triangles: int) -> str:
     """The ``<volume>`` element of a one-part object of ``triangles`` triangles."""
-    return (f'  <volume firstid="0" lastid="{triangles - 1}">\n   <metadata type="volume" key="name" value="{_xml_escape(name)}"/>\n'
-            '   <metadata type="volume" key="volume_type" value="ModelPart"/>\n  </volume>\n')
+    return _volumes([(name, triangles)])
 
 
 def _metadata(kind: str, settings: Mapping[str, Any] | None, indent: str) -> str:

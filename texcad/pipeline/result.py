@@ -373,7 +373,9 @@ class Textured:
     def export(self, path: "str | os.PathLike", *, separate_texture: bool = False, name: str | None = None) -> Path:
         """Write by the file's extension: ``.stl`` (binary, mm) and ``.3mf`` from the
         mesh (``separate_texture``: the base and each texture as parts of one object,
-        so a slicer can give each texture its own filament), ``.step``/``.stp`` from
+        so a slicer can give each texture its own filament; a mesh read from a 3MF of
+        several build items as one object per item, each of its own base and texture
+        parts, placed by its item), ``.step``/``.stp`` from
         the B-rep, ``.png`` a picture (:meth:`render`). Atomic: a failure leaves no file."""
         from ..io import cura_settings, export, slicer_settings, write_3mf
 
@@ -385,27 +387,33 @@ class Textured:
 
             write_zones(self.info["paint"], self.base_mesh, self.layer_meshes, self.info["zones"], p)
             return p
-        if separate_texture and p.suffix.lower() == ".3mf":
-            layers = self.layer_meshes
-            names = ["texture"] if len(layers) == 1 and self.kind != "mesh" else [f"texture {k + 1}" for k in range(len(layers))]
-            zones = self.info.get("zones") or []
-            names = [zones[k] if k < len(zones) else n for k, n in enumerate(names)]
-            d = self.stages.options.directions
-            up = None if d is None else d[0]
-            write_3mf([("base", self.base_mesh)] + list(zip(names, layers)), p, name=name or p.stem,
-                      build_dir=up, settings=slicer_settings(self.mesh, up), cura_settings=cura_settings(self.mesh, up))  # as printed
-            return p
-        if p.suffix.lower() == ".3mf" and not separate_texture and self.kind == "mesh" and self._derived is None \
-                and self.is_unmoved and self.info.get("source_3mf"):
+        if p.suffix.lower() == ".3mf" and self.kind == "mesh" and self._derived is None and self.is_unmoved \
+                and self.info.get("source_3mf"):
             from .items import write_build_items
 
-            if write_build_items(self, p):  # a 3MF of several build items: one object per item, placed as it was
+            # a 3MF of several build items: one object per item, placed as it was (of its base and texture parts)
+            if write_build_items(self, p, self._texture_parts() if separate_texture else None):
                 return p
+        if separate_texture and p.suffix.lower() == ".3mf":
+            d = self.stages.options.directions
+            up = None if d is None else d[0]
+            write_3mf(self._texture_parts(), p, name=name or p.stem,
+                      build_dir=up, settings=slicer_settings(self.mesh, up), cura_settings=cura_settings(self.mesh, up))  # as printed
+            return p
         write = getattr(self._mesh, "write", None) if self._derived is None and self.is_unmoved else None
         if write is not None and not separate_texture and p.suffix.lower() in (".stl", ".3mf"):
             write(p, **({} if p.suffix.lower() == ".stl" else self._streamed_3mf(name or p.stem)))  # kept in tiles: streamed
             return p
         return export(self, p, separate_texture=separate_texture, name=name)
+
+    def _texture_parts(self) -> list[tuple[str, Mesh]]:
+        """``(part name, mesh)``: the base, then each texture layer (named for its zone
+        where the texture was painted), the closed meshes that make :attr:`mesh`."""
+        layers = self.layer_meshes
+        names = ["texture"] if len(layers) == 1 and self.kind != "mesh" else [f"texture {k + 1}" for k in range(len(layers))]
+        zones = self.info.get("zones") or []
+        names = [zones[k] if k < len(zones) else n for k, n in enumerate(names)]
+        return [("base", self.base_mesh)] + list(zip(names, layers))
 
     def _streamed_3mf(self, name: str) -> dict:
         """A streamed 3MF's name, placement and slicer settings, as :func:`texcad.io.export`
