@@ -159,6 +159,49 @@ def test_a_small_crossing_is_resolved_by_a_self_union():
     assert resolve_crossings(fold, bf)[2] is None
 
 
+def _inside_out_tetra(at, size=0.1):
+    """A tetrahedron ``size`` mm across at ``at``, wound into itself (negative volume)."""
+    v = np.array(at) + size * np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float64)
+    return v, np.array([[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]], dtype=np.int64)
+
+
+def test_an_inward_shell_no_body_holds_is_dropped_a_cavity_kept():
+    """A 10 mm box beside an inside-out sliver 0.1 mm across: the sliver, which no
+    body holds, goes; a 2 mm cavity inside the box (wound into the void) stays."""
+    from texcad.solid.repair import _shell_volumes, _without_stray_cavities
+
+    b = trimesh.creation.box((10.0, 10.0, 10.0))
+    cav = trimesh.creation.box((2.0, 2.0, 2.0))
+    tv, tf = _inside_out_tetra((7.0, 0.0, 0.0))
+    v = np.vstack([b.vertices, cav.vertices, tv])
+    f = np.vstack([b.faces, cav.faces[:, ::-1] + 8, tf + 16]).astype(np.int64)
+    rv, rf, bodies = _without_stray_cavities(v, f, 2, "the mesh")
+    vols = np.sort(_shell_volumes(rv, rf)[1])
+    assert bodies == 1 and len(vols) == 2
+    assert vols == pytest.approx([-8.0, 1000.0])
+
+
+def test_a_cavity_the_union_leaves_inside_the_body_stays(monkeypatch):
+    """Only inward shells that no body holds go: a void 0.1 mm across inside the
+    spiked box, left by the self-union, stays a void of that box (one body)."""
+    import igl.copyleft.cgal as cgal
+
+    from texcad.solid.repair import _shell_volumes, resolve_crossings
+
+    union = cgal.mesh_boolean
+
+    def with_void(*args):
+        uv, uf, j = union(*args)
+        tv, tf = _inside_out_tetra((2.0, 2.0, 0.0))
+        return np.vstack([uv, tv]), np.vstack([uf, tf + len(uv)]), j
+
+    monkeypatch.setattr(cgal, "mesh_boolean", with_void)
+    rv, rf, rep = resolve_crossings(*_spiked_box())
+    assert rep is not None and rep.bodies == 1
+    vols = _shell_volumes(rv, rf)[1]
+    assert len(vols) == 2 and vols.min() == pytest.approx(-0.1**3 / 6, rel=1e-5)  # float32 corners
+
+
 def test_edges_too_short_after_the_union_are_collapsed(monkeypatch):
     """A spike leaving the bottom 1 um beside a vertex: with the union's vertices
     snapped at 1e-8 mm only, its edges of about 1 um are too short to texture
