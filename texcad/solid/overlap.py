@@ -155,10 +155,10 @@ def split_bodies(vertices: np.ndarray, faces: np.ndarray) -> BodySplit:
     members: list[list[int]] = [[int(s)] for s in outer]
     faults = []
     for c in np.flatnonzero(signed < 0):  # per cavity wall: the smallest body that holds it
-        vc = -signed[c]
+        vc = own[c].volume()  # manifold3d's volumes throughout: its solids can differ from the signed sums
         cands = outer[np.all((lo[outer] <= lo[c]) & (hi[outer] >= hi[c]), axis=1)]
         for s in cands[np.argsort(signed[cands])]:
-            if signed[s] + vc - (own[s] + own[c]).volume() >= vc * (1 - REL_VOLUME):  # all of it inside
+            if own[s].volume() + vc - (own[s] + own[c]).volume() >= vc * (1 - REL_VOLUME):  # all of it inside
                 body[c] = body[s]
                 members[body[s]].append(int(c))
                 if len((own[s] - own[c]).decompose()) < 2:  # it reaches the wall

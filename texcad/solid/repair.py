@@ -551,29 +551,6 @@ def _without_slivers(v: np.ndarray, f: np.ndarray, least: float, name: str):
     return repair_closed(v, f[keep[label]], name=name)
 
 
-def _without_stray_cavities(v: np.ndarray, f: np.ndarray, bodies: int, name: str):
-    """``(v, f, bodies)`` without the inward shells that no body holds.
-
-    The self-union's surface bounds the region of positive winding number, so each of
-    its inward shells (negative signed volume) is the wall of a void inside a body.
-    One that no body holds (:func:`texcad.solid.overlap.split_bodies` makes it an
-    inside-out body of its own) is a sliver where the union's surfaces met, wound
-    the wrong way round: a 0.0009 mm^3 shell between two features of Prusa's Core One
-    L gantry, which the gate then took for a body touching another. It is dropped
-    (the void filled); the caller's volume check bounds what that changes."""
-    from .overlap import split_bodies
-
-    label, vol = _shell_volumes(v, f)
-    if not np.any(vol < 0):
-        return v, f, bodies
-    split = split_bodies(v, f)
-    alone = np.bincount(split.body, minlength=int(split.body.max()) + 1) == 1  # bodies of one shell
-    stray = (split.signed < 0) & alone[split.body]
-    if not stray.any():
-        return v, f, bodies
-    return repair_closed(v, f[~stray[label]], name=name)
-
-
 def _snap(v: np.ndarray, f: np.ndarray, d: float) -> np.ndarray:
     """``f`` with every vertex within ``d`` mm of another (transitively) replaced by the
     first of its cluster (scipy's k-d tree: pairs across grid lines too)."""
@@ -683,7 +660,6 @@ def resolve_crossings(vertices: np.ndarray, faces: np.ndarray, *, name: str = "t
             break
     else:
         _unrepaired(v, f, cross, name, "its outer surface touches itself along edges or still crosses")
-    rv, rf, bodies = _without_stray_cavities(rv, rf, bodies, name)
     after = _volume(rv, rf)
     if abs(after - before) > MAX_VOLUME_CHANGE * abs(before) or bodies > shells:  # a large change, or bodies split off
         return v, f, None
