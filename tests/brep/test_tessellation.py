@@ -133,3 +133,26 @@ def test_bulk_read_of_occt_triangles_matches_node_by_node():
     assert np.array_equal(canon(ta), canon(tb))
     signed = lambda t: np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])).sum() / 6  # outward alike
     assert signed(ta) == pytest.approx(signed(tb), rel=1e-9) and signed(ta) > 0
+
+
+def test_closed_shape_mesh_repairs_a_tessellation_wound_wrong(monkeypatch):
+    """A heat sink enclosure STEP (sdu-multiphysics' competition files) has a solid
+    that OCCT meshes with an edge in four triangles and two wound the wrong way;
+    both tessellations gave it so, the 3MF writer refused it ("not watertight") and
+    the textured assembly could not be written. Here both give a box with one
+    triangle turned over: texcad's repair winds it back, closed, with the box's
+    volume."""
+    from texcad.brep import closed_shape_mesh, shape_to_mesh
+    from texcad.solid import Mesh
+
+    box = Box(10, 10, 10)
+    m = shape_to_mesh(box)
+    f = m.faces.copy()
+    f[0] = f[0, ::-1]
+    bad = Mesh(m.vertices, f)
+    assert not bad.is_watertight
+
+    monkeypatch.setattr(tessellation, "shape_to_mesh", lambda *a, **k: bad)
+    monkeypatch.setattr(tessellation, "part_tessellation", lambda *a, **k: type("P", (), {"mesh": bad})())
+    out = closed_shape_mesh(box)
+    assert out.is_watertight and out.volume == pytest.approx(1000.0, rel=1e-6)

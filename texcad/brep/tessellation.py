@@ -217,20 +217,50 @@ def closed_shape_mesh(shape: Any, *, tolerance: float = 0.01, angular_tolerance:
     a cone bounded by one wire of 75 edges meshed as 12 triangles) the healed
     tessellation texcad textures parts with (:func:`part_tessellation` at
     ``tolerance`` and ``angular_tolerance``: finer, cleaned, welded, split at 90
-    degrees, sewn), so that a closed part is not shown or reported open. A shape
-    that stays open after healing comes back as OCCT meshed it."""
+    degrees, sewn), and last texcad's mesh repair (:func:`texcad.solid.repair_closed`:
+    a solid of a heat sink enclosure STEP meshed with an edge in four triangles and
+    two wound the wrong way, which manifold3d takes but no STL or 3MF writer does), so that a closed part is
+    not shown, reported or refused as open. A shape that stays open comes back as
+    OCCT meshed it. Closed means both: every edge in two triangles wound opposite
+    ways (``Mesh.is_watertight``) and a valid manifold3d solid."""
     from .occt import to_topods
 
     mesh = shape_to_mesh(shape, tolerance=tolerance, angular_tolerance=angular_tolerance, refine=refine)
+    if _closed(mesh):
+        return mesh
+    try:
+        healed = part_tessellation(to_topods(shape), tolerance, angular_tolerance).mesh
+    except GeometryError:
+        healed = mesh
+    if _closed(healed):
+        return healed
+    return _repaired(healed) or _repaired(mesh) or mesh
+
+
+def _closed(mesh: Mesh) -> bool:
+    """Every edge of ``mesh`` in two triangles wound opposite ways, and manifold3d
+    takes it as a solid."""
+    if not mesh.is_watertight:
+        return False
     try:
         to_manifold(mesh)
-        return mesh
     except GeometryError:
-        pass
+        return False
+    return True
+
+
+def _repaired(mesh: Mesh) -> "Mesh | None":
+    """``mesh`` through :func:`texcad.solid.repair_closed` (merged, cleaned, wound
+    outward), or None where that leaves no closed mesh."""
+    from ..errors import TexcadError
+    from ..solid import repair_closed
+
     try:
-        return part_tessellation(to_topods(shape), tolerance, angular_tolerance).mesh
-    except GeometryError:
-        return mesh
+        v, f, _ = repair_closed(mesh.vertices, mesh.faces)
+    except TexcadError:
+        return None
+    out = Mesh(v.astype(np.float32), f.astype(np.uint32))
+    return out if _closed(out) else None
 
 
 def part_tessellation(topo, tolerance: float = TESSELLATION, angle: float = 0.1) -> PartMesh:
