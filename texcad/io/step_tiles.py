@@ -1946,6 +1946,28 @@ def _keep(p: np.ndarray, t: np.ndarray, tol: float, misses: np.ndarray | None = 
     return np.asarray(kept)
 
 
+def _greedy(misses: np.ndarray | None, n: int, tols: np.ndarray) -> np.ndarray:
+    """``(len(tols), n)`` bool: the points :func:`_keep` keeps (without ``new``) at
+    each tolerance in ``tols`` (mm), all at once: each point's farthest chord that
+    holds (its jump), and the chain of jumps from the first point followed by
+    pointer doubling (a jump of ``2**r`` points each round)."""
+    f = len(tols)
+    if misses is None:
+        return np.ones((f, n), bool)
+    ok = misses[None] <= np.asarray(tols, np.float64)[:, None, None]  # (f, i, s)
+    i = np.arange(n)
+    last = ok.shape[2] - 1 - np.argmax(ok[..., ::-1], axis=2)  # the longest chord that holds
+    jump = np.minimum(np.where(ok.any(2), i + 1 + last, i + 1), n - 1)  # (f, i)
+    on = np.zeros((f, n), bool)
+    on[:, 0] = True
+    rows = np.arange(f)[:, None]
+    for _ in range(max(1, int(n - 1).bit_length())):  # log2(n) rounds
+        at = np.nonzero(on)
+        on[at[0], jump[at]] = True
+        jump = jump[rows, jump]
+    return on
+
+
 def _cheapest(ok: np.ndarray, cost: np.ndarray) -> np.ndarray:
     """Indices of the chain of chords from the first point to the last (``ok[i, s]``:
     the chord from ``i`` to ``i + 1 + s`` holds) whose kept points cost least
@@ -1970,10 +1992,37 @@ def _misses(p: np.ndarray, t: np.ndarray) -> np.ndarray | None:
     """``(n, s)``: the largest distance (mm) from the chord between point ``i`` and
     point ``i + 1 + s`` (chords up to :data:`SPAN` long) to the points it skips, over
     the ``m`` polylines of ``p`` (``(n, m, 3)`` mm at the parameters ``t``); None
-    when there are too few points or too many to compare (then every point stays)."""
+    when there are too few points or too many to compare (then every point stays).
+    Only the pairs (skipped point ``i + q``, chord end ``i + s``) with ``q < s`` are
+    computed (half of the ``(q, s)`` square; the chord's ends clipped to the last
+    point), each number as :func:`_misses_reference` computes it."""
     n = len(t)
     w_ = min(n - 1, SPAN)
     if n <= 2 or n * w_**2 * p.shape[1] > 4_000_000:  # a tile's 25 x 25 points: 40 k (a strip's 166 x 25: 0.27 M)
+        return None
+    qs, ss = np.triu_indices(w_ + 1, 1)  # (q, s), 0 <= q < s <= w_, ordered by q then s
+    pair = qs > 0
+    order = np.argsort(ss[pair], kind="stable")
+    q, s = qs[pair][order], ss[pair][order]  # by chord length s, then skipped point q
+    i = np.arange(n)[:, None]
+    j = np.minimum(i + s, n - 1)  # (i, pair): the chord's end
+    k = np.minimum(i + q, n - 1)  # (i, pair): the point it skips
+    span = t[j] - t[i]
+    w = np.clip((t[k] - t[i]) / np.where(span > 0, span, 1.0), 0.0, 1.0)[..., None, None]  # (i, pair, 1, 1)
+    chord = p[i] * (1 - w) + p[j] * w  # (i, pair, m, 3)
+    d = np.where(k < j, np.sqrt(((chord - p[k]) ** 2).sum(-1)).max(-1), 0.0)  # (i, pair)
+    out = np.zeros((n, w_))
+    first = np.searchsorted(s, np.arange(2, w_ + 1))  # each chord length's first pair (s = 1 skips none)
+    out[:, 1:] = np.maximum.reduceat(d, first, axis=1)
+    return out
+
+
+def _misses_reference(p: np.ndarray, t: np.ndarray) -> np.ndarray | None:
+    """:func:`_misses` over the whole ``(q, s)`` square (the reference its tests
+    compare with)."""
+    n = len(t)
+    w_ = min(n - 1, SPAN)
+    if n <= 2 or n * w_**2 * p.shape[1] > 4_000_000:
         return None
     i = np.arange(n)[:, None, None]
     j = np.minimum(i + np.arange(1, w_ + 1)[None, None, :], n - 1)  # (i, 1, s): chords up to SPAN long
@@ -2151,13 +2200,20 @@ def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: 
     not needed by an edge is dropped in turn if the tile still holds without it
     (the fitted poles move into the gap: the least-squares fit spreads a bump over
     wider spans than chords through the points do). All of them when nothing holds."""
-    need_r, need_c = np.flatnonzero(need_r), np.flatnonzero(need_c)
     along_v, along_u = _misses(m, v), _misses(m.transpose(1, 0, 2), u)
-    cand_r = {f: np.union1d(need_r, _keep(m, v, f * tol, along_v)) for f in INNER_SHARES}
-    cand_c = {f: np.union1d(need_c, _keep(m.transpose(1, 0, 2), u, f * tol, along_u)) for f in INNER_SHARES}
+    tols = np.array([f * tol for f in INNER_SHARES])
+    on_r, on_c = _greedy(along_v, len(v), tols) | need_r, _greedy(along_u, len(u), tols) | need_c
+    cand_r = {f: np.flatnonzero(on) for f, on in zip(INNER_SHARES, on_r)}
+    cand_c = {f: np.flatnonzero(on) for f, on in zip(INNER_SHARES, on_c)}
+    need_r, need_c = np.flatnonzero(need_r), np.flatnonzero(need_c)
     pairs = sorted(((len(cand_r[a]) * len(cand_c[b]), a, b) for a in INNER_SHARES for b in INNER_SHARES))
     cache: dict = {}  # the bases of the rows' and columns' knots tried (each direction keeps its own while the other changes)
+    tried = set()  # shares often keep the same rows or columns: each pair is fitted once
     for _, a, b in pairs:  # a few dozen, cheapest first
+        key = (cand_r[a].tobytes(), cand_c[b].tobytes())
+        if key in tried:
+            continue
+        tried.add(key)
         poles = _fitted(m, g, u, v, cand_r[a], cand_c[b], tol, fit, skip, cache)
         if poles is not None:
             rows, cols = cand_r[a], cand_c[b]
