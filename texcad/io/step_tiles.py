@@ -64,7 +64,7 @@ import numpy as np
 from ..brep import TILE, surface_grid, tile_grid
 from ..brep.occt import explore
 from ..util.runs import runs_within
-from .step_edges import joined_edges, lined_edges, polyline3d as _polyline3d
+from .step_edges import joined_edges, lined_edges, polyline3d as _polyline3d, shapes_in
 
 __all__ = ["tiled_step_text"]
 
@@ -267,7 +267,7 @@ def _neighbours(shape, tiles: list, grids: list) -> tuple[dict, dict]:
             faces = ancestors.FindFromKey(edge)
             if not (high_u or high_v) or faces.Size() != 2:
                 continue
-            b = [index.FindIndex(f) - 1 for f in faces if not f.IsSame(face)]
+            b = [index.FindIndex(f) - 1 for f in shapes_in(faces) if not f.IsSame(face)]
             if len(b) != 1 or b[0] < 0 or not whole[b[0]] or tiles[b[0]][1].Orientation() != face.Orientation():
                 continue
             gb, ub, vb = grids[b[0]]
@@ -606,7 +606,7 @@ def _reparametrised(plans: list, tiles: list, ancestors) -> dict:
             if seen.Contains(e):
                 continue
             seen.Add(e)
-            fs = [TopoDS.Face_s(f) for f in ancestors.FindFromKey(e)]
+            fs = [TopoDS.Face_s(f) for f in shapes_in(ancestors.FindFromKey(e))]
             if len(fs) != 2 or fs[0].IsSame(fs[1]) or not all(moved.Contains(f) for f in fs):
                 continue
             j = [which[moved.FindIndex(f)] for f in fs]
@@ -728,7 +728,7 @@ def _fused_sides(shape, traced=None):
     runs: dict = {}  # (face a, face b, iso on a, iso on b) -> [(first, last, edge)]
     for k in range(1, faces_of.Extent() + 1):  # one per edge
         edge = TopoDS.Edge_s(faces_of.FindKey(k))
-        fs = [TopoDS.Face_s(f) for f in faces_of.FindFromIndex(k)]
+        fs = [TopoDS.Face_s(f) for f in shapes_in(faces_of.FindFromIndex(k))]
         if len(fs) != 2 or fs[0].IsSame(fs[1]) or not all(mine.Contains(f) for f in fs):
             continue
         loc = TopLoc_Location()
@@ -812,11 +812,11 @@ def _trace_runs(shape, traced, edges_of) -> list:
     for k in range(1, traced.Extent() + 1):  # one per trace
         e = traced.FindKey(k)
         if faces_of.Contains(e) and faces_of.FindFromKey(e).Size() == 2:
-            pair[k] = tuple(sorted(fmap.FindIndex(f) for f in faces_of.FindFromKey(e)))
+            pair[k] = tuple(sorted(fmap.FindIndex(f) for f in shapes_in(faces_of.FindFromKey(e))))
     def after(k: int, forward: bool):  # the next trace of the run past an end, with its direction
         e = TopoDS.Edge_s(traced.FindKey(k))
         v = TopExp.LastVertex_s(e, True) if forward else TopExp.FirstVertex_s(e, True)
-        nxt = [TopoDS.Edge_s(x) for x in edges_of.FindFromKey(v) if not x.IsSame(e)]
+        nxt = [TopoDS.Edge_s(x) for x in shapes_in(edges_of.FindFromKey(v)) if not x.IsSame(e)]
         if len(nxt) != 1 or not traced.Contains(nxt[0]) or pair.get(traced.FindIndex(nxt[0])) != pair[k]:
             return None
         j = traced.FindIndex(nxt[0])
@@ -836,7 +836,7 @@ def _trace_runs(shape, traced, edges_of) -> list:
             at = after(*at)
         seen.update(r for r, _ in run)
         if len(run) > 1 and run[-1][0] != start:
-            faces = [TopoDS.Face_s(f) for f in faces_of.FindFromKey(traced.FindKey(start))]
+            faces = [TopoDS.Face_s(f) for f in shapes_in(faces_of.FindFromKey(traced.FindKey(start)))]
             out.append(([(TopoDS.Edge_s(traced.FindKey(r)), TopAbs_FORWARD if f else TopAbs_REVERSED) for r, f in run], faces))
     return out
 
@@ -1284,7 +1284,7 @@ def _wall_links(shape, tiles: list, grids: list) -> dict:
             e = TopoDS.Edge_s(e)
             if not isinstance(BRep_Tool.CurveOnSurface_s(e, face, 0.0, 0.0), Geom2d_Line):  # not a ruling
                 continue
-            owners = [TopoDS.Face_s(f) for f in ancestors.FindFromKey(e)]
+            owners = [TopoDS.Face_s(f) for f in shapes_in(ancestors.FindFromKey(e))]
             if len(owners) != 2 or _iso(e, face) != (0, float(round(u[-1], 12))):
                 continue
             other = owners[1] if owners[0].IsSame(face) else owners[0]
@@ -1513,7 +1513,7 @@ def _fitted_traces(b, shape, tol: float, rounding: float = 0.0):
     done = TopTools_IndexedMapOfShape()
     for k in range(1, ancestors.Extent() + 1):  # one per edge
         edge = TopoDS.Edge_s(ancestors.FindKey(k))
-        faces = [TopoDS.Face_s(f) for f in ancestors.FindFromIndex(k)]
+        faces = [TopoDS.Face_s(f) for f in shapes_in(ancestors.FindFromIndex(k))]
         loc = TopLoc_Location()
         curve = BRep_Tool.Curve_s(edge, loc, 0.0, 0.0)
         if (not isinstance(curve, Geom_BSplineCurve) or curve.Degree() < 2 or not loc.IsIdentity()
@@ -1827,7 +1827,7 @@ def _sides(shape, tiles: list, grids: list) -> list:
             edge = TopoDS.Edge_s(exp.Current())
             exp.Next()
             faces = ancestors.FindFromKey(edge)
-            shared = faces.Size() == 2 and all(mine.Contains(f) for f in faces) and not BRep_Tool.IsClosed_s(edge, face)
+            shared = faces.Size() == 2 and all(mine.Contains(f) for f in shapes_in(faces)) and not BRep_Tool.IsClosed_s(edge, face)
             plane = None if shared else _plane_beside(faces, face)
             u0, u1, v0, v1 = BRepTools.UVBounds_s(face, edge)  # the pcurve's box (a hole's circle too)
             eu, ev = 1e-9 * (1 + abs(u).max()), 1e-9 * (1 + abs(v).max())
@@ -2328,7 +2328,7 @@ def _plane_beside(faces, face):
 
     if faces.Size() != 2:
         return None
-    other = [TopoDS.Face_s(f) for f in faces if not f.IsSame(face)]
+    other = [TopoDS.Face_s(f) for f in shapes_in(faces) if not f.IsSame(face)]
     if len(other) != 1 or not isinstance(BRep_Tool.Surface_s(other[0]), Geom_Plane):
         return None
     return other[0]
