@@ -329,3 +329,49 @@ def test_dense_numbers_the_most_referred_first():
     lines = _dense(many).split(b"\n")[:-1]
     assert all(len(line) <= LINE and line.endswith(b";") for line in lines) and len(lines) <= 50
     assert sorted(int(x) for x in re.findall(rb"#(\d+)=", _dense(many))) == list(range(1, 200))
+
+
+def _rough_polylines(rng, n: int, m: int):
+    """``m`` rough polylines of ``n`` points (mm) at uneven, increasing parameters
+    (two equal where there are enough: a span of zero length)."""
+    p = rng.normal(size=(n, m, 3)) * np.array([1.0, 1.0, 0.05])
+    t = np.cumsum(rng.uniform(0.2, 2.0, n))
+    if n > 5:
+        t[4] = t[3]
+    return p, t
+
+
+def test_misses_over_the_pairs_that_count_are_the_whole_squares():
+    """texcad.io.step_tiles._misses computes a chord's misses only over the points it
+    skips (half of the (skipped point, chord end) square): the same numbers, bit for
+    bit, as the whole square (_misses_reference), on polylines shorter and longer
+    than SPAN, one and several at once."""
+    from texcad.io.step_tiles import SPAN, _misses, _misses_reference
+
+    rng = np.random.default_rng(7)
+    for n in range(1, 3 * SPAN + 2):  # one per length
+        for m in (1, 5):
+            p, t = _rough_polylines(rng, n, m)
+            got, want = _misses(p, t), _misses_reference(p, t)
+            assert (got is None) == (want is None), n
+            if want is not None:
+                assert got.shape == want.shape and np.array_equal(got, want), n
+
+
+def test_greedy_keeps_at_every_share_what_keep_keeps():
+    """texcad.io.step_tiles._greedy (every tolerance at once, the chain of longest
+    chords followed by pointer doubling) keeps the points _keep keeps one tolerance at
+    a time, at each of a tile's shares (INNER_SHARES) of a tolerance."""
+    from texcad.io.step_tiles import INNER_SHARES, _greedy, _keep, _misses
+
+    rng = np.random.default_rng(8)
+    for n in (1, 2, 3, 5, 9, 17, 25, 40):  # one per length
+        for scale in (0.01, 0.1, 1.0):  # from keeping every point to keeping few
+            p, t = _rough_polylines(rng, n, 3)
+            p *= scale
+            misses = _misses(p, t)
+            tols = np.array([f * 0.05 for f in INNER_SHARES])
+            on = _greedy(misses, n, tols)
+            assert on.shape == (len(tols), n)
+            for tol, row in zip(tols.tolist(), on):  # one per share
+                assert np.array_equal(np.flatnonzero(row), _keep(p, t, tol, misses)), (n, scale, tol)

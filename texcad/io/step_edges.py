@@ -144,8 +144,10 @@ def shapes_in(shapes) -> list:
     from OCP.TopTools import TopTools_ListOfShape
 
     n = shapes.Size()
+    if n == 0:
+        return []
     if n <= 2:
-        return [shapes.First(), shapes.Last()][2 - n :] if n == 2 else [shapes.First()] * n
+        return [shapes.First(), shapes.Last()] if n == 2 else [shapes.First()]
     rest, out = TopTools_ListOfShape(), []
     rest.Assign(shapes)
     while not rest.IsEmpty():  # one per shape of the list (a vertex's edges)
