@@ -375,3 +375,18 @@ def test_greedy_keeps_at_every_share_what_keep_keeps():
             assert on.shape == (len(tols), n)
             for tol, row in zip(tols.tolist(), on):  # one per share
                 assert np.array_equal(np.flatnonzero(row), _keep(p, t, tol, misses)), (n, scale, tol)
+
+
+def test_weighted_pair_is_each_weighted_alone():
+    """texcad.io.step_tiles._weighted_pair solves a tile's rows and columns together
+    when their bases have the same shape: the same numbers, bit for bit, as
+    _weighted for each, as when the shapes differ."""
+    from texcad.io.step_tiles import _hats, _weighted, _weighted_pair
+
+    rng = np.random.default_rng(9)
+    t = np.arange(25, dtype=np.float64)
+    for kv, ku in (([0, 3, 7, 12, 18, 24], [0, 2, 9, 13, 20, 24]), ([0, 5, 11, 24], [0, 4, 8, 16, 20, 24])):
+        hv, hu = _hats(t, np.array(kv))[:, 1:-1], _hats(t, np.array(ku))[:, 1:-1]
+        wv, wu = rng.uniform(1e-3, 1.0, 25), rng.uniform(1e-3, 1.0, 25)
+        got = _weighted_pair(hv, wv, hu, wu)
+        assert np.array_equal(got[0], _weighted(hv, wv)) and np.array_equal(got[1], _weighted(hu, wu))

@@ -2404,9 +2404,10 @@ def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np
     rest = gk - mv @ pk @ mu.T
     pk[:, 1:-1, 1:-1] = iv @ rest @ iu.T
     miss = np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0))
-    if miss[keep].max(initial=0.0) <= tol:
+    most = miss[keep].max(initial=0.0)
+    if most <= tol:
         return pk.transpose(1, 2, 0)
-    if miss[keep].max(initial=0.0) > REACH * tol:
+    if most > REACH * tol:
         return None
     counted = np.ones(miss.shape, bool) if skip is None else ~skip
     wr, wc = np.ones(len(v)), np.ones(len(u))
@@ -2414,7 +2415,8 @@ def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np
         worst = np.where(counted, miss, 0.0)
         wr, wc = wr * (worst.max(1) + 1e-3 * tol), wc * (worst.max(0) + 1e-3 * tol)
         wr, wc = wr / wr.max(), wc / wc.max()
-        pk[:, 1:-1, 1:-1] = _weighted(mv[:, 1:-1], wr) @ rest @ _weighted(mu[:, 1:-1], wc).T
+        by_v, by_u = _weighted_pair(mv[:, 1:-1], wr, mu[:, 1:-1], wc)
+        pk[:, 1:-1, 1:-1] = by_v @ rest @ by_u.T
         miss = np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0))
         if miss[keep].max(initial=0.0) <= tol:
             return pk.transpose(1, 2, 0)
@@ -2425,7 +2427,31 @@ def _weighted(h: np.ndarray, w: np.ndarray) -> np.ndarray:
     """The weighted least-squares solver ``(h^T W h)^-1 h^T W`` of a basis ``h``
     (``(n, k)``) with weights ``w`` (``n``) on its rows."""
     hw = h.T * w
-    return np.linalg.solve(hw @ h + 1e-12 * np.eye(h.shape[1]), hw)
+    return np.linalg.solve(hw @ h + _ridge(h.shape[1]), hw)
+
+
+def _weighted_pair(hv: np.ndarray, wv: np.ndarray, hu: np.ndarray, wu: np.ndarray) -> tuple:
+    """:func:`_weighted` of the bases ``hv`` and ``hu`` (a tile's rows and columns)
+    with their weights: one LAPACK call on the two stacked when they have the same
+    shape (each the same numbers as alone), else one each."""
+    if hv.shape != hu.shape:
+        return _weighted(hv, wv), _weighted(hu, wu)
+    hwv, hwu = hv.T * wv, hu.T * wu
+    got = np.linalg.solve(np.stack([hwv @ hv, hwu @ hu]) + _ridge(hv.shape[1]), np.stack([hwv, hwu]))
+    return got[0], got[1]
+
+
+_RIDGES: dict = {}
+
+
+def _ridge(k: int) -> np.ndarray:
+    """``1e-12`` times the ``k x k`` identity (read-only, made once per ``k``): what
+    :func:`_weighted` adds to its normal equations."""
+    got = _RIDGES.get(k)
+    if got is None:
+        got = _RIDGES[k] = 1e-12 * np.eye(k)
+        got.flags.writeable = False
+    return got
 
 
 #: How far (times the tolerance) a tile's least-squares fit may miss before it is
