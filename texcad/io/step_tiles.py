@@ -1972,19 +1972,23 @@ def _cheapest(ok: np.ndarray, cost: np.ndarray) -> np.ndarray:
     """Indices of the chain of chords from the first point to the last (``ok[i, s]``:
     the chord from ``i`` to ``i + 1 + s`` holds) whose kept points cost least
     (``cost`` per point; the first is free); ties go to the longer chords. Dynamic
-    programming over the points of one edge (tens)."""
+    programming over the points of one edge (tens): the chords into each point are
+    found for all points at once, and the recurrence (each point's cost on its
+    cheapest start, sequential by nature) runs on Python floats, the same sums as
+    numpy's float64."""
     n, w = len(cost), ok.shape[1]
-    best, prev = np.full(n, np.inf), np.zeros(n, np.int64)
-    best[0] = 0.0
-    for j in range(1, n):  # one per point of the edge
-        i = j - 1 - np.arange(w)
-        s = np.flatnonzero((i >= 0) & ((i == j - 1) | ok[np.maximum(i, 0), np.arange(w)]))
-        cand = i[s][::-1]  # the longest chord first
-        at = cand[np.argmin(best[cand])]
-        best[j], prev[j] = best[at] + cost[j], at
+    j = np.arange(n)[:, None]
+    start = j - 1 - np.arange(w)  # (j, s): where the chord into j, s + 1 points long, starts
+    into = (start >= 0) & ((start == j - 1) | ok[np.maximum(start, 0), np.arange(w)])
+    starts, ends = start[into].tolist(), np.r_[0, np.cumsum(into.sum(1))].tolist()  # per point: its starts, shortest first
+    price = cost.tolist()
+    best, prev = [0.0] + [np.inf] * (n - 1), [0] * n
+    for k in range(1, n):  # one per point of the edge (the recurrence)
+        at = min(reversed(starts[ends[k] : ends[k + 1]]), key=best.__getitem__)  # the longest chord among the cheapest
+        best[k], prev[k] = best[at] + price[k], at
     kept = [n - 1]
     while kept[-1] > 0:  # one per kept point
-        kept.append(int(prev[kept[-1]]))
+        kept.append(prev[kept[-1]])
     return np.asarray(kept[::-1])
 
 
@@ -1995,7 +1999,7 @@ def _misses(p: np.ndarray, t: np.ndarray) -> np.ndarray | None:
     when there are too few points or too many to compare (then every point stays).
     Only the pairs (skipped point ``i + q``, chord end ``i + s``) with ``q < s`` are
     computed (half of the ``(q, s)`` square; the chord's ends clipped to the last
-    point), each number as :func:`_misses_reference` computes it."""
+    point), each number as over the whole square."""
     n = len(t)
     w_ = min(n - 1, SPAN)
     if n <= 2 or n * w_**2 * p.shape[1] > 4_000_000:  # a tile's 25 x 25 points: 40 k (a strip's 166 x 25: 0.27 M)
@@ -2015,23 +2019,6 @@ def _misses(p: np.ndarray, t: np.ndarray) -> np.ndarray | None:
     first = np.searchsorted(s, np.arange(2, w_ + 1))  # each chord length's first pair (s = 1 skips none)
     out[:, 1:] = np.maximum.reduceat(d, first, axis=1)
     return out
-
-
-def _misses_reference(p: np.ndarray, t: np.ndarray) -> np.ndarray | None:
-    """:func:`_misses` over the whole ``(q, s)`` square (the reference its tests
-    compare with)."""
-    n = len(t)
-    w_ = min(n - 1, SPAN)
-    if n <= 2 or n * w_**2 * p.shape[1] > 4_000_000:
-        return None
-    i = np.arange(n)[:, None, None]
-    j = np.minimum(i + np.arange(1, w_ + 1)[None, None, :], n - 1)  # (i, 1, s): chords up to SPAN long
-    k = np.minimum(i + np.arange(1, w_)[None, :, None], n - 1)  # (i, q, 1): the points they skip
-    span = t[j] - t[i]  # 0 only for the last point's (empty) chords
-    w = np.clip((t[k] - t[i]) / np.where(span > 0, span, 1.0), 0.0, 1.0)[..., None, None]  # (i, q, s, 1, 1)
-    chord = p[i] * (1 - w) + p[j] * w  # (i, q, s, m, 3)
-    d = np.sqrt(((chord - p[k]) ** 2).sum(-1)).max(-1)  # (i, q, s)
-    return np.where(k < j, d, 0.0).max(1)  # (i, s): the chord from i, s + 1 points on, its largest miss
 
 
 def _even_t(t: np.ndarray) -> np.ndarray:
