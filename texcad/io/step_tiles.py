@@ -2182,7 +2182,7 @@ def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: 
     (``(R, C, 3)`` mm at the parameters ``v``, ``u``), ``need_r``/``need_c`` (bool)
     the rows and columns its edges keep. Candidate rows and columns are those whose
     chords stay within each share of the tolerance (:data:`INNER_SHARES`, each
-    direction on its own, :func:`_keep`); the pair with the fewest poles that holds
+    direction on its own, :func:`_greedy`); the pair with the fewest poles that holds
     within ``tol`` on every grid point is taken, then each interior row and column
     not needed by an edge is dropped in turn if the tile still holds without it
     (the fitted poles move into the gap: the least-squares fit spreads a bump over
