@@ -182,3 +182,33 @@ def _assert_reads_back_whole(path, tx):
     assert abs(occt_volume(back) - tx.volume) <= room and abs(props.Mass() - tx.volume) <= room
     assert shape_to_mesh(back, tolerance=0.1, angular_tolerance=0.5).is_watertight
     return back
+
+
+def test_shapes_in_lists_what_iterating_lists():
+    """texcad.io.step_edges.shapes_in gives the shapes of a TopTools_ListOfShape in
+    the order OCP's (slow) Python iteration gives them: an edge's two faces, a
+    vertex's three edges, a list of one and an empty one; the list is left as it was."""
+    from build123d import Box
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_VERTEX
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape, TopTools_ListOfShape
+
+    from texcad.io.step_edges import shapes_in
+
+    box = Box(3, 2, 1).wrapped
+    lists = []
+    for kind, up in ((TopAbs_EDGE, TopAbs_FACE), (TopAbs_VERTEX, TopAbs_EDGE)):  # edge -> faces, vertex -> edges
+        m = TopTools_IndexedDataMapOfShapeListOfShape()
+        TopExp.MapShapesAndAncestors_s(box, kind, up, m)
+        lists += [m.FindFromIndex(k) for k in range(1, m.Extent() + 1)]
+    one = TopTools_ListOfShape()
+    one.Append(lists[0].First())
+    lists += [one, TopTools_ListOfShape()]
+    sizes = {x.Size() for x in lists}
+    assert {0, 1, 2} <= sizes and max(sizes) > 2, sizes
+    for x in lists:  # one per list
+        want = [s for s in x]
+        got = shapes_in(x)
+        assert len(got) == len(want) == x.Size()
+        assert all(a.IsEqual(b) for a, b in zip(got, want))
+        assert x.Size() == len(want) and all(a.IsEqual(b) for a, b in zip([s for s in x], want))

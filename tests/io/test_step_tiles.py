@@ -329,3 +329,120 @@ def test_dense_numbers_the_most_referred_first():
     lines = _dense(many).split(b"\n")[:-1]
     assert all(len(line) <= LINE and line.endswith(b";") for line in lines) and len(lines) <= 50
     assert sorted(int(x) for x in re.findall(rb"#(\d+)=", _dense(many))) == list(range(1, 200))
+
+
+def _rough_polylines(rng, n: int, m: int):
+    """``m`` rough polylines of ``n`` points (mm) at uneven, increasing parameters
+    (two equal where there are enough: a span of zero length)."""
+    p = rng.normal(size=(n, m, 3)) * np.array([1.0, 1.0, 0.05])
+    t = np.cumsum(rng.uniform(0.2, 2.0, n))
+    if n > 5:
+        t[4] = t[3]
+    return p, t
+
+
+def _misses_whole_square(p: np.ndarray, t: np.ndarray) -> np.ndarray | None:
+    """texcad.io.step_tiles._misses as it was, over the whole (skipped point, chord
+    end) square: the reference the faster one is compared with."""
+    from texcad.io.step_tiles import SPAN
+
+    n = len(t)
+    w_ = min(n - 1, SPAN)
+    if n <= 2 or n * w_**2 * p.shape[1] > 4_000_000:
+        return None
+    i = np.arange(n)[:, None, None]
+    j = np.minimum(i + np.arange(1, w_ + 1)[None, None, :], n - 1)  # (i, 1, s): chords up to SPAN long
+    k = np.minimum(i + np.arange(1, w_)[None, :, None], n - 1)  # (i, q, 1): the points they skip
+    span = t[j] - t[i]  # 0 only for the last point's (empty) chords
+    w = np.clip((t[k] - t[i]) / np.where(span > 0, span, 1.0), 0.0, 1.0)[..., None, None]  # (i, q, s, 1, 1)
+    chord = p[i] * (1 - w) + p[j] * w  # (i, q, s, m, 3)
+    d = np.sqrt(((chord - p[k]) ** 2).sum(-1)).max(-1)  # (i, q, s)
+    return np.where(k < j, d, 0.0).max(1)  # (i, s): the chord from i, s + 1 points on, its largest miss
+
+
+def _cheapest_per_point(ok: np.ndarray, cost: np.ndarray) -> np.ndarray:
+    """texcad.io.step_tiles._cheapest as it was (numpy per point): the reference."""
+    n, w = len(cost), ok.shape[1]
+    best, prev = np.full(n, np.inf), np.zeros(n, np.int64)
+    best[0] = 0.0
+    for j in range(1, n):  # one per point of the edge
+        i = j - 1 - np.arange(w)
+        s = np.flatnonzero((i >= 0) & ((i == j - 1) | ok[np.maximum(i, 0), np.arange(w)]))
+        cand = i[s][::-1]  # the longest chord first
+        at = cand[np.argmin(best[cand])]
+        best[j], prev[j] = best[at] + cost[j], at
+    kept = [n - 1]
+    while kept[-1] > 0:  # one per kept point
+        kept.append(int(prev[kept[-1]]))
+    return np.asarray(kept[::-1])
+
+
+def test_misses_over_the_pairs_that_count_are_the_whole_squares():
+    """texcad.io.step_tiles._misses computes a chord's misses only over the points it
+    skips (half of the (skipped point, chord end) square): the same numbers, bit for
+    bit, as the whole square (as it was), on polylines shorter and longer
+    than SPAN, one and several at once."""
+    from texcad.io.step_tiles import SPAN, _misses
+
+    rng = np.random.default_rng(7)
+    for n in range(1, 3 * SPAN + 2):  # one per length
+        for m in (1, 5):
+            p, t = _rough_polylines(rng, n, m)
+            got, want = _misses(p, t), _misses_whole_square(p, t)
+            assert (got is None) == (want is None), n
+            if want is not None:
+                assert got.shape == want.shape and np.array_equal(got, want), n
+
+
+def test_greedy_keeps_at_every_share_what_keep_keeps():
+    """texcad.io.step_tiles._greedy (every tolerance at once, the chain of longest
+    chords followed by pointer doubling) keeps the points _keep keeps one tolerance at
+    a time, at each of a tile's shares (INNER_SHARES) of a tolerance."""
+    from texcad.io.step_tiles import INNER_SHARES, _greedy, _keep, _misses
+
+    rng = np.random.default_rng(8)
+    for n in (1, 2, 3, 5, 9, 17, 25, 40):  # one per length
+        for scale in (0.01, 0.1, 1.0):  # from keeping every point to keeping few
+            p, t = _rough_polylines(rng, n, 3)
+            p *= scale
+            misses = _misses(p, t)
+            tols = np.array([f * 0.05 for f in INNER_SHARES])
+            on = _greedy(misses, n, tols)
+            assert on.shape == (len(tols), n)
+            for tol, row in zip(tols.tolist(), on):  # one per share
+                assert np.array_equal(np.flatnonzero(row), _keep(p, t, tol, misses)), (n, scale, tol)
+
+
+def test_weighted_pair_is_each_weighted_alone():
+    """texcad.io.step_tiles._weighted_pair solves a tile's rows and columns together
+    when their bases have the same shape: the same numbers, bit for bit, as
+    _weighted for each, as when the shapes differ."""
+    from texcad.io.step_tiles import _hats, _weighted, _weighted_pair
+
+    rng = np.random.default_rng(9)
+    t = np.arange(25, dtype=np.float64)
+    for kv, ku in (([0, 3, 7, 12, 18, 24], [0, 2, 9, 13, 20, 24]), ([0, 5, 11, 24], [0, 4, 8, 16, 20, 24])):
+        hv, hu = _hats(t, np.array(kv))[:, 1:-1], _hats(t, np.array(ku))[:, 1:-1]
+        wv, wu = rng.uniform(1e-3, 1.0, 25), rng.uniform(1e-3, 1.0, 25)
+        got = _weighted_pair(hv, wv, hu, wu)
+        assert np.array_equal(got[0], _weighted(hv, wv)) and np.array_equal(got[1], _weighted(hu, wu))
+
+
+def test_cheapest_chain_is_the_per_point_one():
+    """texcad.io.step_tiles._cheapest (the chords into every point found at once, the
+    recurrence on Python floats) keeps the chain the numpy-per-point dynamic
+    programme keeps, ties to the longer chords included: edges of every length, from
+    every chord holding to none, the tiles' costs per point (halves: 0.5 a point, one
+    more per tile it adds a row or column to) and uneven ones."""
+    from texcad.io.step_tiles import NEW_POINT, SPAN, _cheapest, _misses
+
+    rng = np.random.default_rng(10)
+    for n in (2, 3, 5, 9, 17, 25, 40):  # one per length
+        for scale in (0.0, 0.01, 0.1, 1.0):
+            p, t = _rough_polylines(rng, n, 1)
+            misses = _misses(p * scale, t)
+            if misses is None:
+                misses = np.zeros((n, min(n - 1, SPAN)))
+            ok = misses <= 0.05
+            for cost in (NEW_POINT + rng.integers(0, 3, n).astype(np.float64), rng.uniform(0.1, 2.0, n)):
+                assert np.array_equal(_cheapest(ok, cost), _cheapest_per_point(ok, cost)), (n, scale)

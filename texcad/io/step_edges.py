@@ -136,6 +136,26 @@ def _seamed(shape, fmap) -> set:
     return out
 
 
+def shapes_in(shapes) -> list:
+    """The shapes of a ``TopTools_ListOfShape`` (an edge's faces, a vertex's edges), in
+    order. OCP's Python iteration over such a list takes about 0.1 ms a shape (the
+    demo plate's thousands of edges: seconds); its head and tail, or a copy emptied
+    from the head, take microseconds."""
+    from OCP.TopTools import TopTools_ListOfShape
+
+    n = shapes.Size()
+    if n == 0:
+        return []
+    if n <= 2:
+        return [shapes.First(), shapes.Last()] if n == 2 else [shapes.First()]
+    rest, out = TopTools_ListOfShape(), []
+    rest.Assign(shapes)
+    while not rest.IsEmpty():  # one per shape of the list (a vertex's edges)
+        out.append(rest.First())
+        rest.RemoveFirst()
+    return out
+
+
 def _linked(shape) -> list:
     """Runs ``([(edge, forward), ...], [face, face])`` of two or
     more edges end to end between the same two faces, each vertex between them
@@ -157,7 +177,7 @@ def _linked(shape) -> list:
     seamed = _seamed(shape, fmap)
     for k in range(1, ef.Extent() + 1):  # one per edge
         e = TopoDS.Edge_s(ef.FindKey(k).Oriented(TopAbs_FORWARD))
-        fs = [TopoDS.Face_s(f) for f in ef.FindFromIndex(k)]
+        fs = [TopoDS.Face_s(f) for f in shapes_in(ef.FindFromIndex(k))]
         if (len(fs) != 2 or fs[0].IsSame(fs[1]) or BRep_Tool.Degenerated_s(e) or not e.Location().IsIdentity()
                 or any(BRep_Tool.IsClosed_s(e, f) or not f.Location().IsIdentity() or fmap.FindIndex(f) in seamed for f in fs)):  # fmt: skip
             continue
@@ -167,7 +187,7 @@ def _linked(shape) -> list:
 
     def step(k: int, fwd: bool):  # the edge past k's end (its direction), if linked there
         v = ends[k][1 if fwd else 0]
-        es = [ef.FindIndex(x) for x in ve.FindFromIndex(v)]
+        es = [ef.FindIndex(x) for x in shapes_in(ve.FindFromIndex(v))]
         if len(es) != 2 or es[0] == es[1]:
             return None
         j = es[1] if es[0] == k else es[0]
@@ -529,7 +549,7 @@ def lined_edges(shape):
     b, reshape, done = BRep_Builder(), BRepTools_ReShape(), False
     for k in range(1, ef.Extent() + 1):  # one per edge
         e = TopoDS.Edge_s(ef.FindKey(k).Oriented(TopAbs_FORWARD))
-        fs = [TopoDS.Face_s(f) for f in ef.FindFromIndex(k)]
+        fs = [TopoDS.Face_s(f) for f in shapes_in(ef.FindFromIndex(k))]
         if (len(fs) != 2 or fs[0].IsSame(fs[1]) or BRep_Tool.Degenerated_s(e) or not e.Location().IsIdentity()
                 or any(BRep_Tool.IsClosed_s(e, f) or not f.Location().IsIdentity() for f in fs)):  # fmt: skip
             continue

@@ -64,7 +64,7 @@ import numpy as np
 from ..brep import TILE, surface_grid, tile_grid
 from ..brep.occt import explore
 from ..util.runs import runs_within
-from .step_edges import joined_edges, lined_edges, polyline3d as _polyline3d
+from .step_edges import joined_edges, lined_edges, polyline3d as _polyline3d, shapes_in
 
 __all__ = ["tiled_step_text"]
 
@@ -267,7 +267,7 @@ def _neighbours(shape, tiles: list, grids: list) -> tuple[dict, dict]:
             faces = ancestors.FindFromKey(edge)
             if not (high_u or high_v) or faces.Size() != 2:
                 continue
-            b = [index.FindIndex(f) - 1 for f in faces if not f.IsSame(face)]
+            b = [index.FindIndex(f) - 1 for f in shapes_in(faces) if not f.IsSame(face)]
             if len(b) != 1 or b[0] < 0 or not whole[b[0]] or tiles[b[0]][1].Orientation() != face.Orientation():
                 continue
             gb, ub, vb = grids[b[0]]
@@ -606,7 +606,7 @@ def _reparametrised(plans: list, tiles: list, ancestors) -> dict:
             if seen.Contains(e):
                 continue
             seen.Add(e)
-            fs = [TopoDS.Face_s(f) for f in ancestors.FindFromKey(e)]
+            fs = [TopoDS.Face_s(f) for f in shapes_in(ancestors.FindFromKey(e))]
             if len(fs) != 2 or fs[0].IsSame(fs[1]) or not all(moved.Contains(f) for f in fs):
                 continue
             j = [which[moved.FindIndex(f)] for f in fs]
@@ -728,7 +728,7 @@ def _fused_sides(shape, traced=None):
     runs: dict = {}  # (face a, face b, iso on a, iso on b) -> [(first, last, edge)]
     for k in range(1, faces_of.Extent() + 1):  # one per edge
         edge = TopoDS.Edge_s(faces_of.FindKey(k))
-        fs = [TopoDS.Face_s(f) for f in faces_of.FindFromIndex(k)]
+        fs = [TopoDS.Face_s(f) for f in shapes_in(faces_of.FindFromIndex(k))]
         if len(fs) != 2 or fs[0].IsSame(fs[1]) or not all(mine.Contains(f) for f in fs):
             continue
         loc = TopLoc_Location()
@@ -812,11 +812,11 @@ def _trace_runs(shape, traced, edges_of) -> list:
     for k in range(1, traced.Extent() + 1):  # one per trace
         e = traced.FindKey(k)
         if faces_of.Contains(e) and faces_of.FindFromKey(e).Size() == 2:
-            pair[k] = tuple(sorted(fmap.FindIndex(f) for f in faces_of.FindFromKey(e)))
+            pair[k] = tuple(sorted(fmap.FindIndex(f) for f in shapes_in(faces_of.FindFromKey(e))))
     def after(k: int, forward: bool):  # the next trace of the run past an end, with its direction
         e = TopoDS.Edge_s(traced.FindKey(k))
         v = TopExp.LastVertex_s(e, True) if forward else TopExp.FirstVertex_s(e, True)
-        nxt = [TopoDS.Edge_s(x) for x in edges_of.FindFromKey(v) if not x.IsSame(e)]
+        nxt = [TopoDS.Edge_s(x) for x in shapes_in(edges_of.FindFromKey(v)) if not x.IsSame(e)]
         if len(nxt) != 1 or not traced.Contains(nxt[0]) or pair.get(traced.FindIndex(nxt[0])) != pair[k]:
             return None
         j = traced.FindIndex(nxt[0])
@@ -836,7 +836,7 @@ def _trace_runs(shape, traced, edges_of) -> list:
             at = after(*at)
         seen.update(r for r, _ in run)
         if len(run) > 1 and run[-1][0] != start:
-            faces = [TopoDS.Face_s(f) for f in faces_of.FindFromKey(traced.FindKey(start))]
+            faces = [TopoDS.Face_s(f) for f in shapes_in(faces_of.FindFromKey(traced.FindKey(start)))]
             out.append(([(TopoDS.Edge_s(traced.FindKey(r)), TopAbs_FORWARD if f else TopAbs_REVERSED) for r, f in run], faces))
     return out
 
@@ -1284,7 +1284,7 @@ def _wall_links(shape, tiles: list, grids: list) -> dict:
             e = TopoDS.Edge_s(e)
             if not isinstance(BRep_Tool.CurveOnSurface_s(e, face, 0.0, 0.0), Geom2d_Line):  # not a ruling
                 continue
-            owners = [TopoDS.Face_s(f) for f in ancestors.FindFromKey(e)]
+            owners = [TopoDS.Face_s(f) for f in shapes_in(ancestors.FindFromKey(e))]
             if len(owners) != 2 or _iso(e, face) != (0, float(round(u[-1], 12))):
                 continue
             other = owners[1] if owners[0].IsSame(face) else owners[0]
@@ -1513,7 +1513,7 @@ def _fitted_traces(b, shape, tol: float, rounding: float = 0.0):
     done = TopTools_IndexedMapOfShape()
     for k in range(1, ancestors.Extent() + 1):  # one per edge
         edge = TopoDS.Edge_s(ancestors.FindKey(k))
-        faces = [TopoDS.Face_s(f) for f in ancestors.FindFromIndex(k)]
+        faces = [TopoDS.Face_s(f) for f in shapes_in(ancestors.FindFromIndex(k))]
         loc = TopLoc_Location()
         curve = BRep_Tool.Curve_s(edge, loc, 0.0, 0.0)
         if (not isinstance(curve, Geom_BSplineCurve) or curve.Degree() < 2 or not loc.IsIdentity()
@@ -1827,7 +1827,7 @@ def _sides(shape, tiles: list, grids: list) -> list:
             edge = TopoDS.Edge_s(exp.Current())
             exp.Next()
             faces = ancestors.FindFromKey(edge)
-            shared = faces.Size() == 2 and all(mine.Contains(f) for f in faces) and not BRep_Tool.IsClosed_s(edge, face)
+            shared = faces.Size() == 2 and all(mine.Contains(f) for f in shapes_in(faces)) and not BRep_Tool.IsClosed_s(edge, face)
             plane = None if shared else _plane_beside(faces, face)
             u0, u1, v0, v1 = BRepTools.UVBounds_s(face, edge)  # the pcurve's box (a hole's circle too)
             eu, ev = 1e-9 * (1 + abs(u).max()), 1e-9 * (1 + abs(v).max())
@@ -1946,23 +1946,49 @@ def _keep(p: np.ndarray, t: np.ndarray, tol: float, misses: np.ndarray | None = 
     return np.asarray(kept)
 
 
+def _greedy(misses: np.ndarray | None, n: int, tols: np.ndarray) -> np.ndarray:
+    """``(len(tols), n)`` bool: the points :func:`_keep` keeps (without ``new``) at
+    each tolerance in ``tols`` (mm), all at once: each point's farthest chord that
+    holds (its jump), and the chain of jumps from the first point followed by
+    pointer doubling (a jump of ``2**r`` points each round)."""
+    f = len(tols)
+    if misses is None:
+        return np.ones((f, n), bool)
+    ok = misses[None] <= np.asarray(tols, np.float64)[:, None, None]  # (f, i, s)
+    i = np.arange(n)
+    last = ok.shape[2] - 1 - np.argmax(ok[..., ::-1], axis=2)  # the longest chord that holds
+    jump = np.minimum(np.where(ok.any(2), i + 1 + last, i + 1), n - 1)  # (f, i)
+    on = np.zeros((f, n), bool)
+    on[:, 0] = True
+    rows = np.arange(f)[:, None]
+    for _ in range(max(1, int(n - 1).bit_length())):  # log2(n) rounds
+        at = np.nonzero(on)
+        on[at[0], jump[at]] = True
+        jump = jump[rows, jump]
+    return on
+
+
 def _cheapest(ok: np.ndarray, cost: np.ndarray) -> np.ndarray:
     """Indices of the chain of chords from the first point to the last (``ok[i, s]``:
     the chord from ``i`` to ``i + 1 + s`` holds) whose kept points cost least
     (``cost`` per point; the first is free); ties go to the longer chords. Dynamic
-    programming over the points of one edge (tens)."""
+    programming over the points of one edge (tens): the chords into each point are
+    found for all points at once, and the recurrence (each point's cost on its
+    cheapest start, sequential by nature) runs on Python floats, the same sums as
+    numpy's float64."""
     n, w = len(cost), ok.shape[1]
-    best, prev = np.full(n, np.inf), np.zeros(n, np.int64)
-    best[0] = 0.0
-    for j in range(1, n):  # one per point of the edge
-        i = j - 1 - np.arange(w)
-        s = np.flatnonzero((i >= 0) & ((i == j - 1) | ok[np.maximum(i, 0), np.arange(w)]))
-        cand = i[s][::-1]  # the longest chord first
-        at = cand[np.argmin(best[cand])]
-        best[j], prev[j] = best[at] + cost[j], at
+    j = np.arange(n)[:, None]
+    start = j - 1 - np.arange(w)  # (j, s): where the chord into j, s + 1 points long, starts
+    into = (start >= 0) & ((start == j - 1) | ok[np.maximum(start, 0), np.arange(w)])
+    starts, ends = start[into].tolist(), np.r_[0, np.cumsum(into.sum(1))].tolist()  # per point: its starts, shortest first
+    price = cost.tolist()
+    best, prev = [0.0] + [np.inf] * (n - 1), [0] * n
+    for k in range(1, n):  # one per point of the edge (the recurrence)
+        at = min(reversed(starts[ends[k] : ends[k + 1]]), key=best.__getitem__)  # the longest chord among the cheapest
+        best[k], prev[k] = best[at] + price[k], at
     kept = [n - 1]
     while kept[-1] > 0:  # one per kept point
-        kept.append(int(prev[kept[-1]]))
+        kept.append(prev[kept[-1]])
     return np.asarray(kept[::-1])
 
 
@@ -1970,19 +1996,29 @@ def _misses(p: np.ndarray, t: np.ndarray) -> np.ndarray | None:
     """``(n, s)``: the largest distance (mm) from the chord between point ``i`` and
     point ``i + 1 + s`` (chords up to :data:`SPAN` long) to the points it skips, over
     the ``m`` polylines of ``p`` (``(n, m, 3)`` mm at the parameters ``t``); None
-    when there are too few points or too many to compare (then every point stays)."""
+    when there are too few points or too many to compare (then every point stays).
+    Only the pairs (skipped point ``i + q``, chord end ``i + s``) with ``q < s`` are
+    computed (half of the ``(q, s)`` square; the chord's ends clipped to the last
+    point), each number as over the whole square."""
     n = len(t)
     w_ = min(n - 1, SPAN)
     if n <= 2 or n * w_**2 * p.shape[1] > 4_000_000:  # a tile's 25 x 25 points: 40 k (a strip's 166 x 25: 0.27 M)
         return None
-    i = np.arange(n)[:, None, None]
-    j = np.minimum(i + np.arange(1, w_ + 1)[None, None, :], n - 1)  # (i, 1, s): chords up to SPAN long
-    k = np.minimum(i + np.arange(1, w_)[None, :, None], n - 1)  # (i, q, 1): the points they skip
-    span = t[j] - t[i]  # 0 only for the last point's (empty) chords
-    w = np.clip((t[k] - t[i]) / np.where(span > 0, span, 1.0), 0.0, 1.0)[..., None, None]  # (i, q, s, 1, 1)
-    chord = p[i] * (1 - w) + p[j] * w  # (i, q, s, m, 3)
-    d = np.sqrt(((chord - p[k]) ** 2).sum(-1)).max(-1)  # (i, q, s)
-    return np.where(k < j, d, 0.0).max(1)  # (i, s): the chord from i, s + 1 points on, its largest miss
+    qs, ss = np.triu_indices(w_ + 1, 1)  # (q, s), 0 <= q < s <= w_, ordered by q then s
+    pair = qs > 0
+    order = np.argsort(ss[pair], kind="stable")
+    q, s = qs[pair][order], ss[pair][order]  # by chord length s, then skipped point q
+    i = np.arange(n)[:, None]
+    j = np.minimum(i + s, n - 1)  # (i, pair): the chord's end
+    k = np.minimum(i + q, n - 1)  # (i, pair): the point it skips
+    span = t[j] - t[i]
+    w = np.clip((t[k] - t[i]) / np.where(span > 0, span, 1.0), 0.0, 1.0)[..., None, None]  # (i, pair, 1, 1)
+    chord = p[i] * (1 - w) + p[j] * w  # (i, pair, m, 3)
+    d = np.where(k < j, np.sqrt(((chord - p[k]) ** 2).sum(-1)).max(-1), 0.0)  # (i, pair)
+    out = np.zeros((n, w_))
+    first = np.searchsorted(s, np.arange(2, w_ + 1))  # each chord length's first pair (s = 1 skips none)
+    out[:, 1:] = np.maximum.reduceat(d, first, axis=1)
+    return out
 
 
 def _even_t(t: np.ndarray) -> np.ndarray:
@@ -2146,18 +2182,25 @@ def _chosen(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, need_r: 
     (``(R, C, 3)`` mm at the parameters ``v``, ``u``), ``need_r``/``need_c`` (bool)
     the rows and columns its edges keep. Candidate rows and columns are those whose
     chords stay within each share of the tolerance (:data:`INNER_SHARES`, each
-    direction on its own, :func:`_keep`); the pair with the fewest poles that holds
+    direction on its own, :func:`_greedy`); the pair with the fewest poles that holds
     within ``tol`` on every grid point is taken, then each interior row and column
     not needed by an edge is dropped in turn if the tile still holds without it
     (the fitted poles move into the gap: the least-squares fit spreads a bump over
     wider spans than chords through the points do). All of them when nothing holds."""
-    need_r, need_c = np.flatnonzero(need_r), np.flatnonzero(need_c)
     along_v, along_u = _misses(m, v), _misses(m.transpose(1, 0, 2), u)
-    cand_r = {f: np.union1d(need_r, _keep(m, v, f * tol, along_v)) for f in INNER_SHARES}
-    cand_c = {f: np.union1d(need_c, _keep(m.transpose(1, 0, 2), u, f * tol, along_u)) for f in INNER_SHARES}
+    tols = np.array([f * tol for f in INNER_SHARES])
+    on_r, on_c = _greedy(along_v, len(v), tols) | need_r, _greedy(along_u, len(u), tols) | need_c
+    cand_r = {f: np.flatnonzero(on) for f, on in zip(INNER_SHARES, on_r)}
+    cand_c = {f: np.flatnonzero(on) for f, on in zip(INNER_SHARES, on_c)}
+    need_r, need_c = np.flatnonzero(need_r), np.flatnonzero(need_c)
     pairs = sorted(((len(cand_r[a]) * len(cand_c[b]), a, b) for a in INNER_SHARES for b in INNER_SHARES))
     cache: dict = {}  # the bases of the rows' and columns' knots tried (each direction keeps its own while the other changes)
+    tried = set()  # shares often keep the same rows or columns: each pair is fitted once
     for _, a, b in pairs:  # a few dozen, cheapest first
+        key = (cand_r[a].tobytes(), cand_c[b].tobytes())
+        if key in tried:
+            continue
+        tried.add(key)
         poles = _fitted(m, g, u, v, cand_r[a], cand_c[b], tol, fit, skip, cache)
         if poles is not None:
             rows, cols = cand_r[a], cand_c[b]
@@ -2272,7 +2315,7 @@ def _plane_beside(faces, face):
 
     if faces.Size() != 2:
         return None
-    other = [TopoDS.Face_s(f) for f in faces if not f.IsSame(face)]
+    other = [TopoDS.Face_s(f) for f in shapes_in(faces) if not f.IsSame(face)]
     if len(other) != 1 or not isinstance(BRep_Tool.Surface_s(other[0]), Geom_Plane):
         return None
     return other[0]
@@ -2348,9 +2391,10 @@ def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np
     rest = gk - mv @ pk @ mu.T
     pk[:, 1:-1, 1:-1] = iv @ rest @ iu.T
     miss = np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0))
-    if miss[keep].max(initial=0.0) <= tol:
+    most = miss[keep].max(initial=0.0)
+    if most <= tol:
         return pk.transpose(1, 2, 0)
-    if miss[keep].max(initial=0.0) > REACH * tol:
+    if most > REACH * tol:
         return None
     counted = np.ones(miss.shape, bool) if skip is None else ~skip
     wr, wc = np.ones(len(v)), np.ones(len(u))
@@ -2358,7 +2402,8 @@ def _fitted(m: np.ndarray, g: np.ndarray, u: np.ndarray, v: np.ndarray, rows: np
         worst = np.where(counted, miss, 0.0)
         wr, wc = wr * (worst.max(1) + 1e-3 * tol), wc * (worst.max(0) + 1e-3 * tol)
         wr, wc = wr / wr.max(), wc / wc.max()
-        pk[:, 1:-1, 1:-1] = _weighted(mv[:, 1:-1], wr) @ rest @ _weighted(mu[:, 1:-1], wc).T
+        by_v, by_u = _weighted_pair(mv[:, 1:-1], wr, mu[:, 1:-1], wc)
+        pk[:, 1:-1, 1:-1] = by_v @ rest @ by_u.T
         miss = np.sqrt(((mv @ pk @ mu.T - gk) ** 2).sum(0))
         if miss[keep].max(initial=0.0) <= tol:
             return pk.transpose(1, 2, 0)
@@ -2369,7 +2414,31 @@ def _weighted(h: np.ndarray, w: np.ndarray) -> np.ndarray:
     """The weighted least-squares solver ``(h^T W h)^-1 h^T W`` of a basis ``h``
     (``(n, k)``) with weights ``w`` (``n``) on its rows."""
     hw = h.T * w
-    return np.linalg.solve(hw @ h + 1e-12 * np.eye(h.shape[1]), hw)
+    return np.linalg.solve(hw @ h + _ridge(h.shape[1]), hw)
+
+
+def _weighted_pair(hv: np.ndarray, wv: np.ndarray, hu: np.ndarray, wu: np.ndarray) -> tuple:
+    """:func:`_weighted` of the bases ``hv`` and ``hu`` (a tile's rows and columns)
+    with their weights: one LAPACK call on the two stacked when they have the same
+    shape (each the same numbers as alone), else one each."""
+    if hv.shape != hu.shape:
+        return _weighted(hv, wv), _weighted(hu, wu)
+    hwv, hwu = hv.T * wv, hu.T * wu
+    got = np.linalg.solve(np.stack([hwv @ hv, hwu @ hu]) + _ridge(hv.shape[1]), np.stack([hwv, hwu]))
+    return got[0], got[1]
+
+
+_RIDGES: dict = {}
+
+
+def _ridge(k: int) -> np.ndarray:
+    """``1e-12`` times the ``k x k`` identity (read-only, made once per ``k``): what
+    :func:`_weighted` adds to its normal equations."""
+    got = _RIDGES.get(k)
+    if got is None:
+        got = _RIDGES[k] = 1e-12 * np.eye(k)
+        got.flags.writeable = False
+    return got
 
 
 #: How far (times the tolerance) a tile's least-squares fit may miss before it is
