@@ -176,7 +176,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     add_orientation(t)
     add_tolerance(t)
     add_mesh_arguments(t)
-    t.add_argument("--separate-texture", action="store_true", help="3MF: the texture as its own object of the build item")
+    t.add_argument("--separate-texture", action="store_true", help="3MF: base and texture as separate parts of each object (one object per build item)")
     t.add_argument("-o", "--out", action="append", required=True, metavar="OUT", help="OUT.stl, .3mf, .step or .png (repeatable)")
     t.add_argument("-q", "--quiet", action="store_true", help="no progress or warnings")
     t.set_defaults(func=run)

@@ -52,7 +52,8 @@ itself for raised textures, pushed in by ``H`` for engraved ones) and :data:`SKI
 below that inside the regions, ``texture_mesh``
 the texture alone (``mesh - base_mesh``, manifold3d), ``layer_meshes`` one texture
 body per layer; a 3MF with ``separate_texture=True`` holds the base and every
-texture as its own object of the build item. A mesh has no B-rep: ``.shape`` raises.
+texture as parts of one object (one object per build item of a 3MF part). A mesh
+has no B-rep: ``.shape`` raises.
 """
 
 from __future__ import annotations
