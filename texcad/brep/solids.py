@@ -2104,11 +2104,20 @@ def plain_volume(shape: Any) -> float:
     """Volume in mm^3 by OCCT's plain integration, ``BRepGProp::VolumeProperties``
     without a tolerance: a fixed Gauss rule per face, what build123d's ``.volume`` and
     FreeCAD give (exact where the knots are placed for it, :mod:`texcad.brep.gprop`)."""
+    return _gprop_volume(shape, None)
+
+
+def _gprop_volume(shape: Any, eps: "float | None") -> float:
+    """``BRepGProp::VolumeProperties`` of ``shape``, mm^3: its plain rule (``eps``
+    None) or adaptive to the relative error ``eps`` over closed shells only."""
     from OCP.BRepGProp import BRepGProp
     from OCP.GProp import GProp_GProps
 
     props = GProp_GProps()
-    BRepGProp.VolumeProperties_s(to_topods(shape), props)
+    if eps is None:
+        BRepGProp.VolumeProperties_s(to_topods(shape), props)
+    else:
+        BRepGProp.VolumeProperties_s(to_topods(shape), props, float(eps), True)
     return float(props.Mass())
 
 
@@ -2120,12 +2129,7 @@ def occt_volume(shape: Any, eps: float = OCCT_EPS) -> float:
     B-spline faces of many spans). Independent of texcad's
     own :func:`volume` (exact on untrimmed grid faces, OCCT's plain Gauss integration
     on faces a boolean trimmed)."""
-    from OCP.BRepGProp import BRepGProp
-    from OCP.GProp import GProp_GProps
-
-    props = GProp_GProps()
-    BRepGProp.VolumeProperties_s(to_topods(shape), props, float(eps), True)
-    return float(props.Mass())
+    return _gprop_volume(shape, eps)
 
 
 def flat_solids(shape: Any):

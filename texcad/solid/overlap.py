@@ -243,24 +243,22 @@ def describe_overlaps(found: list[Overlap], split: BodySplit) -> str:
     return "; ".join(parts) + more
 
 
-#: mm^3: a shell of a union enclosing less is a sliver where two walls met (as :data:`texcad.solid.repair.SPECK`).
-SPECK = 1e-6
 #: mm^3: a void a union leaves enclosing less is a gap of micrometres between walls that
 #: nearly touched (a 0.1 mm cube's worth; the heat sink assembly's: 7-22 um x 1.55 x 0.1 mm,
 #: about 3e-6 mm^3 each), nothing a printer makes: filled.
 VOID = 1e-3
 
 
-def _without_slivers(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, int, int]:
+def _without_union_slivers(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, int, int]:
     """``(faces without the slivers, how many there were, how many bodies are left)``:
-    the shells that enclose less than :data:`SPECK` mm^3, and the voids under
-    :data:`VOID` mm^3. manifold3d's union of bodies whose walls touch or nearly touch
-    leaves them where the walls met (50 voids of about 3e-6 mm^3 on a heat sink
-    competition assembly STEP's nine solids), each counted a body of the STL. A
-    cavity of a printable size stays."""
-    shell = _shell_labels(f)
-    p = v[f]
-    vol = np.bincount(shell, weights=np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])) / 6.0)
+    the shells that enclose less than :data:`texcad.solid.repair.SPECK` mm^3, and the
+    voids under :data:`VOID` mm^3. manifold3d's union of bodies whose walls touch or
+    nearly touch leaves them where the walls met (50 voids of about 3e-6 mm^3 on a
+    heat sink competition assembly STEP's nine solids), each counted a body of the
+    STL. A cavity of a printable size stays."""
+    from .repair import SPECK, _shell_volumes
+
+    shell, vol = _shell_volumes(v, f)
     sliver = (np.abs(vol) < SPECK) | ((vol < 0) & (-vol < VOID))
     return f[~sliver[shell]], int(sliver.sum()), int(np.sum(vol >= SPECK))
 
@@ -282,7 +280,7 @@ def union_bodies(vertices: np.ndarray, faces: np.ndarray, *, split: BodySplit | 
     u = m3d.Manifold.batch_boolean(solids, m3d.OpType.Add) if len(solids) > 1 else solids[0]
     out = u.to_mesh()
     uv = np.asarray(out.vert_properties, dtype=np.float64)[:, :3]
-    uf, dropped, after = _without_slivers(uv, np.asarray(out.tri_verts, dtype=np.int64))
+    uf, dropped, after = _without_union_slivers(uv, np.asarray(out.tri_verts, dtype=np.int64))
     if dropped:  # their points go too
         used, inv = np.unique(uf, return_inverse=True)
         uv, uf = uv[used], inv.reshape(-1, 3)
