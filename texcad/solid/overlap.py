@@ -115,6 +115,19 @@ def _shell_labels(faces: np.ndarray) -> np.ndarray:
     return rank[lab]
 
 
+
+def _shell_volumes(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each triangle's shell ``(M,)`` and each shell's signed volume ``(S,)`` mm^3
+    (``sum det(a, b, c) / 6``)."""
+    label = _shell_labels(f)
+    p = v[f]
+    return label, np.bincount(label, weights=np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])) / 6.0)
+
+
+#: A shell enclosing less than this (mm^3) is a speck: debris a mesh tool left (a
+#: PrusaSlicer 3MF of dice holds tetrahedra 30 nm across), nothing a printer makes.
+SPECK = 1e-6
+
 def _manifold(v: np.ndarray, f: np.ndarray):
     """A manifold3d Manifold of the faces ``f`` ``(K, 3)`` of ``v`` (their own vertices)."""
     import manifold3d as m3d
@@ -251,13 +264,11 @@ VOID = 1e-3
 
 def _without_union_slivers(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, int, int]:
     """``(faces without the slivers, how many there were, how many bodies are left)``:
-    the shells that enclose less than :data:`texcad.solid.repair.SPECK` mm^3, and the
+    the shells that enclose less than :data:`SPECK` mm^3, and the
     voids under :data:`VOID` mm^3. manifold3d's union of bodies whose walls touch or
     nearly touch leaves them where the walls met (50 voids of about 3e-6 mm^3 on a
     heat sink competition assembly STEP's nine solids), each counted a body of the
     STL. A cavity of a printable size stays."""
-    from .repair import SPECK, _shell_volumes
-
     shell, vol = _shell_volumes(v, f)
     sliver = (np.abs(vol) < SPECK) | ((vol < 0) & (-vol < VOID))
     return f[~sliver[shell]], int(sliver.sum()), int(np.sum(vol >= SPECK))

@@ -43,6 +43,7 @@ import numpy as np
 
 from ..errors import InputError
 from .mesh import edge_report, edge_slot_pairs
+from .overlap import SPECK, _shell_volumes
 
 __all__ = ["repair_closed", "CrossingRepair", "resolve_crossings", "repair_crossings", "split_pinches", "split_edges", "flip_needles", "pull_apart", "drop_specks", "cavity_faces"]
 
@@ -507,21 +508,6 @@ def split_edges(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, i
     keep = ok[group]
     new[many[order][keep]] = label.max() + 1 + start[group][keep] + pair[keep]
     return _split_corners(v, f, new)
-
-
-def _shell_volumes(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each triangle's shell ``(M,)`` and each shell's signed volume ``(S,)`` mm^3
-    (``sum det(a, b, c) / 6``)."""
-    from .overlap import _shell_labels
-
-    label = _shell_labels(f)
-    p = v[f]
-    return label, np.bincount(label, weights=np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])) / 6.0)
-
-
-#: A shell enclosing less than this (mm^3) is a speck: debris a mesh tool left (a
-#: PrusaSlicer 3MF of dice holds tetrahedra 30 nm across), nothing a printer makes.
-SPECK = 1e-6
 
 
 def drop_specks(v: np.ndarray, f: np.ndarray, name: str = "the mesh") -> tuple[np.ndarray, np.ndarray, int, int]:
